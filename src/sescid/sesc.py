@@ -1,0 +1,51 @@
+"""SESC vectors, the regressor Φ(q) and CoM/CoP prediction.
+
+``CoM(q) = d + Σ_i B_i(q) r_i`` with ``B_i`` the rotation of body i in the support frame and
+
+    r_i = (m_i c_i + Σ_{children ch} M_ch t_ch) / M        [m]
+
+where ``c_i`` is the body's CoM and ``t_ch`` the constant offset of child ``ch``'s frame, both in
+body i's frame, and ``M_ch`` the mass carried by the subtree of ``ch``. The CoP of a robot in
+static balance on a level floor is the (x, y) of the CoM.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kinematics import Tree, as_poses, regressor
+from .model import RobotModel
+
+#: poses per block when predicting, to bound memory (≈ 1.5 kB per pose for 21 bodies)
+BLOCK = 32768
+
+
+def subtree_masses(model: RobotModel) -> np.ndarray:
+    """Mass (kg) carried by each body's subtree, itself included."""
+    mass = np.array([b.mass for b in model.bodies])
+    for i in range(len(model.bodies) - 1, 0, -1):  # children come after their parents
+        mass[model.bodies[i].parent] += mass[i]
+    return mass
+
+
+def sesc_vectors(model: RobotModel) -> np.ndarray:
+    """SESC vectors r (N, 3) in metres, each in its body's frame."""
+    msub = subtree_masses(model)
+    total = msub[0]
+    r = np.array([b.mass * b.com for b in model.bodies])
+    for i, b in enumerate(model.bodies):
+        if b.parent >= 0:
+            r[b.parent] += msub[i] * b.trans_const
+    return r / total
+
+
+def com_from_sesc(tree: Tree, q: np.ndarray, r: np.ndarray, rows=(0, 1, 2)) -> np.ndarray:
+    """CoM[rows] (n, len(rows)) in metres for SESC vectors r (N, 3); rows (0, 1) is the CoP."""
+    q = as_poses(q, tree.nq)
+    rows = tuple(rows)
+    vec = np.asarray(r, dtype=float).reshape(-1)
+    out = np.empty((q.shape[0], len(rows)))
+    for start in range(0, q.shape[0], BLOCK):
+        phi = regressor(tree, q[start : start + BLOCK], rows)
+        out[start : start + BLOCK] = phi @ vec
+    return out + tree.root_o[list(rows)]
