@@ -70,12 +70,11 @@ def main(ref: Path, out_dir: Path) -> None:
             "    </inertial>",
             "  </link>",
         ]
-    for side, sign in (("r", 1.0), ("l", -1.0)):
+    for side in ("r", "l"):
         lx, ly = _SOLE_SIZE
         lines += [
             f'  <link name="{side}_sole">',
-            "    <!-- sole centre, massless; sole rectangle "
-            f"{lx} x {ly} m (Webots foot mesh) -->",
+            f"    <!-- sole centre, massless; sole rectangle {lx} x {ly} m (Webots foot mesh) -->",
             "  </link>",
         ]
     # Movable joints in servo-ID order, so Robot.joint_names follows the ROBOTIS IDs 1..20.

@@ -190,6 +190,7 @@ def build_model(path: str | Path, support: str) -> RobotModel:
     body_rows.append(support_body)
     link_frames[support] = (0, np.eye(4))
     support_body["links"].append(support)
+
     def visit(link: str, via) -> None:  # pre-order, children in URDF order
         b, x_link = link_frames[link]
         for j in adj[link]:
