@@ -1,0 +1,593 @@
+"""Physically consistent parameters: body masses and CoMs that reproduce an identified fit.
+
+The SESC vectors are linear in the per-body parameters π_i = (m_i, h_i = m_i c_i) once the total
+mass M is fixed (weighed, or the URDF's):
+
+    r_i = (h_i + Σ_{children ch} M_sub(ch) t_ch) / M        M_sub(ch) = Σ_{j in subtree(ch)} m_j
+
+so "masses and CoMs whose r reproduce the data" is a convex quadratic program in π (4 unknowns
+per body) with linear constraints:
+
+- Σ m_i = M;  m_i ≥ mass_floor;
+- CoM inside the body's box:  m_i·lo_i ≤ h_i ≤ m_i·hi_i  (linear in π, per axis);
+- optional left/right symmetry: mirrored bodies (``*_R``/``*_L``, ``r_*``/``l_*`` …) have equal
+  masses and mirror-image CoMs at the zero pose (reflection in the sagittal plane through the
+  mirrored links' frame origins).
+
+It is solved lexicographically with Clarabel (an interior-point conic solver):
+
+1. data fit: min ‖S Vᵀ(r(π) − r̂)‖², the least-squares cost of the fit r̂ restricted to the
+   directions it identifies (S, V: its singular values and basis) — equal to the CoP residual
+   sum of squares up to a constant;
+2. closest to CAD among the (near-)optimal solutions of step 1: min Σ_i (Δm_i/m̄_i)² +
+   ‖Δh_i‖²/(m̄_i ℓ)², deviations from the URDF's masses scaled to M (CoMs unchanged), with
+   m̄_i = max(m_i^CAD, M/(10 N)) and ℓ = ``com_scale`` (m), subject to every whitened residual
+   staying within ``fit_tol``/√p of its step-1 value (a CoP RMS change ≤ ``fit_tol``, 1 µm).
+
+When no constraint is active, step 1 reproduces r̂ exactly along the identified directions
+(any r is reachable for any masses, by moving the CoMs), so the CoP predictions equal the
+least-squares ones; step 2 then fills the directions the data leave free with the CAD values.
+
+Boxes (in each body's frame, see ``body_boxes``): the axis-aligned hull of the URDF's
+``<collision>`` shapes (box, cylinder, sphere; meshes ignored), else of its ``<visual>`` shapes,
+else a fallback: the hull of the body's joint points (its own joint, its children's joints, its
+merged links' frame origins) and its CAD CoM, grown by ``box_margin`` (default 0.02 m).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SescidError
+from .estimate import Fit, identify
+from .robot import Robot
+from .sesc import sesc_vectors
+
+#: default growth of the fallback box (joint points + CAD CoM), m
+FALLBACK_MARGIN = 0.02
+#: default CoM deviation that costs as much as a 100 % mass change in the closest-to-CAD step, m
+COM_SCALE = 0.02
+#: default tolerance on the CoP RMS when choosing the closest-to-CAD solution, m
+FIT_TOL = 1e-7
+_ELL = 0.1  #: internal length unit of h (m), to keep the QP well scaled
+_ACTIVE_M = 1e-7  #: a CoM within this of a box face counts as on it, m
+_ACTIVE_KG = 1e-7  #: a mass within this (× M) of the floor counts as on it
+
+
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned box in a body's frame (m) and where it came from."""
+
+    lo: np.ndarray  #: (3,) m
+    hi: np.ndarray  #: (3,) m
+    source: str  #: "collision", "visual", "fallback" or "given"
+
+
+# --- boxes ------------------------------------------------------------------------------
+def _shape_hull(geometry, tf: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Axis-aligned hull (lo, hi) in the body frame of a URDF shape placed by tf (4×4)."""
+    rot, org = tf[:3, :3], tf[:3, 3]
+    if geometry.box is not None and geometry.box.size is not None:
+        half = np.abs(rot) @ (0.5 * np.asarray(geometry.box.size, dtype=float))
+    elif geometry.cylinder is not None:
+        rad, length = float(geometry.cylinder.radius), float(geometry.cylinder.length)
+        ax = rot[:, 2]
+        half = np.abs(ax) * length / 2 + rad * np.sqrt(np.clip(1 - ax**2, 0, None))
+    elif geometry.sphere is not None:
+        half = np.full(3, float(geometry.sphere.radius))
+    else:  # mesh or nothing: ignored
+        return None
+    return org - half, org + half
+
+
+def _urdf_hulls(robot: Robot, kind: str) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    from .model import _load_urdf
+
+    urdf = _load_urdf(robot.urdf_path)
+    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for link in urdf.robot.links:
+        if link.name not in robot.model.link_frames:
+            continue
+        b, x = robot.model.link_frames[link.name]
+        for shape in getattr(link, kind) or []:
+            if shape.geometry is None:
+                continue
+            org = np.eye(4) if shape.origin is None else np.asarray(shape.origin, dtype=float)
+            hull = _shape_hull(shape.geometry, x @ org)
+            if hull is None:
+                continue
+            lo, hi = out.get(b, (hull[0], hull[1]))
+            out[b] = (np.minimum(lo, hull[0]), np.maximum(hi, hull[1]))
+    return out
+
+
+def body_boxes(
+    robot: Robot,
+    boxes: dict[str, tuple] | None = None,
+    box_margin: float | None = None,
+) -> list[Box]:
+    """One box per body (in the body's frame, m) bounding where its CoM may lie.
+
+    ``boxes``: ``{body name: (lo (3,), hi (3,))}`` in the frame of the body's main URDF link
+    (its name), m; they take precedence. Otherwise the URDF's collision shapes, else its visual
+    shapes, else the fallback (joint points + CAD CoM). ``box_margin`` (m) grows every box;
+    default 0 for given/shape boxes and ``FALLBACK_MARGIN`` for fallback ones.
+    """
+    model = robot.model
+    names = robot.body_names
+    if box_margin is not None and not (math.isfinite(box_margin) and box_margin >= 0):
+        raise SescidError(f"box margin must be a finite length ≥ 0 m, got {box_margin}")
+    given = {}
+    for name, box in (boxes or {}).items():
+        if name not in names:
+            raise SescidError(f"box for unknown body '{name}' (bodies: {', '.join(names)})")
+        try:
+            lo, hi = (np.asarray(v, dtype=float).reshape(3) for v in box)
+        except (TypeError, ValueError):
+            raise SescidError(f"box for body '{name}': expected (lo xyz, hi xyz) in m") from None
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(lo <= hi)):
+            raise SescidError(f"box for body '{name}': needs finite lo ≤ hi on every axis (m)")
+        b = names.index(name)
+        x = model.link_frames[model.bodies[b].name][1]  # main link frame in the body frame
+        corners = np.array([[(lo, hi)[k >> a & 1][a] for a in range(3)] for k in range(8)])
+        pts = corners @ x[:3, :3].T + x[:3, 3]
+        given[b] = (pts.min(axis=0), pts.max(axis=0))
+    collision = _urdf_hulls(robot, "collisions")
+    visual = _urdf_hulls(robot, "visuals")
+    children = [[] for _ in names]
+    for i, body in enumerate(model.bodies):
+        if body.parent >= 0:
+            children[body.parent].append(i)
+    out = []
+    for b, body in enumerate(model.bodies):
+        if b in given:
+            (lo, hi), source, margin = given[b], "given", box_margin or 0.0
+        elif b in collision:
+            (lo, hi), source, margin = collision[b], "collision", box_margin or 0.0
+        elif b in visual:
+            (lo, hi), source, margin = visual[b], "visual", box_margin or 0.0
+        else:
+            pts = [np.zeros(3), body.com]
+            pts += [model.bodies[c].trans_const for c in children[b]]
+            pts += [model.link_frames[lk][1][:3, 3] for lk in body.links]
+            pts = np.array(pts)
+            lo, hi = pts.min(axis=0), pts.max(axis=0)
+            source = "fallback"
+            margin = FALLBACK_MARGIN if box_margin is None else box_margin
+        out.append(Box(lo - margin, hi + margin, source))
+    return out
+
+
+# --- symmetry ---------------------------------------------------------------------------
+_SIDES = [
+    (r"^(.*)_R$", r"\1_L"),
+    (r"^(.*)_r$", r"\1_l"),
+    (r"^r_(.*)$", r"l_\1"),
+    (r"^R_(.*)$", r"L_\1"),
+    (r"^(.*)right(.*)$", r"\1left\2"),
+    (r"^(.*)Right(.*)$", r"\1Left\2"),
+]
+
+
+def mirror_pairs(names: list[str]) -> list[tuple[int, int]]:
+    """Index pairs (right, left) of bodies whose names differ only by a side marker."""
+    index = {n: i for i, n in enumerate(names)}
+    pairs = []
+    for i, n in enumerate(names):
+        for pat, rep in _SIDES:
+            if re.match(pat, n):
+                other = re.sub(pat, rep, n)
+                if other in index and other != n:
+                    pairs.append((i, index[other]))
+                    break
+    return pairs
+
+
+def _mirror(robot: Robot, pairs) -> tuple[np.ndarray, float]:
+    """Sagittal plane (unit normal n, offset c: n·p = c) from the mirrored links at q = 0."""
+    q0 = np.zeros((1, robot.nq))
+    p = {b: robot.link_poses(q0, b)[1][0] for pair in pairs for b in (robot.body_names[pair[0]],)}
+    p |= {robot.body_names[j]: robot.link_poses(q0, robot.body_names[j])[1][0] for _, j in pairs}
+    names = robot.body_names
+    diff = sum(p[names[j]] - p[names[i]] for i, j in pairs)
+    if np.linalg.norm(diff) < 1e-9:
+        raise SescidError("symmetric: the mirrored bodies' frames coincide; no sagittal plane")
+    n = diff / np.linalg.norm(diff)
+    c = float(np.mean([n @ (p[names[i]] + p[names[j]]) / 2 for i, j in pairs]))
+    for i, j in pairs:
+        pr, pl = p[names[i]], p[names[j]]
+        if np.linalg.norm(pl - 2 * (n @ pl - c) * n - pr) > 1e-3:
+            raise SescidError(
+                f"symmetric: {names[i]} and {names[j]} are not mirror images at the zero pose "
+                "(their frames differ by > 1 mm after reflection)"
+            )
+    return n, c
+
+
+# --- the linear map π → r ---------------------------------------------------------------
+def sesc_map(robot: Robot) -> np.ndarray:
+    """K (3N, 4N) with vec(r) = K · [m/M, vec(h)/(M ℓ)] for ℓ = 0.1 m (m kg, h = m c kg·m)."""
+    bodies = robot.model.bodies
+    n = len(bodies)
+    k = np.zeros((3 * n, 4 * n))
+    for i in range(n):
+        k[3 * i : 3 * i + 3, n + 3 * i : n + 3 * i + 3] = _ELL * np.eye(3)
+    for j in range(n):  # mass of j moves r[parent(a)] by t_a for every ancestor-or-self a ≠ root
+        a = j
+        while bodies[a].parent >= 0:
+            par = bodies[a].parent
+            k[3 * par : 3 * par + 3, j] += bodies[a].trans_const
+            a = par
+    return k
+
+
+# --- solver -----------------------------------------------------------------------------
+def _solve_qp(p_mat, q_vec, a_eq, b_eq, a_in, b_in, what: str):
+    import clarabel
+    import scipy.sparse as sp
+
+    a = sp.csc_matrix(np.vstack([a_eq, a_in]))
+    b = np.concatenate([b_eq, b_in])
+    cones = [clarabel.ZeroConeT(len(b_eq)), clarabel.NonnegativeConeT(len(b_in))]
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = 1e-10
+    settings.tol_feas = 1e-10
+    settings.max_iter = 500
+    solver = clarabel.DefaultSolver(
+        sp.triu(sp.csc_matrix(p_mat)).tocsc(), q_vec, a, b, cones, settings
+    )
+    sol = solver.solve()
+    status = str(sol.status)
+    if "Infeasible" in status:
+        raise SescidError(
+            f"{what}: the constraints are infeasible (total mass, mass floor, CoM boxes and "
+            "symmetry cannot all hold); loosen the floor or the boxes"
+        )
+    if "Solved" not in status:
+        raise SescidError(f"{what}: the QP solver stopped with status {status}")
+    return np.asarray(sol.x), status, int(sol.iterations)
+
+
+def consistent_from_fit(
+    fit: Fit,
+    *,
+    total_mass: float | None = None,
+    mass_floor: float = 0.0,
+    symmetric: bool = False,
+    boxes: dict[str, tuple] | None = None,
+    box_margin: float | None = None,
+    com_scale: float = COM_SCALE,
+    fit_tol: float = FIT_TOL,
+    prior_std: float | None = None,
+) -> Fit:
+    """Masses and CoMs that reproduce ``fit``'s identified directions (see the module doc).
+
+    ``total_mass`` kg (default: the URDF's), ``mass_floor`` kg lower bound on every body's mass,
+    ``symmetric`` mirrored bodies equal, ``boxes``/``box_margin`` see ``body_boxes``,
+    ``com_scale`` m and ``fit_tol`` m tune the closest-to-CAD step. ``prior_std`` (relative,
+    e.g. 0.1): instead of the two steps, one QP trading the data fit against the CAD deviation
+    as a Gaussian prior of that relative mass std (CoM std ``com_scale·prior_std``), with the
+    noise σ from the fit — plausible masses from noisy data, at some CoP residual. Returns a new Fit (method
+    "consistent") with r computed from the masses and CoMs, which ``fit.extra`` holds.
+    """
+    robot = fit.robot
+    model = robot.model
+    names = robot.body_names
+    nb = len(names)
+    m_cad = robot.masses
+    big_m = robot.total_mass if total_mass is None else float(total_mass)
+    if not (math.isfinite(big_m) and big_m > 0):
+        raise SescidError(f"total mass must be a positive number of kg, got {total_mass}")
+    if not (math.isfinite(mass_floor) and mass_floor >= 0):
+        raise SescidError(f"mass floor must be a finite mass ≥ 0 kg, got {mass_floor}")
+    if mass_floor * nb > big_m:
+        raise SescidError(
+            f"mass floor {mass_floor} kg × {nb} bodies = {mass_floor * nb:.4g} kg exceeds the "
+            f"total mass {big_m:.4g} kg"
+        )
+    if not (math.isfinite(com_scale) and com_scale > 0):
+        raise SescidError(f"com_scale must be a positive length in m, got {com_scale}")
+    if prior_std is not None and not (math.isfinite(prior_std) and prior_std > 0):
+        raise SescidError(f"prior std must be a positive relative deviation, got {prior_std}")
+    if not (math.isfinite(fit_tol) and fit_tol > 0):
+        raise SescidError(f"fit_tol must be a positive length in m, got {fit_tol}")
+    box_list = body_boxes(robot, boxes, box_margin)
+    pairs = mirror_pairs(names) if symmetric else []
+    if symmetric and not pairs:
+        raise SescidError(
+            "symmetric: no left/right body pairs found (names like *_R/*_L, r_*/l_*, …)"
+        )
+    t0 = time.perf_counter()
+
+    # Data term in whitened, mm-RMS units: u = c S Vᵀ (K x − r̂), ‖u‖² = ΔRSS·c².
+    basis = fit.basis
+    p = basis.shape[1]
+    sv = fit.singular_values[:p]
+    n_rows = max(fit.n_rows, 1)
+    scale_u = 1e3 / math.sqrt(n_rows)
+    kmat = sesc_map(robot)
+    d_mat = scale_u * (sv[:, None] * basis.T) @ kmat  # (p, 4N)
+    e_vec = scale_u * sv * (basis.T @ fit.r.reshape(-1))
+    nx = 4 * nb
+    nv = nx + p
+
+    # Equalities.
+    eq_rows = [np.hstack([-d_mat, np.eye(p)])]
+    eq_rhs = [-e_vec]
+    row = np.zeros((1, nv))
+    row[0, :nb] = 1.0
+    eq_rows.append(row)
+    eq_rhs.append(np.ones(1))
+    if pairs:
+        normal, offset = _mirror(robot, pairs)
+        s_lin = np.eye(3) - 2 * np.outer(normal, normal)
+        rot, org = robot.forward(np.zeros((1, robot.nq)))
+        rot, org = rot[0], org[0]
+        for i, j in pairs:  # world first moments at q = 0: ℓ R h̃ + o m̃
+            rows = np.zeros((4, nv))
+            rows[0, i], rows[0, j] = 1.0, -1.0
+            rows[1:, i] = org[i] / _ELL
+            rows[1:, nb + 3 * i : nb + 3 * i + 3] = rot[i]
+            rows[1:, j] = -(s_lin @ org[j] + 2 * offset * normal) / _ELL
+            rows[1:, nb + 3 * j : nb + 3 * j + 3] = -s_lin @ rot[j]
+            eq_rows.append(rows)
+            eq_rhs.append(np.zeros(4))
+    a_eq, b_eq = np.vstack(eq_rows), np.concatenate(eq_rhs)
+
+    # Inequalities (A x ≤ b): mass floor, then CoM boxes.
+    in_rows, in_rhs = [], []
+    floor_rows = np.zeros((nb, nv))
+    floor_rows[:, :nb] = -np.eye(nb)
+    in_rows.append(floor_rows)
+    in_rhs.append(np.full(nb, -mass_floor / big_m))
+    for i, box in enumerate(box_list):
+        for a in range(3):
+            col = nb + 3 * i + a
+            upper = np.zeros(nv)
+            upper[col], upper[i] = 1.0, -box.hi[a] / _ELL
+            lower = np.zeros(nv)
+            lower[col], lower[i] = -1.0, box.lo[a] / _ELL
+            in_rows += [upper[None], lower[None]]
+            in_rhs += [np.zeros(1), np.zeros(1)]
+    a_in, b_in = np.vstack(in_rows), np.concatenate(in_rhs)
+
+    # Closeness to CAD (scaled to the total mass): ‖w ⊙ (x − x_cad)‖².
+    m_prior = m_cad * (big_m / m_cad.sum())
+    m_bar = np.maximum(m_prior, big_m / (10 * nb)) / big_m
+    x_cad = np.concatenate([m_prior / big_m, (m_prior[:, None] * model_coms(robot)).ravel()])
+    x_cad[nb:] /= big_m * _ELL
+    w = np.concatenate([1 / m_bar, np.repeat(_ELL / (m_bar * com_scale), 3)])
+    p_cad = np.zeros((nv, nv))
+    p_cad[:nx, :nx] = 2 * np.diag(w**2)
+    q_cad = np.zeros(nv)
+    q_cad[:nx] = -2 * w**2 * x_cad
+    p_data = np.zeros((nv, nv))
+    p_data[nx:, nx:] = 2 * np.eye(p)
+
+    if prior_std is not None:  # one QP: Gaussian prior on the deviations (MAP in π)
+        sigma = fit.sigma_hat if math.isfinite(fit.sigma_hat) else fit.rms
+        lam = (sigma * scale_u) ** 2 / prior_std**2
+        x2, status, it = _solve_qp(
+            p_data + lam * p_cad, lam * q_cad, a_eq, b_eq, a_in, b_in, "consistent fit"
+        )
+        statuses, iterations = [status], [it]
+    else:
+        # Stage 1: best data fit.
+        x1, status1, it1 = _solve_qp(p_data, np.zeros(nv), a_eq, b_eq, a_in, b_in, "consistent fit")
+        u_star = x1[nx:]
+        # Stage 2: closest to CAD among the near-optimal fits.
+        delta = fit_tol * 1e3 / math.sqrt(max(p, 1))
+        band = np.zeros((2 * p, nv))
+        band[:p, nx:] = np.eye(p)
+        band[p:, nx:] = -np.eye(p)
+        a_in2 = np.vstack([a_in, band])
+        b_in2 = np.concatenate([b_in, u_star + delta, -(u_star - delta)])
+        x2, status2, it2 = _solve_qp(
+            p_cad, q_cad, a_eq, b_eq, a_in2, b_in2, "consistent fit (CAD step)"
+        )
+        statuses, iterations = [status1, status2], [it1, it2]
+    elapsed = time.perf_counter() - t0
+
+    masses, coms = _tidy(x2[:nx], big_m, mass_floor, box_list, model_coms(robot), pairs, robot)
+    r = sesc_vectors(consistent_model(robot, masses, coms))
+    du = scale_u * sv * (basis.T @ (r - fit.r).reshape(-1))
+    d_rss = float(du @ du) / scale_u**2  # extra residual sum of squares vs the source fit, m²
+    return _make_fit(
+        fit,
+        r,
+        masses,
+        coms,
+        box_list,
+        pairs,
+        d_rss,
+        {
+            "total_mass_kg": big_m,
+            "mass_floor_kg": mass_floor,
+            "symmetric": bool(symmetric),
+            "com_scale_m": com_scale,
+            "fit_tol_m": fit_tol,
+            "solver": "clarabel",
+            "prior_std": prior_std,
+            "solver_status": statuses,
+            "solver_iterations": iterations,
+            "solve_time_s": elapsed,
+            "source_method": fit.method,
+        },
+    )
+
+
+def model_coms(robot: Robot) -> np.ndarray:
+    """(N, 3) CAD CoMs of the bodies in their frames, m."""
+    return np.array([b.com for b in robot.model.bodies])
+
+
+def _tidy(x, big_m, floor, box_list, com_cad, pairs, robot):
+    """Solver output → masses (kg) and CoMs (m, body frames) meeting the constraints exactly."""
+    nb = len(box_list)
+    masses = np.maximum(x[:nb] * big_m, floor)
+    h = x[nb:].reshape(nb, 3) * big_m * _ELL
+    lo = np.array([b.lo for b in box_list])
+    hi = np.array([b.hi for b in box_list])
+    tiny = masses <= 1e-12 * big_m
+    coms = np.where(tiny[:, None], com_cad, h / np.where(tiny, 1.0, masses)[:, None])
+    if pairs:  # make mirrored pairs exact mirror images (the solver meets them to ~1e-10)
+        normal, offset = _mirror(robot, pairs)
+        rot, org = robot.forward(np.zeros((1, robot.nq)))
+        rot, org = rot[0], org[0]
+        for i, j in pairs:
+            m = 0.5 * (masses[i] + masses[j])
+            pi = org[i] + rot[i] @ coms[i]
+            pj = org[j] + rot[j] @ coms[j]
+            pj_m = pj - 2 * (normal @ pj - offset) * normal
+            pi_new = 0.5 * (pi + pj_m)
+            pj_new = pi_new - 2 * (normal @ pi_new - offset) * normal
+            masses[i] = masses[j] = m
+            coms[i] = rot[i].T @ (pi_new - org[i])
+            coms[j] = rot[j].T @ (pj_new - org[j])
+    coms = np.clip(coms, lo, hi)
+    masses *= big_m / masses.sum()
+    return masses, coms
+
+
+def consistent_model(robot: Robot, masses: np.ndarray, coms: np.ndarray):
+    """The robot's RobotModel with new body masses (N,) kg and CoMs (N, 3) m (body frames)."""
+    bodies = [
+        dataclasses.replace(b, mass=float(m), com=np.asarray(c, dtype=float).copy())
+        for b, m, c in zip(robot.model.bodies, masses, coms, strict=True)
+    ]
+    return dataclasses.replace(robot.model, bodies=bodies)
+
+
+def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
+    robot = src.robot
+    names = robot.body_names
+    model = robot.model
+    big_m = info["total_mass_kg"]
+    bodies = {}
+    active = []
+    for i, name in enumerate(names):
+        x = model.link_frames[model.bodies[i].name][1]
+        com_link = x[:3, :3].T @ (coms[i] - x[:3, 3])
+        box = box_list[i]
+        faces = [
+            f"{'xyz'[a]}{side}"
+            for a in range(3)
+            for side, dist in (("-", coms[i][a] - box.lo[a]), ("+", box.hi[a] - coms[i][a]))
+            if dist <= _ACTIVE_M and masses[i] > _ACTIVE_KG * big_m
+        ]
+        on_floor = masses[i] - info["mass_floor_kg"] <= _ACTIVE_KG * big_m
+        bodies[name] = {
+            "mass_kg": float(masses[i]),
+            "com_m": coms[i].tolist(),
+            "com_link_m": com_link.tolist(),
+            "cad_mass_kg": float(model.bodies[i].mass),
+            "cad_com_m": model.bodies[i].com.tolist(),
+            "box_lo_m": box.lo.tolist(),
+            "box_hi_m": box.hi.tolist(),
+            "box_source": box.source,
+        }
+        if on_floor:
+            active.append(f"{name}: mass at floor")
+        active += [f"{name}: CoM on box face {f}" for f in faces]
+    rms = math.sqrt(src.rms**2 + d_rss / max(src.n_rows, 1)) if math.isfinite(src.rms) else src.rms
+    dof = src.n_rows - src.rank
+    sigma_hat = math.sqrt(rms**2 * src.n_rows / dof) if dof > 0 and math.isfinite(rms) else math.nan
+    base = [dataclasses.replace(c) for c in src.base]
+    for c in base:
+        c.value = float(sum(coef * r[names.index(b), "xyz".index(a)] for b, a, coef in c.terms))
+    extra = dict(info)
+    extra |= {
+        "bodies": bodies,
+        "active_constraints": active,
+        "mirror_pairs": [[names[i], names[j]] for i, j in pairs],
+        "frames": "com_m, box_*_m: body frame (sescid); com_link_m: the body's main URDF link",
+        "cop_rss_increase_m2": d_rss,
+    }
+    notes = [n for n in src.notes]
+    notes.append(
+        f"consistent masses/CoMs (total {big_m:.4f} kg): "
+        + (f"{len(active)} active constraints" if active else "no active constraint")
+        + f"; CoP residual RMS {rms * 1e3:.3f} mm vs {src.rms * 1e3:.3f} mm for {src.method}"
+    )
+    return dataclasses.replace(
+        src,
+        r=r,
+        method="consistent",
+        base=base,
+        notes=notes,
+        extra=extra,
+        rms=rms,
+        sigma_hat=sigma_hat,
+        mae=math.nan,
+    )
+
+
+def identify_consistent(
+    robot: Robot,
+    q,
+    cop,
+    *,
+    sigma=None,
+    rtol: float | None = None,
+    total_mass: float | None = None,
+    mass_floor: float = 0.0,
+    symmetric: bool = False,
+    boxes: dict[str, tuple] | None = None,
+    box_margin: float | None = None,
+    com_scale: float = COM_SCALE,
+    fit_tol: float = FIT_TOL,
+    prior_std: float | None = None,
+) -> Fit:
+    """Least squares on poses q (n, nq) [rad] and CoPs (n, 2) [m], then ``consistent_from_fit``.
+
+    The returned Fit's residual RMS/MAE are recomputed on the data.
+    """
+    kw = {} if rtol is None else {"rtol": rtol}
+    ls = identify(robot, q, cop, sigma=sigma, **kw)
+    fit = consistent_from_fit(
+        ls,
+        total_mass=total_mass,
+        mass_floor=mass_floor,
+        symmetric=symmetric,
+        boxes=boxes,
+        box_margin=box_margin,
+        com_scale=com_scale,
+        fit_tol=fit_tol,
+        prior_std=prior_std,
+    )
+    resid = np.asarray(cop, dtype=float) - fit.predict_cop(q)
+    fit.rms = float(np.sqrt(np.mean(resid**2)))
+    fit.mae = float(np.mean(np.abs(resid)))
+    dof = fit.n_rows - fit.rank
+    fit.sigma_hat = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
+    return fit
+
+
+def fit_inertials(fit: Fit) -> tuple[np.ndarray, np.ndarray]:
+    """Body masses (N,) kg and CoMs (N, 3) m (body frames) held by a consistent fit."""
+    bodies = fit.extra.get("bodies") if isinstance(fit.extra, dict) else None
+    if not bodies or any(
+        not isinstance(bodies.get(n), dict) or "mass_kg" not in bodies[n]
+        for n in fit.robot.body_names
+    ):
+        raise SescidError(
+            f"this {fit.method} fit has no body masses; run the consistent step first "
+            "(sescid identify --method consistent, or sescid.consistent.consistent_from_fit)"
+        )
+    try:
+        masses = np.array([bodies[n]["mass_kg"] for n in fit.robot.body_names], dtype=float)
+        coms = np.array([bodies[n]["com_m"] for n in fit.robot.body_names], dtype=float)
+    except (TypeError, ValueError, KeyError):
+        raise SescidError("malformed body masses/CoMs in the fit's extra") from None
+    if coms.shape != (len(masses), 3) or not (
+        np.all(np.isfinite(masses)) and np.all(masses >= 0) and np.all(np.isfinite(coms))
+    ):
+        raise SescidError("the fit's body masses/CoMs must be finite, masses ≥ 0 kg")
+    return masses, coms
