@@ -26,11 +26,12 @@ import numpy as np
 import scipy.linalg
 
 from .errors import SescidError
-from .kinematics import as_poses, regressor
+from .kinematics import Workspace, as_poses, reduced_columns, regressor
 from .robot import Robot
-from .sesc import BLOCK
 
 DEFAULT_RTOL = 1e-6
+#: poses per block when accumulating normal equations
+ACCUMULATE_BLOCK = 2048
 _AXES = "xyz"
 
 
@@ -48,16 +49,16 @@ class NormalEquations:
     def empty(cls, n_params: int) -> NormalEquations:
         return cls(np.zeros((n_params, n_params)), np.zeros(n_params))
 
-    def add(self, phi: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> None:
-        """Add rows: phi (m, P), y (m,), optional row weights w (m,) = 1/σ²."""
+    def add(self, phi_t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> None:
+        """Add rows given as columns: phi_t = Φᵀ (P, m), y (m,), optional weights w (m,) = 1/σ²."""
         if w is not None:
             sw = np.sqrt(w)
-            phi = phi * sw[:, None]
+            phi_t = phi_t * sw
             y = y * sw
-        self.ata += phi.T @ phi
-        self.atb += phi.T @ y
+        self.ata += phi_t @ phi_t.T
+        self.atb += phi_t @ y
         self.yty += float(y @ y)
-        self.n_rows += phi.shape[0]
+        self.n_rows += phi_t.shape[1]
 
 
 def check_cop(cop, n: int, what: str = "cop") -> np.ndarray:
@@ -94,21 +95,25 @@ def accumulate(
     """Accumulate normal equations from chunks ``(q, cop)`` or ``(q, cop, sigma)``."""
     ne = ne or NormalEquations.empty(3 * len(robot.body_names))
     d_xy = robot.d[:2]
+    ws = Workspace(robot.tree, ACCUMULATE_BLOCK)
+    red = robot.reduction
+    acc = NormalEquations.empty(red.g.shape[0])  # in reduced coordinates β = G r
     for chunk in chunks:
         q, cop = chunk[0], chunk[1]
         sigma = chunk[2] if len(chunk) > 2 else None
         q = as_poses(q, robot.nq)
         cop = check_cop(cop, q.shape[0])
         w = _row_weights(sigma, q.shape[0])
-        for s in range(0, q.shape[0], BLOCK):
-            phi = regressor(robot.tree, q[s : s + BLOCK], (0, 1))
-            m = phi.shape[0]
-            ne.add(
-                phi.reshape(2 * m, -1),
-                (cop[s : s + BLOCK] - d_xy).reshape(-1),
-                None if w is None else w[2 * s : 2 * (s + m)],
-            )
+        for s in range(0, q.shape[0], ws.block):
+            blk = slice(s, s + ws.block)
+            x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
+            y = (cop[blk] - d_xy).T.reshape(-1)
+            acc.add(x, y, None if w is None else w.reshape(-1, 2)[blk].T.reshape(-1))
         ne.n_poses += q.shape[0]
+    ne.ata += red.g.T @ acc.ata @ red.g
+    ne.atb += red.g.T @ acc.atb
+    ne.yty += acc.yty
+    ne.n_rows += acc.n_rows
     return ne
 
 
@@ -193,9 +198,9 @@ class Fit:
         """
         q = as_poses(q, self.robot.nq)
         out = np.empty((q.shape[0], len(rows)))
-        for s in range(0, q.shape[0], BLOCK):
-            phi = regressor(self.robot.tree, q[s : s + BLOCK], rows)
-            out[s : s + BLOCK] = np.sqrt(np.einsum("nri,ij,nrj->nr", phi, self.cov, phi))
+        for s in range(0, q.shape[0], 4096):
+            phi = regressor(self.robot.tree, q[s : s + 4096], rows)
+            out[s : s + 4096] = np.sqrt(np.einsum("nri,ij,nrj->nr", phi, self.cov, phi))
         return out
 
     def com_z_from_prior(self, q) -> np.ndarray:

@@ -1,7 +1,9 @@
 """Rotations and origins of every body relative to the support frame, for n poses at once.
 
-The per-pose chain is evaluated by a small compiled kernel (numba), looping over poses inside
-compiled code: there is no Python loop per pose. Each body's joint contributes
+The chain is evaluated block by block (``CHAIN_BLOCK`` poses) by a small compiled kernel
+(numba) in structure-of-arrays layout, its inner loops running across poses (SIMD); sin/cos are
+computed in the kernel (Cody–Waite reduction and Taylor polynomials, within 2 ulp of libm),
+which lets the compiler vectorise them too. There is no Python loop per pose. Each body's joint contributes
 
     M_b(θ) = C_b Rot(a_b, θ) = A0_b + sin θ · A1_b + (1 − cos θ) · A2_b,   θ = coef_b q_j + off_b
 
@@ -34,6 +36,10 @@ class Tree:
     root_r: np.ndarray  #: (3, 3)
     root_o: np.ndarray  #: (3,)
     nq: int
+    nz_ptr: np.ndarray  #: (N + 1,) start of each body's non-zero entries of M_b
+    nz_k: np.ndarray  #: row of each entry
+    nz_j: np.ndarray  #: column of each entry
+    nz_a: np.ndarray  #: (nnz, 3) coefficients a0, a1, a2 of each entry
 
     @classmethod
     def from_model(cls, model: RobotModel) -> Tree:
@@ -47,7 +53,21 @@ class Tree:
             a0[i] = b.rot_const
             a1[i] = b.rot_const @ k
             a2[i] = b.rot_const @ k @ k
+        ptr, ks, js, coefs = [0], [], [], []
+        for i in range(n):
+            for k in range(3):
+                for j in range(3):
+                    a = (a0[i, k, j], a1[i, k, j], a2[i, k, j])
+                    if max(abs(v) for v in a) > 1e-15:
+                        ks.append(k)
+                        js.append(j)
+                        coefs.append(a)
+            ptr.append(len(ks))
         return cls(
+            nz_ptr=np.array(ptr, dtype=np.int64),
+            nz_k=np.array(ks, dtype=np.int64),
+            nz_j=np.array(js, dtype=np.int64),
+            nz_a=np.array(coefs, dtype=float).reshape(-1, 3),
             parent=np.array([b.parent for b in model.bodies], dtype=np.int64),
             jcol=np.array([b.joint for b in model.bodies], dtype=np.int64),
             coef=np.array([b.sign * b.multiplier for b in model.bodies]),
@@ -62,68 +82,166 @@ class Tree:
         )
 
 
+# Cody–Waite split of π/2 (fdlibm) and Taylor coefficients: |error| ≤ 2 ulp for |θ| < 1e5.
+_PIO2_1 = 1.57079632673412561417e00
+_PIO2_2 = 6.07710050630396597660e-11
+_PIO2_2T = 2.02226624879595063154e-21
+_TWO_OVER_PI = 6.36619772367581382433e-01
+_MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sin_cos1m(x):
+    """sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
+    q = np.floor(x * _TWO_OVER_PI + 0.5)
+    r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T  # |r| ≤ π/4
+    z = r * r
+    sp = r + r * z * (
+        -1 / 6
+        + z
+        * (
+            1 / 120
+            + z * (-1 / 5040 + z * (1 / 362880 + z * (-1 / 39916800 + z * (1 / 6227020800))))
+        )
+    )
+    sp += r * z**7 * (-1 / 1307674368000)
+    cm = z * (
+        -0.5 + z * (1 / 24 + z * (-1 / 720 + z * (1 / 40320 + z * (-1 / 3628800 + z / 479001600))))
+    )
+    cm += z**7 * (-1 / 87178291200 + z / 20922789888000)  # cm = cos r − 1
+    qi = np.int64(q) & 3
+    a = (1.0 + cm) if qi & 1 else sp
+    c = sp if qi & 1 else (1.0 + cm)
+    sn = -a if qi >= 2 else a
+    cs = -c if (qi == 1 or qi == 2) else c
+    return sn, (-cm if qi == 0 else 1.0 - cs)
+
+
 @numba.njit(cache=True, nogil=True)
-def _pose_rotations(qk, parent, jcol, coef, off, a0, a1, a2, root_r, rot):
-    """Fill rot (N, 3, 3) for one pose qk (nq,)."""
-    nb = parent.shape[0]
-    m = np.empty((3, 3))
+def _joint_trig(q, jcol, coef, off, s, c1):
+    """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off."""
+    nb, m = s.shape
+    for b in range(nb):
+        j = jcol[b]
+        if j < 0:
+            for k in range(m):
+                s[b, k] = 0.0
+                c1[b, k] = 0.0
+            continue
+        cb = coef[b]
+        ob = off[b]
+        for k in range(m):
+            s[b, k], c1[b, k] = _sin_cos1m(cb * q[k, j] + ob)
+
+
+@numba.njit(cache=True, nogil=True)
+def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
+    """Rotations of every body for a block of poses, structure-of-arrays.
+
+    s, c1: (N, B) sin θ and 1 − cos θ of each body's joint; rot: (N, 3, 3, B) with
+    rot[b, j, i, k] = R_b[i, j] at pose k. Only the non-zero entries (z) of M_b = C_b Rot(a, θ)
+    are visited: M_b[nz_k[z], nz_j[z]] = a0 + a1 sin θ + a2 (1 − cos θ).
+    """
+    nb, nbk = s.shape
+    m = np.empty(nbk)
     for b in range(nb):
         p = parent[b]
         if p < 0:
-            for i in range(3):
-                for j in range(3):
-                    rot[b, i, j] = root_r[i, j]
+            for j in range(3):
+                for i in range(3):
+                    v = root_r[i, j]
+                    for k in range(nbk):
+                        rot[b, j, i, k] = v
             continue
-        th = coef[b] * qk[jcol[b]] + off[b]
-        s = np.sin(th)
-        c1 = 1.0 - np.cos(th)
-        for i in range(3):
-            for j in range(3):
-                m[i, j] = a0[b, i, j] + s * a1[b, i, j] + c1 * a2[b, i, j]
-        for i in range(3):
-            r0 = rot[p, i, 0]
-            r1 = rot[p, i, 1]
-            r2 = rot[p, i, 2]
-            for j in range(3):
-                rot[b, i, j] = r0 * m[0, j] + r1 * m[1, j] + r2 * m[2, j]
+        for j in range(3):
+            for i in range(3):
+                for k in range(nbk):
+                    rot[b, j, i, k] = 0.0
+        for z in range(nz_ptr[b], nz_ptr[b + 1]):
+            kk = nz_k[z]
+            jj = nz_j[z]
+            a0 = nz_a[z, 0]
+            a1 = nz_a[z, 1]
+            a2 = nz_a[z, 2]
+            if a1 == 0.0 and a2 == 0.0:
+                for i in range(3):
+                    for k in range(nbk):
+                        rot[b, jj, i, k] += rot[p, kk, i, k] * a0
+            else:
+                for k in range(nbk):
+                    m[k] = a0 + a1 * s[b, k] + a2 * c1[b, k]
+                for i in range(3):
+                    for k in range(nbk):
+                        rot[b, jj, i, k] += rot[p, kk, i, k] * m[k]
 
 
 @numba.njit(cache=True, nogil=True)
-def _forward_kernel(q, parent, jcol, coef, off, a0, a1, a2, t, root_r, root_o, rot, org):
-    n = q.shape[0]
+def _origins_block(rot, parent, t, root_o, org):
+    """org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
     nb = parent.shape[0]
-    for k in range(n):
-        _pose_rotations(q[k], parent, jcol, coef, off, a0, a1, a2, root_r, rot[k])
-        for b in range(nb):
-            p = parent[b]
+    nbk = rot.shape[3]
+    for b in range(nb):
+        p = parent[b]
+        for i in range(3):
             if p < 0:
-                for i in range(3):
-                    org[k, b, i] = root_o[i]
+                for k in range(nbk):
+                    org[b, i, k] = root_o[i]
                 continue
-            for i in range(3):
-                org[k, b, i] = (
-                    org[k, p, i]
-                    + rot[k, p, i, 0] * t[b, 0]
-                    + rot[k, p, i, 1] * t[b, 1]
-                    + rot[k, p, i, 2] * t[b, 2]
+            for k in range(nbk):
+                org[b, i, k] = (
+                    org[p, i, k]
+                    + rot[p, 0, i, k] * t[b, 0]
+                    + rot[p, 1, i, k] * t[b, 1]
+                    + rot[p, 2, i, k] * t[b, 2]
                 )
 
 
-@numba.njit(cache=True, nogil=True)
-def _regressor_kernel(q, parent, jcol, coef, off, a0, a1, a2, root_r, rows, out):
-    """out[k, r, 3b + c] = R_b(q_k)[rows[r], c]: the SESC regressor rows for each pose."""
-    n = q.shape[0]
-    nb = parent.shape[0]
-    rot = np.empty((nb, 3, 3))
-    nr = rows.shape[0]
-    for k in range(n):
-        _pose_rotations(q[k], parent, jcol, coef, off, a0, a1, a2, root_r, rot)
-        for r in range(nr):
-            row = rows[r]
-            for b in range(nb):
-                out[k, r, 3 * b] = rot[b, row, 0]
-                out[k, r, 3 * b + 1] = rot[b, row, 1]
-                out[k, r, 3 * b + 2] = rot[b, row, 2]
+#: poses per block of the compiled chain (keeps the block's rotations in cache)
+CHAIN_BLOCK = 1024
+
+
+class Workspace:
+    """Pre-allocated block buffers, reused across blocks (one per thread of use)."""
+
+    def __init__(self, tree: Tree, block: int = CHAIN_BLOCK):
+        nb = tree.parent.shape[0]
+        self.block = block
+        self.rot = np.empty((nb, 3, 3, block))
+        self.s = np.empty((nb, block))
+        self.c1 = np.empty((nb, block))
+        self._buffers: dict[str, np.ndarray] = {}
+
+    def buffer(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """A named scratch array, reallocated only when the shape changes."""
+        buf = self._buffers.get(name)
+        if buf is None or buf.shape != shape:
+            buf = self._buffers[name] = np.empty(shape)
+        return buf
+
+
+def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
+    """Rotations of a block of m ≤ ws.block poses, layout (N, 3, 3, m): [b, j, i, k] = R_b[i, j].
+
+    ``q`` must already be validated (see ``as_poses``). The result is a view into the
+    workspace, overwritten by the next call.
+    """
+    ws = ws or Workspace(tree, max(len(q), 1))
+    m = q.shape[0]
+    if m == ws.block:
+        s, c1, rot = ws.s, ws.c1, ws.rot
+    else:
+        s, c1 = np.empty((len(tree.parent), m)), np.empty((len(tree.parent), m))
+        rot = np.empty(ws.rot.shape[:3] + (m,))
+    if np.abs(q).max(initial=0.0) < _MAX_ANGLE:
+        _joint_trig(q, tree.jcol, tree.coef, tree.off, s, c1)
+    else:  # huge angles: exact reduction by numpy
+        moving = tree.jcol >= 0
+        theta = np.zeros(s.shape)
+        theta[moving] = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]
+        s[:] = np.sin(theta)
+        c1[:] = 1.0 - np.cos(theta)
+    _chain_block(s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot)
+    return rot
 
 
 def as_poses(q, nq: int, what: str = "q") -> np.ndarray:
@@ -143,50 +261,120 @@ def forward(tree: Tree, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rotations (n, N, 3, 3) and origins (n, N, 3) [m] of every body in the support frame."""
     q = as_poses(q, tree.nq)
     n, nb = q.shape[0], tree.parent.shape[0]
-    rot = np.empty((n, nb, 3, 3))
-    org = np.empty((n, nb, 3))
-    _forward_kernel(
-        q,
-        tree.parent,
-        tree.jcol,
-        tree.coef,
-        tree.off,
-        tree.a0,
-        tree.a1,
-        tree.a2,
-        tree.t,
-        tree.root_r,
-        tree.root_o,
-        rot,
-        org,
-    )
-    return rot, org
+    rot_out = np.empty((n, nb, 3, 3))
+    org_out = np.empty((n, nb, 3))
+    ws = Workspace(tree, min(CHAIN_BLOCK, max(n, 1)))
+    org = np.empty((nb, 3, ws.block))
+    for s0 in range(0, n, ws.block):
+        blk = q[s0 : s0 + ws.block]
+        rot = chain(tree, blk, ws)
+        o = org[..., : len(blk)] if len(blk) == ws.block else np.empty((nb, 3, len(blk)))
+        _origins_block(rot, tree.parent, tree.t, tree.root_o, o)
+        rot_out[s0 : s0 + len(blk)] = rot.transpose(3, 0, 2, 1)
+        org_out[s0 : s0 + len(blk)] = o.transpose(2, 0, 1)
+    return rot_out, org_out
 
 
-def regressor(tree: Tree, q: np.ndarray, rows=(0, 1), out: np.ndarray | None = None) -> np.ndarray:
+def regressor(tree: Tree, q: np.ndarray, rows=(0, 1)) -> np.ndarray:
     """SESC regressor Φ (n, len(rows), 3N): CoM[rows] = d[rows] + Φ · vec(r).
 
     ``rows`` picks support-frame axes: (0, 1) for the CoP (x, y), (0, 1, 2) for the full CoM.
     Reshape to (n·len(rows), 3N) for the paper's stacked 2n × 3N form (x1, y1, x2, y2, …).
     """
     q = as_poses(q, tree.nq)
-    rows_arr = np.asarray(rows, dtype=np.int64)
-    shape = (q.shape[0], rows_arr.shape[0], 3 * tree.parent.shape[0])
-    if out is None:
-        out = np.empty(shape)
-    elif out.shape != shape or not out.flags.c_contiguous:
-        raise ValueError(f"out must be C-contiguous with shape {shape}")
-    _regressor_kernel(
-        q,
-        tree.parent,
-        tree.jcol,
-        tree.coef,
-        tree.off,
-        tree.a0,
-        tree.a1,
-        tree.a2,
-        tree.root_r,
-        rows_arr,
-        out,
-    )
+    rows = list(rows)
+    n, nb = q.shape[0], tree.parent.shape[0]
+    out = np.empty((n, len(rows), 3 * nb))
+    ws = Workspace(tree, min(CHAIN_BLOCK, max(n, 1)))
+    for s0 in range(0, n, ws.block):
+        rot = chain(tree, q[s0 : s0 + ws.block], ws)
+        # rot[b, j, i, k] → out[k, i, 3b + j]
+        out[s0 : s0 + rot.shape[3]] = rot[:, :, rows, :].reshape(3 * nb, len(rows), -1).T
+    return out
+
+
+def regressor_columns(tree: Tree, q: np.ndarray, rows=(0, 1), ws: Workspace | None = None):
+    """Φᵀ of a block as a (3N, len(rows)·m) matrix, columns ordered (row, pose): the layout the
+    normal equations want (ΦᵀΦ = X Xᵀ in one BLAS call). A view into the workspace."""
+    rot = chain(tree, q, ws)
+    nb, m = rot.shape[0], rot.shape[3]
+    rows = list(rows)
+    if rows == list(range(rows[0], rows[-1] + 1)):  # contiguous rows: no copy
+        return rot.reshape(3 * nb, 3 * m)[:, rows[0] * m : (rows[-1] + 1) * m]
+    return rot[:, :, rows, :].reshape(3 * nb, len(rows) * m)
+
+
+# --- the regressor in reduced coordinates ------------------------------------------------
+# A body's component along its own joint axis a_b turns with its parent only
+# (R_b a_b = R_p C_b a_b), and the support body never moves. So Φ·r = Φ_red·(G r) for every r,
+# with Φ_red having len(rows) constant intercept columns plus 2 columns per moving body,
+# R_b[rows] u_1 and R_b[rows] u_2 for u_1, u_2 ⊥ a_b. Accumulating Φ_redᵀΦ_red (42² for the OP2
+# instead of 63²) and expanding Gᵀ(·)G gives the same normal equations for less work.
+
+
+@dataclass(frozen=True)
+class Reduction:
+    """Reduced coordinates β = G·vec(r) with Φ·vec(r) = Φ_red·β for the given rows."""
+
+    rows: tuple[int, ...]
+    u: np.ndarray  #: (N, 2, 3) unit vectors ⊥ each body's joint axis (body frame)
+    g: np.ndarray  #: (len(rows) + 2(N − 1), 3N)
+
+
+def reduction(tree: Tree, axes: np.ndarray, rows=(0, 1)) -> Reduction:
+    """Build the reduced coordinates of a tree; ``axes`` (N, 3) are the bodies' joint axes."""
+    nb = tree.parent.shape[0]
+    rows = tuple(rows)
+    u = np.zeros((nb, 2, 3))
+    for b in range(1, nb):
+        a = axes[b] / np.linalg.norm(axes[b])
+        helper = np.eye(3)[np.argmin(np.abs(a))]
+        u[b, 0] = np.cross(a, helper) / np.linalg.norm(np.cross(a, helper))
+        u[b, 1] = np.cross(a, u[b, 0])
+    nr = len(rows)
+    g = np.zeros((nr + 2 * (nb - 1), 3 * nb))
+    for col in range(3 * nb):
+        r = np.zeros((nb, 3))
+        r.flat[col] = 1.0
+        for b in range(nb - 1, 0, -1):  # children before parents: push axis parts upward
+            a = axes[b] / np.linalg.norm(axes[b])
+            alpha = a @ r[b]
+            r[tree.parent[b]] += alpha * (tree.a0[b] @ a)
+            r[b] -= alpha * a
+        g[:nr, col] = tree.root_r[list(rows)] @ r[0]
+        g[nr:, col] = np.einsum("blj,bj->bl", u[1:], r[1:]).reshape(-1)
+    return Reduction(rows, u, g)
+
+
+@numba.njit(cache=True, nogil=True)
+def _reduced_kernel(rot, rows, u, out):
+    """out (P_red, len(rows)·m), columns ordered (row, pose): intercepts, then R_b[row] u_l."""
+    nb = rot.shape[0]
+    m = rot.shape[3]
+    nr = rows.shape[0]
+    for c in range(nr):
+        for i in range(nr):
+            v = 1.0 if i == c else 0.0
+            for k in range(m):
+                out[c, i * m + k] = v
+    for b in range(1, nb):
+        for el in range(2):
+            c = nr + 2 * (b - 1) + el
+            u0 = u[b, el, 0]
+            u1 = u[b, el, 1]
+            u2 = u[b, el, 2]
+            for i in range(nr):
+                row = rows[i]
+                for k in range(m):
+                    out[c, i * m + k] = (
+                        rot[b, 0, row, k] * u0 + rot[b, 1, row, k] * u1 + rot[b, 2, row, k] * u2
+                    )
+
+
+def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | None = None):
+    """Φ_redᵀ of a block of validated poses: (P_red, len(rows)·m), columns ordered (row, pose)."""
+    rot = chain(tree, q, ws)
+    shape = (red.g.shape[0], len(red.rows) * rot.shape[3])
+    out = ws.buffer("reduced", shape) if ws is not None else np.empty(shape)
+    _reduced_kernel(rot, np.asarray(red.rows, dtype=np.int64), red.u, out)
     return out

@@ -84,6 +84,11 @@ class Robot:
     def _r(self) -> np.ndarray:
         return sesc.sesc_vectors(self.model)
 
+    @cached_property
+    def reduction(self) -> kinematics.Reduction:
+        """Reduced x/y regressor coordinates (see ``kinematics.reduction``)."""
+        return kinematics.reduction(self.tree, np.array([b.axis for b in self.model.bodies]))
+
     def sesc_vectors(self) -> np.ndarray:
         """(N, 3) SESC vectors r_i of this model (m), each in its body's frame."""
         return self._r.copy()

@@ -13,11 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kinematics import Tree, as_poses, regressor
+from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain
 from .model import RobotModel
-
-#: poses per block when predicting, to bound memory (≈ 1.5 kB per pose for 21 bodies)
-BLOCK = 32768
 
 
 def subtree_masses(model: RobotModel) -> np.ndarray:
@@ -42,10 +39,13 @@ def sesc_vectors(model: RobotModel) -> np.ndarray:
 def com_from_sesc(tree: Tree, q: np.ndarray, r: np.ndarray, rows=(0, 1, 2)) -> np.ndarray:
     """CoM[rows] (n, len(rows)) in metres for SESC vectors r (N, 3); rows (0, 1) is the CoP."""
     q = as_poses(q, tree.nq)
-    rows = tuple(rows)
+    rows = list(rows)
     vec = np.asarray(r, dtype=float).reshape(-1)
     out = np.empty((q.shape[0], len(rows)))
-    for start in range(0, q.shape[0], BLOCK):
-        phi = regressor(tree, q[start : start + BLOCK], rows)
-        out[start : start + BLOCK] = phi @ vec
-    return out + tree.root_o[list(rows)]
+    ws = Workspace(tree, min(CHAIN_BLOCK, max(q.shape[0], 1)))
+    for s in range(0, q.shape[0], ws.block):
+        rot = chain(tree, q[s : s + ws.block], ws)  # (N, 3, 3, m), [b, j, i, k]
+        m = rot.shape[3]
+        com = vec @ rot.reshape(vec.size, 3 * m)  # (3·m,), ordered (i, k)
+        out[s : s + m] = com.reshape(3, m)[rows].T
+    return out + tree.root_o[rows]

@@ -1,0 +1,147 @@
+"""Benchmark: SESC regressor + normal-equation accumulation, and memory for 1e6 poses.
+
+Prints poses/s for sescid's compiled, blocked path and for a per-pose Pinocchio loop measured in
+the same run (``computeStaticRegressor`` per pose, then the same BLAS accumulation per block —
+the best a per-pose API allows), their ratio, and the peak memory of identifying 1e6 poses from
+a stream of chunks. Usage: ``python benchmarks/bench_regressor.py [--poses 1000000]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+import sescid
+from sescid.estimate import accumulate
+from sescid.kinematics import Workspace, regressor_columns
+
+
+def best_of(f, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def sescid_rate(robot, q, cop, repeat=3) -> float:
+    accumulate(robot, [(q[:4096], cop[:4096])])  # warm-up (compiled kernels are cached)
+    return len(q) / best_of(lambda: accumulate(robot, [(q, cop)]), repeat)
+
+
+def sescid_full_columns_rate(robot, q, cop, repeat=3) -> float:
+    """The same without reduced coordinates (63 columns), for reference."""
+
+    def run():
+        ws = Workspace(robot.tree, 2048)
+        ata = np.zeros((63, 63))
+        atb = np.zeros(63)
+        for s in range(0, len(q), 2048):
+            x = regressor_columns(robot.tree, q[s : s + 2048], (0, 1), ws)
+            ata += x @ x.T
+            atb += x @ cop[s : s + 2048].T.reshape(-1)
+
+    run()
+    return len(q) / best_of(run, repeat)
+
+
+def pinocchio_rate(robot, q, cop, block=2048) -> float:
+    import pinocchio as pin
+
+    model = pin.buildModelFromUrdf(str(robot.urdf_path), pin.JointModelFreeFlyer())
+    data = model.createData()
+    # map our joint columns to Pinocchio's configuration vector (all OP2 joints are revolute)
+    idx = [model.joints[model.getJointId(n)].idx_q for n in robot.joint_names]
+    qp = np.tile(pin.neutral(model), (len(q), 1))
+    qp[:, idx] = q
+    nv = 4 * (model.njoints - 1)
+    ata = np.zeros((nv, nv))
+    atb = np.zeros(nv)
+    rows = np.empty((2 * block, nv))
+    t = time.perf_counter()
+    for s in range(0, len(q), block):
+        m = min(block, len(q) - s)
+        for k in range(m):
+            reg = pin.computeStaticRegressor(model, data, qp[s + k])
+            rows[2 * k : 2 * k + 2] = reg[:2]
+        x = rows[: 2 * m]
+        ata += x.T @ x
+        atb += x.T @ cop[s : s + m].reshape(-1)
+    return len(q) / (time.perf_counter() - t)
+
+
+_MEMORY_CHILD = """
+import sys, tracemalloc, json
+import numpy as np
+import sescid
+from sescid.estimate import identify_stream
+n, chunk = int(sys.argv[1]), int(sys.argv[2])
+robot = sescid.load_robot("op2")
+def hwm():  # peak RSS of this process image in MB (VmHWM resets at exec, ru_maxrss does not)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+robot.cop(np.zeros((1, robot.nq)))                      # compile/load kernels before measuring
+base = hwm()
+tracemalloc.start()
+rng = np.random.default_rng(0)
+def chunks():
+    for s in range(0, n, chunk):
+        q = rng.uniform(-0.52, 0.52, (min(chunk, n - s), robot.nq))
+        yield q, robot.cop(q) + rng.normal(0, 0.00493, (len(q), 2))
+fit = identify_stream(robot, chunks())
+peak_py = tracemalloc.get_traced_memory()[1] / 2**20
+peak = hwm()
+print(json.dumps({"rank": fit.rank, "n": fit.n_poses, "sigma_hat": fit.sigma_hat,
+                  "rss_after_imports_mb": base, "peak_rss_mb": peak, "peak_traced_mb": peak_py}))
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--poses", type=int, default=1_000_000, help="poses for the memory run")
+    ap.add_argument("--rate-poses", type=int, default=200_000, help="poses per timed run")
+    ap.add_argument("--ref-poses", type=int, default=20_000, help="poses for Pinocchio's loop")
+    args = ap.parse_args()
+
+    robot = sescid.load_robot("op2")
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-0.52, 0.52, (args.rate_poses, robot.nq))
+    cop = rng.normal(0, 0.02, (args.rate_poses, 2))
+    print(f"OP2, {robot.nq} joints, {len(robot.body_names)} bodies; {args.rate_poses} poses")
+    ours = sescid_rate(robot, q, cop)
+    print(f"  sescid regressor + normal equations : {ours / 1e6:6.3f} M poses/s")
+    full = sescid_full_columns_rate(robot, q, cop)
+    print(f"  (same, 63 full columns, no reduction): {full / 1e6:6.3f} M poses/s")
+    ref = pinocchio_rate(robot, q[: args.ref_poses], cop[: args.ref_poses])
+    print(f"  Pinocchio per-pose loop + same BLAS   : {ref / 1e6:6.3f} M poses/s")
+    print(f"  ratio sescid / Pinocchio loop        : {ours / ref:6.1f}x  (target >= 5x)")
+
+    print(f"memory: identify_stream on {args.poses} poses in chunks of 50000 …", flush=True)
+    t = time.perf_counter()
+    out = subprocess.run(
+        [sys.executable, "-c", _MEMORY_CHILD, str(args.poses), "50000"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    print(
+        f"  rank {res['rank']}, {res['n']} poses, sigma_hat {res['sigma_hat'] * 1e3:.3f} mm, "
+        f"{time.perf_counter() - t:.1f} s incl. simulating the data"
+    )
+    print(
+        f"  peak RSS {res['peak_rss_mb']:.0f} MB (after imports {res['rss_after_imports_mb']:.0f}"
+        " MB: interpreter, numpy/scipy/numba/yourdfpy); peak numpy/Python allocations "
+        f"{res['peak_traced_mb']:.0f} MB  (target <= 300 MB)"
+    )
+
+
+if __name__ == "__main__":
+    main()
