@@ -1,0 +1,277 @@
+"""A virtual bench experiment (paper §4) with a "real" robot that differs from its model.
+
+The real robot carries **unmodelled mass** (screws, cables, boards: by default 6 % of the model's
+mass spread over several bodies at offsets of a few centimetres), its joints have **backlash**
+(each pose's actual angle differs from the commanded one by δ ~ U(−b, b), b = 1° by default),
+and its foot sensors have **noise** and a **per-sensor bias**.
+
+What the log shows, per pose and sample:
+
+- joint read-backs in MX-28 ticks: the commanded angle plus the part ``readback_seen`` (default
+  0.5) of δ that the servo's output-shaft encoder sees (gear play), rounded to ticks with
+  ``readback_jitter_ticks`` of noise; the rest of δ (horn and bracket play) is invisible, so the
+  read-backs still miss the actual angle by up to (1 − readback_seen)·b;
+- the four forces of the support foot in mN: the true weight ``M g`` spread over the sensors by
+  the bilinear weights of the true CoP in the sensor rectangle (their centroid is exactly the
+  CoP), plus the sensor's bias and N(0, fsr_noise²) noise, rounded to integer mN and clipped to
+  0–65535. The lifted foot reads 0 (an unloaded FSR conducts nothing);
+- optionally the centroid registers computed from those counts as the board would
+  (X = 254 (F2 + F4)/F, Y = 254 (F3 + F4)/F, 255 when the foot carries no load).
+
+The truth (true SESC vectors, actual poses, true CoPs, biases) is returned beside the log.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SescidError
+from .sensors import SensorConfig, rad_to_ticks
+
+G = 9.80665  #: m/s², standard gravity
+
+
+@dataclass(frozen=True)
+class ExtraMass:
+    """Unmodelled mass on one body: its share of the extra total and its offset (m, body frame)."""
+
+    body: str
+    share: float
+    offset: tuple[float, float, float]
+
+
+#: where a real OP2 carries mass its CAD model lacks (shares sum to 1)
+DEFAULT_EXTRA = (
+    ExtraMass("MP_BODY", 0.50, (-0.085, -0.040, 0.020)),  # cable bundle, sub-board at the back
+    ExtraMass("MP_HEAD", 0.10, (-0.030, 0.000, 0.040)),  # camera cable, screws
+    ExtraMass("MP_THIGH2_R", 0.10, (-0.030, -0.020, -0.030)),  # screws, cable loom
+    ExtraMass("MP_THIGH2_L", 0.10, (-0.030, 0.020, -0.030)),
+    ExtraMass("MP_ANKLE2_L", 0.10, (0.000, 0.010, -0.025)),  # the lifted foot's FSR board
+    ExtraMass("MP_ARM_HIGH_R", 0.05, (-0.015, -0.020, -0.030)),
+    ExtraMass("MP_ARM_LOW_L", 0.05, (0.040, 0.010, 0.000)),
+)
+
+
+@dataclass
+class ExperimentConfig:
+    """How the virtual real robot differs from the model (SI units, angles in degrees)."""
+
+    extra_mass_fraction: float = 0.06  #: unmodelled mass / model mass
+    extra: tuple[ExtraMass, ...] = DEFAULT_EXTRA
+    backlash_deg: float = 1.0  #: actual − commanded angle ~ U(−b, b) per pose and joint
+    readback_seen: float = 0.5  #: part of that offset the joint encoder reports
+    readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
+    fsr_noise: float = 1.5  #: N, per sensor and sample (std)
+    fsr_bias: float = 0.2  #: N, per-sensor constant bias (std over sensors)
+    registers: str = "forces"  #: "forces", "centroid" or "both"
+
+
+@dataclass
+class Experiment:
+    """The raw log (column name → array) and the truth behind it."""
+
+    columns: dict[str, np.ndarray]
+    truth: dict = field(default_factory=dict)
+
+
+def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
+    """True SESC vectors (N, 3) [m] and mass [kg] of the model plus the unmodelled masses."""
+    from .sesc import sesc_vectors
+
+    if not (0 <= config.extra_mass_fraction < 1):
+        raise SescidError(
+            f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}"
+        )
+    shares = sum(e.share for e in config.extra)
+    if config.extra and not math.isclose(shares, 1.0, abs_tol=1e-9):
+        raise SescidError(f"extra-mass shares must sum to 1, got {shares:g}")
+    names = robot.body_names
+    extra_total = config.extra_mass_fraction * robot.total_mass
+    bodies = list(robot.model.bodies)
+    placed = []
+    for e in config.extra:
+        if e.body not in names:
+            raise SescidError(f"extra mass on unknown body '{e.body}' (bodies: {', '.join(names)})")
+        i = names.index(e.body)
+        b = bodies[i]
+        me = e.share * extra_total
+        off = np.asarray(e.offset, dtype=float)
+        m = b.mass + me
+        com = (b.mass * b.com + me * off) / m if m > 0 else b.com
+        bodies[i] = dataclasses.replace(b, mass=m, com=com)
+        placed.append({"body": e.body, "mass_kg": me, "offset_m": off.tolist()})
+    model = dataclasses.replace(robot.model, bodies=bodies)
+    return sesc_vectors(model), float(sum(b.mass for b in bodies)), placed
+
+
+def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
+    """Error naming the first pose/joint outside the robot's joint limits."""
+    lim = robot.joint_limits
+    bad = np.argwhere((q < lim[:, 0]) | (q > lim[:, 1]))
+    if bad.size:
+        i, j = bad[0]
+        lo, hi = np.degrees(lim[j])
+        raise SescidError(
+            f"{where}: pose {i}, joint '{robot.joint_names[j]}': {math.degrees(q[i, j]):.2f}° is "
+            f"outside the joint limits [{lo:.1f}°, {hi:.1f}°] ({len(bad)} values out of limits)"
+        )
+
+
+def run_experiment(
+    robot,
+    q_cmd: np.ndarray,
+    sensors: SensorConfig,
+    samples: int = 100,
+    seed: int | None = 0,
+    config: ExperimentConfig | None = None,
+    pose_ids: np.ndarray | None = None,
+) -> Experiment:
+    """Stand the real robot in each commanded pose (n, nq) [rad] and log ``samples`` readings."""
+    config = config or ExperimentConfig()
+    q_cmd = np.asarray(q_cmd, dtype=float)
+    n = q_cmd.shape[0]
+    if samples < 1:
+        raise SescidError(f"samples per pose must be ≥ 1, got {samples}")
+    if config.registers not in ("forces", "centroid", "both"):
+        raise SescidError(f"registers must be forces, centroid or both, got {config.registers}")
+    for name, v in (
+        ("backlash", config.backlash_deg),
+        ("FSR noise", config.fsr_noise),
+        ("FSR bias", config.fsr_bias),
+        ("read-back jitter", config.readback_jitter_ticks),
+    ):
+        if not (v >= 0 and math.isfinite(v)):
+            raise SescidError(f"{name} must be a finite number ≥ 0, got {v}")
+    check_limits(robot, q_cmd)
+    pose_ids = np.array([str(i) for i in range(n)]) if pose_ids is None else pose_ids
+    support = [f for f in sensors.feet if f.sole_frame == robot.support]
+    if not support:
+        raise SescidError(
+            f"no foot sensor board sits on the support link '{robot.support}' "
+            f"(boards: {', '.join(f.sole_frame for f in sensors.feet)})"
+        )
+    foot = support[0]
+    r_true, mass_true, placed = real_robot(robot, config)
+    rng = np.random.default_rng(seed)
+
+    b = math.radians(config.backlash_deg)
+    delta = rng.uniform(-b, b, size=q_cmd.shape)
+    q_act = q_cmd + delta
+    cop_true = robot.cop(q_act, r_true)
+    uv = foot.board_coordinates(cop_true)
+    out = np.flatnonzero(np.any((uv < 0) | (uv > 1), axis=1))
+    if out.size:
+        i = out[0]
+        raise SescidError(
+            f"pose {pose_ids[i]}: the real robot's CoP ({cop_true[i, 0] * 1e3:.1f}, "
+            f"{cop_true[i, 1] * 1e3:.1f}) mm lies outside the sensor rectangle of "
+            f"{robot.support}: it would tip over ({out.size} such poses; plan stable poses)"
+        )
+    weight = mass_true * G
+    u, v = uv[:, 0], uv[:, 1]
+    f_true = weight * np.stack([(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v], axis=1)
+    bias = {f.name: rng.normal(0.0, config.fsr_bias, size=4) for f in sensors.feet}
+
+    m = n * samples
+    pose_of = np.repeat(np.arange(n), samples)
+    cols: dict[str, np.ndarray] = {
+        "pose": pose_ids[pose_of],
+        "sample": np.tile(np.arange(samples), n),
+    }
+    q_read = q_cmd + config.readback_seen * delta
+    ticks = rad_to_ticks(q_read)[pose_of] + rng.normal(
+        0.0, config.readback_jitter_ticks, size=(m, robot.nq)
+    )
+    ticks = np.clip(np.round(ticks), 0, 4095).astype(int)
+    for j, name in enumerate(robot.joint_names):
+        cols[f"{name}_ticks"] = ticks[:, j]
+    counts_by_foot = {}
+    for f in sensors.feet:
+        if f is foot:
+            loaded = f_true[pose_of] + bias[f.name]
+            noisy = loaded + rng.normal(0.0, config.fsr_noise, size=(m, 4))
+            counts = np.clip(np.round(noisy / sensors.force_unit), 0, sensors.saturation)
+        else:
+            counts = np.zeros((m, 4))
+        counts = counts.astype(int)
+        counts_by_foot[f.name] = counts
+        if config.registers in ("forces", "both"):
+            for k in range(4):
+                cols[f"{f.columns}{k + 1}"] = counts[:, k]
+        if config.registers in ("centroid", "both"):
+            total = counts.sum(axis=1)
+            on = total * sensors.force_unit >= sensors.min_foot_force
+            safe = np.where(on, total, 1)
+            x = np.round(sensors.centroid_max * (counts[:, 1] + counts[:, 3]) / safe)
+            y = np.round(sensors.centroid_max * (counts[:, 2] + counts[:, 3]) / safe)
+            cols[f"{f.columns}_x"] = np.where(on, x, sensors.no_load).astype(int)
+            cols[f"{f.columns}_y"] = np.where(on, y, sensors.no_load).astype(int)
+
+    # noise-free measured CoP: what a perfect average of the biased sensors gives
+    fb = f_true + bias[foot.name]
+    cop_expected = (fb @ foot.sensors) / fb.sum(axis=1, keepdims=True)
+    names = robot.body_names
+    truth = {
+        "format": "sescid-experiment-truth/1",
+        "units": "m, kg, N, rad",
+        "robot": robot.source,
+        "support": robot.support,
+        "seed": seed,
+        "samples": samples,
+        "settings": {
+            "extra_mass_fraction": config.extra_mass_fraction,
+            "backlash_deg": config.backlash_deg,
+            "readback_seen": config.readback_seen,
+            "readback_jitter_ticks": config.readback_jitter_ticks,
+            "fsr_noise_N": config.fsr_noise,
+            "fsr_bias_N": config.fsr_bias,
+            "registers": config.registers,
+            "sensors": sensors.source,
+        },
+        "model_mass_kg": robot.total_mass,
+        "true_mass_kg": mass_true,
+        "extra_masses": placed,
+        "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
+        "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
+        "fsr_bias_N": {k: v.tolist() for k, v in bias.items()},
+        "joint_names": robot.joint_names,
+        "pose": pose_ids.tolist(),
+        "q_commanded": q_cmd.tolist(),
+        "q_actual": q_act.tolist(),
+        "q_readback": q_read.tolist(),
+        "cop_true": cop_true.tolist(),
+        "cop_expected": cop_expected.tolist(),
+    }
+    return Experiment(columns=cols, truth=truth)
+
+
+def load_truth(path) -> dict:
+    """Read a truth JSON written by ``sescid experiment --truth`` (arrays as numpy)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise SescidError(f"{path}: file not found")
+    data = json.loads(path.read_text())
+    if data.get("format") != "sescid-experiment-truth/1":
+        raise SescidError(f"{path}: not an experiment truth file")
+    for key in ("q_commanded", "q_actual", "q_readback", "cop_true", "cop_expected"):
+        data[key] = np.array(data[key], dtype=float)
+    return data
+
+
+def cop_offsets(measured: np.ndarray, predicted: np.ndarray) -> dict[str, float]:
+    """Mean offset (per axis and its norm) and RMS (per component) of predicted − measured, m."""
+    d = np.asarray(predicted) - np.asarray(measured)
+    mean = d.mean(axis=0)
+    return {
+        "mean_x": float(mean[0]),
+        "mean_y": float(mean[1]),
+        "mean": float(np.hypot(*mean)),
+        "rms": float(np.sqrt(np.mean(d**2))),
+    }

@@ -1,0 +1,594 @@
+"""Foot force sensors (OP2 FSR boards) → per-pose CoP in the support frame.
+
+A raw log has many samples per pose: a ``pose`` id, joint read-backs (radians in columns named
+as the joints, or ``<joint>_deg`` degrees, or ``<joint>_ticks`` Dynamixel MX-28 positions,
+2048 = 0, 4096 per turn; one unit per joint), and per foot either the four forces
+``<prefix>1..4`` in board counts (1 mN) or the centroid registers ``<prefix>_x``, ``<prefix>_y``
+(0–254, 255 = no load). Prefixes and sensor positions come from a small JSON configuration
+(``robots/op2_fsr.json``; the positions are a flagged hypothesis a user corrects).
+
+Per sample, a foot's CoP in its sole frame is the force-weighted centroid of its sensors,
+``c = Σ F_k p_k / Σ F_k``, or, from the registers, the bilinear map of ``(X/254, Y/254)`` onto the
+sensor rectangle (the same point when the board computes the linear centroid). Each loaded foot's
+CoP is carried into the support frame with the model's pose of its sole at the pose's mean joint
+read-backs; two loaded feet combine weighted by their total forces. Samples are rejected (with
+the reason counted) when a value is missing, a sensor is saturated, no foot carries load, the
+registers give two loaded feet (no force to weight them), or the CoP/force is an outlier by the
+median/MAD rule ``|v − median| > k · max(1.4826 MAD, floor)``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SescidError
+
+FSR_FORMAT = "sescid-fsr/1"
+TICKS_PER_TURN = 4096
+TICKS_ZERO = 2048
+#: board corner (u, v) ∈ [0, 1]² of FSR1..FSR4 (X = 254 u, Y = 254 v)
+CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+#: rejection reasons, in the order they are tested (a sample counts under the first that applies)
+REASONS = ("missing", "saturated", "no_load", "two_feet_no_force", "off_floor", "outlier")
+_MISSING_TEXT = {"", "nan", "na", "n/a", "none", "null"}
+#: a loaded foot whose sole the model puts this far off the support plane breaks CoP = CoM_xy
+OFF_FLOOR_M = 0.010
+OFF_FLOOR_TILT = math.radians(5.0)
+
+
+# --- configuration ----------------------------------------------------------------------
+@dataclass(frozen=True)
+class Foot:
+    """One sensor board: its sole frame (URDF link), column prefix and sensor centres."""
+
+    name: str
+    sole_frame: str
+    columns: str  #: column prefix, e.g. "r_fsr" → r_fsr1..r_fsr4, r_fsr_x, r_fsr_y
+    sensors: np.ndarray  #: (4, 2) sensor centres FSR1..FSR4 in the sole frame, m
+
+    def centroid_point(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Point (n, 2) [m] of board coordinates u = X/254, v = Y/254 (bilinear in the sensors)."""
+        w = np.stack([(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v], axis=-1)
+        return w @ self.sensors
+
+    def board_coordinates(self, c: np.ndarray) -> np.ndarray:
+        """Inverse of ``centroid_point`` for a rectangular layout: (n, 2) points → (n, 2) (u, v)."""
+        p = self.sensors
+        ex, ey = p[1] - p[0], p[2] - p[0]
+        d = np.asarray(c, dtype=float) - p[0]
+        return np.stack([d @ ex / (ex @ ex), d @ ey / (ey @ ey)], axis=-1)
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """Foot-sensor configuration (units: N, m)."""
+
+    feet: tuple[Foot, ...]
+    force_unit: float = 0.001  #: N per force count
+    saturation: int = 65535  #: force count at which a sensor is saturated
+    min_foot_force: float = 1.972  #: N; below this a foot carries no load
+    centroid_max: int = 254
+    no_load: int = 255
+    outlier_k: float = 4.0
+    outlier_floor: float = 0.0005  #: m, smallest robust CoP scale of the outlier rule
+    outlier_floor_force: float = 0.5  #: N, the same for the total force
+    source: str = ""
+
+    def foot(self, name: str) -> Foot:
+        return next(f for f in self.feet if f.name == name)
+
+
+def default_sensors_path(robot_source: str = "op2") -> Path:
+    """Path of the shipped configuration for an embedded robot."""
+    if robot_source != "op2":
+        raise SescidError(
+            f"no foot-sensor configuration ships for robot '{robot_source}': give --sensors FILE "
+            "(copy src/sescid/robots/op2_fsr.json and adapt it)"
+        )
+    return Path(str(resources.files("sescid.robots").joinpath("op2_fsr.json")))
+
+
+def _vec(raw, n: int, where: str) -> np.ndarray:
+    try:
+        arr = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise SescidError(f"{where}: expected {n} numbers, got {raw!r}") from None
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        raise SescidError(f"{where}: expected {n} finite numbers, got {raw!r}")
+    return arr
+
+
+def load_sensors(path=None, robot_source: str = "op2") -> SensorConfig:
+    """Read a foot-sensor configuration (JSON ``sescid-fsr/1``); default: the shipped one."""
+    path = Path(path) if path is not None else default_sensors_path(robot_source)
+    if not path.is_file():
+        raise SescidError(f"{path}: file not found")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise SescidError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
+    if not isinstance(data, dict) or data.get("format") != FSR_FORMAT:
+        raise SescidError(f'{path}: not a sensor configuration (expected "format": "{FSR_FORMAT}")')
+    feet = []
+    raw_feet = data.get("feet")
+    if not isinstance(raw_feet, dict) or not raw_feet:
+        raise SescidError(f"{path}: 'feet' must map foot names to their boards")
+    for name, f in raw_feet.items():
+        where = f"{path}: feet.{name}"
+        try:
+            if f.get("sensors_m") is not None:
+                sensors = np.array([_vec(p, 2, f"{where}.sensors_m") for p in f["sensors_m"]])
+                if sensors.shape != (4, 2):
+                    raise SescidError(f"{where}.sensors_m: expected 4 points [x, y] (FSR1..FSR4)")
+            else:
+                centre = _vec(f["sole_centre_m"], 2, f"{where}.sole_centre_m")
+                ax = _vec(f["board_x_axis"], 2, f"{where}.board_x_axis")
+                ay = _vec(f["board_y_axis"], 2, f"{where}.board_y_axis")
+                span = _vec(f["board_span_m"], 2, f"{where}.board_span_m")
+                if abs(np.linalg.norm(ax) - 1) > 1e-9 or abs(np.linalg.norm(ay) - 1) > 1e-9:
+                    raise SescidError(f"{where}: board axes must be unit vectors")
+                if abs(ax @ ay) > 1e-9:
+                    raise SescidError(f"{where}: board axes must be perpendicular")
+                if not np.all((span > 0) & (span < 1.0)):
+                    raise SescidError(f"{where}.board_span_m: spans must be in (0, 1) m")
+                sensors = centre + (CORNERS[:, :1] - 0.5) * span[0] * ax
+                sensors = sensors + (CORNERS[:, 1:] - 0.5) * span[1] * ay
+            foot = Foot(str(name), str(f["sole_frame"]), str(f["columns"]), sensors)
+        except KeyError as exc:
+            raise SescidError(f"{where}: missing field {exc}") from None
+        except (TypeError, AttributeError):
+            raise SescidError(f"{where}: malformed entry") from None
+        ex, ey = sensors[1] - sensors[0], sensors[2] - sensors[0]
+        if (
+            abs(ex @ ey) > 1e-9 * (ex @ ex + ey @ ey)
+            or np.linalg.norm(sensors[3] - sensors[0] - ex - ey) > 1e-9
+        ):
+            raise SescidError(f"{where}: sensors FSR1..FSR4 must form a rectangle (1-2 / 3-4 rows)")
+        feet.append(foot)
+    try:
+        cfg = SensorConfig(
+            feet=tuple(feet),
+            force_unit=float(data.get("force_unit_N", 0.001)),
+            saturation=int(data.get("saturation_count", 65535)),
+            min_foot_force=float(data.get("min_foot_force_N", 1.972)),
+            centroid_max=int(data.get("centroid_max", 254)),
+            no_load=int(data.get("no_load_value", 255)),
+            outlier_k=float(data.get("outlier_k", 4.0)),
+            outlier_floor=float(data.get("outlier_floor_m", 0.0005)),
+            outlier_floor_force=float(data.get("outlier_floor_N", 0.5)),
+            source=str(path),
+        )
+    except (TypeError, ValueError) as exc:
+        raise SescidError(f"{path}: malformed number ({exc})") from None
+    if not (cfg.force_unit > 0 and cfg.min_foot_force >= 0 and cfg.outlier_k > 0):
+        raise SescidError(f"{path}: force_unit_N, min_foot_force_N, outlier_k must be positive")
+    return cfg
+
+
+# --- raw log ----------------------------------------------------------------------------
+@dataclass
+class RawLog:
+    """Samples (m rows) of a raw log, in SI units; NaN marks a missing value."""
+
+    path: Path
+    pose: np.ndarray  #: (m,) pose ids as text
+    q: np.ndarray  #: (m, nq) joint read-backs, rad
+    forces: dict[str, np.ndarray]  #: foot name → (m, 4) force counts
+    centroid: dict[str, np.ndarray]  #: foot name → (m, 2) registers X, Y
+    units: dict[str, str]  #: joint → "rad" | "deg" | "ticks"
+
+
+def _column(table, name: str) -> np.ndarray:
+    """A float column where empty cells and 'nan' are missing (NaN); other text is an error."""
+    if name in table.columns:
+        return table.columns[name]
+    values = table.text[name]
+    out = np.empty(len(values))
+    for i, v in enumerate(values):
+        if v.strip().lower() in _MISSING_TEXT:
+            out[i] = np.nan
+            continue
+        try:
+            out[i] = float(v)
+        except ValueError:
+            raise SescidError(
+                f"{table.path}: row {i + 2}, column '{name}': '{v}' is not a number"
+            ) from None
+    return out
+
+
+def _pose_ids(table, name: str = "pose") -> np.ndarray:
+    """Pose ids as text ('3' for 3.0); integer-valued numbers only when numeric."""
+    if name not in table.columns and name not in table.text:
+        raise SescidError(f"{table.path}: missing column '{name}' (the pose id of each sample)")
+    if name in table.text:
+        ids = np.array([v.strip() for v in table.text[name]])
+        empty = np.flatnonzero(ids == "")
+        if empty.size:
+            raise SescidError(f"{table.path}: row {empty[0] + 2}, column '{name}': empty pose id")
+        return ids
+    col = table.columns[name]
+    bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
+    if bad.size:
+        raise SescidError(
+            f"{table.path}: row {bad[0] + 2}, column '{name}': pose id {col[bad[0]]} is not an "
+            "integer or a label"
+        )
+    return np.array([str(int(v)) for v in col])
+
+
+def read_joint_columns(table, joint_names: list[str]) -> tuple[np.ndarray, dict[str, str]]:
+    """Joint angles (m, nq) in rad from ``<j>`` (rad), ``<j>_deg`` or ``<j>_ticks`` columns.
+
+    Exactly one unit per joint; missing cells become NaN. Radians beyond ±2π, degrees beyond
+    ±360 and ticks outside 0–4095 are errors.
+    """
+    names = set(table.names())
+    cols, units = [], {}
+    for j in joint_names:
+        found = [
+            (u, c)
+            for u, c in (("rad", j), ("deg", f"{j}_deg"), ("ticks", f"{j}_ticks"))
+            if c in names
+        ]
+        if not found:
+            raise SescidError(
+                f"{table.path}: missing joint read-back for '{j}' (column '{j}' in rad, "
+                f"'{j}_deg' or '{j}_ticks')"
+            )
+        if len(found) > 1:
+            raise SescidError(
+                f"{table.path}: joint '{j}' is given in two units "
+                f"({', '.join(c for _, c in found)}): keep one column per joint"
+            )
+        unit, name = found[0]
+        v = _column(table, name)
+        if unit == "rad":
+            lim = 2 * math.pi
+            bad = np.flatnonzero(np.abs(v) > lim)
+            if bad.size:
+                raise SescidError(
+                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} looks like "
+                    f"degrees or ticks; use '{j}_deg' or '{j}_ticks' for those units"
+                )
+        elif unit == "deg":
+            bad = np.flatnonzero(np.abs(v) > 360)
+            if bad.size:
+                raise SescidError(
+                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} is not an "
+                    "angle in degrees"
+                )
+            v = np.radians(v)
+        else:
+            bad = np.flatnonzero((v < 0) | (v > TICKS_PER_TURN - 1))
+            if bad.size:
+                raise SescidError(
+                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} is outside "
+                    f"the MX-28 range 0–{TICKS_PER_TURN - 1} ticks"
+                )
+            v = ticks_to_rad(v)
+        cols.append(v)
+        units[j] = unit
+    return np.column_stack(cols), units
+
+
+def ticks_to_rad(ticks) -> np.ndarray:
+    """Dynamixel MX-28 position (0–4095, 2048 = 0) → servo angle, rad."""
+    return (np.asarray(ticks, dtype=float) - TICKS_ZERO) * (2 * math.pi / TICKS_PER_TURN)
+
+
+def rad_to_ticks(q) -> np.ndarray:
+    """Servo angle [rad] → MX-28 position ticks (rounded to the nearest count)."""
+    return np.round(np.asarray(q, dtype=float) * (TICKS_PER_TURN / (2 * math.pi)) + TICKS_ZERO)
+
+
+def read_raw(table, joint_names: list[str], config: SensorConfig) -> RawLog:
+    """Parse a raw FSR log (see the module docstring) into SI arrays; errors name the column."""
+    pose = _pose_ids(table)
+    q, units = read_joint_columns(table, joint_names)
+    names = set(table.names())
+    forces, centroid = {}, {}
+    for foot in config.feet:
+        fcols = [f"{foot.columns}{k}" for k in range(1, 5)]
+        ccols = [f"{foot.columns}_x", f"{foot.columns}_y"]
+        has_f = [c in names for c in fcols]
+        has_c = [c in names for c in ccols]
+        if any(has_f) and not all(has_f):
+            missing = fcols[has_f.index(False)]
+            raise SescidError(f"{table.path}: missing column '{missing}' ({foot.name} foot forces)")
+        if any(has_c) and not all(has_c):
+            missing = ccols[has_c.index(False)]
+            raise SescidError(f"{table.path}: missing column '{missing}' ({foot.name} centroid)")
+        if all(has_f):
+            f = np.column_stack([_column(table, c) for c in fcols])
+            bad = np.argwhere(f < 0)
+            if bad.size:
+                i, k = bad[0]
+                raise SescidError(
+                    f"{table.path}: row {i + 2}, column '{fcols[k]}': negative force count "
+                    f"{f[i, k]:g} (the board reports 0–{config.saturation} mN)"
+                )
+            forces[foot.name] = f
+        elif all(has_c):
+            c = np.column_stack([_column(table, col) for col in ccols])
+            ok = np.isnan(c) | (
+                (c >= 0) & (c <= max(config.centroid_max, config.no_load)) & (c == np.round(c))
+            )
+            bad = np.argwhere(~ok)
+            if bad.size:
+                i, k = bad[0]
+                raise SescidError(
+                    f"{table.path}: row {i + 2}, column '{ccols[k]}': {c[i, k]:g} is not a "
+                    f"centroid register (integer 0–{config.centroid_max}, "
+                    f"{config.no_load} = no load)"
+                )
+            centroid[foot.name] = c
+    if not forces and not centroid:
+        want = ", ".join(f"{f.columns}1..4 or {f.columns}_x/_y" for f in config.feet)
+        raise SescidError(f"{table.path}: no foot-sensor columns ({want})")
+    if forces and centroid:
+        raise SescidError(
+            f"{table.path}: one foot logs forces and the other only centroid registers: "
+            "log the same kind for both feet"
+        )
+    return RawLog(table.path, pose, q, forces, centroid, units)
+
+
+# --- per-pose CoP -------------------------------------------------------------------------
+@dataclass
+class Measured:
+    """Per-pose results of ``measure`` (k kept poses); lengths in m, forces in N."""
+
+    pose: np.ndarray  #: (k,) pose ids (text)
+    q: np.ndarray  #: (k, nq) mean joint read-backs, rad
+    cop: np.ndarray  #: (k, 2) mean CoP in the support frame, m
+    cop_se: np.ndarray  #: (k, 2) standard error of that mean, m
+    force: np.ndarray  #: (k,) mean total vertical force, N
+    n_used: np.ndarray  #: (k,) samples averaged
+    rejected: np.ndarray  #: (k, len(REASONS)) samples rejected, per reason
+    dropped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) without a CoP
+    mode: str = "forces"  #: "forces" or "centroid"
+
+    @property
+    def n_rejected(self) -> np.ndarray:
+        return self.rejected.sum(axis=1)
+
+    def reasons(self) -> list[str]:
+        """Per pose, e.g. 'no_load=3 outlier=1' (or 'none')."""
+        out = []
+        for row in self.rejected:
+            parts = [f"{r}={int(c)}" for r, c in zip(REASONS, row, strict=True) if c]
+            out.append(" ".join(parts) if parts else "none")
+        return out
+
+    def columns(self, joint_names: list[str]) -> dict[str, np.ndarray]:
+        """Output table: pose, joints (rad), cop_x/y, cop_se_x/y, counts, reasons."""
+        cols: dict[str, np.ndarray] = {"pose": self.pose}
+        cols |= {j: self.q[:, i] for i, j in enumerate(joint_names)}
+        cols |= {
+            "cop_x": self.cop[:, 0],
+            "cop_y": self.cop[:, 1],
+            "cop_se_x": self.cop_se[:, 0],
+            "cop_se_y": self.cop_se[:, 1],
+            "force_n": self.force,
+            "n_used": self.n_used.astype(int),
+            "n_rejected": self.n_rejected.astype(int),
+            "reject_reasons": np.array(self.reasons()),
+        }
+        return cols
+
+
+def _group_median(v: np.ndarray, g: np.ndarray, k: int) -> np.ndarray:
+    """Median of v within each group g ∈ [0, k) (NaN for empty groups), vectorised."""
+    order = np.lexsort((v, g))
+    vs = v[order]
+    counts = np.bincount(g, minlength=k)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    has = counts > 0
+    med = np.full(k, np.nan)
+    lo = starts[has] + (counts[has] - 1) // 2
+    hi = starts[has] + counts[has] // 2
+    med[has] = 0.5 * (vs[lo] + vs[hi])
+    return med
+
+
+def _outliers(values: np.ndarray, g: np.ndarray, k: int, kk: float, floor: float) -> np.ndarray:
+    """Boolean (m,): |v − median| > kk · max(1.4826 MAD, floor) within each group."""
+    med = _group_median(values, g, k)
+    dev = np.abs(values - med[g])
+    scale = np.maximum(1.4826 * _group_median(dev, g, k), floor)
+    return dev > kk * scale[g]
+
+
+def measure(
+    robot,
+    log: RawLog,
+    config: SensorConfig,
+    min_samples: int = 5,
+) -> Measured:
+    """Per-pose mean CoP (support frame, m), its standard error and the rejections.
+
+    Poses left with fewer than ``min_samples`` usable samples get no CoP: they are listed in
+    ``dropped`` with the reason. The foot poses come from ``robot.link_poses`` at each pose's
+    mean joint read-backs.
+    """
+    if min_samples < 2:
+        raise SescidError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
+    ids, first, g = np.unique(log.pose, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # keep the log's order of poses
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    ids, g = ids[order], rank[g]
+    k, m = len(ids), len(g)
+    status = np.full(m, -1)  # -1 usable, else index into REASONS
+
+    def reject(mask, reason):
+        status[(status < 0) & mask] = REASONS.index(reason)
+
+    # mean joint read-backs over the samples where every joint is present
+    q_ok = np.all(np.isfinite(log.q), axis=1)
+    cnt_q = np.bincount(g[q_ok], minlength=k)
+    q_sum = np.stack(
+        [np.bincount(g[q_ok], log.q[q_ok, j], minlength=k) for j in range(log.q.shape[1])], axis=1
+    )
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q_mean = q_sum / cnt_q[:, None]
+    reject(~q_ok, "missing")
+
+    mode = "forces" if log.forces else "centroid"
+    data = log.forces if log.forces else log.centroid
+    feet = [config.foot(name) for name in data]
+    local, force, loaded = [], [], []
+    for foot in feet:
+        arr = data[foot.name]
+        reject(~np.all(np.isfinite(arr), axis=1), "missing")
+        if mode == "forces":
+            reject(np.any(arr >= config.saturation, axis=1), "saturated")
+            f = np.nan_to_num(arr) * config.force_unit
+            total = f.sum(axis=1)
+            on = total >= config.min_foot_force
+            with np.errstate(invalid="ignore", divide="ignore"):
+                c = (f @ foot.sensors) / np.where(on, total, 1.0)[:, None]
+            force.append(np.where(on, total, 0.0))
+        else:
+            on = np.all(arr != config.no_load, axis=1) & np.all(np.isfinite(arr), axis=1)
+            uv = np.clip(np.nan_to_num(arr) / config.centroid_max, 0.0, 1.0)
+            c = foot.centroid_point(uv[:, 0], uv[:, 1])
+            force.append(on.astype(float))  # registers carry no force: one loaded foot only
+        local.append(c)
+        loaded.append(on)
+    loaded = np.stack(loaded, axis=1)  # (m, feet)
+    force = np.stack(force, axis=1)
+    reject(~loaded.any(axis=1), "no_load")
+    if mode == "centroid":
+        reject(loaded.sum(axis=1) > 1, "two_feet_no_force")
+
+    # carry each foot's CoP into the support frame at the pose's mean read-backs
+    good_q = np.isfinite(q_mean).all(axis=1)
+    cop = np.zeros((m, 2))
+    for fi, foot in enumerate(feet):
+        rot = np.tile(np.eye(3), (k, 1, 1))
+        org = np.zeros((k, 3))
+        if good_q.any():
+            rot[good_q], org[good_q] = robot.link_poses(q_mean[good_q], foot.sole_frame)
+        tilt = np.arccos(np.clip(rot[:, 2, 2], -1.0, 1.0))
+        off = (np.abs(org[:, 2]) > OFF_FLOOR_M) | (tilt > OFF_FLOOR_TILT)
+        reject(loaded[:, fi] & off[g], "off_floor")
+        p = org[g, :2] + np.einsum("nij,nj->ni", rot[g, :2, :2], local[fi])
+        cop += force[:, fi : fi + 1] * p
+    total = force.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cop /= np.where(total > 0, total, 1.0)[:, None]
+    force_n = total if mode == "forces" else np.full(m, np.nan)
+
+    # robust outlier rule per pose, on CoP x, CoP y and the total force
+    ok = status < 0
+    if ok.any():
+        out = np.zeros(m, dtype=bool)
+        gi = g[ok]
+        for axis in range(2):
+            out[ok] |= _outliers(cop[ok, axis], gi, k, config.outlier_k, config.outlier_floor)
+        if mode == "forces":
+            out[ok] |= _outliers(force_n[ok], gi, k, config.outlier_k, config.outlier_floor_force)
+        reject(out, "outlier")
+
+    ok = status < 0
+    n_used = np.bincount(g[ok], minlength=k)
+    rejected = np.zeros((k, len(REASONS)), dtype=int)
+    bad = ~ok
+    np.add.at(rejected, (g[bad], status[bad]), 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.stack([np.bincount(g[ok], cop[ok, a], minlength=k) for a in range(2)], 1)
+        mean /= n_used[:, None]
+        dev = cop - mean[g]
+        ss = np.stack([np.bincount(g[ok], dev[ok, a] ** 2, minlength=k) for a in range(2)], 1)
+        var = ss / np.maximum(n_used - 1, 1)[:, None]
+        fmean = np.bincount(g[ok], np.nan_to_num(force_n[ok]), minlength=k) / n_used
+    if mode == "centroid":
+        # quantisation: one register count along each support-frame axis (conservative)
+        step = (
+            np.array([np.abs(f.sensors[[1, 2]] - f.sensors[0]).max(axis=0) for f in feet]).max(
+                axis=0
+            )
+            / config.centroid_max
+        )
+        var = var + step**2 / 12
+        fmean = np.full(k, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se = np.maximum(np.sqrt(var / n_used[:, None]), 1e-7)
+
+    keep = (n_used >= min_samples) & good_q
+    dropped = []
+    for i in np.flatnonzero(~keep):
+        why = [f"{r}={int(c)}" for r, c in zip(REASONS, rejected[i], strict=True) if c]
+        dropped.append(
+            (
+                str(ids[i]),
+                f"{int(n_used[i])} usable of {int(n_used[i] + rejected[i].sum())} samples "
+                f"(need {min_samples}; rejected: {', '.join(why) or 'none'})",
+            )
+        )
+    return Measured(
+        pose=ids[keep],
+        q=q_mean[keep],
+        cop=mean[keep],
+        cop_se=se[keep],
+        force=fmean[keep],
+        n_used=n_used[keep],
+        rejected=rejected[keep],
+        dropped=dropped,
+        mode=mode,
+    )
+
+
+def check_pose_ids(measured_ids: np.ndarray, list_ids: np.ndarray, where: str) -> list[str]:
+    """Error on ids measured but absent from the pose list; return the list's unmeasured ids."""
+    known = set(list_ids.tolist())
+    unknown = [p for p in dict.fromkeys(measured_ids.tolist()) if p not in known]
+    if unknown:
+        more = f" (and {len(unknown) - 1} more)" if len(unknown) > 1 else ""
+        raise SescidError(f"{where}: pose id '{unknown[0]}'{more} is not in the pose list")
+    seen = set(measured_ids.tolist())
+    return [p for p in list_ids.tolist() if p not in seen]
+
+
+def pose_list_ids(table) -> np.ndarray:
+    """Pose ids of a pose list: its ``pose`` column, else the row numbers 0, 1, …"""
+    if "pose" in table.columns or "pose" in table.text:
+        ids = _pose_ids(table)
+        dup = [p for p in dict.fromkeys(ids.tolist()) if (ids == p).sum() > 1]
+        if dup:
+            raise SescidError(f"{table.path}: pose id '{dup[0]}' appears twice")
+        return ids
+    return np.array([str(i) for i in range(table.n)])
+
+
+def fsr(
+    robot,
+    raw_path,
+    config: SensorConfig,
+    min_samples: int = 5,
+    poses_path=None,
+) -> tuple[Measured, list[str]]:
+    """Read a raw log and reduce it per pose; with ``poses_path``, check the ids against it.
+
+    Returns the result and the pose-list ids that were not measured.
+    """
+    from .io import read_table
+
+    table = read_table(raw_path)
+    log = read_raw(table, robot.joint_names, config)
+    unmeasured: list[str] = []
+    if poses_path is not None:
+        unmeasured = check_pose_ids(log.pose, pose_list_ids(read_table(poses_path)), str(raw_path))
+    res = measure(robot, log, config, min_samples)
+    if len(res.pose) == 0:
+        reasons = "; ".join(f"pose {p}: {w}" for p, w in res.dropped[:3])
+        raise SescidError(f"{raw_path}: no pose has a usable CoP ({reasons})")
+    return res, unmeasured
