@@ -91,6 +91,86 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, noise {noise} m")
 
 
+def _fit_ls(robot, q, cop, sigma, opts):
+    from .estimate import identify as run
+
+    if opts.get("bias"):
+        raise SescidError(
+            "--bias needs --method map: a constant CoP offset is confounded with the support "
+            "body's x/y SESC components, only a prior on them separates the two"
+        )
+    return run(robot, q, cop, sigma=sigma, rtol=opts["rtol"])
+
+
+def _fit_map(robot, q, cop, sigma, opts):
+    from .prior import identify_map
+
+    return identify_map(
+        robot,
+        q,
+        cop,
+        sigma=sigma,
+        prior_scale=opts.get("prior_scale"),
+        noise=opts.get("noise"),
+        bias=bool(opts.get("bias")),
+        rtol=opts["rtol"],
+    )
+
+
+#: ``identify --method`` name → fit function ``(robot, q, cop, sigma, opts) -> Fit``; ``opts``
+#: holds every option of the command by parameter name (add a method's own options there).
+IDENTIFY_METHODS = {"ls": _fit_ls, "map": _fit_map}
+
+
+def _progress(label: str):
+    """A stderr progress callback (i, n) when stderr is a terminal, else None."""
+    if not sys.stderr.isatty():
+        return None
+
+    def show(i: int, n: int) -> None:
+        click.echo(f"\r{label} {i}/{n}", err=True, nl=i == n)
+
+    return show
+
+
+def _run_online(robot, q, cop, sigma, opts, method):
+    from .online import OnlineEstimator
+
+    if method not in ("ls", "map"):
+        raise SescidError(f"--online supports --method ls or map, not {method}")
+    if opts.get("robust") or opts.get("bias"):
+        raise SescidError("--online cannot be combined with --robust or --bias")
+    prior = None
+    if method == "map":
+        if opts.get("prior_scale") is None or opts.get("noise") is None:
+            raise SescidError("--online --method map needs --prior-scale and --noise (m)")
+        prior = opts["prior_scale"]
+    step = opts.get("online_step") or 1
+    if step < 1:
+        raise SescidError(f"--online-step must be ≥ 1 pose, got {step}")
+    est = OnlineEstimator(robot, prior_scale=prior, noise=opts.get("noise"), rtol=opts["rtol"])
+    click.echo("online: poses  rank  predicted RMS CoP std")
+    shown, marks = set(), {1, 2, 5}
+    for s in range(0, len(q), step):
+        blk = slice(s, s + step)
+        st = est.update(q[blk], cop[blk], None if sigma is None else sigma[blk])
+        first = st.converged and est.converged_at == st.n_poses
+        n = st.n_poses
+        decade = 10 ** int(math.log10(n))
+        if first or n == len(q) or (n // decade in marks and n % decade == 0 and n not in shown):
+            shown.add(n)
+            flag = "  converged" if first else ""
+            std = _mm(st.cop_std) if math.isfinite(st.cop_std) else "not determined yet"
+            click.echo(f"online: {n:6d}  {st.rank:4d}  {std}{flag}")
+    at = est.converged_at
+    click.echo(
+        f"online: converged at {at} poses (RMS CoP std fell < {est.tol:.0%} over {est.window})"
+        if at
+        else "online: not converged yet (more poses would still improve the prediction)"
+    )
+    return est.fit()
+
+
 @cli.command()
 @click.argument("data", type=click.Path(dir_okay=False))
 @robot_options
@@ -106,9 +186,40 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
     show_default=True,
     help="Rank tolerance on singular values, relative to the largest.",
 )
-def identify(data, robot_name, support, out, weighted, rtol):
+@click.option(
+    "--method",
+    type=click.Choice(list(IDENTIFY_METHODS)),
+    default="ls",
+    show_default=True,
+    help="ls: least squares (undetermined directions from the URDF); map: Gaussian CAD prior.",
+)
+@click.option(
+    "--prior-scale",
+    type=float,
+    default=None,
+    help="map: prior standard deviation of each SESC component [m] (default: evidence).",
+)
+@click.option(
+    "--noise",
+    type=float,
+    default=None,
+    help="map/online: known CoP noise standard deviation [m] (default: estimated).",
+)
+@click.option("--bias", is_flag=True, help="map: estimate constant CoP offsets b_x, b_y [m].")
+@click.option("--robust", is_flag=True, help="Huber IRLS; names the down-weighted poses.")
+@click.option("--cv", type=int, default=None, help="Print the k-fold cross-validated CoP error.")
+@click.option(
+    "--joint-noise-deg",
+    type=float,
+    default=None,
+    help="Monte-Carlo effect of joint-angle errors of this standard deviation [degrees].",
+)
+@click.option("--mc-draws", default=30, show_default=True, help="Monte-Carlo draws.")
+@click.option("--online", is_flag=True, help="Recursive estimator; prints the convergence.")
+@click.option("--online-step", default=1, show_default=True, help="Poses per online update.")
+@click.option("--seed", default=0, show_default=True, help="Seed of CV folds / Monte Carlo.")
+def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
     """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m)."""
-    from .estimate import identify as run
     from .io import read_cop, read_cop_se, read_poses, read_table
 
     robot = _load(robot_name, support)
@@ -120,10 +231,73 @@ def identify(data, robot_name, support, out, weighted, rtol):
         sigma = read_cop_se(table)
         if sigma is None:
             raise SescidError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
-    fit = run(robot, q, cop, sigma=sigma, rtol=rtol)
+    opts["rtol"] = rtol
+    method_fit = IDENTIFY_METHODS[method]
+
+    def fitter(qq, cc, ss):
+        return method_fit(robot, qq, cc, ss, opts)
+
+    if opts["robust"]:
+        from .robust import huber
+
+        plain = fitter
+
+        def fitter(qq, cc, ss):
+            return huber(plain, qq, cc, ss)
+
+    fit = (
+        _run_online(robot, q, cop, sigma, opts, method) if opts["online"] else fitter(q, cop, sigma)
+    )
+    _report_extras(fit, fitter, q, cop, sigma, opts)
     fit.save(out)
     click.echo(fit.summary())
     click.echo(f"wrote {out}")
+
+
+def _report_extras(fit, fitter, q, cop, sigma, opts) -> None:
+    """--robust / --bias / --cv / --joint-noise-deg: print and store in fit.extra."""
+    if "robust" in fit.extra:
+        low = fit.extra["robust"]["downweighted"]
+        shown = ", ".join(f"{i} (w {w:.2f})" for i, w in low[:10])
+        more = f" and {len(low) - 10} more" if len(low) > 10 else ""
+        click.echo(f"robust: {len(low)} poses down-weighted (row index, weight): {shown}{more}")
+    if "bias" in fit.extra:
+        (bx, by), (sx, sy) = fit.extra["bias"], fit.extra["bias_std"]
+        click.echo(
+            f"bias: b_x = {_mm(bx)} ± {_mm(sx)}, b_y = {_mm(by)} ± {_mm(sy)} "
+            "(separated from the support body's r by the prior only)"
+        )
+    if opts["cv"] is not None:
+        from .validation import cross_validate
+
+        cv = cross_validate(
+            fitter, q, cop, opts["cv"], sigma, opts["seed"], progress=_progress("cv fold")
+        )
+        fit.extra["cv"] = cv.to_json()
+        click.echo(
+            f"cv: {cv.k}-fold CoP RMSE {_mm(cv.rmse)} (noise {_mm(cv.noise)}, model part "
+            f"{_mm(cv.model_rmse)})"
+        )
+    if opts["joint_noise_deg"] is not None:
+        from .robust import joint_noise_mc
+
+        mc = joint_noise_mc(
+            fitter,
+            fit,
+            q,
+            cop,
+            math.radians(opts["joint_noise_deg"]),
+            sigma=sigma,
+            draws=opts["mc_draws"],
+            seed=opts["seed"],
+            progress=_progress("joint-noise draw"),
+        )
+        fit.extra["joint_noise"] = mc.to_json()
+        click.echo(
+            f"joint noise {opts['joint_noise_deg']:g}°: RMS CoP prediction std "
+            f"{_mm(mc.cop_std_joint)} from joint angles vs {_mm(mc.cop_std_noise)} from CoP noise "
+            f"(joint share {mc.share_joint:.0%} of the variance)"
+        )
 
 
 @cli.command()

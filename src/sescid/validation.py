@@ -1,0 +1,182 @@
+"""Uncertainty and validation: prediction intervals, k-fold cross-validation, error vs truth.
+
+Intervals are for the noise-free CoP/CoM (the model's prediction), built from ``fit.cov`` and a
+Student-t quantile with the fit's residual degrees of freedom (``fit.extra["dof"]`` when a method
+sets it, else ``n_rows − rank``); ``new_measurement=True`` widens a CoP interval by the noise σ̂
+to cover a future measured CoP.
+
+What the CoM-z interval does not cover: for least squares ``fit.cov`` is zero along the directions
+the data cannot see, and the CoM height has a component there (``fit.com_z_from_prior``) taken
+from the prior model as if exact. An error in the CAD model along those directions is outside the
+interval. A MAP fit (``sescid.prior``) carries the prior's uncertainty τ there instead, so its
+interval covers it to the extent the prior scale is honest.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.stats
+
+from .errors import SescidError
+from .estimate import Fit
+from .kinematics import as_poses
+from .robot import Robot
+from .sesc import sesc_vectors
+
+#: a fitting function: (q (n, nq) rad, cop (n, 2) m, sigma (n,)|(n, 2)|None m) -> Fit
+Fitter = Callable[[np.ndarray, np.ndarray, np.ndarray | None], Fit]
+
+
+def residual_dof(fit: Fit) -> float:
+    """Degrees of freedom of σ̂: ``fit.extra["dof"]`` if set, else n_rows − rank (inf if ≤ 0)."""
+    dof = float(fit.extra.get("dof", fit.n_rows - fit.rank))
+    return dof if dof > 0 else math.inf
+
+
+def quantile(level: float, dof: float) -> float:
+    """Two-sided Student-t quantile for a confidence ``level`` (normal when dof is inf)."""
+    if not 0 < level < 1:
+        raise SescidError(f"confidence level must be in (0, 1), got {level}")
+    if not math.isfinite(dof):
+        return float(scipy.stats.norm.ppf(0.5 + level / 2))
+    return float(scipy.stats.t.ppf(0.5 + level / 2, dof))
+
+
+@dataclass
+class Interval:
+    """Predictions (n, k) with their standard errors and two-sided interval bounds, m."""
+
+    value: np.ndarray
+    std: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    level: float
+
+    @property
+    def half_width(self) -> np.ndarray:
+        return self.upper - self.value
+
+    def covers(self, truth) -> np.ndarray:
+        """(n, k) booleans: truth inside the interval."""
+        t = np.asarray(truth, dtype=float)
+        return (t >= self.lower) & (t <= self.upper)
+
+
+def _interval(value, std, level, dof) -> Interval:
+    if not np.all(np.isfinite(std)):
+        raise SescidError("the fit has no finite covariance (no residual to estimate the noise)")
+    k = quantile(level, dof)
+    return Interval(value, std, value - k * std, value + k * std, level)
+
+
+def cop_interval(fit: Fit, q, level: float = 0.95, new_measurement: bool = False) -> Interval:
+    """Interval for the CoP (n, 2) [m] at poses q (n, nq) [rad].
+
+    Default: confidence interval of the noise-free CoP; ``new_measurement`` adds σ̂² to cover
+    a future measurement.
+    """
+    q = as_poses(q, fit.robot.nq)
+    std = fit.predict_std(q, rows=(0, 1))
+    if new_measurement:
+        std = np.sqrt(std**2 + fit.sigma_hat**2)
+    return _interval(fit.predict_cop(q), std, level, residual_dof(fit))
+
+
+def com_interval(fit: Fit, q, level: float = 0.95) -> Interval:
+    """Interval for the CoM (n, 3) [m]; see the module docstring for what z does not cover."""
+    q = as_poses(q, fit.robot.nq)
+    return _interval(fit.predict_com(q), fit.predict_std(q), level, residual_dof(fit))
+
+
+def rms(a) -> float:
+    return float(np.sqrt(np.mean(np.square(a))))
+
+
+def truth_error(fit: Fit, q, cop_true) -> float:
+    """RMS (m) of the predicted minus the noise-free CoP over poses q (simulation only)."""
+    return rms(fit.predict_cop(q) - np.asarray(cop_true, dtype=float))
+
+
+@dataclass
+class CrossValidation:
+    """k-fold cross-validated CoP error (m)."""
+
+    k: int
+    rmse: float  #: RMS of held-out measured − predicted CoP (includes the noise)
+    rmse_folds: list[float]
+    noise: float  #: pooled σ̂ of the training fits
+    model_rmse: float  #: √max(rmse² − σ̂², 0): the model's share of the held-out error
+
+    def to_json(self) -> dict:
+        return {
+            "k": self.k,
+            "cop_rmse_m": self.rmse,
+            "cop_rmse_folds_m": self.rmse_folds,
+            "noise_m": self.noise,
+            "model_rmse_m": self.model_rmse,
+        }
+
+
+def folds(n: int, k: int, seed: int = 0) -> list[np.ndarray]:
+    """k disjoint random index sets covering range(n)."""
+    if not 2 <= k <= n:
+        raise SescidError(f"cross-validation needs 2 ≤ k ≤ number of poses ({n}), got k = {k}")
+    perm = np.random.default_rng(seed).permutation(n)
+    return [np.sort(f) for f in np.array_split(perm, k)]
+
+
+def cross_validate(
+    fitter: Fitter, q, cop, k: int = 5, sigma=None, seed: int = 0, progress=None
+) -> CrossValidation:
+    """k-fold cross-validated CoP error of a fitting method (fitter(q, cop, sigma) -> Fit).
+
+    ``progress(i, k)`` is called after each fold.
+    """
+    q = np.asarray(q, dtype=float)
+    cop = np.asarray(cop, dtype=float)
+    n = q.shape[0]
+    sq, per_fold, noise2 = 0.0, [], []
+    for i, test in enumerate(folds(n, k, seed)):
+        train = np.setdiff1d(np.arange(n), test)
+        sig = None if sigma is None else np.asarray(sigma)[train]
+        fit = fitter(q[train], cop[train], sig)
+        err = cop[test] - fit.predict_cop(q[test]) - np.asarray(fit.extra.get("bias", [0.0, 0.0]))
+        sq += float(np.sum(err**2))
+        per_fold.append(rms(err))
+        if math.isfinite(fit.sigma_hat):
+            noise2.append(fit.sigma_hat**2)
+        if progress:
+            progress(i + 1, k)
+    total = math.sqrt(sq / (2 * n))
+    noise = math.sqrt(np.mean(noise2)) if noise2 else math.nan
+    model = math.sqrt(max(total**2 - noise**2, 0.0)) if noise2 else math.nan
+    return CrossValidation(k, total, per_fold, noise, model)
+
+
+def perturbed_sesc(
+    robot: Robot,
+    fraction: float = 0.04,
+    n_bodies: int = 6,
+    offset: float = 0.03,
+    seed: int = 0,
+) -> np.ndarray:
+    """SESC vectors (N, 3) [m] of a "true" robot that differs from the model (simulation).
+
+    ``fraction`` of the total mass is added as point masses, split over ``n_bodies`` random
+    non-support bodies, each at a random offset of up to ``offset`` m per axis from the body's
+    CoM.
+    """
+    rng = np.random.default_rng(seed)
+    bodies = list(robot.model.bodies)
+    picks = rng.choice(np.arange(1, len(bodies)), size=n_bodies, replace=False)
+    dm = fraction * robot.total_mass / n_bodies
+    for i in picks:
+        b = bodies[i]
+        at = b.com + rng.uniform(-offset, offset, 3)
+        mass = b.mass + dm
+        bodies[i] = replace(b, mass=mass, com=(b.mass * b.com + dm * at) / mass)
+    return sesc_vectors(replace(robot.model, bodies=bodies))
