@@ -191,10 +191,9 @@ def mirror_pairs(names: list[str]) -> list[tuple[int, int]]:
 
 def _mirror(robot: Robot, pairs) -> tuple[np.ndarray, float]:
     """Sagittal plane (unit normal n, offset c: n·p = c) from the mirrored links at q = 0."""
-    q0 = np.zeros((1, robot.nq))
-    p = {b: robot.link_poses(q0, b)[1][0] for pair in pairs for b in (robot.body_names[pair[0]],)}
-    p |= {robot.body_names[j]: robot.link_poses(q0, robot.body_names[j])[1][0] for _, j in pairs}
     names = robot.body_names
+    q0 = np.zeros((1, robot.nq))
+    p = {names[b]: robot.link_poses(q0, names[b])[1][0] for pair in pairs for b in pair}
     diff = sum(p[names[j]] - p[names[i]] for i, j in pairs)
     if np.linalg.norm(diff) < 1e-9:
         raise SescidError("symmetric: the mirrored bodies' frames coincide; no sagittal plane")
@@ -274,11 +273,10 @@ def consistent_from_fit(
     ``com_scale`` m and ``fit_tol`` m tune the closest-to-CAD step. ``prior_std`` (relative,
     e.g. 0.1): instead of the two steps, one QP trading the data fit against the CAD deviation
     as a Gaussian prior of that relative mass std (CoM std ``com_scale·prior_std``), with the
-    noise σ from the fit — plausible masses from noisy data, at some CoP residual. Returns a new Fit (method
-    "consistent") with r computed from the masses and CoMs, which ``fit.extra`` holds.
+    noise σ from the fit — plausible masses from noisy data, at some CoP residual. Returns a
+    new Fit (method "consistent") with r computed from the masses and CoMs (in ``fit.extra``).
     """
     robot = fit.robot
-    model = robot.model
     names = robot.body_names
     nb = len(names)
     m_cad = robot.masses
@@ -510,12 +508,17 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
         "frames": "com_m, box_*_m: body frame (sescid); com_link_m: the body's main URDF link",
         "cop_rss_increase_m2": d_rss,
     }
-    notes = [n for n in src.notes]
+    notes = list(src.notes)
     notes.append(
         f"consistent masses/CoMs (total {big_m:.4f} kg): "
         + (f"{len(active)} active constraints" if active else "no active constraint")
         + f"; CoP residual RMS {rms * 1e3:.3f} mm vs {src.rms * 1e3:.3f} mm for {src.method}"
     )
+    if active and info.get("prior_std") is None:
+        notes.append(
+            "active constraints: the fit's noisiest combinations pull masses/CoMs onto their "
+            "bounds; a CAD prior (prior_std, CLI --cad-std 0.05) gives plausible masses"
+        )
     return dataclasses.replace(
         src,
         r=r,
