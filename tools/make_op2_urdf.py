@@ -33,6 +33,60 @@ _INERTIA_OLD = {
 _SOLE_XYZ_R = (-0.0005, -0.0109, -0.0335)
 _SOLE_SIZE = (0.105, 0.066)
 
+# Collision shapes for the self-collision check of pose planning (sescid.design): boxes in each
+# link's frame, right side; the left side mirrors y (and the roll angle). Sizes are plausible
+# envelopes from the zero-pose geometry of the reference README section 4 (joint points, link
+# lengths, sole rectangle) and MX-28 servo bodies (35.6 x 50.6 x 35.5 mm); they are not CAD.
+# Checked: no two non-adjacent bodies overlap at the zero pose. (xyz m, rpy rad, box size m or
+# a 1-tuple = sphere radius m)
+_COLLISION_R = {
+    # trunk: x -0.065..0.035, |y| < 0.05, z -0.09..0.005 (shoulder axes z 0, hip yaw at -0.0907)
+    "MP_BODY": [((-0.015, 0.0, -0.0425), (0.0, 0.0, 0.0), (0.10, 0.10, 0.095))],
+    # neck bracket between the pan horn (z 0.0205) and the tilt axis (0.0505 above the torso)
+    "MP_NECK": [((0.0, 0.0, 0.015), (0.0, 0.0, 0.0), (0.03, 0.03, 0.03))],
+    # head: sphere r 0.04 on the head CoM (it turns with the 45 deg nose-down zero offset)
+    "MP_HEAD": [((0.018548203, 0.00006392, 0.007705965), (0.0, 0.0, 0.0), (0.04,))],
+    # shoulder bracket from the pitch horn (y 0.0575) to the roll axis (y 0.082, z -0.016)
+    "MP_SHOULDER": [((0.0, -0.012, -0.008), (0.0, 0.0, 0.0), (0.03, 0.024, 0.035))],
+    # upper arm: 0.060 to the elbow, abducted 45 deg at servo 0 (box long axis along the arm)
+    "MP_ARM_HIGH": [((0.008, -0.02475, -0.02475), (-0.7853981634, 0.0, 0.0), (0.035, 0.04, 0.085))],
+    # forearm: points forward at servo 0, elbow to hand tip 0.129
+    "MP_ARM_LOW": [((0.06, 0.0, 0.0), (0.0, 0.0, 0.0), (0.13, 0.03, 0.03))],
+    # hip-yaw bracket between the yaw horn and the hip roll/pitch block (0.0315 below)
+    "MP_PELVIS": [((0.0, 0.0, -0.012), (0.0, 0.0, 0.0), (0.045, 0.025, 0.015))],
+    # hip roll/pitch block (servos 9+11) around the hip centre
+    "MP_THIGH1": [((-0.012, 0.0, -0.006), (0.0, 0.0, 0.0), (0.06, 0.035, 0.045))],
+    # thigh: hip centre to knee 0.093, incl. the knee servo
+    "MP_THIGH2": [((0.0, 0.0, -0.055), (0.0, 0.0, 0.0), (0.035, 0.035, 0.07))],
+    # shank: knee to ankle 0.093
+    "MP_TIBIA": [((0.005, 0.0, -0.045), (0.0, 0.0, 0.0), (0.03, 0.035, 0.06))],
+    # ankle block (servos 15+17) around the ankle centre
+    "MP_ANKLE1": [((-0.012, 0.0, 0.008), (0.0, 0.0, 0.0), (0.06, 0.035, 0.045))],
+    # foot plate: the sole rectangle, 0.01 thick, on the sole (0.0335 below the ankle axes)
+    "MP_ANKLE2": [((-0.0005, -0.0109, -0.0285), (0.0, 0.0, 0.0), (0.105, 0.066, 0.01))],
+}
+
+
+def _collisions(link: str) -> list[str]:
+    """<collision> elements of a link (boxes/spheres; left side mirrored from the right)."""
+    left = link.endswith("_L")
+    key = link[:-2] if link.endswith(("_R", "_L")) else link
+    out = []
+    for k, (xyz, rpy, size) in enumerate(_COLLISION_R.get(key, [])):
+        x, y, z = xyz
+        roll, pitch, yaw = rpy
+        if left:
+            y, roll, yaw = -y, -roll, -yaw
+        out += [
+            f'    <collision name="{link}_{"sphere" if len(size) == 1 else "box"}{k}">',
+            f'      <origin xyz="{_fmt((x, y, z))}" rpy="{_fmt((roll, pitch, yaw))}"/>',
+            f'      <geometry><sphere radius="{_fmt(size)}"/></geometry>'
+            if len(size) == 1
+            else f'      <geometry><box size="{_fmt(size)}"/></geometry>',
+            "    </collision>",
+        ]
+    return out
+
 
 def _inertia(link: str) -> tuple[float, float, float]:
     key = link[:-2] if link.endswith(("_R", "_L")) else link
@@ -68,6 +122,7 @@ def main(ref: Path, out_dir: Path) -> None:
             f'      <mass value="{float(row["mass_kg"]):.10g}"/>',
             f'      <inertia ixx="{ixx:.8g}" ixy="0" ixz="0" iyy="{iyy:.8g}" iyz="0" izz="{izz:.8g}"/>',
             "    </inertial>",
+            *_collisions(name),
             "  </link>",
         ]
     for side in ("r", "l"):
@@ -117,8 +172,46 @@ def main(ref: Path, out_dir: Path) -> None:
                     row["ros_joint_name"],
                 ]
             )
+    # The paper's Table 2 limits, and the same converted to servo angles (the model's convention):
+    # paper = sign * servo + offset (blank sign/offset in the reference = identity).
+    with (out_dir / "op2_paper_limits.csv").open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(
+            [
+                "joint",
+                "servo_id",
+                "paper_min_deg",
+                "paper_max_deg",
+                "paper_sign_vs_servo",
+                "paper_offset_deg",
+                "servo_min_deg",
+                "servo_max_deg",
+                "paper_convention_confidence",
+            ]
+        )
+        for sid in sorted(limits, key=int):
+            lim = limits[sid]
+            sign = float(lim["paper_sign_vs_servo"] or 1.0)
+            off = float(lim["paper_offset_deg"] or 0.0)
+            a = (float(lim["min_deg"]) - off) / sign
+            b = (float(lim["max_deg"]) - off) / sign
+            w.writerow(
+                [
+                    lim["ros_joint_name"],
+                    sid,
+                    lim["min_deg"],
+                    lim["max_deg"],
+                    f"{sign:+g}",
+                    f"{off:+g}",
+                    f"{min(a, b) + 0.0:g}",
+                    f"{max(a, b) + 0.0:g}",
+                    lim["paper_convention_confidence"],
+                ]
+            )
     np.set_printoptions(precision=4)
-    print(f"wrote {out_dir / 'op2.urdf'} and op2_table1.csv ({len(links)} links)")
+    print(
+        f"wrote {out_dir / 'op2.urdf'}, op2_table1.csv, op2_paper_limits.csv ({len(links)} links)"
+    )
 
 
 if __name__ == "__main__":
