@@ -3,8 +3,8 @@
 Pipeline (all vectorised across poses, SI units, radians):
 
 1. **Candidates** — joint angles uniform within limits. For the embedded OP2 the limits are the
-   paper's Table 2 converted to servo angles (the model's convention; ``robots/op2_paper_limits.csv``:
-   ``paper = sign · servo + offset``) and intersected with the URDF limits.
+   paper's Table 2 converted to servo angles (the model's convention;
+   ``robots/op2_paper_limits.csv``: ``paper = sign · servo + offset``) ∩ the URDF limits.
 2. **Static stability** — the model's CoP (``robot.cop``) inside a box around the support-frame
    origin (default ``|x|, |y| < 0.023 m`` as the paper), or inside the sole rectangle shrunk by a
    margin (the OP2 sole is 0.105 × 0.066 m centred on ``r_sole``).
@@ -14,8 +14,8 @@ Pipeline (all vectorised across poses, SI units, radians):
    the support body stays above the ground, and the free sole's corners above ``clearance``.
 4. **Selection** — D-optimal (greedy, then Fedorov exchange) on ``log det M``, ``M = Σ AᵢᵀAᵢ``,
    ``Aᵢ = Φ_xy(qᵢ) V`` the x/y regressor projected on an orthonormal basis ``V`` of the
-   identifiable subspace (from the candidate pool). Candidates' ``Aᵢ M⁻¹ Aᵢᵀ`` are kept up to date by
-   rank-2 Woodbury updates, so each step costs O(n p) instead of O(n p²).
+   identifiable subspace (from the candidate pool). Each candidate's ``Aᵢ M⁻¹ Aᵢᵀ`` is kept up to
+   date by rank-2 Woodbury updates, so each step costs O(n p) instead of O(n p²).
 5. **Expected error** — least squares on K poses with CoP noise σ predicts the noise-free CoP of
    fresh poses with RMS error ``σ · sqrt(trace(Φ_test M⁻¹ Φ_testᵀ) / rows)``.
 6. **Ordering** — nearest neighbour then 2-opt on the joint-space (Euclidean, rad) path.
