@@ -117,9 +117,68 @@ def _fit_map(robot, q, cop, sigma, opts):
     )
 
 
+def consistent_options(f):
+    """Options of the consistent step (identify --method consistent, export)."""
+    for opt in reversed(
+        [
+            click.option(
+                "--total-mass",
+                type=float,
+                default=None,
+                help="consistent: weighed total mass [kg] (default: the URDF's).",
+            ),
+            click.option(
+                "--mass-floor",
+                type=float,
+                default=0.0,
+                show_default=True,
+                help="consistent: lower bound on every body's mass [kg].",
+            ),
+            click.option(
+                "--symmetric", is_flag=True, help="consistent: mirrored bodies (*_R/*_L) equal."
+            ),
+            click.option(
+                "--box-margin",
+                type=float,
+                default=None,
+                help="consistent: grow the CoM boxes by this [m] (default 0, fallback boxes 0.02).",
+            ),
+            click.option(
+                "--cad-std",
+                type=float,
+                default=None,
+                help="consistent: trade data fit against a Gaussian prior on the relative "
+                "deviation from CAD of this std (e.g. 0.05) instead of fitting the data first.",
+            ),
+        ]
+    ):
+        f = opt(f)
+    return f
+
+
+def _consistent_kwargs(opts) -> dict:
+    return {
+        "total_mass": opts.get("total_mass"),
+        "mass_floor": opts.get("mass_floor") or 0.0,
+        "symmetric": bool(opts.get("symmetric")),
+        "box_margin": opts.get("box_margin"),
+        "prior_std": opts.get("cad_std"),
+    }
+
+
+def _fit_consistent(robot, q, cop, sigma, opts):
+    from .consistent import identify_consistent
+
+    if opts.get("bias"):
+        raise SescidError("--bias needs --method map")
+    return identify_consistent(
+        robot, q, cop, sigma=sigma, rtol=opts["rtol"], **_consistent_kwargs(opts)
+    )
+
+
 #: ``identify --method`` name → fit function ``(robot, q, cop, sigma, opts) -> Fit``; ``opts``
 #: holds every option of the command by parameter name (add a method's own options there).
-IDENTIFY_METHODS = {"ls": _fit_ls, "map": _fit_map}
+IDENTIFY_METHODS = {"ls": _fit_ls, "map": _fit_map, "consistent": _fit_consistent}
 
 
 def _progress(label: str):
@@ -191,8 +250,10 @@ def _run_online(robot, q, cop, sigma, opts, method):
     type=click.Choice(list(IDENTIFY_METHODS)),
     default="ls",
     show_default=True,
-    help="ls: least squares (undetermined directions from the URDF); map: Gaussian CAD prior.",
+    help="ls: least squares (undetermined directions from the URDF); map: Gaussian CAD prior; "
+    "consistent: body masses and CoMs (see --total-mass …).",
 )
+@consistent_options
 @click.option(
     "--prior-scale",
     type=float,
@@ -442,6 +503,49 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed):
         },
     )
     echo(f"wrote {out}/fit.json, fig3a_r_magnitudes.png, fig3b_cop.png, summary.csv")
+
+
+def _echo_masses(fit) -> None:
+    ex = fit.extra
+    click.echo(
+        f"consistent: total mass {ex['total_mass_kg']:.4f} kg, "
+        f"{len(ex['active_constraints'])} active constraints, solver {ex['solver']} "
+        f"({ex['solve_time_s'] * 1e3:.0f} ms)"
+    )
+    for c in ex["active_constraints"][:8]:
+        click.echo(f"  active: {c}")
+    if len(ex["active_constraints"]) > 8:
+        click.echo(f"  … and {len(ex['active_constraints']) - 8} more (see the fit's extra)")
+
+
+@cli.command("export")
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output URDF.")
+@consistent_options
+def export_cmd(fit_file, out, **opts):
+    """Write the fit's URDF with the identified masses and CoMs (inertias rescaled).
+
+    A fit without masses (e.g. least squares) first goes through the consistent step with the
+    --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
+    """
+    from .consistent import consistent_from_fit
+    from .export import export_urdf
+    from .io import load_fit
+
+    fit = load_fit(fit_file)
+    if "bodies" not in fit.extra:
+        click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
+        fit = consistent_from_fit(fit, **_consistent_kwargs(opts))
+        _echo_masses(fit)
+    elif opts["total_mass"] is not None or opts["symmetric"] or opts["cad_std"] is not None:
+        raise SescidError(
+            f"{fit_file}: this fit already holds masses; the consistent options apply only to "
+            "fits without (re-run identify --method consistent to change them)"
+        )
+    for warning in export_urdf(fit, out):
+        click.echo(f"sescid: warning: {warning}", err=True)
+    total = sum(b["mass_kg"] for b in fit.extra["bodies"].values())
+    click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")
 
 
 def main() -> None:

@@ -508,7 +508,10 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
         "frames": "com_m, box_*_m: body frame (sescid); com_link_m: the body's main URDF link",
         "cop_rss_increase_m2": d_rss,
     }
-    notes = list(src.notes)
+    notes = [
+        n.replace("they are filled from the prior model", "they come from the CAD-closest masses")
+        for n in src.notes
+    ]
     notes.append(
         f"consistent masses/CoMs (total {big_m:.4f} kg): "
         + (f"{len(active)} active constraints" if active else "no active constraint")
