@@ -264,14 +264,3 @@ def load_truth(path) -> dict:
         data[key] = np.array(data[key], dtype=float)
     return data
 
-
-def cop_offsets(measured: np.ndarray, predicted: np.ndarray) -> dict[str, float]:
-    """Mean offset (per axis and its norm) and RMS (per component) of predicted − measured, m."""
-    d = np.asarray(predicted) - np.asarray(measured)
-    mean = d.mean(axis=0)
-    return {
-        "mean_x": float(mean[0]),
-        "mean_y": float(mean[1]),
-        "mean": float(np.hypot(*mean)),
-        "rms": float(np.sqrt(np.mean(d**2))),
-    }

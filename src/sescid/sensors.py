@@ -505,7 +505,7 @@ def measure(
     np.add.at(rejected, (g[bad], status[bad]), 1)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.stack([np.bincount(g[ok], cop[ok, a], minlength=k) for a in range(2)], 1)
-        mean /= n_used[:, None]
+        mean = mean.astype(float) / n_used[:, None]
         dev = cop - mean[g]
         ss = np.stack([np.bincount(g[ok], dev[ok, a] ** 2, minlength=k) for a in range(2)], 1)
         var = ss / np.maximum(n_used - 1, 1)[:, None]
