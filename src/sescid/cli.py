@@ -548,6 +548,183 @@ def export_cmd(fit_file, out, **opts):
     click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")
 
 
+@cli.command()
+@click.argument("raw", type=click.Path(dir_okay=False))
+@robot_options
+@click.option(
+    "--sensors",
+    "sensors_file",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Foot-sensor configuration JSON (default: the shipped op2_fsr.json, a hypothesis).",
+)
+@click.option(
+    "--poses",
+    "poses_file",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Pose list: every pose id in the log must be in it (its 'pose' column or row number).",
+)
+@click.option("--min-samples", default=5, show_default=True, help="Usable samples per pose.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
+def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out):
+    """Reduce a raw foot-sensor log to one CoP per pose (support frame, m) with its error.
+
+    Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m),
+    force_n, n_used, n_rejected, reject_reasons.
+    """
+    from .io import write_table
+    from .sensors import REASONS, load_sensors
+    from .sensors import fsr as run
+
+    robot = _load(robot_name, support)
+    config = load_sensors(sensors_file, robot.source)
+    res, unmeasured = run(robot, raw, config, min_samples, poses_file)
+    write_table(out, res.columns(robot.joint_names))
+    total = res.rejected.sum(axis=0)
+    why = ", ".join(f"{r} {int(c)}" for r, c in zip(REASONS, total, strict=True) if c) or "none"
+    click.echo(
+        f"{len(res.pose)} poses from {res.mode}: {int(res.n_used.sum())} samples used "
+        f"(median {int(np.median(res.n_used))} per pose), rejected: {why}"
+    )
+    if res.mode == "forces":
+        click.echo(
+            f"  mean measured weight {np.mean(res.force) / 9.80665:.4f} kg "
+            f"(model {robot.total_mass:.4f} kg); mean CoP standard error "
+            f"x {_mm(float(np.mean(res.cop_se[:, 0])))}, y {_mm(float(np.mean(res.cop_se[:, 1])))}"
+        )
+    for pose, reason in res.dropped:
+        click.echo(f"  pose {pose} has no CoP: {reason}", err=True)
+    if unmeasured:
+        more = f" (and {len(unmeasured) - 5} more)" if len(unmeasured) > 5 else ""
+        click.echo(
+            f"  {len(unmeasured)} poses of the list were not measured: "
+            f"{', '.join(unmeasured[:5])}{more}",
+            err=True,
+        )
+    click.echo(f"wrote {out}")
+
+
+@cli.command()
+@robot_options
+@click.option(
+    "--poses",
+    "poses_file",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Pose list (joint columns in radians; optional 'pose' id column).",
+)
+@click.option("--samples", default=100, show_default=True, help="Sensor readings per pose.")
+@click.option("--seed", default=0, show_default=True)
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Raw log CSV.")
+@click.option(
+    "--truth",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Also write the truth (true SESC vectors, actual poses, true CoPs) as JSON.",
+)
+@click.option(
+    "--sensors",
+    "sensors_file",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Foot-sensor configuration JSON (default: the shipped one).",
+)
+@click.option(
+    "--extra-mass",
+    default=0.06,
+    show_default=True,
+    help="Unmodelled mass as a fraction of the model's mass.",
+)
+@click.option("--backlash-deg", default=1.0, show_default=True, help="Joint play ±b [degrees].")
+@click.option("--fsr-noise", default=1.5, show_default=True, help="Per-sensor noise std [N].")
+@click.option("--fsr-bias", default=0.2, show_default=True, help="Per-sensor bias std [N].")
+@click.option(
+    "--registers",
+    type=click.Choice(["forces", "centroid", "both"]),
+    default="forces",
+    show_default=True,
+    help="Log the four forces, the centroid registers, or both.",
+)
+def experiment(
+    robot_name,
+    support,
+    poses_file,
+    samples,
+    seed,
+    out,
+    truth,
+    sensors_file,
+    extra_mass,
+    backlash_deg,
+    fsr_noise,
+    fsr_bias,
+    registers,
+):
+    """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs)
+    stands in each pose of the list; writes the raw sensor log that `sescid fsr` reads."""
+    import json
+
+    from .experiment import ExperimentConfig, run_experiment
+    from .io import atomic_open, read_poses, read_table, write_table
+    from .sensors import load_sensors, pose_list_ids
+
+    robot = _load(robot_name, support)
+    sensors = load_sensors(sensors_file, robot.source)
+    table = read_table(poses_file)
+    q = read_poses(table, robot.joint_names)
+    ids = pose_list_ids(table)
+    cfg = ExperimentConfig(
+        extra_mass_fraction=extra_mass,
+        backlash_deg=backlash_deg,
+        fsr_noise=fsr_noise,
+        fsr_bias=fsr_bias,
+        registers=registers,
+    )
+    try:
+        ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
+    except SescidError as exc:
+        raise SescidError(f"{poses_file}: {exc}") from None
+    write_table(out, ex.columns)
+    if truth:
+        with atomic_open(truth, "w") as fh:
+            json.dump(ex.truth, fh, indent=1)
+            fh.write("\n")
+    t = ex.truth
+    click.echo(
+        f"wrote {out}: {len(q)} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
+        f"(model {t['model_mass_kg']:.4f} kg), backlash ±{backlash_deg:g}°, "
+        f"FSR noise {fsr_noise:g} N, bias {fsr_bias:g} N"
+    )
+    if truth:
+        click.echo(f"wrote {truth} (the truth: true SESC vectors, actual poses, true CoPs)")
+
+
+@cli.command()
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.argument("measured", type=click.Path(dir_okay=False))
+@click.option("--out-dir", default="report", show_default=True, type=click.Path(file_okay=False))
+def report(fit_file, measured, out_dir):
+    """Figures and one self-contained HTML page from a fit and measured CoPs (never re-fits)."""
+    from .io import load_fit, read_cop, read_cop_se, read_poses, read_table
+    from .report import write_report
+    from .sensors import pose_list_ids
+
+    fit = load_fit(fit_file)
+    table = read_table(measured)
+    q = read_poses(table, fit.robot.joint_names)
+    cop = read_cop(table)
+    se = read_cop_se(table)
+    res = write_report(fit, q, cop, out_dir, cop_se=se, pose_ids=pose_list_ids(table))
+    b, a = res["before"], res["after"]
+    click.echo(
+        f"CoP offset predicted − measured over {len(q)} poses: manufacturer model mean "
+        f"{_mm(b['mean'])} (x {_mm(b['mean_x'])}, y {_mm(b['mean_y'])}), RMS {_mm(b['rms'])}; "
+        f"identified mean {_mm(a['mean'])}, RMS {_mm(a['rms'])}"
+    )
+    click.echo(f"wrote {res['html']} and {len(res['figures'])} figures")
+
+
 def main() -> None:
     cli(prog_name="sescid")
 
