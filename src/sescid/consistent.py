@@ -86,10 +86,7 @@ def _shape_hull(geometry, tf: np.ndarray) -> tuple[np.ndarray, np.ndarray] | Non
     return org - half, org + half
 
 
-def _urdf_hulls(robot: Robot, kind: str) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    from .model import _load_urdf
-
-    urdf = _load_urdf(robot.urdf_path)
+def _urdf_hulls(robot: Robot, urdf, kind: str) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for link in urdf.robot.links:
         if link.name not in robot.model.link_frames:
@@ -138,8 +135,11 @@ def body_boxes(
         corners = np.array([[(lo, hi)[k >> a & 1][a] for a in range(3)] for k in range(8)])
         pts = corners @ x[:3, :3].T + x[:3, 3]
         given[b] = (pts.min(axis=0), pts.max(axis=0))
-    collision = _urdf_hulls(robot, "collisions")
-    visual = _urdf_hulls(robot, "visuals")
+    from .model import _load_urdf
+
+    urdf = _load_urdf(robot.urdf_path)
+    collision = _urdf_hulls(robot, urdf, "collisions")
+    visual = _urdf_hulls(robot, urdf, "visuals")
     children = [[] for _ in names]
     for i, body in enumerate(model.bodies):
         if body.parent >= 0:
