@@ -257,9 +257,9 @@ def _map_fit(base: Fit, post: Posterior, n_par: int, n_bias: int, chosen, noise_
         "prior_scale_chosen_by": chosen,
         "noise_m": post.noise,
         "noise_chosen_by": "given" if noise_given else "evidence",
-        "log_evidence": post.log_evidence,
+        "log_evidence": float(post.log_evidence),
         "effective_parameters": post.edf,
-        "dof": dof,
+        "dof": None if noise_given else dof,  # None: σ known, normal quantiles
     }
     fit.notes = [
         n for n in fit.notes if "not determined by the data" not in n and "no residual" not in n

@@ -32,9 +32,10 @@ Fitter = Callable[[np.ndarray, np.ndarray, np.ndarray | None], Fit]
 
 
 def residual_dof(fit: Fit) -> float:
-    """Degrees of freedom of σ̂: ``fit.extra["dof"]`` if set, else n_rows − rank (inf if ≤ 0)."""
-    dof = float(fit.extra.get("dof", fit.n_rows - fit.rank))
-    return dof if dof > 0 else math.inf
+    """Degrees of freedom of σ̂: ``fit.extra["dof"]`` if set (None: σ known → inf), else
+    n_rows − rank (inf if ≤ 0)."""
+    dof = fit.extra.get("dof", fit.n_rows - fit.rank)
+    return float(dof) if dof is not None and dof > 0 else math.inf
 
 
 def quantile(level: float, dof: float) -> float:
