@@ -229,3 +229,13 @@ def test_infeasible_constraints_raise_a_clear_error(noisy):
     }
     with pytest.raises(SescidError, match="infeasible"):
         consistent_from_fit(noisy[1], symmetric=True, mass_floor=0.01, boxes=boxes)
+
+
+@pytest.mark.parametrize("prior_std", [None, 0.05])
+def test_uniform_cop_weights_leave_the_fit_unchanged(robot, noisy, prior_std):
+    sim, ls = noisy
+    weighted = sescid.identify(robot, sim.q, sim.cop, sigma=np.full(len(sim.q), 0.002))
+    a = consistent_from_fit(ls, prior_std=prior_std)
+    b = consistent_from_fit(weighted, prior_std=prior_std)
+    np.testing.assert_allclose(_masses(b), _masses(a), atol=1e-6 * robot.total_mass)
+    assert b.rms == pytest.approx(_rms(b.predict_cop(sim.q), sim.cop), rel=1e-6)

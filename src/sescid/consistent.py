@@ -304,12 +304,20 @@ def consistent_from_fit(
         )
     t0 = time.perf_counter()
 
-    # Data term in whitened, mm-RMS units: u = c S Vᵀ (K x − r̂), ‖u‖² = ΔRSS·c².
+    # Data term in whitened units: u = c S Vᵀ (K x − r̂) with c chosen so that ‖u‖² is the
+    # increase of the mean squared CoP residual in mm². For a weighted fit, S carries the row
+    # weights; their mean w̄ = (weighted RSS)/(RSS) is read off sigma_hat (weighted) and rms (m)
+    # (taken as 1 for a noise-free fit, whose residuals are round-off).
     basis = fit.basis
     p = basis.shape[1]
     sv = fit.singular_values[:p]
     n_rows = max(fit.n_rows, 1)
-    scale_u = 1e3 / math.sqrt(n_rows)
+    dof = fit.n_rows - fit.rank
+    w_bar = 1.0
+    if dof > 0 and math.isfinite(fit.sigma_hat) and math.isfinite(fit.rms) and fit.rms > 1e-12:
+        w_bar = fit.sigma_hat**2 * dof / (fit.rms**2 * n_rows)
+        w_bar = w_bar if math.isfinite(w_bar) and w_bar > 0 else 1.0
+    scale_u = 1e3 / math.sqrt(n_rows * w_bar)
     kmat = sesc_map(robot)
     d_mat = scale_u * (sv[:, None] * basis.T) @ kmat  # (p, 4N)
     e_vec = scale_u * sv * (basis.T @ fit.r.reshape(-1))
@@ -370,8 +378,8 @@ def consistent_from_fit(
     p_data[nx:, nx:] = 2 * np.eye(p)
 
     if prior_std is not None:  # one QP: Gaussian prior on the deviations (MAP in π)
-        sigma = fit.sigma_hat if math.isfinite(fit.sigma_hat) else fit.rms
-        lam = (sigma * scale_u) ** 2 / prior_std**2
+        sigma = fit.sigma_hat / math.sqrt(w_bar) if math.isfinite(fit.sigma_hat) else fit.rms
+        lam = (sigma * 1e3 / math.sqrt(n_rows)) ** 2 / prior_std**2  # σ in m, as ‖u‖² in mm²
         x2, status, it = _solve_qp(
             p_data + lam * p_cad, lam * q_cad, a_eq, b_eq, a_in, b_in, "consistent fit"
         )
@@ -396,7 +404,7 @@ def consistent_from_fit(
     masses, coms = _tidy(x2[:nx], big_m, mass_floor, box_list, model_coms(robot), pairs, robot)
     r = sesc_vectors(consistent_model(robot, masses, coms))
     du = scale_u * sv * (basis.T @ (r - fit.r).reshape(-1))
-    d_rss = float(du @ du) / scale_u**2  # extra residual sum of squares vs the source fit, m²
+    d_rss = float(du @ du) * n_rows * 1e-6  # extra residual sum of squares vs the fit, m²
     return _make_fit(
         fit,
         r,
