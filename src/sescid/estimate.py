@@ -233,10 +233,15 @@ class Fit:
         return np.sqrt(np.clip(np.diag(self.cov), 0, None)).reshape(-1, 3)
 
     def summary(self) -> str:
+        scale = (
+            f"sigma_hat {self.sigma_hat:.3f} (scale of normalised residuals)"
+            if self.extra.get("weighted")
+            else f"sigma_hat {self.sigma_hat * 1e3:.3f} mm"
+        )
         lines = [
             f"{self.method} fit of {self.robot.name} (support {self.robot.support}): "
             f"{self.n_poses} poses, rank {self.rank} of {self.r.size}",
-            f"  sigma_hat {self.sigma_hat * 1e3:.3f} mm, residual RMS {self.rms * 1e3:.3f} mm"
+            f"  {scale}, residual RMS {self.rms * 1e3:.3f} mm"
             + ("" if math.isnan(self.mae) else f", MAE {self.mae * 1e3:.3f} mm"),
         ]
         lines += [f"  note: {n}" for n in self.notes]
@@ -432,6 +437,12 @@ def identify(
     _check_enough(robot, q.shape[0])
     ne = accumulate(robot, [(q, cop, sigma)])
     fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
+    if sigma is not None:
+        fit.extra["weighted"] = True
+        fit.notes.append(
+            "weighted by the given CoP standard errors: sigma_hat is the dimensionless scale "
+            "of the normalised residuals (≈ 1 when the standard errors are right)"
+        )
     resid = cop - fit.predict_cop(q)
     fit.mae = float(np.mean(np.abs(resid)))
     fit.rms = float(np.sqrt(np.mean(resid**2)))

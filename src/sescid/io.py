@@ -178,8 +178,11 @@ def _read_parquet(path: Path) -> Table:
     return Table(path, columns, text)
 
 
-def write_table(path, columns: dict[str, np.ndarray], fmt: str = "%.15g") -> None:
-    """Write float (or string) columns as CSV (or Parquet by suffix), atomically."""
+def write_table(path, columns: dict[str, np.ndarray]) -> None:
+    """Write float (or string) columns as CSV (or Parquet by suffix), atomically.
+
+    Floats are written in their shortest exact form, so a CSV round trip is lossless.
+    """
     path = Path(path)
     names = list(columns)
     cols = [np.asarray(columns[k]) for k in names]
@@ -193,8 +196,8 @@ def write_table(path, columns: dict[str, np.ndarray], fmt: str = "%.15g") -> Non
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)
-        for i in range(len(cols[0]) if cols else 0):
-            w.writerow([fmt % c[i] if c.dtype.kind == "f" else str(c[i]) for c in cols])
+        text = [c.tolist() for c in cols]  # Python floats: repr is the shortest exact form
+        w.writerows(zip(*text, strict=True))
 
 
 def read_poses(table: Table, joint_names: list[str]) -> np.ndarray:

@@ -3,7 +3,8 @@
 The chain is evaluated block by block (``CHAIN_BLOCK`` poses) by a small compiled kernel
 (numba) in structure-of-arrays layout, its inner loops running across poses (SIMD); sin/cos are
 computed in the kernel (Cody–Waite reduction and Taylor polynomials, within 2 ulp of libm),
-which lets the compiler vectorise them too. There is no Python loop per pose. Each body's joint contributes
+which lets the compiler vectorise them too. There is no Python loop per pose. Each body's joint
+contributes
 
     M_b(θ) = C_b Rot(a_b, θ) = A0_b + sin θ · A1_b + (1 − cos θ) · A2_b,   θ = coef_b q_j + off_b
 

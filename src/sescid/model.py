@@ -18,6 +18,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 
@@ -80,6 +81,12 @@ def _load_urdf(path: Path):
 
     if not path.is_file():
         raise SescidError(f"{path}: URDF file not found")
+    try:  # strict XML first: yourdfpy would otherwise recover silently from broken XML
+        root = ElementTree.parse(path).getroot()
+    except (ElementTree.ParseError, OSError, UnicodeDecodeError) as exc:
+        raise SescidError(f"{path}: malformed URDF (XML: {exc})") from None
+    if root.tag != "robot":
+        raise SescidError(f"{path}: malformed URDF (root element <{root.tag}>, not <robot>)")
     try:
         urdf = yourdfpy.URDF.load(
             str(path),

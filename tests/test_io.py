@@ -1,0 +1,108 @@
+"""Tables, fit JSON round trip, atomic writes."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import sescid
+from sescid import io
+from sescid.estimate import identify
+from sescid.simulate import simulate
+
+
+def test_fit_round_trip(op2, tmp_path):
+    sim = simulate(op2, 200, seed=1)
+    fit = identify(op2, sim.q, sim.cop)
+    path = tmp_path / "fit.json"
+    fit.save(path)
+    data = json.loads(path.read_text())
+    assert data["format"] == "sescid-fit/1"
+    assert data["rank"] == 42 and data["n_poses"] == 200
+    assert data["robot"]["source"] == "op2" and data["robot"]["support"] == "r_sole"
+    assert data["sigma_hat"] == pytest.approx(fit.sigma_hat)
+    assert data["r"]["MP_BODY"] == pytest.approx(fit.r[6].tolist())
+    back = sescid.load_fit(path)
+    np.testing.assert_array_equal(back.r, fit.r)
+    np.testing.assert_array_equal(back.predict_cop(sim.q), fit.predict_cop(sim.q))
+    np.testing.assert_allclose(back.predict_std(sim.q[:5]), fit.predict_std(sim.q[:5]))
+    assert [c.label() for c in back.base] == [c.label() for c in fit.base]
+    assert [c.reason for c in back.unidentifiable] == [c.reason for c in fit.unidentifiable]
+
+
+def test_load_fit_rejects_other_json(tmp_path):
+    path = tmp_path / "x.json"
+    path.write_text('{"a": 1}')
+    with pytest.raises(sescid.SescidError, match="not a sescid fit"):
+        sescid.load_fit(path)
+    path.write_text("{nope")
+    with pytest.raises(sescid.SescidError, match="not a JSON file"):
+        sescid.load_fit(path)
+
+
+def test_atomic_open_leaves_nothing_on_error(tmp_path):
+    target = tmp_path / "out.csv"
+    with pytest.raises(RuntimeError), io.atomic_open(target) as fh:
+        fh.write("half")
+        raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+    with io.atomic_open(target) as fh:
+        fh.write("ok")
+    assert target.read_text() == "ok" and len(list(tmp_path.iterdir())) == 1
+
+
+def _csv(tmp_path, text: str):
+    path = tmp_path / "t.csv"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("a,b\n1,2\n3,x\n", r"row 3, column 'b': 'x' is not a number"),
+        ("a,b\n1,2\n3,nan\n", r"row 3, column 'b': value nan is not finite"),
+        ("a,b\n1,2\n3\n", r"row 3 has 1 fields, the header has 2"),
+        ("a,a\n1,2\n", r"column 'a' appears twice"),
+        ("a,b\n", r"no data rows"),
+        ("", r"empty file"),
+    ],
+)
+def test_table_errors_name_row_and_column(tmp_path, text, message):
+    path = _csv(tmp_path, text)
+    with pytest.raises(sescid.SescidError, match=message):
+        table = io.read_table(path)
+        table.get("a")
+        table.get("b")
+
+
+def test_read_poses_checks_columns_and_units(op2, tmp_path):
+    names = op2.joint_names
+    header = ",".join(names)
+    row = ",".join(["0.1"] * 20)
+    with pytest.raises(sescid.SescidError, match="missing joint column 'head_tilt'"):
+        io.read_poses(
+            io.read_table(_csv(tmp_path, ",".join(names[:-1]) + "\n" + row[4:] + "\n")), names
+        )
+    deg = ",".join(["0.1"] * 19 + ["30"])
+    with pytest.raises(
+        sescid.SescidError, match=r"row 3, column 'head_tilt': 30 looks like degrees"
+    ):
+        io.read_poses(io.read_table(_csv(tmp_path, f"{header}\n{row}\n{deg}\n")), names)
+    q = io.read_poses(io.read_table(_csv(tmp_path, f"{header}\n{row}\n")), names)
+    assert q.shape == (1, 20) and q[0, 0] == 0.1
+
+
+def test_parquet_round_trip(tmp_path):
+    cols = {"a": np.arange(5.0), "b": np.linspace(0, 1, 5)}
+    io.write_table(tmp_path / "t.parquet", cols)
+    table = io.read_table(tmp_path / "t.parquet")
+    np.testing.assert_array_equal(table.get("b"), cols["b"])
+
+
+def test_write_table_csv_keeps_full_precision(tmp_path):
+    x = np.array([np.pi, -1e-9, 0.1 + 0.2])
+    io.write_table(tmp_path / "t.csv", {"x": x})
+    np.testing.assert_array_equal(io.read_table(tmp_path / "t.csv").get("x"), x)
