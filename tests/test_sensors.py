@@ -16,11 +16,12 @@ from sescid.io import read_table, write_table
 from sescid.sensors import REASONS, fsr, load_sensors, measure, read_raw
 
 # Sensor centres of fsr.md §4–§6 written out by hand (sole frame, m): pads 10 mm in from the
-# 0.105 × 0.066 m sole edges → x ±0.0425, y ±0.023. Right: FSR1 inner front, FSR2 outer front,
-# FSR3 inner rear, FSR4 outer rear (inner = +y). Left: FSR1 inner rear, FSR2 outer rear,
+# front/rear and 6.5 mm in from the side edges of the 0.105 × 0.066 m sole → x ±0.0425,
+# y ±0.0265. Right: FSR1 inner front, FSR2 outer front, FSR3 inner rear, FSR4 outer rear
+# (inner = +y). Left: FSR1 inner rear, FSR2 outer rear,
 # FSR3 inner front, FSR4 outer front (inner = −y).
-RIGHT = np.array([[0.0425, 0.023], [0.0425, -0.023], [-0.0425, 0.023], [-0.0425, -0.023]])
-LEFT = np.array([[-0.0425, -0.023], [-0.0425, 0.023], [0.0425, -0.023], [0.0425, 0.023]])
+RIGHT = np.array([[0.0425, 0.0265], [0.0425, -0.0265], [-0.0425, 0.0265], [-0.0425, -0.0265]])
+LEFT = np.array([[-0.0425, -0.0265], [-0.0425, 0.0265], [0.0425, -0.0265], [0.0425, 0.0265]])
 #: l_sole relative to r_sole at the all-zero pose: ankles at y = ±0.037 m, soles 0.0109 m outward
 L_SOLE_AT_ZERO = np.array([0.0, 2 * (0.037 + 0.0109)])
 
@@ -51,7 +52,7 @@ def log_file(path, robot, pose, feet: dict, q=None, extra=None):
         else:
             cols |= {f"{prefix}_x": arr[:, 0], f"{prefix}_y": arr[:, 1]}
     cols |= extra or {}
-    write_table(path, cols, fmt="%.17g")
+    write_table(path, cols)
     return path
 
 
@@ -84,8 +85,8 @@ def test_centroid_registers_right_foot(robot, config, tmp_path):
     pose = np.repeat(np.arange(5), 1).tolist() * 2
     res = run(robot, config, log_file(tmp_path / "raw.csv", robot, pose, {"r_fsr": reg}))
     x_reg, y_reg = reg[:5, 0], reg[:5, 1]
-    # fsr.md §6, right foot: both board terms negated; s_x = 0.085, s_y = 0.046 m
-    expected = np.column_stack([-(y_reg / 254 - 0.5) * 0.085, -(x_reg / 254 - 0.5) * 0.046])
+    # fsr.md §6, right foot: both board terms negated; s_x = 0.085, s_y = 0.053 m
+    expected = np.column_stack([-(y_reg / 254 - 0.5) * 0.085, -(x_reg / 254 - 0.5) * 0.053])
     np.testing.assert_allclose(res.cop, expected, atol=1e-15)
     assert res.mode == "centroid"
 
@@ -94,7 +95,7 @@ def test_centroid_registers_left_foot(config, tmp_path):
     left = sescid.load_robot("op2", support="l_sole")
     reg = np.array([[10, 240], [200, 17]] * 2)
     res = run(left, config, log_file(tmp_path / "raw.csv", left, [0, 1, 0, 1], {"l_fsr": reg}))
-    expected = np.column_stack([(reg[:2, 1] / 254 - 0.5) * 0.085, (reg[:2, 0] / 254 - 0.5) * 0.046])
+    expected = np.column_stack([(reg[:2, 1] / 254 - 0.5) * 0.085, (reg[:2, 0] / 254 - 0.5) * 0.053])
     np.testing.assert_allclose(res.cop, expected, atol=1e-15)
 
 

@@ -692,10 +692,12 @@ def experiment(
             fh.write("\n")
     t = ex.truth
     click.echo(
-        f"wrote {out}: {len(q)} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
+        f"wrote {out}: {len(q) - len(ex.skipped)} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
         f"(model {t['model_mass_kg']:.4f} kg), backlash ±{backlash_deg:g}°, "
         f"FSR noise {fsr_noise:g} N, bias {fsr_bias:g} N"
     )
+    for pose, why in ex.skipped:
+        click.echo(f"  pose {pose} skipped: {why}", err=True)
     if truth:
         click.echo(f"wrote {truth} (the truth: true SESC vectors, actual poses, true CoPs)")
 

@@ -76,6 +76,7 @@ class Experiment:
 
     columns: dict[str, np.ndarray]
     truth: dict = field(default_factory=dict)
+    skipped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) not measured
 
 
 def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
@@ -130,7 +131,12 @@ def run_experiment(
     config: ExperimentConfig | None = None,
     pose_ids: np.ndarray | None = None,
 ) -> Experiment:
-    """Stand the real robot in each commanded pose (n, nq) [rad] and log ``samples`` readings."""
+    """Stand the real robot in each commanded pose (n, nq) [rad] and log ``samples`` readings.
+
+    A pose whose real CoP falls outside the support foot's sensor rectangle cannot be measured
+    (the sole edge would take part of the load, or the robot would tip): it is left out of the
+    log and listed in ``skipped`` with the reason.
+    """
     config = config or ExperimentConfig()
     q_cmd = np.asarray(q_cmd, dtype=float)
     n = q_cmd.shape[0]
@@ -163,14 +169,22 @@ def run_experiment(
     q_act = q_cmd + delta
     cop_true = robot.cop(q_act, r_true)
     uv = foot.board_coordinates(cop_true)
-    out = np.flatnonzero(np.any((uv < 0) | (uv > 1), axis=1))
-    if out.size:
-        i = out[0]
-        raise SescidError(
-            f"pose {pose_ids[i]}: the real robot's CoP ({cop_true[i, 0] * 1e3:.1f}, "
-            f"{cop_true[i, 1] * 1e3:.1f}) mm lies outside the sensor rectangle of "
-            f"{robot.support}: it would tip over ({out.size} such poses; plan stable poses)"
+    tips = np.any((uv < 0) | (uv > 1), axis=1)
+    skipped = [
+        (
+            str(pose_ids[i]),
+            f"the real robot's CoP ({cop_true[i, 0] * 1e3:.1f}, {cop_true[i, 1] * 1e3:.1f}) mm "
+            f"lies outside the sensor rectangle of {robot.support}: it would rest on the sole "
+            "edge or tip over, so it was not measured",
         )
+        for i in np.flatnonzero(tips)
+    ]
+    if tips.all():
+        raise SescidError(f"no pose can be measured: pose {skipped[0][0]}: {skipped[0][1]}")
+    keep = ~tips
+    q_cmd, delta, q_act = q_cmd[keep], delta[keep], q_act[keep]
+    cop_true, uv, pose_ids = cop_true[keep], uv[keep], pose_ids[keep]
+    n = len(q_cmd)
     weight = mass_true * G
     u, v = uv[:, 0], uv[:, 1]
     f_true = weight * np.stack([(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v], axis=1)
@@ -245,8 +259,9 @@ def run_experiment(
         "q_readback": q_read.tolist(),
         "cop_true": cop_true.tolist(),
         "cop_expected": cop_expected.tolist(),
+        "skipped": [{"pose": p, "reason": why} for p, why in skipped],
     }
-    return Experiment(columns=cols, truth=truth)
+    return Experiment(columns=cols, truth=truth, skipped=skipped)
 
 
 def load_truth(path) -> dict:
@@ -263,4 +278,3 @@ def load_truth(path) -> dict:
     for key in ("q_commanded", "q_actual", "q_readback", "cop_true", "cop_expected"):
         data[key] = np.array(data[key], dtype=float)
     return data
-
