@@ -691,8 +691,9 @@ def experiment(
             json.dump(ex.truth, fh, indent=1)
             fh.write("\n")
     t = ex.truth
+    n_logged = len(q) - len(ex.skipped)
     click.echo(
-        f"wrote {out}: {len(q) - len(ex.skipped)} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
+        f"wrote {out}: {n_logged} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
         f"(model {t['model_mass_kg']:.4f} kg), backlash ±{backlash_deg:g}°, "
         f"FSR noise {fsr_noise:g} N, bias {fsr_bias:g} N"
     )
