@@ -1,0 +1,135 @@
+"""Huber IRLS and Monte-Carlo joint-angle errors, checked against simulated truth."""
+
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from threadpoolctl import threadpool_limits
+
+import sescid
+from sescid.cli import cli
+from sescid.errors import SescidError
+from sescid.estimate import identify
+from sescid.io import load_fit, write_table
+from sescid.prior import identify_map
+from sescid.robust import huber, joint_noise_mc
+from sescid.simulate import random_poses, simulate
+from sescid.validation import truth_error
+
+SIGMA = 0.00493
+BAD = np.array([5, 17, 60, 111, 150])  # corrupted poses
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_blas_thread():
+    with threadpool_limits(1):
+        yield
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return sescid.load_robot("op2")
+
+
+@pytest.fixture(scope="module")
+def corrupted(robot):
+    sim = simulate(robot, 200, 30.0, SIGMA, 3)
+    cop = sim.cop.copy()
+    cop[BAD] += np.array([0.04, -0.03])  # 5 cm outliers (a foot slipping off a sensor)
+    return sim, cop
+
+
+def _ls(robot):
+    return lambda q, c, s: identify(robot, q, c, sigma=s)
+
+
+def test_huber_names_the_corrupted_poses(robot, corrupted):
+    sim, cop = corrupted
+    fit = huber(_ls(robot), sim.q, cop)
+    low = {i for i, w in fit.extra["robust"]["downweighted"] if w < 0.5}
+    assert low == set(BAD.tolist())
+
+
+def test_huber_recovers_the_clean_accuracy(robot, corrupted):
+    sim, cop = corrupted
+    fresh = simulate(robot, 3000, 30.0, 0.0, 50)
+    e_ls = truth_error(identify(robot, sim.q, cop), fresh.q, fresh.cop_true)
+    e_hub = truth_error(huber(_ls(robot), sim.q, cop), fresh.q, fresh.cop_true)
+    e_clean = truth_error(identify(robot, sim.q, sim.cop), fresh.q, fresh.cop_true)
+    assert e_hub < 0.75 * e_ls
+    assert e_hub < 1.15 * e_clean
+
+
+def test_huber_noise_scale_in_metres(robot, corrupted):
+    sim, cop = corrupted
+    fit = huber(_ls(robot), sim.q, cop)
+    assert fit.sigma_hat == pytest.approx(SIGMA, rel=0.12)
+    assert fit.extra["robust"]["scale_m"] == pytest.approx(SIGMA, rel=0.12)
+
+
+def test_huber_on_clean_data_down_weights_about_5_percent(robot):
+    sim = simulate(robot, 400, 30.0, SIGMA, 8)
+    fit = huber(_ls(robot), sim.q, sim.cop)
+    frac = len(fit.extra["robust"]["downweighted"]) / 400
+    assert 0.02 <= frac <= 0.09  # P(‖e‖ > 2.45σ) = 5 % for Gaussian noise
+
+
+def test_huber_wraps_map(robot, corrupted):
+    sim, cop = corrupted
+    fit = huber(lambda q, c, s: identify_map(robot, q, c, sigma=s), sim.q, cop)
+    low = {i for i, w in fit.extra["robust"]["downweighted"] if w < 0.5}
+    assert low == set(BAD.tolist()) and fit.method == "map+huber"
+
+
+def test_joint_noise_mc_matches_replicated_spread(robot):
+    """MC from one data set predicts the spread that 1° joint errors cause over replicates."""
+    dq = math.radians(1.0)
+    sim = simulate(robot, 200, 30.0, 0.0, 9)  # CoP exact: the joint errors alone
+    q_ref = random_poses(robot, 300, 30.0, 10)
+    rng = np.random.default_rng(11)
+    fitter = _ls(robot)
+    preds = [
+        fitter(sim.q + rng.normal(0, dq, sim.q.shape), sim.cop, None).predict_cop(q_ref)
+        for _ in range(30)
+    ]
+    spread = math.sqrt(np.mean(np.var(np.array(preds), axis=0, ddof=1)))
+    q_meas = sim.q + rng.normal(0, dq, sim.q.shape)
+    fit = fitter(q_meas, sim.cop, None)
+    mc = joint_noise_mc(fitter, fit, q_meas, sim.cop, dq, draws=30, reference_poses=q_ref)
+    assert mc.cop_std_joint == pytest.approx(spread, rel=0.2)
+    assert 0 < mc.share_joint < 1
+
+
+def test_joint_noise_share_grows_with_the_angle_error(robot):
+    sim = simulate(robot, 150, 30.0, SIGMA, 12)
+    fitter = _ls(robot)
+    fit = fitter(sim.q, sim.cop, None)
+    small = joint_noise_mc(fitter, fit, sim.q, sim.cop, math.radians(0.2), draws=10)
+    large = joint_noise_mc(fitter, fit, sim.q, sim.cop, math.radians(2.0), draws=10)
+    assert small.share_joint < 0.1 < 0.5 < large.share_joint
+    assert large.cop_std_joint == pytest.approx(10 * small.cop_std_joint, rel=0.35)
+
+
+def test_bad_inputs_raise(robot, corrupted):
+    sim, cop = corrupted
+    with pytest.raises(SescidError, match="Huber threshold"):
+        huber(_ls(robot), sim.q, cop, k=0)
+    fit = identify(robot, sim.q, cop)
+    with pytest.raises(SescidError, match="joint noise"):
+        joint_noise_mc(_ls(robot), fit, sim.q, cop, -1.0)
+
+
+def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path):
+    sim, cop = corrupted
+    data = tmp_path / "d.csv"
+    cols = {n: sim.q[:, j] for j, n in enumerate(robot.joint_names)}
+    write_table(data, cols | {"cop_x": cop[:, 0], "cop_y": cop[:, 1]})
+    out = tmp_path / "fit.json"
+    args = ["identify", str(data), "--out", str(out), "--robust", "--joint-noise-deg", "1"]
+    res = CliRunner().invoke(cli, [*args, "--mc-draws", "5"])
+    assert res.exit_code == 0, res.output
+    first = res.output.split("down-weighted (row index, weight): ")[1].split(",")[:5]
+    assert {int(s.split()[0]) for s in first} == set(BAD.tolist())
+    extra = load_fit(out).extra
+    assert extra["joint_noise"]["draws"] == 5 and "downweighted" in extra["robust"]
