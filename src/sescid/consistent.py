@@ -22,11 +22,20 @@ It is solved lexicographically with Clarabel (an interior-point conic solver):
 2. closest to CAD among the (near-)optimal solutions of step 1: min Σ_i (Δm_i/m̄_i)² +
    ‖Δh_i‖²/(m̄_i ℓ)², deviations from the URDF's masses scaled to M (CoMs unchanged), with
    m̄_i = max(m_i^CAD, M/(10 N)) and ℓ = ``com_scale`` (m), subject to every whitened residual
-   staying within ``fit_tol``/√p of its step-1 value (a CoP RMS change ≤ ``fit_tol``, 1 µm).
+   staying within ``fit_tol``/√p of its step-1 value (a CoP RMS change ≤ ``fit_tol``, 0.1 µm).
 
 When no constraint is active, step 1 reproduces r̂ exactly along the identified directions
 (any r is reachable for any masses, by moving the CoMs), so the CoP predictions equal the
 least-squares ones; step 2 then fills the directions the data leave free with the CAD values.
+With noisy data, r̂ is noisy along weakly excited directions and step 1 follows it: masses can
+land far from any real robot, with CoMs on box faces (``fit.extra["active_constraints"]``).
+``prior_std`` replaces the two steps by one QP, data fit + (σ²/τ²)·(CAD deviation) — a Gaussian
+prior of relative std τ on the deviation from CAD — which gives plausible masses.
+
+Why Clarabel: a maintained interior-point QP/conic solver that reaches 1e-10 feasibility and
+reports infeasibility reliably (the tolerance band of step 2 needs that; ADMM solvers such as
+OSQP stop near 1e-4–1e-6), and scipy has no QP with general linear constraints (``lsq_linear``
+takes bounds only; ``trust-constr`` is slow and inexact).
 
 Boxes (in each body's frame, see ``body_boxes``): the axis-aligned hull of the URDF's
 ``<collision>`` shapes (box, cylinder, sphere; meshes ignored), else of its ``<visual>`` shapes,
@@ -514,6 +523,7 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
         "active_constraints": active,
         "mirror_pairs": [[names[i], names[j]] for i, j in pairs],
         "frames": "com_m, box_*_m: body frame (sescid); com_link_m: the body's main URDF link",
+        "cov": f"covariance and base-combination std of the {src.method} fit (not re-estimated)",
         "cop_rss_increase_m2": d_rss,
     }
     notes = [
