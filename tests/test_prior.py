@@ -51,6 +51,21 @@ def test_map_not_worse_than_least_squares_with_1000_poses(robot):
     assert np.all(errs[:, 1] <= 1.03 * errs[:, 0])
 
 
+def test_map_with_cv_chosen_scale_beats_least_squares(robot):
+    ratios = []
+    for seed in range(3):
+        r_true = perturbed_sesc(robot, seed=seed)
+        sim = simulate(robot, 38, 30.0, SIGMA, seed, r_true=r_true)
+        fresh = simulate(robot, 2000, 30.0, 0.0, seed + 1000, r_true=r_true)
+        mp = identify_map(robot, sim.q, sim.cop, select="cv")
+        ls = identify(robot, sim.q, sim.cop)
+        ratios.append(
+            truth_error(mp, fresh.q, fresh.cop_true) / truth_error(ls, fresh.q, fresh.cop_true)
+        )
+        assert mp.extra["prior_scale_chosen_by"] == "5-fold cv"
+    assert np.mean(ratios) < 0.5
+
+
 def test_map_equals_augmented_least_squares(robot):
     """Given τ and σ, MAP = least squares on [Φ; (σ/τ) I] x ≈ [y; (σ/τ) x0]."""
     tau, sigma = 8e-4, SIGMA
@@ -140,9 +155,11 @@ def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path):
     write_table(data, {n: sim.q[:, j] for j, n in enumerate(robot.joint_names)} | {
         "cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]})  # fmt: skip
     out = tmp_path / "fit.json"
-    res = CliRunner().invoke(
-        cli, ["identify", str(data), "--out", str(out), "--method", "map", "--prior-scale", "1e-3"]
-    )
+    args = ["identify", str(data), "--out", str(out), "--method", "map"]
+    res = CliRunner().invoke(cli, [*args, "--prior-select", "cv"])
+    assert res.exit_code == 0, res.output
+    assert load_fit(out).extra["prior_scale_chosen_by"] == "5-fold cv"
+    res = CliRunner().invoke(cli, [*args, "--prior-scale", "1e-3"])
     assert res.exit_code == 0, res.output
     fit = load_fit(out)
     assert fit.method == "map" and fit.extra["prior_scale_m"] == pytest.approx(1e-3)

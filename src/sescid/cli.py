@@ -114,6 +114,8 @@ def _fit_map(robot, q, cop, sigma, opts):
         noise=opts.get("noise"),
         bias=bool(opts.get("bias")),
         rtol=opts["rtol"],
+        select=opts.get("prior_select") or "evidence",
+        seed=opts.get("seed") or 0,
     )
 
 
@@ -259,6 +261,13 @@ def _run_online(robot, q, cop, sigma, opts, method):
     type=float,
     default=None,
     help="map: prior standard deviation of each SESC component [m] (default: evidence).",
+)
+@click.option(
+    "--prior-select",
+    type=click.Choice(["evidence", "cv"]),
+    default="evidence",
+    show_default=True,
+    help="map: choose the prior scale by marginal likelihood or 5-fold cross-validation.",
 )
 @click.option(
     "--noise",

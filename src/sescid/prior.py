@@ -168,19 +168,36 @@ def identify_map(
     r_prior: np.ndarray | None = None,
     bias: bool = False,
     rtol: float = DEFAULT_RTOL,
+    select: str = "evidence",
+    folds: int = 5,
+    seed: int = 0,
 ) -> Fit:
     """MAP fit of the SESC vectors with a Gaussian prior centred on ``r_prior`` (default: CAD).
 
     q (n, nq) rad, cop (n, 2) m, ``sigma`` optional per-pose CoP standard errors (m).
-    ``prior_scale`` τ and ``noise`` σ in metres; each is chosen by evidence maximisation when
-    None (with per-pose ``sigma``, σ is a dimensionless scale on them). ``bias=True`` adds two
-    constant CoP offsets (m), reported in ``fit.extra["bias"]`` and not part of predictions.
+    ``prior_scale`` τ and ``noise`` σ in metres; when τ is None it is chosen by ``select``:
+    ``"evidence"`` (marginal likelihood, jointly with σ when σ is None) or ``"cv"`` (the ratio
+    σ²/τ² minimising the ``folds``-fold cross-validated CoP error, then σ by maximum
+    likelihood at that ratio). With per-pose ``sigma``, σ is a dimensionless scale on them.
+    ``bias=True`` adds two constant CoP offsets (m), reported in ``fit.extra["bias"]`` and not
+    part of predictions.
     """
     _check_positive(prior_scale, "prior scale")
     _check_positive(noise, "noise")
+    if select not in ("evidence", "cv"):
+        raise SescidError(f"prior scale selection must be 'evidence' or 'cv', got {select!r}")
     q = as_poses(q, robot.nq)
     cop = check_cop(cop, q.shape[0])
     ne = accumulate(robot, [(q, cop, sigma)])
+    by_cv = select == "cv" and prior_scale is None
+    if by_cv:
+        if bias:
+            raise SescidError("choosing the prior scale by cross-validation does not support bias")
+        r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
+        ridge, curve = cv_ridge(robot, q, cop, sigma, r0.reshape(-1), folds, seed)
+        if noise is None:
+            noise = profiled_noise(ne, r0.reshape(-1), ridge)
+        prior_scale = noise / math.sqrt(ridge)
     fit = fit_from_normal_equations(
         robot,
         ne,
@@ -191,10 +208,47 @@ def identify_map(
         rtol=rtol,
         bias_data=(q, cop, sigma),
     )
+    if by_cv:
+        fit.extra["prior_scale_chosen_by"] = f"{folds}-fold cv"
+        fit.extra["cv_curve"] = curve
+        fit.notes[-1] = fit.notes[-1].replace("(given)", f"({folds}-fold cv)")
     resid = cop - fit.predict_cop(q) - np.asarray(fit.extra.get("bias", [0.0, 0.0]))
     fit.mae = float(np.mean(np.abs(resid)))
     fit.rms = float(np.sqrt(np.mean(resid**2)))
     return fit
+
+
+def profiled_noise(ne: NormalEquations, x0: np.ndarray, ridge: float) -> float:
+    """Maximum-likelihood σ (m) for a fixed ratio ``ridge`` = σ²/τ²: √((zᵀz − bᵀM⁻¹b)/m)."""
+    b, ztz = _terms(ne, x0)
+    mat = ne.ata + ridge * np.eye(x0.size)
+    quad = b @ scipy.linalg.solve(mat, b, assume_a="pos")
+    return math.sqrt(max(ztz - quad, 0.0) / ne.n_rows) or SIGMA_RANGE[0]
+
+
+def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0):
+    """Ratio σ²/τ² minimising the k-fold held-out CoP error; also the curve [[τ/σ, rmse], …].
+
+    Fold normal equations make each candidate cost one Cholesky per fold: the held-out sum of
+    squares is ``yᵀy − 2xᵀΦᵀy + xᵀΦᵀΦx`` from the test fold's sums.
+    """
+    from .validation import folds as split
+
+    parts = [accumulate(robot, [(q[f], cop[f], None if sigma is None else sigma[f])]) for f in
+             split(q.shape[0], k, seed)]  # fmt: skip
+    total_a = sum(p.ata for p in parts)
+    total_b = sum(p.atb for p in parts)
+    ratios = np.logspace(-4, 2, 31)  # τ/σ (τ = 100σ is practically no prior)
+    curve = []
+    for t in ratios:
+        sq = 0.0
+        for p in parts:
+            a, b = total_a - p.ata, total_b - p.atb
+            x = x0 + scipy.linalg.solve(a + np.eye(x0.size) / t**2, b - a @ x0, assume_a="pos")
+            sq += p.yty - 2 * x @ p.atb + x @ p.ata @ x
+        curve.append([float(t), math.sqrt(max(sq, 0.0) / (2 * q.shape[0]))])
+    best = min(range(len(curve)), key=lambda i: curve[i][1])
+    return 1.0 / ratios[best] ** 2, curve
 
 
 def _with_bias(robot: Robot, q, cop, sigma) -> NormalEquations:
