@@ -225,7 +225,9 @@ def test_cli_export_of_least_squares_runs_the_consistent_step(data_csv, tmp_path
     assert sescid.load_robot(urdf, support="r_sole").total_mass == pytest.approx(3.0, abs=1e-12)
 
 
-@pytest.mark.parametrize("case", ["missing fit", "not a fit", "no folder", "options on consistent"])
+@pytest.mark.parametrize(
+    "case", ["missing fit", "not a fit", "no folder", "mass on consistent", "floor on consistent"]
+)
 def test_cli_export_errors_exit_2_without_output(exported, tmp_path, case):
     fit_json = tmp_path / "fit.json"
     out = tmp_path / "out.urdf"
@@ -235,9 +237,9 @@ def test_cli_export_errors_exit_2_without_output(exported, tmp_path, case):
     elif case == "no folder":
         exported[0].save(fit_json)
         out = tmp_path / "nowhere" / "out.urdf"
-    elif case == "options on consistent":
+    elif case.endswith("on consistent"):  # consistent-step options on a fit that has masses
         exported[0].save(fit_json)
-        opts = ["--total-mass", "3"]
+        opts = ["--total-mass", "3"] if case.startswith("mass") else ["--mass-floor", "0.01"]
     result = CliRunner().invoke(cli, ["export", str(fit_json), "--out", str(out), *opts])
     assert result.exit_code == 2
     assert "sescid: error: " in result.output

@@ -546,7 +546,11 @@ def export_cmd(fit_file, out, **opts):
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
         fit = consistent_from_fit(fit, **_consistent_kwargs(opts))
         _echo_masses(fit)
-    elif opts["total_mass"] is not None or opts["symmetric"] or opts["cad_std"] is not None:
+    elif (
+        (opts["total_mass"], opts["box_margin"], opts["cad_std"]) != (None, None, None)
+        or opts["symmetric"]
+        or opts["mass_floor"]
+    ):
         raise SescidError(
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)"
