@@ -1,6 +1,6 @@
 """A virtual bench experiment (paper §4) with a "real" robot that differs from its model.
 
-The real robot carries **unmodelled mass** (screws, cables, boards: by default 6 % of the model's
+The real robot carries **unmodelled mass** (screws, cables, boards: by default 7 % of the model's
 mass spread over several bodies at offsets of a few centimetres), its joints have **backlash**
 (each pose's actual angle differs from the commanded one by δ ~ U(−b, b), b = 1° by default),
 and its foot sensors have **noise** and a **per-sensor bias**.
@@ -46,11 +46,12 @@ class ExtraMass:
 
 #: where a real OP2 carries mass its CAD model lacks (shares sum to 1)
 DEFAULT_EXTRA = (
-    ExtraMass("MP_BODY", 0.50, (-0.085, -0.040, 0.020)),  # cable bundle, sub-board at the back
+    ExtraMass("MP_BODY", 0.45, (-0.090, -0.040, 0.020)),  # cable bundle, sub-board at the back
     ExtraMass("MP_HEAD", 0.10, (-0.030, 0.000, 0.040)),  # camera cable, screws
-    ExtraMass("MP_THIGH2_R", 0.10, (-0.030, -0.020, -0.030)),  # screws, cable loom
-    ExtraMass("MP_THIGH2_L", 0.10, (-0.030, 0.020, -0.030)),
-    ExtraMass("MP_ANKLE2_L", 0.10, (0.000, 0.010, -0.025)),  # the lifted foot's FSR board
+    ExtraMass("MP_THIGH2_R", 0.08, (-0.030, -0.020, -0.030)),  # screws, cable loom
+    ExtraMass("MP_THIGH2_L", 0.08, (-0.030, 0.020, -0.030)),
+    ExtraMass("MP_ANKLE2_L", 0.12, (0.000, 0.010, -0.025)),  # the lifted foot's FSR board
+    ExtraMass("MP_ANKLE2_R", 0.07, (0.000, -0.010, -0.025)),  # the support foot's FSR board
     ExtraMass("MP_ARM_HIGH_R", 0.05, (-0.015, -0.020, -0.030)),
     ExtraMass("MP_ARM_LOW_L", 0.05, (0.040, 0.010, 0.000)),
 )
@@ -60,13 +61,13 @@ DEFAULT_EXTRA = (
 class ExperimentConfig:
     """How the virtual real robot differs from the model (SI units, angles in degrees)."""
 
-    extra_mass_fraction: float = 0.06  #: unmodelled mass / model mass
+    extra_mass_fraction: float = 0.07  #: unmodelled mass / model mass
     extra: tuple[ExtraMass, ...] = DEFAULT_EXTRA
     backlash_deg: float = 1.0  #: actual − commanded angle ~ U(−b, b) per pose and joint
     readback_seen: float = 0.5  #: part of that offset the joint encoder reports
     readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
     fsr_noise: float = 1.5  #: N, per sensor and sample (std)
-    fsr_bias: float = 0.2  #: N, per-sensor constant bias (std over sensors)
+    fsr_bias: float = 0.1  #: N, per-sensor constant bias (std over sensors)
     registers: str = "forces"  #: "forces", "centroid" or "both"
 
 
