@@ -19,7 +19,7 @@ gives the same answer as the in-memory path without storing Φ.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,8 +91,12 @@ def accumulate(
     robot: Robot,
     chunks: Iterable[tuple],
     ne: NormalEquations | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> NormalEquations:
-    """Accumulate normal equations from chunks ``(q, cop)`` or ``(q, cop, sigma)``."""
+    """Accumulate normal equations from chunks ``(q, cop)`` or ``(q, cop, sigma)``.
+
+    ``progress(done, total)`` is called after each block with the poses done in the chunk.
+    """
     ne = ne or NormalEquations.empty(3 * len(robot.body_names))
     d_xy = robot.d[:2]
     ws = Workspace(robot.tree, ACCUMULATE_BLOCK)
@@ -109,6 +113,8 @@ def accumulate(
             x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
             y = (cop[blk] - d_xy).T.reshape(-1)
             acc.add(x, y, None if w is None else w.reshape(-1, 2)[blk].T.reshape(-1))
+            if progress is not None:
+                progress(min(s + ws.block, q.shape[0]), q.shape[0])
         ne.n_poses += q.shape[0]
     ne.ata += red.g.T @ acc.ata @ red.g
     ne.atb += red.g.T @ acc.atb
@@ -426,6 +432,7 @@ def identify(
     sigma=None,
     rtol: float = DEFAULT_RTOL,
     r_prior: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Fit:
     """Identify the SESC vectors from poses q (n, nq) [rad] and measured CoPs (n, 2) [m].
 
@@ -435,7 +442,7 @@ def identify(
     q = as_poses(q, robot.nq)
     cop = check_cop(cop, q.shape[0])
     _check_enough(robot, q.shape[0])
-    ne = accumulate(robot, [(q, cop, sigma)])
+    ne = accumulate(robot, [(q, cop, sigma)], progress=progress)
     fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
     if sigma is not None:
         fit.extra["weighted"] = True

@@ -1,0 +1,37 @@
+"""Progress on a terminal: a callback ``(done, total)`` that draws on stderr only for a TTY."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+
+class TerminalProgress:
+    """Call with (done, total); silent when stderr is not a terminal or the work is quick."""
+
+    def __init__(self, label: str, stream=None, delay: float = 1.0):
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self.delay = delay  #: s before anything is drawn, so quick work stays quiet
+        self.drawn = False
+        self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled or time.perf_counter() - self.start < self.delay:
+            return
+        frac = done / total if total else 1.0
+        self.stream.write(f"\r{self.label}: {done}/{total} ({frac:.0%})")
+        self.stream.flush()
+        self.drawn = True
+
+    def close(self) -> None:
+        if self.drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+
+    def __enter__(self) -> TerminalProgress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
