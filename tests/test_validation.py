@@ -9,7 +9,7 @@ import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
-from sescid.io import load_fit, write_table
+from sescid.io import load_fit, read_table, write_table
 from sescid.prior import identify_map
 from sescid.simulate import random_poses, simulate
 from sescid.validation import (
@@ -135,3 +135,26 @@ def test_cli_cv_prints_and_stores(robot, tmp_path):
     assert load_fit(out).extra["cv"]["k"] == 4
     res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--cv", "1"])
     assert res.exit_code == 2 and "2 ≤ k" in res.output
+
+
+def test_cli_predict_level_writes_intervals(robot, tmp_path):
+    sim = simulate(robot, 200, 30.0, SIGMA, 2)
+    fresh = simulate(robot, 400, 30.0, SIGMA, 3)
+    for name, s in (("d.csv", sim), ("f.csv", fresh)):
+        cols = {n: s.q[:, j] for j, n in enumerate(robot.joint_names)}
+        write_table(tmp_path / name, cols | {"cop_x": s.cop[:, 0], "cop_y": s.cop[:, 1]})
+    fit, pred = tmp_path / "fit.json", tmp_path / "p.csv"
+    assert (
+        CliRunner().invoke(cli, ["identify", str(tmp_path / "d.csv"), "--out", str(fit)]).exit_code
+        == 0
+    )
+    args = ["predict", str(fit), str(tmp_path / "f.csv"), "--out", str(pred), "--level", "0.95"]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    t = read_table(pred)
+    lo = np.column_stack([t.get("cop_x_lower"), t.get("cop_y_lower")])
+    hi = np.column_stack([t.get("cop_x_upper"), t.get("cop_y_upper")])
+    inside = (fresh.cop_true >= lo) & (fresh.cop_true <= hi)
+    assert 0.85 <= inside.mean() <= 1.0
+    res = CliRunner().invoke(cli, [*args[:-1], "2"])
+    assert res.exit_code == 2 and "confidence level" in res.output

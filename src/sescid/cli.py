@@ -374,7 +374,14 @@ def _report_extras(fit, fitter, q, cop, sigma, opts) -> None:
 @click.argument("fit_file", type=click.Path(dir_okay=False))
 @click.argument("poses", type=click.Path(dir_okay=False))
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-def predict(fit_file, poses, out):
+@click.option(
+    "--level",
+    type=float,
+    default=None,
+    help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
+    "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
+)
+def predict(fit_file, poses, out, level):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians)."""
     from .io import load_fit, read_poses, read_table, write_table
 
@@ -383,20 +390,26 @@ def predict(fit_file, poses, out):
     cop = fit.predict_cop(q)
     com = fit.predict_com(q)
     std = fit.predict_std(q)
-    write_table(
-        out,
-        {
-            "cop_x": cop[:, 0],
-            "cop_y": cop[:, 1],
-            "com_x": com[:, 0],
-            "com_y": com[:, 1],
-            "com_z": com[:, 2],
-            "com_x_std": std[:, 0],
-            "com_y_std": std[:, 1],
-            "com_z_std": std[:, 2],
-            "com_z_from_prior": fit.com_z_from_prior(q),
-        },
-    )
+    cols = {
+        "cop_x": cop[:, 0],
+        "cop_y": cop[:, 1],
+        "com_x": com[:, 0],
+        "com_y": com[:, 1],
+        "com_z": com[:, 2],
+        "com_x_std": std[:, 0],
+        "com_y_std": std[:, 1],
+        "com_z_std": std[:, 2],
+        "com_z_from_prior": fit.com_z_from_prior(q),
+    }
+    if level is not None:
+        from .validation import com_interval
+
+        iv = com_interval(fit, q, level)  # CoP = CoM x, y
+        for j, name in enumerate(("com_x", "com_y", "com_z")):
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+        for j, name in enumerate(("cop_x", "cop_y")):
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+    write_table(out, cols)
     click.echo(f"wrote {out}: {len(q)} poses")
 
 
@@ -645,13 +658,13 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out):
 )
 @click.option(
     "--extra-mass",
-    default=0.06,
+    default=0.07,
     show_default=True,
     help="Unmodelled mass as a fraction of the model's mass.",
 )
 @click.option("--backlash-deg", default=1.0, show_default=True, help="Joint play ±b [degrees].")
 @click.option("--fsr-noise", default=1.5, show_default=True, help="Per-sensor noise std [N].")
-@click.option("--fsr-bias", default=0.2, show_default=True, help="Per-sensor bias std [N].")
+@click.option("--fsr-bias", default=0.1, show_default=True, help="Per-sensor bias std [N].")
 @click.option(
     "--registers",
     type=click.Choice(["forces", "centroid", "both"]),
