@@ -195,3 +195,12 @@ def test_cli_experiment_bad_pose_list_leaves_no_files(robot, tmp_path):
     assert res.exit_code == 2
     assert res.output.count("\n") == 1 and "outside the joint limits" in res.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["poses.csv"]
+
+
+def test_cli_defaults_are_the_api_defaults():
+    opts = {p.name: p.default for p in cli.commands["experiment"].params}
+    cfg = ExperimentConfig()
+    assert opts["extra_mass"] == cfg.extra_mass_fraction
+    assert opts["backlash_deg"] == cfg.backlash_deg
+    assert (opts["fsr_noise"], opts["fsr_bias"]) == (cfg.fsr_noise, cfg.fsr_bias)
+    assert opts["registers"] == cfg.registers
