@@ -332,6 +332,7 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     denom = a * e - b * b
     par = denom > 1e-12 * np.maximum(a * e, eps)
     s = np.where(par, np.clip((b * f - c * e) / np.where(par, denom, 1.0), 0.0, 1.0), 0.0)
+    s = np.where(e_ok, s, np.clip(-c / a_s, 0.0, 1.0))  # second segment is a point
     s = np.where(a_ok, s, 0.0)
     t = np.where(e_ok, (b * s + f) / e_s, 0.0)
     lo, hi = t < 0.0, t > 1.0
@@ -373,6 +374,8 @@ def _first_contact(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
             s = 0.0
             if a > eps and denom > 1e-12 * max(a * e, eps):
                 s = min(max((b * f - c * e) / denom, 0.0), 1.0)
+            if e <= eps:  # second segment is a point
+                s = min(max(-c / a, 0.0), 1.0) if a > eps else 0.0
             t = (b * s + f) / e if e > eps else 0.0
             if t < 0.0:
                 t = 0.0
