@@ -302,3 +302,15 @@ def test_cli_fsr_bad_input_is_one_line_and_no_file(robot, tmp_path):
     assert len(lines) == 1 and lines[0].startswith("sescid: error: ")
     assert "no pose has a usable CoP" in lines[0] and "no_load=2" in lines[0]
     assert not out.exists() and not list(tmp_path.glob(".m*"))
+
+
+def test_parquet_log_with_text_ids_and_missing_values(robot, config, tmp_path):
+    f = np.full((6, 4), 6000.0)
+    f[1, 2] = np.nan  # a missing value (null in Parquet)
+    cols = {"pose": np.array(["a", "a", "a", "b", "b", "b"])} | joints(robot, 6)
+    cols |= {f"r_fsr{k + 1}": f[:, k] for k in range(4)}
+    write_table(tmp_path / "raw.parquet", cols)
+    res, _ = fsr(robot, tmp_path / "raw.parquet", config, 2)
+    assert res.pose.tolist() == ["a", "b"]
+    assert res.n_used.tolist() == [2, 3] and res.reasons() == ["missing=1", "none"]
+    np.testing.assert_allclose(res.cop, 0.0, atol=1e-15)  # equal forces: the sole centre

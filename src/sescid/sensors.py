@@ -368,7 +368,7 @@ class Measured:
         return out
 
     def columns(self, joint_names: list[str]) -> dict[str, np.ndarray]:
-        """Output table: pose, joints (rad), cop_x/y, cop_se_x/y, counts, reasons."""
+        """Output table: pose, joints (rad), cop_x/y, cop_se_x/y (m), counts, reasons, force_n."""
         cols: dict[str, np.ndarray] = {"pose": self.pose}
         cols |= {j: self.q[:, i] for i, j in enumerate(joint_names)}
         cols |= {
@@ -376,11 +376,12 @@ class Measured:
             "cop_y": self.cop[:, 1],
             "cop_se_x": self.cop_se[:, 0],
             "cop_se_y": self.cop_se[:, 1],
-            "force_n": self.force,
             "n_used": self.n_used.astype(int),
             "n_rejected": self.n_rejected.astype(int),
             "reject_reasons": np.array(self.reasons()),
         }
+        if self.mode == "forces":  # the registers carry no force
+            cols["force_n"] = self.force
         return cols
 
 
