@@ -754,6 +754,184 @@ def report(fit_file, measured, out_dir):
     click.echo(f"wrote {res['html']} and {len(res['figures'])} figures")
 
 
+def _tty_progress(label: str):
+    """A progress callback writing to stderr, or None when stderr is not a terminal."""
+    if not sys.stderr.isatty():
+        return None
+
+    def show(done: int, total: int) -> None:
+        end = "\n" if done >= total else ""
+        click.echo(f"\r{label}: {done}/{total}", err=True, nl=False)
+        if end:
+            click.echo("", err=True)
+
+    return show
+
+
+@cli.command()
+@robot_options
+@click.option("--count", default=38, show_default=True, help="Number of poses K to choose.")
+@click.option(
+    "--select",
+    type=click.Choice(["d-optimal", "random"]),
+    default="d-optimal",
+    show_default=True,
+    help="D-optimal (greedy + exchange) or K random candidates.",
+)
+@click.option("--seed", default=0, show_default=True)
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Pose list CSV.")
+@click.option(
+    "--candidates",
+    "n_candidates",
+    default=20_000,
+    show_default=True,
+    help="Stable, collision-free candidate poses to choose from.",
+)
+@click.option(
+    "--test-poses", default=2_000, show_default=True, help="Held-out poses for the error."
+)
+@click.option(
+    "--cop-box",
+    default=0.023,
+    show_default=True,
+    help="Stability: model CoP within ±this of the sole centre in x and y [m].",
+)
+@click.option(
+    "--margin",
+    default=None,
+    type=float,
+    help="Stability: CoP inside the sole rectangle shrunk by this [m] (instead of --cop-box).",
+)
+@click.option(
+    "--sole-size",
+    nargs=2,
+    type=float,
+    default=None,
+    help="Sole rectangle length and width [m] for --margin (default: the OP2's 0.105 0.066).",
+)
+@click.option(
+    "--clearance",
+    default=0.005,
+    show_default=True,
+    help="Free sole corners above the ground by at least this [m].",
+)
+@click.option(
+    "--range-deg", default=None, type=float, help="Also limit every joint to ±this [degrees]."
+)
+@click.option(
+    "--urdf-limits", is_flag=True, help="OP2: sample within the URDF limits, not the paper's."
+)
+@click.option(
+    "--noise",
+    default=0.00493,
+    show_default=True,
+    help="CoP noise σ for the expected error [m].",
+)
+@click.option(
+    "--figure",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Also write a PNG: expected CoP error vs K, D-optimal vs random.",
+)
+@click.option(
+    "--paper-convention",
+    is_flag=True,
+    help="OP2: add <joint>_paper_deg columns (the paper's Table 2 angle convention).",
+)
+def poses(
+    robot_name,
+    support,
+    count,
+    select,
+    seed,
+    out,
+    n_candidates,
+    test_poses,
+    cop_box,
+    margin,
+    sole_size,
+    clearance,
+    range_deg,
+    urdf_limits,
+    noise,
+    figure,
+    paper_convention,
+):
+    """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
+    informative, ordered to keep consecutive poses close.
+
+    Columns: pose (id), one per joint in radians (servo convention), <joint>_deg, <joint>_ticks
+    (Dynamixel MX-28, 2048 = 0, 4096 per turn), cop_x, cop_y (model CoP, m).
+    """
+    from . import design
+    from .io import write_table
+
+    robot = _load(robot_name, support)
+    need = design.min_poses(robot)
+    if count < need:
+        raise SescidError(
+            f"--count {count}: at least {need} poses are needed ({robot.name} has about "
+            f"{2 * need} identifiable combinations, 2 equations per pose)"
+        )
+    if n_candidates < count or test_poses < 1:
+        raise SescidError(f"--candidates must be ≥ --count ({count}) and --test-poses ≥ 1")
+    pc = design.paper_convention(robot)
+    if paper_convention and pc is None:
+        raise SescidError("--paper-convention is only defined for the embedded op2")
+    half = design.cop_half_extents(robot, cop_box, margin, sole_size)
+    limits = design.sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
+    plan = design.plan_poses(
+        robot,
+        count,
+        select,
+        seed,
+        n_candidates=n_candidates,
+        n_test=test_poses,
+        sigma=noise,
+        limits=limits,
+        half_extents=half,
+        clearance=clearance,
+        progress=_tty_progress("candidates"),
+    )
+    ticks = design.mx28_ticks(plan.q)
+    cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
+    names = robot.joint_names
+    cols |= {j: plan.q[:, k] for k, j in enumerate(names)}
+    cols |= {f"{j}_deg": np.degrees(plan.q[:, k]) for k, j in enumerate(names)}
+    cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
+    if paper_convention:
+        qp = np.degrees(pc.to_paper(plan.q))
+        cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
+    cols |= {"cop_x": plan.cop[:, 0], "cop_y": plan.cop[:, 1]}
+    echo = click.echo
+    cand = plan.candidates
+    echo(f"candidates: {cand.summary()}")
+    echo(
+        f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
+        f"free sole ≥ {clearance * 1e3:g} mm above ground; "
+        f"{len(cand.capsules.pairs)} capsule pairs checked"
+    )
+    for note in cand.capsules.notes:
+        echo(f"  note: {note}")
+    echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({select})")
+    echo(
+        f"expected noise-free CoP error on fresh poses (σ = {noise * 1e3:g} mm): "
+        f"chosen {_mm(plan.expected_error)}, {count} random {_mm(plan.random_error)} (median)"
+    )
+    echo(
+        f"joint-space path from the zero pose: {plan.path_unordered:.2f} rad in selection "
+        f"order → {plan.path_ordered:.2f} rad ordered"
+    )
+    write_table(out, cols)
+    echo(f"wrote {out}: {count} poses ({len(cols)} columns)")
+    if figure:
+        ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
+        ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
+        curve = design.design_curve(plan.a_pool, plan.c_test, ks, noise, seed)
+        design.design_figure(curve, figure, title=f"{robot.name}: pose selection")
+        echo(f"wrote {figure}")
+
+
 def main() -> None:
     cli(prog_name="sescid")
 
