@@ -323,6 +323,11 @@ def _map_fit(base: Fit, post: Posterior, n_par: int, n_bias: int, chosen, noise_
         f"component ({chosen}); {len(fit.unidentifiable)} directions the data cannot see keep "
         "the prior's value and uncertainty (included in cov)"
     )
+    if chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0]:
+        fit.notes.append(
+            "the evidence is largest at the smallest prior scale searched: these data cannot "
+            "detect any deviation from CAD, and the intervals (±τ) assume there is none"
+        )
     if n_bias:
         bv = post.x[n_par:]
         bstd = np.sqrt(np.diag(post.cov)[n_par:])
