@@ -744,7 +744,15 @@ def report(fit_file, measured, out_dir):
     q = read_poses(table, fit.robot.joint_names)
     cop = read_cop(table)
     se = read_cop_se(table)
-    res = write_report(fit, q, cop, out_dir, cop_se=se, pose_ids=pose_list_ids(table))
+    res = write_report(
+        fit,
+        q,
+        cop,
+        out_dir,
+        cop_se=se,
+        pose_ids=pose_list_ids(table),
+        progress=_tty_progress("report files"),
+    )
     b, a = res["before"], res["after"]
     click.echo(
         f"CoP offset predicted − measured over {len(q)} poses: manufacturer model mean "

@@ -190,11 +190,14 @@ def _r_std(fit) -> np.ndarray:
     return np.array(out)
 
 
-def write_report(fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int = 4) -> dict:
+def write_report(
+    fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int = 4, progress=None
+) -> dict:
     """PNG figures and one self-contained HTML page (figures embedded) from a fit and data.
 
     ``q`` (n, nq) rad and ``cop`` (n, 2) m are the measured poses; ``cop_se`` (n, 2) m their
-    standard errors. Never re-fits. Returns the numbers quoted in the page and the paths.
+    standard errors. Never re-fits. ``progress(done, total)`` is called after each file.
+    Returns the numbers quoted in the page and the paths.
     """
     import base64
     import html
@@ -232,7 +235,13 @@ def write_report(fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int =
         "residuals.png": "CoP residuals, predicted − measured",
         "side_view.png": "Side view of a few poses with CoM and CoP",
     }
+
+    def tick(done):
+        if progress is not None:
+            progress(done, len(figs) + 1)
+
     plot_r_magnitudes(fit, out / "fig6_r_magnitudes.png", title=list(figs.values())[0])
+    tick(1)
     plot_cop_comparison(
         idx,
         cop,
@@ -240,6 +249,7 @@ def write_report(fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int =
         out / "fig7_cop.png",
         title=list(figs.values())[1],
     )
+    tick(2)
     short = (
         f"{np.mean(frac):.0%} of the CoM-height regressor row is outside the identifiable "
         f"subspace: {np.mean(from_prior) * 1e3:.1f} mm of the identified height comes from the "
@@ -248,9 +258,11 @@ def write_report(fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int =
     plot_com_height(
         idx, com_prior[:, 2], com_fit[:, 2], std_z, out / "fig8_com_height.png", caveat=short
     )
+    tick(3)
     plot_residuals(
         idx, cop, {"manufacturer model": cop_prior, "identified": cop_fit}, out / "residuals.png"
     )
+    tick(4)
     pick = np.unique(np.linspace(0, n - 1, min(n_side, n)).round().astype(int))
     plot_side_view(
         robot,
@@ -260,6 +272,8 @@ def write_report(fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int =
         out / "side_view.png",
         labels=[labels[i] for i in pick],
     )
+
+    tick(5)
 
     def mm(x, digits=2):
         return "n/a" if x is None or not math.isfinite(x) else f"{x * 1e3:.{digits}f}"
@@ -368,6 +382,7 @@ window.addEventListener("load", function () {{
 """
     with atomic_open(out / "report.html", "w", encoding="utf-8") as fh:
         fh.write(page)
+    tick(len(figs) + 1)
     return {
         "html": out / "report.html",
         "figures": [out / f for f in figs],
