@@ -613,14 +613,71 @@ class Selection:
     passes: int = 0  #: exchange passes
 
 
+class _Design:
+    """Rank-2 bookkeeping for D-optimal search over candidates A (n, 2, p).
+
+    Keeps M⁻¹ and, for every candidate, S_i = A_i M⁻¹ A_iᵀ (2 × 2) current under additions and
+    removals (Woodbury), so a step costs O(n p) instead of O(n p²).
+    """
+
+    def __init__(self, a: np.ndarray, minv: np.ndarray):
+        self.a = a
+        self.x = a.reshape(-1, a.shape[-1])
+        self.minv = minv
+        self.s = _sandwich(a, minv)
+        self.chosen = np.zeros(len(a), dtype=bool)
+
+    def _w(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        u = self.minv @ self.a[i].T  # (p, 2)
+        return u, (self.x @ u).reshape(len(self.a), 2, 2)
+
+    def add(self, i: int) -> None:
+        u, w = self._w(i)
+        g_inv = _inv2(np.eye(2) + self.s[i])
+        self.s = self.s - _quad(w, g_inv)
+        self.minv = self.minv - u @ g_inv @ u.T
+        self.chosen[i] = True
+
+    def best_add(self) -> int:
+        gain = _logdet2(self.s)
+        gain[self.chosen] = -np.inf
+        return int(np.nanargmax(gain))
+
+    def try_exchange(self, i_out: int, tol: float = 1e-10) -> int | None:
+        """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None."""
+        h = np.eye(2) - self.s[i_out]
+        det_h = h[0, 0] * h[1, 1] - h[0, 1] * h[1, 0]
+        if not det_h > 0:
+            return None
+        h_inv = _inv2(h)
+        u, w = self._w(i_out)
+        s_minus = self.s + _quad(w, h_inv)  # S_j once i_out is removed
+        gain = _logdet2(s_minus) + math.log(det_h)
+        gain[self.chosen] = -np.inf
+        j = int(np.nanargmax(gain))
+        if not gain[j] > tol:
+            return None
+        self.minv = self.minv + u @ h_inv @ u.T
+        self.s = s_minus
+        self.chosen[i_out] = False
+        self.add(j)
+        return j
+
+
 def select_d_optimal(
-    a: np.ndarray, k: int, seed: int | np.random.Generator = 0, max_passes: int = 20
+    a: np.ndarray,
+    k: int,
+    seed: int | np.random.Generator = 0,
+    max_passes: int = 20,
+    shortlist: int = 2000,
 ) -> Selection:
     """Choose ``k`` distinct rows of A (n, 2, p) maximising log det Σ AᵢᵀAᵢ: greedy + exchange.
 
-    Greedy from a tiny ridge (δ I), then Fedorov exchange passes (swap a chosen pose for the
-    candidate that raises log det most) until a pass makes no improvement. Per step, each
-    candidate's S_i = A_i M⁻¹ A_iᵀ (2 × 2) is kept current by rank-2 Woodbury updates.
+    Greedy over all candidates from a tiny ridge (δ I), then Fedorov exchange passes: each chosen
+    pose in turn is swapped for the candidate that raises log det most, until a pass makes no
+    improvement. An exchange pass searches the ``shortlist`` candidates of largest
+    log det(I + A_i M⁻¹ A_iᵀ) (the most informative ones given the current choice; refreshed every
+    pass). S_i = A_i M⁻¹ A_iᵀ is kept current by rank-2 Woodbury updates throughout.
     """
     n, _, p = a.shape
     if not 1 <= k <= n:
@@ -628,55 +685,36 @@ def select_d_optimal(
     rng = np.random.default_rng(seed)
     x = a.reshape(2 * n, p)
     delta = 1e-8 * float(np.einsum("ij,ij->", x, x)) / (n * p)
-    minv = np.eye(p) / delta
-    s = _sandwich(a, minv)
-    chosen = np.zeros(n, dtype=bool)
+    st = _Design(a, np.eye(p) / delta)
     order = []
-
-    def add(i: int) -> None:
-        nonlocal minv, s
-        u = minv @ a[i].T  # (p, 2)
-        g_inv = _inv2(np.eye(2) + s[i])
-        w = (x @ u).reshape(n, 2, 2)
-        s = s - _quad(w, g_inv)
-        minv = minv - u @ g_inv @ u.T
-        chosen[i] = True
-
     for _ in range(k):
-        gain = _logdet2(s)
-        gain[chosen] = -np.inf
-        i = int(np.nanargmax(gain))
-        add(i)
+        i = st.best_add()
+        st.add(i)
         order.append(i)
-
+    minv = st.minv
     exchanges = passes = 0
     for passes in range(1, max_passes + 1):  # noqa: B007
         m = information(a[order])
         if np.linalg.matrix_rank(m) == p:  # drop the ridge once the design is non-singular
             minv = np.linalg.inv(m)
-            s = _sandwich(a, minv)
+        score = _logdet2(_sandwich(a, minv))
+        score[order] = -np.inf
+        score = np.nan_to_num(score, nan=-np.inf)
+        n_short = min(shortlist, n - k)
+        top = np.argpartition(-score, n_short - 1)[:n_short] if n_short > 0 else np.zeros(0, int)
+        idx = np.concatenate([np.asarray(order), top])
+        sub = _Design(a[idx], minv)
+        sub.chosen[:k] = True
+        pos_sub = list(range(k))
         improved = False
         for pos in rng.permutation(k):
-            i_out = order[pos]
-            h = np.eye(2) - s[i_out]
-            h_inv = _inv2(h)
-            loss = math.log(max(np.linalg.det(h), 1e-300))
-            u = minv @ a[i_out].T
-            w = (x @ u).reshape(n, 2, 2)
-            s_minus = s + _quad(w, h_inv)  # S_j with i_out removed
-            gain = _logdet2(s_minus) + loss
-            gain[chosen] = -np.inf
-            j = int(np.nanargmax(gain))
-            if gain[j] <= 1e-10:
-                continue
-            # accept: remove i_out, add j
-            minv = minv + u @ h_inv @ u.T
-            s = s_minus
-            chosen[i_out] = False
-            add(j)
-            order[pos] = j
-            exchanges += 1
-            improved = True
+            j = sub.try_exchange(pos_sub[pos])
+            if j is not None:
+                pos_sub[pos] = j
+                exchanges += 1
+                improved = True
+        order = [int(idx[i]) for i in pos_sub]
+        minv = sub.minv
         if not improved:
             break
     sign, logdet = np.linalg.slogdet(information(a[order]))
