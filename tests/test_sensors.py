@@ -314,3 +314,16 @@ def test_parquet_log_with_text_ids_and_missing_values(robot, config, tmp_path):
     assert res.pose.tolist() == ["a", "b"]
     assert res.n_used.tolist() == [2, 3] and res.reasons() == ["missing=1", "none"]
     np.testing.assert_allclose(res.cop, 0.0, atol=1e-15)  # equal forces: the sole centre
+
+
+def test_load_on_a_foot_the_model_puts_in_the_air_is_rejected(robot, config, tmp_path):
+    from op2_stance import stable_poses
+
+    q = stable_poses(robot, 1, seed=0)[0]  # left foot lifted several cm in the model
+    assert robot.link_poses(q[None], "l_sole")[1][0, 2] > 0.03
+    fr, fl = np.full((8, 4), 5000.0), np.zeros((8, 4))
+    fl[:3] = 3000.0  # yet the left board reports load in 3 samples
+    path = log_file(tmp_path / "r.csv", robot, [0] * 8, {"r_fsr": fr, "l_fsr": fl}, q=q)
+    res = run(robot, config, path)
+    assert res.reasons() == ["off_floor=3"] and res.n_used.tolist() == [5]
+    np.testing.assert_allclose(res.cop[0], 0.0, atol=1e-15)
