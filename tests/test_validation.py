@@ -158,3 +158,15 @@ def test_cli_predict_level_writes_intervals(robot, tmp_path):
     assert 0.85 <= inside.mean() <= 1.0
     res = CliRunner().invoke(cli, [*args[:-1], "2"])
     assert res.exit_code == 2 and "confidence level" in res.output
+
+
+def test_cli_identify_reports_error_against_simulated_truth(robot, tmp_path):
+    data, out = tmp_path / "sim.csv", tmp_path / "fit.json"
+    args = ["simulate", "--poses", "100", "--seed", "3", "--out", str(data)]
+    assert CliRunner().invoke(cli, args).exit_code == 0
+    res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    sim = simulate(robot, 100, 30.0, SIGMA, 3)  # the same draws as the CLI
+    want = np.sqrt(np.mean((load_fit(out).predict_cop(sim.q) - sim.cop_true) ** 2))
+    assert load_fit(out).extra["truth_cop_rmse_m"] == pytest.approx(want, rel=1e-9)
+    assert f"{want * 1e3:.3f} mm" in res.output

@@ -183,17 +183,6 @@ def _fit_consistent(robot, q, cop, sigma, opts):
 IDENTIFY_METHODS = {"ls": _fit_ls, "map": _fit_map, "consistent": _fit_consistent}
 
 
-def _progress(label: str):
-    """A stderr progress callback (i, n) when stderr is a terminal, else None."""
-    if not sys.stderr.isatty():
-        return None
-
-    def show(i: int, n: int) -> None:
-        click.echo(f"\r{label} {i}/{n}", err=True, nl=i == n)
-
-    return show
-
-
 def _run_online(robot, q, cop, sigma, opts, method):
     from .online import OnlineEstimator
 
@@ -319,6 +308,15 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
         _run_online(robot, q, cop, sigma, opts, method) if opts["online"] else fitter(q, cop, sigma)
     )
     _report_extras(fit, fitter, q, cop, sigma, opts)
+    if "cop_x_true" in table and "cop_y_true" in table:  # simulated data: the noise-free CoP
+        from .validation import truth_error
+
+        truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
+        fit.extra["truth_cop_rmse_m"] = truth_error(fit, q, truth)
+        click.echo(
+            f"truth: RMS of predicted − noise-free CoP at these poses "
+            f"{_mm(fit.extra['truth_cop_rmse_m'])} (columns cop_x_true, cop_y_true)"
+        )
     fit.save(out)
     click.echo(fit.summary())
     click.echo(f"wrote {out}")
@@ -341,7 +339,7 @@ def _report_extras(fit, fitter, q, cop, sigma, opts) -> None:
         from .validation import cross_validate
 
         cv = cross_validate(
-            fitter, q, cop, opts["cv"], sigma, opts["seed"], progress=_progress("cv fold")
+            fitter, q, cop, opts["cv"], sigma, opts["seed"], progress=_tty_progress("cv fold")
         )
         fit.extra["cv"] = cv.to_json()
         click.echo(
@@ -360,7 +358,7 @@ def _report_extras(fit, fitter, q, cop, sigma, opts) -> None:
             sigma=sigma,
             draws=opts["mc_draws"],
             seed=opts["seed"],
-            progress=_progress("joint-noise draw"),
+            progress=_tty_progress("joint-noise draw"),
         )
         fit.extra["joint_noise"] = mc.to_json()
         click.echo(
