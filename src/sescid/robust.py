@@ -9,7 +9,10 @@ repeated with those weights (as per-pose standard errors ``s/√w``) until the w
 Joint-angle errors (encoder resolution, backlash): the regressor is evaluated at the measured
 angles, the CoP comes from the true ones. ``joint_noise_mc`` refits with the measured angles
 perturbed again by the stated error and reports the spread of the parameters and of the CoP
-predictions, beside the spread due to the CoP noise (``fit.cov``).
+predictions, beside the spread due to the CoP noise (``fit.cov``). Two caveats: the residual
+σ̂ behind ``fit.cov`` already absorbs the CoP scatter that the angle errors cause, so the
+"CoP-noise" share includes part of their effect; and the refit spread does not measure the small
+errors-in-variables bias (attenuation) that angle errors add — only their random part.
 """
 
 from __future__ import annotations
