@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -51,6 +52,9 @@ def test_atomic_open_leaves_nothing_on_error(tmp_path):
     with io.atomic_open(target) as fh:
         fh.write("ok")
     assert target.read_text() == "ok" and len(list(tmp_path.iterdir())) == 1
+    mask = os.umask(0)
+    os.umask(mask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~mask  # as open() would create it
 
 
 def _csv(tmp_path, text: str):

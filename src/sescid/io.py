@@ -31,6 +31,16 @@ from .errors import SescidError
 FIT_FORMAT = "sescid-fit/1"
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: permissions of new output files: what open() would give (mkstemp alone gives 0600)
+_FILE_MODE = 0o666 & ~_umask()
+
+
 @contextlib.contextmanager
 def atomic_open(path, mode: str = "w", **kwargs):
     """Open a temporary file beside ``path``; it replaces ``path`` only if the block succeeds."""
@@ -39,6 +49,7 @@ def atomic_open(path, mode: str = "w", **kwargs):
     if not directory.is_dir():
         raise SescidError(f"{path}: output folder '{directory}' does not exist")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    os.chmod(tmp, _FILE_MODE)
     try:
         with os.fdopen(fd, mode, **kwargs) as fh:
             yield fh
@@ -67,6 +78,7 @@ class _AtomicPath:
             prefix=f".{self.path.stem}.", suffix=self.path.suffix, dir=directory
         )
         os.close(fd)
+        os.chmod(tmp, _FILE_MODE)
         self.tmp = Path(tmp)
         return self.tmp
 
