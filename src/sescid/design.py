@@ -876,7 +876,7 @@ def plan_poses(
     c_test = per_row_information(projected_regressor(robot, test_q, basis))
     rng = np.random.default_rng(seed)
     if select == "d-optimal":
-        sel = select_d_optimal(a_pool, count, rng)
+        sel = select_d_optimal(a_pool, count, seed)
     else:
         idx = rng.choice(n_candidates, count, replace=False)
         sign, ld = np.linalg.slogdet(information(a_pool[idx]))
@@ -941,10 +941,15 @@ def design_figure(curve: dict[str, np.ndarray], path, title: str | None = None) 
 
     k = curve["k"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    ax.plot(k, curve["d_optimal"] * 1e3, "o-", label="D-optimal")
-    ax.plot(k, curve["random_median"] * 1e3, "s-", label="random (median)")
+    ax.plot(k, curve["d_optimal"] * 1e3, "o-", color="C0", label="D-optimal")
+    ax.plot(k, curve["random_median"] * 1e3, "s-", color="C1", label="random (median)")
     ax.fill_between(
-        k, curve["random_p10"] * 1e3, curve["random_p90"] * 1e3, alpha=0.25, label="random 10–90 %"
+        k,
+        curve["random_p10"] * 1e3,
+        curve["random_p90"] * 1e3,
+        color="C1",
+        alpha=0.25,
+        label="random 10–90 %",
     )
     ax.set_xlabel("number of poses K")
     ax.set_ylabel("expected CoP error on fresh poses [mm]")
