@@ -171,3 +171,15 @@ def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path):
     assert fit.method == "map" and fit.extra["prior_scale_m"] == pytest.approx(1e-3)
     res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--bias"])
     assert res.exit_code == 2 and "--bias needs --method map" in res.output
+    args = [
+        "identify",
+        str(data),
+        "--out",
+        str(out),
+        "--method",
+        "consistent",
+        "--prior-scale",
+        "1",
+    ]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 2 and "--prior-scale needs --method map" in res.output

@@ -94,11 +94,6 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 def _fit_ls(robot, q, cop, sigma, opts):
     from .estimate import identify as run
 
-    if opts.get("bias"):
-        raise SescidError(
-            "--bias needs --method map: a constant CoP offset is confounded with the support "
-            "body's x/y SESC components, only a prior on them separates the two"
-        )
     return run(robot, q, cop, sigma=sigma, rtol=opts["rtol"])
 
 
@@ -291,6 +286,24 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
         if sigma is None:
             raise SescidError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
     opts["rtol"] = rtol
+    if method != "map":
+        given = [
+            name
+            for name, on in (
+                ("--bias", opts.get("bias")),
+                ("--prior-scale", opts.get("prior_scale") is not None),
+                ("--prior-select cv", opts.get("prior_select") == "cv"),
+            )
+            if on
+        ]
+        if given:
+            why = (
+                ": a constant CoP offset is confounded with the support body's x/y SESC "
+                "components, only a prior on them separates the two"
+                if opts.get("bias")
+                else ""
+            )
+            raise SescidError(f"{', '.join(given)} needs --method map (got {method}){why}")
     method_fit = IDENTIFY_METHODS[method]
 
     def fitter(qq, cc, ss):
