@@ -133,3 +133,16 @@ def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path):
     assert {int(s.split()[0]) for s in first} == set(BAD.tolist())
     extra = load_fit(out).extra
     assert extra["joint_noise"]["draws"] == 5 and "downweighted" in extra["robust"]
+
+
+def test_huber_with_per_pose_errors_scale_near_one(robot):
+    """Heteroscedastic CoP noise with its true standard errors given: scale ≈ 1, outliers named."""
+    rng = np.random.default_rng(13)
+    q = random_poses(robot, 200, 30.0, 14)
+    se = rng.uniform(0.002, 0.008, 200)
+    cop = robot.cop(q) + rng.normal(0, 1, (200, 2)) * se[:, None]
+    cop[BAD] += np.array([0.04, -0.03])
+    fit = huber(_ls(robot), q, cop, se)
+    assert fit.extra["robust"]["scale_m"] == pytest.approx(1.0, abs=0.15)
+    assert {i for i, w in fit.extra["robust"]["downweighted"] if w < 0.5} == set(BAD.tolist())
+    assert fit.extra["weighted"]

@@ -77,6 +77,7 @@ class OnlineEstimator:
         self._g = phi.T @ phi / q_ref.shape[0]  # mean φᵀφ per pose (two rows)
         self.ne = NormalEquations.empty(3 * len(robot.body_names))
         self.history: list[Step] = []
+        self._weighted = False
 
     # --- the recursion ------------------------------------------------------------------
     def update(self, q, cop, sigma=None) -> Step:
@@ -84,6 +85,7 @@ class OnlineEstimator:
         q = np.atleast_2d(np.asarray(q, dtype=float))
         cop = np.atleast_2d(np.asarray(cop, dtype=float))
         accumulate(self.robot, [(q, cop, sigma)], self.ne)
+        self._weighted = self._weighted or sigma is not None
         step = self._status()
         self.history.append(step)
         return step
@@ -168,6 +170,10 @@ class OnlineEstimator:
                 rtol=self.rtol,
             )
         fit.method = f"online-{fit.method}"
+        if self._weighted:  # σ̂ is a scale on the given errors; the RMS in m needs the data
+            fit.rms = float("nan")
+            fit.extra["weighted"] = True
+            fit.notes.append("weighted: sigma_hat is a dimensionless scale on the given errors")
         fit.extra["online"] = {
             "window": self.window,
             "tol": self.tol,

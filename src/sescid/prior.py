@@ -126,7 +126,8 @@ def maximise_evidence(
 
     def neg(log_tau: float, log_sigma: float) -> float:
         prec = _prior_precision(p, math.exp(log_tau), n_bias)
-        return -log_evidence(ne, x0, prec, math.exp(log_sigma))
+        val = -log_evidence(ne, x0, prec, math.exp(log_sigma))
+        return val if math.isfinite(val) else 1e300  # singular M: finite for Brent's steps
 
     s_lo, s_hi = (math.log(v) for v in SIGMA_RANGE)
 
@@ -208,6 +209,9 @@ def identify_map(
         rtol=rtol,
         bias_data=(q, cop, sigma),
     )
+    if sigma is not None:
+        fit.extra["weighted"] = True
+        fit.notes.append("weighted: sigma_hat is a dimensionless scale on the given CoP errors")
     if by_cv:
         fit.extra["prior_scale_chosen_by"] = f"{folds}-fold cv"
         fit.extra["cv_curve"] = curve

@@ -79,13 +79,17 @@ def huber(
             break
     if math.isfinite(fit.sigma_hat) and math.isfinite(scale):
         fit.sigma_hat *= scale  # whitened units → metres (or σ-units with given errors)
+    if sigma is None:  # the IRLS weights are internal: σ̂ is in metres again
+        fit.extra.pop("weighted", None)
+        fit.notes = [n for n in fit.notes if not n.startswith("weighted by the given")]
     order = np.argsort(w, kind="stable")
     low = [[int(i), float(w[i])] for i in order if w[i] < 1.0]
     fit.method = f"{fit.method}+huber"
     fit.extra["robust"] = {"k": k, "scale_m": scale, "iterations": iterations, "downweighted": low}
+    shown = f"{scale * 1e3:.3f} mm" if sigma is None else f"{scale:.3f} × the given errors"
     fit.notes.append(
-        f"Huber IRLS (k = {k:g}, robust scale {scale * 1e3:.3f}"
-        f"{' mm' if sigma is None else ' ×σ'}): {len(low)} of {q.shape[0]} poses down-weighted"
+        f"Huber IRLS (k = {k:g}, robust scale {shown}): {len(low)} of {q.shape[0]} poses "
+        "down-weighted"
     )
     return fit
 
