@@ -912,12 +912,18 @@ def poses(
         clearance=clearance,
         progress=_tty_progress("candidates"),
     )
-    ticks = design.mx28_ticks(plan.q)
+    notes = list(plan.candidates.capsules.notes)
+    try:
+        ticks = design.mx28_ticks(plan.q)
+    except SescidError:  # only possible for other robots (joints beyond ±180°)
+        ticks = None
+        notes.append("no _ticks columns: some angles are outside the MX-28 range")
     cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
     names = robot.joint_names
     cols |= {j: plan.q[:, k] for k, j in enumerate(names)}
     cols |= {f"{j}_deg": np.degrees(plan.q[:, k]) for k, j in enumerate(names)}
-    cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
+    if ticks is not None:
+        cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
     if paper_convention:
         qp = np.degrees(pc.to_paper(plan.q))
         cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
@@ -925,12 +931,13 @@ def poses(
     echo = click.echo
     cand = plan.candidates
     echo(f"candidates: {cand.summary()}")
+    free = design.free_sole(robot)
     echo(
         f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
-        f"free sole ≥ {clearance * 1e3:g} mm above ground; "
-        f"{len(cand.capsules.pairs)} capsule pairs checked"
+        + (f"{free} corners ≥ {clearance * 1e3:g} mm above ground; " if free else "")
+        + f"{len(cand.capsules.pairs)} capsule pairs checked"
     )
-    for note in cand.capsules.notes:
+    for note in notes:
         echo(f"  note: {note}")
     echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({select})")
     echo(
@@ -946,7 +953,9 @@ def poses(
     if figure:
         ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
         ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
-        curve = design.design_curve(plan.a_pool, plan.c_test, ks, noise, seed)
+        curve = design.design_curve(
+            plan.a_pool, plan.c_test, ks, noise, seed, progress=_tty_progress("figure: K values")
+        )
         design.design_figure(curve, figure, title=f"{robot.name}: pose selection")
         echo(f"wrote {figure}")
 

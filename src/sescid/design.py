@@ -172,7 +172,8 @@ def stable_mask(robot: Robot, q, half_extents) -> tuple[np.ndarray, np.ndarray]:
     return np.all(np.abs(cop) < np.asarray(half_extents), axis=1), cop
 
 
-def _other_sole(robot: Robot) -> str | None:
+def free_sole(robot: Robot) -> str | None:
+    """The sole frame of the free foot (OP2: the other sole), or None if not known."""
     if robot.source != "op2":
         return None
     return {"r_sole": "l_sole", "l_sole": "r_sole"}.get(robot.support)
@@ -441,7 +442,7 @@ def ground_clear_mask(
         w0, w1 = cap.world(rot, org)
         low = np.minimum(w0[..., 2], w1[..., 2]) - cap.radius
         ok &= np.all(low[:, moving] > 0.0, axis=1)
-    free = _other_sole(robot)
+    free = free_sole(robot)
     if free is not None:
         ok &= np.all(sole_corners(robot, q, free, sole_size)[..., 2] > clearance, axis=1)
     return ok
@@ -910,17 +911,22 @@ def design_curve(
     sigma: float = DEFAULT_NOISE,
     seed: int = 0,
     draws: int = 50,
+    progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, np.ndarray]:
     """Expected CoP error [m] vs K: D-optimal, and random (median, 10th/90th percentile)."""
     ks = np.asarray(ks, dtype=int)
     dopt, med, lo, hi = [], [], [], []
-    for k in ks:
+    for n_done, k in enumerate(ks):
+        if progress is not None:
+            progress(n_done, len(ks))
         sel = select_d_optimal(a_pool, int(k), seed)
         dopt.append(expected_cop_error(a_pool[sel.index], c_test, sigma))
         r = random_cop_error(a_pool, int(k), c_test, sigma, draws, seed)
         med.append(np.median(r))
         lo.append(np.percentile(r, 10))
         hi.append(np.percentile(r, 90))
+    if progress is not None:
+        progress(len(ks), len(ks))
     return {
         "k": ks,
         "d_optimal": np.array(dopt),
