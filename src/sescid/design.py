@@ -10,12 +10,15 @@ Pipeline (all vectorised across poses, SI units, radians):
    margin (the OP2 sole is 0.105 × 0.066 m centred on ``r_sole``).
 3. **No self-collision** — every link's ``<collision>`` boxes, cylinders and spheres (meshes are
    ignored) are approximated by capsules; pairs of parent/child bodies and pairs that already
-   overlap at the zero pose are skipped. **Ground clearance**: every capsule of a body other than
-   the support body stays above the ground, and the free sole's corners above ``clearance``.
+   overlap at the zero pose are skipped (capsule–capsule distances, a compiled loop with early
+   exit; ``collision_free_mask_numpy`` is the plain-numpy reference). **Ground clearance**: every
+   capsule of a body other than the support body stays above the ground, and the free sole's
+   corners above ``clearance``.
 4. **Selection** — D-optimal (greedy, then Fedorov exchange) on ``log det M``, ``M = Σ AᵢᵀAᵢ``,
    ``Aᵢ = Φ_xy(qᵢ) V`` the x/y regressor projected on an orthonormal basis ``V`` of the
    identifiable subspace (from the candidate pool). Each candidate's ``Aᵢ M⁻¹ Aᵢᵀ`` is kept up to
-   date by rank-2 Woodbury updates, so each step costs O(n p) instead of O(n p²).
+   date by rank-2 Woodbury updates, so each step costs O(n p) instead of O(n p²); exchange passes
+   search a shortlist of the most informative candidates, refreshed every pass.
 5. **Expected error** — least squares on K poses with CoP noise σ predicts the noise-free CoP of
    fresh poses with RMS error ``σ · sqrt(trace(Φ_test M⁻¹ Φ_testᵀ) / rows)``.
 6. **Ordering** — nearest neighbour then 2-opt on the joint-space (Euclidean, rad) path.
@@ -233,10 +236,6 @@ def box_capsules(size) -> tuple[np.ndarray, np.ndarray, float]:
         e[:, order[1]] = gb
         e[:, order[2]] = gc
     return e0, e1, r
-
-
-def _rpy_matrix(x: np.ndarray) -> np.ndarray:
-    return np.asarray(x, dtype=float)[:3, :3]
 
 
 def collision_capsules(robot: Robot) -> Capsules:
