@@ -261,8 +261,8 @@ def test_expected_error_formula_matches_monte_carlo(op2, pool):
     theta = np.linalg.lstsq(phi, y, rcond=1e-10)[0]
     err = phi_test @ theta + np.tile(op2.d[:2], len(q_test))[:, None] - true_test.reshape(-1, 1)
     assert math.sqrt(np.mean(err**2)) == pytest.approx(formula, rel=0.03)
-    # the product's identify() gives the same predictions as that least squares
-    fit = identify(op2, q_sel, (phi @ theta[:, 0]).reshape(-1, 2) + op2.d[:2])
+    # identify() on the first noisy draw predicts as that least squares does
+    fit = identify(op2, q_sel, y[:, 0].reshape(-1, 2) + op2.d[:2])
     np.testing.assert_allclose(
         fit.predict_cop(q_test).ravel(),
         (phi_test @ theta[:, 0]) + np.tile(op2.d[:2], 600),
@@ -320,3 +320,16 @@ def test_cli_poses_bad_input_exit_2_without_output(tmp_path, bad):
     assert res.exit_code == 2, res.output
     assert not out.exists()
     assert "Traceback" not in res.output
+
+
+def test_cli_poses_random_in_shrunk_sole_with_figure(tmp_path, op2):
+    out, fig = tmp_path / "poses.csv", tmp_path / "fig.png"
+    args = ["poses", "--count", "22", "--select", "random", "--margin", "0.01"]
+    args += ["--candidates", "400", "--test-poses", "100", "--out", str(out), "--figure", str(fig)]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    q = read_poses(read_table(out), op2.joint_names)
+    cop = op2.cop(q)
+    assert np.all(np.abs(cop) < [0.0425, 0.023])
+    assert np.abs(cop[:, 0]).max() > 0.023  # the rectangle is wider than the paper's box in x
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
