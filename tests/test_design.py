@@ -244,6 +244,20 @@ def test_d_optimal_matches_exhaustive_search_on_a_small_problem():
     assert sel.logdet == pytest.approx(best, abs=1e-9)
 
 
+def test_greedy_woodbury_updates_match_determinants_from_scratch():
+    rng = np.random.default_rng(9)
+    a = rng.normal(size=(300, 2, 10)) * rng.uniform(0.5, 1.5, size=(300, 1, 1))
+    x = a.reshape(-1, 10)
+    m = 1e-8 * float(np.einsum("ij,ij->", x, x)) / (300 * 10) * np.eye(10)  # the same ridge
+    chosen = []
+    for _ in range(12):
+        ld = np.array([np.linalg.slogdet(m + a[i].T @ a[i])[1] for i in range(300)])
+        ld[chosen] = -np.inf
+        chosen.append(int(np.argmax(ld)))
+        m = m + a[chosen[-1]].T @ a[chosen[-1]]
+    np.testing.assert_array_equal(design.select_d_optimal(a, 12, max_passes=0).index, chosen)
+
+
 def test_expected_error_formula_matches_monte_carlo(op2, pool):
     """Identify on simulated noisy CoPs at the chosen poses; RMS error on held-out poses."""
     _, q, q_test, _, a, c = pool
