@@ -326,7 +326,13 @@ def test_cli_poses_writes_ordered_pose_list(tmp_path, op2):
 
 @pytest.mark.parametrize(
     "bad",
-    [["--count", "20"], ["--robot", "nosuchbot"], ["--select", "best"], ["--margin", "0.05"]],
+    [
+        ["--count", "20"],
+        ["--robot", "nosuchbot"],
+        ["--select", "best"],
+        ["--margin", "0.05"],
+        ["--noise", "0"],
+    ],
 )
 def test_cli_poses_bad_input_exit_2_without_output(tmp_path, bad):
     out = tmp_path / "poses.csv"

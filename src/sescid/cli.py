@@ -894,6 +894,8 @@ def poses(
         )
     if n_candidates < count or test_poses < 1:
         raise SescidError(f"--candidates must be ≥ --count ({count}) and --test-poses ≥ 1")
+    if not noise > 0 or not clearance >= 0:
+        raise SescidError("--noise must be > 0 and --clearance ≥ 0 (metres)")
     pc = design.paper_convention(robot)
     if paper_convention and pc is None:
         raise SescidError("--paper-convention is only defined for the embedded op2")
