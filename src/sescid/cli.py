@@ -93,8 +93,10 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 
 def _fit_ls(robot, q, cop, sigma, opts):
     from .estimate import identify as run
+    from .progress import TerminalProgress
 
-    return run(robot, q, cop, sigma=sigma, rtol=opts["rtol"])
+    with TerminalProgress(f"identifying {len(q)} poses") as bar:
+        return run(robot, q, cop, sigma=sigma, rtol=opts["rtol"], progress=bar)
 
 
 def _fit_map(robot, q, cop, sigma, opts):
