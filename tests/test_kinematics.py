@@ -85,7 +85,7 @@ def test_in_kernel_sincos_is_accurate():
     )  # fmt: skip
     s = np.empty((2, x.size))
     c1 = np.empty((2, x.size))
-    kinematics._joint_trig(x[:, None], tree.jcol, tree.coef, tree.off, s, c1)
+    kinematics._joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, s, c1)
     np.testing.assert_allclose(s[1], np.sin(x), rtol=0, atol=4.5e-16)
     exact_c1 = 2 * np.sin(x / 2) ** 2  # 1 − cos x without cancellation
     np.testing.assert_allclose(c1[1], exact_c1, rtol=1e-14, atol=4.5e-16)

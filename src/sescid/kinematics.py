@@ -119,8 +119,12 @@ def _sin_cos1m(x):
 
 
 @numba.njit(cache=True, nogil=True)
-def _joint_trig(q, jcol, coef, off, s, c1):
-    """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off."""
+def _joint_trig(qt, jcol, coef, off, s, c1):
+    """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off.
+
+    ``qt`` is the block transposed, (nq, m) C-contiguous, so the pose loop reads contiguously
+    and vectorises.
+    """
     nb, m = s.shape
     for b in range(nb):
         j = jcol[b]
@@ -132,7 +136,7 @@ def _joint_trig(q, jcol, coef, off, s, c1):
         cb = coef[b]
         ob = off[b]
         for k in range(m):
-            s[b, k], c1[b, k] = _sin_cos1m(cb * q[k, j] + ob)
+            s[b, k], c1[b, k] = _sin_cos1m(cb * qt[j, k] + ob)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -234,7 +238,7 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
         s, c1 = np.empty((len(tree.parent), m)), np.empty((len(tree.parent), m))
         rot = np.empty(ws.rot.shape[:3] + (m,))
     if np.abs(q).max(initial=0.0) < _MAX_ANGLE:
-        _joint_trig(q, tree.jcol, tree.coef, tree.off, s, c1)
+        _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
         moving = tree.jcol >= 0
         theta = np.zeros(s.shape)
