@@ -27,6 +27,8 @@ slow: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_regressor.py
+	$(PY) benchmarks/bench_poses.py
+	$(PY) benchmarks/bench_consistent.py
 
 clean:
 	rm -rf $(VENV) demo_out .pytest_cache .ruff_cache

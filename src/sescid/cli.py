@@ -480,9 +480,11 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed):
     )
     echo(f"  sigma_hat {_mm(fit.sigma_hat)} (true {noise * 1e3:.3f} mm)")
     frac = float(np.mean(fit.com_z_prior_fraction(st.fresh.q[:2000])))
+    prior_mm = fit.com_z_from_prior(st.fresh.q[:2000]) * 1e3
+    spread = "the same at every pose" if np.ptp(prior_mm) < 1e-6 else "mean over poses"
     echo(
         f"  CoM height: {frac:.0%} of the z regressor row lies outside the identifiable "
-        "subspace and is filled from the prior model"
+        f"subspace; {prior_mm.mean():.1f} mm of each height ({spread}) comes from the prior model"
     )
     from .report import body_labels, paper_order
 
