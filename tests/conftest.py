@@ -24,6 +24,12 @@ def op2():
 
 
 @pytest.fixture(scope="session")
+def robot(op2):
+    """The embedded OP2 (the default robot of most tests)."""
+    return op2
+
+
+@pytest.fixture(scope="session")
 def icub_path() -> Path:
     """iCub's URDF as shipped by the example-robot-data package (a public humanoid)."""
     import cmeel

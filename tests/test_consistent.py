@@ -23,11 +23,6 @@ HEAVIER = {"MP_BODY": 1.03, "MP_ARM_LOW_R": 1.03, "MP_HEAD": 1.03}  # +3 % on th
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
-
-
-@pytest.fixture(scope="module")
 def truth(robot):
     """(r_true (N, 3) m, total mass kg) of the robot with 3 % more mass on three links."""
     bodies = [

@@ -11,7 +11,6 @@ import pytest
 from click.testing import CliRunner
 from op2_stance import stable_poses
 
-import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
@@ -21,11 +20,6 @@ from sescid.report import cop_offset_stats
 from sescid.sensors import load_sensors, measure, read_raw, ticks_to_rad
 
 G = 9.80665
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
 
 
 @pytest.fixture(scope="module")

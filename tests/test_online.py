@@ -5,9 +5,7 @@ import math
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from threadpoolctl import threadpool_limits
 
-import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
@@ -18,17 +16,6 @@ from sescid.simulate import simulate
 from sescid.validation import perturbed_sesc
 
 SIGMA = 0.00493
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_blas_thread():
-    with threadpool_limits(1):
-        yield
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
 
 
 @pytest.fixture(scope="module")

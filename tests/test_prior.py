@@ -4,9 +4,7 @@ import numpy as np
 import pytest
 import scipy.stats
 from click.testing import CliRunner
-from threadpoolctl import threadpool_limits
 
-import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import accumulate, identify
@@ -16,18 +14,6 @@ from sescid.simulate import simulate
 from sescid.validation import perturbed_sesc, truth_error
 
 SIGMA = 0.00493
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_blas_thread():
-    """63×63 linear algebra is fastest on one thread (and a shared machine stays responsive)."""
-    with threadpool_limits(1):
-        yield
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
 
 
 def _heldout_errors(robot, n, seed, fraction=0.04, offset=0.03):

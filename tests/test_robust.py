@@ -5,9 +5,7 @@ import math
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from threadpoolctl import threadpool_limits
 
-import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
@@ -19,17 +17,6 @@ from sescid.validation import truth_error
 
 SIGMA = 0.00493
 BAD = np.array([5, 17, 60, 111, 150])  # corrupted poses
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_blas_thread():
-    with threadpool_limits(1):
-        yield
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
 
 
 @pytest.fixture(scope="module")

@@ -27,11 +27,6 @@ L_SOLE_AT_ZERO = np.array([0.0, 2 * (0.037 + 0.0109)])
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
-
-
-@pytest.fixture(scope="module")
 def config():
     return load_sensors()
 

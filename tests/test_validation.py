@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from threadpoolctl import threadpool_limits
 
-import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
@@ -22,18 +20,6 @@ from sescid.validation import (
 )
 
 SIGMA = 0.00493
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_blas_thread():
-    """63×63 linear algebra is fastest on one thread (and a shared machine stays responsive)."""
-    with threadpool_limits(1):
-        yield
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return sescid.load_robot("op2")
 
 
 def test_least_squares_cop_interval_covers_95_percent(robot):

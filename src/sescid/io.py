@@ -302,11 +302,8 @@ def save_fit(fit, path) -> None:
         fh.write("\n")
 
 
-def load_fit(path):
-    """Read a fit written by ``Fit.save``; reloads its robot (embedded model or URDF)."""
-    from .estimate import Combination, Fit
-    from .robot import load_robot
-
+def read_json(path, fmt: str, what: str) -> dict:
+    """A JSON object whose ``"format"`` is ``fmt``; one-line errors naming the file."""
     path = Path(path)
     if not path.is_file():
         raise SescidError(f"{path}: file not found")
@@ -314,8 +311,18 @@ def load_fit(path):
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise SescidError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
-    if not isinstance(data, dict) or data.get("format") != FIT_FORMAT:
-        raise SescidError(f'{path}: not a sescid fit (expected "format": "{FIT_FORMAT}")')
+    if not isinstance(data, dict) or data.get("format") != fmt:
+        raise SescidError(f'{path}: not {what} (expected "format": "{fmt}")')
+    return data
+
+
+def load_fit(path):
+    """Read a fit written by ``Fit.save``; reloads its robot (embedded model or URDF)."""
+    from .estimate import Combination, Fit
+    from .robot import load_robot
+
+    path = Path(path)
+    data = read_json(path, FIT_FORMAT, "a sescid fit")
     try:
         meta = data["robot"]
         robot = load_robot(meta["source"], meta["support"])

@@ -19,7 +19,6 @@ median/MAD rule ``|v − median| > k · max(1.4826 MAD, floor)``.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from importlib import resources
@@ -28,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SescidError
+from .io import read_json
 
 FSR_FORMAT = "sescid-fsr/1"
 TICKS_PER_TURN = 4096
@@ -107,14 +107,7 @@ def _vec(raw, n: int, where: str) -> np.ndarray:
 def load_sensors(path=None, robot_source: str = "op2") -> SensorConfig:
     """Read a foot-sensor configuration (JSON ``sescid-fsr/1``); default: the shipped one."""
     path = Path(path) if path is not None else default_sensors_path(robot_source)
-    if not path.is_file():
-        raise SescidError(f"{path}: file not found")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise SescidError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
-    if not isinstance(data, dict) or data.get("format") != FSR_FORMAT:
-        raise SescidError(f'{path}: not a sensor configuration (expected "format": "{FSR_FORMAT}")')
+    data = read_json(path, FSR_FORMAT, "a sensor configuration")
     feet = []
     raw_feet = data.get("feet")
     if not isinstance(raw_feet, dict) or not raw_feet:
