@@ -59,3 +59,23 @@ def test_fresh_error_averages_to_theory_over_seeds(op2):
         mse.append(st.rmse_fresh**2)
     theory = s**2 * 42 / (2 * n - 42 - 1)
     assert np.mean(mse) == pytest.approx(theory, rel=0.15)
+
+
+@pytest.mark.slow
+def test_paper_statistics_over_many_seeds(op2):
+    """200 replicates of the paper's study: MAE → noise floor, fresh-pose error² → its expectation.
+
+    Per replicate the fresh-pose error² scatters by ~20 %, so 200 replicates pin the mean to ~1.5 %.
+    The expectation given the design is σ²·mean φ(ΦᵀΦ)⁺φᵀ over the fresh rows.
+    """
+    p, n, s = 42, 1000, PAPER_NOISE
+    maes, mses, expected = [], [], []
+    for seed in range(200):
+        st = paper_study(op2, n=n, seed=5000 + 7 * seed, n_fresh=2000)
+        maes.append(st.mae)
+        mses.append(st.rmse_fresh**2)
+        std = st.fit.predict_std(st.fresh.q, rows=(0, 1)) / st.fit.sigma_hat * s
+        expected.append(np.mean(std**2))
+    assert np.mean(maes) == pytest.approx(st.noise_floor_mae, rel=0.005)
+    assert np.mean(mses) == pytest.approx(np.mean(expected), rel=0.05)
+    assert np.mean(expected) == pytest.approx(s**2 * p / (2 * n - p - 1), rel=0.02)
