@@ -8,19 +8,11 @@ their ratio, and the QP part alone. Usage: ``python benchmarks/bench_consistent.
 from __future__ import annotations
 
 import argparse
-import time
+
+from timing import best_of
 
 import sescid
 from sescid.consistent import consistent_from_fit, identify_consistent
-
-
-def best_of(f, repeat: int = 5) -> float:
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t)
-    return min(times)
 
 
 def main() -> None:

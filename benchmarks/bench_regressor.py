@@ -15,19 +15,11 @@ import sys
 import time
 
 import numpy as np
+from timing import best_of
 
 import sescid
 from sescid.estimate import accumulate
 from sescid.kinematics import Workspace, regressor_columns
-
-
-def best_of(f, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t)
-    return min(times)
 
 
 def sescid_rate(robot, q, cop, repeat=3) -> float:
