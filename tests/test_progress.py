@@ -24,3 +24,18 @@ def test_quiet_when_piped_and_drawn_on_a_terminal(op2):
     text = tty.getvalue()
     assert "identify: 2048/5000 (41%)" in text and "5000/5000 (100%)" in text
     assert text.endswith("\n")
+
+
+def test_line_ends_when_done_and_repeats_are_not_redrawn():
+    tty = FakeTTY()
+    bar = TerminalProgress("fold", stream=tty, delay=0.0)
+    for i in range(1, 4):
+        bar(i, 3)
+    bar(3, 3)  # a caller reporting completion twice
+    bar(1, 2)  # a second run with the same object starts a new line
+    bar(2, 2)
+    bar.close()
+    assert tty.getvalue() == (
+        "\rfold: 1/3 (33%)\rfold: 2/3 (67%)\rfold: 3/3 (100%)\n"
+        "\rfold: 1/2 (50%)\rfold: 2/2 (100%)\n"
+    )

@@ -14,6 +14,7 @@ import click
 import numpy as np
 
 from .errors import SescidError
+from .progress import TerminalProgress
 
 
 class _Group(click.Group):
@@ -93,7 +94,6 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 
 def _fit_ls(robot, q, cop, sigma, opts):
     from .estimate import identify as run
-    from .progress import TerminalProgress
 
     with TerminalProgress(f"identifying {len(q)} poses") as bar:
         return run(robot, q, cop, sigma=sigma, rtol=opts["rtol"], progress=bar)
@@ -354,7 +354,7 @@ def _report_extras(fit, fitter, q, cop, sigma, opts) -> None:
         from .validation import cross_validate
 
         cv = cross_validate(
-            fitter, q, cop, opts["cv"], sigma, opts["seed"], progress=_tty_progress("cv fold")
+            fitter, q, cop, opts["cv"], sigma, opts["seed"], progress=TerminalProgress("cv fold")
         )
         fit.extra["cv"] = cv.to_json()
         click.echo(
@@ -373,7 +373,7 @@ def _report_extras(fit, fitter, q, cop, sigma, opts) -> None:
             sigma=sigma,
             draws=opts["mc_draws"],
             seed=opts["seed"],
-            progress=_tty_progress("joint-noise draw"),
+            progress=TerminalProgress("joint-noise draw"),
         )
         fit.extra["joint_noise"] = mc.to_json()
         click.echo(
@@ -766,7 +766,7 @@ def report(fit_file, measured, out_dir):
         out_dir,
         cop_se=se,
         pose_ids=pose_list_ids(table),
-        progress=_tty_progress("report files"),
+        progress=TerminalProgress("report files"),
     )
     b, a = res["before"], res["after"]
     click.echo(
@@ -775,20 +775,6 @@ def report(fit_file, measured, out_dir):
         f"identified mean {_mm(a['mean'])}, RMS {_mm(a['rms'])}"
     )
     click.echo(f"wrote {res['html']} and {len(res['figures'])} figures")
-
-
-def _tty_progress(label: str):
-    """A progress callback writing to stderr, or None when stderr is not a terminal."""
-    if not sys.stderr.isatty():
-        return None
-
-    def show(done: int, total: int) -> None:
-        end = "\n" if done >= total else ""
-        click.echo(f"\r{label}: {done}/{total}", err=True, nl=False)
-        if end:
-            click.echo("", err=True)
-
-    return show
 
 
 @cli.command()
@@ -916,7 +902,7 @@ def poses(
         limits=limits,
         half_extents=half,
         clearance=clearance,
-        progress=_tty_progress("candidates"),
+        progress=TerminalProgress("candidates"),
     )
     notes = list(plan.candidates.capsules.notes)
     try:
@@ -960,7 +946,7 @@ def poses(
         ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
         ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
         curve = design.design_curve(
-            plan.a_pool, plan.c_test, ks, noise, seed, progress=_tty_progress("figure: K values")
+            plan.a_pool, plan.c_test, ks, noise, seed, progress=TerminalProgress("figure: K values")
         )
         design.design_figure(curve, figure, title=f"{robot.name}: pose selection")
         echo(f"wrote {figure}")
