@@ -46,3 +46,16 @@ def icub_path() -> Path:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def write_dataset(op2):
+    """Write OP2 poses (n, 20) [rad] and CoPs (n, 2) [m] as the CSV ``sescid identify`` reads."""
+    from sescid.io import write_table
+
+    def write(path, q, cop):
+        cols = {name: q[:, j] for j, name in enumerate(op2.joint_names)}
+        write_table(path, cols | {"cop_x": cop[:, 0], "cop_y": cop[:, 1]})
+        return path
+
+    return write

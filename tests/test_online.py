@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
-from sescid.io import load_fit, write_table
+from sescid.io import load_fit
 from sescid.online import OnlineEstimator
 from sescid.prior import identify_map
 from sescid.simulate import simulate
@@ -101,11 +101,9 @@ def test_prior_needs_noise(robot):
         OnlineEstimator(robot, prior_scale=1e-3)
 
 
-def test_cli_online_prints_convergence(robot, tmp_path):
+def test_cli_online_prints_convergence(robot, tmp_path, write_dataset):
     sim = simulate(robot, 300, 30.0, SIGMA, 4)
-    path = tmp_path / "d.csv"
-    cols = {n: sim.q[:, j] for j, n in enumerate(robot.joint_names)}
-    write_table(path, cols | {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]})
+    path = write_dataset(tmp_path / "d.csv", sim.q, sim.cop)
     out = tmp_path / "fit.json"
     args = ["identify", str(path), "--out", str(out), "--online", "--noise", str(SIGMA)]
     res = CliRunner().invoke(cli, args)

@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import accumulate, identify
-from sescid.io import load_fit, write_table
+from sescid.io import load_fit
 from sescid.prior import identify_map, log_evidence
 from sescid.simulate import simulate
 from sescid.validation import perturbed_sesc, truth_error
@@ -141,11 +141,9 @@ def test_bad_prior_scale_raises(robot):
         identify_map(robot, sim.q, sim.cop, prior_scale=-1.0)
 
 
-def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path):
+def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path, write_dataset):
     sim = simulate(robot, 60, 30.0, SIGMA, 1)
-    data = tmp_path / "d.csv"
-    write_table(data, {n: sim.q[:, j] for j, n in enumerate(robot.joint_names)} | {
-        "cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]})  # fmt: skip
+    data = write_dataset(tmp_path / "d.csv", sim.q, sim.cop)
     out = tmp_path / "fit.json"
     args = ["identify", str(data), "--out", str(out), "--method", "map"]
     res = CliRunner().invoke(cli, [*args, "--prior-select", "cv"])

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
-from sescid.io import load_fit, write_table
+from sescid.io import load_fit
 from sescid.prior import identify_map
 from sescid.robust import huber, joint_noise_mc
 from sescid.simulate import random_poses, simulate
@@ -107,11 +107,9 @@ def test_bad_inputs_raise(robot, corrupted):
         joint_noise_mc(_ls(robot), fit, sim.q, cop, -1.0)
 
 
-def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path):
+def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path, write_dataset):
     sim, cop = corrupted
-    data = tmp_path / "d.csv"
-    cols = {n: sim.q[:, j] for j, n in enumerate(robot.joint_names)}
-    write_table(data, cols | {"cop_x": cop[:, 0], "cop_y": cop[:, 1]})
+    data = write_dataset(tmp_path / "d.csv", sim.q, cop)
     out = tmp_path / "fit.json"
     args = ["identify", str(data), "--out", str(out), "--robust", "--joint-noise-deg", "1"]
     res = CliRunner().invoke(cli, [*args, "--mc-draws", "5"])

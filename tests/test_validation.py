@@ -109,11 +109,9 @@ def test_perturbed_sesc_matches_direct_com(robot):
     assert np.allclose(robot.com(q, r_true), com, atol=1e-12)
 
 
-def test_cli_cv_prints_and_stores(robot, tmp_path):
+def test_cli_cv_prints_and_stores(robot, tmp_path, write_dataset):
     sim = simulate(robot, 80, 30.0, SIGMA, 1)
-    data = tmp_path / "d.csv"
-    write_table(data, {n: sim.q[:, j] for j, n in enumerate(robot.joint_names)} | {
-        "cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]})  # fmt: skip
+    data = write_dataset(tmp_path / "d.csv", sim.q, sim.cop)
     out = tmp_path / "fit.json"
     res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--cv", "4"])
     assert res.exit_code == 0, res.output
