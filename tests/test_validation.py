@@ -7,7 +7,7 @@ from click.testing import CliRunner
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimate import identify
-from sescid.io import load_fit, read_table, write_table
+from sescid.io import load_fit, read_table
 from sescid.prior import identify_map
 from sescid.simulate import random_poses, simulate
 from sescid.validation import (
@@ -121,12 +121,11 @@ def test_cli_cv_prints_and_stores(robot, tmp_path, write_dataset):
     assert res.exit_code == 2 and "2 ≤ k" in res.output
 
 
-def test_cli_predict_level_writes_intervals(robot, tmp_path):
+def test_cli_predict_level_writes_intervals(robot, tmp_path, write_dataset):
     sim = simulate(robot, 200, 30.0, SIGMA, 2)
     fresh = simulate(robot, 400, 30.0, SIGMA, 3)
     for name, s in (("d.csv", sim), ("f.csv", fresh)):
-        cols = {n: s.q[:, j] for j, n in enumerate(robot.joint_names)}
-        write_table(tmp_path / name, cols | {"cop_x": s.cop[:, 0], "cop_y": s.cop[:, 1]})
+        write_dataset(tmp_path / name, s.q, s.cop)
     fit, pred = tmp_path / "fit.json", tmp_path / "p.csv"
     assert (
         CliRunner().invoke(cli, ["identify", str(tmp_path / "d.csv"), "--out", str(fit)]).exit_code
