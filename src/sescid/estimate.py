@@ -215,17 +215,19 @@ class Fit:
         The z row of the regressor has components outside the identifiable subspace; along
         those, r̂ equals r_prior, so this part of CoM_z is the prior's, not the data's.
         """
-        q = as_poses(q, self.robot.nq)
-        phi_z = regressor(self.robot.tree, q, (2,))[:, 0, :]
-        resid = phi_z - (phi_z @ self.basis) @ self.basis.T
-        return resid @ self.r_prior.reshape(-1)
+        _, outside = self._z_rows(q)
+        return outside @ self.r_prior.reshape(-1)
 
     def com_z_prior_fraction(self, q) -> np.ndarray:
         """(n,) fraction of the z regressor row's norm outside the identifiable subspace."""
+        phi_z, outside = self._z_rows(q)
+        return np.linalg.norm(outside, axis=1) / np.linalg.norm(phi_z, axis=1)
+
+    def _z_rows(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """The z regressor rows (n, 3N) and their part outside the identifiable subspace."""
         q = as_poses(q, self.robot.nq)
         phi_z = regressor(self.robot.tree, q, (2,))[:, 0, :]
-        resid = phi_z - (phi_z @ self.basis) @ self.basis.T
-        return np.linalg.norm(resid, axis=1) / np.linalg.norm(phi_z, axis=1)
+        return phi_z, phi_z - (phi_z @ self.basis) @ self.basis.T
 
     # --- summaries --------------------------------------------------------------------
     @property
@@ -411,17 +413,15 @@ def solve(
 
 
 def _check_enough(robot: Robot, n: int) -> None:
-    need = math.ceil(_structural_rank(robot) / 2)
+    # rank of the x/y regressor for generic poses: 3N minus the N structural null directions,
+    # i.e. the dimension of the reduced coordinates
+    p = robot.reduction.g.shape[0]
+    need = math.ceil(p / 2)
     if n < need:
         raise SescidError(
-            f"{n} poses are too few for least squares on {robot.name}: its {2 * need} "
+            f"{n} poses are too few for least squares on {robot.name}: its {p} "
             f"identifiable combinations need at least {need} poses (2 equations each)"
         )
-
-
-def _structural_rank(robot: Robot) -> int:
-    """Rank of the x/y regressor for generic poses: 3N minus the structural null directions."""
-    return 3 * len(robot.body_names) - len(structural_null_directions(robot))
 
 
 def identify(
