@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -61,7 +61,6 @@ class RobotModel:
     root_rotation: np.ndarray  #: (3, 3) rotation of the root body in the support frame
     root_origin: np.ndarray  #: (3,) origin of the root body in the support frame, m (= d)
     urdf_root: str = ""
-    notes: list[str] = field(default_factory=list)
 
 
 def _rot_axis(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -243,8 +242,7 @@ def build_model(path: str | Path, support: str) -> RobotModel:
         sys.setrecursionlimit(limit)
 
     # The support body is named after the link its movable joint (or the URDF root) gives it.
-    root_main = _main_link(support, link_frames, child_joint, body_rows)
-    body_rows[0]["name"] = root_main
+    body_rows[0]["name"] = _main_link(body_rows[0]["links"], child_joint, support)
 
     bodies: list[Body] = []
     for i, row in enumerate(body_rows):
@@ -305,10 +303,10 @@ def build_model(path: str | Path, support: str) -> RobotModel:
     )
 
 
-def _main_link(support, link_frames, child_joint, body_rows) -> str:
+def _main_link(root_links: list[str], child_joint: dict, default: str) -> str:
     """Name the support body after its link that a movable joint (or nothing) attaches."""
-    for lk in body_rows[0]["links"]:
+    for lk in root_links:
         j = child_joint.get(lk)
         if j is None or j.type != "fixed":
             return lk
-    return support
+    return default
