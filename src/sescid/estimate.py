@@ -355,6 +355,20 @@ def _unidentifiable(robot, basis, labels) -> list[Combination]:
     return out
 
 
+def _rank(sv: np.ndarray, rtol: float) -> int:
+    """Singular values (descending) above rtol × the largest."""
+    return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+
+
+def identifiable_eigen(ata: np.ndarray, rtol: float = DEFAULT_RTOL):
+    """Eigenvalues λ_p (descending) and orthonormal eigenvectors V_p (P, p) of a normal matrix
+    ΦᵀΦ that span the identifiable subspace: √λ > rtol · √λ_max (the rank rule of ``solve``)."""
+    lam, vecs = np.linalg.eigh(ata)
+    lam, vecs = lam[::-1], vecs[:, ::-1]
+    p = _rank(np.sqrt(np.clip(lam, 0, None)), rtol)
+    return lam[:p].copy(), np.ascontiguousarray(vecs[:, :p])
+
+
 def solve(
     robot: Robot,
     ne: NormalEquations,
@@ -369,7 +383,7 @@ def solve(
     lam, vecs = np.linalg.eigh(ne.ata)
     lam, vecs = lam[::-1], vecs[:, ::-1]
     sv = np.sqrt(np.clip(lam, 0, None))
-    p = int(np.sum(sv > rtol * sv[0])) if sv[0] > 0 else 0
+    p = _rank(sv, rtol)
     vp, lp = vecs[:, :p], lam[:p]
     x0 = r0.reshape(-1)
     x = x0 + vp @ ((vp.T @ (ne.atb - ne.ata @ x0)) / lp)

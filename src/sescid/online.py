@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg
 
 from .errors import SescidError
-from .estimate import DEFAULT_RTOL, Fit, NormalEquations, accumulate, solve
+from .estimate import DEFAULT_RTOL, Fit, NormalEquations, accumulate, identifiable_eigen, solve
 from .robot import Robot
 from .simulate import random_poses
 
@@ -110,21 +110,18 @@ class OnlineEstimator:
         if self.prior_scale is not None:
             h, _ = self._information()
             hinv = scipy.linalg.inv(h)
-            rank = int(np.linalg.matrix_rank(ne.ata, tol=None)) if ne.n_rows else 0
+            rank = identifiable_eigen(ne.ata, self.rtol)[0].size if ne.n_rows else 0
             noise = self.noise
             std = noise * math.sqrt(max(np.sum(self._g * hinv), 0.0) / 2)
         else:
-            lam, vecs = np.linalg.eigh(ne.ata)
-            sv = np.sqrt(np.clip(lam, 0, None))
-            keep = sv > self.rtol * sv.max() if sv.max() > 0 else np.zeros(lam.size, bool)
-            rank = int(keep.sum())
-            vp = vecs[:, keep]
+            lp, vp = identifiable_eigen(ne.ata, self.rtol)
+            rank = lp.size
             unseen = np.trace(self._g) - np.sum((self._g @ vp) * vp)
-            noise = self.noise if self.noise is not None else self._running_noise(vp, lam[keep])
+            noise = self.noise if self.noise is not None else self._running_noise(vp, lp)
             if unseen > 1e-9 * np.trace(self._g) or not math.isfinite(noise):
                 std = math.inf  # the reference CoPs depend on directions not yet determined
             else:
-                std = noise * math.sqrt(np.sum((self._g @ vp) * vp / lam[keep]) / 2)
+                std = noise * math.sqrt(np.sum((self._g @ vp) * vp / lp) / 2)
         return Step(ne.n_poses, rank, std, noise, self._converged(ne.n_poses, std))
 
     def _running_noise(self, vp, lam) -> float:
