@@ -12,7 +12,7 @@ import argparse
 from timing import best_of
 
 import sescid
-from sescid.consistent import consistent_from_fit, identify_consistent
+from sescid.estimation.consistent import consistent_from_fit, identify_consistent
 
 
 def main() -> None:

@@ -16,7 +16,8 @@ import time
 import numpy as np
 
 import sescid
-from sescid import design
+from sescid.experiment import planning as design
+from sescid.simulation import PAPER_NOISE
 
 
 def naive_greedy(a: np.ndarray, k: int) -> np.ndarray:
@@ -69,7 +70,7 @@ def main() -> None:
     fast_sub = design.select_d_optimal(a[:m], k, seed=0, max_passes=0)
     ld_ref = np.linalg.slogdet(design.information(a[ref]))[1]
 
-    sigma = design.DEFAULT_NOISE
+    sigma = PAPER_NOISE
     err = design.expected_cop_error(a[sel.index], c, sigma)
     rand = np.median(design.random_cop_error(a, k, c, sigma, draws=50, seed=0))
     print(f"OP2: {k} poses from {n} candidates (identifiable subspace p = {basis.shape[1]})")

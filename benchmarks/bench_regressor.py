@@ -18,7 +18,7 @@ import numpy as np
 from timing import best_of
 
 import sescid
-from sescid.estimate import accumulate
+from sescid.estimation import accumulate
 from sescid.kinematics import Workspace, regressor_columns
 
 
@@ -46,7 +46,7 @@ def sescid_full_columns_rate(robot, q, cop, repeat=3) -> float:
 def pinocchio_rate(robot, q, cop, block=2048) -> float:
     import pinocchio as pin
 
-    model = pin.buildModelFromUrdf(str(robot.urdf_path), pin.JointModelFreeFlyer())
+    model = pin.buildModelFromUrdf(str(robot.model_path), pin.JointModelFreeFlyer())
     data = model.createData()
     # map our joint columns to Pinocchio's configuration vector (all OP2 joints are revolute)
     idx = [model.joints[model.getJointId(n)].idx_q for n in robot.joint_names]
@@ -72,7 +72,7 @@ _MEMORY_CHILD = """
 import sys, tracemalloc, json
 import numpy as np
 import sescid
-from sescid.estimate import identify_stream
+from sescid.estimation import identify_stream
 n, chunk = int(sys.argv[1]), int(sys.argv[2])
 robot = sescid.load_robot("op2")
 def hwm():  # peak RSS of this process image in MB (VmHWM resets at exec, ru_maxrss does not)

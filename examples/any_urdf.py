@@ -11,8 +11,8 @@ import argparse
 import numpy as np
 
 import sescid
-from sescid.estimate import identify
-from sescid.simulate import simulate
+from sescid.estimation import identify_ls
+from sescid.simulation import simulate
 
 ap = argparse.ArgumentParser()
 ap.add_argument("urdf")
@@ -25,7 +25,7 @@ args = ap.parse_args()
 robot = sescid.load_robot(args.urdf, support=args.support)
 print(robot)
 sim = simulate(robot, args.poses, args.range_deg, args.noise, seed=0, clip=True)
-fit = identify(robot, sim.q, sim.cop)
+fit = identify_ls(robot, sim.q, sim.cop)
 print(fit.summary())
 reasons: dict[str, int] = {}
 for comb in fit.unidentifiable:

@@ -18,12 +18,12 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import sescid
-from sescid.estimate import identify
-from sescid.online import OnlineEstimator
-from sescid.prior import identify_map
-from sescid.robust import huber
-from sescid.simulate import PAPER_NOISE, simulate
-from sescid.validation import perturbed_sesc, truth_error
+from sescid.estimation import identify_ls
+from sescid.estimation.map import identify_map
+from sescid.estimation.online import OnlineEstimator
+from sescid.estimation.robust import huber
+from sescid.estimation.validation import perturbed_sesc, truth_error
+from sescid.simulation import PAPER_NOISE, simulate
 
 ONLINE_TAU = 5e-4  #: m, the online estimator's fixed prior scale
 
@@ -37,16 +37,16 @@ def methods(robot):
         return est.fit()
 
     out = {
-        "ls (least squares)": lambda q, c: identify(robot, q, c),
+        "ls (least squares)": lambda q, c: identify_ls(robot, q, c),
         "map, τ by evidence": lambda q, c: identify_map(robot, q, c),
         "map, τ by 5-fold cv": lambda q, c: identify_map(robot, q, c, select="cv"),
         "ls + huber (robust)": lambda q, c: huber(
-            lambda qq, cc, ss: identify(robot, qq, cc, sigma=ss), q, c
+            lambda qq, cc, ss: identify_ls(robot, qq, cc, sigma=ss), q, c
         ),
         f"online, τ = {ONLINE_TAU * 1e3:g} mm, σ known": online,
     }
     try:
-        from sescid.consistent import identify_consistent
+        from sescid.estimation.consistent import identify_consistent
     except ImportError:
         return out
     out["consistent (masses ≥ 0, CoM in box)"] = lambda q, c: identify_consistent(robot, q, c)

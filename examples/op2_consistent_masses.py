@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 import sescid
-from sescid.consistent import consistent_from_fit
-from sescid.export import export_urdf
+from sescid.estimation.consistent import consistent_from_fit
+from sescid.io.export import export_urdf
 from sescid.sesc import sesc_vectors
 
 HEAVIER = {"MP_BODY": 1.03, "MP_ARM_LOW_R": 1.03, "MP_HEAD": 1.03}
@@ -61,7 +61,7 @@ def main() -> None:
             for name, kw in methods.items():
                 fit = consistent_from_fit(ls, total_mass=total, **kw)
                 err[name].append(rms(fit.predict_cop(fresh.q), fresh.cop_true))
-                m = np.array([fit.extra["bodies"][b]["mass_kg"] for b in robot.body_names])
+                m = np.array([m for m in fit.inertials.masses])
                 worst[name].append(np.max(np.abs(m / m_true - 1)))
         for name in rows:
             rows[name].append(np.mean(err[name]) * 1e3)

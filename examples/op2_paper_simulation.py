@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 import sescid
-from sescid.simulate import paper_study
+from sescid.experiment import paper_study
 
 robot = sescid.load_robot("op2", support="r_sole")
 study = paper_study(robot, n=1000, range_deg=30, noise=0.00493, seed=0)

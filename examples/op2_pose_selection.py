@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 
 import sescid
-from sescid import design
+from sescid.experiment import planning as design
 from sescid.io import write_table
+from sescid.report import design_figure
 
 
 def main(out_dir: Path) -> None:
@@ -33,7 +34,7 @@ def main(out_dir: Path) -> None:
     match = curve["k"][np.argmax(curve["random_median"] <= target)]
     print(f"random poses need K ≈ {match} to match 38 D-optimal ones ({target * 1e3:.2f} mm)")
     print(f"ordering: joint-space path {plan.path_unordered:.1f} rad → {plan.path_ordered:.1f} rad")
-    design.design_figure(curve, out_dir / "pose_selection.png", title="OP2: pose selection")
+    design_figure(curve, out_dir / "pose_selection.png", title="OP2: pose selection")
 
     pc = design.paper_convention(robot)
     cols = {"pose": np.arange(len(plan.q))}

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from sescid.simulate import random_poses
+from sescid.simulation import random_poses
 
 #: joint → angle [deg] of the base stance (CoP of the model at (−0.04, −0.0002) mm)
 BASE_DEG = {

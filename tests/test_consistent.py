@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import sescid
-from sescid.consistent import (
+from sescid.errors import SescidError
+from sescid.estimation.consistent import (
     body_boxes,
     consistent_from_fit,
     consistent_model,
@@ -16,7 +17,6 @@ from sescid.consistent import (
     mirror_pairs,
     sesc_map,
 )
-from sescid.errors import SescidError
 from sescid.sesc import sesc_vectors
 
 HEAVIER = {"MP_BODY": 1.03, "MP_ARM_LOW_R": 1.03, "MP_HEAD": 1.03}  # +3 % on three links
@@ -54,11 +54,11 @@ def _rms(a, b):
 
 
 def _masses(fit):
-    return np.array([fit.extra["bodies"][n]["mass_kg"] for n in fit.robot.body_names])
+    return np.array(fit.inertials.masses)
 
 
 def _coms(fit):
-    return np.array([fit.extra["bodies"][n]["com_m"] for n in fit.robot.body_names])
+    return np.array(fit.inertials.coms)
 
 
 def test_sesc_map_is_the_sesc_vectors_of_the_parameters(robot, truth):
@@ -87,9 +87,10 @@ def test_total_mass_is_the_given_value_and_masses_respect_the_floor(sym_fit, tru
 
 def test_coms_lie_inside_their_boxes(sym_fit):
     # noisy data push CoMs onto box faces: the constraints must be active and still hold
-    assert any("box face" in c for c in sym_fit.extra["active_constraints"])
-    for name, body in sym_fit.extra["bodies"].items():
-        com, lo, hi = (np.array(body[k]) for k in ("com_m", "box_lo_m", "box_hi_m"))
+    assert any("box face" in c for c in sym_fit.inertials.active_constraints)
+    b = sym_fit.inertials
+    for i, name in enumerate(sym_fit.robot.body_names):
+        com, lo, hi = b.coms[i], b.box_lo[i], b.box_hi[i]
         assert np.all(com >= lo - 1e-12) and np.all(com <= hi + 1e-12), name
 
 
@@ -120,7 +121,7 @@ def test_without_active_constraints_the_cop_fit_equals_least_squares(robot, fres
     sim = sescid.simulate(robot, 1000, noise=1e-4, seed=5)
     ls = sescid.identify(robot, sim.q, sim.cop)
     fit = consistent_from_fit(ls, box_margin=0.05)
-    assert fit.extra["active_constraints"] == []
+    assert fit.inertials.active_constraints == []
     assert abs(fit.rms - ls.rms) < 1e-9
     assert _rms(fit.predict_cop(fresh.q), ls.predict_cop(fresh.q)) < 2e-7
 

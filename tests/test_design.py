@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sescid import design, load_robot
+from sescid import load_robot
 from sescid.cli import cli
-from sescid.estimate import identify
+from sescid.errors import SescidError
+from sescid.estimation import identify_ls
+from sescid.experiment import planning as design
 from sescid.io import read_poses, read_table
+from sescid.robots import MX28
 
 
 @pytest.fixture(scope="module")
@@ -68,9 +71,9 @@ def test_paper_convention_round_trip_maps_servo_limits_onto_the_paper_table(op2)
 
 def test_mx28_ticks():
     q = np.radians([[0.0, 90.0, -180.0, 1.0, -45.0]])
-    np.testing.assert_array_equal(design.mx28_ticks(q), [[2048, 3072, 0, 2059, 1536]])
-    with pytest.raises(design.SescidError, match="MX-28"):
-        design.mx28_ticks(np.radians([[180.0]]))
+    np.testing.assert_array_equal(MX28.to_ticks(q), [[2048, 3072, 0, 2059, 1536]])
+    with pytest.raises(SescidError, match="MX-28"):
+        MX28.to_ticks(np.radians([[180.0]]))
 
 
 # --- stability and ground ----------------------------------------------------------------------
@@ -102,21 +105,23 @@ def test_stable_mask_agrees_with_the_box_on_random_poses(op2):
 
 def test_support_polygon_margin_shrinks_the_op2_sole(op2):
     np.testing.assert_allclose(design.cop_half_extents(op2, margin=0.01), [0.0425, 0.023])
-    with pytest.raises(design.SescidError):
+    with pytest.raises(SescidError):
         design.cop_half_extents(op2, margin=0.04)
 
 
 def test_free_sole_clearance_closed_form(op2):
     cap = design.collision_capsules(op2)
     q0 = np.zeros((1, op2.nq))
-    np.testing.assert_allclose(design.sole_corners(op2, q0, "l_sole")[0, :, 2], 0.0, atol=1e-12)
+    np.testing.assert_allclose(
+        design.sole_corners(op2, q0, "l_sole", op2.profile.sole_size)[0, :, 2], 0.0, atol=1e-12
+    )
     rot, org = op2.forward(q0)
     assert not design.ground_clear_mask(op2, q0, cap, rot, org, 0.005)[0]
     # lift the left foot, sole kept level: hip flexion 0.5, knee flexion 1.0, ankle -0.5
     q = q0.copy()
     j = op2.joint_names.index
     q[0, j("l_hip_pitch")], q[0, j("l_knee")], q[0, j("l_ank_pitch")] = 0.5, -1.0, -0.5
-    z = design.sole_corners(op2, q, "l_sole")[0, :, 2]
+    z = design.sole_corners(op2, q, "l_sole", op2.profile.sole_size)[0, :, 2]
     np.testing.assert_allclose(z, 2 * 0.093 * (1 - math.cos(0.5)), atol=1e-12)
     rot, org = op2.forward(q)
     assert design.ground_clear_mask(op2, q, cap, rot, org, 0.005)[0]
@@ -275,8 +280,8 @@ def test_expected_error_formula_matches_monte_carlo(op2, pool):
     theta = np.linalg.lstsq(phi, y, rcond=1e-10)[0]
     err = phi_test @ theta + np.tile(op2.d[:2], len(q_test))[:, None] - true_test.reshape(-1, 1)
     assert math.sqrt(np.mean(err**2)) == pytest.approx(formula, rel=0.03)
-    # identify() on the first noisy draw predicts as that least squares does
-    fit = identify(op2, q_sel, y[:, 0].reshape(-1, 2) + op2.d[:2])
+    # identify_ls() on the first noisy draw predicts as that least squares does
+    fit = identify_ls(op2, q_sel, y[:, 0].reshape(-1, 2) + op2.d[:2])
     np.testing.assert_allclose(
         fit.predict_cop(q_test).ravel(),
         (phi_test @ theta[:, 0]) + np.tile(op2.d[:2], 600),

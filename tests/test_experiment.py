@@ -13,25 +13,27 @@ from op2_stance import stable_poses
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimate import identify
+from sescid.estimation import identify_ls
 from sescid.experiment import ExperimentConfig, ExtraMass, real_robot, run_experiment
+from sescid.experiment.sensors import load_sensors, measure, read_raw
 from sescid.io import Table, write_table
 from sescid.report import cop_offset_stats
-from sescid.sensors import load_sensors, measure, read_raw, ticks_to_rad
+from sescid.robots import MX28, profile_for
 
 G = 9.80665
 
 
 @pytest.fixture(scope="module")
 def sensors():
-    return load_sensors()
+    return load_sensors(profile=profile_for("op2"))
 
 
 def reduce(robot, sensors, ex, min_samples=5):
     """Raw columns → per-pose CoP via the same path as ``sescid fsr``."""
     cols = {k: np.asarray(v, dtype=float) for k, v in ex.columns.items() if k != "pose"}
     table = Table(Path("raw"), cols, {"pose": [str(p) for p in ex.columns["pose"]]})
-    return measure(robot, read_raw(table, robot.joint_names, sensors), sensors, min_samples)
+    log = read_raw(table, robot.joint_names, sensors, robot.profile.servo)
+    return measure(robot, log, sensors, min_samples)
 
 
 IDEAL = ExperimentConfig(
@@ -51,7 +53,7 @@ def test_ideal_robot_log_gives_the_model_cop(robot, sensors):
     assert np.all(np.column_stack([ex.columns[f"l_fsr{k}"] for k in range(1, 5)]) == 0)
     res = reduce(robot, sensors, ex, min_samples=2)
     # read-backs are whole ticks (0.088°) and forces whole mN: both bound the error
-    q_ticks = ticks_to_rad(np.round(q * 4096 / (2 * math.pi)) + 2048)
+    q_ticks = MX28.to_rad(np.round(q * 4096 / (2 * math.pi)) + 2048)
     np.testing.assert_allclose(res.q, q_ticks, atol=1e-12)
     np.testing.assert_allclose(res.cop, robot.cop(q), atol=5e-6)
 
@@ -108,7 +110,7 @@ def test_paper_finding_manufacturer_offset_vs_identified(robot, sensors):
     q = stable_poses(robot, 38, seed=0)
     ex = run_experiment(robot, q, sensors, samples=100, seed=0)
     res = reduce(robot, sensors, ex)
-    fit = identify(robot, res.q, res.cop, sigma=res.cop_se)
+    fit = identify_ls(robot, res.q, res.cop, sigma=res.cop_se)
     before = cop_offset_stats(res.cop, robot.cop(res.q))
     after = cop_offset_stats(res.cop, fit.predict_cop(res.q))
     assert before["mean"] > 1.5e-3  # mm-level offset, several standard errors of a pose mean
@@ -120,7 +122,7 @@ def test_identified_fit_recovers_the_true_cop_on_fresh_poses(robot, sensors):
     q = stable_poses(robot, 300, seed=7)
     ex = run_experiment(robot, q, sensors, samples=20, seed=1)
     res = reduce(robot, sensors, ex)
-    fit = identify(robot, res.q, res.cop, sigma=res.cop_se)
+    fit = identify_ls(robot, res.q, res.cop, sigma=res.cop_se)
     r_true = np.array([ex.truth["r_true"][b] for b in robot.body_names])
     fresh = stable_poses(robot, 3000, seed=8)
     truth = robot.cop(fresh, r_true)
@@ -192,7 +194,7 @@ def test_cli_experiment_bad_pose_list_leaves_no_files(robot, tmp_path):
 
 
 def test_cli_defaults_are_the_api_defaults():
-    opts = {p.name: p.default for p in cli.commands["experiment"].params}
+    opts = {p.name: p.default for p in cli.get_command(None, "experiment").params}
     cfg = ExperimentConfig()
     assert opts["extra_mass"] == cfg.extra_mass_fraction
     assert opts["backlash_deg"] == cfg.backlash_deg

@@ -12,9 +12,9 @@ from lxml import etree
 
 import sescid
 from sescid.cli import cli
-from sescid.consistent import identify_consistent
 from sescid.errors import SescidError
-from sescid.export import export_urdf
+from sescid.estimation.consistent import identify_consistent
+from sescid.io.export import export_urdf
 
 sys.path.insert(0, str(Path(__file__).parent))
 from oracle import PinOracle  # noqa: E402
@@ -82,17 +82,19 @@ def _without_inertials(path: Path) -> bytes:
 
 def test_only_inertials_change(exported, op2):
     _, path = exported
-    assert _without_inertials(path) == _without_inertials(op2.urdf_path)
+    assert _without_inertials(path) == _without_inertials(op2.model_path)
 
 
 def test_inertia_scales_with_the_mass_and_keeps_its_orientation(exported, op2):
     fit, path = exported
-    src = etree.parse(str(op2.urdf_path)).getroot()
+    src = etree.parse(str(op2.model_path)).getroot()
     out = etree.parse(str(path)).getroot()
     old = src.find("link[@name='MP_HEAD']/inertial")
     new = out.find("link[@name='MP_HEAD']/inertial")
     ratio = float(new.find("mass").get("value")) / float(old.find("mass").get("value"))
-    assert ratio == pytest.approx(fit.extra["bodies"]["MP_HEAD"]["mass_kg"] / 0.158042, rel=1e-12)
+    assert ratio == pytest.approx(
+        fit.inertials.masses[fit.robot.body_names.index("MP_HEAD")] / 0.158042, rel=1e-12
+    )
     for key in ("ixx", "iyy", "izz"):
         assert float(new.find("inertia").get(key)) == pytest.approx(
             ratio * float(old.find("inertia").get(key)), rel=1e-12
@@ -155,13 +157,17 @@ def test_merged_links_keep_their_mass_ratio_and_layout(merged):
     shift = c_base - [0, 0, 0.1]
     rot = robot.model.link_frames["battery"][1][:3, :3]
     np.testing.assert_allclose(rot @ (c_bat - [0.02, 0, 0]), shift, atol=1e-15)
-    assert m_base + m_bat == pytest.approx(fit.extra["bodies"]["base"]["mass_kg"], rel=1e-12)
+    assert m_base + m_bat == pytest.approx(
+        fit.inertials.masses[fit.robot.body_names.index("base")], rel=1e-12
+    )
 
 
 def test_massless_body_gets_an_inertial_on_its_main_link(merged):
     _, fit, path = merged
     mass, _ = _link(path, "hand")
-    assert mass == pytest.approx(fit.extra["bodies"]["hand"]["mass_kg"], rel=1e-12)
+    assert mass == pytest.approx(
+        fit.inertials.masses[fit.robot.body_names.index("hand")], rel=1e-12
+    )
     assert mass >= 0.05 - 1e-12
 
 
@@ -198,7 +204,7 @@ def test_cli_identify_consistent_writes_masses(data_csv, tmp_path):
     assert result.exit_code == 0, result.output
     fit = sescid.load_fit(out)
     assert fit.method == "consistent"
-    total = sum(b["mass_kg"] for b in fit.extra["bodies"].values())
+    total = float(fit.inertials.masses.sum())
     assert total == pytest.approx(2.97, abs=1e-9)
 
 

@@ -10,17 +10,17 @@ import pytest
 
 import sescid
 from sescid import io
-from sescid.estimate import identify
-from sescid.simulate import simulate
+from sescid.estimation import identify_ls
+from sescid.simulation import simulate
 
 
 def test_fit_round_trip(op2, tmp_path):
     sim = simulate(op2, 200, seed=1)
-    fit = identify(op2, sim.q, sim.cop)
+    fit = identify_ls(op2, sim.q, sim.cop)
     path = tmp_path / "fit.json"
     fit.save(path)
     data = json.loads(path.read_text())
-    assert data["format"] == "sescid-fit/1"
+    assert data["format"] == "sescid-fit/2"
     assert data["rank"] == 42 and data["n_poses"] == 200
     assert data["robot"]["source"] == "op2" and data["robot"]["support"] == "r_sole"
     assert data["sigma_hat"] == pytest.approx(fit.sigma_hat)

@@ -17,7 +17,7 @@ from sescid import kinematics
 def test_op2_com_matches_pinocchio(support, rng):
     robot = sescid.load_robot("op2", support)
     q = rng.uniform(-np.pi, np.pi, (100, robot.nq))
-    oracle = PinOracle(robot.urdf_path, support, robot.joint_names)
+    oracle = PinOracle(robot.model_path, support, robot.joint_names)
     np.testing.assert_allclose(robot.com(q), oracle.com(q), rtol=0, atol=1e-12)
 
 
@@ -52,7 +52,7 @@ def test_link_poses_match_pinocchio(op2, rng):
     import pinocchio as pin
 
     q = rng.uniform(-1, 1, (10, op2.nq))
-    oracle = PinOracle(op2.urdf_path, "r_sole", op2.joint_names)
+    oracle = PinOracle(op2.model_path, "r_sole", op2.joint_names)
     rot, pos = op2.link_poses(q, "l_sole")
     fr, fl = oracle.model.getFrameId("r_sole"), oracle.model.getFrameId("l_sole")
     for k in range(len(q)):

@@ -9,7 +9,7 @@ from urdf_gen import random_urdf
 
 import sescid
 from sescid.errors import SescidError
-from sescid.robots import op2_table1
+from sescid.robots import body_table, profile_for
 
 SERVO_ORDER = [
     "r_sho_pitch", "l_sho_pitch", "r_sho_roll", "l_sho_roll", "r_el", "l_el",
@@ -24,7 +24,7 @@ def test_op2_total_mass_is_the_manufacturer_sum(op2):
     expected = 0.975599 + 0.0243577 + 0.158042 + 2 * 0.2535785 + 2 * 0.6300842
     assert op2.total_mass == pytest.approx(expected, abs=1e-9)
     assert op2.total_mass == pytest.approx(2.9253, abs=5e-5)
-    oracle = PinOracle(op2.urdf_path, "r_sole", op2.joint_names)
+    oracle = PinOracle(op2.model_path, "r_sole", op2.joint_names)
     assert oracle.total_mass() == pytest.approx(op2.total_mass, abs=1e-12)
 
 
@@ -47,7 +47,7 @@ def test_op2_names_and_order(op2):
     assert op2.body_names[0] == "MP_ANKLE2_R"  # support body = right foot
     assert op2.support == "r_sole"
     assert op2.model.link_frames["r_sole"][0] == 0
-    table = op2_table1()
+    table = body_table(profile_for("op2"))
     assert [int(row["paper_index"]) for row in table] == list(range(1, 22))
     assert sorted(row["link"] for row in table) == sorted(op2.body_names)
     assert table[0]["link"] == "MP_ANKLE2_R" and table[20]["link"] == "MP_ANKLE2_L"

@@ -8,12 +8,11 @@ from click.testing import CliRunner
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimate import identify
-from sescid.io import load_fit
-from sescid.online import OnlineEstimator
-from sescid.prior import identify_map
-from sescid.simulate import simulate
-from sescid.validation import perturbed_sesc
+from sescid.estimation import identify_ls, load_fit
+from sescid.estimation.map import identify_map
+from sescid.estimation.online import OnlineEstimator
+from sescid.estimation.validation import perturbed_sesc
+from sescid.simulation import simulate
 
 SIGMA = 0.00493
 
@@ -44,14 +43,14 @@ def test_without_prior_equals_least_squares(robot, data):
     est = OnlineEstimator(robot)
     for i in range(len(data.q)):
         est.update(data.q[i : i + 1], data.cop[i : i + 1])
-    ls = identify(robot, data.q, data.cop)
+    ls = identify_ls(robot, data.q, data.cop)
     assert np.max(np.abs(est.estimate() - ls.r)) < 1e-10
     assert est.history[-1].noise == pytest.approx(ls.sigma_hat, rel=1e-9)
 
 
 def test_vanishing_prior_tends_to_least_squares_predictions(robot, data):
     """Ridge bias ∝ σ²/τ²: the CoP difference to LS falls ~100× from τ = 1 m to 10 m."""
-    ls = identify(robot, data.q, data.cop).predict_cop(data.q)
+    ls = identify_ls(robot, data.q, data.cop).predict_cop(data.q)
     diffs = []
     for tau in (1.0, 10.0):
         est = OnlineEstimator(robot, prior_scale=tau, noise=SIGMA)
@@ -110,7 +109,7 @@ def test_cli_online_prints_convergence(robot, tmp_path, write_dataset):
     assert res.exit_code == 0, res.output
     assert "converged" in res.output and "not determined yet" in res.output
     fit = load_fit(out)
-    assert fit.extra["online"]["converged_at"] is not None
-    assert np.max(np.abs(fit.r - identify(robot, sim.q, sim.cop).r)) < 1e-10
+    assert fit.online.converged_at is not None
+    assert np.max(np.abs(fit.r - identify_ls(robot, sim.q, sim.cop).r)) < 1e-10
     res = CliRunner().invoke(cli, [*args, "--method", "map"])
     assert res.exit_code == 2 and "--prior-scale" in res.output

@@ -7,11 +7,10 @@ from click.testing import CliRunner
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimate import accumulate, identify
-from sescid.io import load_fit
-from sescid.prior import identify_map, log_evidence
-from sescid.simulate import simulate
-from sescid.validation import perturbed_sesc, truth_error
+from sescid.estimation import accumulate, identify_ls, load_fit
+from sescid.estimation.map import identify_map, log_evidence
+from sescid.estimation.validation import perturbed_sesc, truth_error
+from sescid.simulation import simulate
 
 SIGMA = 0.00493
 
@@ -21,7 +20,7 @@ def _heldout_errors(robot, n, seed, fraction=0.04, offset=0.03):
     r_true = perturbed_sesc(robot, fraction=fraction, offset=offset, seed=seed)
     sim = simulate(robot, n, 30.0, SIGMA, seed, r_true=r_true)
     fresh = simulate(robot, 2000, 30.0, 0.0, seed + 1000, r_true=r_true)
-    ls = identify(robot, sim.q, sim.cop)
+    ls = identify_ls(robot, sim.q, sim.cop)
     mp = identify_map(robot, sim.q, sim.cop)
     return truth_error(ls, fresh.q, fresh.cop_true), truth_error(mp, fresh.q, fresh.cop_true)
 
@@ -50,11 +49,11 @@ def test_map_with_cv_chosen_scale_beats_least_squares(robot):
         sim = simulate(robot, 38, 30.0, SIGMA, seed, r_true=r_true)
         fresh = simulate(robot, 2000, 30.0, 0.0, seed + 1000, r_true=r_true)
         mp = identify_map(robot, sim.q, sim.cop, select="cv")
-        ls = identify(robot, sim.q, sim.cop)
+        ls = identify_ls(robot, sim.q, sim.cop)
         ratios.append(
             truth_error(mp, fresh.q, fresh.cop_true) / truth_error(ls, fresh.q, fresh.cop_true)
         )
-        assert mp.extra["prior_scale_chosen_by"] == "5-fold cv"
+        assert mp.map.prior_scale_by == "5-fold cv"
     assert np.mean(ratios) < 0.5
 
 
@@ -95,7 +94,7 @@ def test_evidence_recovers_prior_scale_and_noise(robot):
         r_true = robot.sesc_vectors() + rng.normal(0, tau, (len(robot.body_names), 3))
         sim = simulate(robot, 300, 30.0, SIGMA, seed, r_true=r_true)
         fit = identify_map(robot, sim.q, sim.cop)
-        taus.append(fit.extra["prior_scale_m"])
+        taus.append(fit.map.prior_scale)
         sigmas.append(fit.sigma_hat)
     assert np.exp(np.mean(np.log(taus))) == pytest.approx(tau, rel=0.3)
     assert np.mean(sigmas) == pytest.approx(SIGMA, rel=0.05)
@@ -121,7 +120,7 @@ def test_bias_estimated_through_prior(robot):
         r_true = perturbed_sesc(robot, seed=seed)
         sim = simulate(robot, 300, 30.0, SIGMA, seed, r_true=r_true)
         fit = identify_map(robot, sim.q, sim.cop + bias, prior_scale=5e-4, bias=True)
-        z.append((np.array(fit.extra["bias"]) - bias) / np.array(fit.extra["bias_std"]))
+        z.append((fit.cop_offset.value - bias) / fit.cop_offset.std)
     assert np.max(np.abs(z)) < 4.0
 
 
@@ -129,7 +128,7 @@ def test_least_squares_absorbs_bias_into_the_model(robot):
     """Confounding: LS explains a constant offset by r, its CoM is off by the bias everywhere."""
     bias = np.array([0.003, -0.002])
     sim = simulate(robot, 400, 30.0, 0.0, 6)
-    ls = identify(robot, sim.q, sim.cop + bias)
+    ls = identify_ls(robot, sim.q, sim.cop + bias)
     assert ls.rms < 1e-10  # the offset fits perfectly: the data cannot tell it from r
     fresh = simulate(robot, 100, 30.0, 0.0, 7)
     assert np.allclose(ls.predict_com(fresh.q)[:, :2] - fresh.cop_true, bias, atol=1e-9)
@@ -148,11 +147,11 @@ def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path, write_dataset):
     args = ["identify", str(data), "--out", str(out), "--method", "map"]
     res = CliRunner().invoke(cli, [*args, "--prior-select", "cv"])
     assert res.exit_code == 0, res.output
-    assert load_fit(out).extra["prior_scale_chosen_by"] == "5-fold cv"
+    assert load_fit(out).map.prior_scale_by == "5-fold cv"
     res = CliRunner().invoke(cli, [*args, "--prior-scale", "1e-3"])
     assert res.exit_code == 0, res.output
     fit = load_fit(out)
-    assert fit.method == "map" and fit.extra["prior_scale_m"] == pytest.approx(1e-3)
+    assert fit.method == "map" and fit.map.prior_scale == pytest.approx(1e-3)
     res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--bias"])
     assert res.exit_code == 2 and "--bias needs --method map" in res.output
     args = [

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import io
 
-from sescid.estimate import identify
+from sescid.estimation import identify_ls
 from sescid.progress import TerminalProgress
-from sescid.simulate import simulate
+from sescid.simulation import simulate
 
 
 class FakeTTY(io.StringIO):
@@ -19,7 +19,7 @@ def test_quiet_when_piped_and_drawn_on_a_terminal(op2):
     piped, tty = io.StringIO(), FakeTTY()
     for stream in (piped, tty):
         with TerminalProgress("identify", stream=stream, delay=0.0) as bar:
-            identify(op2, sim.q, sim.cop, progress=bar)
+            identify_ls(op2, sim.q, sim.cop, progress=bar)
     assert piped.getvalue() == ""
     text = tty.getvalue()
     assert "identify: 2048/5000 (41%)" in text and "5000/5000 (100%)" in text

@@ -8,12 +8,11 @@ from click.testing import CliRunner
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimate import identify
-from sescid.io import load_fit
-from sescid.prior import identify_map
-from sescid.robust import huber, joint_noise_mc
-from sescid.simulate import random_poses, simulate
-from sescid.validation import truth_error
+from sescid.estimation import identify_ls, load_fit
+from sescid.estimation.map import identify_map
+from sescid.estimation.robust import huber, joint_noise_mc
+from sescid.estimation.validation import truth_error
+from sescid.simulation import random_poses, simulate
 
 SIGMA = 0.00493
 BAD = np.array([5, 17, 60, 111, 150])  # corrupted poses
@@ -28,22 +27,22 @@ def corrupted(robot):
 
 
 def _ls(robot):
-    return lambda q, c, s: identify(robot, q, c, sigma=s)
+    return lambda q, c, s: identify_ls(robot, q, c, sigma=s)
 
 
 def test_huber_names_the_corrupted_poses(robot, corrupted):
     sim, cop = corrupted
     fit = huber(_ls(robot), sim.q, cop)
-    low = {i for i, w in fit.extra["robust"]["downweighted"] if w < 0.5}
+    low = {i for i, w in fit.robust.downweighted if w < 0.5}
     assert low == set(BAD.tolist())
 
 
 def test_huber_recovers_the_clean_accuracy(robot, corrupted):
     sim, cop = corrupted
     fresh = simulate(robot, 3000, 30.0, 0.0, 50)
-    e_ls = truth_error(identify(robot, sim.q, cop), fresh.q, fresh.cop_true)
+    e_ls = truth_error(identify_ls(robot, sim.q, cop), fresh.q, fresh.cop_true)
     e_hub = truth_error(huber(_ls(robot), sim.q, cop), fresh.q, fresh.cop_true)
-    e_clean = truth_error(identify(robot, sim.q, sim.cop), fresh.q, fresh.cop_true)
+    e_clean = truth_error(identify_ls(robot, sim.q, sim.cop), fresh.q, fresh.cop_true)
     assert e_hub < 0.75 * e_ls
     assert e_hub < 1.15 * e_clean
 
@@ -52,21 +51,21 @@ def test_huber_noise_scale_in_metres(robot, corrupted):
     sim, cop = corrupted
     fit = huber(_ls(robot), sim.q, cop)
     assert fit.sigma_hat == pytest.approx(SIGMA, rel=0.12)
-    assert fit.extra["robust"]["scale_m"] == pytest.approx(SIGMA, rel=0.12)
+    assert fit.robust.scale == pytest.approx(SIGMA, rel=0.12)
 
 
 def test_huber_on_clean_data_down_weights_about_5_percent(robot):
     sim = simulate(robot, 400, 30.0, SIGMA, 8)
     fit = huber(_ls(robot), sim.q, sim.cop)
-    frac = len(fit.extra["robust"]["downweighted"]) / 400
+    frac = len(fit.robust.downweighted) / 400
     assert 0.02 <= frac <= 0.09  # P(‖e‖ > 2.45σ) = 5 % for Gaussian noise
 
 
 def test_huber_wraps_map(robot, corrupted):
     sim, cop = corrupted
     fit = huber(lambda q, c, s: identify_map(robot, q, c, sigma=s), sim.q, cop)
-    low = {i for i, w in fit.extra["robust"]["downweighted"] if w < 0.5}
-    assert low == set(BAD.tolist()) and fit.method == "map+huber"
+    low = {i for i, w in fit.robust.downweighted if w < 0.5}
+    assert low == set(BAD.tolist()) and fit.method == "map" and fit.method_label == "map+huber"
 
 
 def test_joint_noise_mc_matches_replicated_spread(robot):
@@ -102,7 +101,7 @@ def test_bad_inputs_raise(robot, corrupted):
     sim, cop = corrupted
     with pytest.raises(SescidError, match="Huber threshold"):
         huber(_ls(robot), sim.q, cop, k=0)
-    fit = identify(robot, sim.q, cop)
+    fit = identify_ls(robot, sim.q, cop)
     with pytest.raises(SescidError, match="joint noise"):
         joint_noise_mc(_ls(robot), fit, sim.q, cop, -1.0)
 
@@ -116,8 +115,8 @@ def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path, write_dataset):
     assert res.exit_code == 0, res.output
     first = res.output.split("down-weighted (row index, weight): ")[1].split(",")[:5]
     assert {int(s.split()[0]) for s in first} == set(BAD.tolist())
-    extra = load_fit(out).extra
-    assert extra["joint_noise"]["draws"] == 5 and "downweighted" in extra["robust"]
+    back = load_fit(out)
+    assert back.joint_noise.draws == 5 and back.robust.downweighted
 
 
 def test_huber_with_per_pose_errors_scale_near_one(robot):
@@ -128,6 +127,6 @@ def test_huber_with_per_pose_errors_scale_near_one(robot):
     cop = robot.cop(q) + rng.normal(0, 1, (200, 2)) * se[:, None]
     cop[BAD] += np.array([0.04, -0.03])
     fit = huber(_ls(robot), q, cop, se)
-    assert fit.extra["robust"]["scale_m"] == pytest.approx(1.0, abs=0.15)
-    assert {i for i, w in fit.extra["robust"]["downweighted"] if w < 0.5} == set(BAD.tolist())
-    assert fit.extra["weighted"]
+    assert fit.robust.scale == pytest.approx(1.0, abs=0.15)
+    assert {i for i, w in fit.robust.downweighted if w < 0.5} == set(BAD.tolist())
+    assert fit.weighted

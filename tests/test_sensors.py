@@ -12,8 +12,9 @@ from click.testing import CliRunner
 import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
+from sescid.experiment.sensors import REASONS, fsr, load_sensors, measure, read_raw
 from sescid.io import read_table, write_table
-from sescid.sensors import REASONS, fsr, load_sensors, measure, read_raw
+from sescid.robots import profile_for
 
 # Sensor centres of fsr.md §4–§6 written out by hand (sole frame, m): pads 10 mm in from the
 # front/rear and 6.5 mm in from the side edges of the 0.105 × 0.066 m sole → x ±0.0425,
@@ -28,7 +29,7 @@ L_SOLE_AT_ZERO = np.array([0.0, 2 * (0.037 + 0.0109)])
 
 @pytest.fixture(scope="module")
 def config():
-    return load_sensors()
+    return load_sensors(profile=profile_for("op2"))
 
 
 def joints(robot, m, q=None):
@@ -53,7 +54,10 @@ def log_file(path, robot, pose, feet: dict, q=None, extra=None):
 
 def run(robot, config, path, min_samples=2):
     return measure(
-        robot, read_raw(read_table(path), robot.joint_names, config), config, min_samples
+        robot,
+        read_raw(read_table(path), robot.joint_names, config, robot.profile.servo),
+        config,
+        min_samples,
     )
 
 
@@ -217,10 +221,10 @@ def test_unknown_pose_id_is_an_error(robot, config, tmp_path):
     raw = log_file(tmp_path / "r.csv", robot, [0, 0, 9, 9], {"r_fsr": np.full((4, 4), 5e3)})
     write_table(tmp_path / "poses.csv", joints(robot, 3))  # ids 0, 1, 2 (row numbers)
     with pytest.raises(SescidError, match="pose id '9' is not in the pose list"):
-        fsr(robot, raw, config, 2, tmp_path / "poses.csv")
+        fsr(robot, read_table(raw), config, 2, read_table(tmp_path / "poses.csv"))
     # measured ⊂ list: fine, and the unmeasured poses are reported
     raw = log_file(tmp_path / "r2.csv", robot, [0, 0, 2, 2], {"r_fsr": np.full((4, 4), 5e3)})
-    assert fsr(robot, raw, config, 2, tmp_path / "poses.csv")[1] == ["1"]
+    assert fsr(robot, read_table(raw), config, 2, read_table(tmp_path / "poses.csv"))[1] == ["1"]
 
 
 @pytest.mark.parametrize(
@@ -305,7 +309,7 @@ def test_parquet_log_with_text_ids_and_missing_values(robot, config, tmp_path):
     cols = {"pose": np.array(["a", "a", "a", "b", "b", "b"])} | joints(robot, 6)
     cols |= {f"r_fsr{k + 1}": f[:, k] for k in range(4)}
     write_table(tmp_path / "raw.parquet", cols)
-    res, _ = fsr(robot, tmp_path / "raw.parquet", config, 2)
+    res, _ = fsr(robot, read_table(tmp_path / "raw.parquet"), config, 2)
     assert res.pose.tolist() == ["a", "b"]
     assert res.n_used.tolist() == [2, 3] and res.reasons() == ["missing=1", "none"]
     np.testing.assert_allclose(res.cop, 0.0, atol=1e-15)  # equal forces: the sole centre

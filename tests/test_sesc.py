@@ -68,7 +68,7 @@ def test_com_equals_mass_weighted_link_coms(op2, rng):
     """Independent of the SESC algebra: Σ m_l (o_l + R_l c_l) / M over every URDF link."""
     import yourdfpy
 
-    urdf = yourdfpy.URDF.load(str(op2.urdf_path), build_scene_graph=False, load_meshes=False)
+    urdf = yourdfpy.URDF.load(str(op2.model_path), build_scene_graph=False, load_meshes=False)
     q = rng.uniform(-1.5, 1.5, (40, op2.nq))
     acc = np.zeros((40, 3))
     for link in urdf.robot.links:

@@ -1,19 +1,135 @@
-"""sescid: identify a humanoid robot's mass distribution from centre-of-pressure measurements."""
+"""sescid: identify a humanoid robot's mass distribution from centre-of-pressure measurements.
 
-from .errors import SescidError
-from .estimate import Fit, identify, identify_stream
-from .io import load_fit
-from .robot import Robot, load_robot
-from .simulate import simulate
+The user surface, importable as ``import sescid`` (names load on first use, so importing the
+package costs nothing until one is used):
+
+- robots: ``load_robot``, ``Robot``;
+- data: ``simulate``, ``read_table``, ``write_table``;
+- estimation: ``identify`` (``method`` = "ls" | "map" | "consistent"), ``identify_ls``,
+  ``identify_map``, ``identify_consistent``, ``identify_stream``, ``to_consistent``,
+  ``OnlineEstimator``, ``MapOptions``, ``ConsistentOptions``, ``Fit``, ``load_fit``, ``save_fit``;
+- experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
+  ``paper_study``;
+- outputs: ``export_urdf``, ``write_report``;
+- errors: ``SescidError`` and its subclasses.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+__version__ = "0.1.0"
+
+#: public name → module that defines it
+_EXPORTS: dict[str, str] = {
+    "Robot": "sescid.robot",
+    "load_robot": "sescid.robot",
+    "simulate": "sescid.simulation",
+    "read_table": "sescid.io",
+    "write_table": "sescid.io",
+    "Fit": "sescid.estimation",
+    "MapOptions": "sescid.estimation",
+    "ConsistentOptions": "sescid.estimation",
+    "OnlineEstimator": "sescid.estimation",
+    "identify": "sescid.estimation",
+    "identify_ls": "sescid.estimation",
+    "identify_map": "sescid.estimation",
+    "identify_consistent": "sescid.estimation",
+    "identify_stream": "sescid.estimation",
+    "to_consistent": "sescid.estimation",
+    "load_fit": "sescid.estimation",
+    "save_fit": "sescid.estimation",
+    "plan_poses": "sescid.experiment",
+    "run_experiment": "sescid.experiment",
+    "measure": "sescid.experiment",
+    "fsr": "sescid.experiment",
+    "load_sensors": "sescid.experiment",
+    "paper_study": "sescid.experiment",
+    "export_urdf": "sescid.io",
+    "write_report": "sescid.report",
+    "SescidError": "sescid.errors",
+    "ModelError": "sescid.errors",
+    "DataError": "sescid.errors",
+    "OptionError": "sescid.errors",
+    "SolverError": "sescid.errors",
+    "MissingExtraError": "sescid.errors",
+}
 
 __all__ = [
+    "ConsistentOptions",
+    "DataError",
     "Fit",
+    "MapOptions",
+    "MissingExtraError",
+    "ModelError",
+    "OnlineEstimator",
+    "OptionError",
     "Robot",
     "SescidError",
+    "SolverError",
+    "export_urdf",
+    "fsr",
     "identify",
+    "identify_consistent",
+    "identify_ls",
+    "identify_map",
     "identify_stream",
     "load_fit",
     "load_robot",
+    "load_sensors",
+    "measure",
+    "paper_study",
+    "plan_poses",
+    "read_table",
+    "run_experiment",
+    "save_fit",
     "simulate",
+    "to_consistent",
+    "write_report",
+    "write_table",
 ]
-__version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name from its module on first use (PEP 562)."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'sescid' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))
+
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from .errors import (
+        DataError,
+        MissingExtraError,
+        ModelError,
+        OptionError,
+        SescidError,
+        SolverError,
+    )
+    from .estimation import (
+        ConsistentOptions,
+        Fit,
+        MapOptions,
+        OnlineEstimator,
+        identify,
+        identify_consistent,
+        identify_ls,
+        identify_map,
+        identify_stream,
+        load_fit,
+        save_fit,
+        to_consistent,
+    )
+    from .experiment import fsr, load_sensors, measure, paper_study, plan_poses, run_experiment
+    from .io import export_urdf, read_table, write_table
+    from .report import write_report
+    from .robot import Robot, load_robot
+    from .simulation import simulate

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .errors import SescidError
+from .errors import DataError
 from .model import RobotModel
 
 
@@ -255,10 +255,10 @@ def as_poses(q, nq: int, what: str = "q") -> np.ndarray:
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != nq:
-        raise SescidError(f"{what}: expected shape (n, {nq}) joint angles, got {arr.shape}")
+        raise DataError(f"{what}: expected shape (n, {nq}) joint angles, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
-        raise SescidError(f"{what}: non-finite joint angle at pose {bad[0]}, joint {bad[1]}")
+        raise DataError(f"{what}: non-finite joint angle at pose {bad[0]}, joint {bad[1]}")
     return np.ascontiguousarray(arr)
 
 

@@ -1,4 +1,9 @@
-"""The user-facing robot: a URDF re-rooted at its support frame, with CoM and SESC helpers."""
+"""The user-facing robot: a model file re-rooted at its support frame, with its profile, CoM,
+CoP and SESC helpers.
+
+``Robot`` sits above ``model``, ``kinematics`` and ``sesc`` (it is their facade), below everything
+that uses a robot.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +11,12 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import kinematics, sesc
-from .errors import SescidError
-from .model import RobotModel, build_model
-from .robots import EMBEDDED, embedded_path
+from .errors import ModelError
+from .model import RobotModel, load_model
+from .robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
 
 class Robot:
@@ -20,10 +26,12 @@ class Robot:
     Everything returned is in the support frame (x forward, y left, z up for a sole), metres.
     """
 
-    def __init__(self, model: RobotModel, source: str):
+    def __init__(self, model: RobotModel, source: str, profile: RobotProfile | None = None):
         self.model = model
-        #: what ``load_robot`` was given: an embedded name (``"op2"``) or a URDF path
+        #: what ``load_robot`` was given: an embedded name (``"op2"``) or a model file path
         self.source = source
+        #: robot-specific facts (sole, servo, sensors, …); generic for an arbitrary model file
+        self.profile = profile or generic_profile(model.name)
         self.tree = kinematics.Tree.from_model(model)
 
     # --- description -------------------------------------------------------------------
@@ -32,8 +40,9 @@ class Robot:
         return self.model.name
 
     @property
-    def urdf_path(self) -> Path:
-        return self.model.urdf_path
+    def model_path(self) -> Path:
+        """The model file (URDF or MJCF)."""
+        return self.model.path
 
     @property
     def support(self) -> str:
@@ -93,27 +102,27 @@ class Robot:
         """(N, 3) SESC vectors r_i of this model (m), each in its body's frame."""
         return self._r.copy()
 
-    def regressor(self, q, rows=(0, 1)) -> np.ndarray:
+    def regressor(self, q: ArrayLike, rows: tuple[int, ...] = (0, 1)) -> np.ndarray:
         """Φ(q) shaped (n, len(rows), 3N): CoM[rows] = d[rows] + Φ · vec(r)."""
         return kinematics.regressor(self.tree, q, rows)
 
-    def com(self, q, r: np.ndarray | None = None) -> np.ndarray:
+    def com(self, q: ArrayLike, r: np.ndarray | None = None) -> np.ndarray:
         """Whole-body CoM (n, 3) in m; ``r`` overrides the model's SESC vectors."""
         return sesc.com_from_sesc(self.tree, q, self._r if r is None else r, (0, 1, 2))
 
-    def cop(self, q, r: np.ndarray | None = None) -> np.ndarray:
+    def cop(self, q: ArrayLike, r: np.ndarray | None = None) -> np.ndarray:
         """Static CoP (n, 2) in m: the ground projection of the CoM."""
         return sesc.com_from_sesc(self.tree, q, self._r if r is None else r, (0, 1))
 
     # --- kinematics -----------------------------------------------------------------------
-    def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
+    def forward(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Body rotations (n, N, 3, 3) and origins (n, N, 3) [m] in the support frame."""
         return kinematics.forward(self.tree, q)
 
-    def link_poses(self, q, link: str) -> tuple[np.ndarray, np.ndarray]:
+    def link_poses(self, q: ArrayLike, link: str) -> tuple[np.ndarray, np.ndarray]:
         """Rotation (n, 3, 3) and position (n, 3) [m] of a URDF link's frame."""
         if link not in self.model.link_frames:
-            raise SescidError(f"unknown link '{link}' in {self.urdf_path.name}")
+            raise ModelError(f"unknown link '{link}' in {self.model_path.name}")
         b, x = self.model.link_frames[link]
         rot, org = self.forward(q)
         rb, ob = rot[:, b], org[:, b]
@@ -121,23 +130,24 @@ class Robot:
 
 
 def load_robot(name_or_path: str | Path = "op2", support: str | None = None) -> Robot:
-    """Load the embedded model (``"op2"``) or any URDF, rooted at the link ``support``.
+    """Load an embedded robot (``"op2"``) or any URDF/MJCF file, rooted at the frame ``support``.
 
-    ``support`` defaults to ``r_sole`` for the embedded OP2 and is required for other URDFs.
-    Fixed-joint links are merged into their parents (their mass counts); revolute, continuous
-    and mimic joints are supported; prismatic, floating and planar joints raise SescidError.
+    ``support`` defaults to the profile's (``r_sole`` for the OP2) and is required for other
+    model files. Fixed-joint links are merged into their parents (their mass counts); revolute,
+    continuous and mimic joints are supported; prismatic and planar joints raise ModelError.
     """
     key = str(name_or_path)
     if key in EMBEDDED:
-        path = embedded_path(key)
-        support = support or EMBEDDED[key][1]
-    else:
-        path = Path(key)
-        if path.suffix.lower() not in (".urdf", ".xml") and not path.exists():
-            raise SescidError(
-                f"unknown robot '{key}': give an embedded name ({', '.join(EMBEDDED)}) "
-                "or a URDF file"
-            )
-        if support is None:
-            raise SescidError(f"{path}: name the support link (e.g. --support r_sole)")
-    return Robot(build_model(path, support), key if key in EMBEDDED else str(path.resolve()))
+        profile = profile_for(key)
+        assert profile.model_file is not None
+        model = load_model(profile.model_file, support or profile.support or "")
+        return Robot(model, key, profile)
+    path = Path(key)
+    if path.suffix.lower() not in (".urdf", ".xml", ".mjcf") and not path.exists():
+        raise ModelError(
+            f"unknown robot '{key}': give an embedded name ({', '.join(EMBEDDED)}) "
+            "or a URDF/MJCF file"
+        )
+    if support is None:
+        raise ModelError(f"{path}: name the support frame (a sole link, foot link or site)")
+    return Robot(load_model(path, support), str(path.resolve()))

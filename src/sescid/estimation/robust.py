@@ -18,14 +18,13 @@ errors-in-variables bias (attenuation) that angle errors add — only their rand
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SescidError
-from .estimate import Fit
-from .kinematics import as_poses
-from .simulate import random_poses
+from ..errors import SescidError
+from ..kinematics import as_poses
+from ..simulation import random_poses
+from .fit import Fit, JointNoiseEffect, RobustInfo
 from .validation import Fitter
 
 #: Huber threshold on the standardised 2-D residual norm: √χ²₂(0.95)
@@ -50,11 +49,12 @@ def huber(
     max_iter: int = 50,
     tol: float = 1e-4,
 ) -> Fit:
-    """Huber IRLS around any fitting method; names the down-weighted poses in ``fit.extra``.
+    """Huber IRLS around any fitting method; names the down-weighted poses in ``fit.robust``.
 
-    ``fit.extra["robust"]``: ``k``, ``scale_m`` (robust noise scale; dimensionless with given
-    standard errors), ``iterations``, ``downweighted`` = [[pose index, weight], …] sorted by
-    weight. ``fit.sigma_hat`` is reported in metres (unit-weight noise).
+    ``fit.robust`` (``RobustInfo``): ``k``, ``scale`` (robust noise scale, m; dimensionless with
+    given standard errors), ``iterations``, ``downweighted`` = [(pose index, weight), …] sorted
+    by weight. ``fit.sigma_hat`` is reported in metres (unit-weight noise) unless errors were
+    given.
     """
     if not k > 0:
         raise SescidError(f"Huber threshold k must be > 0, got {k}")
@@ -65,7 +65,7 @@ def huber(
     w = np.ones(q.shape[0])
     scale, iterations = math.nan, 0
     for iterations in range(1, max_iter + 1):  # noqa: B007 (reported after the loop)
-        e = (cop - fit.predict_cop(q) - np.asarray(fit.extra.get("bias", [0.0, 0.0]))) / base
+        e = (cop - fit.predict_cop(q) - fit.cop_bias) / base
         u = np.linalg.norm(e, axis=1)
         scale = float(np.median(u)) / _MEDIAN_NORM
         if scale <= 0:
@@ -79,41 +79,13 @@ def huber(
             break
     if math.isfinite(fit.sigma_hat) and math.isfinite(scale):
         fit.sigma_hat *= scale  # whitened units → metres (or σ-units with given errors)
-    if sigma is None:  # the IRLS weights are internal: σ̂ is in metres again
-        fit.extra.pop("weighted", None)
-        fit.notes = [n for n in fit.notes if not n.startswith("weighted by the given")]
+    fit.weighted = sigma is not None  # the IRLS weights are internal: σ̂ is in metres again
     order = np.argsort(w, kind="stable")
-    low = [[int(i), float(w[i])] for i in order if w[i] < 1.0]
-    fit.method = f"{fit.method}+huber"
-    fit.extra["robust"] = {"k": k, "scale_m": scale, "iterations": iterations, "downweighted": low}
-    shown = f"{scale * 1e3:.3f} mm" if sigma is None else f"{scale:.3f} × the given errors"
-    fit.notes.append(
-        f"Huber IRLS (k = {k:g}, robust scale {shown}): {len(low)} of {q.shape[0]} poses "
-        "down-weighted"
+    low = [(int(i), float(w[i])) for i in order if w[i] < 1.0]
+    fit.robust = RobustInfo(
+        k=k, scale=scale, iterations=iterations, downweighted=low, weighted_input=sigma is not None
     )
     return fit
-
-
-@dataclass
-class JointNoiseEffect:
-    """Monte-Carlo effect of joint-angle errors beside that of the CoP noise (all in m)."""
-
-    joint_noise_rad: float
-    draws: int
-    r_std_joint: np.ndarray  #: (N, 3) spread of r over the draws
-    cop_std_joint: float  #: RMS over reference poses of the CoP prediction spread
-    cop_std_noise: float  #: the same from the CoP noise (fit.cov)
-    share_joint: float  #: joint part of the prediction variance, var_j / (var_j + var_cop)
-
-    def to_json(self) -> dict:
-        return {
-            "joint_noise_deg": math.degrees(self.joint_noise_rad),
-            "draws": self.draws,
-            "r_std_joint_m": self.r_std_joint.tolist(),
-            "cop_std_joint_m": self.cop_std_joint,
-            "cop_std_noise_m": self.cop_std_noise,
-            "share_joint": self.share_joint,
-        }
 
 
 def joint_noise_mc(

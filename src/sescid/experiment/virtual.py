@@ -7,7 +7,9 @@ and its foot sensors have **noise** and a **per-sensor bias**.
 
 What the log shows, per pose and sample:
 
-- joint read-backs in MX-28 ticks: the commanded angle plus the part ``readback_seen`` (default
+- joint read-backs in the profile's servo ticks (MX-28 for the OP2; radians, unquantised and
+  without jitter, for a robot whose profile has no servo): the commanded angle plus the part
+  ``readback_seen`` (default
   0.5) of δ that the servo's output-shaft encoder sees (gear play), rounded to ticks with
   ``readback_jitter_ticks`` of noise; the rest of δ (horn and bracket play) is invisible, so the
   read-backs still miss the actual angle by up to (1 − readback_seen)·b;
@@ -26,13 +28,17 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from .errors import SescidError
-from .sensors import SensorConfig, rad_to_ticks
+from ..errors import DataError
+from ..files import read_json
+from ..sesc import sesc_vectors
+from .sensors import SensorConfig
 
 G = 9.80665  #: m/s², standard gravity
+TRUTH_FORMAT = "sescid-experiment-truth/1"
 
 
 @dataclass(frozen=True)
@@ -82,22 +88,19 @@ class Experiment:
 
 def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
     """True SESC vectors (N, 3) [m] and mass [kg] of the model plus the unmodelled masses."""
-    from .sesc import sesc_vectors
 
     if not (0 <= config.extra_mass_fraction < 1):
-        raise SescidError(
-            f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}"
-        )
+        raise DataError(f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}")
     shares = sum(e.share for e in config.extra)
     if config.extra and not math.isclose(shares, 1.0, abs_tol=1e-9):
-        raise SescidError(f"extra-mass shares must sum to 1, got {shares:g}")
+        raise DataError(f"extra-mass shares must sum to 1, got {shares:g}")
     names = robot.body_names
     extra_total = config.extra_mass_fraction * robot.total_mass
     bodies = list(robot.model.bodies)
     placed = []
     for e in config.extra:
         if e.body not in names:
-            raise SescidError(f"extra mass on unknown body '{e.body}' (bodies: {', '.join(names)})")
+            raise DataError(f"extra mass on unknown body '{e.body}' (bodies: {', '.join(names)})")
         i = names.index(e.body)
         b = bodies[i]
         me = e.share * extra_total
@@ -117,7 +120,7 @@ def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
     if bad.size:
         i, j = bad[0]
         lo, hi = np.degrees(lim[j])
-        raise SescidError(
+        raise DataError(
             f"{where}: pose {i}, joint '{robot.joint_names[j]}': {math.degrees(q[i, j]):.2f}° is "
             f"outside the joint limits [{lo:.1f}°, {hi:.1f}°] ({len(bad)} values out of limits)"
         )
@@ -142,9 +145,9 @@ def run_experiment(
     q_cmd = np.asarray(q_cmd, dtype=float)
     n = q_cmd.shape[0]
     if samples < 1:
-        raise SescidError(f"samples per pose must be ≥ 1, got {samples}")
+        raise DataError(f"samples per pose must be ≥ 1, got {samples}")
     if config.registers not in ("forces", "centroid", "both"):
-        raise SescidError(f"registers must be forces, centroid or both, got {config.registers}")
+        raise DataError(f"registers must be forces, centroid or both, got {config.registers}")
     for name, v in (
         ("backlash", config.backlash_deg),
         ("FSR noise", config.fsr_noise),
@@ -152,12 +155,12 @@ def run_experiment(
         ("read-back jitter", config.readback_jitter_ticks),
     ):
         if not (v >= 0 and math.isfinite(v)):
-            raise SescidError(f"{name} must be a finite number ≥ 0, got {v}")
+            raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
     check_limits(robot, q_cmd)
     pose_ids = np.array([str(i) for i in range(n)]) if pose_ids is None else pose_ids
     support = [f for f in sensors.feet if f.sole_frame == robot.support]
     if not support:
-        raise SescidError(
+        raise DataError(
             f"no foot sensor board sits on the support link '{robot.support}' "
             f"(boards: {', '.join(f.sole_frame for f in sensors.feet)})"
         )
@@ -181,7 +184,7 @@ def run_experiment(
         for i in np.flatnonzero(tips)
     ]
     if tips.all():
-        raise SescidError(f"no pose can be measured: pose {skipped[0][0]}: {skipped[0][1]}")
+        raise DataError(f"no pose can be measured: pose {skipped[0][0]}: {skipped[0][1]}")
     keep = ~tips
     q_cmd, delta, q_act = q_cmd[keep], delta[keep], q_act[keep]
     cop_true, uv, pose_ids = cop_true[keep], uv[keep], pose_ids[keep]
@@ -198,12 +201,18 @@ def run_experiment(
         "sample": np.tile(np.arange(samples), n),
     }
     q_read = q_cmd + config.readback_seen * delta
-    ticks = rad_to_ticks(q_read)[pose_of] + rng.normal(
-        0.0, config.readback_jitter_ticks, size=(m, robot.nq)
-    )
-    ticks = np.clip(np.round(ticks), 0, 4095).astype(int)
-    for j, name in enumerate(robot.joint_names):
-        cols[f"{name}_ticks"] = ticks[:, j]
+    servo = robot.profile.servo
+    if servo is not None:
+        exact = q_read * (servo.ticks_per_turn / (2 * math.pi)) + servo.zero_tick
+        ticks = np.round(exact)[pose_of] + rng.normal(
+            0.0, config.readback_jitter_ticks, size=(m, robot.nq)
+        )
+        ticks = np.clip(np.round(ticks), 0, servo.max_tick).astype(int)
+        for j, name in enumerate(robot.joint_names):
+            cols[f"{name}_ticks"] = ticks[:, j]
+    else:
+        for j, name in enumerate(robot.joint_names):
+            cols[name] = q_read[pose_of, j]
     counts_by_foot = {}
     for f in sensors.feet:
         if f is foot:
@@ -231,7 +240,7 @@ def run_experiment(
     cop_expected = (fb @ foot.sensors) / fb.sum(axis=1, keepdims=True)
     names = robot.body_names
     truth = {
-        "format": "sescid-experiment-truth/1",
+        "format": TRUTH_FORMAT,
         "units": "m, kg, N, rad",
         "robot": robot.source,
         "support": robot.support,
@@ -265,17 +274,9 @@ def run_experiment(
     return Experiment(columns=cols, truth=truth, skipped=skipped)
 
 
-def load_truth(path) -> dict:
+def load_truth(path: str | Path) -> dict:
     """Read a truth JSON written by ``sescid experiment --truth`` (arrays as numpy)."""
-    import json
-    from pathlib import Path
-
-    path = Path(path)
-    if not path.is_file():
-        raise SescidError(f"{path}: file not found")
-    data = json.loads(path.read_text())
-    if data.get("format") != "sescid-experiment-truth/1":
-        raise SescidError(f"{path}: not an experiment truth file")
+    data = read_json(path, TRUTH_FORMAT, "an experiment truth file")
     for key in ("q_commanded", "q_actual", "q_readback", "cop_true", "cop_expected"):
         data[key] = np.array(data[key], dtype=float)
     return data

@@ -31,10 +31,14 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from .errors import SescidError
-from .estimate import DEFAULT_RTOL, Fit, NormalEquations, accumulate, check_cop, solve
-from .kinematics import as_poses
-from .robot import Robot
+from ..errors import SescidError
+from ..kinematics import as_poses
+from ..robot import Robot
+from .fit import CopOffset, Fit, MapInfo
+from .identifiability import DEFAULT_RTOL, combination_vector
+from .least_squares import residual_stats, solve
+from .normal_equations import NormalEquations, accumulate, check_cop, row_weights
+from .validation import folds as split
 
 #: prior standard deviation of a CoP offset when ``bias=True``: effectively flat, m
 BIAS_PRIOR_SCALE = 1.0
@@ -180,7 +184,7 @@ def identify_map(
     ``"evidence"`` (marginal likelihood, jointly with σ when σ is None) or ``"cv"`` (the ratio
     σ²/τ² minimising the ``folds``-fold cross-validated CoP error, then σ by maximum
     likelihood at that ratio). With per-pose ``sigma``, σ is a dimensionless scale on them.
-    ``bias=True`` adds two constant CoP offsets (m), reported in ``fit.extra["bias"]`` and not
+    ``bias=True`` adds two constant CoP offsets (m), reported in ``fit.cop_offset`` and not
     part of predictions.
     """
     _check_positive(prior_scale, "prior scale")
@@ -209,16 +213,11 @@ def identify_map(
         rtol=rtol,
         bias_data=(q, cop, sigma),
     )
-    if sigma is not None:
-        fit.extra["weighted"] = True
-        fit.notes.append("weighted: sigma_hat is a dimensionless scale on the given CoP errors")
-    if by_cv:
-        fit.extra["prior_scale_chosen_by"] = f"{folds}-fold cv"
-        fit.extra["cv_curve"] = curve
-        fit.notes[-1] = fit.notes[-1].replace("(given)", f"({folds}-fold cv)")
-    resid = cop - fit.predict_cop(q) - np.asarray(fit.extra.get("bias", [0.0, 0.0]))
-    fit.mae = float(np.mean(np.abs(resid)))
-    fit.rms = float(np.sqrt(np.mean(resid**2)))
+    fit.weighted = sigma is not None
+    if by_cv and fit.map is not None:
+        fit.map.prior_scale_by = f"{folds}-fold cv"
+        fit.map.cv_curve = curve
+    residual_stats(fit, q, cop)
     return fit
 
 
@@ -236,8 +235,6 @@ def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0):
     Fold normal equations make each candidate cost one Cholesky per fold: the held-out sum of
     squares is ``yᵀy − 2xᵀΦᵀy + xᵀΦᵀΦx`` from the test fold's sums.
     """
-    from .validation import folds as split
-
     parts = [accumulate(robot, [(q[f], cop[f], None if sigma is None else sigma[f])]) for f in
              split(q.shape[0], k, seed)]  # fmt: skip
     total_a = sum(p.ata for p in parts)
@@ -257,12 +254,10 @@ def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0):
 
 def _with_bias(robot: Robot, q, cop, sigma) -> NormalEquations:
     """Normal equations of [vec(r); b] from the data (bias columns appended)."""
-    from .estimate import _row_weights
-
     n = q.shape[0]
     phi = np.hstack([robot.regressor(q, (0, 1)).reshape(2 * n, -1), bias_columns(n)])
     y = (cop - robot.d[:2]).reshape(-1)
-    w = _row_weights(sigma, n)
+    w = row_weights(sigma, n)
     if w is not None:
         phi, y = phi * np.sqrt(w)[:, None], y * np.sqrt(w)
     return NormalEquations(phi.T @ phi, phi.T @ y, float(y @ y), 2 * n, n)
@@ -309,46 +304,19 @@ def _map_fit(base: Fit, post: Posterior, n_par: int, n_bias: int, chosen, noise_
         g = combination_vector(fit.robot, c.terms)
         c.value = float(g @ x)
         c.std = float(np.sqrt(max(g @ cov @ g, 0.0)))
-    dof = max(fit.n_rows - post.edf, 1.0)
-    fit.extra = {
-        "prior_scale_m": post.prior_scale,
-        "prior_scale_chosen_by": chosen,
-        "noise_m": post.noise,
-        "noise_chosen_by": "given" if noise_given else "evidence",
-        "log_evidence": float(post.log_evidence),
-        "effective_parameters": post.edf,
-        "dof": None if noise_given else dof,  # None: σ known, normal quantiles
-    }
-    fit.notes = [
-        n for n in fit.notes if "not determined by the data" not in n and "no residual" not in n
-    ]
-    fit.notes.append(
-        f"MAP with a Gaussian prior N(CAD, ({post.prior_scale * 1e3:.3g} mm)²) on each SESC "
-        f"component ({chosen}); {len(fit.unidentifiable)} directions the data cannot see keep "
-        "the prior's value and uncertainty (included in cov)"
+    fit.sigma_dof = math.inf if noise_given else max(fit.n_rows - post.edf, 1.0)
+    fit.map = MapInfo(
+        prior_scale=post.prior_scale,
+        prior_scale_by=chosen,
+        noise=post.noise,
+        noise_by="given" if noise_given else "evidence",
+        log_evidence=float(post.log_evidence),
+        effective_parameters=post.edf,
+        at_lower_bound=chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0],
     )
-    if chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0]:
-        fit.notes.append(
-            "the evidence is largest at the smallest prior scale searched: these data cannot "
-            "detect any deviation from CAD, and the intervals (±τ) assume there is none"
-        )
     if n_bias:
-        bv = post.x[n_par:]
-        bstd = np.sqrt(np.diag(post.cov)[n_par:])
-        fit.extra["bias"] = bv.tolist()
-        fit.extra["bias_std"] = bstd.tolist()
-        fit.notes.append(
-            f"CoP offset b = ({bv[0] * 1e3:.3f} ± {bstd[0] * 1e3:.3f}, {bv[1] * 1e3:.3f} ± "
-            f"{bstd[1] * 1e3:.3f}) mm: confounded with the support body's x/y SESC components, "
-            "separated only by the prior on them (±τ); predictions exclude it"
+        fit.cop_offset = CopOffset(
+            value=np.asarray(post.x[n_par:], dtype=float).copy(),
+            std=np.sqrt(np.diag(post.cov)[n_par:]),
         )
     return fit
-
-
-def combination_vector(robot: Robot, terms) -> np.ndarray:
-    """vec(r)-shaped (3N,) coefficient vector of a combination's terms (body, axis, coef)."""
-    g = np.zeros(3 * len(robot.body_names))
-    index = {b: i for i, b in enumerate(robot.body_names)}
-    for body, axis, c in terms:
-        g[3 * index[body] + "xyz".index(axis)] = c
-    return g

@@ -21,10 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from .errors import SescidError
-from .estimate import DEFAULT_RTOL, Fit, NormalEquations, accumulate, identifiable_eigen, solve
-from .robot import Robot
-from .simulate import random_poses
+from ..errors import SescidError
+from ..robot import Robot
+from ..simulation import random_poses
+from .fit import Fit, OnlineInfo
+from .identifiability import DEFAULT_RTOL, identifiable_eigen
+from .least_squares import solve
+from .map import fit_from_normal_equations
+from .normal_equations import NormalEquations, accumulate
 
 
 @dataclass
@@ -156,8 +160,6 @@ class OnlineEstimator:
         if self.prior_scale is None:
             fit = solve(self.robot, self.ne, rtol=self.rtol, r_prior=self.r_prior)
         else:
-            from .prior import fit_from_normal_equations
-
             fit = fit_from_normal_equations(
                 self.robot,
                 self.ne,
@@ -166,16 +168,14 @@ class OnlineEstimator:
                 r_prior=self.r_prior,
                 rtol=self.rtol,
             )
-        fit.method = f"online-{fit.method}"
         if self._weighted:  # σ̂ is a scale on the given errors; the RMS in m needs the data
             fit.rms = float("nan")
-            fit.extra["weighted"] = True
-            fit.notes.append("weighted: sigma_hat is a dimensionless scale on the given errors")
-        fit.extra["online"] = {
-            "window": self.window,
-            "tol": self.tol,
-            "converged_at": self.converged_at,
-            "cop_std_m": [s.cop_std if math.isfinite(s.cop_std) else None for s in self.history],
-            "n_poses": [s.n_poses for s in self.history],
-        }
+            fit.weighted = True
+        fit.online = OnlineInfo(
+            window=self.window,
+            tol=self.tol,
+            converged_at=self.converged_at,
+            cop_std=[s.cop_std for s in self.history],
+            n_poses=[s.n_poses for s in self.history],
+        )
         return fit

@@ -1,11 +1,12 @@
 """Foot force sensors (OP2 FSR boards) → per-pose CoP in the support frame.
 
 A raw log has many samples per pose: a ``pose`` id, joint read-backs (radians in columns named
-as the joints, or ``<joint>_deg`` degrees, or ``<joint>_ticks`` Dynamixel MX-28 positions,
-2048 = 0, 4096 per turn; one unit per joint), and per foot either the four forces
+as the joints, or ``<joint>_deg`` degrees, or ``<joint>_ticks`` in the robot profile's servo
+ticks; one unit per joint), and per foot either the four forces
 ``<prefix>1..4`` in board counts (1 mN) or the centroid registers ``<prefix>_x``, ``<prefix>_y``
 (0–254, 255 = no load). Prefixes and sensor positions come from a small JSON configuration
-(``robots/op2_fsr.json``; the positions are a flagged hypothesis a user corrects).
+(the robot profile's ``sensors_file``, for the OP2 ``robots/op2/op2_fsr.json``; the positions
+are a flagged hypothesis a user corrects).
 
 Per sample, a foot's CoP in its sole frame is the force-weighted centroid of its sensors,
 ``c = Σ F_k p_k / Σ F_k``, or, from the registers, the bilinear map of ``(X/254, Y/254)`` onto the
@@ -21,22 +22,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SescidError
-from .io import read_json
+from ..errors import DataError
+from ..files import read_json
+from ..robots import RobotProfile, ServoEncoding
+from ..table import Table, column_with_missing, pose_ids, read_joint_columns
 
 FSR_FORMAT = "sescid-fsr/1"
-TICKS_PER_TURN = 4096
-TICKS_ZERO = 2048
 #: board corner (u, v) ∈ [0, 1]² of FSR1..FSR4 (X = 254 u, Y = 254 v)
 CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
 #: rejection reasons, in the order they are tested (a sample counts under the first that applies)
 REASONS = ("missing", "saturated", "no_load", "two_feet_no_force", "off_floor", "outlier")
-_MISSING_TEXT = {"", "nan", "na", "n/a", "none", "null"}
 #: a loaded foot whose sole the model puts this far off the support plane breaks CoP = CoM_xy
 OFF_FLOOR_M = 0.010
 OFF_FLOOR_TILT = math.radians(5.0)
@@ -84,65 +83,71 @@ class SensorConfig:
         return next(f for f in self.feet if f.name == name)
 
 
-def default_sensors_path(robot_source: str = "op2") -> Path:
-    """Path of the shipped configuration for an embedded robot."""
-    if robot_source != "op2":
-        raise SescidError(
-            f"no foot-sensor configuration ships for robot '{robot_source}': give --sensors FILE "
-            "(copy src/sescid/robots/op2_fsr.json and adapt it)"
+def default_sensors_path(profile: RobotProfile) -> Path:
+    """The foot-sensor layout shipped in a robot's profile."""
+    if profile.sensors_file is None:
+        raise DataError(
+            f"no foot-sensor layout ships for robot '{profile.name}': give a sensor file "
+            "(copy src/sescid/robots/op2/op2_fsr.json and adapt it)"
         )
-    return Path(str(resources.files("sescid.robots").joinpath("op2_fsr.json")))
+    return profile.sensors_file
 
 
 def _vec(raw, n: int, where: str) -> np.ndarray:
     try:
         arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError):
-        raise SescidError(f"{where}: expected {n} numbers, got {raw!r}") from None
+        raise DataError(f"{where}: expected {n} numbers, got {raw!r}") from None
     if arr.shape != (n,) or not np.all(np.isfinite(arr)):
-        raise SescidError(f"{where}: expected {n} finite numbers, got {raw!r}")
+        raise DataError(f"{where}: expected {n} finite numbers, got {raw!r}")
     return arr
 
 
-def load_sensors(path=None, robot_source: str = "op2") -> SensorConfig:
-    """Read a foot-sensor configuration (JSON ``sescid-fsr/1``); default: the shipped one."""
-    path = Path(path) if path is not None else default_sensors_path(robot_source)
+def load_sensors(
+    path: str | Path | None = None, profile: RobotProfile | None = None
+) -> SensorConfig:
+    """Read a foot-sensor configuration (JSON ``sescid-fsr/1``); default: the profile's."""
+    if path is None:
+        if profile is None:
+            raise DataError("give a foot-sensor file or a robot profile that ships one")
+        path = default_sensors_path(profile)
+    path = Path(path)
     data = read_json(path, FSR_FORMAT, "a sensor configuration")
     feet = []
     raw_feet = data.get("feet")
     if not isinstance(raw_feet, dict) or not raw_feet:
-        raise SescidError(f"{path}: 'feet' must map foot names to their boards")
+        raise DataError(f"{path}: 'feet' must map foot names to their boards")
     for name, f in raw_feet.items():
         where = f"{path}: feet.{name}"
         try:
             if f.get("sensors_m") is not None:
                 sensors = np.array([_vec(p, 2, f"{where}.sensors_m") for p in f["sensors_m"]])
                 if sensors.shape != (4, 2):
-                    raise SescidError(f"{where}.sensors_m: expected 4 points [x, y] (FSR1..FSR4)")
+                    raise DataError(f"{where}.sensors_m: expected 4 points [x, y] (FSR1..FSR4)")
             else:
                 centre = _vec(f["sole_centre_m"], 2, f"{where}.sole_centre_m")
                 ax = _vec(f["board_x_axis"], 2, f"{where}.board_x_axis")
                 ay = _vec(f["board_y_axis"], 2, f"{where}.board_y_axis")
                 span = _vec(f["board_span_m"], 2, f"{where}.board_span_m")
                 if abs(np.linalg.norm(ax) - 1) > 1e-9 or abs(np.linalg.norm(ay) - 1) > 1e-9:
-                    raise SescidError(f"{where}: board axes must be unit vectors")
+                    raise DataError(f"{where}: board axes must be unit vectors")
                 if abs(ax @ ay) > 1e-9:
-                    raise SescidError(f"{where}: board axes must be perpendicular")
+                    raise DataError(f"{where}: board axes must be perpendicular")
                 if not np.all((span > 0) & (span < 1.0)):
-                    raise SescidError(f"{where}.board_span_m: spans must be in (0, 1) m")
+                    raise DataError(f"{where}.board_span_m: spans must be in (0, 1) m")
                 sensors = centre + (CORNERS[:, :1] - 0.5) * span[0] * ax
                 sensors = sensors + (CORNERS[:, 1:] - 0.5) * span[1] * ay
             foot = Foot(str(name), str(f["sole_frame"]), str(f["columns"]), sensors)
         except KeyError as exc:
-            raise SescidError(f"{where}: missing field {exc}") from None
+            raise DataError(f"{where}: missing field {exc}") from None
         except (TypeError, AttributeError):
-            raise SescidError(f"{where}: malformed entry") from None
+            raise DataError(f"{where}: malformed entry") from None
         ex, ey = sensors[1] - sensors[0], sensors[2] - sensors[0]
         if (
             abs(ex @ ey) > 1e-9 * (ex @ ex + ey @ ey)
             or np.linalg.norm(sensors[3] - sensors[0] - ex - ey) > 1e-9
         ):
-            raise SescidError(f"{where}: sensors FSR1..FSR4 must form a rectangle (1-2 / 3-4 rows)")
+            raise DataError(f"{where}: sensors FSR1..FSR4 must form a rectangle (1-2 / 3-4 rows)")
         feet.append(foot)
     try:
         cfg = SensorConfig(
@@ -158,9 +163,9 @@ def load_sensors(path=None, robot_source: str = "op2") -> SensorConfig:
             source=str(path),
         )
     except (TypeError, ValueError) as exc:
-        raise SescidError(f"{path}: malformed number ({exc})") from None
+        raise DataError(f"{path}: malformed number ({exc})") from None
     if not (cfg.force_unit > 0 and cfg.min_foot_force >= 0 and cfg.outlier_k > 0):
-        raise SescidError(f"{path}: force_unit_N, min_foot_force_N, outlier_k must be positive")
+        raise DataError(f"{path}: force_unit_N, min_foot_force_N, outlier_k must be positive")
     return cfg
 
 
@@ -177,114 +182,15 @@ class RawLog:
     units: dict[str, str]  #: joint → "rad" | "deg" | "ticks"
 
 
-def _column(table, name: str) -> np.ndarray:
-    """A float column where empty cells and 'nan' are missing (NaN); other text is an error."""
-    if name in table.columns:
-        return table.columns[name]
-    values = table.text[name]
-    out = np.empty(len(values))
-    for i, v in enumerate(values):
-        if v.strip().lower() in _MISSING_TEXT:
-            out[i] = np.nan
-            continue
-        try:
-            out[i] = float(v)
-        except ValueError:
-            raise SescidError(
-                f"{table.path}: row {i + 2}, column '{name}': '{v}' is not a number"
-            ) from None
-    return out
-
-
-def _pose_ids(table, name: str = "pose") -> np.ndarray:
-    """Pose ids as text ('3' for 3.0); integer-valued numbers only when numeric."""
-    if name not in table.columns and name not in table.text:
-        raise SescidError(f"{table.path}: missing column '{name}' (the pose id of each sample)")
-    if name in table.text:
-        ids = np.array([v.strip() for v in table.text[name]])
-        empty = np.flatnonzero(ids == "")
-        if empty.size:
-            raise SescidError(f"{table.path}: row {empty[0] + 2}, column '{name}': empty pose id")
-        return ids
-    col = table.columns[name]
-    bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
-    if bad.size:
-        raise SescidError(
-            f"{table.path}: row {bad[0] + 2}, column '{name}': pose id {col[bad[0]]} is not an "
-            "integer or a label"
-        )
-    return np.array([str(int(v)) for v in col])
-
-
-def read_joint_columns(table, joint_names: list[str]) -> tuple[np.ndarray, dict[str, str]]:
-    """Joint angles (m, nq) in rad from ``<j>`` (rad), ``<j>_deg`` or ``<j>_ticks`` columns.
-
-    Exactly one unit per joint; missing cells become NaN. Radians beyond ±2π, degrees beyond
-    ±360 and ticks outside 0–4095 are errors.
-    """
-    names = set(table.names())
-    cols, units = [], {}
-    for j in joint_names:
-        found = [
-            (u, c)
-            for u, c in (("rad", j), ("deg", f"{j}_deg"), ("ticks", f"{j}_ticks"))
-            if c in names
-        ]
-        if not found:
-            raise SescidError(
-                f"{table.path}: missing joint read-back for '{j}' (column '{j}' in rad, "
-                f"'{j}_deg' or '{j}_ticks')"
-            )
-        if len(found) > 1:
-            raise SescidError(
-                f"{table.path}: joint '{j}' is given in two units "
-                f"({', '.join(c for _, c in found)}): keep one column per joint"
-            )
-        unit, name = found[0]
-        v = _column(table, name)
-        if unit == "rad":
-            lim = 2 * math.pi
-            bad = np.flatnonzero(np.abs(v) > lim)
-            if bad.size:
-                raise SescidError(
-                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} looks like "
-                    f"degrees or ticks; use '{j}_deg' or '{j}_ticks' for those units"
-                )
-        elif unit == "deg":
-            bad = np.flatnonzero(np.abs(v) > 360)
-            if bad.size:
-                raise SescidError(
-                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} is not an "
-                    "angle in degrees"
-                )
-            v = np.radians(v)
-        else:
-            bad = np.flatnonzero((v < 0) | (v > TICKS_PER_TURN - 1))
-            if bad.size:
-                raise SescidError(
-                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} is outside "
-                    f"the MX-28 range 0–{TICKS_PER_TURN - 1} ticks"
-                )
-            v = ticks_to_rad(v)
-        cols.append(v)
-        units[j] = unit
-    return np.column_stack(cols), units
-
-
-def ticks_to_rad(ticks) -> np.ndarray:
-    """Dynamixel MX-28 position (0–4095, 2048 = 0) → servo angle, rad."""
-    return (np.asarray(ticks, dtype=float) - TICKS_ZERO) * (2 * math.pi / TICKS_PER_TURN)
-
-
-def rad_to_ticks(q) -> np.ndarray:
-    """Servo angle [rad] → MX-28 position ticks (rounded to the nearest count)."""
-    return np.round(np.asarray(q, dtype=float) * (TICKS_PER_TURN / (2 * math.pi)) + TICKS_ZERO)
-
-
-def read_raw(table, joint_names: list[str], config: SensorConfig) -> RawLog:
+def read_raw(
+    table: Table,
+    joint_names: list[str],
+    config: SensorConfig,
+    servo: ServoEncoding | None = None,
+) -> RawLog:
     """Parse a raw FSR log (see the module docstring) into SI arrays; errors name the column."""
-    pose = _pose_ids(table)
-    q, units = read_joint_columns(table, joint_names)
+    pose = pose_ids(table)
+    q, units = read_joint_columns(table, joint_names, servo)
     names = set(table.names())
     forces, centroid = {}, {}
     for foot in config.feet:
@@ -294,29 +200,29 @@ def read_raw(table, joint_names: list[str], config: SensorConfig) -> RawLog:
         has_c = [c in names for c in ccols]
         if any(has_f) and not all(has_f):
             missing = fcols[has_f.index(False)]
-            raise SescidError(f"{table.path}: missing column '{missing}' ({foot.name} foot forces)")
+            raise DataError(f"{table.path}: missing column '{missing}' ({foot.name} foot forces)")
         if any(has_c) and not all(has_c):
             missing = ccols[has_c.index(False)]
-            raise SescidError(f"{table.path}: missing column '{missing}' ({foot.name} centroid)")
+            raise DataError(f"{table.path}: missing column '{missing}' ({foot.name} centroid)")
         if all(has_f):
-            f = np.column_stack([_column(table, c) for c in fcols])
+            f = np.column_stack([column_with_missing(table, c) for c in fcols])
             bad = np.argwhere(f < 0)
             if bad.size:
                 i, k = bad[0]
-                raise SescidError(
+                raise DataError(
                     f"{table.path}: row {i + 2}, column '{fcols[k]}': negative force count "
                     f"{f[i, k]:g} (the board reports 0–{config.saturation} mN)"
                 )
             forces[foot.name] = f
         elif all(has_c):
-            c = np.column_stack([_column(table, col) for col in ccols])
+            c = np.column_stack([column_with_missing(table, col) for col in ccols])
             ok = np.isnan(c) | (
                 (c >= 0) & (c <= max(config.centroid_max, config.no_load)) & (c == np.round(c))
             )
             bad = np.argwhere(~ok)
             if bad.size:
                 i, k = bad[0]
-                raise SescidError(
+                raise DataError(
                     f"{table.path}: row {i + 2}, column '{ccols[k]}': {c[i, k]:g} is not a "
                     f"centroid register (integer 0–{config.centroid_max}, "
                     f"{config.no_load} = no load)"
@@ -324,9 +230,9 @@ def read_raw(table, joint_names: list[str], config: SensorConfig) -> RawLog:
             centroid[foot.name] = c
     if not forces and not centroid:
         want = ", ".join(f"{f.columns}1..4 or {f.columns}_x/_y" for f in config.feet)
-        raise SescidError(f"{table.path}: no foot-sensor columns ({want})")
+        raise DataError(f"{table.path}: no foot-sensor columns ({want})")
     if forces and centroid:
-        raise SescidError(
+        raise DataError(
             f"{table.path}: one foot logs forces and the other only centroid registers: "
             "log the same kind for both feet"
         )
@@ -413,7 +319,7 @@ def measure(
     mean joint read-backs.
     """
     if min_samples < 2:
-        raise SescidError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
+        raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
     ids, first, g = np.unique(log.pose, return_index=True, return_inverse=True)
     order = np.argsort(first)  # keep the log's order of poses
     rank = np.empty_like(order)
@@ -547,42 +453,39 @@ def check_pose_ids(measured_ids: np.ndarray, list_ids: np.ndarray, where: str) -
     unknown = [p for p in dict.fromkeys(measured_ids.tolist()) if p not in known]
     if unknown:
         more = f" (and {len(unknown) - 1} more)" if len(unknown) > 1 else ""
-        raise SescidError(f"{where}: pose id '{unknown[0]}'{more} is not in the pose list")
+        raise DataError(f"{where}: pose id '{unknown[0]}'{more} is not in the pose list")
     seen = set(measured_ids.tolist())
     return [p for p in list_ids.tolist() if p not in seen]
 
 
-def pose_list_ids(table) -> np.ndarray:
+def pose_list_ids(table: Table) -> np.ndarray:
     """Pose ids of a pose list: its ``pose`` column, else the row numbers 0, 1, …"""
     if "pose" in table.columns or "pose" in table.text:
-        ids = _pose_ids(table)
+        ids = pose_ids(table)
         dup = [p for p in dict.fromkeys(ids.tolist()) if (ids == p).sum() > 1]
         if dup:
-            raise SescidError(f"{table.path}: pose id '{dup[0]}' appears twice")
+            raise DataError(f"{table.path}: pose id '{dup[0]}' appears twice")
         return ids
     return np.array([str(i) for i in range(table.n)])
 
 
 def fsr(
     robot,
-    raw_path,
+    log_table: Table,
     config: SensorConfig,
     min_samples: int = 5,
-    poses_path=None,
+    pose_list: Table | None = None,
 ) -> tuple[Measured, list[str]]:
-    """Read a raw log and reduce it per pose; with ``poses_path``, check the ids against it.
+    """Reduce a raw log table per pose; with a ``pose_list`` table, check the ids against it.
 
     Returns the result and the pose-list ids that were not measured.
     """
-    from .io import read_table
-
-    table = read_table(raw_path)
-    log = read_raw(table, robot.joint_names, config)
+    log = read_raw(log_table, robot.joint_names, config, robot.profile.servo)
     unmeasured: list[str] = []
-    if poses_path is not None:
-        unmeasured = check_pose_ids(log.pose, pose_list_ids(read_table(poses_path)), str(raw_path))
+    if pose_list is not None:
+        unmeasured = check_pose_ids(log.pose, pose_list_ids(pose_list), str(log_table.path))
     res = measure(robot, log, config, min_samples)
     if len(res.pose) == 0:
         reasons = "; ".join(f"pose {p}: {w}" for p, w in res.dropped[:3])
-        raise SescidError(f"{raw_path}: no pose has a usable CoP ({reasons})")
+        raise DataError(f"{log_table.path}: no pose has a usable CoP ({reasons})")
     return res, unmeasured

@@ -1,8 +1,8 @@
 """Uncertainty and validation: prediction intervals, k-fold cross-validation, error vs truth.
 
 Intervals are for the noise-free CoP/CoM (the model's prediction), built from ``fit.cov`` and a
-Student-t quantile with the fit's residual degrees of freedom (``fit.extra["dof"]`` when a method
-sets it, else ``n_rows − rank``); ``new_measurement=True`` widens a CoP interval by the noise σ̂
+Student-t quantile with the fit's residual degrees of freedom (``fit.residual_dof``: what the
+method set, else ``n_rows − rank``); ``new_measurement=True`` widens a CoP interval by the noise σ̂
 to cover a future measured CoP.
 
 What the CoM-z interval does not cover: for least squares ``fit.cov`` is zero along the directions
@@ -19,29 +19,28 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.stats
 
-from .errors import SescidError
-from .estimate import Fit
-from .kinematics import as_poses
-from .robot import Robot
-from .sesc import sesc_vectors
+from ..errors import SescidError
+from ..kinematics import as_poses
+from ..robot import Robot
+from ..sesc import sesc_vectors
+from .fit import CrossValidation, Fit
 
 #: a fitting function: (q (n, nq) rad, cop (n, 2) m, sigma (n,)|(n, 2)|None m) -> Fit
 Fitter = Callable[[np.ndarray, np.ndarray, np.ndarray | None], Fit]
 
 
 def residual_dof(fit: Fit) -> float:
-    """Degrees of freedom of σ̂: ``fit.extra["dof"]`` if set (None: σ known → inf), else
-    n_rows − rank (inf if ≤ 0)."""
-    dof = fit.extra.get("dof", fit.n_rows - fit.rank)
-    return float(dof) if dof is not None and dof > 0 else math.inf
+    """Degrees of freedom of σ̂ (inf when σ was given or no residual is left)."""
+    return fit.residual_dof
 
 
 def quantile(level: float, dof: float) -> float:
     """Two-sided Student-t quantile for a confidence ``level`` (normal when dof is inf)."""
     if not 0 < level < 1:
         raise SescidError(f"confidence level must be in (0, 1), got {level}")
+    import scipy.stats  # lazy: ~1 s of import time that most commands never need
+
     if not math.isfinite(dof):
         return float(scipy.stats.norm.ppf(0.5 + level / 2))
     return float(scipy.stats.t.ppf(0.5 + level / 2, dof))
@@ -102,26 +101,6 @@ def truth_error(fit: Fit, q, cop_true) -> float:
     return rms(fit.predict_cop(q) - np.asarray(cop_true, dtype=float))
 
 
-@dataclass
-class CrossValidation:
-    """k-fold cross-validated CoP error (m)."""
-
-    k: int
-    rmse: float  #: RMS of held-out measured − predicted CoP (includes the noise)
-    rmse_folds: list[float]
-    noise: float  #: pooled σ̂ of the training fits
-    model_rmse: float  #: √max(rmse² − σ̂², 0): the model's share of the held-out error
-
-    def to_json(self) -> dict:
-        return {
-            "k": self.k,
-            "cop_rmse_m": self.rmse,
-            "cop_rmse_folds_m": self.rmse_folds,
-            "noise_m": self.noise,
-            "model_rmse_m": self.model_rmse,
-        }
-
-
 def folds(n: int, k: int, seed: int = 0) -> list[np.ndarray]:
     """k disjoint random index sets covering range(n)."""
     if not 2 <= k <= n:
@@ -145,7 +124,7 @@ def cross_validate(
         train = np.setdiff1d(np.arange(n), test)
         sig = None if sigma is None else np.asarray(sigma)[train]
         fit = fitter(q[train], cop[train], sig)
-        err = cop[test] - fit.predict_cop(q[test]) - np.asarray(fit.extra.get("bias", [0.0, 0.0]))
+        err = cop[test] - fit.predict_cop(q[test]) - fit.cop_bias
         sq += float(np.sum(err**2))
         per_fold.append(rms(err))
         if math.isfinite(fit.sigma_hat):

@@ -28,7 +28,7 @@ When no constraint is active, step 1 reproduces r̂ exactly along the identified
 (any r is reachable for any masses, by moving the CoMs), so the CoP predictions equal the
 least-squares ones; step 2 then fills the directions the data leave free with the CAD values.
 With noisy data, r̂ is noisy along weakly excited directions and step 1 follows it: masses can
-land far from any real robot, with CoMs on box faces (``fit.extra["active_constraints"]``).
+land far from any real robot, with CoMs on box faces (``fit.inertials.active_constraints``).
 ``prior_std`` replaces the two steps by one QP, data fit + (σ²/τ²)·(CAD deviation) — a Gaussian
 prior of relative std τ on the deviation from CAD — which gives plausible masses.
 
@@ -53,10 +53,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SescidError
-from .estimate import Fit, identify
-from .robot import Robot
-from .sesc import sesc_vectors
+from ..errors import SescidError, SolverError
+from ..model import body_hulls
+from ..robot import Robot
+from ..sesc import sesc_vectors
+from .fit import BodyInertials, Fit
+from .least_squares import identify_ls, residual_stats
 
 #: default growth of the fallback box (joint points + CAD CoM), m
 FALLBACK_MARGIN = 0.02
@@ -76,43 +78,10 @@ class Box:
     lo: np.ndarray  #: (3,) m
     hi: np.ndarray  #: (3,) m
     source: str  #: "collision", "visual", "fallback" or "given"
+    grown: bool = False  #: grown to contain the body's CAD CoM
 
 
 # --- boxes ------------------------------------------------------------------------------
-def _shape_hull(geometry, tf: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """Axis-aligned hull (lo, hi) in the body frame of a URDF shape placed by tf (4×4)."""
-    rot, org = tf[:3, :3], tf[:3, 3]
-    if geometry.box is not None and geometry.box.size is not None:
-        half = np.abs(rot) @ (0.5 * np.asarray(geometry.box.size, dtype=float))
-    elif geometry.cylinder is not None:
-        rad, length = float(geometry.cylinder.radius), float(geometry.cylinder.length)
-        ax = rot[:, 2]
-        half = np.abs(ax) * length / 2 + rad * np.sqrt(np.clip(1 - ax**2, 0, None))
-    elif geometry.sphere is not None:
-        half = np.full(3, float(geometry.sphere.radius))
-    else:  # mesh or nothing: ignored
-        return None
-    return org - half, org + half
-
-
-def _urdf_hulls(robot: Robot, urdf, kind: str) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    for link in urdf.robot.links:
-        if link.name not in robot.model.link_frames:
-            continue
-        b, x = robot.model.link_frames[link.name]
-        for shape in getattr(link, kind) or []:
-            if shape.geometry is None:
-                continue
-            org = np.eye(4) if shape.origin is None else np.asarray(shape.origin, dtype=float)
-            hull = _shape_hull(shape.geometry, x @ org)
-            if hull is None:
-                continue
-            lo, hi = out.get(b, (hull[0], hull[1]))
-            out[b] = (np.minimum(lo, hull[0]), np.maximum(hi, hull[1]))
-    return out
-
-
 def body_boxes(
     robot: Robot,
     boxes: dict[str, tuple] | None = None,
@@ -121,9 +90,11 @@ def body_boxes(
     """One box per body (in the body's frame, m) bounding where its CoM may lie.
 
     ``boxes``: ``{body name: (lo (3,), hi (3,))}`` in the frame of the body's main URDF link
-    (its name), m; they take precedence. Otherwise the URDF's collision shapes, else its visual
+    (its name), m; they take precedence. Otherwise the model's collision shapes, else its visual
     shapes, else the fallback (joint points + CAD CoM). ``box_margin`` (m) grows every box;
-    default 0 for given/shape boxes and ``FALLBACK_MARGIN`` for fallback ones.
+    default 0 for given/shape boxes and ``FALLBACK_MARGIN`` for fallback ones. A shape box that
+    does not contain the body's CAD CoM is grown to contain it (``Box.grown``): the CAD model
+    itself must be feasible.
     """
     model = robot.model
     names = robot.body_names
@@ -144,11 +115,8 @@ def body_boxes(
         corners = np.array([[(lo, hi)[k >> a & 1][a] for a in range(3)] for k in range(8)])
         pts = corners @ x[:3, :3].T + x[:3, 3]
         given[b] = (pts.min(axis=0), pts.max(axis=0))
-    from .model import _load_urdf
-
-    urdf = _load_urdf(robot.urdf_path)
-    collision = _urdf_hulls(robot, urdf, "collisions")
-    visual = _urdf_hulls(robot, urdf, "visuals")
+    collision = body_hulls(model.shapes, "collision")
+    visual = body_hulls(model.shapes, "visual")
     children = [[] for _ in names]
     for i, body in enumerate(model.bodies):
         if body.parent >= 0:
@@ -169,7 +137,13 @@ def body_boxes(
             lo, hi = pts.min(axis=0), pts.max(axis=0)
             source = "fallback"
             margin = FALLBACK_MARGIN if box_margin is None else box_margin
-        out.append(Box(lo - margin, hi + margin, source))
+        lo, hi = lo - margin, hi + margin
+        grown = False
+        if source in ("collision", "visual") and body.mass > 0:
+            new_lo, new_hi = np.minimum(lo, body.com), np.maximum(hi, body.com)
+            grown = bool(np.any(new_lo < lo) or np.any(new_hi > hi))
+            lo, hi = new_lo, new_hi
+        out.append(Box(lo, hi, source, grown))
     return out
 
 
@@ -254,12 +228,12 @@ def _solve_qp(p_mat, q_vec, a_eq, b_eq, a_in, b_in, what: str):
     sol = solver.solve()
     status = str(sol.status)
     if "Infeasible" in status:
-        raise SescidError(
+        raise SolverError(
             f"{what}: the constraints are infeasible (total mass, mass floor, CoM boxes and "
             "symmetry cannot all hold); loosen the floor or the boxes"
         )
     if "Solved" not in status:
-        raise SescidError(f"{what}: the QP solver stopped with status {status}")
+        raise SolverError(f"{what}: the QP solver stopped with status {status}")
     return np.asarray(sol.x), status, int(sol.iterations)
 
 
@@ -283,7 +257,7 @@ def consistent_from_fit(
     e.g. 0.1): instead of the two steps, one QP trading the data fit against the CAD deviation
     as a Gaussian prior of that relative mass std (CoM std ``com_scale·prior_std``), with the
     noise σ from the fit — plausible masses from noisy data, at some CoP residual. Returns a
-    new Fit (method "consistent") with r computed from the masses and CoMs (in ``fit.extra``).
+    new Fit (method "consistent") with r computed from the masses and CoMs (``fit.inertials``).
     """
     robot = fit.robot
     names = robot.body_names
@@ -423,17 +397,15 @@ def consistent_from_fit(
         pairs,
         d_rss,
         {
-            "total_mass_kg": big_m,
-            "mass_floor_kg": mass_floor,
+            "total_mass": big_m,
+            "mass_floor": mass_floor,
             "symmetric": bool(symmetric),
-            "com_scale_m": com_scale,
-            "fit_tol_m": fit_tol,
-            "solver": "clarabel",
+            "com_scale": com_scale,
+            "fit_tol": fit_tol,
             "prior_std": prior_std,
             "solver_status": statuses,
             "solver_iterations": iterations,
-            "solve_time_s": elapsed,
-            "source_method": fit.method,
+            "solve_time": elapsed,
         },
     )
 
@@ -484,12 +456,12 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
     robot = src.robot
     names = robot.body_names
     model = robot.model
-    big_m = info["total_mass_kg"]
-    bodies = {}
+    big_m = info["total_mass"]
     active = []
+    com_link = np.empty((len(names), 3))
     for i, name in enumerate(names):
         x = model.link_frames[model.bodies[i].name][1]
-        com_link = x[:3, :3].T @ (coms[i] - x[:3, 3])
+        com_link[i] = x[:3, :3].T @ (coms[i] - x[:3, 3])
         box = box_list[i]
         faces = [
             f"{'xyz'[a]}{side}"
@@ -497,18 +469,7 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
             for side, dist in (("-", coms[i][a] - box.lo[a]), ("+", box.hi[a] - coms[i][a]))
             if dist <= _ACTIVE_M and masses[i] > _ACTIVE_KG * big_m
         ]
-        on_floor = masses[i] - info["mass_floor_kg"] <= _ACTIVE_KG * big_m
-        bodies[name] = {
-            "mass_kg": float(masses[i]),
-            "com_m": coms[i].tolist(),
-            "com_link_m": com_link.tolist(),
-            "cad_mass_kg": float(model.bodies[i].mass),
-            "cad_com_m": model.bodies[i].com.tolist(),
-            "box_lo_m": box.lo.tolist(),
-            "box_hi_m": box.hi.tolist(),
-            "box_source": box.source,
-        }
-        if on_floor:
+        if masses[i] - info["mass_floor"] <= _ACTIVE_KG * big_m:
             active.append(f"{name}: mass at floor")
         active += [f"{name}: CoM on box face {f}" for f in faces]
     rms = math.sqrt(src.rms**2 + d_rss / max(src.n_rows, 1)) if math.isfinite(src.rms) else src.rms
@@ -517,36 +478,28 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
     base = [dataclasses.replace(c) for c in src.base]
     for c in base:
         c.value = float(sum(coef * r[names.index(b), "xyz".index(a)] for b, a, coef in c.terms))
-    extra = dict(info)
-    extra |= {
-        "bodies": bodies,
-        "active_constraints": active,
-        "mirror_pairs": [[names[i], names[j]] for i, j in pairs],
-        "frames": "com_m, box_*_m: body frame (sescid); com_link_m: the body's main URDF link",
-        "cov": f"covariance and base-combination std of the {src.method} fit (not re-estimated)",
-        "cop_rss_increase_m2": d_rss,
-    }
-    notes = [
-        n.replace("they are filled from the prior model", "they come from the CAD-closest masses")
-        for n in src.notes
-    ]
-    notes.append(
-        f"consistent masses/CoMs (total {big_m:.4f} kg): "
-        + (f"{len(active)} active constraints" if active else "no active constraint")
-        + f"; CoP residual RMS {rms * 1e3:.3f} mm vs {src.rms * 1e3:.3f} mm for {src.method}"
+    inertials = BodyInertials(
+        masses=np.asarray(masses, dtype=float),
+        coms=np.asarray(coms, dtype=float),
+        coms_link=com_link,
+        box_lo=np.array([b.lo for b in box_list]),
+        box_hi=np.array([b.hi for b in box_list]),
+        box_source=[b.source for b in box_list],
+        active_constraints=active,
+        mirror_pairs=[[names[i], names[j]] for i, j in pairs],
+        source_method=src.method_label,
+        source_rms=src.rms,
+        cop_rss_increase=d_rss,
+        cad_masses=robot.masses,
+        grown_boxes=[names[i] for i, b in enumerate(box_list) if b.grown],
+        **info,
     )
-    if active and info.get("prior_std") is None:
-        notes.append(
-            "active constraints: the fit's noisiest combinations pull masses/CoMs onto their "
-            "bounds; a CAD prior (prior_std, CLI --cad-std 0.05) gives plausible masses"
-        )
     return dataclasses.replace(
         src,
         r=r,
         method="consistent",
         base=base,
-        notes=notes,
-        extra=extra,
+        inertials=inertials,
         rms=rms,
         sigma_hat=sigma_hat,
         mae=math.nan,
@@ -574,7 +527,7 @@ def identify_consistent(
     The returned Fit's residual RMS/MAE are recomputed on the data.
     """
     kw = {} if rtol is None else {"rtol": rtol}
-    ls = identify(robot, q, cop, sigma=sigma, **kw)
+    ls = identify_ls(robot, q, cop, sigma=sigma, **kw)
     fit = consistent_from_fit(
         ls,
         total_mass=total_mass,
@@ -586,9 +539,7 @@ def identify_consistent(
         fit_tol=fit_tol,
         prior_std=prior_std,
     )
-    resid = np.asarray(cop, dtype=float) - fit.predict_cop(q)
-    fit.rms = float(np.sqrt(np.mean(resid**2)))
-    fit.mae = float(np.mean(np.abs(resid)))
+    residual_stats(fit, np.asarray(q, dtype=float), np.asarray(cop, dtype=float))
     dof = fit.n_rows - fit.rank
     fit.sigma_hat = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
     return fit
@@ -596,22 +547,15 @@ def identify_consistent(
 
 def fit_inertials(fit: Fit) -> tuple[np.ndarray, np.ndarray]:
     """Body masses (N,) kg and CoMs (N, 3) m (body frames) held by a consistent fit."""
-    bodies = fit.extra.get("bodies") if isinstance(fit.extra, dict) else None
-    if not bodies or any(
-        not isinstance(bodies.get(n), dict) or "mass_kg" not in bodies[n]
-        for n in fit.robot.body_names
-    ):
+    b = fit.inertials
+    if b is None:
         raise SescidError(
             f"this {fit.method} fit has no body masses; run the consistent step first "
-            "(sescid identify --method consistent, or sescid.consistent.consistent_from_fit)"
+            "(sescid.consistent_from_fit)"
         )
-    try:
-        masses = np.array([bodies[n]["mass_kg"] for n in fit.robot.body_names], dtype=float)
-        coms = np.array([bodies[n]["com_m"] for n in fit.robot.body_names], dtype=float)
-    except (TypeError, ValueError, KeyError):
-        raise SescidError("malformed body masses/CoMs in the fit's extra") from None
-    if coms.shape != (len(masses), 3) or not (
-        np.all(np.isfinite(masses)) and np.all(masses >= 0) and np.all(np.isfinite(coms))
-    ):
+    masses, coms = np.asarray(b.masses, dtype=float), np.asarray(b.coms, dtype=float)
+    if coms.shape != (len(fit.robot.body_names), 3) or masses.shape != (coms.shape[0],):
+        raise SescidError("the fit's body masses/CoMs do not match the robot's bodies")
+    if not (np.all(np.isfinite(masses)) and np.all(masses >= 0) and np.all(np.isfinite(coms))):
         raise SescidError("the fit's body masses/CoMs must be finite, masses ≥ 0 kg")
     return masses, coms

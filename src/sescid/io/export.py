@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .consistent import fit_inertials
-from .errors import SescidError
-from .io import atomic_path
+from ..errors import ModelError
+from ..estimation import Fit, fit_inertials
+from ..files import atomic_path
 
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
@@ -33,7 +33,7 @@ def _floats(text: str | None, n: int, what: str) -> np.ndarray:
     except ValueError:
         out = np.zeros(0)
     if out.shape != (n,):
-        raise SescidError(f"malformed {what}: '{text}'")
+        raise ModelError(f"malformed {what}: '{text}'")
     return out
 
 
@@ -80,7 +80,7 @@ def _write_inertial(link, mass: float, com: np.ndarray, scale: float) -> None:
         inertia.set(key, repr(float(inertia.get(key, "0")) * float(scale)))
 
 
-def export_urdf(fit, path) -> list[str]:
+def export_urdf(fit: Fit, path: str | Path) -> list[str]:
     """Write ``fit.robot``'s URDF with the fit's body masses and CoMs to ``path`` (atomically).
 
     ``fit`` must hold masses (method "consistent"; see ``sescid.consistent``). Returns
@@ -91,23 +91,23 @@ def export_urdf(fit, path) -> list[str]:
     masses, coms = fit_inertials(fit)
     robot = fit.robot
     model = robot.model
-    src = Path(robot.urdf_path)
+    src = Path(robot.model_path)
     try:
         tree = etree.parse(str(src), etree.XMLParser(remove_blank_text=False))
     except (OSError, etree.XMLSyntaxError) as exc:
-        raise SescidError(f"{src}: cannot read the URDF to export ({exc})") from None
+        raise ModelError(f"{src}: cannot read the URDF to export ({exc})") from None
     root = tree.getroot()
     links = {el.get("name"): el for el in root.findall("link")}
     for b, body in enumerate(model.bodies):
         cad = []  # (link element, mass, CoM in the link frame, link-frame transform)
         for name in body.links:
             if name not in links:
-                raise SescidError(f"{src}: link '{name}' of the fit's model is missing")
+                raise ModelError(f"{src}: link '{name}' of the fit's model is missing")
             m, c = _read_inertial(links[name])
             cad.append((links[name], m, c, model.link_frames[name][1]))
         m_old = sum(m for _, m, _, _ in cad)
         if abs(m_old - body.mass) > 1e-9 * max(1.0, body.mass):
-            raise SescidError(
+            raise ModelError(
                 f"{src}: body {body.name} weighs {m_old} kg in the URDF but {body.mass} kg in "
                 "the fit's model; the URDF changed since the fit was made"
             )
@@ -121,7 +121,7 @@ def export_urdf(fit, path) -> list[str]:
             el, _, _, x = next(item for item in cad if item[0].get("name") == body.name)
             _write_inertial(el, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), 0.0)
     note = etree.Comment(
-        f" masses and CoMs identified by sescid (method {fit.method}, "
+        f" masses and CoMs identified by sescid (method {fit.method_label}, "
         f"{fit.n_poses} poses, total mass {float(masses.sum()):.6f} kg); "
         "other elements as in the source URDF "
     )

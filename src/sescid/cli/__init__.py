@@ -1,0 +1,65 @@
+"""The ``sescid`` command line: a thin shell over the Python API.
+
+Each command parses its options, calls the API, prints. Every error a user can cause is one
+line ``sescid: error: …`` with exit code 2; outputs are written atomically. Commands live in one
+module per group (``data``, ``fit``, ``bench``) and are imported only when run, so ``--help``
+and ``--version`` answer without loading numpy or the compiled kernels.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+import click
+
+from .common import run_guarded
+
+#: command → (module, function, one-line help shown by ``sescid --help``)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "simulate": ("data", "simulate", "Simulate poses and CoP measurements (paper §3) into a CSV."),
+    "demo": ("data", "demo", "Reproduce the paper's §3 simulation study."),
+    "info": ("data", "info", "Print the robot's bodies, masses, joints and limits."),
+    "identify": ("fit", "identify", "Identify the SESC vectors from poses and CoPs."),
+    "predict": ("fit", "predict", "Predict CoP and CoM at poses from a fit."),
+    "export": ("fit", "export_cmd", "Write the model file with identified masses and CoMs."),
+    "poses": ("bench", "poses", "Plan stable, collision-free, informative bench poses."),
+    "experiment": ("bench", "experiment", "Virtual bench experiment: a raw sensor log."),
+    "fsr": ("bench", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
+    "report": ("bench", "report", "Figures and one self-contained HTML page from a fit."),
+}
+
+
+class LazyGroup(click.Group):
+    """A group whose commands are imported on first use; errors become one line."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return list(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in COMMANDS:
+            return None
+        module, attr, _ = COMMANDS[name]
+        return getattr(importlib.import_module(f"{__name__}.{module}"), attr)
+
+    def format_commands(self, ctx: click.Context, formatter: Any) -> None:
+        rows = [(name, short) for name, (_, _, short) in COMMANDS.items()]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+    def invoke(self, ctx: click.Context) -> Any:
+        return run_guarded(super().invoke, ctx)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="sescid")
+def cli() -> None:
+    """Identify a humanoid robot's mass distribution from centre-of-pressure measurements."""
+
+
+def main() -> None:
+    """Entry point of the ``sescid`` script."""
+    cli(prog_name="sescid")
+
+
+__all__ = ["COMMANDS", "cli", "main"]

@@ -1,0 +1,88 @@
+"""What every command shares: one-line errors, the robot options, unit formatting.
+
+Only click and the exception types are imported here, so ``sescid --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from typing import Any
+
+import click
+
+from ..errors import MissingExtraError, OptionError, SescidError
+
+#: CLI spelling of API parameters, for errors about options
+FLAG = {
+    "n": "--poses",
+    "count": "--count",
+    "range_deg": "--range-deg",
+    "noise": "--noise",
+    "rtol": "--rtol",
+    "seed": "--seed",
+    "method": "--method",
+}
+
+
+def fail(message: str) -> None:
+    """Print ``sescid: error: message`` and exit with code 2."""
+    click.echo(f"sescid: error: {message}", err=True)
+    sys.exit(2)
+
+
+def run_guarded(invoke: Any, ctx: click.Context) -> Any:
+    """Run a command; turn library errors, OS errors and Ctrl-C into one line and exit 2."""
+    try:
+        return invoke(ctx)
+    except OptionError as exc:
+        flag = FLAG.get(exc.name)
+        msg = str(exc)
+        fail(f"{flag}{msg[len(exc.name) :]}" if flag else msg)
+    except MissingExtraError as exc:
+        fail(str(exc))
+    except SescidError as exc:
+        fail(str(exc))
+    except OSError as exc:
+        name = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        fail(f"{name}{exc.strerror or exc}")
+    except KeyboardInterrupt:
+        click.echo("sescid: interrupted (no output written)", err=True)
+        sys.exit(130)
+    except MemoryError:
+        fail("not enough memory for this size (use fewer poses or samples)")
+
+
+def robot_options(f: Any) -> Any:
+    """--robot/--support, shared by every command that loads a robot."""
+    f = click.option(
+        "--support",
+        default=None,
+        help="Support frame the robot stands on (a sole link, foot link or site). "
+        "Default: the profile's (r_sole for op2).",
+    )(f)
+    f = click.option(
+        "--robot",
+        "robot_name",
+        default="op2",
+        show_default=True,
+        help="Embedded robot name (op2) or a URDF/MJCF file.",
+    )(f)
+    return f
+
+
+def seed_option(f: Any) -> Any:
+    """--seed: a non-negative integer."""
+    return click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))(f)
+
+
+def load(robot_name: str, support: str | None) -> Any:
+    """The robot named on the command line."""
+    from ..robot import load_robot
+
+    return load_robot(robot_name, support)
+
+
+def mm(x: float | None) -> str:
+    """A length in m shown in mm, or n/a."""
+    return "n/a" if x is None or math.isnan(x) else f"{x * 1e3:.3f} mm"

@@ -1,0 +1,398 @@
+"""Commands on fits: identify, predict, export."""
+
+from __future__ import annotations
+
+import math
+
+import click
+import numpy as np
+
+from ..errors import DataError, OptionError
+from ..estimation import (
+    DEFAULT_RTOL,
+    METHODS,
+    ConsistentOptions,
+    Fit,
+    MapOptions,
+    OnlineEstimator,
+    com_interval,
+    cross_validate,
+    joint_noise_mc,
+    load_fit,
+    make_fitter,
+    to_consistent,
+    truth_error,
+)
+from ..estimation import (
+    identify as run_identify,
+)
+from ..io import export_urdf, read_cop, read_cop_se, read_poses, read_table, write_table
+from ..progress import TerminalProgress
+from .common import load, mm, robot_options, seed_option
+
+_CONSISTENT = ConsistentOptions()
+
+
+def consistent_options(f):
+    """Options of the consistent step (identify --method consistent, export)."""
+    for opt in reversed(
+        [
+            click.option(
+                "--total-mass",
+                type=float,
+                default=_CONSISTENT.total_mass,
+                help="consistent: weighed total mass [kg] (default: the model's).",
+            ),
+            click.option(
+                "--mass-floor",
+                type=float,
+                default=_CONSISTENT.mass_floor,
+                show_default=True,
+                help="consistent: lower bound on every body's mass [kg].",
+            ),
+            click.option(
+                "--symmetric", is_flag=True, help="consistent: mirrored bodies (*_R/*_L) equal."
+            ),
+            click.option(
+                "--box-margin",
+                type=float,
+                default=_CONSISTENT.box_margin,
+                help="consistent: grow the CoM boxes by this [m] (default 0, fallback boxes 0.02).",
+            ),
+            click.option(
+                "--cad-std",
+                type=float,
+                default=_CONSISTENT.prior_std,
+                help="consistent: trade data fit against a Gaussian prior on the relative "
+                "deviation from CAD of this std (e.g. 0.05) instead of fitting the data first.",
+            ),
+        ]
+    ):
+        f = opt(f)
+    return f
+
+
+def consistent_from_flags(opts: dict) -> ConsistentOptions:
+    """The typed options from the consistent flags."""
+    return ConsistentOptions(
+        total_mass=opts["total_mass"],
+        mass_floor=opts["mass_floor"],
+        symmetric=opts["symmetric"],
+        box_margin=opts["box_margin"],
+        prior_std=opts["cad_std"],
+    )
+
+
+def _map_from_flags(opts: dict) -> MapOptions:
+    return MapOptions(
+        prior_scale=opts["prior_scale"],
+        noise=opts["noise"],
+        select=opts["prior_select"],
+        bias=opts["bias"],
+    )
+
+
+def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
+    if method not in ("ls", "map"):
+        raise OptionError("method", f"--online supports ls or map, not {method}")
+    if opts["robust"] or opts["bias"]:
+        raise OptionError("online", "--online cannot be combined with --robust or --bias")
+    prior = None
+    if method == "map":
+        if opts["prior_scale"] is None or opts["noise"] is None:
+            raise OptionError("online", "--online --method map needs --prior-scale and --noise (m)")
+        prior = opts["prior_scale"]
+    step = opts["online_step"]
+    est = OnlineEstimator(robot, prior_scale=prior, noise=opts["noise"], rtol=rtol)
+    click.echo("online: poses  rank  predicted RMS CoP std")
+    shown, marks = set(), {1, 2, 5}
+    for s in range(0, len(q), step):
+        blk = slice(s, s + step)
+        st = est.update(q[blk], cop[blk], None if sigma is None else sigma[blk])
+        first = st.converged and est.converged_at == st.n_poses
+        n = st.n_poses
+        decade = 10 ** int(math.log10(n))
+        if first or n == len(q) or (n // decade in marks and n % decade == 0 and n not in shown):
+            shown.add(n)
+            flag = "  converged" if first else ""
+            std = mm(st.cop_std) if math.isfinite(st.cop_std) else "not determined yet"
+            click.echo(f"online: {n:6d}  {st.rank:4d}  {std}{flag}")
+    at = est.converged_at
+    click.echo(
+        f"online: converged at {at} poses (RMS CoP std fell < {est.tol:.0%} over {est.window})"
+        if at
+        else "online: not converged yet (more poses would still improve the prediction)"
+    )
+    return est.fit()
+
+
+@click.command()
+@click.argument("data", type=click.Path(dir_okay=False))
+@robot_options
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Fit JSON.")
+@click.option(
+    "--weighted",
+    is_flag=True,
+    help="Weight each pose by its CoP standard error (columns cop_se_x, cop_se_y).",
+)
+@click.option(
+    "--rtol",
+    default=DEFAULT_RTOL,
+    show_default=True,
+    help="Rank tolerance on singular values, relative to the largest (0 < rtol < 1).",
+)
+@click.option(
+    "--method",
+    type=click.Choice(list(METHODS)),
+    default="ls",
+    show_default=True,
+    help="ls: least squares (undetermined directions from the model file); map: Gaussian CAD "
+    "prior; consistent: body masses and CoMs (see --total-mass …).",
+)
+@consistent_options
+@click.option(
+    "--prior-scale",
+    type=float,
+    default=MapOptions.prior_scale,
+    help="map: prior standard deviation of each SESC component [m] (default: evidence).",
+)
+@click.option(
+    "--prior-select",
+    type=click.Choice(["evidence", "cv"]),
+    default=MapOptions.select,
+    show_default=True,
+    help="map: choose the prior scale by marginal likelihood or 5-fold cross-validation.",
+)
+@click.option(
+    "--noise",
+    type=float,
+    default=MapOptions.noise,
+    help="map/online: known CoP noise standard deviation [m] (default: estimated).",
+)
+@click.option("--bias", is_flag=True, help="map: estimate constant CoP offsets b_x, b_y [m].")
+@click.option("--robust", is_flag=True, help="Huber IRLS; names the down-weighted poses.")
+@click.option(
+    "--cv",
+    type=click.IntRange(min=2),
+    default=None,
+    help="Print the k-fold cross-validated CoP error.",
+)
+@click.option(
+    "--joint-noise-deg",
+    type=click.FloatRange(min=0, min_open=True, max=90),
+    default=None,
+    help="Monte-Carlo effect of joint-angle errors of this standard deviation [degrees].",
+)
+@click.option(
+    "--mc-draws", default=30, show_default=True, type=click.IntRange(min=2), help="MC draws."
+)
+@click.option("--online", is_flag=True, help="Recursive estimator; prints the convergence.")
+@click.option(
+    "--online-step",
+    default=1,
+    show_default=True,
+    type=click.IntRange(min=1),
+    help="Poses per online update.",
+)
+@seed_option
+def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
+    """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m)."""
+    robot = load(robot_name, support)
+    table = read_table(data)
+    q = read_poses(table, robot.joint_names, robot.profile.servo)
+    cop = read_cop(table)
+    sigma = None
+    if weighted:
+        sigma = read_cop_se(table)
+        if sigma is None:
+            raise DataError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
+    if method != "map":
+        given = [
+            name
+            for name, on in (
+                ("--bias", opts["bias"]),
+                ("--prior-scale", opts["prior_scale"] is not None),
+                ("--prior-select cv", opts["prior_select"] == "cv"),
+            )
+            if on
+        ]
+        if given:
+            why = (
+                ": a constant CoP offset is confounded with the support body's x/y SESC "
+                "components, only a prior on them separates the two"
+                if opts["bias"]
+                else ""
+            )
+            raise OptionError(
+                "method", f"{', '.join(given)} needs --method map (got {method}){why}"
+            )
+    mopts = _map_from_flags(opts) if method == "map" else None
+    copts = consistent_from_flags(opts) if method == "consistent" else None
+    if method != "consistent" and copts is None and consistent_from_flags(opts) != _CONSISTENT:
+        raise OptionError("method", f"the consistent options need --method consistent ({method})")
+    fitter = make_fitter(
+        robot, method, rtol=rtol, map_options=mopts, consistent_options=copts, seed=opts["seed"]
+    )
+    if opts["online"]:
+        fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
+    else:
+        with TerminalProgress(f"identifying {len(q)} poses"):
+            fit = run_identify(
+                robot,
+                q,
+                cop,
+                method=method,
+                sigma=sigma,
+                rtol=rtol,
+                map_options=mopts,
+                consistent_options=copts,
+                robust=opts["robust"],
+                seed=opts["seed"],
+            )
+    if opts["robust"]:
+        from ..estimation import huber
+
+        plain = fitter
+
+        def fitter(qq, cc, ss):
+            return huber(plain, qq, cc, ss)
+
+    _extras(fit, fitter, q, cop, sigma, opts)
+    if "cop_x_true" in table and "cop_y_true" in table:  # simulated data: the noise-free CoP
+        truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
+        fit.truth_cop_rmse = truth_error(fit, q, truth)
+        click.echo(
+            f"truth: RMS of predicted − noise-free CoP at these poses "
+            f"{mm(fit.truth_cop_rmse)} (columns cop_x_true, cop_y_true)"
+        )
+    fit.save(out)
+    click.echo(fit.summary())
+    click.echo(f"wrote {out}")
+
+
+def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
+    """--robust / --bias / --cv / --joint-noise-deg: print and store in the fit."""
+    if fit.robust is not None:
+        low = fit.robust.downweighted
+        shown = ", ".join(f"{i} (w {w:.2f})" for i, w in low[:10])
+        more = f" and {len(low) - 10} more" if len(low) > 10 else ""
+        click.echo(f"robust: {len(low)} poses down-weighted (row index, weight): {shown}{more}")
+    if fit.cop_offset is not None:
+        (bx, by), (sx, sy) = fit.cop_offset.value, fit.cop_offset.std
+        click.echo(
+            f"bias: b_x = {mm(bx)} ± {mm(sx)}, b_y = {mm(by)} ± {mm(sy)} "
+            "(separated from the support body's r by the prior only)"
+        )
+    if opts["cv"] is not None:
+        fit.cv = cv = cross_validate(
+            fitter, q, cop, opts["cv"], sigma, opts["seed"], progress=TerminalProgress("cv fold")
+        )
+        if fit.weighted:
+            click.echo(
+                f"cv: {cv.k}-fold CoP RMSE {cv.rmse:.3f} × the given errors (noise scale "
+                f"{cv.noise:.3f}, model part {cv.model_rmse:.3f})"
+            )
+        else:
+            click.echo(
+                f"cv: {cv.k}-fold CoP RMSE {mm(cv.rmse)} (noise {mm(cv.noise)}, model part "
+                f"{mm(cv.model_rmse)})"
+            )
+    if opts["joint_noise_deg"] is not None:
+        fit.joint_noise = mc = joint_noise_mc(
+            fitter,
+            fit,
+            q,
+            cop,
+            math.radians(opts["joint_noise_deg"]),
+            sigma=sigma,
+            draws=opts["mc_draws"],
+            seed=opts["seed"],
+            progress=TerminalProgress("joint-noise draw"),
+        )
+        click.echo(
+            f"joint noise {opts['joint_noise_deg']:g}°: RMS CoP prediction std "
+            f"{mm(mc.cop_std_joint)} from joint angles vs {mm(mc.cop_std_noise)} from CoP noise "
+            f"(joint share {mc.share_joint:.0%} of the variance)"
+        )
+
+
+@click.command()
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.argument("poses", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
+@click.option(
+    "--level",
+    type=click.FloatRange(0, 1, min_open=True, max_open=True),
+    default=None,
+    help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
+    "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
+)
+def predict(fit_file, poses, out, level):
+    """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians)."""
+    fit = load_fit(fit_file)
+    q = read_poses(read_table(poses), fit.robot.joint_names, fit.robot.profile.servo)
+    cop = fit.predict_cop(q)
+    com = fit.predict_com(q)
+    std = fit.predict_std(q)
+    cols = {
+        "cop_x": cop[:, 0],
+        "cop_y": cop[:, 1],
+        "com_x": com[:, 0],
+        "com_y": com[:, 1],
+        "com_z": com[:, 2],
+        "com_x_std": std[:, 0],
+        "com_y_std": std[:, 1],
+        "com_z_std": std[:, 2],
+        "com_z_from_prior": fit.com_z_from_prior(q),
+    }
+    if level is not None:
+        iv = com_interval(fit, q, level)  # CoP = CoM x, y
+        for j, name in enumerate(("com_x", "com_y", "com_z")):
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+        for j, name in enumerate(("cop_x", "cop_y")):
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+    write_table(out, cols)
+    click.echo(f"wrote {out}: {len(q)} poses")
+
+
+def _echo_masses(fit: Fit) -> None:
+    b = fit.inertials
+    assert b is not None
+    click.echo(
+        f"consistent: total mass {b.total_mass:.4f} kg, "
+        f"{len(b.active_constraints)} active constraints, solver clarabel "
+        f"({b.solve_time * 1e3:.0f} ms)"
+    )
+    for c in b.active_constraints[:8]:
+        click.echo(f"  active: {c}")
+    if len(b.active_constraints) > 8:
+        click.echo(f"  … and {len(b.active_constraints) - 8} more (see the fit file)")
+
+
+@click.command("export")
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output URDF.")
+@consistent_options
+def export_cmd(fit_file, out, **opts):
+    """Write the fit's URDF with the identified masses and CoMs (inertias rescaled).
+
+    A fit without masses (e.g. least squares) first goes through the consistent step with the
+    --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
+    """
+    fit = load_fit(fit_file)
+    copts = consistent_from_flags(opts)
+    if fit.inertials is None:
+        click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
+        fit = to_consistent(fit, copts)
+        _echo_masses(fit)
+    elif copts != _CONSISTENT:
+        raise OptionError(
+            "consistent_options",
+            f"{fit_file}: this fit already holds masses; the consistent options apply only to "
+            "fits without (re-run identify --method consistent to change them)",
+        )
+    for warning in export_urdf(fit, out):
+        click.echo(f"sescid: warning: {warning}", err=True)
+    assert fit.inertials is not None
+    total = float(np.sum(fit.inertials.masses))
+    click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")

@@ -1,0 +1,84 @@
+"""Estimation: from poses and CoPs to SESC vectors, their uncertainty and physical masses.
+
+- ``identify`` (one entry, ``method`` = "ls" | "map" | "consistent", ``robust=True`` for Huber),
+  ``identify_ls`` / ``identify_map`` / ``identify_consistent``, ``identify_stream`` (chunks),
+  ``to_consistent`` (masses/CoMs from an existing fit), ``OnlineEstimator`` (pose by pose);
+- ``Fit`` and its typed records; ``save_fit`` / ``load_fit``;
+- identifiability (the rank rule, ``min_poses``), validation (intervals, cross-validation,
+  error against a known truth), the joint-noise Monte Carlo.
+"""
+
+from __future__ import annotations
+
+from .api import ConsistentOptions, MapOptions, identify, make_fitter, to_consistent
+from .consistent import body_boxes, consistent_from_fit, fit_inertials, identify_consistent
+from .fit import (
+    METHODS,
+    BodyInertials,
+    Combination,
+    CopOffset,
+    CrossValidation,
+    Fit,
+    JointNoiseEffect,
+    MapInfo,
+    OnlineInfo,
+    RobustInfo,
+)
+from .fit_json import load_fit, save_fit
+from .identifiability import DEFAULT_RTOL, identifiable_eigen, min_poses, structural_rank
+from .least_squares import identify_ls, identify_stream, solve
+from .map import identify_map
+from .normal_equations import NormalEquations, accumulate
+from .online import OnlineEstimator
+from .robust import huber, joint_noise_mc
+from .validation import (
+    Interval,
+    com_interval,
+    cop_interval,
+    cross_validate,
+    perturbed_sesc,
+    truth_error,
+)
+
+__all__ = [
+    "DEFAULT_RTOL",
+    "METHODS",
+    "BodyInertials",
+    "Combination",
+    "ConsistentOptions",
+    "CopOffset",
+    "CrossValidation",
+    "Fit",
+    "Interval",
+    "JointNoiseEffect",
+    "MapInfo",
+    "MapOptions",
+    "NormalEquations",
+    "OnlineEstimator",
+    "OnlineInfo",
+    "RobustInfo",
+    "accumulate",
+    "body_boxes",
+    "com_interval",
+    "consistent_from_fit",
+    "cop_interval",
+    "cross_validate",
+    "fit_inertials",
+    "huber",
+    "identifiable_eigen",
+    "identify",
+    "identify_consistent",
+    "identify_ls",
+    "identify_map",
+    "identify_stream",
+    "joint_noise_mc",
+    "load_fit",
+    "make_fitter",
+    "min_poses",
+    "perturbed_sesc",
+    "save_fit",
+    "solve",
+    "structural_rank",
+    "to_consistent",
+    "truth_error",
+]

@@ -1,0 +1,149 @@
+"""One entry point for every estimation method, with typed options shared by API and CLI.
+
+``identify(robot, q, cop, method="ls"|"map"|"consistent", …)`` dispatches to
+``identify_ls`` / ``identify_map`` / ``identify_consistent``; ``robust=True`` wraps the method in
+Huber IRLS. ``MapOptions`` and ``ConsistentOptions`` carry each method's parameters (their
+defaults are the API's, which the CLI shows). ``make_fitter`` gives the (q, cop, sigma) → Fit
+function that cross-validation and the Monte Carlo re-run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import OptionError
+from ..kinematics import as_poses
+from ..robot import Robot
+from .consistent import COM_SCALE, FIT_TOL, consistent_from_fit, identify_consistent
+from .fit import METHODS, Fit
+from .identifiability import DEFAULT_RTOL, check_rtol
+from .least_squares import identify_ls
+from .map import identify_map
+from .robust import HUBER_K, huber
+from .validation import Fitter
+
+
+@dataclass(frozen=True)
+class MapOptions:
+    """MAP parameters: prior scale τ and noise σ (m; None = chosen by the data), how τ is
+    chosen ("evidence" or "cv" with ``folds``), and whether a constant CoP offset is fitted."""
+
+    prior_scale: float | None = None
+    noise: float | None = None
+    select: str = "evidence"
+    folds: int = 5
+    bias: bool = False
+
+
+@dataclass(frozen=True)
+class ConsistentOptions:
+    """Consistent-mass parameters (see ``consistent_from_fit``): total mass kg (None: the
+    model's), mass floor kg, left/right symmetry, CoM-box margin m, CAD prior (relative std),
+    closest-to-CAD tuning (m), and per-body boxes {body: (lo, hi)} in m."""
+
+    total_mass: float | None = None
+    mass_floor: float = 0.0
+    symmetric: bool = False
+    box_margin: float | None = None
+    prior_std: float | None = None
+    com_scale: float = COM_SCALE
+    fit_tol: float = FIT_TOL
+    boxes: dict[str, tuple] | None = None
+
+    def kwargs(self) -> dict:
+        """Keyword arguments of ``consistent_from_fit``."""
+        return dataclasses.asdict(self)
+
+
+def _map(robot, q, cop, sigma, rtol, opts: MapOptions, seed: int) -> Fit:
+    return identify_map(
+        robot,
+        q,
+        cop,
+        sigma=sigma,
+        prior_scale=opts.prior_scale,
+        noise=opts.noise,
+        bias=opts.bias,
+        rtol=rtol,
+        select=opts.select,
+        folds=opts.folds,
+        seed=seed,
+    )
+
+
+def make_fitter(
+    robot: Robot,
+    method: str = "ls",
+    *,
+    rtol: float = DEFAULT_RTOL,
+    map_options: MapOptions | None = None,
+    consistent_options: ConsistentOptions | None = None,
+    seed: int = 0,
+) -> Fitter:
+    """A function (q, cop, sigma) → Fit that runs ``method`` with these options."""
+    if method not in METHODS:
+        raise OptionError("method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+    check_rtol(rtol)
+    mopts = map_options or MapOptions()
+    copts = consistent_options or ConsistentOptions()
+    if method != "map" and map_options is not None and map_options != MapOptions():
+        raise OptionError("map_options", f"apply to method 'map' only, not {method!r}")
+    if method != "consistent" and consistent_options is not None:
+        if consistent_options != ConsistentOptions():
+            raise OptionError(
+                "consistent_options", f"apply to method 'consistent' only, not {method!r}"
+            )
+
+    def fitter(q: np.ndarray, cop: np.ndarray, sigma: np.ndarray | None) -> Fit:
+        if method == "ls":
+            return identify_ls(robot, q, cop, sigma=sigma, rtol=rtol)
+        if method == "map":
+            return _map(robot, q, cop, sigma, rtol, mopts, seed)
+        return identify_consistent(robot, q, cop, sigma=sigma, rtol=rtol, **copts.kwargs())
+
+    return fitter
+
+
+def identify(
+    robot: Robot,
+    q: ArrayLike,
+    cop: ArrayLike,
+    *,
+    method: str = "ls",
+    sigma: ArrayLike | None = None,
+    rtol: float = DEFAULT_RTOL,
+    map_options: MapOptions | None = None,
+    consistent_options: ConsistentOptions | None = None,
+    robust: bool = False,
+    huber_k: float = HUBER_K,
+    seed: int = 0,
+) -> Fit:
+    """Identify the SESC vectors from poses q (n, nq) [rad] and CoPs (n, 2) [m].
+
+    ``method``: "ls" (least squares), "map" (Gaussian CAD prior) or "consistent" (physical
+    masses/CoMs). ``sigma``: per-pose CoP standard errors (n,) or (n, 2) m → weighted fit.
+    ``robust``: Huber IRLS around the method (threshold ``huber_k`` σ).
+    """
+    fitter = make_fitter(
+        robot,
+        method,
+        rtol=rtol,
+        map_options=map_options,
+        consistent_options=consistent_options,
+        seed=seed,
+    )
+    qq = as_poses(q, robot.nq)
+    cc = np.asarray(cop, dtype=float)
+    ss = None if sigma is None else np.asarray(sigma, dtype=float)
+    if robust:
+        return huber(fitter, qq, cc, ss, k=huber_k)
+    return fitter(qq, cc, ss)
+
+
+def to_consistent(fit: Fit, options: ConsistentOptions | None = None) -> Fit:
+    """Masses/CoMs that reproduce an existing fit's SESC vectors (``consistent_from_fit``)."""
+    return consistent_from_fit(fit, **(options or ConsistentOptions()).kwargs())

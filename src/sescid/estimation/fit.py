@@ -1,0 +1,329 @@
+"""The typed result of an identification: ``Fit`` and the records that methods attach to it.
+
+A ``Fit`` holds the identified SESC vectors ``r`` (N, 3) [m], their covariance, the identifiable
+subspace and its named base combinations, the unidentifiable directions with their reason, and
+residual statistics. What a method adds beside that is a typed record, never a free-form dict:
+``MapInfo`` (prior scale and noise, how they were chosen), ``CopOffset`` (estimated CoP bias),
+``BodyInertials`` (physically consistent masses/CoMs), ``RobustInfo`` (Huber weights),
+``CrossValidation``, ``JointNoiseEffect``, ``OnlineInfo``. The prose ``notes`` are generated from
+those fields, so nothing reads prose to decide anything.
+
+``method`` is one of ``METHODS`` ("ls", "map", "consistent"): the same words as the CLI's
+``--method`` and the fit JSON. ``method_label`` adds the modifiers ("map+huber", "online-ls").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..kinematics import as_poses, regressor
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..robot import Robot
+
+#: the estimation methods, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
+METHODS = ("ls", "map", "consistent")
+METHOD_TITLES = {
+    "ls": "least squares",
+    "map": "MAP with a CAD prior",
+    "consistent": "physically consistent masses",
+}
+AXES = "xyz"
+
+
+def _nan(x: float | None) -> float:
+    return float("nan") if x is None else float(x)
+
+
+@dataclass
+class Combination:
+    """A named linear combination of SESC components: Σ coef · r[body][axis] (m).
+
+    ``kind`` says why an unidentifiable direction is not seen (machine-readable; ``reason`` is
+    the prose): "support-vertical", "joint-axis" or "not-excited"; "" for a base combination.
+    """
+
+    terms: list[tuple[str, str, float]]  #: (body, axis, coefficient)
+    value: float = float("nan")  #: estimate, m
+    std: float = float("nan")  #: standard error, m
+    reason: str = ""
+    kind: str = ""
+
+    def label(self, digits: int = 3) -> str:
+        """``r[A].x - 0.5·r[B].y`` style text."""
+        parts = []
+        for k, (body, axis, c) in enumerate(self.terms):
+            name = f"r[{body}].{axis}"
+            if k == 0 and abs(c - 1) < 1e-12:
+                parts.append(name)
+                continue
+            sign = "-" if c < 0 else "+"
+            mag = f"{abs(c):.{digits}g}·"
+            parts.append(f"{sign} {'' if abs(abs(c) - 1) < 1e-12 else mag}{name}")
+        text = " ".join(parts)
+        return text[2:] if text.startswith("+ ") else text
+
+    def to_json(self) -> dict:
+        return {
+            "terms": [[b, a, c] for b, a, c in self.terms],
+            "label": self.label(),
+            "value": None if math.isnan(self.value) else self.value,
+            "std": None if math.isnan(self.std) else self.std,
+            "reason": self.reason,
+            "kind": self.kind,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict) -> Combination:
+        return cls(
+            terms=[(str(b), str(a), float(c)) for b, a, c in d["terms"]],
+            value=_nan(d.get("value")),
+            std=_nan(d.get("std")),
+            reason=str(d.get("reason", "")),
+            kind=str(d.get("kind", "")),
+        )
+
+
+@dataclass
+class MapInfo:
+    """How a MAP fit weighed the CAD prior N(r_prior, τ²) against the data (m)."""
+
+    prior_scale: float  #: τ, m
+    prior_scale_by: str  #: "given", "evidence" or "<k>-fold cv"
+    noise: float  #: σ, m (a dimensionless scale for a weighted fit)
+    noise_by: str  #: "given" or "evidence"
+    log_evidence: float
+    effective_parameters: float
+    cv_curve: list[list[float]] | None = None  #: [[τ/σ, held-out RMSE m], …] when chosen by CV
+    at_lower_bound: bool = False  #: evidence largest at the smallest τ searched
+
+
+@dataclass
+class CopOffset:
+    """A constant CoP offset (sensor bias) estimated beside r: value and std (2,) in m."""
+
+    value: np.ndarray
+    std: np.ndarray
+
+
+@dataclass
+class BodyInertials:
+    """Physically consistent body masses (kg) and CoMs (m, body frames) behind a fit's r."""
+
+    masses: np.ndarray  #: (N,) kg
+    coms: np.ndarray  #: (N, 3) m, sescid body frames
+    coms_link: np.ndarray  #: (N, 3) m, each body's main model link frame
+    box_lo: np.ndarray  #: (N, 3) m, CoM box used
+    box_hi: np.ndarray  #: (N, 3) m
+    box_source: list[str]
+    total_mass: float  #: kg
+    mass_floor: float  #: kg
+    symmetric: bool
+    com_scale: float  #: m
+    fit_tol: float  #: m
+    prior_std: float | None  #: relative CAD prior std (None: lexicographic)
+    active_constraints: list[str]
+    mirror_pairs: list[list[str]]
+    source_method: str  #: method of the fit the masses were made from
+    source_rms: float  #: m, CoP residual RMS of that fit
+    cop_rss_increase: float  #: m², extra CoP residual sum of squares vs that fit
+    solver_status: list[str] = field(default_factory=list)
+    solver_iterations: list[int] = field(default_factory=list)
+    solve_time: float = 0.0  #: s
+    cad_masses: np.ndarray | None = None  #: (N,) kg, the model's
+    grown_boxes: list[str] = field(default_factory=list)  #: bodies whose box was grown to CAD
+
+    def worst_mass_change(self) -> tuple[int, float] | None:
+        """(body index, relative change) of the body whose mass moved most from CAD."""
+        if self.cad_masses is None:
+            return None
+        cad = np.asarray(self.cad_masses)
+        ok = cad > 0
+        if not ok.any():
+            return None
+        rel = np.where(ok, np.abs(self.masses - cad) / np.where(ok, cad, 1.0), 0.0)
+        i = int(np.argmax(rel))
+        return i, float(rel[i])
+
+
+@dataclass
+class RobustInfo:
+    """Huber IRLS: threshold, robust scale, iterations and the down-weighted poses."""
+
+    k: float
+    scale: float  #: robust noise scale, m (dimensionless with given standard errors)
+    iterations: int
+    downweighted: list[tuple[int, float]]  #: (pose index, weight), lowest weight first
+    weighted_input: bool  #: standard errors were given (scale is then dimensionless)
+
+
+@dataclass
+class CrossValidation:
+    """k-fold cross-validated CoP error (m, or units of the given errors for weighted fits)."""
+
+    k: int
+    rmse: float  #: RMS of held-out measured − predicted CoP (includes the noise)
+    rmse_folds: list[float]
+    noise: float  #: pooled σ̂ of the training fits, in the same units as rmse
+    model_rmse: float  #: √max(rmse² − σ̂², 0): the model's share of the held-out error
+
+
+@dataclass
+class JointNoiseEffect:
+    """Monte-Carlo effect of joint-angle errors beside that of the CoP noise (all in m)."""
+
+    joint_noise_rad: float
+    draws: int
+    r_std_joint: np.ndarray  #: (N, 3) spread of r over the draws
+    cop_std_joint: float  #: RMS over reference poses of the CoP prediction spread
+    cop_std_noise: float  #: the same from the CoP noise (fit.cov)
+    share_joint: float  #: joint part of the prediction variance, var_j / (var_j + var_cop)
+
+
+@dataclass
+class OnlineInfo:
+    """Convergence history of the recursive estimator."""
+
+    window: int
+    tol: float
+    converged_at: int | None
+    cop_std: list[float]  #: predicted RMS CoP standard error after each update, m
+    n_poses: list[int]
+
+
+@dataclass
+class Fit:
+    """An identified model: SESC vectors, their uncertainty and what the data could determine."""
+
+    robot: Robot
+    r: np.ndarray  #: (N, 3) identified SESC vectors, m (undetermined directions from r_prior)
+    r_prior: np.ndarray  #: (N, 3) the prior model's SESC vectors, m
+    cov: np.ndarray  #: (3N, 3N) covariance of vec(r), m² (zero along undetermined directions)
+    basis: np.ndarray  #: (3N, p) orthonormal basis of the identifiable subspace
+    singular_values: np.ndarray  #: (3N,) √eig(ΦᵀWΦ), descending
+    rank: int
+    n_poses: int
+    n_rows: int
+    sigma_hat: float  #: residual standard deviation, m (dimensionless scale when weighted)
+    rms: float  #: residual RMS per CoP component, m (nan when unknown)
+    mae: float  #: mean absolute residual per CoP component, m (nan when unknown)
+    rtol: float
+    method: str = "ls"  #: one of METHODS
+    base: list[Combination] = field(default_factory=list)
+    unidentifiable: list[Combination] = field(default_factory=list)
+    weighted: bool = False  #: fitted with per-pose CoP standard errors (σ̂ is then a scale)
+    sigma_dof: float | None = None  #: dof of σ̂ (None: n_rows − rank; inf: σ was given)
+    map: MapInfo | None = None
+    cop_offset: CopOffset | None = None
+    inertials: BodyInertials | None = None
+    robust: RobustInfo | None = None
+    online: OnlineInfo | None = None
+    cv: CrossValidation | None = None
+    joint_noise: JointNoiseEffect | None = None
+    truth_cop_rmse: float | None = None  #: m, vs the noise-free CoP (simulated data)
+    warnings: list[str] = field(default_factory=list)  #: data-quality warnings (stored, printed)
+
+    # --- predictions ------------------------------------------------------------------
+    def predict_cop(self, q: ArrayLike) -> np.ndarray:
+        """CoP (n, 2) in m at poses q (n, nq) [rad]."""
+        return self.robot.cop(q, self.r)
+
+    def predict_com(self, q: ArrayLike) -> np.ndarray:
+        """CoM (n, 3) in m; its z partly comes from the prior (see ``com_z_from_prior``)."""
+        return self.robot.com(q, self.r)
+
+    def predict_std(self, q: ArrayLike, rows: tuple[int, ...] = (0, 1, 2)) -> np.ndarray:
+        """Standard error (n, len(rows)) in m of the predicted CoM components ``rows``.
+
+        Counts the uncertainty of the identified directions only; the prior-filled part of the
+        CoM height is taken as exact here.
+        """
+        qq = as_poses(q, self.robot.nq)
+        out = np.empty((qq.shape[0], len(rows)))
+        for s in range(0, qq.shape[0], 4096):
+            phi = regressor(self.robot.tree, qq[s : s + 4096], rows)
+            out[s : s + 4096] = np.sqrt(np.einsum("nri,ij,nrj->nr", phi, self.cov, phi))
+        return out
+
+    def com_z_from_prior(self, q: ArrayLike) -> np.ndarray:
+        """(n,) part of the predicted CoM height (m) that comes from the prior model r_prior.
+
+        The z row of the regressor has components outside the identifiable subspace; along
+        those, r̂ equals r_prior, so this part of CoM_z is the prior's, not the data's.
+        """
+        _, outside = self._z_rows(q)
+        return outside @ self.r_prior.reshape(-1)
+
+    def com_z_prior_fraction(self, q: ArrayLike) -> np.ndarray:
+        """(n,) fraction of the z regressor row's norm outside the identifiable subspace."""
+        phi_z, outside = self._z_rows(q)
+        return np.linalg.norm(outside, axis=1) / np.linalg.norm(phi_z, axis=1)
+
+    def _z_rows(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """The z regressor rows (n, 3N) and their part outside the identifiable subspace."""
+        qq = as_poses(q, self.robot.nq)
+        phi_z = regressor(self.robot.tree, qq, (2,))[:, 0, :]
+        return phi_z, phi_z - (phi_z @ self.basis) @ self.basis.T
+
+    # --- summaries --------------------------------------------------------------------
+    @property
+    def method_label(self) -> str:
+        """The method with its modifiers: "ls", "map+huber", "online-map", …"""
+        label = f"online-{self.method}" if self.online is not None else self.method
+        return f"{label}+huber" if self.robust is not None else label
+
+    @property
+    def residual_dof(self) -> float:
+        """Degrees of freedom of σ̂ (inf when σ was given or none is left)."""
+        dof = self.n_rows - self.rank if self.sigma_dof is None else self.sigma_dof
+        return float(dof) if dof > 0 else math.inf
+
+    @property
+    def r_magnitudes(self) -> np.ndarray:
+        """R_i = |r_i| (N,) in m (the paper's Fig. 3a)."""
+        return np.linalg.norm(self.r, axis=1)
+
+    @property
+    def r_std(self) -> np.ndarray:
+        """(N, 3) standard errors of r (m); 0 along directions filled from the prior."""
+        return np.sqrt(np.clip(np.diag(self.cov), 0, None)).reshape(-1, 3)
+
+    @property
+    def cop_bias(self) -> np.ndarray:
+        """(2,) estimated constant CoP offset (m); zeros when none was estimated."""
+        return np.zeros(2) if self.cop_offset is None else np.asarray(self.cop_offset.value)
+
+    @property
+    def notes(self) -> list[str]:
+        """What a reader should know about this fit, generated from its fields."""
+        from .notes import fit_notes
+
+        return fit_notes(self)
+
+    def summary(self) -> str:
+        """A few lines: method, poses, rank, residual scale, notes and warnings."""
+        scale = (
+            f"sigma_hat {self.sigma_hat:.3f} (scale of normalised residuals)"
+            if self.weighted
+            else f"sigma_hat {self.sigma_hat * 1e3:.3f} mm"
+        )
+        lines = [
+            f"{self.method_label} fit of {self.robot.name} (support {self.robot.support}): "
+            f"{self.n_poses} poses, rank {self.rank} of {self.r.size}",
+            f"  {scale}, residual RMS {self.rms * 1e3:.3f} mm"
+            + ("" if math.isnan(self.mae) else f", MAE {self.mae * 1e3:.3f} mm"),
+        ]
+        lines += [f"  note: {n}" for n in self.notes]
+        lines += [f"  warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def save(self, path: Any) -> None:
+        """Write the fit as JSON (format ``sescid-fit/2``, see ``sescid.estimation.fit_json``)."""
+        from .fit_json import save_fit
+
+        save_fit(self, path)

@@ -1,0 +1,278 @@
+"""The fit file: a ``Fit`` as JSON (``"format": "sescid-fit/2"``), written atomically.
+
+Keys: ``robot`` {``source`` (embedded name or model file path), ``name``, ``support``,
+``joint_names``, ``body_names``, ``total_mass`` [kg]}, ``method`` ("ls", "map", "consistent"),
+``method_label``, ``rank``, ``n_poses``, ``n_rows``, ``rtol``, ``sigma_hat``/``rms``/``mae`` [m],
+``weighted``, ``sigma_dof``, ``r`` and ``r_prior`` {body: [x, y, z] m, body frame}, ``r_std``,
+``cov`` (3N × 3N, m², body-major then x, y, z), ``basis`` (3N × rank), ``singular_values``,
+``base_combinations`` and ``unidentifiable`` (lists of {terms [[body, axis, coef]], label, value,
+std, reason, kind}), ``notes`` (generated, for reading), ``warnings``, and one object per typed
+record that is present: ``map``, ``cop_offset``, ``inertials``, ``robust``, ``online``, ``cv``,
+``joint_noise``, ``truth_cop_rmse``. Lengths in m, masses in kg, angles in rad.
+Version 1 files (``sescid-fit/1``, method-specific results in a free ``extra`` object) are read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import DataError, SescidError
+from ..files import atomic_open, read_json
+from ..robot import load_robot
+from .fit import (
+    BodyInertials,
+    Combination,
+    CopOffset,
+    CrossValidation,
+    Fit,
+    JointNoiseEffect,
+    MapInfo,
+    OnlineInfo,
+    RobustInfo,
+)
+
+FIT_FORMAT = "sescid-fit/2"
+FIT_FORMAT_V1 = "sescid-fit/1"
+_RECORDS: dict[str, type] = {
+    "map": MapInfo,
+    "cop_offset": CopOffset,
+    "inertials": BodyInertials,
+    "robust": RobustInfo,
+    "online": OnlineInfo,
+    "cv": CrossValidation,
+    "joint_noise": JointNoiseEffect,
+}
+
+
+def _plain(x: Any) -> Any:
+    """JSON-ready copy: arrays → lists, non-finite floats → None."""
+    if isinstance(x, np.ndarray):
+        return _plain(x.tolist())
+    if isinstance(x, list | tuple):
+        return [_plain(v) for v in x]
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, float | np.floating):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def _record_to_json(rec: Any) -> dict:
+    return {f.name: _plain(getattr(rec, f.name)) for f in dataclasses.fields(rec)}
+
+
+def _record_from_json(cls: type, d: dict, where: str) -> Any:
+    kw = {}
+    for f in dataclasses.fields(cls):
+        if f.name not in d:
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                raise DataError(f"{where}: missing field '{f.name}'")
+            continue
+        v = d[f.name]
+        kind = str(f.type)
+        if "np.ndarray" in kind and v is not None:
+            v = np.array(v, dtype=float)
+        elif kind.startswith("float") and v is None and "None" not in kind:
+            v = math.nan
+        elif f.name == "downweighted":
+            v = [(int(i), float(w)) for i, w in v]
+        kw[f.name] = v
+    return cls(**kw)
+
+
+def fit_to_json(fit: Fit) -> dict:
+    """The fit file's content as a JSON-ready dict."""
+    robot = fit.robot
+    bodies = robot.body_names
+    out: dict[str, Any] = {
+        "format": FIT_FORMAT,
+        "robot": {
+            "source": robot.source,
+            "name": robot.name,
+            "support": robot.support,
+            "joint_names": robot.joint_names,
+            "body_names": bodies,
+            "total_mass": robot.total_mass,
+        },
+        "method": fit.method,
+        "method_label": fit.method_label,
+        "rank": fit.rank,
+        "n_poses": fit.n_poses,
+        "n_rows": fit.n_rows,
+        "rtol": fit.rtol,
+        "sigma_hat": _plain(fit.sigma_hat),
+        "rms": _plain(fit.rms),
+        "mae": _plain(fit.mae),
+        "weighted": fit.weighted,
+        "sigma_dof": _plain(fit.sigma_dof) if fit.sigma_dof != math.inf else "inf",
+        "units": "m (r, r_std, sigma_hat, rms, mae), m^2 (cov), kg (masses)",
+        "r": {b: fit.r[i].tolist() for i, b in enumerate(bodies)},
+        "r_prior": {b: fit.r_prior[i].tolist() for i, b in enumerate(bodies)},
+        "r_std": {b: np.nan_to_num(fit.r_std[i]).tolist() for i, b in enumerate(bodies)},
+        "cov": np.nan_to_num(fit.cov).tolist(),
+        "basis": fit.basis.tolist(),
+        "singular_values": fit.singular_values.tolist(),
+        "base_combinations": [c.to_json() for c in fit.base],
+        "unidentifiable": [c.to_json() for c in fit.unidentifiable],
+        "notes": fit.notes,
+        "warnings": list(fit.warnings),
+    }
+    for key in _RECORDS:
+        rec = getattr(fit, key)
+        if rec is not None:
+            out[key] = _record_to_json(rec)
+    if fit.truth_cop_rmse is not None:
+        out["truth_cop_rmse"] = fit.truth_cop_rmse
+    return out
+
+
+def save_fit(fit: Fit, path: str | Path) -> None:
+    """Write a fit as JSON, atomically."""
+    with atomic_open(path, "w") as fh:
+        json.dump(fit_to_json(fit), fh, indent=1, allow_nan=False)
+        fh.write("\n")
+
+
+def _v1_records(extra: dict, method: str) -> dict[str, Any]:
+    """Typed records from a version-1 ``extra`` object."""
+    out: dict[str, Any] = {"weighted": bool(extra.get("weighted", False))}
+    if "dof" in extra:
+        out["sigma_dof"] = math.inf if extra["dof"] is None else float(extra["dof"])
+    if "prior_scale_m" in extra:
+        out["map"] = MapInfo(
+            prior_scale=float(extra["prior_scale_m"]),
+            prior_scale_by=str(extra.get("prior_scale_chosen_by", "given")),
+            noise=float(extra.get("noise_m", math.nan)),
+            noise_by=str(extra.get("noise_chosen_by", "given")),
+            log_evidence=float(extra.get("log_evidence", math.nan)),
+            effective_parameters=float(extra.get("effective_parameters", math.nan)),
+            cv_curve=extra.get("cv_curve"),
+        )
+    if "bias" in extra:
+        out["cop_offset"] = CopOffset(
+            np.array(extra["bias"], float), np.array(extra.get("bias_std", [0, 0]), float)
+        )
+    if "robust" in extra:
+        r = extra["robust"]
+        out["robust"] = RobustInfo(
+            k=float(r["k"]),
+            scale=float(r["scale_m"]),
+            iterations=int(r["iterations"]),
+            downweighted=[(int(i), float(w)) for i, w in r["downweighted"]],
+            weighted_input=bool(extra.get("weighted", False)),
+        )
+    if "bodies" in extra:
+        names = list(extra["bodies"])
+        rows = [extra["bodies"][n] for n in names]
+        out["inertials"] = BodyInertials(
+            masses=np.array([b["mass_kg"] for b in rows], float),
+            coms=np.array([b["com_m"] for b in rows], float),
+            coms_link=np.array([b.get("com_link_m", b["com_m"]) for b in rows], float),
+            box_lo=np.array([b.get("box_lo_m", [-np.inf] * 3) for b in rows], float),
+            box_hi=np.array([b.get("box_hi_m", [np.inf] * 3) for b in rows], float),
+            box_source=[str(b.get("box_source", "")) for b in rows],
+            total_mass=float(extra.get("total_mass_kg", sum(b["mass_kg"] for b in rows))),
+            mass_floor=float(extra.get("mass_floor_kg", 0.0)),
+            symmetric=bool(extra.get("symmetric", False)),
+            com_scale=float(extra.get("com_scale_m", math.nan)),
+            fit_tol=float(extra.get("fit_tol_m", math.nan)),
+            prior_std=extra.get("prior_std"),
+            active_constraints=list(extra.get("active_constraints", [])),
+            mirror_pairs=list(extra.get("mirror_pairs", [])),
+            source_method=str(extra.get("source_method", method)),
+            source_rms=math.nan,
+            cop_rss_increase=float(extra.get("cop_rss_increase_m2", 0.0)),
+            cad_masses=np.array([b.get("cad_mass_kg", math.nan) for b in rows], float),
+        )
+    if "cv" in extra:
+        c = extra["cv"]
+        out["cv"] = CrossValidation(
+            int(c["k"]), c["cop_rmse_m"], c["cop_rmse_folds_m"], c["noise_m"], c["model_rmse_m"]
+        )
+    if "truth_cop_rmse_m" in extra:
+        out["truth_cop_rmse"] = float(extra["truth_cop_rmse_m"])
+    return out
+
+
+def _v1_method(method: str) -> str:
+    base = method.split("+")[0].removeprefix("online-")
+    return {"least-squares": "ls"}.get(base, base)
+
+
+def _matrix(data: dict, key: str, shape: tuple[int, ...], path: Path) -> np.ndarray:
+    arr = np.array(data[key], dtype=float)
+    if arr.shape != shape:
+        raise DataError(f"{path}: field '{key}' has shape {arr.shape}, expected {shape}")
+    if not np.all(np.isfinite(arr)):
+        raise DataError(f"{path}: field '{key}' has non-finite values")
+    return arr
+
+
+def load_fit(path: str | Path) -> Fit:
+    """Read a fit written by ``Fit.save`` (versions 1 and 2); reloads its robot."""
+    path = Path(path)
+    data = read_json(path, (FIT_FORMAT_V1, FIT_FORMAT), "a sescid fit")
+    v1 = data["format"] == FIT_FORMAT_V1
+    try:
+        meta = data["robot"]
+        robot = load_robot(meta["source"], meta["support"])
+        if robot.body_names != meta["body_names"] or robot.joint_names != meta["joint_names"]:
+            raise DataError(
+                f"{path}: the robot '{meta['source']}' no longer has the bodies/joints this "
+                "fit was made for"
+            )
+        bodies = robot.body_names
+        n = 3 * len(bodies)
+        r = _matrix({"r": [data["r"][b] for b in bodies]}, "r", (len(bodies), 3), path)
+        r_prior = _matrix(
+            {"r_prior": [data["r_prior"][b] for b in bodies]}, "r_prior", (len(bodies), 3), path
+        )
+        rank = int(data["rank"])
+        nan = float("nan")
+        fields: dict[str, Any] = {}
+        if v1:
+            method = _v1_method(str(data["method"]))
+            fields = _v1_records(dict(data.get("extra") or {}), method)
+        else:
+            method = str(data["method"])
+            fields["weighted"] = bool(data.get("weighted", False))
+            dof = data.get("sigma_dof")
+            fields["sigma_dof"] = math.inf if dof == "inf" else (None if dof is None else dof)
+            fields["warnings"] = [str(w) for w in data.get("warnings", [])]
+            for key, cls in _RECORDS.items():
+                if data.get(key) is not None:
+                    fields[key] = _record_from_json(cls, data[key], f"{path}: field '{key}'")
+            if data.get("truth_cop_rmse") is not None:
+                fields["truth_cop_rmse"] = float(data["truth_cop_rmse"])
+        fit = Fit(
+            robot=robot,
+            r=r,
+            r_prior=r_prior,
+            cov=_matrix(data, "cov", (n, n), path),
+            basis=_matrix(data, "basis", (n, rank), path) if rank else np.zeros((n, 0)),
+            singular_values=_matrix(data, "singular_values", (n,), path),
+            rank=rank,
+            n_poses=int(data["n_poses"]),
+            n_rows=int(data["n_rows"]),
+            sigma_hat=nan if data["sigma_hat"] is None else float(data["sigma_hat"]),
+            rms=nan if data["rms"] is None else float(data["rms"]),
+            mae=nan if data["mae"] is None else float(data["mae"]),
+            rtol=float(data["rtol"]),
+            method=method,
+            base=[Combination.from_json(c) for c in data["base_combinations"]],
+            unidentifiable=[Combination.from_json(c) for c in data["unidentifiable"]],
+            **fields,
+        )
+    except SescidError:
+        raise
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise DataError(f"{path}: malformed fit file ({exc.__class__.__name__}: {exc})") from None
+    return fit

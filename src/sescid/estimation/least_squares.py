@@ -1,0 +1,143 @@
+"""Least-squares identification of the SESC vectors from CoP measurements.
+
+Each pose gives two equations ``cop − d_xy = Φ_xy(q) · vec(r)``. The regressor is rank deficient
+(the OP2's has rank 42 of 63): the fit determines ``r`` only up to its null space. sescid solves
+the least-squares problem in the eigenbasis of the normal matrix ``A = ΦᵀΦ`` and fills the
+undetermined directions from the prior model (the model file's own SESC vectors ``r0``):
+
+    r̂ = r0 + V_p Λ_p⁻¹ V_pᵀ (Φᵀy − A r0)
+
+— the least-squares solution closest to ``r0``. CoP predictions do not depend on that choice;
+CoM height does (partly), and the fit says how much. Rank: see ``identifiability``.
+
+The normal equations are accumulated block by block, so a stream of chunks (``identify_stream``)
+gives the same answer as the in-memory path without storing Φ.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import DataError
+from ..kinematics import as_poses
+from ..robot import Robot
+from .fit import Fit
+from .identifiability import (
+    DEFAULT_RTOL,
+    base_combinations,
+    check_enough_poses,
+    check_rtol,
+    eigen_descending,
+    label_columns,
+    rank_of,
+    unidentifiable,
+)
+from .normal_equations import NormalEquations, accumulate, check_cop
+
+
+def solve(
+    robot: Robot,
+    ne: NormalEquations,
+    *,
+    rtol: float = DEFAULT_RTOL,
+    r_prior: np.ndarray | None = None,
+) -> Fit:
+    """Least-squares fit from accumulated normal equations (see the module docstring)."""
+    check_rtol(rtol)
+    if ne.n_poses == 0:
+        raise DataError("no poses to identify from")
+    r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
+    lam, vecs = eigen_descending(ne.ata)
+    sv = np.sqrt(np.clip(lam, 0, None))
+    p = rank_of(sv, rtol)
+    vp, lp = vecs[:, :p], lam[:p]
+    x0 = r0.reshape(-1)
+    x = x0 + vp @ ((vp.T @ (ne.atb - ne.ata @ x0)) / lp)
+    rss = max(ne.yty - 2 * x @ ne.atb + x @ ne.ata @ x, 0.0)
+    dof = ne.n_rows - p
+    sigma_hat = math.sqrt(rss / dof) if dof > 0 else float("nan")
+    cov = (vp / lp) @ vp.T * (sigma_hat**2 if dof > 0 else np.nan)
+    labels = label_columns(robot)
+    r = x.reshape(-1, 3)
+    return Fit(
+        robot=robot,
+        r=r,
+        r_prior=r0.copy(),
+        cov=cov,
+        basis=vp,
+        singular_values=sv,
+        rank=p,
+        n_poses=ne.n_poses,
+        n_rows=ne.n_rows,
+        sigma_hat=sigma_hat,
+        rms=math.sqrt(rss / ne.n_rows),
+        mae=float("nan"),
+        rtol=rtol,
+        method="ls",
+        base=base_combinations(sv, vecs, p, labels, r, np.nan_to_num(cov)),
+        unidentifiable=unidentifiable(robot, vp, labels),
+    )
+
+
+def residual_stats(fit: Fit, q: np.ndarray, cop: np.ndarray) -> None:
+    """Set ``fit.mae`` and ``fit.rms`` (m) from the data, net of any estimated CoP offset."""
+    resid = cop - fit.predict_cop(q) - fit.cop_bias
+    fit.mae = float(np.mean(np.abs(resid)))
+    fit.rms = float(np.sqrt(np.mean(resid**2)))
+
+
+def identify_ls(
+    robot: Robot,
+    q: ArrayLike,
+    cop: ArrayLike,
+    *,
+    sigma: ArrayLike | None = None,
+    rtol: float = DEFAULT_RTOL,
+    r_prior: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Fit:
+    """Least-squares SESC vectors from poses q (n, nq) [rad] and measured CoPs (n, 2) [m].
+
+    ``sigma``: optional per-pose CoP standard errors (n,) or (n, 2) [m] → weighted least squares.
+    ``r_prior``: SESC vectors that fill the undetermined directions (default: the model's).
+    """
+    qq = as_poses(q, robot.nq)
+    cc = check_cop(cop, qq.shape[0])
+    check_enough_poses(robot, qq.shape[0])
+    ne = accumulate(robot, [(qq, cc, sigma)], progress=progress)
+    fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
+    fit.weighted = sigma is not None
+    residual_stats(fit, qq, cc)
+    return fit
+
+
+def identify_stream(
+    robot: Robot,
+    chunks: Iterable[tuple],
+    *,
+    rtol: float = DEFAULT_RTOL,
+    r_prior: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Fit:
+    """Same fit as ``identify`` from an iterable of chunks ``(q, cop[, sigma])``.
+
+    Φ is never stored: memory stays at one block whatever the number of poses. The residual
+    MAE needs a second pass over the data and is left as nan; the RMS is exact.
+    """
+    weighted = False
+
+    def seen():
+        nonlocal weighted
+        for chunk in chunks:
+            weighted = weighted or (len(chunk) > 2 and chunk[2] is not None)
+            yield chunk
+
+    ne = accumulate(robot, seen(), progress=progress)
+    check_enough_poses(robot, ne.n_poses)
+    fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
+    fit.weighted = weighted
+    return fit

@@ -1,0 +1,110 @@
+"""Normal equations ΦᵀWΦ, ΦᵀWy accumulated block by block, and the data checks they need.
+
+The x/y regressor is accumulated in reduced coordinates (``Robot.reduction``: the structural
+null directions removed in closed form) and expanded exactly, so a stream of chunks gives the
+same sums as one array without storing Φ.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import DataError
+from ..kinematics import Workspace, as_poses, reduced_columns
+from ..robot import Robot
+
+#: poses per block when accumulating normal equations
+ACCUMULATE_BLOCK = 2048
+
+
+@dataclass
+class NormalEquations:
+    """Running sums of a (weighted) least-squares problem y ≈ Φ x, Φ with P columns."""
+
+    ata: np.ndarray  #: (P, P) ΦᵀWΦ
+    atb: np.ndarray  #: (P,) ΦᵀWy
+    yty: float = 0.0  #: yᵀWy
+    n_rows: int = 0
+    n_poses: int = 0
+
+    @classmethod
+    def empty(cls, n_params: int) -> NormalEquations:
+        """Zero sums for ``n_params`` unknowns."""
+        return cls(np.zeros((n_params, n_params)), np.zeros(n_params))
+
+    def add(self, phi_t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> None:
+        """Add rows given as columns: phi_t = Φᵀ (P, m), y (m,), optional weights w (m,) = 1/σ²."""
+        if w is not None:
+            sw = np.sqrt(w)
+            phi_t = phi_t * sw
+            y = y * sw
+        self.ata += phi_t @ phi_t.T
+        self.atb += phi_t @ y
+        self.yty += float(y @ y)
+        self.n_rows += phi_t.shape[1]
+
+
+def check_cop(cop: ArrayLike, n: int, what: str = "cop") -> np.ndarray:
+    """Validate CoP measurements (n, 2), finite metres."""
+    arr = np.asarray(cop, dtype=float)
+    if arr.shape != (n, 2):
+        raise DataError(f"{what}: expected shape ({n}, 2) in metres, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        row = int(np.argwhere(~np.isfinite(arr))[0, 0])
+        raise DataError(f"{what}: non-finite CoP at pose {row}")
+    return arr
+
+
+def row_weights(sigma: ArrayLike | None, n: int) -> np.ndarray | None:
+    """Per-pose CoP standard errors (n,) or (n, 2) in m → row weights (2n,) = 1/σ²."""
+    if sigma is None:
+        return None
+    s = np.asarray(sigma, dtype=float)
+    if s.ndim == 1:
+        s = np.repeat(s[:, None], 2, axis=1)
+    if s.shape != (n, 2):
+        raise DataError(f"sigma: expected shape ({n},) or ({n}, 2) in metres, got {s.shape}")
+    if not np.all(np.isfinite(s) & (s > 0)):
+        row = int(np.argwhere(~(np.isfinite(s) & (s > 0)))[0, 0])
+        raise DataError(f"sigma: standard error at pose {row} must be finite and > 0")
+    return (1.0 / s**2).reshape(-1)
+
+
+def accumulate(
+    robot: Robot,
+    chunks: Iterable[tuple],
+    ne: NormalEquations | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> NormalEquations:
+    """Accumulate normal equations from chunks ``(q, cop)`` or ``(q, cop, sigma)``.
+
+    ``progress(done, total)`` is called after each block with the poses done in the chunk.
+    """
+    ne = ne or NormalEquations.empty(3 * len(robot.body_names))
+    d_xy = robot.d[:2]
+    ws = Workspace(robot.tree, ACCUMULATE_BLOCK)
+    red = robot.reduction
+    acc = NormalEquations.empty(red.g.shape[0])  # in reduced coordinates β = G r
+    for chunk in chunks:
+        q, cop = chunk[0], chunk[1]
+        sigma = chunk[2] if len(chunk) > 2 else None
+        q = as_poses(q, robot.nq)
+        cop = check_cop(cop, q.shape[0])
+        w = row_weights(sigma, q.shape[0])
+        for s in range(0, q.shape[0], ws.block):
+            blk = slice(s, s + ws.block)
+            x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
+            y = (cop[blk] - d_xy).T.reshape(-1)
+            acc.add(x, y, None if w is None else w.reshape(-1, 2)[blk].T.reshape(-1))
+            if progress is not None:
+                progress(min(s + ws.block, q.shape[0]), q.shape[0])
+        ne.n_poses += q.shape[0]
+    ne.ata += red.g.T @ acc.ata @ red.g
+    ne.atb += red.g.T @ acc.atb
+    ne.yty += acc.yty
+    ne.n_rows += acc.n_rows
+    return ne

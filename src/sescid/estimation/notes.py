@@ -1,0 +1,88 @@
+"""The prose notes of a fit, generated from its typed fields (never parsed back)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .fit import Fit
+
+
+def fit_notes(fit: Fit) -> list[str]:
+    """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
+    notes: list[str] = []
+    n_par = fit.r.size
+    if fit.method == "ls" or (fit.method == "consistent" and fit.map is None):
+        if fit.n_rows - fit.rank <= 0:
+            notes.append(
+                f"{fit.n_poses} poses give {fit.n_rows} equations for {fit.rank} identifiable "
+                "combinations: no residual left to estimate the noise "
+                f"(use ≥ {math.ceil(fit.rank / 2) + 1} poses)"
+            )
+        filled = (
+            "they come from the CAD-closest masses"
+            if fit.method == "consistent"
+            else "they are filled from the prior model"
+        )
+        notes.append(
+            f"{len(fit.unidentifiable)} of {n_par} directions are not determined by the data; "
+            f"{filled} (CoP predictions do not depend on them, CoM height partly does)"
+        )
+    if fit.weighted:
+        notes.append(
+            "weighted by the given CoP standard errors: sigma_hat is the dimensionless scale "
+            "of the normalised residuals (≈ 1 when the standard errors are right)"
+        )
+    if fit.map is not None:
+        m = fit.map
+        notes.append(
+            f"MAP with a Gaussian prior N(CAD, ({m.prior_scale * 1e3:.3g} mm)²) on each SESC "
+            f"component ({m.prior_scale_by}); {len(fit.unidentifiable)} directions the data "
+            "cannot see keep the prior's value and uncertainty (included in cov)"
+        )
+        if m.at_lower_bound:
+            notes.append(
+                "the evidence is largest at the smallest prior scale searched: these data cannot "
+                "detect any deviation from CAD, and the intervals (±τ) assume there is none"
+            )
+    if fit.cop_offset is not None:
+        bv, bs = fit.cop_offset.value, fit.cop_offset.std
+        notes.append(
+            f"CoP offset b = ({bv[0] * 1e3:.3f} ± {bs[0] * 1e3:.3f}, {bv[1] * 1e3:.3f} ± "
+            f"{bs[1] * 1e3:.3f}) mm: confounded with the support body's x/y SESC components, "
+            "separated only by the prior on them (±τ); predictions exclude it"
+        )
+    if fit.inertials is not None:
+        b = fit.inertials
+        active = b.active_constraints
+        notes.append(
+            f"consistent masses/CoMs (total {b.total_mass:.4f} kg): "
+            + (f"{len(active)} active constraints" if active else "no active constraint")
+            + f"; CoP residual RMS {fit.rms * 1e3:.3f} mm vs {b.source_rms * 1e3:.3f} mm for "
+            f"{b.source_method}"
+        )
+        if b.grown_boxes:
+            notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))
+        if active and b.prior_std is None:
+            notes.append(
+                "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
+                "their bounds; a CAD prior (prior_std, CLI --cad-std 0.05) gives plausible masses"
+            )
+    if fit.robust is not None:
+        r = fit.robust
+        shown = (
+            f"{r.scale:.3f} × the given errors" if r.weighted_input else f"{r.scale * 1e3:.3f} mm"
+        )
+        notes.append(
+            f"Huber IRLS (k = {r.k:g}, robust scale {shown}): {len(r.downweighted)} of "
+            f"{fit.n_poses} poses down-weighted"
+        )
+    if fit.online is not None:
+        at = fit.online.converged_at
+        notes.append(
+            "recursive estimator: "
+            + (f"converged after {at} poses" if at is not None else "not converged")
+            + f" (predicted CoP error fell < {fit.online.tol:.0%} over {fit.online.window} poses)"
+        )
+    return notes

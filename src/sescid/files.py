@@ -1,0 +1,94 @@
+"""Files written all at once or not at all, and versioned JSON read with one-line errors.
+
+``atomic_open`` / ``atomic_path`` write to a temporary file beside the target and replace it
+only when the block succeeds; ``read_json`` checks a JSON file's ``"format"`` tag.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import json
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+from .errors import DataError
+
+
+@functools.cache
+def _file_mode() -> int:
+    """Permissions of new output files: what open() would give (mkstemp alone gives 0600).
+
+    Read once, on the first write (reading the umask means setting it, so never at import).
+    """
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+@contextlib.contextmanager
+def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO[Any]]:
+    """Open a temporary file beside ``path``; it replaces ``path`` only if the block succeeds."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise DataError(f"{path}: output folder '{directory}' does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    os.chmod(tmp, _file_mode())
+    try:
+        with os.fdopen(fd, mode, **kwargs) as fh:
+            yield fh
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_path(path: str | Path) -> _AtomicPath:
+    """Context manager yielding a temporary path that replaces ``path`` on success (binary
+    writers such as matplotlib or pyarrow)."""
+    return _AtomicPath(Path(path))
+
+
+class _AtomicPath:
+    def __init__(self, path: Path):
+        self.path = path
+
+    def __enter__(self) -> Path:
+        directory = self.path.parent if str(self.path.parent) else Path(".")
+        if not directory.is_dir():
+            raise DataError(f"{self.path}: output folder '{directory}' does not exist")
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{self.path.stem}.", suffix=self.path.suffix, dir=directory
+        )
+        os.close(fd)
+        os.chmod(tmp, _file_mode())
+        self.tmp = Path(tmp)
+        return self.tmp
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            os.replace(self.tmp, self.path)
+        else:
+            with contextlib.suppress(OSError):
+                self.tmp.unlink()
+
+
+def read_json(path: str | Path, fmt: str | tuple[str, ...], what: str) -> dict:
+    """A JSON object whose ``"format"`` is ``fmt`` (or one of them); one-line errors naming the
+    file."""
+    path = Path(path)
+    fmts = (fmt,) if isinstance(fmt, str) else fmt
+    if not path.is_file():
+        raise DataError(f"{path}: file not found")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
+    if not isinstance(data, dict) or data.get("format") not in fmts:
+        raise DataError(f'{path}: not {what} (expected "format": "{fmts[-1]}")')
+    return data

@@ -1,0 +1,60 @@
+"""What the robot is: a model file (URDF, MJCF) turned into a tree of rigid bodies re-rooted at
+the support frame, with its collision/visual shapes.
+
+``load_model(path, support)`` reads either format; ``RobotModel``/``Body`` are the tree;
+``Shape`` the geometry.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from xml.etree import ElementTree
+
+from ..errors import ModelError
+from .geometry import Shape, body_hulls, shape_hull
+from .tree import Body, RobotModel, inv_transform, rot_axis
+from .urdf import build_model as build_urdf_model
+
+
+def model_format(path: Path) -> str:
+    """ "urdf" or "mjcf", from the file's root element (ModelError if it is neither)."""
+    if not path.is_file():
+        kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
+        raise ModelError(f"{path}: {kind} file not found")
+    try:
+        for _, el in ElementTree.iterparse(path, events=("start",)):
+            tag = el.tag
+            break
+        else:  # pragma: no cover - an empty document is a ParseError
+            tag = ""
+    except (ElementTree.ParseError, OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{path}: malformed model file (XML: {exc})") from None
+    if tag == "robot":
+        return "urdf"
+    if tag == "mujoco":
+        return "mjcf"
+    raise ModelError(f"{path}: root element <{tag}> is neither URDF <robot> nor MJCF <mujoco>")
+
+
+def load_model(path: str | Path, support: str) -> RobotModel:
+    """Read a URDF or MJCF file into the body tree rooted at the frame ``support``."""
+    p = Path(path)
+    if model_format(p) == "mjcf":
+        from .mjcf import build_model as build_mjcf_model
+
+        return build_mjcf_model(p, support)
+    return build_urdf_model(p, support)
+
+
+__all__ = [
+    "Body",
+    "RobotModel",
+    "Shape",
+    "body_hulls",
+    "build_urdf_model",
+    "inv_transform",
+    "load_model",
+    "model_format",
+    "rot_axis",
+    "shape_hull",
+]

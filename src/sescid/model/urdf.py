@@ -1,0 +1,338 @@
+"""URDF → ``RobotModel``: parse, check, merge fixed links, re-root at the support link.
+
+Parsing is strict XML first (ElementTree), then yourdfpy for the URDF semantics (no meshes
+loaded). Real-world quirks are accepted with a note in ``RobotModel.notes``: a ``<mimic>`` left on
+a fixed joint is ignored; a ``floating`` joint that attaches the whole robot to a world link is
+dropped (the robot is re-rooted at its support anyway). Everything else that statics cannot use
+(prismatic, planar joints; non-finite numbers; duplicate names; lower > upper) is a one-line
+``ModelError`` naming the file and the element.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree
+
+import numpy as np
+
+from ..errors import ModelError
+from .geometry import BOX, CYLINDER, MESH, SPHERE, Shape
+from .tree import Body, RobotModel, inv_transform
+
+_SUPPORTED = {"revolute", "continuous", "fixed"}
+
+
+def _check_xml(path: Path) -> ElementTree.Element:
+    if not path.is_file():
+        raise ModelError(f"{path}: URDF file not found")
+    try:  # strict XML first: yourdfpy would otherwise recover silently from broken XML
+        root = ElementTree.parse(path).getroot()
+    except (ElementTree.ParseError, OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{path}: malformed URDF (XML: {exc})") from None
+    if root.tag != "robot":
+        raise ModelError(f"{path}: malformed URDF (root element <{root.tag}>, not <robot>)")
+    for kind in ("link", "joint"):
+        seen: set[str] = set()
+        for el in root.findall(kind):
+            name = el.get("name", "")
+            if name in seen:
+                raise ModelError(f"{path}: two <{kind}> elements are named '{name}'")
+            seen.add(name)
+    return root
+
+
+def load_urdf(path: Path) -> Any:
+    """The parsed ``yourdfpy.URDF`` (no meshes loaded); ModelError on malformed files."""
+    _check_xml(path)
+    import yourdfpy  # a maintained URDF library; imported here to keep start-up light
+
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(path),
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # lxml / parser errors: one line, naming the file
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ModelError(f"{path}: malformed URDF ({msg})") from None
+    if urdf.robot is None or not urdf.robot.links:
+        raise ModelError(f"{path}: malformed URDF (no links)")
+    return urdf
+
+
+def _finite(path: Path, what: str, values: Any) -> np.ndarray:
+    arr = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{path}: {what} has a non-finite number")
+    return arr
+
+
+def _origin(path: Path, j: Any) -> np.ndarray:
+    if j.origin is None:
+        return np.eye(4)
+    return _finite(path, f"joint '{j.name}' origin", j.origin)
+
+
+def _axis(path: Path, j: Any) -> np.ndarray:
+    a = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=float)
+    norm = float(np.linalg.norm(a))
+    if not math.isfinite(norm) or norm < 1e-12:
+        raise ModelError(f"{path}: joint '{j.name}' has a zero or invalid axis")
+    return a / norm
+
+
+def _drop_floating_root(path: Path, links: dict, joints: list, notes: list[str]) -> list:
+    """Drop a floating/planar joint that hangs the whole robot from a massless world link."""
+    out = []
+    for j in joints:
+        if j.type == "floating":
+            parent = links.get(j.parent)
+            has_parent = any(k.child == j.parent for k in joints)
+            massless = parent is None or parent.inertial is None or not parent.inertial.mass
+            if not has_parent and massless:
+                notes.append(
+                    f"floating root joint '{j.name}' dropped (world link '{j.parent}' "
+                    "removed): the robot is rooted at its support instead"
+                )
+                continue
+        out.append(j)
+    return out
+
+
+def build_model(path: str | Path, support: str) -> RobotModel:
+    """Parse a URDF and build the body tree rooted at the link ``support``."""
+    path = Path(path)
+    urdf = load_urdf(path)
+    robot = urdf.robot
+    links = {lk.name: lk for lk in robot.links}
+    notes: list[str] = []
+    joints = _drop_floating_root(path, links, list(robot.joints), notes)
+    used = {j.parent for j in joints} | {j.child for j in joints}
+    if len(links) > 1:
+        links = {n: lk for n, lk in links.items() if n in used}
+    if support not in links:
+        raise ModelError(
+            f"{path}: unknown support link '{support}' (links: {', '.join(sorted(links)[:12])}"
+            + (", …)" if len(links) > 12 else ")")
+        )
+
+    child_joint = {}
+    for j in joints:
+        if j.parent not in links or j.child not in links:
+            raise ModelError(f"{path}: joint '{j.name}' names a link that does not exist")
+        if j.child in child_joint:
+            raise ModelError(f"{path}: link '{j.child}' has two parent joints")
+        child_joint[j.child] = j
+    roots = [name for name in links if name not in child_joint]
+    if len(roots) != 1:
+        raise ModelError(f"{path}: the links do not form one tree (roots: {roots})")
+
+    by_name = {j.name: j for j in joints}
+    for j in joints:
+        if j.type not in _SUPPORTED:
+            raise ModelError(
+                f"{path}: joint '{j.name}' has type '{j.type}'; only revolute, continuous and "
+                "fixed joints are supported (the SESC form needs rotations only)"
+            )
+        if j.mimic is not None and j.type == "fixed":
+            notes.append(f"fixed joint '{j.name}': its <mimic> is ignored (a fixed joint is rigid)")
+
+    # Independent joint coordinates, in URDF order; mimic joints follow their master.
+    movable = [j for j in joints if j.type != "fixed"]
+    joint_names = [j.name for j in movable if j.mimic is None]
+    col = {name: i for i, name in enumerate(joint_names)}
+    drive: dict[str, tuple[int, float, float]] = {}
+    for j in movable:
+        if j.mimic is None:
+            drive[j.name] = (col[j.name], 1.0, 0.0)
+            continue
+        master = by_name.get(j.mimic.joint)
+        if master is None:
+            raise ModelError(
+                f"{path}: joint '{j.name}' mimics '{j.mimic.joint}', which does not exist"
+            )
+        if master.type == "fixed" or master.mimic is not None:
+            raise ModelError(
+                f"{path}: joint '{j.name}' mimics '{j.mimic.joint}', which is not an "
+                "independent revolute/continuous joint"
+            )
+        mult = 1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)
+        off = 0.0 if j.mimic.offset is None else float(j.mimic.offset)
+        _finite(path, f"joint '{j.name}' mimic", [mult, off])
+        drive[j.name] = (col[master.name], mult, off)
+
+    limits = np.empty((len(joint_names), 2))
+    for name, i in col.items():
+        j = by_name[name]
+        lim = j.limit
+        if j.type == "continuous" or lim is None or lim.lower is None or lim.upper is None:
+            limits[i] = (-np.inf, np.inf)
+            continue
+        lo, hi = float(lim.lower), float(lim.upper)
+        if math.isnan(lo) or math.isnan(hi):
+            raise ModelError(f"{path}: joint '{name}' has a non-finite limit")
+        if lo > hi:
+            raise ModelError(f"{path}: joint '{name}' has lower limit {lo:g} > upper {hi:g} rad")
+        limits[i] = (lo, hi)
+
+    # Undirected adjacency between links, then an iterative walk from the support link.
+    adj: dict[str, list] = {name: [] for name in links}
+    for j in joints:
+        adj[j.parent].append(j)
+        adj[j.child].append(j)
+
+    # Each link gets: its body index and X = transform of the link's URDF frame in F_body.
+    link_frames: dict[str, tuple[int, np.ndarray]] = {support: (0, np.eye(4))}
+    rows: list[dict] = [
+        {
+            "links": [support],
+            "parent": -1,
+            "joint": None,
+            "sign": 1.0,
+            "axis": np.array([0.0, 0.0, 1.0]),
+            "C": np.eye(3),
+            "t": np.zeros(3),
+        }
+    ]
+    # Depth-first, children in URDF order, with an explicit stack (no recursion limit).
+    stack: list[tuple[str, Any, Any]] = [(support, None, iter(adj[support]))]
+    while stack:
+        link, via, todo = stack[-1]
+        j = next(todo, None)
+        if j is None:
+            stack.pop()
+            continue
+        if j is via:
+            continue
+        b, x_link = link_frames[link]
+        downward = j.parent == link
+        other = j.child if downward else j.parent
+        o = _origin(path, j)
+        if j.type == "fixed":
+            link_frames[other] = (b, x_link @ (o if downward else inv_transform(o)))
+            rows[b]["links"].append(other)
+        else:  # a movable joint starts a new body whose frame sits on the joint axis
+            if downward:  # F_new = X_link · O_j · Rot(a, q); the link frame is F_new itself
+                t_const, x_other, sign = x_link @ o, np.eye(4), 1.0
+            else:  # F_new = X_link · Rot(a, −q); the parent link frame is F_new · O_j⁻¹
+                t_const, x_other, sign = x_link, inv_transform(o), -1.0
+            rows.append(
+                {
+                    "links": [other],
+                    "parent": b,
+                    "joint": j,
+                    "sign": sign,
+                    "axis": _axis(path, j),
+                    "C": t_const[:3, :3].copy(),
+                    "t": t_const[:3, 3].copy(),
+                }
+            )
+            link_frames[other] = (len(rows) - 1, x_other)
+        stack.append((other, j, iter(adj[other])))
+
+    bodies: list[Body] = []
+    for i, row in enumerate(rows):
+        mass = 0.0
+        first = np.zeros(3)
+        for lk in row["links"]:
+            inertial = links[lk].inertial
+            if inertial is None or inertial.mass is None or inertial.mass == 0:
+                continue
+            m = float(inertial.mass)
+            if not math.isfinite(m) or m < 0:
+                raise ModelError(f"{path}: link '{lk}' has an invalid mass {inertial.mass}")
+            c_link = (
+                np.zeros(3)
+                if inertial.origin is None
+                else _finite(path, f"link '{lk}' inertial origin", inertial.origin)[:3, 3]
+            )
+            x = link_frames[lk][1]
+            first += m * (x[:3, :3] @ c_link + x[:3, 3])
+            mass += m
+        com = first / mass if mass > 0 else np.zeros(3)
+        j = row["joint"]
+        if j is None:
+            jcol, mult, off, jname = -1, 1.0, 0.0, ""
+            name = _main_link(row["links"], child_joint, support)
+        else:
+            (jcol, mult, off), jname, name = drive[j.name], j.name, row["links"][0]
+        bodies.append(
+            Body(
+                name=name,
+                links=tuple(row["links"]),
+                parent=row["parent"] if i else -1,
+                joint=jcol,
+                joint_name=jname,
+                sign=row["sign"],
+                multiplier=mult,
+                offset=off,
+                axis=row["axis"],
+                rot_const=row["C"],
+                trans_const=row["t"],
+                mass=mass,
+                com=com,
+            )
+        )
+    total = sum(b.mass for b in bodies)
+    if not total > 0:
+        raise ModelError(f"{path}: the robot has no mass (no <inertial> with mass > 0)")
+
+    # Support frame = world; the root body frame is the support link frame itself (X = I).
+    return RobotModel(
+        name=robot.name or path.stem,
+        path=path.resolve(),
+        format="urdf",
+        support=support,
+        joint_names=joint_names,
+        joint_limits=limits,
+        bodies=bodies,
+        link_frames=link_frames,
+        root_rotation=np.eye(3),
+        root_origin=np.zeros(3),
+        model_root=roots[0],
+        shapes=_shapes(path, links, link_frames),
+        notes=notes,
+    )
+
+
+def _main_link(root_links: list[str], child_joint: dict, default: str) -> str:
+    """Name the support body after its link that a movable joint (or nothing) attaches."""
+    for lk in root_links:
+        j = child_joint.get(lk)
+        if j is None or j.type != "fixed":
+            return lk
+    return default
+
+
+def _shapes(path: Path, links: dict, link_frames: dict) -> list[Shape]:
+    """Collision and visual shapes of every link, placed in their body frames."""
+    out = []
+    for name, link in links.items():
+        b, x = link_frames[name]
+        for role, items in (("collision", link.collisions), ("visual", link.visuals)):
+            for el in items or []:
+                g = el.geometry
+                if g is None:
+                    continue
+                org = np.eye(4) if el.origin is None else np.asarray(el.origin, dtype=float)
+                pose = _finite(path, f"link '{name}' {role} origin", x @ org)
+                mesh, scale = "", np.ones(3)
+                if g.box is not None and g.box.size is not None:
+                    kind, size = BOX, np.asarray(g.box.size, dtype=float)
+                elif g.cylinder is not None:
+                    kind, size = CYLINDER, np.array([g.cylinder.radius, g.cylinder.length], float)
+                elif g.sphere is not None:
+                    kind, size = SPHERE, np.array([g.sphere.radius], dtype=float)
+                elif g.mesh is not None:
+                    kind, size, mesh = MESH, np.zeros(0), str(g.mesh.filename or "")
+                    if g.mesh.scale is not None:
+                        scale = np.broadcast_to(np.asarray(g.mesh.scale, float), (3,)).copy()
+                else:
+                    continue
+                _finite(path, f"link '{name}' {role} size", size)
+                out.append(Shape(kind, role, b, name, pose, size, mesh, scale))
+    return out

@@ -1,0 +1,226 @@
+"""Figures (PNG) from a fit and data, drawn with matplotlib's object API (no pyplot, no global
+backend switch); never re-fits."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..files import atomic_path
+from ..robots import body_table
+
+
+def _figure(*args: Any, **kwargs: Any) -> tuple[Any, Any]:
+    """A figure and its axes, like ``pyplot.subplots`` but owned by no global state."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=kwargs.pop("figsize", None))
+    return fig, fig.subplots(*args, **kwargs)
+
+
+def _table(robot) -> list[dict[str, str]] | None:
+    """The profile's paper Table 1 when it names exactly the robot's bodies."""
+    rows = body_table(robot.profile)
+    if rows is None or sorted(r["link"] for r in rows) != sorted(robot.body_names):
+        return None
+    return rows
+
+
+def body_labels(robot) -> list[str]:
+    """Body labels for plots: the paper's Table 1 index where the profile has it, else names."""
+    rows = _table(robot)
+    if rows is None:
+        return list(robot.body_names)
+    index = {row["link"]: row["paper_index"] for row in rows}
+    return [f"{index[b]}" for b in robot.body_names]
+
+
+def paper_order(robot) -> np.ndarray:
+    """Body indices in the paper's Table 1 order where the profile has it (else identity)."""
+    rows = _table(robot)
+    if rows is None:
+        return np.arange(len(robot.body_names))
+    pos = {b: i for i, b in enumerate(robot.body_names)}
+    return np.array([pos[row["link"]] for row in rows])
+
+
+def plot_r_magnitudes(fit, path, title: str = "SESC vector magnitudes R_i = |r_i|") -> None:
+    """Bar chart of R_i, manufacturer model vs identified, with 1σ error bars (paper Fig. 3a)."""
+    order = paper_order(fit.robot)
+    labels = [body_labels(fit.robot)[i] for i in order]
+    r0 = np.linalg.norm(fit.r_prior, axis=1)[order] * 1e3
+    r1 = fit.r_magnitudes[order] * 1e3
+    # 1σ of |r| by linearisation: (r/|r|)ᵀ Σ_i (r/|r|)
+    std = []
+    for i in order:
+        u = fit.r[i] / max(np.linalg.norm(fit.r[i]), 1e-15)
+        blk = fit.cov[3 * i : 3 * i + 3, 3 * i : 3 * i + 3]
+        std.append(np.sqrt(max(u @ np.nan_to_num(blk) @ u, 0.0)) * 1e3)
+    x = np.arange(len(order))
+    fig, ax = _figure(figsize=(10, 4))
+    ax.bar(x - 0.2, r0, 0.4, label="manufacturer model", color="0.4")
+    ax.bar(x + 0.2, r1, 0.4, yerr=std, label="identified (±1σ)", color="tab:blue", capsize=2)
+    ax.set_xticks(x, labels, rotation=0 if fit.robot.source == "op2" else 90)
+    ax.set_xlabel("body (paper Table 1 index)" if fit.robot.source == "op2" else "body")
+    ax.set_ylabel("R_i [mm]")
+    ax.set_title(title)
+    ax.legend()
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+
+
+def plot_cop_comparison(poses_idx, measured, predicted, path, extra=None, title=None) -> None:
+    """CoP_x and CoP_y per pose: measured vs predicted curves (paper Fig. 3b / Fig. 7).
+
+    ``predicted`` and ``extra`` map a label to an (n, 2) array in metres.
+    """
+    fig, axes = _figure(2, 1, figsize=(10, 6), sharex=True)
+    styles = ["-", "--", ":", "-."]
+    for k, ax in enumerate(axes):
+        ax.plot(poses_idx, measured[:, k] * 1e3, "o-", color="tab:red", ms=3, label="measured")
+        for s, (lab, arr) in enumerate({**predicted, **(extra or {})}.items()):
+            ax.plot(poses_idx, arr[:, k] * 1e3, styles[s % 4], marker=".", label=lab)
+        ax.set_ylabel(f"CoP_{'xy'[k]} [mm]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8, ncol=2)
+    axes[-1].set_xlabel("pose")
+    if title:
+        axes[0].set_title(title)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+
+
+# --- the experiment report (paper §4: Figs. 6-8 and more) ------------------------------------
+def _save(fig, path, tight: bool = True) -> None:
+    if tight:
+        fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+
+
+def plot_com_height(idx, z_prior, z_fit, std, path, caveat: str = "", title=None) -> None:
+    """CoM height per pose: prior (manufacturer) vs identified ± 2σ band (paper Fig. 8).
+
+    ``z_prior``, ``z_fit``, ``std`` (n,) in m; ``caveat`` is printed under the curves (say how
+    much of the identified height comes from the prior).
+    """
+    fig, ax = _figure(figsize=(10, 3.8))
+    ax.plot(idx, z_prior * 1e3, "s--", color="0.2", ms=3, label="manufacturer model")
+    ax.plot(idx, z_fit * 1e3, "o-", color="tab:blue", ms=3, label="identified")
+    ax.fill_between(
+        idx,
+        (z_fit - 2 * std) * 1e3,
+        (z_fit + 2 * std) * 1e3,
+        color="tab:blue",
+        alpha=0.2,
+        label="identified ±2σ (identified directions only)",
+    )
+    ax.set_xlabel("pose")
+    ax.set_ylabel("CoM_z [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.set_title(title or "CoM height per pose (paper Fig. 8)")
+    if caveat:
+        fig.text(0.01, 0.01, caveat, fontsize=7, color="tab:orange", wrap=True)
+        fig.tight_layout(rect=(0, 0.08, 1, 1))
+    _save(fig, path, tight=not caveat)
+
+
+def plot_residuals(idx, measured, predicted: dict, path, title=None) -> None:
+    """Residuals predicted − measured CoP per pose and their histogram; (n, 2) arrays in m."""
+    fig, axes = _figure(2, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [3, 1]})
+    for k in range(2):
+        for lab, arr in predicted.items():
+            res = (arr[:, k] - measured[:, k]) * 1e3
+            axes[k, 0].plot(idx, res, ".-", ms=3, label=lab)
+            axes[k, 1].hist(res, bins=15, alpha=0.6, orientation="horizontal", label=lab)
+        axes[k, 0].axhline(0, color="k", lw=0.8)
+        axes[k, 0].set_ylabel(f"Δ CoP_{'xy'[k]} [mm]")
+        axes[k, 0].grid(alpha=0.3)
+        axes[k, 1].set_xlabel("poses")
+    axes[1, 0].set_xlabel("pose")
+    axes[0, 0].legend(fontsize=8)
+    axes[0, 0].set_title(title or "CoP residuals: predicted − measured")
+    _save(fig, path)
+
+
+def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
+    """Stick figures (x–z, support frame) of a few poses with CoM(s) and the measured CoP.
+
+    ``q`` (k, nq) rad, ``cop`` (k, 2) m, ``coms`` label → (k, 3) m.
+    """
+    _, origins = robot.forward(q)
+    parents = [b.parent for b in robot.model.bodies]
+    k = len(q)
+    fig, axes = _figure(1, k, figsize=(2.6 * k + 0.5, 4.2), sharey=True, squeeze=False)
+    colors = ["tab:blue", "0.2", "tab:green"]
+    for i, ax in enumerate(axes[0]):
+        o = origins[i] * 1e3
+        for b, p in enumerate(parents):
+            if p >= 0:
+                ax.plot([o[p, 0], o[b, 0]], [o[p, 2], o[b, 2]], "-", color="0.55", lw=2)
+        ax.plot(o[:, 0], o[:, 2], "o", color="0.35", ms=3)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.plot([-52.5, 52.5], [0, 0], "-", color="tab:brown", lw=4, alpha=0.6)
+        for c, (lab, com) in enumerate(coms.items()):
+            x, z = com[i, 0] * 1e3, com[i, 2] * 1e3
+            ax.plot([x], [z], "X", ms=9, color=colors[c % 3], label=f"CoM {lab}")
+            ax.plot([x, x], [0, z], ":", color=colors[c % 3], lw=1)
+        ax.plot([cop[i, 0] * 1e3], [0], "^", ms=9, color="tab:red", label="CoP measured")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [mm]")
+        ax.set_title(f"pose {labels[i] if labels is not None else i}", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("z [mm]")
+    axes[0, -1].legend(fontsize=7, loc="upper right")
+    _save(fig, path)
+
+
+def cop_offset_stats(measured, predicted) -> dict:
+    """Mean offset (x, y, norm) and RMS per component of predicted − measured CoP, m."""
+    d = np.asarray(predicted) - np.asarray(measured)
+    mean = d.mean(axis=0)
+    return {
+        "mean_x": float(mean[0]),
+        "mean_y": float(mean[1]),
+        "mean": float(np.hypot(mean[0], mean[1])),
+        "rms": float(np.sqrt(np.mean(d**2))),
+    }
+
+
+def r_magnitude_std(fit) -> np.ndarray:
+    """1σ of R_i = |r_i| by linearisation, m."""
+    out = []
+    for i in range(len(fit.r)):
+        u = fit.r[i] / max(np.linalg.norm(fit.r[i]), 1e-15)
+        blk = np.nan_to_num(fit.cov[3 * i : 3 * i + 3, 3 * i : 3 * i + 3])
+        out.append(np.sqrt(max(u @ blk @ u, 0.0)))
+    return np.array(out)
+
+
+def design_figure(curve: dict[str, np.ndarray], path, title: str | None = None) -> None:
+    """PNG of expected CoP error [mm] vs number of poses, D-optimal vs random."""
+    k = curve["k"]
+    fig, ax = _figure(figsize=(6.4, 4.2))
+    ax.plot(k, curve["d_optimal"] * 1e3, "o-", color="C0", label="D-optimal")
+    ax.plot(k, curve["random_median"] * 1e3, "s-", color="C1", label="random (median)")
+    ax.fill_between(
+        k,
+        curve["random_p10"] * 1e3,
+        curve["random_p90"] * 1e3,
+        color="C1",
+        alpha=0.25,
+        label="random 10–90 %",
+    )
+    ax.set_xlabel("number of poses K")
+    ax.set_ylabel("expected CoP error on fresh poses [mm]")
+    ax.set_yscale("log")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    ax.set_title(title or "Pose selection: expected noise-free CoP error")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
