@@ -6,11 +6,12 @@ against the noise-free truth of: the URDF itself, least squares, the consistent 
 CAD among the data-optimal masses), the same with left/right symmetry, and the consistent fit
 with a 5 % and a 20 % CAD prior — plus the worst relative mass error. Then it exports one fit
 to a URDF, reloads it and prints the round-trip CoP error.
-Usage: ``python examples/op2_consistent_masses.py``.
+Usage: ``python examples/op2_consistent_masses.py [--seeds 5] [--sizes 38 1000]``.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import tempfile
 from pathlib import Path
@@ -18,12 +19,10 @@ from pathlib import Path
 import numpy as np
 
 import sescid
-from sescid.estimation.consistent import consistent_from_fit
-from sescid.io.export import export_urdf
+from sescid.estimation import consistent_from_fit
 from sescid.sesc import sesc_vectors
 
 HEAVIER = {"MP_BODY": 1.03, "MP_ARM_LOW_R": 1.03, "MP_HEAD": 1.03}
-SEEDS = range(5)
 
 
 def rms(a, b) -> float:
@@ -31,6 +30,12 @@ def rms(a, b) -> float:
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--sizes", type=int, nargs=2, default=[38, 1000])
+    ap.add_argument("--fresh", type=int, default=5000)
+    args = ap.parse_args()
+    seeds = range(args.seeds)
     robot = sescid.load_robot("op2")
     bodies = [
         dataclasses.replace(b, mass=b.mass * HEAVIER.get(b.name, 1.0)) for b in robot.model.bodies
@@ -38,22 +43,23 @@ def main() -> None:
     r_true = sesc_vectors(dataclasses.replace(robot.model, bodies=bodies))
     m_true = np.array([b.mass for b in bodies])
     total = float(m_true.sum())
-    fresh = sescid.simulate(robot, 5000, noise=0.0, seed=1000, r_true=r_true)
+    fresh = sescid.simulate(robot, args.fresh, noise=0.0, seed=1000, r_true=r_true)
     methods = {
         "consistent": {},
         "consistent, symmetric": {"symmetric": True},
         "consistent, CAD prior 5 %": {"prior_std": 0.05},
         "consistent, CAD prior 20 %": {"prior_std": 0.2},
     }
-    print(f"held-out CoP RMS vs noise-free truth [mm], mean of {len(SEEDS)} seeds")
-    print(f"{'method':28s} {'n=38':>8s} {'n=1000':>8s}   max |Δm/m| (n=38, n=1000)")
+    print(f"held-out CoP RMS vs noise-free truth [mm], mean of {len(seeds)} seeds")
+    n1, n2 = args.sizes
+    print(f"{'method':28s} {f'n={n1}':>8s} {f'n={n2}':>8s}   max |Δm/m| (n={n1}, n={n2})")
     rows: dict[str, list] = {"URDF (CAD)": [], "least squares": []}
     rows |= {name: [] for name in methods}
     merr: dict[str, list] = {name: [] for name in methods}
-    for n in (38, 1000):
+    for n in args.sizes:
         err = {name: [] for name in rows}
         worst = {name: [] for name in methods}
-        for seed in SEEDS:
+        for seed in seeds:
             sim = sescid.simulate(robot, n, noise=0.00493, seed=seed, r_true=r_true)
             ls = sescid.identify(robot, sim.q, sim.cop)
             err["URDF (CAD)"].append(rms(robot.cop(fresh.q), fresh.cop_true))
@@ -61,7 +67,7 @@ def main() -> None:
             for name, kw in methods.items():
                 fit = consistent_from_fit(ls, total_mass=total, **kw)
                 err[name].append(rms(fit.predict_cop(fresh.q), fresh.cop_true))
-                m = np.array([m for m in fit.inertials.masses])
+                m = np.asarray(fit.inertials.masses)
                 worst[name].append(np.max(np.abs(m / m_true - 1)))
         for name in rows:
             rows[name].append(np.mean(err[name]) * 1e3)
@@ -72,15 +78,15 @@ def main() -> None:
         print(f"{name:28s} {e38:8.3f} {e1000:8.3f}{tail}")
 
     # Export and reload: the URDF reproduces the fit's CoP.
-    sim = sescid.simulate(robot, 1000, noise=0.00493, seed=0, r_true=r_true)
+    sim = sescid.simulate(robot, args.sizes[-1], noise=0.00493, seed=0, r_true=r_true)
     fit = consistent_from_fit(sescid.identify(robot, sim.q, sim.cop), total_mass=total)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "op2_identified.urdf"
-        export_urdf(fit, path)
+        sescid.export_urdf(fit, path)
         again = sescid.load_robot(path, support="r_sole")
-        q = sescid.simulate(robot, 10000, range_deg=90, noise=0.0, seed=5).q
+        q = sescid.simulate(robot, args.fresh, range_deg=90, noise=0.0, seed=5).q
         err = np.max(np.abs(again.cop(q) - fit.predict_cop(q)))
-    print(f"URDF round trip: max |CoP(exported URDF) − fit CoP| = {err:.2e} m over 10000 poses")
+    print(f"URDF round trip: max |CoP(exported URDF) − fit CoP| = {err:.2e} m over {len(q)} poses")
 
 
 if __name__ == "__main__":

@@ -1,17 +1,24 @@
 """The paper's §3 simulation study on the embedded OP2, through the Python API.
 
-Run: ``python examples/op2_paper_simulation.py`` (``sescid demo`` does the same with figures).
+Run: ``python examples/op2_paper_simulation.py [--poses 1000]`` (``sescid demo`` does the same
+with figures).
 """
 
 from __future__ import annotations
+
+import argparse
 
 import numpy as np
 
 import sescid
 from sescid.experiment import paper_study
 
+ap = argparse.ArgumentParser()
+ap.add_argument("--poses", type=int, default=1000)
+ap.add_argument("--fresh", type=int, default=20000, help="fresh poses for validation")
+args = ap.parse_args()
 robot = sescid.load_robot("op2", support="r_sole")
-study = paper_study(robot, n=1000, range_deg=30, noise=0.00493, seed=0)
+study = paper_study(robot, n=args.poses, range_deg=30, noise=0.00493, seed=0, n_fresh=args.fresh)
 fit = study.fit
 print(robot)
 print(fit.summary())

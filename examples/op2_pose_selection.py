@@ -17,15 +17,15 @@ from sescid.io import write_table
 from sescid.report import design_figure
 
 
-def main(out_dir: Path) -> None:
+def main(out_dir: Path, n_candidates: int = 20_000) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     robot = sescid.load_robot("op2")
-    plan = design.plan_poses(robot, count=38, select="d-optimal", seed=0, n_candidates=20_000)
+    plan = design.plan_poses(robot, count=38, select="d-optimal", seed=0, n_candidates=n_candidates)
     cand = plan.candidates
     print(f"candidates: {cand.summary()}")
     print(f"identifiable subspace p = {plan.rank}; CoP noise σ = {plan.sigma * 1e3:g} mm")
 
-    ks = [21, 25, 30, 38, 50, 60, 70, 85, 100, 150, 200]
+    ks = [k for k in (21, 25, 30, 38, 50, 60, 70, 85, 100, 150, 200) if k <= n_candidates]
     curve = design.design_curve(plan.a_pool, plan.c_test, ks, plan.sigma, seed=0)
     print(" K   D-optimal   random (median)   [expected noise-free CoP error, mm]")
     for k, d, r in zip(curve["k"], curve["d_optimal"], curve["random_median"], strict=True):
@@ -46,4 +46,7 @@ def main(out_dir: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1] if len(sys.argv) > 1 else "pose_selection_out"))
+    main(
+        Path(sys.argv[1] if len(sys.argv) > 1 else "pose_selection_out"),
+        int(sys.argv[2]) if len(sys.argv) > 2 else 20_000,
+    )

@@ -73,6 +73,7 @@ def test_a_joint_that_never_moves_is_reported(op2, rng):
     assert all(any(t[0] == "MP_HEAD" for t in c.terms) for c in extra)
 
 
+@pytest.mark.slow
 def test_predicted_standard_errors_are_calibrated(op2):
     """Monte Carlo: spread of predicted CoP over noise replicates vs Fit.predict_std."""
     q = random_poses(op2, 60, 30, 5)

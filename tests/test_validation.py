@@ -22,6 +22,7 @@ from sescid.simulation import random_poses, simulate
 SIGMA = 0.00493
 
 
+@pytest.mark.slow
 def test_least_squares_cop_interval_covers_95_percent(robot):
     """Over 500 seeded replicates (40 poses each), 95 % intervals cover ~95 % of the truths."""
     hits = []
@@ -34,6 +35,7 @@ def test_least_squares_cop_interval_covers_95_percent(robot):
     assert 0.92 <= coverage <= 0.98
 
 
+@pytest.mark.slow
 def test_map_com_interval_covers_95_percent_including_height(robot):
     """Truth drawn from the prior: MAP intervals cover the CoM x, y and z, prior part included."""
     tau = 1e-3

@@ -8,11 +8,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import OptionError
-from .robot import Robot
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .robot import Robot
 
 #: the paper's §3 settings
 PAPER_POSES = 1000

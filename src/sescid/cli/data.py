@@ -7,11 +7,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..experiment import paper_study
-from ..io import write_table
-from ..report import body_labels, paper_order, plot_cop_comparison, plot_r_magnitudes
 from ..simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
-from ..simulation import simulate as run_simulate
 from .common import load, mm, robot_options, seed_option
 
 
@@ -35,6 +31,9 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 
     Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m).
     """
+    from ..io import write_table
+    from ..simulation import simulate as run_simulate
+
     robot = load(robot_name, support)
     sim = run_simulate(robot, poses, range_deg, noise, seed, clip)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
@@ -53,6 +52,10 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 @seed_option
 def demo(robot_name, support, out_dir, poses, range_deg, noise, seed):
     """Reproduce the paper's §3 simulation study; print its numbers and write its figures."""
+    from ..experiment import paper_study
+    from ..io import write_table
+    from ..report import body_labels, paper_order, plot_cop_comparison, plot_r_magnitudes
+
     robot = load(robot_name, support)
     st = paper_study(robot, poses, range_deg, noise, seed)
     out = Path(out_dir)

@@ -1,7 +1,7 @@
 """Identify any URDF robot standing on one of its links, from simulated CoP data.
 
-Run: ``python examples/any_urdf.py ROBOT.urdf SUPPORT_LINK [--poses 2000]``, e.g. with iCub from
-the ``example-robot-data`` package: ``python examples/any_urdf.py .../icub.urdf r_sole``.
+Run: ``python examples/icub_any_urdf.py ROBOT.urdf SUPPORT_LINK [--poses 2000]``, e.g. with iCub
+from the ``example-robot-data`` package: ``python examples/icub_any_urdf.py .../icub.urdf r_sole``.
 """
 
 from __future__ import annotations
@@ -11,7 +11,6 @@ import argparse
 import numpy as np
 
 import sescid
-from sescid.estimation import identify_ls
 from sescid.simulation import simulate
 
 ap = argparse.ArgumentParser()
@@ -25,7 +24,7 @@ args = ap.parse_args()
 robot = sescid.load_robot(args.urdf, support=args.support)
 print(robot)
 sim = simulate(robot, args.poses, args.range_deg, args.noise, seed=0, clip=True)
-fit = identify_ls(robot, sim.q, sim.cop)
+fit = sescid.identify(robot, sim.q, sim.cop)
 print(fit.summary())
 reasons: dict[str, int] = {}
 for comb in fit.unidentifiable:
