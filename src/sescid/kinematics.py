@@ -50,10 +50,10 @@ class Tree:
         a2 = np.empty((n, 3, 3))
         for i, b in enumerate(model.bodies):
             x, y, z = b.axis
-            k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+            skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
             a0[i] = b.rot_const
-            a1[i] = b.rot_const @ k
-            a2[i] = b.rot_const @ k @ k
+            a1[i] = b.rot_const @ skew
+            a2[i] = b.rot_const @ skew @ skew
         ptr, ks, js, coefs = [0], [], [], []
         for i in range(n):
             for k in range(3):

@@ -95,7 +95,9 @@ class OnlineEstimator:
         return step
 
     def _ridge(self) -> float:
-        return 0.0 if self.prior_scale is None else (self.noise / self.prior_scale) ** 2
+        if self.prior_scale is None or self.noise is None:
+            return 0.0
+        return (self.noise / self.prior_scale) ** 2
 
     def _information(self) -> tuple[np.ndarray, np.ndarray]:
         lam = self._ridge()
@@ -115,6 +117,7 @@ class OnlineEstimator:
             h, _ = self._information()
             hinv = scipy.linalg.inv(h)
             rank = identifiable_eigen(ne.ata, self.rtol)[0].size if ne.n_rows else 0
+            assert self.noise is not None  # a prior needs σ (checked in __init__)
             noise = self.noise
             std = noise * math.sqrt(max(np.sum(self._g * hinv), 0.0) / 2)
         else:

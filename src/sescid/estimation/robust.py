@@ -122,13 +122,13 @@ def joint_noise_mc(
         preds.append(f.predict_cop(q_ref))
         if progress:
             progress(i + 1, draws)
-    rs, preds = np.array(rs), np.array(preds)
-    var_j = float(np.mean(np.var(preds, axis=0, ddof=1)))
+    r_draws, p_draws = np.array(rs), np.array(preds)
+    var_j = float(np.mean(np.var(p_draws, axis=0, ddof=1)))
     var_c = float(np.mean(fit.predict_std(q_ref, rows=(0, 1)) ** 2))
     return JointNoiseEffect(
         joint_noise_rad=joint_noise,
         draws=draws,
-        r_std_joint=np.std(rs, axis=0, ddof=1),
+        r_std_joint=np.std(r_draws, axis=0, ddof=1),
         cop_std_joint=math.sqrt(var_j),
         cop_std_noise=math.sqrt(var_c),
         share_joint=var_j / (var_j + var_c) if var_j + var_c > 0 else math.nan,

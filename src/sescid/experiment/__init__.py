@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from .paper_study import PaperStudy, paper_study
+from .study import PaperStudy, paper_study
 from .planning import PosePlan, candidates, plan_poses
 from .sensors import (
     REASONS,

@@ -20,15 +20,15 @@ def order_poses(q, start=None) -> np.ndarray:
     start = np.zeros(q.shape[1]) if start is None else np.asarray(start, dtype=float)
     pts = np.vstack([start[None], q])  # node 0 = start
     d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
-    path = [0]
+    seq = [0]
     free = np.ones(k + 1, dtype=bool)
     free[0] = False
     for _ in range(k):
-        dist = np.where(free, d[path[-1]], np.inf)
+        dist = np.where(free, d[seq[-1]], np.inf)
         nxt = int(np.argmin(dist))
-        path.append(nxt)
+        seq.append(nxt)
         free[nxt] = False
-    path = np.array(path)
+    path = np.array(seq)
     # 2-opt: reverse path[i..j] (1 ≤ i < j ≤ k); the open end has no edge after path[k].
     ii, jj = np.triu_indices(k + 1, k=1)
     sel = ii >= 1
