@@ -10,6 +10,7 @@ import contextlib
 import functools
 import json
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -33,6 +34,7 @@ def _file_mode() -> int:
 def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO[Any]]:
     """Open a temporary file beside ``path``; it replaces ``path`` only if the block succeeds."""
     path = Path(path)
+    path = path.resolve() if path.is_symlink() else path
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise DataError(f"{path}: output folder '{directory}' does not exist")
@@ -56,7 +58,7 @@ def atomic_path(path: str | Path) -> _AtomicPath:
 
 class _AtomicPath:
     def __init__(self, path: Path):
-        self.path = path
+        self.path = path.resolve() if path.is_symlink() else path
 
     def __enter__(self) -> Path:
         directory = self.path.parent if str(self.path.parent) else Path(".")
@@ -92,3 +94,51 @@ def read_json(path: str | Path, fmt: str | tuple[str, ...], what: str) -> dict:
     if not isinstance(data, dict) or data.get("format") not in fmts:
         raise DataError(f'{path}: not {what} (expected "format": "{fmts[-1]}")')
     return data
+
+
+def check_outputs(outputs: list[str | Path | None], inputs: list[str | Path | None]) -> None:
+    """DataError unless every output can be written without destroying anything.
+
+    An output must not be one of the inputs (same resolved path or same file), nor a directory,
+    device or FIFO, nor a write-protected file, and two outputs must differ. A symlink is written
+    through (its target is replaced, the link kept).
+    """
+    seen: dict[tuple[int, int] | Path, Path] = {}
+    ins: dict[tuple[int, int] | Path, Path] = {}
+    for p in inputs:
+        if p is not None and Path(p).exists():
+            ins[_identity(Path(p))] = Path(p)
+    for p in outputs:
+        if p is None:
+            continue
+        path = Path(p)
+        key = _identity(path)
+        if key in ins:
+            raise DataError(
+                f"{path}: this output is also an input ({ins[key]}); choose another name"
+            )
+        if key in seen:
+            raise DataError(f"{path}: given twice as an output ({seen[key]})")
+        seen[key] = path
+        if path.exists() or path.is_symlink():
+            target = path.resolve()
+            if target.is_dir():
+                raise DataError(f"{path}: is a directory, not a file to write")
+            mode = target.stat().st_mode if target.exists() else 0
+            if target.exists() and not stat.S_ISREG(mode):
+                raise DataError(f"{path}: is a device or pipe, not a regular file to write")
+            if (
+                target.exists()
+                and not os.access(target, os.W_OK)
+                or (target.exists() and not mode & 0o222)
+            ):
+                raise DataError(f"{path}: the file is write-protected")
+
+
+def _identity(path: Path) -> tuple[int, int] | Path:
+    """(device, inode) of an existing file, else its resolved path."""
+    try:
+        st = path.resolve().stat()
+    except OSError:
+        return path.resolve()
+    return (st.st_dev, st.st_ino)

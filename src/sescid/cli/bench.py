@@ -21,7 +21,7 @@ from ..experiment.planning import (
 )
 from ..experiment.planning import paper_convention as robot_paper_convention
 from ..experiment.sensors import REASONS
-from ..files import atomic_open
+from ..files import atomic_open, check_outputs
 from ..io import read_cop, read_cop_se, read_poses, read_table, write_table
 from ..progress import TerminalProgress
 from ..report import design_figure, write_report
@@ -62,6 +62,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out):
     Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m),
     n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are logged.
     """
+    check_outputs([out], [raw, poses_file, sensors_file, robot_name])
     robot = load(robot_name, support)
     config = load_sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
@@ -334,6 +335,7 @@ def poses(
     Columns: pose (id), one per joint in radians (servo convention), <joint>_deg,
     <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m).
     """
+    check_outputs([out, figure], [robot_name])
     robot = load(robot_name, support)
     need = min_poses(robot)
     if count < need:

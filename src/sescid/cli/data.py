@@ -31,9 +31,11 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 
     Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m).
     """
+    from ..files import check_outputs
     from ..io import write_table
     from ..simulation import simulate as run_simulate
 
+    check_outputs([out], [])
     robot = load(robot_name, support)
     sim = run_simulate(robot, poses, range_deg, noise, seed, clip)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}

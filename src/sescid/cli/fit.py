@@ -26,6 +26,7 @@ from ..estimation import (
 from ..estimation import (
     identify as run_identify,
 )
+from ..files import check_outputs
 from ..io import export_urdf, read_cop, read_cop_se, read_poses, read_table, write_table
 from ..progress import TerminalProgress
 from .common import load, mm, robot_options, seed_option
@@ -197,6 +198,7 @@ def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
 @seed_option
 def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
     """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m)."""
+    check_outputs([out], [data, robot_name])
     robot = load(robot_name, support)
     table = read_table(data)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
@@ -329,6 +331,7 @@ def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
 )
 def predict(fit_file, poses, out, level):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians)."""
+    check_outputs([out], [fit_file, poses])
     fit = load_fit(fit_file)
     q = read_poses(read_table(poses), fit.robot.joint_names, fit.robot.profile.servo)
     cop = fit.predict_cop(q)

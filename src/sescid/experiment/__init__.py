@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-from .study import PaperStudy, paper_study
 from .planning import PosePlan, candidates, plan_poses
 from .sensors import (
     REASONS,
@@ -17,6 +16,7 @@ from .sensors import (
     pose_list_ids,
     read_raw,
 )
+from .study import PaperStudy, paper_study
 from .virtual import (
     DEFAULT_EXTRA,
     Experiment,
