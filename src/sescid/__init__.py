@@ -10,7 +10,7 @@ package costs nothing until one is used):
   ``OnlineEstimator``, ``MapOptions``, ``ConsistentOptions``, ``Fit``, ``load_fit``, ``save_fit``;
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
-- outputs: ``export_urdf``, ``write_report``;
+- outputs: ``export_model`` (``export_urdf``, ``export_mjcf``), ``write_report``;
 - errors: ``SescidError`` and its subclasses.
 """
 
@@ -46,6 +46,8 @@ _EXPORTS: dict[str, str] = {
     "fsr": "sescid.experiment",
     "load_sensors": "sescid.experiment",
     "paper_study": "sescid.experiment",
+    "export_model": "sescid.io",
+    "export_mjcf": "sescid.io",
     "export_urdf": "sescid.io",
     "write_report": "sescid.report",
     "SescidError": "sescid.errors",
@@ -68,6 +70,8 @@ __all__ = [
     "Robot",
     "SescidError",
     "SolverError",
+    "export_mjcf",
+    "export_model",
     "export_urdf",
     "fsr",
     "identify",
@@ -129,7 +133,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         to_consistent,
     )
     from .experiment import fsr, load_sensors, measure, paper_study, plan_poses, run_experiment
-    from .io import export_urdf, read_table, write_table
+    from .io import export_mjcf, export_model, export_urdf, read_table, write_table
     from .report import write_report
     from .robot import Robot, load_robot
     from .simulation import simulate

@@ -22,6 +22,7 @@ FLAG = {
     "rtol": "--rtol",
     "seed": "--seed",
     "method": "--method",
+    "format": "--format",
 }
 
 

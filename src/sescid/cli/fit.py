@@ -27,7 +27,7 @@ from ..estimation import (
     identify as run_identify,
 )
 from ..files import check_outputs
-from ..io import export_urdf, read_cop, read_cop_se, read_poses, read_table, write_table
+from ..io import FORMATS, export_model, read_cop, read_cop_se, read_poses, read_table, write_table
 from ..progress import TerminalProgress
 from .common import load, mm, robot_options, seed_option
 
@@ -374,15 +374,24 @@ def _echo_masses(fit: Fit) -> None:
 
 @click.command("export")
 @click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output URDF.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output model file.")
+@click.option(
+    "--format",
+    "model_format",
+    type=click.Choice(FORMATS),
+    default=None,
+    help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
+)
 @consistent_options
-def export_cmd(fit_file, out, **opts):
-    """Write the fit's URDF with the identified masses and CoMs (inertias rescaled).
+def export_cmd(fit_file, out, model_format, **opts):
+    """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
 
     A fit without masses (e.g. least squares) first goes through the consistent step with the
     --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
     """
+    check_outputs([out], [fit_file])
     fit = load_fit(fit_file)
+    check_outputs([out], [fit_file, fit.robot.model_path])
     copts = consistent_from_flags(opts)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
@@ -394,7 +403,7 @@ def export_cmd(fit_file, out, **opts):
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
-    for warning in export_urdf(fit, out):
+    for warning in export_model(fit, out, model_format):
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
     total = float(np.sum(fit.inertials.masses))

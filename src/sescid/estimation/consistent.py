@@ -9,6 +9,8 @@ so "masses and CoMs whose r reproduce the data" is a convex quadratic program in
 per body) with linear constraints:
 
 - Σ m_i = M;  m_i ≥ mass_floor;
+- m_i = 0 and h_i = 0 for a frame-only body (``Body.frame_only``: a frame between two hinges of
+  one MJCF body, which the model file cannot give mass), so every fit can be exported;
 - CoM inside the body's box:  m_i·lo_i ≤ h_i ≤ m_i·hi_i  (linear in π, per axis);
 - optional left/right symmetry: mirrored bodies (``*_R``/``*_L``, ``r_*``/``l_*`` …) have equal
   masses and mirror-image CoMs at the zero pose (reflection in the sagittal plane through the
@@ -268,10 +270,12 @@ def consistent_from_fit(
         raise SescidError(f"total mass must be a positive number of kg, got {total_mass}")
     if not (math.isfinite(mass_floor) and mass_floor >= 0):
         raise SescidError(f"mass floor must be a finite mass ≥ 0 kg, got {mass_floor}")
-    if mass_floor * nb > big_m:
+    frame = np.array([b.frame_only for b in robot.model.bodies], dtype=bool)
+    n_massive = int(nb - frame.sum())
+    if mass_floor * n_massive > big_m:
         raise SescidError(
-            f"mass floor {mass_floor} kg × {nb} bodies = {mass_floor * nb:.4g} kg exceeds the "
-            f"total mass {big_m:.4g} kg"
+            f"mass floor {mass_floor} kg × {n_massive} bodies = {mass_floor * n_massive:.4g} kg "
+            f"exceeds the total mass {big_m:.4g} kg"
         )
     if not (math.isfinite(com_scale) and com_scale > 0):
         raise SescidError(f"com_scale must be a positive length in m, got {com_scale}")
@@ -314,6 +318,12 @@ def consistent_from_fit(
     row[0, :nb] = 1.0
     eq_rows.append(row)
     eq_rhs.append(np.ones(1))
+    for i in np.flatnonzero(frame):  # frame-only bodies: m_i = 0, h_i = 0
+        rows = np.zeros((4, nv))
+        rows[0, i] = 1.0
+        rows[1:, nb + 3 * i : nb + 3 * i + 3] = np.eye(3)
+        eq_rows.append(rows)
+        eq_rhs.append(np.zeros(4))
     if pairs:
         normal, offset = _mirror(robot, pairs)
         s_lin = np.eye(3) - 2 * np.outer(normal, normal)
@@ -335,7 +345,7 @@ def consistent_from_fit(
     floor_rows = np.zeros((nb, nv))
     floor_rows[:, :nb] = -np.eye(nb)
     in_rows.append(floor_rows)
-    in_rhs.append(np.full(nb, -mass_floor / big_m))
+    in_rhs.append(np.where(frame, 0.0, -mass_floor / big_m))
     for i, box in enumerate(box_list):
         for a in range(3):
             col = nb + 3 * i + a
@@ -418,7 +428,8 @@ def model_coms(robot: Robot) -> np.ndarray:
 def _tidy(x, big_m, floor, box_list, com_cad, pairs, robot):
     """Solver output → masses (kg) and CoMs (m, body frames) meeting the constraints exactly."""
     nb = len(box_list)
-    masses = np.maximum(x[:nb] * big_m, floor)
+    frame = np.array([b.frame_only for b in robot.model.bodies], dtype=bool)
+    masses = np.where(frame, 0.0, np.maximum(x[:nb] * big_m, floor))
     h = x[nb:].reshape(nb, 3) * big_m * _ELL
     lo = np.array([b.lo for b in box_list])
     hi = np.array([b.hi for b in box_list])
@@ -469,7 +480,7 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
             for side, dist in (("-", coms[i][a] - box.lo[a]), ("+", box.hi[a] - coms[i][a]))
             if dist <= _ACTIVE_M and masses[i] > _ACTIVE_KG * big_m
         ]
-        if masses[i] - info["mass_floor"] <= _ACTIVE_KG * big_m:
+        if not model.bodies[i].frame_only and masses[i] - info["mass_floor"] <= _ACTIVE_KG * big_m:
             active.append(f"{name}: mass at floor")
         active += [f"{name}: CoM on box face {f}" for f in faces]
     rms = math.sqrt(src.rms**2 + d_rss / max(src.n_rows, 1)) if math.isfinite(src.rms) else src.rms

@@ -2,7 +2,8 @@
 
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
 ``read_cop_se`` (column conventions of ``sescid.table``), ``save_fit``/``load_fit`` (the fit
-JSON), ``export_urdf`` (a URDF with identified masses and CoMs).
+JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
+``export_mjcf``).
 """
 
 from __future__ import annotations
@@ -10,14 +11,18 @@ from __future__ import annotations
 from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from ..files import atomic_open, atomic_path, read_json
 from ..table import Table, read_cop, read_cop_se, read_joint_columns, read_poses
-from .export import export_urdf
+from .export import FORMATS, export_model, export_urdf
+from .export_mjcf import export_mjcf
 from .tables import read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
+    "FORMATS",
     "Table",
     "atomic_open",
     "atomic_path",
+    "export_mjcf",
+    "export_model",
     "export_urdf",
     "load_fit",
     "read_cop",

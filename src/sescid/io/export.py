@@ -10,6 +10,9 @@ offset c − c_CAD, so the links keep their relative layout and the merged body 
 (m, c). Inertia tensors keep their orientation (``<origin rpy>``) and are scaled by the mass
 ratio: the static SESC problem does not identify them. A body whose links were all massless
 gets its mass on its main link (a new ``<inertial>`` with a zero inertia tensor if needed).
+
+``export_model`` writes the fit's model in its own format: ``export_urdf`` here, ``export_mjcf``
+(``sescid.io.export_mjcf``) for an MJCF model.
 """
 
 from __future__ import annotations
@@ -18,11 +21,40 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import ModelError, OptionError
 from ..estimation import Fit, fit_inertials
 from ..files import atomic_path
 
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+#: model formats ``export_model`` writes
+FORMATS = ("urdf", "mjcf")
+
+
+def export_model(fit: Fit, path: str | Path, format: str | None = None) -> list[str]:
+    """Write ``fit.robot``'s model file with the fit's masses and CoMs to ``path``; warnings.
+
+    ``format``: "urdf" or "mjcf" (default: the model's own, ``RobotModel.format``). Export
+    edits the model file the fit was made from, so a format other than the model's own raises
+    OptionError (no URDF ↔ MJCF conversion).
+    """
+    own = fit.robot.model.format
+    fmt = own if format is None else str(format).lower()
+    if fmt not in FORMATS:
+        raise OptionError(
+            "format", f"unknown model format '{format}' (one of {', '.join(FORMATS)})"
+        )
+    if fmt != own:
+        raise OptionError(
+            "format",
+            f"cannot write {fmt.upper()} from the {own.upper()} model {fit.robot.model_path}: "
+            "export edits the inertials of the model file the fit was made from (convert the "
+            "model first and identify on it)",
+        )
+    if fmt == "mjcf":
+        from .export_mjcf import export_mjcf
+
+        return export_mjcf(fit, path)
+    return export_urdf(fit, path)
 
 
 def _floats(text: str | None, n: int, what: str) -> np.ndarray:

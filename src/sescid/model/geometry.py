@@ -1,8 +1,8 @@
 """Collision and visual shapes of a robot model, parsed once with the model, in body frames.
 
-A ``Shape`` is a box, cylinder, sphere or mesh placed by a 4×4 transform in its *sescid body*
-frame (links welded by fixed joints share a body). Consumers: CoM boxes of the consistent-mass
-step (``shape_hull``) and self-collision capsules of pose planning.
+A ``Shape`` is a box, cylinder, capsule (MJCF), sphere or mesh placed by a 4×4 transform in its
+*sescid body* frame (links welded by fixed joints share a body). Consumers: CoM boxes of the
+consistent-mass step (``shape_hull``) and self-collision capsules of pose planning.
 """
 
 from __future__ import annotations
@@ -12,19 +12,21 @@ from dataclasses import dataclass, field
 import numpy as np
 
 #: shape kinds
-BOX, CYLINDER, SPHERE, MESH = "box", "cylinder", "sphere", "mesh"
+BOX, CYLINDER, CAPSULE, SPHERE, MESH = "box", "cylinder", "capsule", "sphere", "mesh"
 
 
 @dataclass(frozen=True)
 class Shape:
     """One geometric primitive of a link, in the frame of the body that holds the link."""
 
-    kind: str  #: "box", "cylinder", "sphere" or "mesh"
+    kind: str  #: "box", "cylinder", "capsule", "sphere" or "mesh"
     role: str  #: "collision" or "visual"
     body: int  #: index of the sescid body
     link: str  #: model link (URDF link / MJCF body) it belongs to
     pose: np.ndarray  #: (4, 4) shape frame in the body frame, m
-    size: np.ndarray  #: box (3,) full sizes; cylinder (radius, length); sphere (radius,); m
+    #: box (3,) full sizes; cylinder (radius, length); capsule (radius, length of the segment
+    #: between the centres of its end caps, along z); sphere (radius,); m
+    size: np.ndarray
     mesh: str = ""  #: mesh file name as written in the model (mesh shapes)
     scale: np.ndarray = field(default_factory=lambda: np.ones(3))  #: mesh scale
     vertices: np.ndarray | None = None  #: (k, 3) mesh vertices in the body frame, m, if loaded
@@ -39,6 +41,9 @@ def shape_hull(shape: Shape) -> tuple[np.ndarray, np.ndarray] | None:
         rad, length = float(shape.size[0]), float(shape.size[1])
         ax = rot[:, 2]
         half = np.abs(ax) * length / 2 + rad * np.sqrt(np.clip(1 - ax**2, 0, None))
+    elif shape.kind == CAPSULE:
+        rad, length = float(shape.size[0]), float(shape.size[1])
+        half = np.abs(rot[:, 2]) * length / 2 + rad
     elif shape.kind == SPHERE:
         half = np.full(3, float(shape.size[0]))
     elif shape.vertices is not None and len(shape.vertices):

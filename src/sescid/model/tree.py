@@ -40,6 +40,9 @@ class Body:
     trans_const: np.ndarray  #: (3,) constant translation t_b in the parent frame, m
     mass: float  #: kg
     com: np.ndarray  #: (3,) CoM in the body frame, m (zeros when massless)
+    #: a massless frame that the model file cannot give mass (between two hinges of one MJCF
+    #: body): the consistent step keeps its mass and first moment at 0
+    frame_only: bool = False
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """Self-collision: collision shapes covered by capsules, capsule pairs checked per pose.
 
-Every ``<collision>`` box, cylinder and sphere of the model (``RobotModel.shapes``) is covered by
+Every collision box, cylinder, capsule and sphere of the model (``RobotModel.shapes``) is covered by
 capsules fixed in its body frame; pairs of parent/child bodies and pairs that already overlap at
 the zero pose are skipped. The per-pose check is a compiled loop with early exit
 (``collision_free_mask``); ``collision_free_mask_numpy`` is the plain-numpy reference.
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ...model.geometry import BOX, CYLINDER, SPHERE
+from ...model.geometry import BOX, CAPSULE, CYLINDER, SPHERE
 from ...robot import Robot
 
 _CAPSULE_RMAX = 0.025  #: m, largest capsule radius used to cover a box cross-section
@@ -68,7 +68,7 @@ def box_capsules(size) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def collision_capsules(robot: Robot) -> Capsules:
-    """Capsules from the model's collision boxes, cylinders and spheres (meshes ignored)."""
+    """Capsules from the model's collision boxes, cylinders, capsules, spheres (meshes ignored)."""
     body, p0, p1, rad, links = [], [], [], [], []
     n_mesh = 0
     for shape in robot.model.shapes:
@@ -84,6 +84,9 @@ def collision_capsules(robot: Robot) -> Capsules:
             else:
                 h = length / 2 - rho
                 e0, e1, r = np.array([[0, 0, -h]]), np.array([[0, 0, h]]), rho
+        elif shape.kind == CAPSULE:
+            h = float(shape.size[1]) / 2
+            e0, e1, r = np.array([[0, 0, -h]]), np.array([[0, 0, h]]), float(shape.size[0])
         elif shape.kind == SPHERE:
             e0 = e1 = np.zeros((1, 3))
             r = float(shape.size[0])
@@ -98,7 +101,9 @@ def collision_capsules(robot: Robot) -> Capsules:
             links.append(shape.link)
     notes = []
     if n_mesh:
-        notes.append(f"{n_mesh} mesh collision element(s) ignored (only boxes/cylinders/spheres)")
+        notes.append(
+            f"{n_mesh} mesh collision element(s) ignored (only boxes/cylinders/capsules/spheres)"
+        )
     cap = Capsules(
         body=np.array(body, dtype=np.int64),
         p0=np.array(p0).reshape(-1, 3),
