@@ -1,8 +1,9 @@
-"""Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export.
+"""Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export, ROS bags.
 
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
 ``read_cop_se`` (column conventions of ``sescid.table``), ``save_fit``/``load_fit`` (the fit
-JSON), ``export_urdf`` (a URDF with identified masses and CoMs).
+JSON), ``export_urdf`` (a URDF with identified masses and CoMs), ``read_bag`` (a ROS bag and a
+mapping file → the ``fsr`` step's raw table; the ``bags`` extra).
 """
 
 from __future__ import annotations
@@ -10,17 +11,39 @@ from __future__ import annotations
 from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from ..files import atomic_open, atomic_path, read_json
 from ..table import Table, read_cop, read_cop_se, read_joint_columns, read_poses
+from .bags import (
+    MAPPING_FORMAT,
+    BagMapping,
+    FootSource,
+    JointSource,
+    PoseSource,
+    RawLogTable,
+    Segment,
+    load_mapping,
+    parse_mapping,
+    read_bag,
+)
 from .export import export_urdf
 from .tables import read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
+    "MAPPING_FORMAT",
+    "BagMapping",
+    "FootSource",
+    "JointSource",
+    "PoseSource",
+    "RawLogTable",
+    "Segment",
     "Table",
     "atomic_open",
     "atomic_path",
     "export_urdf",
     "load_fit",
+    "load_mapping",
+    "parse_mapping",
     "read_cop",
+    "read_bag",
     "read_cop_se",
     "read_joint_columns",
     "read_json",
