@@ -438,3 +438,62 @@ def test_missing_rosbags_names_the_extra(monkeypatch, tmp_path):
     monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)
     with pytest.raises(SescidError, match=r"pip install 'sescid\[bags\]'"):
         read_bag(tmp_path, parse_mapping(mapping_dict()), ["a"])
+
+
+def test_cli_bag_then_fsr(tmp_path, robot):
+    """`sescid bag` with a pose list, then `sescid fsr`: an ankle F/T foot's CoP per pose."""
+    import json
+
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+    from sescid.io import read_table, write_table
+
+    s = make_session(robot.joint_names)
+    b = Builder(ros1=False)
+    path = write_bag(tmp_path / "s", "mcap", session_topics(s, b, robot.joint_names), b)
+    mp = mapping_dict()
+    mp["feet"] = {"right": mp["feet"]["left"] | {"prefix": "r"}}  # the F/T sensor as right foot
+    (tmp_path / "map.json").write_text(json.dumps(mp))
+    mid = [np.abs(s.t_joint - T0 - int((0.5 + 1.6 * k) * 1e9)).argmin() for k in range(4)]
+    plan_q = s.q[mid][[3, 0, 1]] + np.radians(0.5)
+    cols = {"pose": np.array(["p3", "p0", "p1"])}
+    write_table(tmp_path / "poses.csv", cols | dict(zip(robot.joint_names, plan_q.T, strict=True)))
+    raw, out = tmp_path / "raw.parquet", tmp_path / "cop.csv"
+    args = ["bag", path, "--map", tmp_path / "map.json", "--poses", tmp_path / "poses.csv"]
+    res = CliRunner().invoke(cli, [str(a) for a in [*args, "--out", raw]])
+    assert res.exit_code == 0, res.output
+    assert "3 pose segments" in res.output and "  pose p3: " in res.output
+    assert (
+        "unmatched_pose" in res.output and "moving" in res.output and f"wrote {raw}" in res.output
+    )
+    assert "segment 2 matches no planned pose" in res.output
+    assert {"r_cop_x", "r_cop_y", "r_fz"} <= set(read_table(raw).names())
+    fsr_args = ["fsr", raw, "--poses", tmp_path / "poses.csv", "--out", out]
+    res = CliRunner().invoke(cli, [str(a) for a in fsr_args])
+    assert res.exit_code == 0, res.output
+    assert "3 poses from forces" in res.output
+    tab = read_table(out)
+    assert tab.text["pose"] == ["p0", "p1", "p3"]
+    want = np.array([s.cop[s.hold == k][0] for k in (0, 1, 3)])
+    got = np.column_stack([tab.get("cop_x"), tab.get("cop_y")])
+    assert np.abs(got - want).max() < 1e-9
+    assert np.abs(tab.get("force_n") - 30).max() < 0.1  # the ground's force, weight 30 N
+
+
+def test_cli_bag_errors_are_one_line(tmp_path, robot):
+    """A missing bag or a bad mapping field is one `sescid: error:` line and no output file."""
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+
+    (tmp_path / "map.yaml").write_text("format: sescid-bag-mapping/1\nfeet: {}\n")
+    out = tmp_path / "raw.csv"
+    cases = [(tmp_path / "map.yaml", "map.yaml: joints: missing"), (EXAMPLE, "bag not found")]
+    for mapping, match in cases:
+        res = CliRunner().invoke(
+            cli, ["bag", str(tmp_path / "absent"), "--map", str(mapping), "--out", str(out)]
+        )
+        lines = res.output.strip().splitlines()
+        assert res.exit_code == 2 and len(lines) == 1 and match in lines[0], res.output
+    assert not out.exists()
