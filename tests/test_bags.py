@@ -497,3 +497,15 @@ def test_cli_bag_errors_are_one_line(tmp_path, robot):
         lines = res.output.strip().splitlines()
         assert res.exit_code == 2 and len(lines) == 1 and match in lines[0], res.output
     assert not out.exists()
+
+
+def test_plate_file_force_unit(tmp_path):
+    """A plate file's force_unit scales the loads unless the mapping gives its own unit."""
+    (tmp_path / "plate.yaml").write_text(
+        "format: sescid-plate/1\nforce_unit: kgf\ncells_m: [[0, 0], [0.4, 0], [0, 0.3]]\n"
+    )
+    foot = {"source": "plate", "topic": "/plate", "plate": "plate.yaml", "scale": 2.0}
+    mp = parse_mapping(mapping_dict(feet={"left": foot}), "m.yaml", tmp_path)
+    assert mp.feet[0].scale == pytest.approx(2 * 9.80665) and mp.feet[0].unit == "N"
+    mp = parse_mapping(mapping_dict(feet={"left": foot | {"unit": "mN"}}), "m.yaml", tmp_path)
+    assert mp.feet[0].scale == 2.0 and mp.feet[0].unit == "mN"

@@ -273,7 +273,9 @@ def _foot(path: str, name: str, data, mapping_dir: Path) -> FootSource:
         elif source == "pads":
             kw["columns"] = tuple(f"{prefix}_fsr{k}" for k in range(1, 5))
         if source == "plate":
-            kw["cells"], kw["foot_pose"] = _plate(f, mapping_dir)
+            kw["cells"], kw["foot_pose"], plate_unit = _plate(f, mapping_dir)
+            if "unit" not in f.data:  # the plate file's force_unit, unless the mapping gives one
+                kw["plate_unit"] = plate_unit
             kw["min_force"] = f.number("min_force", 0.0)
         count = len(kw["columns"]) if source == "pads" else len(kw["cells"])
         if isinstance(fld, tuple):
@@ -321,19 +323,21 @@ def _foot(path: str, name: str, data, mapping_dir: Path) -> FootSource:
         prefix=prefix,
         field=fld,
         unit=unit,
-        scale=f.number("scale", 1.0, positive=True),
+        scale=f.number("scale", 1.0, positive=True) * kw.pop("plate_unit", 1.0),
         stamp=_stamp(f),
         type=_type(f),
         **kw,
     )
 
 
-def _plate(f: _Fields, mapping_dir: Path) -> tuple[np.ndarray, tuple[float, float, float]]:
+def _plate(f: _Fields, mapping_dir: Path) -> tuple[np.ndarray, tuple[float, float, float], float]:
+    """Cell positions, the foot's pose on the plate and the plate file's N per unit (else 1)."""
     if ("plate" in f.data) == ("cells_m" in f.data):
         f.fail("plate", "give exactly one of plate (a plate file) or cells_m")
     if "plate" in f.data:
         p = Path(f.text("plate"))
-        cells = load_plate(p if p.is_absolute() else mapping_dir / p).cells
+        plate = load_plate(p if p.is_absolute() else mapping_dir / p)
+        cells, unit = plate.cells, plate.force_unit
     else:
         try:
             cells = np.array(f.data["cells_m"], dtype=float)
@@ -341,8 +345,9 @@ def _plate(f: _Fields, mapping_dir: Path) -> tuple[np.ndarray, tuple[float, floa
             cells = np.empty(0)
         if cells.ndim != 2 or cells.shape[1] != 2 or len(cells) < 3:
             f.fail("cells_m", "expected at least 3 points [x, y] in metres")
+        unit = 1.0
     pose = f.vector("foot_pose", 3, [0.0, 0.0, 0.0])
-    return cells, (float(pose[0]), float(pose[1]), float(pose[2]))
+    return cells, (float(pose[0]), float(pose[1]), float(pose[2])), unit
 
 
 def parse_mapping(data, source: str = "<mapping>", mapping_dir: Path | None = None) -> BagMapping:
