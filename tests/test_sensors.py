@@ -326,3 +326,126 @@ def test_load_on_a_foot_the_model_puts_in_the_air_is_rejected(robot, config, tmp
     res = run(robot, config, path)
     assert res.reasons() == ["off_floor=3"] and res.n_used.tolist() == [5]
     np.testing.assert_allclose(res.cop[0], 0.0, atol=1e-15)
+
+
+# --- a logged CoP per foot (ankle F/T sensor, force plate, CoP topic) ----------------------------
+def _pads_and_cop(rng, m, sensors, lifted=(), spread=1000.0):
+    """Pad counts (m, 4) mN and the CoP (m, 2) m, fz (m,) N they produce; lifted rows 0.4 N/pad."""
+    f = rng.uniform(4000 - spread, 4000 + spread, size=(m, 4))
+    f[list(lifted)] = 100.0
+    fz = f.sum(axis=1) / 1000
+    cop = (f @ sensors) / f.sum(axis=1, keepdims=True)
+    return f, cop, fz
+
+
+def cop_cols(prefix, cop, fz=None):
+    cols = {f"{prefix}_cop_x": cop[:, 0], f"{prefix}_cop_y": cop[:, 1]}
+    return cols if fz is None else cols | {f"{prefix}_fz": fz}
+
+
+def test_logged_cop_with_force_matches_the_pads_that_produce_it(robot, config, tmp_path):
+    """Both feet's <p>_cop_x/_y and <p>_fz give the per-pose CoP, force and counts of their pads."""
+    rng = np.random.default_rng(7)
+    m = 24
+    fr, cr, zr = _pads_and_cop(rng, m, RIGHT)
+    fl, cl, zl = _pads_and_cop(rng, m, LEFT, lifted=[3, 4, 15])
+    fr[9, 2] = np.nan  # a missing pad: a missing force on the CoP side
+    zr[9], cr[9] = np.nan, np.nan
+    cl[[3, 4, 15]] = np.nan  # a lifted foot has no CoP (wrench.py gives NaN below min_force)
+    pose = np.repeat(["a", "b", "c"], 8)
+    pads = run(robot, config, log_file(tmp_path / "p.csv", robot, pose, {"r_fsr": fr, "l_fsr": fl}))
+    extra = cop_cols("r", cr, zr) | cop_cols("l", cl, zl)
+    cops = run(robot, config, log_file(tmp_path / "c.csv", robot, pose, {}, extra=extra))
+    assert cops.mode == pads.mode == "forces"
+    np.testing.assert_allclose(cops.cop, pads.cop, atol=1e-15)
+    np.testing.assert_allclose(cops.cop_se, pads.cop_se, rtol=1e-9)
+    np.testing.assert_allclose(cops.force, pads.force, rtol=1e-12)
+    assert cops.reasons() == pads.reasons() and "missing=1" in cops.reasons()[1]
+    assert cops.n_used.tolist() == pads.n_used.tolist()
+
+
+def test_logged_cop_without_force_is_one_loaded_foot(robot, config, tmp_path):
+    """Without _fz a given CoP is a loaded foot of weight 1: one foot as its pads, no force."""
+    rng = np.random.default_rng(8)
+    _, cr, _ = _pads_and_cop(rng, 10, RIGHT, spread=100.0)
+    pose = np.repeat([0, 1], 5)
+    cl = np.full((10, 2), np.nan)
+    cl[[2, 7]] = 0.01  # the left foot touches down twice: two loaded feet, no force to weigh
+    cr[4] = np.nan  # neither foot loaded
+    extra = cop_cols("r", cr) | cop_cols("l", cl)
+    res, _ = fsr(
+        robot, read_table(log_file(tmp_path / "c.csv", robot, pose, {}, extra=extra)), config, 2
+    )
+    keep = np.ones(10, dtype=bool)
+    keep[[2, 4, 7]] = False
+    want = np.array([cr[keep & (pose == k)].mean(axis=0) for k in range(2)])
+    assert res.mode == "cop" and "force_n" not in res.columns(robot.joint_names)
+    np.testing.assert_allclose(res.cop, want, atol=1e-15)
+    assert res.reasons() == ["no_load=1 two_feet_no_force=1", "two_feet_no_force=1"]
+
+
+def test_logged_cop_force_threshold_and_pads_on_the_other_foot(robot, config, tmp_path):
+    """A CoP foot is loaded from fz ≥ min_foot_force; beside a pads foot both weigh by force."""
+    rng = np.random.default_rng(9)
+    fr, cr, zr = _pads_and_cop(rng, 6, RIGHT)
+    fl, cl, zl = _pads_and_cop(rng, 6, LEFT)
+    zr[0], cr[0] = 1.0, [0.02, 0.0]  # below 1.972 N: not loaded, even with a CoP
+    zr[1], cr[1] = 0.5, np.nan  # too little force and no CoP: merely unloaded, not missing
+    extra = cop_cols("r", cr, zr)
+    mixed = run(
+        robot, config, log_file(tmp_path / "m.csv", robot, [0] * 6, {"l_fsr": fl}, extra=extra)
+    )
+    fr[[0, 1]] = 100.0  # 0.4 N: the right foot lifted in both
+    both = run(
+        robot, config, log_file(tmp_path / "p.csv", robot, [0] * 6, {"r_fsr": fr, "l_fsr": fl})
+    )
+    assert mixed.mode == "forces" and mixed.reasons() == both.reasons()
+    assert mixed.n_used.tolist() == both.n_used.tolist() and "missing" not in mixed.reasons()[0]
+    np.testing.assert_allclose(mixed.cop, both.cop, atol=1e-15)
+    np.testing.assert_allclose(mixed.force, both.force, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        ({"r_cop_x": [0.0, 0.0]}, "missing column 'r_cop_y' .right foot CoP."),
+        ({"r_fz": [1.0, 1.0]}, "column 'r_fz' without 'r_cop_x', 'r_cop_y'"),
+        ({"r_cop_x": [0.0, 30.0], "r_cop_y": [0.0, 0.0]}, "row 3, column 'r_cop_x'.*in metres"),
+        (
+            {"r_cop_x": [0.0, 0.0], "r_cop_y": [0.0, 0.0], "r_fsr1": [1.0, 1.0]},
+            "right foot logs both a CoP .'r_cop_x'. and its sensor board .'r_fsr1'.",
+        ),
+    ],
+)
+def test_malformed_cop_columns(robot, config, tmp_path, extra, message):
+    """Half a CoP, a force without CoP, millimetres, or two sources for a foot: one line each."""
+    extra = {k: np.asarray(v, dtype=float) for k, v in extra.items()}
+    with pytest.raises(SescidError, match=message) as exc:
+        run(robot, config, log_file(tmp_path / "r.csv", robot, [0, 0], {}, extra=extra))
+    assert "\n" not in str(exc.value)
+
+
+def test_cop_prefix_default_and_configured(robot, tmp_path):
+    """cop_columns defaults to the board prefix without _fsr and can be set in the JSON."""
+    from sescid.experiment.sensors import Foot
+
+    assert Foot("right", "r_sole", "r_fsr", RIGHT).cop_prefix == "r"
+    assert Foot("right", "r_sole", "rfoot", RIGHT).cop_prefix == "rfoot"
+    p = tmp_path / "s.json"
+    p.write_text(
+        '{"format": "sescid-fsr/1", "feet": {"right": {"sole_frame": "r_sole", '
+        f'"columns": "r_fsr", "cop_columns": "ft_r", "sensors_m": {RIGHT.tolist()}}}}}}}'
+    )
+    cfg = load_sensors(p)
+    cop = np.array([[0.01, -0.005]] * 3)
+    res = run(
+        robot,
+        cfg,
+        log_file(
+            tmp_path / "r.csv", robot, [0] * 3, {}, extra=cop_cols("ft_r", cop, np.full(3, 20.0))
+        ),
+    )
+    np.testing.assert_allclose(res.cop[0], cop[0], atol=1e-15)
+    p.write_text(p.read_text().replace('"ft_r"', "3"))
+    with pytest.raises(SescidError, match="cop_columns: expected a column prefix"):
+        load_sensors(p)

@@ -64,11 +64,9 @@ def test_fresh_error_averages_to_theory_over_seeds(op2):
 
 @pytest.mark.slow
 def test_paper_statistics_over_many_seeds(op2):
-    """200 replicates of the paper's study: MAE → noise floor, fresh-pose error² → its expectation.
-
-    Per replicate the fresh-pose error² scatters by ~20 %, so 200 replicates pin the mean to ~1.5 %.
-    The expectation given the design is σ²·mean φ(ΦᵀΦ)⁺φᵀ over the fresh rows.
-    """
+    """200 replicates of the paper's study: MAE → noise floor, fresh-pose error² → expectation."""
+    # Per replicate the fresh-pose error² scatters by ~20 %, so 200 replicates pin the mean to
+    # ~1.5 %. The expectation given the design is σ²·mean φ(ΦᵀΦ)⁺φᵀ over the fresh rows.
     p, n, s = 42, 1000, PAPER_NOISE
     maes, mses, expected = [], [], []
     for seed in range(200):

@@ -1,7 +1,8 @@
-"""Files written all at once or not at all, and versioned JSON read with one-line errors.
+"""Files written all at once or not at all, and JSON/YAML documents read with one-line errors.
 
 ``atomic_open`` / ``atomic_path`` write to a temporary file beside the target and replace it
-only when the block succeeds; ``read_json`` checks a JSON file's ``"format"`` tag.
+only when the block succeeds; ``read_json`` checks a JSON file's ``"format"`` tag;
+``read_document`` reads a JSON or YAML document (mapping and plate files).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-from .errors import DataError
+from .errors import DataError, MissingExtraError
 
 
 @functools.cache
@@ -142,3 +143,35 @@ def _identity(path: Path) -> tuple[int, int] | Path:
     except OSError:
         return path.resolve()
     return (st.st_dev, st.st_ino)
+
+
+def read_document(path: str | Path) -> object:
+    """A JSON or YAML document, by suffix (``.json`` → JSON, anything else → YAML).
+
+    JSON needs only the standard library; YAML is read by ruamel.yaml (it ships with the bags
+    extra). Errors are one line naming the file (and the line of a syntax error).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: file not found")
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: cannot read ({exc.__class__.__name__})") from None
+    if path.suffix.lower() == ".json":
+        try:
+            return json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise DataError(f"{path}: not a JSON file (line {exc.lineno}: {exc.msg})") from None
+    try:
+        from ruamel.yaml import YAML
+        from ruamel.yaml.error import YAMLError
+    except ImportError:  # pragma: no cover - ruamel.yaml ships with the bags extra
+        raise MissingExtraError(f"{path}: reading YAML", "bags") from None
+    try:
+        return YAML(typ="safe", pure=True).load(text)
+    except YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise DataError(f"{path}: not a YAML file ({where}{problem})") from None

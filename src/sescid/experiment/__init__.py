@@ -1,5 +1,6 @@
 """Experiments: the paper's §3 simulation study, bench pose planning, the virtual bench (a
-"real" robot with unmodelled mass, backlash and sensor errors) and foot sensors → CoP.
+"real" robot with unmodelled mass, backlash and sensor errors) and foot sensors → CoP (FSR
+boards in ``sensors``; ankle force/torque sensors and force plates in ``wrench``).
 """
 
 from __future__ import annotations
@@ -27,6 +28,15 @@ from .virtual import (
     real_robot,
     run_experiment,
 )
+from .wrench import (
+    Plate,
+    cop_from_force_plate,
+    cop_from_plate,
+    cop_from_wrench,
+    load_plate,
+    plate_to_sole,
+    rpy_matrix,
+)
 
 __all__ = [
     "DEFAULT_EXTRA",
@@ -36,19 +46,26 @@ __all__ = [
     "ExtraMass",
     "Measured",
     "PaperStudy",
+    "Plate",
     "PosePlan",
     "RawLog",
     "SensorConfig",
     "candidates",
     "check_limits",
+    "cop_from_force_plate",
+    "cop_from_plate",
+    "cop_from_wrench",
     "fsr",
+    "load_plate",
     "load_sensors",
     "load_truth",
     "measure",
     "paper_study",
     "plan_poses",
+    "plate_to_sole",
     "pose_list_ids",
     "read_raw",
     "real_robot",
+    "rpy_matrix",
     "run_experiment",
 ]

@@ -2,20 +2,29 @@
 
 A raw log has many samples per pose: a ``pose`` id, joint read-backs (radians in columns named
 as the joints, or ``<joint>_deg`` degrees, or ``<joint>_ticks`` in the robot profile's servo
-ticks; one unit per joint), and per foot either the four forces
-``<prefix>1..4`` in board counts (1 mN) or the centroid registers ``<prefix>_x``, ``<prefix>_y``
-(0–254, 255 = no load). Prefixes and sensor positions come from a small JSON configuration
-(the robot profile's ``sensors_file``, for the OP2 ``robots/op2/op2_fsr.json``; the positions
-are a flagged hypothesis a user corrects).
+ticks; one unit per joint), and per foot one source:
+
+- the four forces ``<prefix>1..4`` in board counts (1 mN), or
+- the centroid registers ``<prefix>_x``, ``<prefix>_y`` (0–254, 255 = no load), or
+- a ready CoP ``<cop>_cop_x``, ``<cop>_cop_y`` in metres in the foot's sole frame, with the foot's
+  normal force ``<cop>_fz`` in N when known (what ``sescid bag`` writes for an ankle F/T sensor,
+  a force plate or a CoP topic; ``sescid.experiment.wrench``).
+
+Prefixes and sensor positions come from a small JSON configuration (the robot profile's
+``sensors_file``, for the OP2 ``robots/op2/op2_fsr.json``; the positions are a flagged
+hypothesis a user corrects); the CoP prefix is the field ``cop_columns``, by default the board's
+prefix without a trailing ``_fsr`` (``r_fsr`` → ``r``).
 
 Per sample, a foot's CoP in its sole frame is the force-weighted centroid of its sensors,
 ``c = Σ F_k p_k / Σ F_k``, or, from the registers, the bilinear map of ``(X/254, Y/254)`` onto the
-sensor rectangle (the same point when the board computes the linear centroid). Each loaded foot's
-CoP is carried into the support frame with the model's pose of its sole at the pose's mean joint
-read-backs; two loaded feet combine weighted by their total forces. Samples are rejected (with
-the reason counted) when a value is missing, a sensor is saturated, no foot carries load, the
-registers give two loaded feet (no force to weight them), or the CoP/force is an outlier by the
-median/MAD rule ``|v − median| > k · max(1.4826 MAD, floor)``.
+sensor rectangle (the same point when the board computes the linear centroid), or the logged CoP
+itself. A CoP foot with ``_fz`` is loaded where ``fz ≥ min_foot_force``; without it, wherever its
+CoP is given (a NaN CoP is an unloaded foot), and it then carries no force, like the registers.
+Each loaded foot's CoP is carried into the support frame with the model's pose of its sole at the
+pose's mean joint read-backs; two loaded feet combine weighted by their total forces. Samples are
+rejected (with the reason counted) when a value is missing, a sensor is saturated, no foot
+carries load, two feet are loaded but some source has no force to weight them, or the CoP/force
+is an outlier by the median/MAD rule ``|v − median| > k · max(1.4826 MAD, floor)``.
 """
 
 from __future__ import annotations
@@ -39,6 +48,8 @@ REASONS = ("missing", "saturated", "no_load", "two_feet_no_force", "off_floor", 
 #: a loaded foot whose sole the model puts this far off the support plane breaks CoP = CoM_xy
 OFF_FLOOR_M = 0.010
 OFF_FLOOR_TILT = math.radians(5.0)
+#: a logged CoP farther than this from its sole origin is not in metres
+COP_MAX_M = 2.0
 
 
 # --- configuration ----------------------------------------------------------------------
@@ -50,6 +61,13 @@ class Foot:
     sole_frame: str
     columns: str  #: column prefix, e.g. "r_fsr" → r_fsr1..r_fsr4, r_fsr_x, r_fsr_y
     sensors: np.ndarray  #: (4, 2) sensor centres FSR1..FSR4 in the sole frame, m
+    #: prefix of a logged CoP, e.g. "r" → r_cop_x, r_cop_y, r_fz; default ``columns`` without
+    #: a trailing "_fsr"
+    cop_prefix: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.cop_prefix:
+            object.__setattr__(self, "cop_prefix", default_cop_prefix(self.columns))
 
     def centroid_point(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Point (n, 2) [m] of board coordinates u = X/254, v = Y/254 (bilinear in the sensors)."""
@@ -81,6 +99,11 @@ class SensorConfig:
 
     def foot(self, name: str) -> Foot:
         return next(f for f in self.feet if f.name == name)
+
+
+def default_cop_prefix(columns: str) -> str:
+    """The CoP column prefix of a board prefix: a trailing ``_fsr`` removed (``r_fsr`` → ``r``)."""
+    return columns[: -len("_fsr")] if columns.endswith("_fsr") and len(columns) > 4 else columns
 
 
 def default_sensors_path(profile: RobotProfile) -> Path:
@@ -137,7 +160,12 @@ def load_sensors(
                     raise DataError(f"{where}.board_span_m: spans must be in (0, 1) m")
                 sensors = centre + (CORNERS[:, :1] - 0.5) * span[0] * ax
                 sensors = sensors + (CORNERS[:, 1:] - 0.5) * span[1] * ay
-            foot = Foot(str(name), str(f["sole_frame"]), str(f["columns"]), sensors)
+            cop = f.get("cop_columns")
+            if cop is not None and (not isinstance(cop, str) or not cop.strip()):
+                raise DataError(f"{where}.cop_columns: expected a column prefix, got {cop!r}")
+            foot = Foot(
+                str(name), str(f["sole_frame"]), str(f["columns"]), sensors, (cop or "").strip()
+            )
         except KeyError as exc:
             raise DataError(f"{where}: missing field {exc}") from None
         except (TypeError, AttributeError):
@@ -180,6 +208,9 @@ class RawLog:
     forces: dict[str, np.ndarray]  #: foot name → (m, 4) force counts
     centroid: dict[str, np.ndarray]  #: foot name → (m, 2) registers X, Y
     units: dict[str, str]  #: joint → "rad" | "deg" | "ticks"
+    cop: dict[str, np.ndarray] = field(default_factory=dict)  #: foot → (m, 2) CoP, sole frame, m
+    #: foot → (m,) normal force N (``<cop>_fz``), or None when the log has none
+    cop_force: dict[str, np.ndarray | None] = field(default_factory=dict)
 
 
 def read_raw(
@@ -193,11 +224,22 @@ def read_raw(
     q, units = read_joint_columns(table, joint_names, servo)
     names = set(table.names())
     forces, centroid = {}, {}
+    cop: dict[str, np.ndarray] = {}
+    cop_force: dict[str, np.ndarray | None] = {}
     for foot in config.feet:
         fcols = [f"{foot.columns}{k}" for k in range(1, 5)]
         ccols = [f"{foot.columns}_x", f"{foot.columns}_y"]
         has_f = [c in names for c in fcols]
         has_c = [c in names for c in ccols]
+        if _read_cop(table, foot, names, cop, cop_force):
+            if any(has_f) or any(has_c):
+                board = fcols[0] if any(has_f) else ccols[0]
+                raise DataError(
+                    f"{table.path}: the {foot.name} foot logs both a CoP "
+                    f"('{foot.cop_prefix}_cop_x') and its sensor board ('{board}'): "
+                    "keep one source per foot"
+                )
+            continue
         if any(has_f) and not all(has_f):
             missing = fcols[has_f.index(False)]
             raise DataError(f"{table.path}: missing column '{missing}' ({foot.name} foot forces)")
@@ -228,15 +270,45 @@ def read_raw(
                     f"{config.no_load} = no load)"
                 )
             centroid[foot.name] = c
-    if not forces and not centroid:
-        want = ", ".join(f"{f.columns}1..4 or {f.columns}_x/_y" for f in config.feet)
+    if not forces and not centroid and not cop:
+        want = ", ".join(
+            f"{f.columns}1..4 or {f.columns}_x/_y or {f.cop_prefix}_cop_x/_y" for f in config.feet
+        )
         raise DataError(f"{table.path}: no foot-sensor columns ({want})")
     if forces and centroid:
         raise DataError(
             f"{table.path}: one foot logs forces and the other only centroid registers: "
             "log the same kind for both feet"
         )
-    return RawLog(table.path, pose, q, forces, centroid, units)
+    return RawLog(table.path, pose, q, forces, centroid, units, cop, cop_force)
+
+
+def _read_cop(table: Table, foot: Foot, names: set[str], cop: dict, cop_force: dict) -> bool:
+    """A foot's logged CoP (and normal force) into ``cop``/``cop_force``; False if it has none."""
+    pcols = [f"{foot.cop_prefix}_cop_x", f"{foot.cop_prefix}_cop_y"]
+    zcol = f"{foot.cop_prefix}_fz"
+    has_p = [c in names for c in pcols]
+    if not any(has_p):
+        if zcol in names:
+            raise DataError(
+                f"{table.path}: column '{zcol}' without '{pcols[0]}', '{pcols[1]}' "
+                f"({foot.name} foot CoP)"
+            )
+        return False
+    if not all(has_p):
+        missing = pcols[has_p.index(False)]
+        raise DataError(f"{table.path}: missing column '{missing}' ({foot.name} foot CoP)")
+    c = np.column_stack([column_with_missing(table, col) for col in pcols])
+    bad = np.argwhere(np.abs(c) > COP_MAX_M)
+    if bad.size:
+        i, k = bad[0]
+        raise DataError(
+            f"{table.path}: row {i + 2}, column '{pcols[k]}': {c[i, k]:g} is {COP_MAX_M:g} m or "
+            "more from the sole (CoP columns are in metres)"
+        )
+    cop[foot.name] = c
+    cop_force[foot.name] = column_with_missing(table, zcol) if zcol in names else None
+    return True
 
 
 # --- per-pose CoP -------------------------------------------------------------------------
@@ -252,7 +324,9 @@ class Measured:
     n_used: np.ndarray  #: (k,) samples averaged
     rejected: np.ndarray  #: (k, len(REASONS)) samples rejected, per reason
     dropped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) without a CoP
-    mode: str = "forces"  #: "forces" or "centroid"
+    #: "forces" (every source has a force), "centroid" (registers) or "cop" (a logged CoP
+    #: without its force)
+    mode: str = "forces"
 
     @property
     def n_rejected(self) -> np.ndarray:
@@ -341,32 +415,56 @@ def measure(
         q_mean = q_sum / cnt_q[:, None]
     reject(~q_ok, "missing")
 
-    mode = "forces" if log.forces else "centroid"
-    data = log.forces if log.forces else log.centroid
-    feet = [config.foot(name) for name in data]
+    feet = [
+        f
+        for f in config.feet
+        if f.name in log.forces or f.name in log.centroid or f.name in log.cop
+    ]
+    if log.centroid:
+        mode = "centroid"
+    elif any(log.cop_force.get(f.name) is None for f in feet if f.name in log.cop):
+        mode = "cop"
+    else:
+        mode = "forces"
     local, force, loaded = [], [], []
     for foot in feet:
-        arr = data[foot.name]
-        reject(~np.all(np.isfinite(arr), axis=1), "missing")
-        if mode == "forces":
+        if foot.name in log.forces:
+            arr = log.forces[foot.name]
+            reject(~np.all(np.isfinite(arr), axis=1), "missing")
             reject(np.any(arr >= config.saturation, axis=1), "saturated")
             f = np.nan_to_num(arr) * config.force_unit
             total = f.sum(axis=1)
             on = total >= config.min_foot_force
             with np.errstate(invalid="ignore", divide="ignore"):
                 c = (f @ foot.sensors) / np.where(on, total, 1.0)[:, None]
-            force.append(np.where(on, total, 0.0))
-        else:
+        elif foot.name in log.centroid:
+            arr = log.centroid[foot.name]
+            reject(~np.all(np.isfinite(arr), axis=1), "missing")
             on = np.all(arr != config.no_load, axis=1) & np.all(np.isfinite(arr), axis=1)
             uv = np.clip(np.nan_to_num(arr) / config.centroid_max, 0.0, 1.0)
             c = foot.centroid_point(uv[:, 0], uv[:, 1])
-            force.append(on.astype(float))  # registers carry no force: one loaded foot only
+            total = on.astype(float)
+        else:  # a logged CoP, already in the sole frame
+            arr = log.cop[foot.name]
+            given = np.all(np.isfinite(arr), axis=1)
+            fz = log.cop_force.get(foot.name)
+            if fz is None:  # no force: loaded wherever the CoP is given
+                on = given
+                total = on.astype(float)
+            else:
+                with np.errstate(invalid="ignore"):
+                    reject(np.isnan(fz) | (~given & (fz > config.min_foot_force)), "missing")
+                    on = given & (fz >= config.min_foot_force)
+                total = np.nan_to_num(fz)
+            c = np.where(on[:, None], arr, 0.0)
+        # without a force for every source, one loaded foot only (weight 1)
+        force.append(np.where(on, total, 0.0) if mode == "forces" else on.astype(float))
         local.append(c)
         loaded.append(on)
     loaded = np.stack(loaded, axis=1)  # (m, feet)
     force = np.stack(force, axis=1)
     reject(~loaded.any(axis=1), "no_load")
-    if mode == "centroid":
+    if mode != "forces":
         reject(loaded.sum(axis=1) > 1, "two_feet_no_force")
 
     # carry each foot's CoP into the support frame at the pose's mean read-backs
@@ -412,13 +510,15 @@ def measure(
         fmean = np.bincount(g[ok], np.nan_to_num(force_n[ok]), minlength=k) / n_used
     if mode == "centroid":
         # quantisation: one register count along each support-frame axis (conservative)
+        boards = [f for f in feet if f.name in log.centroid]
         step = (
-            np.array([np.abs(f.sensors[[1, 2]] - f.sensors[0]).max(axis=0) for f in feet]).max(
+            np.array([np.abs(f.sensors[[1, 2]] - f.sensors[0]).max(axis=0) for f in boards]).max(
                 axis=0
             )
             / config.centroid_max
         )
         var = var + step**2 / 12
+    if mode != "forces":
         fmean = np.full(k, np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         se = np.maximum(np.sqrt(var / n_used[:, None]), 1e-7)

@@ -1,9 +1,10 @@
-"""Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export.
+"""Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export, ROS bags.
 
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
 ``read_cop_se`` (column conventions of ``sescid.table``), ``save_fit``/``load_fit`` (the fit
 JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
-``export_mjcf``).
+``export_mjcf``), ``read_bag`` (a ROS bag and a mapping file → the ``fsr`` step's raw table; the
+``bags`` extra).
 """
 
 from __future__ import annotations
@@ -11,6 +12,18 @@ from __future__ import annotations
 from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from ..files import atomic_open, atomic_path, read_json
 from ..table import Table, read_cop, read_cop_se, read_joint_columns, read_poses
+from .bags import (
+    MAPPING_FORMAT,
+    BagMapping,
+    FootSource,
+    JointSource,
+    PoseSource,
+    RawLogTable,
+    Segment,
+    load_mapping,
+    parse_mapping,
+    read_bag,
+)
 from .export import FORMATS, export_model, export_urdf
 from .export_mjcf import export_mjcf
 from .tables import read_table, write_table
@@ -18,6 +31,13 @@ from .tables import read_table, write_table
 __all__ = [
     "FIT_FORMAT",
     "FORMATS",
+    "MAPPING_FORMAT",
+    "BagMapping",
+    "FootSource",
+    "JointSource",
+    "PoseSource",
+    "RawLogTable",
+    "Segment",
     "Table",
     "atomic_open",
     "atomic_path",
@@ -25,7 +45,10 @@ __all__ = [
     "export_model",
     "export_urdf",
     "load_fit",
+    "load_mapping",
+    "parse_mapping",
     "read_cop",
+    "read_bag",
     "read_cop_se",
     "read_joint_columns",
     "read_json",

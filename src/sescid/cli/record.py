@@ -1,0 +1,63 @@
+"""Commands that turn a robot's recordings into the raw log the ``fsr`` step reads: bag."""
+
+from __future__ import annotations
+
+import click
+
+from ..errors import DataError
+from ..experiment import pose_list_ids
+from ..io import read_bag, read_poses, read_table, write_table
+from .common import load, robot_options
+
+
+@click.command()
+@click.argument("bag", nargs=-1, required=True, type=click.Path())
+@click.option(
+    "--map",
+    "map_file",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Mapping file (YAML or JSON, sescid-bag-mapping/1): which topics hold the joints, "
+    "each foot's force source and the pose ids (see examples/bag_mapping.yaml).",
+)
+@robot_options
+@click.option(
+    "--poses",
+    "poses_file",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Planned pose list: stationary segments take the id of the nearest planned pose "
+    "(within the mapping's match_deg); segments matching none are dropped.",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Raw log for `sescid fsr` (.csv, or .parquet).",
+)
+def bag(bag, map_file, robot_name, support, poses_file, out):
+    """Read a ROS bag (rosbag2 directory, sqlite3 or MCAP; or ROS 1 .bag files) into the raw log.
+
+    Writes pose, t (s), the joint columns (rad) and per foot the pad forces (<p>_fsr1..4, mN) or
+    a CoP in its sole frame (<p>_cop_x, <p>_cop_y, m) with its normal force (<p>_fz, N).
+    Needs the bags extra: pip install 'sescid[bags]'.
+    """
+    robot = load(robot_name, support)
+    poses = None
+    if poses_file is not None:
+        table = read_table(poses_file)
+        poses = (pose_list_ids(table), read_poses(table, robot.joint_names, robot.profile.servo))
+    paths = list(bag) if len(bag) > 1 else bag[0]
+    res = read_bag(paths, map_file, robot=robot, poses=poses)
+    name = ", ".join(bag)
+    for note in res.notes:
+        click.echo(f"  note: {note}", err=True)
+    if res.n == 0:
+        raise DataError(f"{name}: no sample kept (see the notes above)")
+    write_table(out, res.columns)
+    click.echo(f"{name}: {len(res.segments)} pose segments")
+    for g in res.segments:
+        click.echo(f"  pose {g.pose}: {g.start:.3f}–{g.end:.3f} s, {g.samples} samples")
+    dropped = ", ".join(f"{k} {v}" for k, v in res.dropped.items() if v) or "none"
+    click.echo(f"kept {res.n} samples, dropped: {dropped}")
+    click.echo(f"wrote {out}")
