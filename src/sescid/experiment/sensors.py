@@ -29,7 +29,14 @@ import numpy as np
 from ..errors import DataError
 from ..files import read_json
 from ..robots import RobotProfile, ServoEncoding
-from ..table import Table, column_with_missing, pose_ids, read_joint_columns
+from ..table import (
+    GRAVITY_COLUMNS,
+    Table,
+    column_with_missing,
+    pose_ids,
+    read_gravity,
+    read_joint_columns,
+)
 
 FSR_FORMAT = "sescid-fsr/1"
 #: board corner (u, v) ∈ [0, 1]² of FSR1..FSR4 (X = 254 u, Y = 254 v)
@@ -180,6 +187,7 @@ class RawLog:
     forces: dict[str, np.ndarray]  #: foot name → (m, 4) force counts
     centroid: dict[str, np.ndarray]  #: foot name → (m, 2) registers X, Y
     units: dict[str, str]  #: joint → "rad" | "deg" | "ticks"
+    gravity: np.ndarray | None = None  #: (m, 3) gravity direction, support frame (grav_x/y/z)
 
 
 def read_raw(
@@ -236,7 +244,8 @@ def read_raw(
             f"{table.path}: one foot logs forces and the other only centroid registers: "
             "log the same kind for both feet"
         )
-    return RawLog(table.path, pose, q, forces, centroid, units)
+    gravity = read_gravity(table) if any(c in names for c in GRAVITY_COLUMNS) else None
+    return RawLog(table.path, pose, q, forces, centroid, units, gravity)
 
 
 # --- per-pose CoP -------------------------------------------------------------------------
@@ -253,6 +262,7 @@ class Measured:
     rejected: np.ndarray  #: (k, len(REASONS)) samples rejected, per reason
     dropped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) without a CoP
     mode: str = "forces"  #: "forces" or "centroid"
+    gravity: np.ndarray | None = None  #: (k, 3) mean gravity direction (unit), support frame
 
     @property
     def n_rejected(self) -> np.ndarray:
@@ -281,6 +291,8 @@ class Measured:
         }
         if self.mode == "forces":  # the registers carry no force
             cols["force_n"] = self.force
+        if self.gravity is not None:
+            cols |= {f"grav_{a}": self.gravity[:, i] for i, a in enumerate("xyz")}
         return cols
 
 
@@ -423,6 +435,11 @@ def measure(
     with np.errstate(invalid="ignore", divide="ignore"):
         se = np.maximum(np.sqrt(var / n_used[:, None]), 1e-7)
 
+    grav = None
+    if log.gravity is not None:  # mean direction over the usable samples, renormalised
+        g_sum = np.stack([np.bincount(g[ok], log.gravity[ok, a], minlength=k) for a in range(3)], 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            grav = g_sum / np.linalg.norm(g_sum, axis=1, keepdims=True)
     keep = (n_used >= min_samples) & good_q
     dropped = []
     for i in np.flatnonzero(~keep):
@@ -444,6 +461,7 @@ def measure(
         rejected=rejected[keep],
         dropped=dropped,
         mode=mode,
+        gravity=None if grav is None else grav[keep],
     )
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from ..files import atomic_open, atomic_path, read_json
-from ..table import Table, read_cop, read_cop_se, read_joint_columns, read_poses
+from ..table import Table, read_cop, read_cop_se, read_gravity, read_joint_columns, read_poses
 from .export import export_urdf
 from .tables import read_table, write_table
 
@@ -22,6 +22,7 @@ __all__ = [
     "load_fit",
     "read_cop",
     "read_cop_se",
+    "read_gravity",
     "read_joint_columns",
     "read_json",
     "read_poses",
