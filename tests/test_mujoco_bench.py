@@ -170,3 +170,70 @@ def test_servo_gains_from_profile(op2):
     g = servo_gains(op2, MujocoBenchConfig())
     assert g == op2.profile.servo_gains and g.kp > mx28_kp(254)
     assert servo_gains(op2, MujocoBenchConfig(kp=50.0)).kp == 50.0
+
+
+@pytest.fixture(scope="module")
+def tilted(op2, sensors):
+    """30 candidate poses on the free-standing bench, reduced to per-pose CoP and gravity."""
+    q = candidates(op2, 30, seed=1).q
+    bench = MujocoBenchConfig(vel_tol=2e-4)
+    ex = run_mujoco_experiment(op2, q, sensors, samples=10, seed=0, bench=bench)
+    return ex, reduce(op2, sensors, ex)
+
+
+def test_gravity_aware_identify_beats_flat(op2, tilted):
+    """On free-standing bench data the tilted-gravity fit predicts the pad CoP better."""
+    from sescid.estimation import identify
+
+    ex, res = tilted
+    t = ex.truth
+    keep = [t["pose"].index(p) for p in res.pose]
+    qa, g = np.array(t["q_actual"])[keep], np.array(t["grav"])[keep]
+    pads = np.array(t["cop_pads"])[keep]
+    assert res.gravity is not None and np.abs(res.gravity - g).max() < 1e-4
+    err, rank, z_prior = {}, {}, {}
+    for label, grav in (("flat", None), ("gravity", res.gravity)):
+        fit = identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav)
+        e = np.linalg.norm(fit.predict_cop(qa, g) - pads, axis=1)
+        err[label], rank[label] = np.sqrt(np.mean(e**2)), fit.rank
+        z_prior[label] = float(np.mean(fit.com_z_prior_fraction(qa)))
+    assert err["gravity"] < 0.95 * err["flat"], err  # see the report's figures
+    assert rank == {"flat": 42, "gravity": 43}  # the tilt adds the CoM-height offset
+    assert z_prior["flat"] > 0.1 and z_prior["gravity"] < 1e-6
+
+
+def test_cop_under_gravity_is_linear(op2):
+    """Robot.cop(gravity=) equals d_tilted + regressor_tilted · r and is the flat CoP for −z."""
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-0.2, 0.2, size=(4, op2.nq))
+    g = np.column_stack([rng.normal(0, 0.02, (4, 2)), -np.ones(4)])
+    r = op2.sesc_vectors()
+    lin = op2.d_tilted(g, 4) + op2.regressor_tilted(q, g) @ r.reshape(-1)
+    assert np.abs(lin - op2.cop(q, gravity=g)).max() < 1e-15
+    down = np.tile([0.0, 0.0, -1.0], (4, 1))
+    assert np.abs(op2.cop(q, gravity=down) - op2.cop(q)).max() < 1e-15
+
+
+def test_cli_experiment_mujoco(op2, poses, tmp_path):
+    """`sescid experiment --engine mujoco` writes the raw log and truth; fsr keeps gravity."""
+    import json
+
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+    from sescid.io import read_table, write_table
+
+    plist = tmp_path / "poses.csv"
+    write_table(plist, {j: poses[:3, i] for i, j in enumerate(op2.joint_names)})
+    raw, truth, meas = tmp_path / "raw.csv", tmp_path / "truth.json", tmp_path / "m.csv"
+    args = ["experiment", "--poses", plist, "--samples", 6, "--out", raw, "--truth", truth]
+    res = CliRunner().invoke(cli, [str(a) for a in [*args, "--engine", "mujoco", "--kp", 400]])
+    assert res.exit_code == 0, res.output
+    t = json.loads(truth.read_text())
+    assert t["engine"] == "mujoco" and t["settings"]["servo_gains"]["kp"] == 400.0
+    assert {"grav_x", "grav_y", "grav_z", "r_fsr1"} <= set(read_table(raw).names())
+    res = CliRunner().invoke(cli, ["fsr", str(raw), "--out", str(meas)])
+    assert res.exit_code == 0, res.output
+    assert "grav_z" in read_table(meas).names()
+    res = CliRunner().invoke(cli, [str(a) for a in [*args, "--weld-foot"]])
+    assert res.exit_code != 0 and "--engine mujoco" in res.output
