@@ -110,9 +110,25 @@ class Robot:
         """Whole-body CoM (n, 3) in m; ``r`` overrides the model's SESC vectors."""
         return sesc.com_from_sesc(self.tree, q, self._r if r is None else r, (0, 1, 2))
 
-    def cop(self, q: ArrayLike, r: np.ndarray | None = None) -> np.ndarray:
-        """Static CoP (n, 2) in m: the ground projection of the CoM."""
-        return sesc.com_from_sesc(self.tree, q, self._r if r is None else r, (0, 1))
+    def cop(
+        self, q: ArrayLike, r: np.ndarray | None = None, gravity: ArrayLike | None = None
+    ) -> np.ndarray:
+        """Static CoP (n, 2) in m: the CoM projected along gravity (n, 3; None: −z) onto z = 0."""
+        rr = self._r if r is None else r
+        if gravity is None:
+            return sesc.com_from_sesc(self.tree, q, rr, (0, 1))
+        com = sesc.com_from_sesc(self.tree, q, rr, (0, 1, 2))
+        return sesc.tilted_cop(com, sesc.gravity_ratios(gravity, com.shape[0]))
+
+    def regressor_tilted(self, q: ArrayLike, gravity: ArrayLike) -> np.ndarray:
+        """Φ (n, 2, 3N) with CoP = d_xy − d_z g_xy/g_z + Φ·vec(r) under gravity (n, 3)."""
+        phi = self.regressor(q, (0, 1, 2))
+        t = sesc.gravity_ratios(gravity, phi.shape[0])
+        return phi[:, :2] - t[:, :, None] * phi[:, 2:3]
+
+    def d_tilted(self, gravity: ArrayLike, n: int) -> np.ndarray:
+        """Constant term (n, 2) of the tilted CoP: d_xy − d_z g_xy / g_z."""
+        return self.d[:2] - self.d[2] * sesc.gravity_ratios(gravity, n)
 
     # --- kinematics -----------------------------------------------------------------------
     def forward(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

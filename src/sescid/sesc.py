@@ -6,13 +6,16 @@
 
 where ``c_i`` is the body's CoM and ``t_ch`` the constant offset of child ``ch``'s frame, both in
 body i's frame, and ``M_ch`` the mass carried by the subtree of ``ch``. The CoP of a robot in
-static balance on a level floor is the (x, y) of the CoM.
+static balance on a level floor is the (x, y) of the CoM; with gravity along g (support frame,
+not along the sole normal) it is where the gravity line through the CoM meets the sole plane,
+``c_xy − c_z g_xy / g_z`` — still linear in r.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .errors import DataError
 from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain
 from .model import RobotModel
 
@@ -49,3 +52,26 @@ def com_from_sesc(tree: Tree, q: np.ndarray, r: np.ndarray, rows=(0, 1, 2)) -> n
         com = vec @ rot.reshape(vec.size, 3 * m)  # (3·m,), ordered (i, k)
         out[s : s + m] = com.reshape(3, m)[rows].T
     return out + tree.root_o[rows]
+
+
+def gravity_ratios(gravity, n: int) -> np.ndarray:
+    """Per-pose g_xy / g_z (n, 2) of gravity directions (n, 3) in the support frame."""
+    g = np.asarray(gravity, dtype=float)
+    if g.shape != (n, 3):
+        raise DataError(f"gravity: expected shape ({n}, 3) (support frame), got {g.shape}")
+    if not np.all(np.isfinite(g)):
+        raise DataError(
+            f"gravity: non-finite value at pose {int(np.argwhere(~np.isfinite(g))[0, 0])}"
+        )
+    bad = np.flatnonzero(g[:, 2] >= -0.5 * np.linalg.norm(g, axis=1))
+    if bad.size:
+        raise DataError(
+            f"gravity: pose {bad[0]}: {g[bad[0]].tolist()} does not point down through the sole "
+            "(its z must be negative, tilt < 60°)"
+        )
+    return g[:, :2] / g[:, 2:3]
+
+
+def tilted_cop(com: np.ndarray, ratios: np.ndarray) -> np.ndarray:
+    """CoP (n, 2) where the gravity line through CoM (n, 3) meets z = 0: c_xy − c_z g_xy/g_z."""
+    return com[:, :2] - com[:, 2:3] * ratios

@@ -199,3 +199,26 @@ def read_cop_se(table: Table) -> np.ndarray | None:
     if "cop_se" in table:
         return table.get("cop_se")
     return None
+
+
+GRAVITY_COLUMNS = ("grav_x", "grav_y", "grav_z")
+
+
+def read_gravity(table: Table) -> np.ndarray | None:
+    """Unit gravity directions (n, 3), support frame, from ``grav_x/y/z``; None when absent."""
+    has = [c in table for c in GRAVITY_COLUMNS]
+    if not any(has):
+        return None
+    if not all(has):
+        missing = GRAVITY_COLUMNS[has.index(False)]
+        raise DataError(f"{table.path}: missing column '{missing}' (gravity direction)")
+    g = np.column_stack([table.get(c) for c in GRAVITY_COLUMNS])
+    norm = np.linalg.norm(g, axis=1)
+    bad = np.flatnonzero(~np.isfinite(norm) | (g[:, 2] >= -0.5 * norm))
+    if bad.size:
+        i = int(bad[0])
+        raise DataError(
+            f"{table.path}: row {i + 2}: gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
+            "finite and point down through the sole (grav_z < 0, tilt < 60°)"
+        )
+    return g / norm[:, None]

@@ -7,7 +7,7 @@ import json
 import click
 import numpy as np
 
-from ..errors import DataError, OptionError, SescidError
+from ..errors import DataError, MissingExtraError, OptionError, SescidError
 from ..estimation import load_fit, min_poses
 from ..experiment import ExperimentConfig, load_sensors, pose_list_ids, run_experiment
 from ..experiment import fsr as run_fsr
@@ -148,6 +148,25 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out):
     show_default=True,
     help="Log the four forces, the centroid registers, or both.",
 )
+@click.option(
+    "--engine",
+    type=click.Choice(["kinematic", "mujoco"]),
+    default="kinematic",
+    show_default=True,
+    help="kinematic: CoP at the CoM's ground projection; mujoco: a physics bench (the robot "
+    "stands on its support foot, servos hold each pose; logs grav_x/y/z too).",
+)
+@click.option(
+    "--weld-foot",
+    is_flag=True,
+    help="mujoco: fix the support foot level to the world (pads read an ideal F/T sensor).",
+)
+@click.option(
+    "--kp",
+    default=None,
+    type=click.FloatRange(min=0, min_open=True),
+    help="mujoco: servo stiffness [N·m/rad] (default: the robot profile's servo gains).",
+)
 def experiment(
     robot_name,
     support,
@@ -162,6 +181,9 @@ def experiment(
     fsr_noise,
     fsr_bias,
     registers,
+    engine,
+    weld_foot,
+    kp,
 ):
     """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs)
     stands in each pose of the list; writes the raw sensor log that `sescid fsr` reads."""
@@ -177,8 +199,18 @@ def experiment(
         fsr_bias=fsr_bias,
         registers=registers,
     )
+    if engine == "kinematic" and (weld_foot or kp is not None):
+        raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
     try:
-        ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
+        if engine == "mujoco":
+            from ..experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
+
+            bench = MujocoBenchConfig(kp=kp, weld_foot=weld_foot)
+            ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench, pose_ids=ids)
+        else:
+            ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
+    except MissingExtraError:
+        raise
     except SescidError as exc:
         raise DataError(f"{poses_file}: {exc}") from None
     write_table(out, ex.columns)

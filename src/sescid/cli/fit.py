@@ -27,7 +27,16 @@ from ..estimation import (
     identify as run_identify,
 )
 from ..files import check_outputs
-from ..io import FORMATS, export_model, read_cop, read_cop_se, read_poses, read_table, write_table
+from ..io import (
+    FORMATS,
+    export_model,
+    read_cop,
+    read_cop_se,
+    read_gravity,
+    read_poses,
+    read_table,
+    write_table,
+)
 from ..progress import TerminalProgress
 from .common import load, mm, robot_options, seed_option
 
@@ -197,12 +206,17 @@ def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
 )
 @seed_option
 def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
-    """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m)."""
+    """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m).
+
+    Optional columns grav_x, grav_y, grav_z (gravity direction in the support frame) give the
+    tilted-sole statics: the CoP is where the gravity line through the CoM meets the sole.
+    """
     check_outputs([out], [data, robot_name])
     robot = load(robot_name, support)
     table = read_table(data)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     cop = read_cop(table)
+    gravity = read_gravity(table)
     sigma = None
     if weighted:
         sigma = read_cop_se(table)
@@ -235,6 +249,12 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
     fitter = make_fitter(
         robot, method, rtol=rtol, map_options=mopts, consistent_options=copts, seed=opts["seed"]
     )
+    if gravity is not None and (opts["online"] or opts["cv"] is not None):
+        raise OptionError(
+            "gravity", "--online and --cv do not use the grav_x/y/z columns: drop them or the flag"
+        )
+    if gravity is not None and opts["joint_noise_deg"] is not None:
+        raise OptionError("gravity", "--joint-noise-deg does not use the grav_x/y/z columns")
     if opts["online"]:
         fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
     else:
@@ -250,6 +270,7 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
                 consistent_options=copts,
                 robust=opts["robust"],
                 seed=opts["seed"],
+                gravity=gravity,
             )
     if opts["robust"]:
         from ..estimation import huber
@@ -330,11 +351,16 @@ def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
     "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
 )
 def predict(fit_file, poses, out, level):
-    """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians)."""
+    """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
+
+    With columns grav_x, grav_y, grav_z the CoP is projected along that gravity direction.
+    """
     check_outputs([out], [fit_file, poses])
     fit = load_fit(fit_file)
-    q = read_poses(read_table(poses), fit.robot.joint_names, fit.robot.profile.servo)
-    cop = fit.predict_cop(q)
+    table = read_table(poses)
+    q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
+    gravity = read_gravity(table)
+    cop = fit.predict_cop(q, gravity)
     com = fit.predict_com(q)
     std = fit.predict_std(q)
     cols = {
@@ -352,8 +378,10 @@ def predict(fit_file, poses, out, level):
         iv = com_interval(fit, q, level)  # CoP = CoM x, y
         for j, name in enumerate(("com_x", "com_y", "com_z")):
             cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+        shift = cop - com[:, :2]  # tilted gravity: the CoM interval moved along gravity
         for j, name in enumerate(("cop_x", "cop_y")):
-            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+            cols[f"{name}_lower"] = iv.lower[:, j] + shift[:, j]
+            cols[f"{name}_upper"] = iv.upper[:, j] + shift[:, j]
     write_table(out, cols)
     click.echo(f"wrote {out}: {len(q)} poses")
 

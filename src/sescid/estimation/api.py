@@ -59,7 +59,7 @@ class ConsistentOptions:
         return dataclasses.asdict(self)
 
 
-def _map(robot, q, cop, sigma, rtol, opts: MapOptions, seed: int) -> Fit:
+def _map(robot, q, cop, sigma, rtol, opts: MapOptions, seed: int, gravity=None) -> Fit:
     return identify_map(
         robot,
         q,
@@ -72,6 +72,7 @@ def _map(robot, q, cop, sigma, rtol, opts: MapOptions, seed: int) -> Fit:
         select=opts.select,
         folds=opts.folds,
         seed=seed,
+        gravity=gravity,
     )
 
 
@@ -84,7 +85,7 @@ def make_fitter(
     consistent_options: ConsistentOptions | None = None,
     seed: int = 0,
 ) -> Fitter:
-    """A function (q, cop, sigma) → Fit that runs ``method`` with these options."""
+    """A function (q, cop, sigma[, gravity]) → Fit that runs ``method`` with these options."""
     if method not in METHODS:
         raise OptionError("method", f"must be one of {', '.join(METHODS)}, got {method!r}")
     check_rtol(rtol)
@@ -98,12 +99,14 @@ def make_fitter(
                 "consistent_options", f"apply to method 'consistent' only, not {method!r}"
             )
 
-    def fitter(q: np.ndarray, cop: np.ndarray, sigma: np.ndarray | None) -> Fit:
+    def fitter(q: np.ndarray, cop: np.ndarray, sigma: np.ndarray | None, gravity=None) -> Fit:
         if method == "ls":
-            return identify_ls(robot, q, cop, sigma=sigma, rtol=rtol)
+            return identify_ls(robot, q, cop, sigma=sigma, rtol=rtol, gravity=gravity)
         if method == "map":
-            return _map(robot, q, cop, sigma, rtol, mopts, seed)
-        return identify_consistent(robot, q, cop, sigma=sigma, rtol=rtol, **copts.kwargs())
+            return _map(robot, q, cop, sigma, rtol, mopts, seed, gravity)
+        return identify_consistent(
+            robot, q, cop, sigma=sigma, rtol=rtol, gravity=gravity, **copts.kwargs()
+        )
 
     return fitter
 
@@ -121,12 +124,14 @@ def identify(
     robust: bool = False,
     huber_k: float = HUBER_K,
     seed: int = 0,
+    gravity: ArrayLike | None = None,
 ) -> Fit:
     """Identify the SESC vectors from poses q (n, nq) [rad] and CoPs (n, 2) [m].
 
     ``method``: "ls" (least squares), "map" (Gaussian CAD prior) or "consistent" (physical
     masses/CoMs). ``sigma``: per-pose CoP standard errors (n,) or (n, 2) m → weighted fit.
-    ``robust``: Huber IRLS around the method (threshold ``huber_k`` σ).
+    ``robust``: Huber IRLS around the method (threshold ``huber_k`` σ). ``gravity``: per-pose
+    gravity directions (n, 3) in the support frame (None: along −z, a level sole).
     """
     fitter = make_fitter(
         robot,
@@ -139,9 +144,10 @@ def identify(
     qq = as_poses(q, robot.nq)
     cc = np.asarray(cop, dtype=float)
     ss = None if sigma is None else np.asarray(sigma, dtype=float)
+    gg = None if gravity is None else np.asarray(gravity, dtype=float)
     if robust:
-        return huber(fitter, qq, cc, ss, k=huber_k)
-    return fitter(qq, cc, ss)
+        return huber(fitter, qq, cc, ss, k=huber_k, gravity=gg)
+    return fitter(qq, cc, ss, gg)
 
 
 def to_consistent(fit: Fit, options: ConsistentOptions | None = None) -> Fit:

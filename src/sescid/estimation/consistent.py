@@ -532,13 +532,14 @@ def identify_consistent(
     com_scale: float = COM_SCALE,
     fit_tol: float = FIT_TOL,
     prior_std: float | None = None,
+    gravity=None,
 ) -> Fit:
     """Least squares on poses q (n, nq) [rad] and CoPs (n, 2) [m], then ``consistent_from_fit``.
 
-    The returned Fit's residual RMS/MAE are recomputed on the data.
+    The returned Fit's residual RMS/MAE are recomputed on the data (under ``gravity`` (n, 3)).
     """
     kw = {} if rtol is None else {"rtol": rtol}
-    ls = identify_ls(robot, q, cop, sigma=sigma, **kw)
+    ls = identify_ls(robot, q, cop, sigma=sigma, gravity=gravity, **kw)
     fit = consistent_from_fit(
         ls,
         total_mass=total_mass,
@@ -550,7 +551,7 @@ def identify_consistent(
         fit_tol=fit_tol,
         prior_std=prior_std,
     )
-    residual_stats(fit, np.asarray(q, dtype=float), np.asarray(cop, dtype=float))
+    residual_stats(fit, np.asarray(q, dtype=float), np.asarray(cop, dtype=float), gravity)
     dof = fit.n_rows - fit.rank
     fit.sigma_hat = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
     return fit

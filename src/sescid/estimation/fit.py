@@ -229,9 +229,9 @@ class Fit:
     warnings: list[str] = field(default_factory=list)  #: data-quality warnings (stored, printed)
 
     # --- predictions ------------------------------------------------------------------
-    def predict_cop(self, q: ArrayLike) -> np.ndarray:
-        """CoP (n, 2) in m at poses q (n, nq) [rad]."""
-        return self.robot.cop(q, self.r)
+    def predict_cop(self, q: ArrayLike, gravity: ArrayLike | None = None) -> np.ndarray:
+        """CoP (n, 2) in m at poses q (n, nq) [rad], under gravity (n, 3) when given."""
+        return self.robot.cop(q, self.r, gravity)
 
     def predict_com(self, q: ArrayLike) -> np.ndarray:
         """CoM (n, 3) in m; its z partly comes from the prior (see ``com_z_from_prior``)."""

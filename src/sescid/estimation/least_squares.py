@@ -83,9 +83,9 @@ def solve(
     )
 
 
-def residual_stats(fit: Fit, q: np.ndarray, cop: np.ndarray) -> None:
+def residual_stats(fit: Fit, q: np.ndarray, cop: np.ndarray, gravity=None) -> None:
     """Set ``fit.mae`` and ``fit.rms`` (m) from the data, net of any estimated CoP offset."""
-    resid = cop - fit.predict_cop(q) - fit.cop_bias
+    resid = cop - fit.predict_cop(q, gravity) - fit.cop_bias
     fit.mae = float(np.mean(np.abs(resid)))
     fit.rms = float(np.sqrt(np.mean(resid**2)))
 
@@ -99,19 +99,21 @@ def identify_ls(
     rtol: float = DEFAULT_RTOL,
     r_prior: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
+    gravity: ArrayLike | None = None,
 ) -> Fit:
     """Least-squares SESC vectors from poses q (n, nq) [rad] and measured CoPs (n, 2) [m].
 
     ``sigma``: optional per-pose CoP standard errors (n,) or (n, 2) [m] → weighted least squares.
     ``r_prior``: SESC vectors that fill the undetermined directions (default: the model's).
+    ``gravity``: per-pose gravity directions (n, 3) in the support frame (None: along −z).
     """
     qq = as_poses(q, robot.nq)
     cc = check_cop(cop, qq.shape[0])
     check_enough_poses(robot, qq.shape[0])
-    ne = accumulate(robot, [(qq, cc, sigma)], progress=progress)
+    ne = accumulate(robot, [(qq, cc, sigma, gravity)], progress=progress)
     fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
     fit.weighted = sigma is not None
-    residual_stats(fit, qq, cc)
+    residual_stats(fit, qq, cc, gravity)
     return fit
 
 

@@ -176,6 +176,7 @@ def identify_map(
     select: str = "evidence",
     folds: int = 5,
     seed: int = 0,
+    gravity=None,
 ) -> Fit:
     """MAP fit of the SESC vectors with a Gaussian prior centred on ``r_prior`` (default: CAD).
 
@@ -185,7 +186,7 @@ def identify_map(
     σ²/τ² minimising the ``folds``-fold cross-validated CoP error, then σ by maximum
     likelihood at that ratio). With per-pose ``sigma``, σ is a dimensionless scale on them.
     ``bias=True`` adds two constant CoP offsets (m), reported in ``fit.cop_offset`` and not
-    part of predictions.
+    part of predictions. ``gravity``: per-pose gravity directions (n, 3), support frame.
     """
     _check_positive(prior_scale, "prior scale")
     _check_positive(noise, "noise")
@@ -193,13 +194,13 @@ def identify_map(
         raise SescidError(f"prior scale selection must be 'evidence' or 'cv', got {select!r}")
     q = as_poses(q, robot.nq)
     cop = check_cop(cop, q.shape[0])
-    ne = accumulate(robot, [(q, cop, sigma)])
+    ne = accumulate(robot, [(q, cop, sigma, gravity)])
     by_cv = select == "cv" and prior_scale is None
     if by_cv:
         if bias:
             raise SescidError("choosing the prior scale by cross-validation does not support bias")
         r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
-        ridge, curve = cv_ridge(robot, q, cop, sigma, r0.reshape(-1), folds, seed)
+        ridge, curve = cv_ridge(robot, q, cop, sigma, r0.reshape(-1), folds, seed, gravity)
         if noise is None:
             noise = profiled_noise(ne, r0.reshape(-1), ridge)
         prior_scale = noise / math.sqrt(ridge)
@@ -211,13 +212,13 @@ def identify_map(
         r_prior=r_prior,
         bias=bias,
         rtol=rtol,
-        bias_data=(q, cop, sigma),
+        bias_data=(q, cop, sigma, gravity),
     )
     fit.weighted = sigma is not None
     if by_cv and fit.map is not None:
         fit.map.prior_scale_by = f"{folds}-fold cv"
         fit.map.cv_curve = curve
-    residual_stats(fit, q, cop)
+    residual_stats(fit, q, cop, gravity)
     return fit
 
 
@@ -229,13 +230,17 @@ def profiled_noise(ne: NormalEquations, x0: np.ndarray, ridge: float) -> float:
     return math.sqrt(max(ztz - quad, 0.0) / ne.n_rows) or SIGMA_RANGE[0]
 
 
-def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0):
+def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0, gravity=None):
     """Ratio σ²/τ² minimising the k-fold held-out CoP error; also the curve [[τ/σ, rmse], …].
 
     Fold normal equations make each candidate cost one Cholesky per fold: the held-out sum of
     squares is ``yᵀy − 2xᵀΦᵀy + xᵀΦᵀΦx`` from the test fold's sums.
     """
-    parts = [accumulate(robot, [(q[f], cop[f], None if sigma is None else sigma[f])]) for f in
+
+    def sub(v, f):
+        return None if v is None else np.asarray(v)[f]
+
+    parts = [accumulate(robot, [(q[f], cop[f], sub(sigma, f), sub(gravity, f))]) for f in
              split(q.shape[0], k, seed)]  # fmt: skip
     total_a = sum(p.ata for p in parts)
     total_b = sum(p.atb for p in parts)
@@ -252,11 +257,15 @@ def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0):
     return 1.0 / ratios[best] ** 2, curve
 
 
-def _with_bias(robot: Robot, q, cop, sigma) -> NormalEquations:
+def _with_bias(robot: Robot, q, cop, sigma, gravity=None) -> NormalEquations:
     """Normal equations of [vec(r); b] from the data (bias columns appended)."""
     n = q.shape[0]
-    phi = np.hstack([robot.regressor(q, (0, 1)).reshape(2 * n, -1), bias_columns(n)])
-    y = (cop - robot.d[:2]).reshape(-1)
+    if gravity is None:
+        phi_r, d = robot.regressor(q, (0, 1)), robot.d[:2]
+    else:
+        phi_r, d = robot.regressor_tilted(q, gravity), robot.d_tilted(gravity, n)
+    phi = np.hstack([phi_r.reshape(2 * n, -1), bias_columns(n)])
+    y = (cop - d).reshape(-1)
     w = row_weights(sigma, n)
     if w is not None:
         phi, y = phi * np.sqrt(w)[:, None], y * np.sqrt(w)

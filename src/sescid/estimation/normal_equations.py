@@ -74,15 +74,35 @@ def row_weights(sigma: ArrayLike | None, n: int) -> np.ndarray | None:
     return (1.0 / s**2).reshape(-1)
 
 
+def _add_tilted(robot, ne, q, cop, w, gravity, block, progress) -> None:
+    """Add the tilted x/y rows of poses under per-pose gravity (n, 3) to ``ne`` (full Φ)."""
+    g = np.asarray(gravity, dtype=float)
+    d = robot.d_tilted(g, q.shape[0])
+    for s in range(0, q.shape[0], block):
+        blk = slice(s, s + block)
+        phi = robot.regressor_tilted(q[blk], g[blk])  # (m, 2, P)
+        y = (cop[blk] - d[blk]).reshape(-1)
+        ne.add(
+            phi.reshape(-1, phi.shape[2]).T,
+            y,
+            None if w is None else w.reshape(-1, 2)[blk].reshape(-1),
+        )
+        if progress is not None:
+            progress(min(s + block, q.shape[0]), q.shape[0])
+
+
 def accumulate(
     robot: Robot,
     chunks: Iterable[tuple],
     ne: NormalEquations | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> NormalEquations:
-    """Accumulate normal equations from chunks ``(q, cop)`` or ``(q, cop, sigma)``.
+    """Accumulate normal equations from chunks ``(q, cop)``, ``(q, cop, sigma)`` or
+    ``(q, cop, sigma, gravity)``.
 
-    ``progress(done, total)`` is called after each block with the poses done in the chunk.
+    ``gravity`` (n, 3): per-pose gravity direction in the support frame; its rows are the tilted
+    ones Φx − (gx/gz) Φz, Φy − (gy/gz) Φz (accumulated in full coordinates: z information
+    breaks the x/y reduction). ``progress(done, total)`` is called after each block.
     """
     ne = ne or NormalEquations.empty(3 * len(robot.body_names))
     d_xy = robot.d[:2]
@@ -92,9 +112,14 @@ def accumulate(
     for chunk in chunks:
         q, cop = chunk[0], chunk[1]
         sigma = chunk[2] if len(chunk) > 2 else None
+        gravity = chunk[3] if len(chunk) > 3 else None
         q = as_poses(q, robot.nq)
         cop = check_cop(cop, q.shape[0])
         w = row_weights(sigma, q.shape[0])
+        if gravity is not None:
+            _add_tilted(robot, ne, q, cop, w, gravity, ws.block, progress)
+            ne.n_poses += q.shape[0]
+            continue
         for s in range(0, q.shape[0], ws.block):
             blk = slice(s, s + ws.block)
             x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows

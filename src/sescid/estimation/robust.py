@@ -48,6 +48,7 @@ def huber(
     k: float = HUBER_K,
     max_iter: int = 50,
     tol: float = 1e-4,
+    gravity=None,
 ) -> Fit:
     """Huber IRLS around any fitting method; names the down-weighted poses in ``fit.robust``.
 
@@ -61,11 +62,15 @@ def huber(
     q = np.asarray(q, dtype=float)
     cop = np.asarray(cop, dtype=float)
     base = _per_pose_sigma(sigma, q.shape[0])
-    fit = fitter(q, cop, sigma)
+
+    def run(s):
+        return fitter(q, cop, s) if gravity is None else fitter(q, cop, s, gravity)
+
+    fit = run(sigma)
     w = np.ones(q.shape[0])
     scale, iterations = math.nan, 0
     for iterations in range(1, max_iter + 1):  # noqa: B007 (reported after the loop)
-        e = (cop - fit.predict_cop(q) - fit.cop_bias) / base
+        e = (cop - fit.predict_cop(q, gravity) - fit.cop_bias) / base
         u = np.linalg.norm(e, axis=1)
         scale = float(np.median(u)) / _MEDIAN_NORM
         if scale <= 0:
@@ -74,7 +79,7 @@ def huber(
         w_new = np.where(u <= k, 1.0, k / np.maximum(u, 1e-300))
         done = np.max(np.abs(w_new - w)) < tol
         w = w_new
-        fit = fitter(q, cop, base * scale / np.sqrt(w)[:, None])
+        fit = run(base * scale / np.sqrt(w)[:, None])
         if done:
             break
     if math.isfinite(fit.sigma_hat) and math.isfinite(scale):

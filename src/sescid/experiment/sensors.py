@@ -38,7 +38,14 @@ import numpy as np
 from ..errors import DataError
 from ..files import read_json
 from ..robots import RobotProfile, ServoEncoding
-from ..table import Table, column_with_missing, pose_ids, read_joint_columns
+from ..table import (
+    GRAVITY_COLUMNS,
+    Table,
+    column_with_missing,
+    pose_ids,
+    read_gravity,
+    read_joint_columns,
+)
 
 FSR_FORMAT = "sescid-fsr/1"
 #: board corner (u, v) ∈ [0, 1]² of FSR1..FSR4 (X = 254 u, Y = 254 v)
@@ -211,6 +218,7 @@ class RawLog:
     cop: dict[str, np.ndarray] = field(default_factory=dict)  #: foot → (m, 2) CoP, sole frame, m
     #: foot → (m,) normal force N (``<cop>_fz``), or None when the log has none
     cop_force: dict[str, np.ndarray | None] = field(default_factory=dict)
+    gravity: np.ndarray | None = None  #: (m, 3) gravity direction, support frame (grav_x/y/z)
 
 
 def read_raw(
@@ -280,7 +288,8 @@ def read_raw(
             f"{table.path}: one foot logs forces and the other only centroid registers: "
             "log the same kind for both feet"
         )
-    return RawLog(table.path, pose, q, forces, centroid, units, cop, cop_force)
+    gravity = read_gravity(table) if any(c in names for c in GRAVITY_COLUMNS) else None
+    return RawLog(table.path, pose, q, forces, centroid, units, cop, cop_force, gravity)
 
 
 def _read_cop(table: Table, foot: Foot, names: set[str], cop: dict, cop_force: dict) -> bool:
@@ -327,6 +336,7 @@ class Measured:
     #: "forces" (every source has a force), "centroid" (registers) or "cop" (a logged CoP
     #: without its force)
     mode: str = "forces"
+    gravity: np.ndarray | None = None  #: (k, 3) mean gravity direction (unit), support frame
 
     @property
     def n_rejected(self) -> np.ndarray:
@@ -355,6 +365,8 @@ class Measured:
         }
         if self.mode == "forces":  # the registers carry no force
             cols["force_n"] = self.force
+        if self.gravity is not None:
+            cols |= {f"grav_{a}": self.gravity[:, i] for i, a in enumerate("xyz")}
         return cols
 
 
@@ -523,6 +535,11 @@ def measure(
     with np.errstate(invalid="ignore", divide="ignore"):
         se = np.maximum(np.sqrt(var / n_used[:, None]), 1e-7)
 
+    grav = None
+    if log.gravity is not None:  # mean direction over the usable samples, renormalised
+        g_sum = np.stack([np.bincount(g[ok], log.gravity[ok, a], minlength=k) for a in range(3)], 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            grav = g_sum / np.linalg.norm(g_sum, axis=1, keepdims=True)
     keep = (n_used >= min_samples) & good_q
     dropped = []
     for i in np.flatnonzero(~keep):
@@ -544,6 +561,7 @@ def measure(
         rejected=rejected[keep],
         dropped=dropped,
         mode=mode,
+        gravity=None if grav is None else grav[keep],
     )
 
 

@@ -86,9 +86,8 @@ class Experiment:
     skipped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) not measured
 
 
-def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
-    """True SESC vectors (N, 3) [m] and mass [kg] of the model plus the unmodelled masses."""
-
+def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
+    """The real robot's bodies (the model's plus the unmodelled masses) and the masses placed."""
     if not (0 <= config.extra_mass_fraction < 1):
         raise DataError(f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}")
     shares = sum(e.share for e in config.extra)
@@ -109,6 +108,12 @@ def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list
         com = (b.mass * b.com + me * off) / m if m > 0 else b.com
         bodies[i] = dataclasses.replace(b, mass=m, com=com)
         placed.append({"body": e.body, "mass_kg": me, "offset_m": off.tolist()})
+    return bodies, placed
+
+
+def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
+    """True SESC vectors (N, 3) [m] and mass [kg] of the model plus the unmodelled masses."""
+    bodies, placed = real_bodies(robot, config)
     model = dataclasses.replace(robot.model, bodies=bodies)
     return sesc_vectors(model), float(sum(b.mass for b in bodies)), placed
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from ..files import atomic_open, atomic_path, read_json
-from ..table import Table, read_cop, read_cop_se, read_joint_columns, read_poses
+from ..table import Table, read_cop, read_cop_se, read_gravity, read_joint_columns, read_poses
 from .bags import (
     MAPPING_FORMAT,
     BagMapping,
@@ -50,6 +50,7 @@ __all__ = [
     "read_cop",
     "read_bag",
     "read_cop_se",
+    "read_gravity",
     "read_joint_columns",
     "read_json",
     "read_poses",

@@ -48,6 +48,15 @@ class ServoEncoding:
 MX28 = ServoEncoding("Dynamixel MX-28", 4096, 2048, 4095)
 
 
+def mx28_kp(p_gain: float = 32, stall_torque: float = 2.5) -> float:
+    """Stiffness [N·m/rad] of an MX-28 (protocol 1.0) position loop at P gain ``p_gain``.
+
+    The firmware's gain P/8 gives PWM counts (of 1023) per encoder tick (4096 per turn) of
+    error; full PWM at rest gives the stall torque (2.5 N·m at 12 V).
+    """
+    return p_gain / 8 * (4096 / (2 * math.pi)) / 1023 * stall_torque
+
+
 @dataclass(frozen=True)
 class ServoGains:
     """Position-servo model for a physics bench: stiffness, damping, rotor inertia."""

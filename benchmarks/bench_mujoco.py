@@ -1,0 +1,66 @@
+"""Physics bench figures on the OP2: statics errors, foot tilt, servo sag, time per pose.
+
+Run: PYTHONPATH=src python benchmarks/bench_mujoco.py [n_poses]
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections import Counter
+
+import numpy as np
+
+import sescid
+from sescid.experiment import load_sensors
+from sescid.experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
+from sescid.experiment.planning import candidates
+from sescid.robots.profile import mx28_kp
+
+
+def summary(label: str, ex, wall: float) -> None:
+    t = ex.truth
+    n = len(t["pose"])
+    why = Counter(w.split(":")[0] if "toppled" in w else w.split(" (")[0] for _, w in ex.skipped)
+    print(f"{label}: {n} measured, skipped {dict(why)}, {wall / (n + len(ex.skipped)):.2f} s/pose")
+    pads, flat, grav = (np.array(t[k]) for k in ("cop_pads", "cop_true", "cop_gravity"))
+    d_flat = np.linalg.norm(pads - flat, axis=1)
+    d_grav = np.linalg.norm(pads - grav, axis=1)
+    sag = np.abs(np.array(t["servo_sag"]))
+    print(
+        f"  pads − flat statics: RMS {np.sqrt(np.mean(d_flat**2)) * 1e3:.3f} mm, "
+        f"max {d_flat.max() * 1e3:.3f} mm; pads − gravity-aware: RMS "
+        f"{np.sqrt(np.mean(d_grav**2)) * 1e6:.2f} µm, max {d_grav.max() * 1e6:.2f} µm"
+    )
+    print(
+        f"  foot tilt {np.min(t['foot_tilt']) * 1e3:.2f}–{np.max(t['foot_tilt']) * 1e3:.2f} mrad;"
+        f" servo sag max {sag.max():.4f} rad, RMS {np.sqrt(np.mean(sag**2)):.4f} rad; "
+        f"settle {np.mean(t['settle_s']):.2f} s sim (max {np.max(t['settle_s']):.2f})"
+    )
+    if "cop_ft" in t:
+        err = np.abs(np.array(t["cop_ft"]) - flat).max()
+        print(f"  welded: F/T CoP − statics max {err:.1e} m")
+
+
+def main(n: int = 40) -> None:
+    robot = sescid.load_robot("op2")
+    sensors = load_sensors(None, robot.profile)
+    q = candidates(robot, n, seed=0).q
+    for label, bench in (
+        ("welded, profile gains", MujocoBenchConfig(weld_foot=True, vel_tol=1e-3)),
+        ("free, profile gains (kp 320)", MujocoBenchConfig()),
+        ("free, kp 150", MujocoBenchConfig(kp=150.0)),
+        ("free, MX-28 P=254", MujocoBenchConfig(kp=mx28_kp(254))),
+        ("free, MX-28 P=32", MujocoBenchConfig(kp=mx28_kp(32))),
+    ):
+        t0 = time.perf_counter()
+        try:
+            ex = run_mujoco_experiment(robot, q, sensors, samples=100, seed=0, bench=bench)
+        except sescid.SescidError as exc:
+            print(f"{label}: {exc}")
+            continue
+        summary(label, ex, time.perf_counter() - t0)
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 40)
