@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import DataError
 from .model import RobotModel
@@ -249,7 +250,7 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     return rot
 
 
-def as_poses(q, nq: int, what: str = "q") -> np.ndarray:
+def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
     """Validate joint angles: (n, nq) or (nq,) finite radians → C-contiguous (n, nq) float64."""
     arr = np.asarray(q, dtype=float)
     if arr.ndim == 1:
@@ -262,7 +263,7 @@ def as_poses(q, nq: int, what: str = "q") -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-def forward(tree: Tree, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def forward(tree: Tree, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Rotations (n, N, 3, 3) and origins (n, N, 3) [m] of every body in the support frame."""
     q = as_poses(q, tree.nq)
     n, nb = q.shape[0], tree.parent.shape[0]
@@ -280,7 +281,7 @@ def forward(tree: Tree, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rot_out, org_out
 
 
-def regressor(tree: Tree, q: np.ndarray, rows=(0, 1)) -> np.ndarray:
+def regressor(tree: Tree, q: ArrayLike, rows: tuple[int, ...] = (0, 1)) -> np.ndarray:
     """SESC regressor Φ (n, len(rows), 3N): CoM[rows] = d[rows] + Φ · vec(r).
 
     ``rows`` picks support-frame axes: (0, 1) for the CoP (x, y), (0, 1, 2) for the full CoM.

@@ -14,6 +14,7 @@ not along the sole normal) it is where the gravity line through the CoM meets th
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import DataError
 from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain
@@ -39,7 +40,9 @@ def sesc_vectors(model: RobotModel) -> np.ndarray:
     return r / total
 
 
-def com_from_sesc(tree: Tree, q: np.ndarray, r: np.ndarray, rows=(0, 1, 2)) -> np.ndarray:
+def com_from_sesc(
+    tree: Tree, q: ArrayLike, r: np.ndarray, rows: tuple[int, ...] = (0, 1, 2)
+) -> np.ndarray:
     """CoM[rows] (n, len(rows)) in metres for SESC vectors r (N, 3); rows (0, 1) is the CoP."""
     q = as_poses(q, tree.nq)
     rows = list(rows)

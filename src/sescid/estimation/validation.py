@@ -26,8 +26,8 @@ from ..robot import Robot
 from ..sesc import sesc_vectors
 from .fit import CrossValidation, Fit
 
-#: a fitting function: (q (n, nq) rad, cop (n, 2) m, sigma (n,)|(n, 2)|None m) -> Fit
-Fitter = Callable[[np.ndarray, np.ndarray, np.ndarray | None], Fit]
+#: a fitting function: (q, cop, sigma[, gravity]) → Fit (arrays as in ``identify``)
+Fitter = Callable[..., Fit]
 
 
 def residual_dof(fit: Fit) -> float:

@@ -25,7 +25,7 @@ from .bags import (
     read_bag,
 )
 from .export import FORMATS, export_model, export_urdf
-from .export_mjcf import export_mjcf
+from .mjcf_export import export_mjcf
 from .tables import read_table, write_table
 
 __all__ = [

@@ -12,7 +12,7 @@ ratio: the static SESC problem does not identify them. A body whose links were a
 gets its mass on its main link (a new ``<inertial>`` with a zero inertia tensor if needed).
 
 ``export_model`` writes the fit's model in its own format: ``export_urdf`` here, ``export_mjcf``
-(``sescid.io.export_mjcf``) for an MJCF model.
+(``sescid.io.mjcf_export``) for an MJCF model.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def export_model(fit: Fit, path: str | Path, format: str | None = None) -> list[
             "model first and identify on it)",
         )
     if fmt == "mjcf":
-        from .export_mjcf import export_mjcf
+        from .mjcf_export import export_mjcf
 
         return export_mjcf(fit, path)
     return export_urdf(fit, path)
