@@ -18,6 +18,7 @@ demo: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks examples tools
 	$(VENV)/bin/ruff format --check src tests benchmarks examples tools
+	$(VENV)/bin/mypy src/sescid
 
 test: lint
 	$(PY) -m pytest -q

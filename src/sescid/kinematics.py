@@ -45,6 +45,7 @@ class Tree:
 
     @classmethod
     def from_model(cls, model: RobotModel) -> Tree:
+        """Flatten a ``RobotModel`` into the kernels' arrays."""
         n = len(model.bodies)
         a0 = np.empty((n, 3, 3))
         a1 = np.empty((n, 3, 3))
@@ -94,7 +95,7 @@ _MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's s
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _sin_cos1m(x):
-    """sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
+    """Sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
     q = np.floor(x * _TWO_OVER_PI + 0.5)
     r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T  # |r| ≤ π/4
     z = r * r
@@ -183,7 +184,7 @@ def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
 
 @numba.njit(cache=True, nogil=True)
 def _origins_block(rot, parent, t, root_o, org):
-    """org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
+    """Org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
     nb = parent.shape[0]
     nbk = rot.shape[3]
     for b in range(nb):
@@ -354,7 +355,7 @@ def reduction(tree: Tree, axes: np.ndarray, rows=(0, 1)) -> Reduction:
 
 @numba.njit(cache=True, nogil=True)
 def _reduced_kernel(rot, rows, u, out):
-    """out (P_red, len(rows)·m), columns ordered (row, pose): intercepts, then R_b[row] u_l."""
+    """Out (P_red, len(rows)·m), columns ordered (row, pose): intercepts, then R_b[row] u_l."""
     nb = rot.shape[0]
     m = rot.shape[3]
     nr = rows.shape[0]

@@ -23,6 +23,7 @@ class TerminalProgress:
         self.enabled = bool(getattr(self.stream, "isatty", lambda: False)())
 
     def __call__(self, done: int, total: int) -> None:
+        """Report ``done`` of ``total`` (redraws at most every ``delay`` s)."""
         if not self.enabled or time.perf_counter() - self.start < self.delay:
             return
         if (done, total) == self.last:  # the same state again: nothing new to draw
@@ -36,6 +37,7 @@ class TerminalProgress:
         self.stream.flush()
 
     def close(self) -> None:
+        """End the progress line (if one was drawn)."""
         if self.drawn:
             self.stream.write("\n")
             self.stream.flush()

@@ -37,6 +37,7 @@ class Robot:
     # --- description -------------------------------------------------------------------
     @property
     def name(self) -> str:
+        """The model's name."""
         return self.model.name
 
     @property
@@ -46,6 +47,7 @@ class Robot:
 
     @property
     def support(self) -> str:
+        """The support frame (sole link, foot link or site) the tree is rooted at."""
         return self.model.support
 
     @property
@@ -55,6 +57,7 @@ class Robot:
 
     @property
     def nq(self) -> int:
+        """Number of independent joints (columns of q)."""
         return len(self.model.joint_names)
 
     @property
@@ -74,7 +77,7 @@ class Robot:
 
     @property
     def total_mass(self) -> float:
-        """kg."""
+        """Kg."""
         return float(self.masses.sum())
 
     @property

@@ -36,6 +36,7 @@ class Table:
         return name in self.columns
 
     def names(self) -> list[str]:
+        """All column names, numeric first."""
         return list(self.columns) + list(self.text)
 
     def get(self, name: str, what: str = "column") -> np.ndarray:

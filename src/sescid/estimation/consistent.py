@@ -60,6 +60,7 @@ from ..model import body_hulls
 from ..robot import Robot
 from ..sesc import sesc_vectors
 from .fit import BodyInertials, Fit
+from .identifiability import DEFAULT_RTOL
 from .least_squares import identify_ls, residual_stats
 
 #: default growth of the fallback box (joint points + CAD CoM), m
@@ -119,7 +120,7 @@ def body_boxes(
         given[b] = (pts.min(axis=0), pts.max(axis=0))
     collision = body_hulls(model.shapes, "collision")
     visual = body_hulls(model.shapes, "visual")
-    children = [[] for _ in names]
+    children: list[list[int]] = [[] for _ in names]
     for i, body in enumerate(model.bodies):
         if body.parent >= 0:
             children[body.parent].append(i)
@@ -538,8 +539,9 @@ def identify_consistent(
 
     The returned Fit's residual RMS/MAE are recomputed on the data (under ``gravity`` (n, 3)).
     """
-    kw = {} if rtol is None else {"rtol": rtol}
-    ls = identify_ls(robot, q, cop, sigma=sigma, gravity=gravity, **kw)
+    ls = identify_ls(
+        robot, q, cop, sigma=sigma, gravity=gravity, rtol=DEFAULT_RTOL if rtol is None else rtol
+    )
     fit = consistent_from_fit(
         ls,
         total_mass=total_mass,

@@ -69,6 +69,7 @@ class Combination:
         return text[2:] if text.startswith("+ ") else text
 
     def to_json(self) -> dict:
+        """JSON-ready dict (terms, label, value, std, reason, kind)."""
         return {
             "terms": [[b, a, c] for b, a, c in self.terms],
             "label": self.label(),
@@ -80,6 +81,7 @@ class Combination:
 
     @classmethod
     def from_json(cls, d: dict) -> Combination:
+        """The combination from its ``to_json`` dict."""
         return cls(
             terms=[(str(b), str(a), float(c)) for b, a, c in d["terms"]],
             value=_nan(d.get("value")),

@@ -77,7 +77,7 @@ def _terms(ne: NormalEquations, x0: np.ndarray):
 
 
 def log_evidence(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray, noise: float) -> float:
-    """log p(y | σ, prior) for prior precisions ``prec`` (P,) [m⁻²] and noise σ [m]."""
+    """Log p(y | σ, prior) for prior precisions ``prec`` (P,) [m⁻²] and noise σ [m]."""
     s2 = noise**2
     b, ztz = _terms(ne, x0)
     try:

@@ -58,6 +58,7 @@ class Interval:
 
     @property
     def half_width(self) -> np.ndarray:
+        """(n, k) half-widths of the interval, m."""
         return self.upper - self.value
 
     def covers(self, truth) -> np.ndarray:
@@ -93,6 +94,7 @@ def com_interval(fit: Fit, q, level: float = 0.95) -> Interval:
 
 
 def rms(a) -> float:
+    """Root mean square of all entries of ``a``."""
     return float(np.sqrt(np.mean(np.square(a))))
 
 
@@ -102,7 +104,7 @@ def truth_error(fit: Fit, q, cop_true) -> float:
 
 
 def folds(n: int, k: int, seed: int = 0) -> list[np.ndarray]:
-    """k disjoint random index sets covering range(n)."""
+    """K disjoint random index sets covering range(n)."""
     if not 2 <= k <= n:
         raise SescidError(f"cross-validation needs 2 ≤ k ≤ number of poses ({n}), got k = {k}")
     perm = np.random.default_rng(seed).permutation(n)

@@ -148,6 +148,7 @@ def servo_gains(robot, bench: MujocoBenchConfig) -> ServoGains:
     kp = bench.kp if bench.kp is not None else (base.kp if base else None)
     kv = bench.kv if bench.kv is not None else (base.kv if base else None)
     arm = bench.armature if bench.armature is not None else (base.armature if base else None)
+    values: dict[str, float] = {}
     for name, v in (("kp", kp), ("kv", kv), ("armature", arm)):
         if v is None:
             raise OptionError(
@@ -155,7 +156,8 @@ def servo_gains(robot, bench: MujocoBenchConfig) -> ServoGains:
             )
         if not (math.isfinite(v) and (v > 0 if name == "kp" else v >= 0)):
             raise OptionError(name, f"must be a finite number {'>' if name == 'kp' else '≥'} 0")
-    return ServoGains(kp=float(kp), kv=float(kv), armature=float(arm))
+        values[name] = float(v)
+    return ServoGains(**values)
 
 
 def _urdf_inertias(robot) -> dict[int, list[tuple[float, np.ndarray, np.ndarray]]]:
@@ -245,7 +247,7 @@ def build_spec(robot, sensors: SensorConfig, config: ExperimentConfig, bench: Mu
     }
 
     caps = collision_capsules(robot)
-    mj_bodies = []
+    mj_bodies: list = []
     for i, b in enumerate(bodies):
         parent = spec.worldbody if b.parent < 0 else mj_bodies[b.parent]
         body = parent.add_body()
@@ -717,5 +719,5 @@ def run_mujoco_experiment(
         "skipped": [{"pose": p, "reason": why} for p, why in skipped],
     }
     if weld:
-        truth["cop_ft"] = [r.cop_ft.tolist() for r, _ in runs]
+        truth["cop_ft"] = [None if r.cop_ft is None else r.cop_ft.tolist() for r, _ in runs]
     return Experiment(columns=cols, truth=truth, skipped=skipped)

@@ -105,6 +105,7 @@ class SensorConfig:
     source: str = ""
 
     def foot(self, name: str) -> Foot:
+        """The board named ``name``."""
         return next(f for f in self.feet if f.name == name)
 
 
@@ -340,6 +341,7 @@ class Measured:
 
     @property
     def n_rejected(self) -> np.ndarray:
+        """(k,) samples rejected per pose, all reasons."""
         return self.rejected.sum(axis=1)
 
     def reasons(self) -> list[str]:

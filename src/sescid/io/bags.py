@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn, overload
 
 import numpy as np
 
@@ -92,6 +93,7 @@ class FootSource:
 
     @property
     def output_columns(self) -> list[str]:
+        """Raw-table columns this foot source writes."""
         if self.source == "pads":
             return list(self.columns)
         cols = [f"{self.prefix}_cop_x", f"{self.prefix}_cop_y"]
@@ -142,10 +144,21 @@ class _Fields:
     def name(self, key: str) -> str:
         return f"{self.where}.{key}" if self.where else key
 
-    def fail(self, key: str, what: str):
+    def fail(self, key: str, what: str) -> NoReturn:
+        """Raise the one-line error for field ``key``."""
         raise DataError(f"{self.path}: {self.name(key)}: {what}")
 
-    def text(self, key: str, default=None, choices=None) -> str | None:
+    @overload
+    def text(self, key: str) -> str | None: ...
+    @overload
+    def text(self, key: str, default: str, choices: tuple[str, ...] | None = None) -> str: ...
+    @overload
+    def text(
+        self, key: str, default: None, choices: tuple[str, ...] | None = None
+    ) -> str | None: ...
+
+    def text(self, key: str, default=None, choices=None):
+        """A non-empty string field (``default`` when absent), optionally one of ``choices``."""
         v = self.data.get(key, default)
         if v is None:
             if default is None and key in self.data:
@@ -158,9 +171,11 @@ class _Fields:
         return v
 
     def required(self, key: str) -> str:
-        if key not in self.data:
+        """A string field that must be present."""
+        v = self.text(key)
+        if v is None:
             self.fail(key, "missing")
-        return self.text(key)
+        return v
 
     def number(self, key: str, default: float, positive: bool = False) -> float:
         v = self.data.get(key, default)
@@ -335,18 +350,19 @@ def _plate(f: _Fields, mapping_dir: Path) -> tuple[np.ndarray, tuple[float, floa
     if ("plate" in f.data) == ("cells_m" in f.data):
         f.fail("plate", "give exactly one of plate (a plate file) or cells_m")
     if "plate" in f.data:
-        p = Path(f.text("plate"))
+        p = Path(f.required("plate"))
         plate = load_plate(p if p.is_absolute() else mapping_dir / p)
         cells, unit = plate.cells, plate.force_unit
     else:
         try:
             cells = np.array(f.data["cells_m"], dtype=float)
         except (TypeError, ValueError):
-            cells = np.empty(0)
+            cells = np.empty((0, 0))
         if cells.ndim != 2 or cells.shape[1] != 2 or len(cells) < 3:
             f.fail("cells_m", "expected at least 3 points [x, y] in metres")
         unit = 1.0
     pose = f.vector("foot_pose", 3, [0.0, 0.0, 0.0])
+    assert pose is not None  # a default is given
     return cells, (float(pose[0]), float(pose[1]), float(pose[2])), unit
 
 
@@ -449,6 +465,7 @@ class RawLogTable:
 
     @property
     def n(self) -> int:
+        """Number of rows (samples)."""
         return len(self.columns["pose"])
 
 
@@ -594,12 +611,14 @@ def _foot_values(topic: _Topic, foot: FootSource, where: str) -> np.ndarray:
                     )
                 out[i] = arr[idx]
     elif foot.source == "wrench":
+        assert isinstance(foot.field, str)
         out = np.empty((m, 6))
         for i, msg in enumerate(topic.msgs):
             w = _get(msg, foot.field, where)
             f, t = _get(w, "force", where), _get(w, "torque", where)
             out[i] = (f.x, f.y, f.z, t.x, t.y, t.z)
     else:
+        assert isinstance(foot.field, str)
         out = np.empty((m, 2))
         for i, msg in enumerate(topic.msgs):
             p = _get(msg, foot.field, where)

@@ -17,7 +17,7 @@ from .urdf import build_model as build_urdf_model
 
 
 def model_format(path: Path) -> str:
-    """ "urdf" or "mjcf", from the file's root element (ModelError if it is neither)."""
+    """The format, "urdf" or "mjcf", from the root element (ModelError if it is neither)."""
     if not path.is_file():
         kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
         raise ModelError(f"{path}: {kind} file not found")

@@ -36,6 +36,7 @@ class Candidates:
         return self.n_free / max(self.n_sampled, 1)
 
     def summary(self) -> str:
+        """One line: acceptance at each stage and the number accepted."""
         s = max(self.n_sampled, 1)
         return (
             f"{self.n_sampled} uniform poses: {self.n_stable / s:.2%} stable, "

@@ -40,7 +40,7 @@ def projected_regressor(robot: Robot, q, basis: np.ndarray, chunk: int = 50_000)
 
 
 def _logdet2(s: np.ndarray) -> np.ndarray:
-    """log det(I + S) for S (n, 2, 2) symmetric (nan where not positive)."""
+    """Log det(I + S) for S (n, 2, 2) symmetric (nan where not positive)."""
     det = (1.0 + s[:, 0, 0]) * (1.0 + s[:, 1, 1]) - s[:, 0, 1] * s[:, 1, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.log(np.where(det > 0, det, np.nan))
