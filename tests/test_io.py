@@ -110,3 +110,38 @@ def test_write_table_csv_keeps_full_precision(tmp_path):
     x = np.array([np.pi, -1e-9, 0.1 + 0.2])
     io.write_table(tmp_path / "t.csv", {"x": x})
     np.testing.assert_array_equal(io.read_table(tmp_path / "t.csv").get("x"), x)
+
+
+def test_version_1_fit_files_are_read(tmp_path):
+    """A sescid-fit/1 file (results in a free 'extra' object) loads into the typed records."""
+    import json
+
+    import sescid
+    from sescid.estimation import MapOptions, load_fit, save_fit
+
+    robot = sescid.load_robot("op2")
+    sim = sescid.simulate(robot, 60, noise=0.004, seed=3)
+    fit = sescid.identify(robot, sim.q, sim.cop, method="map", map_options=MapOptions(bias=True))
+    save_fit(fit, tmp_path / "v2.json")
+    data = json.loads((tmp_path / "v2.json").read_text())
+    v1 = {k: v for k, v in data.items() if k not in ("map", "cop_offset", "weighted")}
+    v1["format"] = "sescid-fit/1"
+    v1["method"] = "map"
+    v1["extra"] = {
+        "prior_scale_m": fit.map.prior_scale,
+        "prior_scale_chosen_by": "evidence",
+        "noise_m": fit.map.noise,
+        "noise_chosen_by": "evidence",
+        "log_evidence": fit.map.log_evidence,
+        "effective_parameters": fit.map.effective_parameters,
+        "dof": fit.sigma_dof,
+        "bias": fit.cop_offset.value.tolist(),
+        "bias_std": fit.cop_offset.std.tolist(),
+    }
+    (tmp_path / "v1.json").write_text(json.dumps(v1))
+    back = load_fit(tmp_path / "v1.json")
+    assert back.method == "map" and back.map.prior_scale == fit.map.prior_scale
+    assert back.sigma_dof == fit.sigma_dof and back.residual_dof == fit.residual_dof
+    assert list(back.cop_offset.value) == list(fit.cop_offset.value)
+    q = sim.q[:5]
+    assert (back.predict_cop(q) == fit.predict_cop(q)).all()

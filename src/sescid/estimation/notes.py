@@ -67,7 +67,8 @@ def fit_notes(fit: Fit) -> list[str]:
         if active and b.prior_std is None:
             notes.append(
                 "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
-                "their bounds; a CAD prior (prior_std, CLI --cad-std 0.05) gives plausible masses"
+                "their bounds; a CAD prior (ConsistentOptions.prior_std, e.g. 0.05) gives "
+                "plausible masses"
             )
     if fit.robust is not None:
         r = fit.robust

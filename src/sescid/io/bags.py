@@ -672,7 +672,7 @@ def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> Raw
     if robot is None and any(f.sensor_link for f in mp.feet):
         foot = next(f for f in mp.feet if f.sensor_link)
         raise DataError(
-            f"{mp.source}: feet.{foot.name}.sensor_link needs the robot model (pass --robot)"
+            f"{mp.source}: feet.{foot.name}.sensor_link needs the robot model to place the sensor"
         )
     paths = [Path(p) for p in bag_path] if isinstance(bag_path, list | tuple) else [Path(bag_path)]
     bag = ", ".join(str(p) for p in paths)
