@@ -114,6 +114,8 @@ def cross_validate(
 ) -> CrossValidation:
     """k-fold cross-validated CoP error of a fitting method (fitter(q, cop, sigma) -> Fit).
 
+    With per-pose standard errors ``sigma`` the held-out residuals are divided by them, so the
+    RMSE, the noise and the model part are all in units of the given errors (σ̂ is a scale).
     ``progress(i, k)`` is called after each fold.
     """
     q = np.asarray(q, dtype=float)
@@ -125,6 +127,9 @@ def cross_validate(
         sig = None if sigma is None else np.asarray(sigma)[train]
         fit = fitter(q[train], cop[train], sig)
         err = cop[test] - fit.predict_cop(q[test]) - fit.cop_bias
+        if sigma is not None:
+            se = np.asarray(sigma, dtype=float)[test]
+            err = err / (se if se.ndim == 2 else se[:, None])
         sq += float(np.sum(err**2))
         per_fold.append(rms(err))
         if math.isfinite(fit.sigma_hat):
