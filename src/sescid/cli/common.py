@@ -77,6 +77,11 @@ def seed_option(f: Any) -> Any:
     return click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))(f)
 
 
+def force_option(f: Any) -> Any:
+    """--force: replace write-protected output files (inputs, devices and folders never)."""
+    return click.option("--force", is_flag=True, help="Replace write-protected output files.")(f)
+
+
 def load(robot_name: str, support: str | None) -> Any:
     """The robot named on the command line."""
     from ..robot import load_robot

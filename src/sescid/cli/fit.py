@@ -26,7 +26,7 @@ from ..estimation import (
 from ..estimation import (
     identify as run_identify,
 )
-from ..files import check_outputs
+from ..files import OutputSet
 from ..io import (
     FORMATS,
     export_model,
@@ -38,7 +38,7 @@ from ..io import (
     write_table,
 )
 from ..progress import TerminalProgress
-from .common import load, mm, robot_options, seed_option
+from .common import force_option, load, mm, robot_options, seed_option
 
 _CONSISTENT = ConsistentOptions()
 
@@ -205,13 +205,14 @@ def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
     help="Poses per online update.",
 )
 @seed_option
-def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
+@force_option
+def identify(data, robot_name, support, out, weighted, rtol, method, force, **opts):
     """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m).
 
     Optional columns grav_x, grav_y, grav_z (gravity direction in the support frame) give the
     tilted-sole statics: the CoP is where the gravity line through the CoM meets the sole.
     """
-    check_outputs([out], [data, robot_name])
+    outs = OutputSet([out], [data, robot_name], force=force)
     robot = load(robot_name, support)
     table = read_table(data)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
@@ -288,7 +289,8 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
             f"truth: RMS of predicted − noise-free CoP at these poses "
             f"{mm(fit.truth_cop_rmse)} (columns cop_x_true, cop_y_true)"
         )
-    fit.save(out)
+    with outs:
+        fit.save(outs.path(out))
     click.echo(fit.summary())
     click.echo(f"wrote {out}")
 
@@ -350,12 +352,13 @@ def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
     help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
     "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
 )
-def predict(fit_file, poses, out, level):
+@force_option
+def predict(fit_file, poses, out, level, force):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
 
     With columns grav_x, grav_y, grav_z the CoP is projected along that gravity direction.
     """
-    check_outputs([out], [fit_file, poses])
+    outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
     table = read_table(poses)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
@@ -382,7 +385,8 @@ def predict(fit_file, poses, out, level):
         for j, name in enumerate(("cop_x", "cop_y")):
             cols[f"{name}_lower"] = iv.lower[:, j] + shift[:, j]
             cols[f"{name}_upper"] = iv.upper[:, j] + shift[:, j]
-    write_table(out, cols)
+    with outs:
+        write_table(outs.path(out), cols)
     click.echo(f"wrote {out}: {len(q)} poses")
 
 
@@ -411,15 +415,16 @@ def _echo_masses(fit: Fit) -> None:
     help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
 )
 @consistent_options
-def export_cmd(fit_file, out, model_format, **opts):
+@force_option
+def export_cmd(fit_file, out, model_format, force, **opts):
     """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
 
     A fit without masses (e.g. least squares) first goes through the consistent step with the
     --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
     """
-    check_outputs([out], [fit_file])
+    OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
-    check_outputs([out], [fit_file, fit.robot.model_path])
+    outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
@@ -431,7 +436,9 @@ def export_cmd(fit_file, out, model_format, **opts):
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
-    for warning in export_model(fit, out, model_format):
+    with outs:
+        warnings = export_model(fit, outs.path(out), model_format)
+    for warning in warnings:
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
     total = float(np.sum(fit.inertials.masses))
