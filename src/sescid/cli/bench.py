@@ -214,7 +214,7 @@ def experiment(
             ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench, pose_ids=ids)
         else:
             ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
-    except MissingExtraError:
+    except (MissingExtraError, OptionError):
         raise
     except SescidError as exc:
         raise DataError(f"{poses_file}: {exc}") from None

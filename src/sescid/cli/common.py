@@ -21,6 +21,7 @@ FLAG = {
     "noise": "--noise",
     "rtol": "--rtol",
     "seed": "--seed",
+    "samples": "--samples",
     "method": "--method",
     "format": "--format",
 }

@@ -17,9 +17,11 @@ from ..estimation import (
     OnlineEstimator,
     com_interval,
     cross_validate,
+    fit_warnings,
     joint_noise_mc,
     load_fit,
     make_fitter,
+    outside_limits,
     to_consistent,
     truth_error,
 )
@@ -205,6 +207,12 @@ def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
     help="Poses per online update.",
 )
 @seed_option
+@click.option(
+    "--allow-outside-limits",
+    is_flag=True,
+    help="Accept poses outside the model's joint limits (a warning stored in the fit); "
+    "simulated data (cop_x_true columns) get the warning without the flag.",
+)
 @force_option
 def identify(data, robot_name, support, out, weighted, rtol, method, force, **opts):
     """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m).
@@ -218,6 +226,7 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     cop = read_cop(table)
     gravity = read_gravity(table)
+    simulated = "cop_x_true" in table and "cop_y_true" in table
     sigma = None
     if weighted:
         sigma = read_cop_se(table)
@@ -256,6 +265,12 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
         )
     if gravity is not None and opts["joint_noise_deg"] is not None:
         raise OptionError("gravity", "--joint-noise-deg does not use the grav_x/y/z columns")
+    limits = outside_limits(robot, q)
+    if limits is not None and not (opts["allow_outside_limits"] or simulated):
+        raise DataError(
+            f"{data}: {limits.message(len(q))}; degrees in a radian column, or another robot? "
+            "(--allow-outside-limits accepts them)"
+        )
     if opts["online"]:
         fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
     else:
@@ -281,8 +296,12 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
         def fitter(qq, cc, ss):
             return huber(plain, qq, cc, ss)
 
+    if limits is not None:
+        fit.warnings.append(limits.message(len(q)))
+    if opts["online"]:
+        fit.warnings += fit_warnings(fit)
     _extras(fit, fitter, q, cop, sigma, opts)
-    if "cop_x_true" in table and "cop_y_true" in table:  # simulated data: the noise-free CoP
+    if simulated:  # simulated data: the noise-free CoP
         truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
         fit.truth_cop_rmse = truth_error(fit, q, truth)
         click.echo(
@@ -387,6 +406,15 @@ def predict(fit_file, poses, out, level, force):
             cols[f"{name}_upper"] = iv.upper[:, j] + shift[:, j]
     with outs:
         write_table(outs.path(out), cols)
+    lost = int(np.sum(np.isnan(std[:, 0])))
+    if lost:
+        click.echo(
+            f"sescid: warning: at {lost} of {len(q)} poses the fit's data do not determine the "
+            f"CoP (rank {fit.rank}): their std and interval columns are nan (not determined)",
+            err=True,
+        )
+    for w in fit.warnings:
+        click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
     click.echo(f"wrote {out}: {len(q)} poses")
 
 

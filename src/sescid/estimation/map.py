@@ -168,9 +168,15 @@ def sigma_range(ne: NormalEquations, x0: np.ndarray) -> tuple[float, float]:
     return SIGMA_RANGE[0], max(SIGMA_RANGE[1], SIGMA_HEADROOM * rms0)
 
 
+#: largest prior scale or noise accepted, m (1 m on a SESC component is already a flat prior)
+MAX_SCALE = 100.0
+
+
 def _check_positive(value, what: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise SescidError(f"{what} must be a positive number of metres, got {value}")
+    if value is not None and not (math.isfinite(value) and 0 < value <= MAX_SCALE):
+        raise SescidError(
+            f"{what} must be a positive number of metres ≤ {MAX_SCALE:g}, got {value}"
+        )
 
 
 def identify_map(

@@ -67,7 +67,8 @@ class Interval:
 
 
 def _interval(value, std, level, dof) -> Interval:
-    if not np.all(np.isfinite(std)):
+    """Bounds value ± t·std; a nan std (a row the data do not determine) gives nan bounds."""
+    if np.any(np.isinf(std)) or (std.size and np.all(np.isnan(std)) and not np.isfinite(dof)):
         raise SescidError("the fit has no finite covariance (no residual to estimate the noise)")
     k = quantile(level, dof)
     return Interval(value, std, value - k * std, value + k * std, level)
