@@ -30,14 +30,21 @@ def bench(tmp_path_factory):
     poses, raw, measured, fit = d / "poses.csv", d / "raw.csv", d / "measured.csv", d / "fit.json"
     steps = [
         ("poses", "--count", 24, "--candidates", 400, "--test-poses", 50, "--out", poses),
-        ("experiment", "--poses", poses, "--samples", 20, "--out", raw),
+        ("experiment", "--poses", poses, "--samples", 20, "--out", raw, "--truth", d / "t.json"),
         ("fsr", raw, "--poses", poses, "--out", measured),
         ("identify", measured, "--weighted", "--out", fit),
     ]
     for step in steps:
         code, out = run(*step)
         assert code == 0, out
-    return {"dir": d, "poses": poses, "raw": raw, "measured": measured, "fit": fit}
+    return {
+        "dir": d,
+        "poses": poses,
+        "raw": raw,
+        "measured": measured,
+        "fit": fit,
+        "truth": d / "t.json",
+    }
 
 
 # --- 1. outputs never destroy inputs; all of a command's outputs or none ----------------------
@@ -272,3 +279,18 @@ def test_fit_json_with_null_and_sensor_files_with_garbage(bench, tmp_path):
         "fsr", bench["raw"], "--sensors", tmp_path / "one.json", "--out", tmp_path / "m"
     )
     assert code == 2 and "≥ 1 mm apart" in out
+
+
+def test_truth_command_compares_with_the_real_robot(bench):
+    """`sescid truth FIT TRUTH`: the identified model is closer to the "real" robot (7 % extra
+    mass) than the manufacturer model, at the actual poses and at fresh poses near them."""
+    import re
+
+    code, out = run("truth", bench["fit"], bench["truth"], "--fresh", 300)
+    assert code == 0, out
+    pairs = re.findall(r"identified ([\d.]+) mm, manufacturer ([\d.]+) mm", out)
+    assert len(pairs) == 2
+    for ident, manuf in pairs:
+        assert float(ident) < float(manuf)
+    code, out = run("truth", bench["fit"], bench["fit"])
+    assert code == 2 and "not an experiment truth file" in out
