@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench slow clean
+.PHONY: demo test lint bench slow docs clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,9 @@ test: lint
 
 slow: $(STAMP)
 	$(PY) -m pytest -q -m slow
+
+docs: $(STAMP)
+	$(PY) tools/readme_numbers.py
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_regressor.py

@@ -104,7 +104,16 @@ def test_cli_online_prints_convergence(robot, tmp_path, write_dataset):
     sim = simulate(robot, 300, 30.0, SIGMA, 4)
     path = write_dataset(tmp_path / "d.csv", sim.q, sim.cop)
     out = tmp_path / "fit.json"
-    args = ["identify", str(path), "--out", str(out), "--online", "--noise", str(SIGMA)]
+    args = [
+        "identify",
+        str(path),
+        "--out",
+        str(out),
+        "--online",
+        "--allow-outside-limits",
+        "--noise",
+        str(SIGMA),
+    ]
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
     assert "converged" in res.output and "not determined yet" in res.output

@@ -144,7 +144,7 @@ def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path, write_dataset):
     sim = simulate(robot, 60, 30.0, SIGMA, 1)
     data = write_dataset(tmp_path / "d.csv", sim.q, sim.cop)
     out = tmp_path / "fit.json"
-    args = ["identify", str(data), "--out", str(out), "--method", "map"]
+    args = ["identify", str(data), "--out", str(out), "--method", "map", "--allow-outside-limits"]
     res = CliRunner().invoke(cli, [*args, "--prior-select", "cv"])
     assert res.exit_code == 0, res.output
     assert load_fit(out).map.prior_scale_by == "5-fold cv"

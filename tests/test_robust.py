@@ -110,7 +110,16 @@ def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path, write_dataset):
     sim, cop = corrupted
     data = write_dataset(tmp_path / "d.csv", sim.q, cop)
     out = tmp_path / "fit.json"
-    args = ["identify", str(data), "--out", str(out), "--robust", "--joint-noise-deg", "1"]
+    args = [
+        "identify",
+        str(data),
+        "--out",
+        str(out),
+        "--robust",
+        "--allow-outside-limits",
+        "--joint-noise-deg",
+        "1",
+    ]
     res = CliRunner().invoke(cli, [*args, "--mc-draws", "5"])
     assert res.exit_code == 0, res.output
     first = res.output.split("down-weighted (row index, weight): ")[1].split(",")[:5]

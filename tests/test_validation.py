@@ -115,7 +115,9 @@ def test_cli_cv_prints_and_stores(robot, tmp_path, write_dataset):
     sim = simulate(robot, 80, 30.0, SIGMA, 1)
     data = write_dataset(tmp_path / "d.csv", sim.q, sim.cop)
     out = tmp_path / "fit.json"
-    res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--cv", "4"])
+    res = CliRunner().invoke(
+        cli, ["identify", str(data), "--out", str(out), "--cv", "4", "--allow-outside-limits"]
+    )
     assert res.exit_code == 0, res.output
     assert "4-fold CoP RMSE" in res.output
     assert load_fit(out).cv.k == 4
@@ -129,10 +131,8 @@ def test_cli_predict_level_writes_intervals(robot, tmp_path, write_dataset):
     for name, s in (("d.csv", sim), ("f.csv", fresh)):
         write_dataset(tmp_path / name, s.q, s.cop)
     fit, pred = tmp_path / "fit.json", tmp_path / "p.csv"
-    assert (
-        CliRunner().invoke(cli, ["identify", str(tmp_path / "d.csv"), "--out", str(fit)]).exit_code
-        == 0
-    )
+    args = ["identify", str(tmp_path / "d.csv"), "--out", str(fit), "--allow-outside-limits"]
+    assert CliRunner().invoke(cli, args).exit_code == 0
     args = ["predict", str(fit), str(tmp_path / "f.csv"), "--out", str(pred), "--level", "0.95"]
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
@@ -149,7 +149,9 @@ def test_cli_identify_reports_error_against_simulated_truth(robot, tmp_path):
     data, out = tmp_path / "sim.csv", tmp_path / "fit.json"
     args = ["simulate", "--poses", "100", "--seed", "3", "--out", str(data)]
     assert CliRunner().invoke(cli, args).exit_code == 0
-    res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out)])
+    res = CliRunner().invoke(
+        cli, ["identify", str(data), "--out", str(out), "--allow-outside-limits"]
+    )
     assert res.exit_code == 0, res.output
     sim = simulate(robot, 100, 30.0, SIGMA, 3)  # the same draws as the CLI
     want = np.sqrt(np.mean((load_fit(out).predict_cop(sim.q) - sim.cop_true) ** 2))

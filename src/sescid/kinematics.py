@@ -23,6 +23,22 @@ from .errors import DataError
 from .model import RobotModel
 
 
+def njit(**options):
+    """``numba.njit`` with an on-disk cache where one is writable (beside the package, else
+    ``NUMBA_CACHE_DIR`` or the user's cache folder), else compiled in memory, silently: a
+    read-only install (service user, read-only container) works, only slower to start."""
+
+    def wrap(func):
+        try:
+            return numba.njit(cache=True, **options)(func)
+        except RuntimeError as exc:  # "cannot cache function …: no locator available"
+            if "no locator available" not in str(exc):
+                raise
+            return numba.njit(cache=False, **options)(func)
+
+    return wrap
+
+
 @dataclass(frozen=True)
 class Tree:
     """The body tree as flat arrays, ready for the compiled kernels."""
@@ -93,7 +109,7 @@ _TWO_OVER_PI = 6.36619772367581382433e-01
 _MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@njit(nogil=True, inline="always")
 def _sin_cos1m(x):
     """Sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
     q = np.floor(x * _TWO_OVER_PI + 0.5)
@@ -120,7 +136,7 @@ def _sin_cos1m(x):
     return sn, (-cm if qi == 0 else 1.0 - cs)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _joint_trig(qt, jcol, coef, off, s, c1):
     """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off.
 
@@ -141,7 +157,7 @@ def _joint_trig(qt, jcol, coef, off, s, c1):
             s[b, k], c1[b, k] = _sin_cos1m(cb * qt[j, k] + ob)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
     """Rotations of every body for a block of poses, structure-of-arrays.
 
@@ -182,7 +198,7 @@ def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
                         rot[b, jj, i, k] += rot[p, kk, i, k] * m[k]
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _origins_block(rot, parent, t, root_o, org):
     """Org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
     nb = parent.shape[0]
@@ -353,7 +369,7 @@ def reduction(tree: Tree, axes: np.ndarray, rows=(0, 1)) -> Reduction:
     return Reduction(rows, u, g)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _reduced_kernel(rot, rows, u, out):
     """Out (P_red, len(rows)·m), columns ordered (row, pose): intercepts, then R_b[row] u_l."""
     nb = rot.shape[0]

@@ -7,6 +7,7 @@ identify, validate) is ``sescid.experiment.paper_study``.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -34,6 +35,26 @@ class SimData:
     noise: float
 
 
+#: peak bytes per stored float of a pose array while simulating or identifying it (temporaries)
+MEMORY_FACTOR = 8
+
+
+def check_count(n: int, bytes_each: float, name: str, what: str) -> None:
+    """OptionError before allocating when ``n`` items of ``bytes_each`` exceed half the
+    machine's memory."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return
+    if n * bytes_each > total:
+        fit = int(total // bytes_each)
+        raise OptionError(
+            name,
+            f"{n:g} {what} need ~{n * bytes_each / 2**30:.3g} GiB, more than half this "
+            f"machine's memory ({total / 2**30:.3g} GiB) (at most ~{fit:,} {what})",
+        )
+
+
 def random_poses(
     robot: Robot,
     n: int,
@@ -44,8 +65,9 @@ def random_poses(
     """Joint angles (n, nq) [rad] uniform in ±range_deg; clipped to the joint limits if asked."""
     if n < 1:
         raise OptionError("n", f"number of poses must be ≥ 1, got {n}")
-    if not (range_deg > 0 and math.isfinite(range_deg)):
-        raise OptionError("range_deg", f"must be a positive number of degrees, got {range_deg}")
+    if not (0 < range_deg <= 180):
+        raise OptionError("range_deg", f"must be in (0, 180] degrees, got {range_deg}")
+    check_count(n, 8 * robot.nq * MEMORY_FACTOR, "n", "poses")
     rng = np.random.default_rng(rng)
     half = math.radians(range_deg)
     q = rng.uniform(-half, half, size=(n, robot.nq))

@@ -28,6 +28,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "bag": ("record", "bag", "Read a ROS bag into the raw foot-sensor log (mapping file)."),
     "fsr": ("bench", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
     "report": ("bench", "report", "Figures and one self-contained HTML page from a fit."),
+    "truth": ("truth", "truth", "Compare a fit with a virtual experiment's truth file."),
 }
 
 

@@ -21,12 +21,12 @@ from ..experiment.planning import (
 )
 from ..experiment.planning import paper_convention as robot_paper_convention
 from ..experiment.sensors import REASONS
-from ..files import atomic_open, check_outputs
+from ..files import OutputSet
 from ..io import read_cop, read_cop_se, read_poses, read_table, write_table
 from ..progress import TerminalProgress
 from ..report import design_figure, write_report
 from ..simulation import PAPER_NOISE
-from .common import load, mm, robot_options, seed_option
+from .common import force_option, load, mm, robot_options, seed_option
 
 _EXP = ExperimentConfig()
 
@@ -56,18 +56,20 @@ _EXP = ExperimentConfig()
     help="Usable samples per pose.",
 )
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out):
+@force_option
+def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, force):
     """Reduce a raw foot-sensor log to one CoP per pose (support frame, m) with its error.
 
     Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m),
     n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are logged.
     """
-    check_outputs([out], [raw, poses_file, sensors_file, robot_name])
+    outs = OutputSet([out], [raw, poses_file, sensors_file, robot_name], force=force)
     robot = load(robot_name, support)
     config = load_sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
     res, unmeasured = run_fsr(robot, read_table(raw), config, min_samples, pose_list)
-    write_table(out, res.columns(robot.joint_names))
+    with outs:
+        write_table(outs.path(out), res.columns(robot.joint_names))
     total = res.rejected.sum(axis=0)
     why = ", ".join(f"{r} {int(c)}" for r, c in zip(REASONS, total, strict=True) if c) or "none"
     click.echo(
@@ -167,6 +169,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out):
     type=click.FloatRange(min=0, min_open=True),
     help="mujoco: servo stiffness [N·m/rad] (default: the robot profile's servo gains).",
 )
+@force_option
 def experiment(
     robot_name,
     support,
@@ -184,9 +187,11 @@ def experiment(
     engine,
     weld_foot,
     kp,
+    force,
 ):
     """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs)
     stands in each pose of the list; writes the raw sensor log that `sescid fsr` reads."""
+    outs = OutputSet([out, truth], [poses_file, sensors_file, robot_name], force=force)
     robot = load(robot_name, support)
     sensors = load_sensors(sensors_file, robot.profile)
     table = read_table(poses_file)
@@ -209,15 +214,16 @@ def experiment(
             ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench, pose_ids=ids)
         else:
             ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
-    except MissingExtraError:
+    except (MissingExtraError, OptionError):
         raise
     except SescidError as exc:
         raise DataError(f"{poses_file}: {exc}") from None
-    write_table(out, ex.columns)
-    if truth:
-        with atomic_open(truth, "w") as fh:
-            json.dump(ex.truth, fh, indent=1)
-            fh.write("\n")
+    with outs:
+        write_table(outs.path(out), ex.columns)
+        if truth:
+            with open(outs.path(truth), "w") as fh:
+                json.dump(ex.truth, fh, indent=1)
+                fh.write("\n")
     t = ex.truth
     n_logged = len(q) - len(ex.skipped)
     click.echo(
@@ -235,29 +241,33 @@ def experiment(
 @click.argument("fit_file", type=click.Path(dir_okay=False))
 @click.argument("measured", type=click.Path(dir_okay=False))
 @click.option("--out-dir", default="report", show_default=True, type=click.Path(file_okay=False))
-def report(fit_file, measured, out_dir):
+@force_option
+def report(fit_file, measured, out_dir, force):
     """Figures and one self-contained HTML page from a fit and measured CoPs (never re-fits)."""
+    outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
     table = read_table(measured)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
     cop = read_cop(table)
     se = read_cop_se(table)
-    res = write_report(
-        fit,
-        q,
-        cop,
-        out_dir,
-        cop_se=se,
-        pose_ids=pose_list_ids(table),
-        progress=TerminalProgress("report files"),
-    )
+    with outs:
+        res = write_report(
+            fit,
+            q,
+            cop,
+            outs.folder(out_dir),
+            cop_se=se,
+            pose_ids=pose_list_ids(table),
+            progress=TerminalProgress("report files"),
+        )
     b, a = res["before"], res["after"]
     click.echo(
         f"CoP offset predicted − measured over {len(q)} poses: manufacturer model mean "
         f"{mm(b['mean'])} (x {mm(b['mean_x'])}, y {mm(b['mean_y'])}), RMS {mm(b['rms'])}; "
         f"identified mean {mm(a['mean'])}, RMS {mm(a['rms'])}"
     )
-    click.echo(f"wrote {res['html']} and {len(res['figures'])} figures")
+    html = f"{out_dir}/{res['html'].name}"
+    click.echo(f"wrote {html} and {len(res['figures'])} figures")
 
 
 @click.command()
@@ -342,6 +352,7 @@ def report(fit_file, measured, out_dir):
     is_flag=True,
     help="Add <joint>_paper_deg columns (the paper's Table 2 angle convention; op2).",
 )
+@force_option
 def poses(
     robot_name,
     support,
@@ -360,6 +371,7 @@ def poses(
     noise,
     figure,
     paper_convention: bool,
+    force: bool,
 ):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
     informative, ordered to keep consecutive poses close.
@@ -367,7 +379,7 @@ def poses(
     Columns: pose (id), one per joint in radians (servo convention), <joint>_deg,
     <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m).
     """
-    check_outputs([out, figure], [robot_name])
+    outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
     need = min_poses(robot)
     if count < need:
@@ -439,8 +451,10 @@ def poses(
         curve = design_curve(
             plan.a_pool, plan.c_test, ks, noise, seed, progress=TerminalProgress("figure: K values")
         )
-    write_table(out, cols)
+    with outs:
+        write_table(outs.path(out), cols)
+        if curve is not None:
+            design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection")
     echo(f"wrote {out}: {count} poses ({len(cols)} columns)")
     if curve is not None:
-        design_figure(curve, figure, title=f"{robot.name}: pose selection")
         echo(f"wrote {figure}")

@@ -21,6 +21,7 @@ FLAG = {
     "noise": "--noise",
     "rtol": "--rtol",
     "seed": "--seed",
+    "samples": "--samples",
     "method": "--method",
     "format": "--format",
 }
@@ -75,6 +76,11 @@ def robot_options(f: Any) -> Any:
 def seed_option(f: Any) -> Any:
     """--seed: a non-negative integer."""
     return click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))(f)
+
+
+def force_option(f: Any) -> Any:
+    """--force: replace write-protected output files (inputs, devices and folders never)."""
+    return click.option("--force", is_flag=True, help="Replace write-protected output files.")(f)
 
 
 def load(robot_name: str, support: str | None) -> Any:

@@ -7,8 +7,9 @@ from pathlib import Path
 import click
 import numpy as np
 
+from ..files import OutputSet
 from ..simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
-from .common import load, mm, robot_options, seed_option
+from .common import force_option, load, mm, robot_options, seed_option
 
 
 @click.command()
@@ -26,22 +27,23 @@ from .common import load, mm, robot_options, seed_option
 @seed_option
 @click.option("--clip", is_flag=True, help="Clip the poses to the joint limits.")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
+@force_option
+def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out, force):
     """Simulate poses and CoP measurements (paper §3) into a CSV.
 
     Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m).
     """
-    from ..files import check_outputs
     from ..io import write_table
     from ..simulation import simulate as run_simulate
 
-    check_outputs([out], [])
+    outs = OutputSet([out], [robot_name], force=force)
     robot = load(robot_name, support)
     sim = run_simulate(robot, poses, range_deg, noise, seed, clip)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
     cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
-    write_table(out, cols)
+    with outs:
+        write_table(outs.path(out), cols)
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, noise {noise} m")
 
 
@@ -52,16 +54,16 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out):
 @click.option("--range-deg", default=PAPER_RANGE_DEG, show_default=True, help="[degrees]")
 @click.option("--noise", default=PAPER_NOISE, show_default=True, help="[m]")
 @seed_option
-def demo(robot_name, support, out_dir, poses, range_deg, noise, seed):
+@force_option
+def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     """Reproduce the paper's §3 simulation study; print its numbers and write its figures."""
     from ..experiment import paper_study
-    from ..io import write_table
-    from ..report import body_labels, paper_order, plot_cop_comparison, plot_r_magnitudes
+    from ..report import body_labels, paper_order
 
+    names = ["fit.json", "fig3a_r_magnitudes.png", "fig3b_cop.png", "summary.csv"]
+    OutputSet([Path(out_dir) / f for f in names], [robot_name], folders=[out_dir], force=force)
     robot = load(robot_name, support)
     st = paper_study(robot, poses, range_deg, noise, seed)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     fit = st.fit
     p = fit.rank
     echo = click.echo
@@ -97,6 +99,20 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed):
             f"    {labels[i]:>3s} {robot.body_names[i]:16s} {r_prior_mm[i]:9.3f}"
             f"   {fit.r_magnitudes[i] * 1e3:9.3f} ± {std_mm[i]:.3f}"
         )
+    outs = OutputSet([], [robot_name], folders=[out_dir], force=force)
+    with outs:
+        out = outs.folder(out_dir)
+        _demo_files(robot, st, out)
+    echo(f"wrote {out_dir}/fit.json, fig3a_r_magnitudes.png, fig3b_cop.png, summary.csv")
+
+
+def _demo_files(robot, st, out: Path) -> None:
+    """The demo's fit, figures and summary, written into ``out``."""
+    from ..io import write_table
+    from ..report import plot_cop_comparison, plot_r_magnitudes
+
+    fit = st.fit
+    p = fit.rank
     fit.save(out / "fit.json")
     plot_r_magnitudes(fit, out / "fig3a_r_magnitudes.png")
     k = np.arange(min(26, len(st.sim.q)))
@@ -131,7 +147,6 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed):
         fit.sigma_hat,
     ]
     write_table(out / "summary.csv", {"quantity": np.array(names), "value": np.array(values)})
-    echo(f"wrote {out}/fit.json, fig3a_r_magnitudes.png, fig3b_cop.png, summary.csv")
 
 
 @click.command()

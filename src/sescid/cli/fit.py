@@ -17,16 +17,18 @@ from ..estimation import (
     OnlineEstimator,
     com_interval,
     cross_validate,
+    fit_warnings,
     joint_noise_mc,
     load_fit,
     make_fitter,
+    outside_limits,
     to_consistent,
     truth_error,
 )
 from ..estimation import (
     identify as run_identify,
 )
-from ..files import check_outputs
+from ..files import OutputSet
 from ..io import (
     FORMATS,
     export_model,
@@ -38,7 +40,7 @@ from ..io import (
     write_table,
 )
 from ..progress import TerminalProgress
-from .common import load, mm, robot_options, seed_option
+from .common import force_option, load, mm, robot_options, seed_option
 
 _CONSISTENT = ConsistentOptions()
 
@@ -205,18 +207,26 @@ def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
     help="Poses per online update.",
 )
 @seed_option
-def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
+@click.option(
+    "--allow-outside-limits",
+    is_flag=True,
+    help="Accept poses outside the model's joint limits (a warning stored in the fit); "
+    "simulated data (cop_x_true columns) get the warning without the flag.",
+)
+@force_option
+def identify(data, robot_name, support, out, weighted, rtol, method, force, **opts):
     """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m).
 
     Optional columns grav_x, grav_y, grav_z (gravity direction in the support frame) give the
     tilted-sole statics: the CoP is where the gravity line through the CoM meets the sole.
     """
-    check_outputs([out], [data, robot_name])
+    outs = OutputSet([out], [data, robot_name], force=force)
     robot = load(robot_name, support)
     table = read_table(data)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     cop = read_cop(table)
     gravity = read_gravity(table)
+    simulated = "cop_x_true" in table and "cop_y_true" in table
     sigma = None
     if weighted:
         sigma = read_cop_se(table)
@@ -255,6 +265,12 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
         )
     if gravity is not None and opts["joint_noise_deg"] is not None:
         raise OptionError("gravity", "--joint-noise-deg does not use the grav_x/y/z columns")
+    limits = outside_limits(robot, q)
+    if limits is not None and not (opts["allow_outside_limits"] or simulated):
+        raise DataError(
+            f"{data}: {limits.message(len(q))}; degrees in a radian column, or another robot? "
+            "(--allow-outside-limits accepts them)"
+        )
     if opts["online"]:
         fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
     else:
@@ -280,15 +296,20 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
         def fitter(qq, cc, ss):
             return huber(plain, qq, cc, ss)
 
+    if limits is not None:
+        fit.warnings.append(limits.message(len(q)))
+    if opts["online"]:
+        fit.warnings += fit_warnings(fit)
     _extras(fit, fitter, q, cop, sigma, opts)
-    if "cop_x_true" in table and "cop_y_true" in table:  # simulated data: the noise-free CoP
+    if simulated:  # simulated data: the noise-free CoP
         truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
         fit.truth_cop_rmse = truth_error(fit, q, truth)
         click.echo(
             f"truth: RMS of predicted − noise-free CoP at these poses "
             f"{mm(fit.truth_cop_rmse)} (columns cop_x_true, cop_y_true)"
         )
-    fit.save(out)
+    with outs:
+        fit.save(outs.path(out))
     click.echo(fit.summary())
     click.echo(f"wrote {out}")
 
@@ -350,12 +371,13 @@ def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
     help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
     "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
 )
-def predict(fit_file, poses, out, level):
+@force_option
+def predict(fit_file, poses, out, level, force):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
 
     With columns grav_x, grav_y, grav_z the CoP is projected along that gravity direction.
     """
-    check_outputs([out], [fit_file, poses])
+    outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
     table = read_table(poses)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
@@ -382,7 +404,17 @@ def predict(fit_file, poses, out, level):
         for j, name in enumerate(("cop_x", "cop_y")):
             cols[f"{name}_lower"] = iv.lower[:, j] + shift[:, j]
             cols[f"{name}_upper"] = iv.upper[:, j] + shift[:, j]
-    write_table(out, cols)
+    with outs:
+        write_table(outs.path(out), cols)
+    lost = int(np.sum(np.isnan(std[:, 0])))
+    if lost:
+        click.echo(
+            f"sescid: warning: at {lost} of {len(q)} poses the fit's data do not determine the "
+            f"CoP (rank {fit.rank}): their std and interval columns are nan (not determined)",
+            err=True,
+        )
+    for w in fit.warnings:
+        click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
     click.echo(f"wrote {out}: {len(q)} poses")
 
 
@@ -411,15 +443,16 @@ def _echo_masses(fit: Fit) -> None:
     help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
 )
 @consistent_options
-def export_cmd(fit_file, out, model_format, **opts):
+@force_option
+def export_cmd(fit_file, out, model_format, force, **opts):
     """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
 
     A fit without masses (e.g. least squares) first goes through the consistent step with the
     --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
     """
-    check_outputs([out], [fit_file])
+    OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
-    check_outputs([out], [fit_file, fit.robot.model_path])
+    outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
@@ -431,7 +464,9 @@ def export_cmd(fit_file, out, model_format, **opts):
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
-    for warning in export_model(fit, out, model_format):
+    with outs:
+        warnings = export_model(fit, outs.path(out), model_format)
+    for warning in warnings:
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
     total = float(np.sum(fit.inertials.masses))

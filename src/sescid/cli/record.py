@@ -6,8 +6,9 @@ import click
 
 from ..errors import DataError
 from ..experiment import pose_list_ids
+from ..files import OutputSet
 from ..io import read_bag, read_poses, read_table, write_table
-from .common import load, robot_options
+from .common import force_option, load, robot_options
 
 
 @click.command()
@@ -35,13 +36,15 @@ from .common import load, robot_options
     type=click.Path(dir_okay=False),
     help="Raw log for `sescid fsr` (.csv, or .parquet).",
 )
-def bag(bag, map_file, robot_name, support, poses_file, out):
+@force_option
+def bag(bag, map_file, robot_name, support, poses_file, out, force):
     """Read a ROS bag (rosbag2 directory, sqlite3 or MCAP; or ROS 1 .bag files) into the raw log.
 
     Writes pose, t (s), the joint columns (rad) and per foot the pad forces (<p>_fsr1..4, mN) or
     a CoP in its sole frame (<p>_cop_x, <p>_cop_y, m) with its normal force (<p>_fz, N).
     Needs the bags extra: pip install 'sescid[bags]'.
     """
+    outs = OutputSet([out], [*bag, map_file, poses_file, robot_name], force=force)
     robot = load(robot_name, support)
     poses = None
     if poses_file is not None:
@@ -54,7 +57,8 @@ def bag(bag, map_file, robot_name, support, poses_file, out):
         click.echo(f"  note: {note}", err=True)
     if res.n == 0:
         raise DataError(f"{name}: no sample kept (see the notes above)")
-    write_table(out, res.columns)
+    with outs:
+        write_table(outs.path(out), res.columns)
     click.echo(f"{name}: {len(res.segments)} pose segments")
     for g in res.segments:
         click.echo(f"  pose {g.pose}: {g.start:.3f}–{g.end:.3f} s, {g.samples} samples")

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 from .api import ConsistentOptions, MapOptions, identify, make_fitter, to_consistent
+from .checks import check_total_mass, fit_warnings, outside_limits
 from .consistent import body_boxes, consistent_from_fit, fit_inertials, identify_consistent
 from .fit import (
     METHODS,
@@ -41,6 +42,9 @@ from .validation import (
 )
 
 __all__ = [
+    "check_total_mass",
+    "fit_warnings",
+    "outside_limits",
     "DEFAULT_RTOL",
     "METHODS",
     "BodyInertials",

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import OptionError
 from ..kinematics import as_poses
 from ..robot import Robot
+from .checks import fit_warnings
 from .consistent import COM_SCALE, FIT_TOL, consistent_from_fit, identify_consistent
 from .fit import METHODS, Fit
 from .identifiability import DEFAULT_RTOL, check_rtol
@@ -132,6 +133,7 @@ def identify(
     masses/CoMs). ``sigma``: per-pose CoP standard errors (n,) or (n, 2) m → weighted fit.
     ``robust``: Huber IRLS around the method (threshold ``huber_k`` σ). ``gravity``: per-pose
     gravity directions (n, 3) in the support frame (None: along −z, a level sole).
+    Data-quality warnings (an unexcited subspace, σ̂ = 0) are stored in ``fit.warnings``.
     """
     fitter = make_fitter(
         robot,
@@ -145,9 +147,9 @@ def identify(
     cc = np.asarray(cop, dtype=float)
     ss = None if sigma is None else np.asarray(sigma, dtype=float)
     gg = None if gravity is None else np.asarray(gravity, dtype=float)
-    if robust:
-        return huber(fitter, qq, cc, ss, k=huber_k, gravity=gg)
-    return fitter(qq, cc, ss, gg)
+    fit = huber(fitter, qq, cc, ss, k=huber_k, gravity=gg) if robust else fitter(qq, cc, ss, gg)
+    fit.warnings += [w for w in fit_warnings(fit) if w not in fit.warnings]
+    return fit
 
 
 def to_consistent(fit: Fit, options: ConsistentOptions | None = None) -> Fit:

@@ -59,6 +59,7 @@ from ..errors import SescidError, SolverError
 from ..model import body_hulls
 from ..robot import Robot
 from ..sesc import sesc_vectors
+from .checks import check_total_mass
 from .fit import BodyInertials, Fit
 from .identifiability import DEFAULT_RTOL
 from .least_squares import identify_ls, residual_stats
@@ -266,9 +267,8 @@ def consistent_from_fit(
     names = robot.body_names
     nb = len(names)
     m_cad = robot.masses
+    check_total_mass(robot, total_mass)
     big_m = robot.total_mass if total_mass is None else float(total_mass)
-    if not (math.isfinite(big_m) and big_m > 0):
-        raise SescidError(f"total mass must be a positive number of kg, got {total_mass}")
     if not (math.isfinite(mass_floor) and mass_floor >= 0):
         raise SescidError(f"mass floor must be a finite mass ≥ 0 kg, got {mass_floor}")
     frame = np.array([b.frame_only for b in robot.model.bodies], dtype=bool)

@@ -243,13 +243,20 @@ class Fit:
         """Standard error (n, len(rows)) in m of the predicted CoM components ``rows``.
 
         Counts the uncertainty of the identified directions only; the prior-filled part of the
-        CoM height is taken as exact here.
+        CoM height is taken as exact here. An x/y row that the data do not determine (it leaves
+        the subspace the data excite: too few distinct poses) is nan, "not determined", never 0
+        (a MAP fit's prior determines every direction).
         """
         qq = as_poses(q, self.robot.nq)
         out = np.empty((qq.shape[0], len(rows)))
+        xy = np.array([r in (0, 1) for r in rows]) & (self.map is None)
         for s in range(0, qq.shape[0], 4096):
             phi = regressor(self.robot.tree, qq[s : s + 4096], rows)
-            out[s : s + 4096] = np.sqrt(np.einsum("nri,ij,nrj->nr", phi, self.cov, phi))
+            var = np.einsum("nri,ij,nrj->nr", phi, self.cov, phi)
+            out[s : s + 4096] = np.sqrt(np.clip(var, 0, None))
+            outside = phi - (phi @ self.basis) @ self.basis.T
+            lost = np.linalg.norm(outside, axis=2) > 1e-6 * np.linalg.norm(phi, axis=2)
+            out[s : s + 4096][lost & xy] = np.nan
         return out
 
     def com_z_from_prior(self, q: ArrayLike) -> np.ndarray:

@@ -44,7 +44,10 @@ from .validation import folds as split
 BIAS_PRIOR_SCALE = 1.0
 #: search range of the prior scale τ and the noise σ for evidence maximisation, m
 TAU_RANGE = (1e-6, 1.0)
+#: search range of σ: m, or the dimensionless scale on given standard errors; its upper end is
+#: widened to ``SIGMA_HEADROOM`` × the RMS residual of the prior model (a weighted scale may be ≫ 1)
 SIGMA_RANGE = (1e-7, 1.0)
+SIGMA_HEADROOM = 10.0
 
 
 @dataclass
@@ -133,7 +136,7 @@ def maximise_evidence(
         val = -log_evidence(ne, x0, prec, math.exp(log_sigma))
         return val if math.isfinite(val) else 1e300  # singular M: finite for Brent's steps
 
-    s_lo, s_hi = (math.log(v) for v in SIGMA_RANGE)
+    s_lo, s_hi = (math.log(v) for v in sigma_range(ne, x0))
 
     def best_sigma(log_tau: float) -> tuple[float, float]:
         if noise is not None:
@@ -157,9 +160,23 @@ def maximise_evidence(
     return math.exp(t), math.exp(best_sigma(t)[0])
 
 
+def sigma_range(ne: NormalEquations, x0: np.ndarray) -> tuple[float, float]:
+    """Search range of σ: ``SIGMA_RANGE`` widened to ``SIGMA_HEADROOM`` × the prior's RMS
+    residual √(zᵀz/m), so a weighted fit's scale is never capped at 1."""
+    _, ztz = _terms(ne, x0)
+    rms0 = math.sqrt(ztz / max(ne.n_rows, 1))
+    return SIGMA_RANGE[0], max(SIGMA_RANGE[1], SIGMA_HEADROOM * rms0)
+
+
+#: largest prior scale or noise accepted, m (1 m on a SESC component is already a flat prior)
+MAX_SCALE = 100.0
+
+
 def _check_positive(value, what: str) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise SescidError(f"{what} must be a positive number of metres, got {value}")
+    if value is not None and not (math.isfinite(value) and 0 < value <= MAX_SCALE):
+        raise SescidError(
+            f"{what} must be a positive number of metres ≤ {MAX_SCALE:g}, got {value}"
+        )
 
 
 def identify_map(

@@ -68,7 +68,8 @@ class Interval:
 
 
 def _interval(value, std, level, dof) -> Interval:
-    if not np.all(np.isfinite(std)):
+    """Bounds value ± t·std; a nan std (a row the data do not determine) gives nan bounds."""
+    if np.any(np.isinf(std)) or (std.size and np.all(np.isnan(std)) and not np.isfinite(dof)):
         raise SescidError("the fit has no finite covariance (no residual to estimate the noise)")
     k = quantile(level, dof)
     return Interval(value, std, value - k * std, value + k * std, level)
@@ -116,6 +117,8 @@ def cross_validate(
 ) -> CrossValidation:
     """k-fold cross-validated CoP error of a fitting method (fitter(q, cop, sigma) -> Fit).
 
+    With per-pose standard errors ``sigma`` the held-out residuals are divided by them, so the
+    RMSE, the noise and the model part are all in units of the given errors (σ̂ is a scale).
     ``progress(i, k)`` is called after each fold.
     """
     q = np.asarray(q, dtype=float)
@@ -127,6 +130,9 @@ def cross_validate(
         sig = None if sigma is None else np.asarray(sigma)[train]
         fit = fitter(q[train], cop[train], sig)
         err = cop[test] - fit.predict_cop(q[test]) - fit.cop_bias
+        if sigma is not None:
+            se = np.asarray(sigma, dtype=float)[test]
+            err = err / (se if se.ndim == 2 else se[:, None])
         sq += float(np.sum(err**2))
         per_fold.append(rms(err))
         if math.isfinite(fit.sigma_hat):

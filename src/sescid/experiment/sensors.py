@@ -184,6 +184,11 @@ def load_sensors(
             or np.linalg.norm(sensors[3] - sensors[0] - ex - ey) > 1e-9
         ):
             raise DataError(f"{where}: sensors FSR1..FSR4 must form a rectangle (1-2 / 3-4 rows)")
+        if min(np.linalg.norm(ex), np.linalg.norm(ey)) < 1e-3:
+            raise DataError(
+                f"{where}: sensors FSR1..FSR4 must be ≥ 1 mm apart (a CoP needs an area; "
+                "positions are in metres)"
+            )
         feet.append(foot)
     try:
         cfg = SensorConfig(

@@ -35,6 +35,7 @@ import numpy as np
 from ..errors import DataError
 from ..files import read_json
 from ..sesc import sesc_vectors
+from ..simulation import check_count
 from .sensors import SensorConfig
 
 G = 9.80665  #: m/s², standard gravity
@@ -151,6 +152,7 @@ def run_experiment(
     n = q_cmd.shape[0]
     if samples < 1:
         raise DataError(f"samples per pose must be ≥ 1, got {samples}")
+    check_count(n * samples, 8 * (robot.nq + 16) * 16, "samples", "samples (poses × samples)")
     if config.registers not in ("forces", "centroid", "both"):
         raise DataError(f"registers must be forces, centroid or both, got {config.registers}")
     for name, v in (

@@ -24,10 +24,13 @@ def read_table(path: str | Path) -> Table:
     if path.suffix.lower() in (".parquet", ".pq"):
         return _read_parquet(path)
     try:
-        with path.open(newline="") as fh:
-            rows = list(csv.reader(fh))
+        with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's BOM
+            reader = csv.reader(fh)
+            rows = list(reader)
     except (OSError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: cannot read ({exc.__class__.__name__})") from None
+    except csv.Error as exc:
+        raise DataError(f"{path}: row {reader.line_num}: not a CSV row ({exc})") from None
     rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip())]
     if not rows:
         raise DataError(f"{path}: empty file (expected a header row)")

@@ -78,10 +78,15 @@ def _origin(path: Path, j: Any) -> np.ndarray:
 
 
 def _axis(path: Path, j: Any) -> np.ndarray:
-    a = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=float)
-    norm = float(np.linalg.norm(a))
+    try:
+        a = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=float)
+    except (TypeError, ValueError):
+        a = np.zeros(0)
+    norm = float(np.linalg.norm(a)) if a.shape == (3,) else math.nan
     if not math.isfinite(norm) or norm < 1e-12:
-        raise ModelError(f"{path}: joint '{j.name}' has a zero or invalid axis")
+        raise ModelError(
+            f"{path}: joint '{j.name}' has a zero or invalid axis (expected 3 numbers)"
+        )
     return a / norm
 
 

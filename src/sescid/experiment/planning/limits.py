@@ -91,8 +91,8 @@ def sampling_limits(robot: Robot, paper: bool = True, range_deg: float | None = 
             ]
         )
     if range_deg is not None:
-        if not range_deg > 0:
-            raise OptionError("range_deg", f"must be > 0, got {range_deg}")
+        if not 0 < range_deg <= 180:
+            raise OptionError("range_deg", f"must be in (0, 180] degrees, got {range_deg}")
         r = math.radians(range_deg)
         lim = np.column_stack([np.maximum(lim[:, 0], -r), np.minimum(lim[:, 1], r)])
     bad = np.flatnonzero(lim[:, 0] > lim[:, 1])

@@ -1,0 +1,40 @@
+"""Command on the virtual experiment's truth: truth."""
+
+from __future__ import annotations
+
+import click
+
+from .common import mm, seed_option
+
+
+@click.command()
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.argument("truth_file", type=click.Path(dir_okay=False))
+@click.option(
+    "--fresh", default=2000, show_default=True, type=click.IntRange(1, 10_000_000),
+    help="Fresh poses near the actual ones.",
+)  # fmt: skip
+@click.option(
+    "--within-deg", default=5.0, show_default=True, type=click.FloatRange(0, 180, min_open=True),
+    help="Fresh poses uniform within ±this of the actual ones [degrees].",
+)  # fmt: skip
+@seed_option
+def truth(fit_file, truth_file, fresh, within_deg, seed):
+    """Compare a fit with the truth of `sescid experiment --truth`: RMS CoP error of the
+    identified and the manufacturer model at the actual poses and at fresh poses near them."""
+    from ..estimation import load_fit
+    from ..experiment.truth import compare_truth
+
+    c = compare_truth(load_fit(fit_file), truth_file, fresh, within_deg, seed)
+    click.echo(
+        f"truth: real robot {c.true_mass_kg:.3f} kg, model {c.model_mass_kg:.3f} kg; "
+        f"RMS CoP error vs the true robot"
+    )
+    click.echo(
+        f"  at the {c.n_poses} actual poses: identified {mm(c.rms_identified)}, "
+        f"manufacturer {mm(c.rms_manufacturer)}"
+    )
+    click.echo(
+        f"  at {c.n_fresh} fresh poses within ±{c.within_deg:g}°: identified "
+        f"{mm(c.fresh_identified)}, manufacturer {mm(c.fresh_manufacturer)}"
+    )

@@ -1,0 +1,119 @@
+"""Checks at the data boundary that turn garbage into an error or a stored warning.
+
+``outside_limits`` finds poses outside the model's joint limits; ``fit_warnings`` says when the
+data do not excite the identifiable subspace (rank and condition of the information matrix),
+when σ̂ = 0 (a constant or noise-free CoP), and ``check_total_mass`` refuses a weighed mass
+implausible against the model's (grams for kilograms).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import SescidError
+from ..robot import Robot
+from .fit import Fit
+
+#: a weighed total mass outside [1/x, x] × the model's is refused (unit slip, wrong robot)
+MASS_RATIO_LIMIT = 3.0
+#: information matrix worse conditioned than this (on the excited combinations) is flagged
+CONDITION_WARN = 1e8
+#: σ̂ below this (m, or a weighted scale) is an exact fit: constant CoP or noise-free data
+EXACT_FIT = 1e-9
+#: angles beyond a limit by less than this are inside (servo play, read-back noise), rad
+LIMIT_SLACK = math.radians(2.0)
+
+
+@dataclass(frozen=True)
+class LimitViolation:
+    """Poses outside the model's joint limits: how many, and the first one."""
+
+    n_poses: int  #: poses with at least one joint outside its limits
+    row: int  #: first such pose (0-based)
+    joint: str
+    value: float  #: rad
+    lower: float  #: rad
+    upper: float  #: rad
+
+    def message(self, total: int) -> str:
+        """One line naming the first violation, in degrees."""
+        return (
+            f"{self.n_poses} of {total} poses are outside the model's joint limits (first: "
+            f"pose {self.row}, {self.joint} = {math.degrees(self.value):.1f}° not in "
+            f"[{math.degrees(self.lower):.1f}, {math.degrees(self.upper):.1f}]°)"
+        )
+
+
+def outside_limits(robot: Robot, q: ArrayLike) -> LimitViolation | None:
+    """The poses of q (n, nq) [rad] outside ``robot.joint_limits``, or None."""
+    qq = np.asarray(q, dtype=float)
+    lim = np.asarray(robot.joint_limits, dtype=float)
+    bad = (qq < lim[:, 0] - LIMIT_SLACK) | (qq > lim[:, 1] + LIMIT_SLACK)
+    rows = np.flatnonzero(bad.any(axis=1))
+    if rows.size == 0:
+        return None
+    i = int(rows[0])
+    j = int(np.flatnonzero(bad[i])[0])
+    return LimitViolation(
+        int(rows.size),
+        i,
+        robot.joint_names[j],
+        float(qq[i, j]),
+        float(lim[j, 0]),
+        float(lim[j, 1]),
+    )
+
+
+def condition(fit: Fit) -> float:
+    """Condition number of the information matrix on the combinations the data excite."""
+    sv = np.asarray(fit.singular_values, dtype=float)
+    if fit.rank == 0 or sv.size == 0 or sv[fit.rank - 1] <= 0:
+        return math.inf
+    return float((sv[0] / sv[fit.rank - 1]) ** 2)
+
+
+def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
+    """Data-quality warnings of a fit: an unexcited identifiable subspace, an ill-conditioned
+    information matrix, σ̂ = 0. ``structural_rank``: rank of the robot's x/y regressor over all
+    poses (default ``robot.reduction``'s)."""
+    out = []
+    p = structural_rank if structural_rank is not None else fit.robot.reduction.g.shape[0]
+    cond = condition(fit)
+    if fit.rank < p:
+        out.append(
+            f"the data excite {fit.rank} of the {p} identifiable combinations (condition of the "
+            f"information matrix {cond:.3g}): predictions along the other {p - fit.rank} are "
+            "not determined (their intervals are reported as such), use more varied poses"
+        )
+    elif cond > CONDITION_WARN:
+        out.append(
+            f"the information matrix is ill-conditioned ({cond:.3g}): some combinations are "
+            "barely excited, their intervals are wide"
+        )
+    if fit.sigma_hat < EXACT_FIT and fit.n_rows > fit.rank:
+        out.append(
+            "σ̂ = 0: the CoP is fitted exactly (a constant or all-zero CoP, or noise-free data); "
+            "intervals have zero width"
+        )
+    return out
+
+
+def check_total_mass(robot: Robot, total_mass: float | None) -> None:
+    """SescidError when a given total mass [kg] is implausible against the model's."""
+    if total_mass is None:
+        return
+    m = float(total_mass)
+    model = robot.total_mass
+    if not (math.isfinite(m) and m > 0):
+        raise SescidError(f"total mass must be a positive number of kg, got {total_mass}")
+    ratio = m / model
+    if not 1 / MASS_RATIO_LIMIT <= ratio <= MASS_RATIO_LIMIT:
+        unit = " (grams? the unit is kg)" if 500 < ratio < 2000 else ""
+        raise SescidError(
+            f"total mass {m:g} kg is {ratio:.3g} × the model's {model:.4f} kg{unit}: "
+            f"expected within {1 / MASS_RATIO_LIMIT:.2g}–{MASS_RATIO_LIMIT:g} ×"
+        )

@@ -1,0 +1,102 @@
+"""Run the README's walk-through verbatim and print the figures its table quotes.
+
+    python tools/readme_numbers.py            # prints the table and the truth sentence
+    make docs                                  # the same
+
+Runs ``poses → experiment → fsr → identify → report → truth`` (the commands of the README's
+"On a real OP2" section) in a temporary folder through the ``sescid`` command line, then reads
+the figures from the files they wrote. ``tests/test_readme_numbers.py`` (slow) checks that the
+README quotes exactly these strings.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+#: the README's walk-through, verbatim
+COMMANDS = [
+    "sescid poses --robot op2 --count 38 --select d-optimal --seed 0 --out poses.csv",
+    "sescid experiment --robot op2 --poses poses.csv --samples 100 --seed 0 --out raw.csv "
+    "--truth truth.json",
+    "sescid fsr raw.csv --robot op2 --poses poses.csv --out measured.csv",
+    "sescid identify measured.csv --robot op2 --weighted --out fit.json",
+    "sescid report fit.json measured.csv --out-dir report/",
+    "sescid truth fit.json truth.json",
+]
+
+
+def walk_through() -> dict[str, str]:
+    """Run the commands in a temporary folder; the quoted figures as the README prints them."""
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+    from sescid.estimation import load_fit
+    from sescid.experiment.truth import compare_truth
+    from sescid.io import read_cop, read_poses, read_table
+    from sescid.report.figures import cop_offset_stats
+
+    here = os.getcwd()
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)
+        try:
+            start = time.perf_counter()
+            for line in COMMANDS:
+                res = CliRunner().invoke(cli, line.split()[1:])
+                if res.exit_code != 0:
+                    raise SystemExit(f"{line}: exit {res.exit_code}\n{res.output}")
+            seconds = time.perf_counter() - start
+            fit = load_fit("fit.json")
+            table = read_table("measured.csv")
+            q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
+            cop = read_cop(table)
+            before = cop_offset_stats(cop, fit.robot.cop(q, fit.r_prior))
+            after = cop_offset_stats(cop, fit.predict_cop(q))
+            truth = compare_truth(fit, "truth.json")
+        finally:
+            os.chdir(here)
+
+    def mm(x: float, digits: int = 2) -> str:
+        return f"{x * 1e3:.{digits}f} mm"
+
+    return {
+        "manufacturer offset": f"({before['mean_x'] * 1e3:.2f}, {before['mean_y'] * 1e3:.2f}) mm",
+        "manufacturer |mean|": mm(before["mean"]),
+        "manufacturer RMS": mm(before["rms"]),
+        "identified |mean|": mm(after["mean"], 3),
+        "identified RMS": mm(after["rms"], 3),
+        "residual scale": f"{fit.sigma_hat:.2f}",
+        "truth identified": mm(truth.rms_identified),
+        "truth manufacturer": mm(truth.rms_manufacturer),
+        "fresh identified": mm(truth.fresh_identified),
+        "fresh manufacturer": mm(truth.fresh_manufacturer),
+        "true mass": f"{truth.true_mass_kg:.3f} kg",
+        "model mass": f"{truth.model_mass_kg:.3f} kg",
+        "seconds": f"{seconds:.0f}",
+    }
+
+
+def main() -> None:
+    """Print the README's table and truth sentence from a fresh run."""
+    n = walk_through()
+    print("| CoP predicted − measured, 38 poses | mean offset (x, y) | \\|mean\\| | RMS |")
+    print("|---|---|---|---|")
+    print(
+        f"| manufacturer model | {n['manufacturer offset']} | {n['manufacturer |mean|']} | "
+        f"{n['manufacturer RMS']} |"
+    )
+    print(
+        f"| identified (weighted least squares) | — | {n['identified |mean|']} | "
+        f"{n['identified RMS']} |"
+    )
+    print()
+    for key, value in n.items():
+        print(f"{key}: {value}")
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
+    main()
