@@ -54,6 +54,9 @@ class LiveView(SessionObserver):
         self.url = f"http://{host}:{self.server.get_port()}"
         sc, gui = self.server.scene, self.server.gui
         sc.set_up_direction("+z")
+        cam = self.server.initial_camera
+        cam.position = (0.45, -0.55, 0.4)
+        cam.look_at = (0.0, 0.0, 0.13)
         sc.add_grid("/ground", width=0.6, height=0.6, cell_size=0.05)
         hx, hy = self.half
         box = np.array([[hx, hy, 0], [hx, -hy, 0], [-hx, -hy, 0], [-hx, hy, 0]], dtype=float)
@@ -70,6 +73,7 @@ class LiveView(SessionObserver):
             data=(np.zeros(1), np.zeros(1)),
             series=({"label": "measured poses"}, {"label": "CoP std [mm]", "stroke": "red"}),
             title="predicted RMS CoP std",
+            scales={"x": {"time": False}},
             aspect=1.5,
         )
         self._body_std: np.ndarray | None = None
