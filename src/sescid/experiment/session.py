@@ -66,7 +66,7 @@ class SessionOptions:
     seed: int = 0  #: candidate sampling
     near: float = 0.8  #: take the nearest candidate whose gain is ≥ near × the best gain
     window: int = 10  #: convergence: measured poses looked back
-    tol: float = 0.05  #: convergence: relative fall of the predicted CoP std over the window
+    tol: float = 0.10  #: convergence: relative fall of the predicted CoP std over the window
     min_measured: int | None = None  #: at least this many measured poses (None: the rank's min)
     target_std: float | None = None  #: m, also stop when the predicted CoP std reaches this
     limits: np.ndarray | None = None  #: (nq, 2) sampling limits, rad (None: the robot's)
@@ -157,6 +157,18 @@ def _body_std(est: OnlineEstimator, basis: np.ndarray, n_bodies: int) -> np.ndar
     return np.sqrt(np.maximum(np.diag(cov).reshape(n_bodies, 3).sum(axis=1), 0.0))
 
 
+def _estimate(est: OnlineEstimator, basis: np.ndarray) -> np.ndarray:
+    """(N, 3) least-squares SESC vectors in the identifiable subspace, the rest from the prior.
+
+    The directions the poses so far leave undetermined keep the prior (minimum-norm step); the
+    CoP it predicts equals the batch fit's once every identifiable combination is determined.
+    """
+    x0 = est.r_prior.reshape(-1)
+    h = basis.T @ est.ne.ata @ basis
+    g = basis.T @ (est.ne.atb - est.ne.ata @ x0)
+    return (x0 + basis @ (np.linalg.pinv(h, rcond=1e-10, hermitian=True) @ g)).reshape(-1, 3)
+
+
 def run_session(
     robot: Robot,
     adapter: RobotAdapter,
@@ -243,14 +255,14 @@ def run_session(
             step.status = "measured"
             step.q_measured, step.cop, step.cop_se = meas.q[0], meas.cop[0], se
             if est.ne.n_poses:
-                step.cop_predicted = robot.cop(meas.q, est.estimate())[0]
+                step.cop_predicted = robot.cop(meas.q, _estimate(est, basis))[0]
             st = est.update(meas.q, meas.cop, meas.cop_se)
             design.add(nxt.index)
             step.cop_std, step.rank = st.cop_std, st.rank
             step.converged = st.converged and st.n_poses >= min_measured
             step.body_std = _body_std(est, basis, n_bodies)
             if st.rank == basis.shape[1]:  # identified: check stability on the estimate too
-                r_est = est.estimate()
+                r_est = _estimate(est, basis)
             steps.append(step)
             obs.finished_pose(step, steps)
             if step.converged:

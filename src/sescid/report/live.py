@@ -77,6 +77,7 @@ class LiveView(SessionObserver):
             aspect=1.5,
         )
         self._body_std: np.ndarray | None = None
+        self._nodes: dict = {}
         self._draw("/robot/current", np.zeros(robot.nq), None, 1.0)
 
     # --- drawing ----------------------------------------------------------------------------
@@ -92,7 +93,7 @@ class LiveView(SessionObserver):
             col = 0.6 + 0.4 * col
         rgb = np.repeat((col * 255).astype(np.uint8)[:, None, :], 2, axis=1)
         # one line segment per capsule, as thick as the capsule (world units)
-        self.server.scene.add_line_segments(
+        self._nodes[name] = self.server.scene.add_line_segments(
             name, seg, rgb, thickness=float(2 * np.mean(rad)), thickness_units="world"
         )
         com = self.robot.com(q[None])[0]
@@ -118,6 +119,9 @@ class LiveView(SessionObserver):
             return
         assert step.q_measured is not None and step.cop is not None
         self._body_std = step.body_std
+        ghost = self._nodes.pop("/robot/next", None)
+        if ghost is not None:  # the next pose is now the current one
+            ghost.remove()
         self._draw("/robot/current", step.q_measured, step.body_std, 1.0)
         sc.add_icosphere(
             "/cop/measured", radius=0.005, color=(30, 90, 230), position=(*step.cop, 0.0)
