@@ -135,7 +135,7 @@ class SessionObserver:
         """The session ended."""
 
 
-def _table(cols: dict[str, np.ndarray]) -> Table:
+def raw_table(cols: dict[str, np.ndarray]) -> Table:
     """In-memory raw-log table (as ``read_table`` gives it: numbers as float, text as text)."""
     num: dict[str, np.ndarray] = {}
     text: dict[str, list] = {}
@@ -238,7 +238,7 @@ def run_session(
                 raise DataError(f"pose {pose}: the adapter changed its columns")
             m = n.pop()
             part = {"pose": np.full(m, pose), "sample": np.arange(m)} | {c: cols[c] for c in names}
-            log = read_raw(_table(part), robot.joint_names, sensors, robot.profile.servo)
+            log = read_raw(raw_table(part), robot.joint_names, sensors, robot.profile.servo)
             meas = measure(robot, log, sensors, opt.min_samples)
             if len(meas.pose) == 0:
                 step.reason = meas.dropped[0][1] if meas.dropped else "no usable CoP"
@@ -280,7 +280,7 @@ def run_session(
         why = steps[0].reason if steps else "no pose commanded"
         raise DataError(f"the session measured no pose (first: {why})")
     raw = {k: np.concatenate([p[k] for p in raw_parts]) for k in raw_parts[0]}
-    log = read_raw(_table(raw), robot.joint_names, sensors, robot.profile.servo)
+    log = read_raw(raw_table(raw), robot.joint_names, sensors, robot.profile.servo)
     result = SessionResult(
         steps=steps,
         stop_reason=stop,
