@@ -29,8 +29,8 @@ import sescid
 from sescid.experiment import load_sensors
 from sescid.experiment.adapters import MujocoAdapter
 from sescid.experiment.planning import candidates, plan_poses
-from sescid.experiment.session import SessionOptions, raw_table, run_session
 from sescid.experiment.sensors import measure, read_raw
+from sescid.experiment.session import SessionOptions, raw_table, run_session
 
 
 def measure_poses(robot, sensors, q, seed, samples):
