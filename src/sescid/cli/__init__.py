@@ -2,8 +2,8 @@
 
 Each command parses its options, calls the API, prints. Every error a user can cause is one
 line ``sescid: error: …`` with exit code 2; outputs are written atomically. Commands live in one
-module per group (``data``, ``fit``, ``bench``, ``record``) and are imported only when run, so
-``--help`` and ``--version`` answer without loading numpy or the compiled kernels.
+module per group (``data``, ``fit``, ``bench``, ``record``, ``session``) and are imported only
+when run, so ``--help`` and ``--version`` answer without loading numpy or the compiled kernels.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "fsr": ("bench", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
     "report": ("bench", "report", "Figures and one self-contained HTML page from a fit."),
     "truth": ("truth", "truth", "Compare a fit with a virtual experiment's truth file."),
+    "session": ("session", "session", "Guided identification: next-best pose until converged."),
 }
 
 

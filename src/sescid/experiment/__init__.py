@@ -1,10 +1,12 @@
 """Experiments: the paper's §3 simulation study, bench pose planning, the virtual bench (a
-"real" robot with unmodelled mass, backlash and sensor errors) and foot sensors → CoP (FSR
-boards in ``sensors``; ankle force/torque sensors and force plates in ``wrench``).
+"real" robot with unmodelled mass, backlash and sensor errors), foot sensors → CoP (FSR
+boards in ``sensors``; ankle force/torque sensors and force plates in ``wrench``) and the guided
+session (``session``: next-best pose until converged, through the ``adapters`` protocol).
 """
 
 from __future__ import annotations
 
+from .adapters import MujocoAdapter, ReplayAdapter, RobotAdapter, load_adapter_class
 from .planning import PosePlan, candidates, plan_poses
 from .sensors import (
     REASONS,
@@ -17,6 +19,7 @@ from .sensors import (
     pose_list_ids,
     read_raw,
 )
+from .session import SessionObserver, SessionOptions, SessionResult, SessionStep, run_session
 from .study import PaperStudy, paper_study
 from .virtual import (
     DEFAULT_EXTRA,
@@ -45,17 +48,25 @@ __all__ = [
     "ExperimentConfig",
     "ExtraMass",
     "Measured",
+    "MujocoAdapter",
     "PaperStudy",
     "Plate",
     "PosePlan",
     "RawLog",
+    "ReplayAdapter",
+    "RobotAdapter",
     "SensorConfig",
+    "SessionObserver",
+    "SessionOptions",
+    "SessionResult",
+    "SessionStep",
     "candidates",
     "check_limits",
     "cop_from_force_plate",
     "cop_from_plate",
     "cop_from_wrench",
     "fsr",
+    "load_adapter_class",
     "load_plate",
     "load_sensors",
     "load_truth",
@@ -68,4 +79,5 @@ __all__ = [
     "real_robot",
     "rpy_matrix",
     "run_experiment",
+    "run_session",
 ]

@@ -26,12 +26,14 @@ from .bags import (
 )
 from .export import FORMATS, export_model, export_urdf
 from .mjcf_export import export_mjcf
+from .session_files import SESSION_FILES, read_session_reasons, write_session
 from .tables import read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
     "FORMATS",
     "MAPPING_FORMAT",
+    "SESSION_FILES",
     "BagMapping",
     "FootSource",
     "JointSource",
@@ -54,7 +56,9 @@ __all__ = [
     "read_joint_columns",
     "read_json",
     "read_poses",
+    "read_session_reasons",
     "read_table",
     "save_fit",
+    "write_session",
     "write_table",
 ]

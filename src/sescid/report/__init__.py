@@ -1,5 +1,6 @@
 """Reports: the paper's figures (R_i, CoP per pose, CoM height), residuals, a side view, the
-pose-selection curve, and one self-contained HTML page."""
+pose-selection curve, one self-contained HTML page with a 3-D view of the poses (``view3d``),
+and a guided session's live view (``live``, viser; imported on use)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from .figures import (
     plot_side_view,
 )
 from .html import write_report
+from .view3d import scene_data, view3d_html
 
 __all__ = [
     "body_labels",
@@ -26,5 +28,7 @@ __all__ = [
     "plot_r_magnitudes",
     "plot_residuals",
     "plot_side_view",
+    "scene_data",
+    "view3d_html",
     "write_report",
 ]

@@ -23,6 +23,7 @@ from .figures import (
     plot_side_view,
     r_magnitude_std,
 )
+from .view3d import scene_data, view3d_html
 
 
 def write_report(
@@ -153,6 +154,7 @@ def write_report(
             f"<figcaption>{esc(caption)} — <code>{name}</code></figcaption></figure>"
         )
     fig6, fig7, fig8, fig_res, fig_side = imgs
+    view3d = view3d_html(scene_data(robot, q, com_fit, cop, cop_fit, labels))
     notes = "".join(f"<li>{esc(t)}</li>" for t in fit.notes)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -177,6 +179,7 @@ Report data: {n} poses.</p>
 <table><tr><th>model</th><th>mean x</th><th>mean y</th><th>|mean|</th><th>RMS</th></tr>
 {off_row("manufacturer model", before)}{off_row("identified", after)}</table>
 {se_txt}
+{view3d}
 <h2>SESC vector magnitudes (Fig. 6)</h2>{fig6}
 <table><tr><th>#</th><th>body</th><th>R_i manufacturer [mm]</th><th>R_i identified [mm]</th>
 <th>±1σ [mm]</th></tr>{rows_r}</table>

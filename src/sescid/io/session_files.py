@@ -1,0 +1,114 @@
+"""A guided session's files: the same as the step-by-step path, plus its decisions.
+
+``poses.csv`` (every commanded pose in order: ``pose``, joints in rad, ``_deg``, ``_ticks``,
+model ``cop_x``/``cop_y``; what ``sescid poses`` writes), ``raw.csv`` (the raw log, as
+``sescid experiment``/a robot writes it), ``measured.csv`` (as ``sescid fsr``), ``fit.json`` (as
+``sescid identify --weighted``, with the online record) and ``session.json`` (each step's
+decision, status, reason and predicted CoP std, and why the session stopped).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SescidError
+from ..files import atomic_open, check_outputs, read_json
+from .tables import write_table
+
+SESSION_FORMAT = "sescid-session/1"
+#: file names inside a session's output folder
+SESSION_FILES = ("poses.csv", "raw.csv", "measured.csv", "fit.json", "session.json")
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def session_paths(out_dir: str | Path) -> dict[str, Path]:
+    """Name → path of each file a session writes into ``out_dir``."""
+    out = Path(out_dir)
+    return {n.split(".")[0]: out / n for n in SESSION_FILES}
+
+
+def check_session_outputs(out_dir: str | Path, inputs: list) -> dict[str, Path]:
+    """Validate the output folder and files before a session starts; their paths."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise SescidError(f"{out}: exists and is not a folder")
+    paths = session_paths(out)
+    check_outputs(list(paths.values()), inputs)
+    return paths
+
+
+def read_session_reasons(folder: Path) -> dict[str, str]:
+    """Pose → why it failed, from a session folder's ``session.json`` ({} when absent)."""
+    path = Path(folder) / "session.json"
+    if not path.is_file():
+        return {}
+    doc = read_json(path, SESSION_FORMAT, "a session record")
+    return {str(s["pose"]): str(s["reason"]) for s in doc.get("steps", []) if s.get("reason")}
+
+
+def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
+    """Write the session's five files into ``out_dir`` (atomically); their paths."""
+    paths = session_paths(out_dir)
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    names = robot.joint_names
+    q = result.poses
+    cols: dict[str, np.ndarray] = {"pose": result.pose_ids}
+    cols |= {j: q[:, k] for k, j in enumerate(names)}
+    cols |= {f"{j}_deg": np.degrees(q[:, k]) for k, j in enumerate(names)}
+    servo = robot.profile.servo
+    if servo is not None:
+        try:
+            ticks = servo.to_ticks(q)
+            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
+        except SescidError:
+            pass  # angles beyond the servo's range: the radians are still there
+    cop = robot.cop(q)
+    cols |= {"cop_x": cop[:, 0], "cop_y": cop[:, 1]}
+    write_table(paths["poses"], cols)
+    write_table(paths["raw"], result.raw)
+    write_table(paths["measured"], result.measured.columns(names))
+    result.fit.save(paths["fit"])
+    doc = {
+        "format": SESSION_FORMAT,
+        "units": "m, rad",
+        "robot": robot.source,
+        "support": robot.support,
+        "options": {
+            k: (v.tolist() if isinstance(v, np.ndarray) else v)
+            for k, v in dataclasses.asdict(result.options).items()
+        },
+        "candidates": result.candidates.summary(),
+        "stop_reason": result.stop_reason,
+        "n_commanded": len(result.steps),
+        "n_measured": result.n_measured,
+        "cop_std_m": _num(result.cop_std),
+        "steps": [
+            {
+                "pose": s.pose,
+                "candidate": s.candidate,
+                "status": s.status,
+                "reason": s.reason,
+                "gain": _num(s.gain),
+                "distance_rad": s.distance,
+                "cop_std_m": _num(s.cop_std),
+                "rank": s.rank,
+                "converged": s.converged,
+            }
+            for s in result.steps
+        ],
+        "rejected_before_command": [
+            {"candidate": int(i), "reason": why} for i, why in result.rejected
+        ],
+    }
+    with atomic_open(paths["session"], "w") as fh:
+        json.dump(doc, fh, indent=1)
+        fh.write("\n")
+    return paths

@@ -1,0 +1,148 @@
+"""The session's live page (viser on the loopback) and the report's 3-D view, in a real browser."""
+
+from __future__ import annotations
+
+import re
+import socket
+import urllib.request
+
+import matplotlib.image
+import numpy as np
+import pytest
+from op2_stance import stable_poses
+from test_report import _browse, _chromium
+
+from sescid.estimation import identify_ls
+from sescid.experiment.session import SessionStep
+from sescid.report import write_report
+
+CHROMIUM = pytest.mark.skipif(_chromium() is None, reason="no chromium (apt-get install chromium)")
+
+
+def _free_port() -> int:
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def _live(op2):
+    """A live view on a random loopback port, fed one planned and one measured pose."""
+    pytest.importorskip("viser")
+    from sescid.report.live import LiveView
+
+    view = LiveView(op2, port=_free_port())
+    q = stable_poses(op2, 1, seed=2)[0]
+    step = SessionStep(
+        "0",
+        3,
+        q,
+        1.0,
+        0.5,
+        "measured",
+        q_measured=q,
+        cop=op2.cop(q[None])[0],
+        cop_se=np.full(2, 1e-4),
+        cop_std=0.002,
+        rank=42,
+        body_std=np.linspace(0.0, 0.005, len(op2.body_names)),
+    )
+    view.planned(0, "0", q, np.zeros(op2.nq))
+    view.finished_pose(step, [step])
+    return view
+
+
+def test_live_page_serves_on_loopback_and_stops(op2):
+    """The live page answers on 127.0.0.1 (no remote resource), then the server stops."""
+    view = _live(op2)
+    try:
+        assert view.url.startswith("http://127.0.0.1:")
+        page = urllib.request.urlopen(view.url, timeout=20).read().decode()
+        assert "<html" in page.lower()
+        assert not re.search(r'(src|href)="(https?:)?//', page)  # everything from localhost
+    finally:
+        view.close()
+    with pytest.raises(OSError):
+        urllib.request.urlopen(view.url, timeout=5)
+
+
+def test_live_view_refuses_a_public_address(op2):
+    """The live view serves localhost only."""
+    pytest.importorskip("viser")
+    from sescid.errors import OptionError
+    from sescid.report.live import LiveView
+
+    with pytest.raises(OptionError, match="localhost only"):
+        LiveView(op2, host="0.0.0.0", port=_free_port())
+
+
+def _coloured(img: np.ndarray) -> np.ndarray:
+    """Mask of saturated (non-grey) pixels: the robot's colours, not background or grid."""
+    rgb = img[..., :3].astype(float)
+    return rgb.max(axis=2) - rgb.min(axis=2) > 0.15
+
+
+@pytest.mark.slow
+@CHROMIUM
+def test_live_page_draws_the_robot_in_chromium(op2, tmp_path):
+    """Headless Chromium renders the live scene: coloured robot pixels in the 3-D area."""
+    view = _live(op2)
+    try:
+        shot = tmp_path / "live.png"
+        res = _browse(
+            _chromium(),
+            view.url,
+            "--window-size=1000,800",
+            "--virtual-time-budget=5000",
+            f"--screenshot={shot}",
+        )
+        assert res.returncode == 0, res.stderr[-2000:]
+    finally:
+        view.close()
+    img = matplotlib.image.imread(shot)
+    scene = _coloured(img[200:750, 150:650])  # below the notice, left of the control panel
+    assert scene.sum() > 2000
+
+
+@pytest.fixture(scope="module")
+def report(op2, tmp_path_factory):
+    """A report on 12 measured poses (noise-free CoPs, LS fit on 48)."""
+    q = stable_poses(op2, 48, seed=0)
+    fit = identify_ls(op2, q, op2.cop(q))
+    out = tmp_path_factory.mktemp("rep3d")
+    res = write_report(fit, q[:12], op2.cop(q[:12]), out, n_side=2)
+    return res["html"]
+
+
+def test_report_embeds_the_3d_scene(report, op2):
+    """The page carries the scene JSON for every pose and no outside resource."""
+    page = report.read_text()
+    data = re.search(r'<script type="application/json" id="view3d-data">(.*?)</script>', page, re.S)
+    import json
+
+    scene = json.loads(data.group(1))
+    assert len(scene["seg"]) == 12 and len(scene["com"]) == 12
+    assert not re.search(r'(src|href)="(?!data:)', page)
+
+
+@CHROMIUM
+def test_report_3d_view_changes_with_the_slider(report, tmp_path):
+    """In Chromium the canvas draws each pose (its own ink count) and the picture changes."""
+    binary, url = _chromium(), report.resolve().as_uri()
+    ink, shots = [], []
+    for k in (0, 11):
+        dom = _browse(binary, f"{url}#view3d={k}", "--dump-dom")
+        assert dom.returncode == 0, dom.stderr[-2000:]
+        m = re.search(r'<canvas id="view3d"[^>]*data-pose="(\d+)" data-ink="(\d+)"', dom.stdout)
+        assert m and int(m.group(1)) == k
+        ink.append(int(m.group(2)))
+        shot = tmp_path / f"p{k}.png"
+        res = _browse(binary, f"{url}#view3d={k}", "--window-size=900,900", f"--screenshot={shot}")
+        assert res.returncode == 0
+        shots.append(_coloured(matplotlib.image.imread(shot)))
+    assert min(ink) > 20_000  # a robot, not an empty canvas (760 × 560 px)
+    assert ink[0] != ink[1]
+    a, b = shots
+    assert a.sum() > 20_000 and b.sum() > 20_000  # the robot is on screen (scrolled into view)
+    assert (a ^ b).sum() > 1000  # and it moved between the two poses
