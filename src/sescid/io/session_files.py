@@ -41,7 +41,7 @@ def check_session_outputs(out_dir: str | Path, inputs: list) -> dict[str, Path]:
     if out.exists() and not out.is_dir():
         raise SescidError(f"{out}: exists and is not a folder")
     paths = session_paths(out)
-    check_outputs(list(paths.values()), inputs)
+    check_outputs(list(paths.values()), inputs, folders=[out])
     return paths
 
 
