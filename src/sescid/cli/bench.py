@@ -260,6 +260,18 @@ def report(fit_file, measured, out_dir):
     click.echo(f"wrote {res['html']} and {len(res['figures'])} figures")
 
 
+def _sole_notes(robot, capsules) -> list[str]:
+    """Where the soles came from and what the floor check left out (any robot)."""
+    from ..experiment.planning.ground import ground_checks
+
+    out = [s.note for s in (robot.sole, robot.free_sole) if s is not None and s.derived]
+    if robot.sole is None:
+        out.append("no sole: no profile sole size and no geometry on the support body")
+    if capsules is not None:
+        out += ground_checks(robot, capsules).notes
+    return out
+
+
 @click.command()
 @robot_options
 @click.option(
@@ -281,10 +293,10 @@ def report(fit_file, measured, out_dir):
 @click.option(
     "--candidates",
     "n_candidates",
-    default=20_000,
-    show_default=True,
+    default=None,
     type=click.IntRange(min=1, max=10_000_000),
-    help="Stable, collision-free candidate poses to choose from.",
+    help="Stable, collision-free candidate poses to choose from "
+    "[default: 20000 for uniform draws (op2), 5000 with the adjusted sampler].",
 )
 @click.option(
     "--test-poses",
@@ -369,6 +381,8 @@ def poses(
     """
     check_outputs([out, figure], [robot_name])
     robot = load(robot_name, support)
+    if n_candidates is None:
+        n_candidates = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
     need = min_poses(robot)
     if count < need:
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
@@ -396,6 +410,7 @@ def poses(
     )
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
+    notes += _sole_notes(robot, capsules)
     cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
     names = robot.joint_names
     cols |= {j: plan.q[:, k] for k, j in enumerate(names)}

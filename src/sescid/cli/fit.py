@@ -431,6 +431,11 @@ def export_cmd(fit_file, out, model_format, **opts):
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
+    from ..estimation.cad_check import cad_violations
+
+    assert fit.inertials is not None
+    for line in cad_violations(fit.inertials, fit.robot.body_names):
+        click.echo(f"  the CAD model itself violates a constraint: {line}")
     for warning in export_model(fit, out, model_format):
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
