@@ -14,6 +14,7 @@ import re
 from dataclasses import replace
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -49,11 +50,11 @@ def _hull_vertices(path: str) -> np.ndarray | None:
     import trimesh  # lazy: a yourdfpy dependency; only needed for mesh geometry
 
     try:
-        mesh = trimesh.load(path, force="mesh", process=False)
-        verts = np.asarray(mesh.vertices, dtype=float)
+        mesh: Any = trimesh.load(path, force="mesh", process=False)
+        verts = np.asarray(mesh.vertices, dtype=np.float64)
         if len(verts) >= 4:
             try:
-                verts = np.asarray(mesh.convex_hull.vertices, dtype=float)
+                verts = np.asarray(mesh.convex_hull.vertices, dtype=np.float64)
             except Exception:  # noqa: BLE001 - degenerate meshes: keep all vertices
                 pass
     except Exception:  # noqa: BLE001 - any reader failure is reported as "not loaded"

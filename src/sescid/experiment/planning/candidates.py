@@ -92,7 +92,8 @@ def candidates(
     lim = sampling_limits(robot) if limits is None else np.asarray(limits, dtype=float)
     half = cop_half_extents(robot) if half_extents is None else np.asarray(half_extents, float)
     cap = collision_capsules(robot)
-    qs, cops = [], []
+    qs: list[np.ndarray] = []
+    cops: list[np.ndarray] = []
     n_sampled = n_stable = n_ground = n_free = 0
     width = lim[:, 1] - lim[:, 0]
     while n_free < n:

@@ -81,6 +81,8 @@ def ground_checks(robot: Robot, cap: Capsules) -> GroundChecks:
         )
     if free is None:
         notes.append("free foot unknown: its sole is not checked against the floor")
+    if not chk.any() and not len(verts):
+        notes.append("no collision shapes on the moving bodies: none is checked against the floor")
     return GroundChecks(
         chk, vert_body.astype(np.int64), verts, sorted(names[b] for b in exempt), notes
     )
@@ -97,7 +99,8 @@ def free_sole_corners(
         return None
     if sole_size is not None and not sole.derived:
         b, x = robot.model.link_frames[sole.link]
-        size = (float(sole_size[0]), float(sole_size[1]))  # type: ignore[index]
+        ss = np.asarray(sole_size, dtype=float)
+        size = (float(ss[0]), float(ss[1]))
         sole = profile_sole(sole.link, b, x, size, sole.note)
     b = sole.body
     return org[:, None, b] + np.einsum("nij,cj->nci", rot[:, b], sole.corners)
