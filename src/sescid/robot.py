@@ -15,7 +15,8 @@ from numpy.typing import ArrayLike
 
 from . import kinematics, sesc
 from .errors import ModelError
-from .model import RobotModel, load_model
+from .model import RobotModel, Shape, load_model
+from .model.sole import Sole
 from .robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
 
@@ -132,6 +133,72 @@ class Robot:
     def d_tilted(self, gravity: ArrayLike, n: int) -> np.ndarray:
         """Constant term (n, 2) of the tilted CoP: d_xy − d_z g_xy / g_z."""
         return self.d[:2] - self.d[2] * sesc.gravity_ratios(gravity, n)
+
+    # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
+    @cached_property
+    def _geometry(self) -> tuple[list[Shape], list[str]]:
+        from .model.meshes import with_mesh_vertices
+
+        if self.model.format == "urdf":
+            return with_mesh_vertices(self.model.shapes, self.model.path)
+        return list(self.model.shapes), []
+
+    @property
+    def shapes(self) -> list[Shape]:
+        """The model's shapes with mesh vertices loaded where the files resolve (body frames)."""
+        return self._geometry[0]
+
+    @property
+    def geometry_notes(self) -> list[str]:
+        """What could not be loaded of the shapes (missing or unreadable mesh files)."""
+        return list(self._geometry[1])
+
+    @cached_property
+    def sole(self) -> Sole | None:
+        """The support foot's sole: the profile's sole size around the support frame, else
+        derived from the support body's lowest geometry; None when neither exists."""
+        from .model.sole import derive_sole, profile_sole
+
+        b, x = self.model.link_frames[self.support]
+        size = self.profile.sole_size
+        if size is not None:
+            return profile_sole(self.support, b, x, size, f"sole {size[0]} x {size[1]} m (profile)")
+        return derive_sole(
+            self.support, b, self.shapes, self.model.root_rotation, self.model.root_origin, 0.0
+        )
+
+    @cached_property
+    def free_sole(self) -> Sole | None:
+        """The other foot's sole: the profile's free sole, else the mirror-named link's foot
+        (``r_*``/``l_*``, ``right``/``left``, …) derived from its geometry; None if unknown."""
+        from .model.sole import derive_sole, mirror_link, profile_sole
+
+        link = self.profile.free_sole.get(self.support)
+        if link is None:
+            link = mirror_link(self.support, self.model.link_frames)
+        if link is None or link not in self.model.link_frames:
+            return None
+        b, x = self.model.link_frames[link]
+        size = self.profile.sole_size
+        if size is not None and link in self.profile.free_sole.values():
+            return profile_sole(link, b, x, size, f"free sole {link} (profile)")
+        rot, org = self.forward(np.zeros((1, self.nq)))
+        frame_z = float(org[0, b, 2] + rot[0, b, 2] @ x[:3, 3])
+        return derive_sole(link, b, self.shapes, rot[0, b], org[0, b], frame_z)
+
+    @property
+    def floor(self) -> float:
+        """Height of the floor in the support frame [m] (0 for a sole frame)."""
+        if self.sole is None:
+            return 0.0
+        return float((self.model.root_rotation @ self.sole.centre + self.model.root_origin)[2])
+
+    @property
+    def sole_centre(self) -> np.ndarray:
+        """(2,) x/y of the support sole's centre in the support frame [m] (0 without a sole)."""
+        if self.sole is None:
+            return np.zeros(2)
+        return (self.model.root_rotation @ self.sole.centre + self.model.root_origin)[:2]
 
     # --- kinematics -----------------------------------------------------------------------
     def forward(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

@@ -33,6 +33,8 @@ class SimData:
     cop: np.ndarray
     cop_true: np.ndarray
     noise: float
+    n_drawn: int = 0  #: raw draws (more than n when ``stable`` rejected some)
+    n_clipped: int = 0  #: kept poses with at least one joint clipped to its limits
 
 
 #: peak bytes per stored float of a pose array while simulating or identifying it (temporaries)
@@ -85,15 +87,50 @@ def simulate(
     seed: int | None = 0,
     clip: bool = False,
     r_true: np.ndarray | None = None,
+    stable: bool = False,
 ) -> SimData:
     """Random poses and their CoP = CoM projection + N(0, noise²) per axis.
 
-    ``r_true``: SESC vectors of the "true" robot (default: the model's own).
+    ``r_true``: SESC vectors of the "true" robot (default: the model's own). ``stable``: keep
+    only poses whose noise-free CoP lies inside the support sole (``Robot.sole``), drawing
+    until there are ``n``.
     """
     if not (noise >= 0 and math.isfinite(noise)):
         raise OptionError("noise", f"must be a finite standard deviation ≥ 0 m, got {noise}")
     rng = np.random.default_rng(seed)
-    q = random_poses(robot, n, range_deg, rng, clip)
+    if not stable:
+        q = random_poses(robot, n, range_deg, rng, clip)
+        n_drawn = n
+    else:
+        q, n_drawn = _stable_poses(robot, n, range_deg, rng, clip)
+    lim = robot.joint_limits
+    n_clipped = int(np.sum(np.any((q <= lim[:, 0]) | (q >= lim[:, 1]), axis=1))) if clip else 0
     cop_true = robot.cop(q, r_true)
     cop = cop_true + rng.normal(0.0, noise, size=cop_true.shape)
-    return SimData(q=q, cop=cop, cop_true=cop_true, noise=noise)
+    return SimData(
+        q=q, cop=cop, cop_true=cop_true, noise=noise, n_drawn=n_drawn, n_clipped=n_clipped
+    )
+
+
+MAX_STABLE_DRAWS = 10_000_000  #: ``simulate(stable=True)`` gives up beyond this many draws
+
+
+def _stable_poses(robot: Robot, n, range_deg, rng, clip) -> tuple[np.ndarray, int]:
+    """Draw ``n`` poses whose model CoP is inside the support sole; also how many draws it took."""
+    sole = robot.sole
+    if sole is None:
+        raise OptionError("stable", f"{robot.name}: no sole (profile size or foot geometry)")
+    half = np.asarray(sole.size) / 2
+    centre = robot.sole_centre
+    kept, n_drawn, n_kept = [], 0, 0
+    while n_kept < n:
+        q = random_poses(robot, max(1000, 2 * (n - n_kept)), range_deg, rng, clip)
+        n_drawn += len(q)
+        q = q[np.all(np.abs(robot.cop(q) - centre) < half, axis=1)]
+        kept.append(q)
+        n_kept += len(q)
+        if n_drawn > MAX_STABLE_DRAWS:
+            raise OptionError(
+                "stable", f"only {n_kept} of {n_drawn} poses have the CoP on the sole"
+            )
+    return np.concatenate(kept)[:n], n_drawn

@@ -270,6 +270,18 @@ def report(fit_file, measured, out_dir, force):
     click.echo(f"wrote {html} and {len(res['figures'])} figures")
 
 
+def _sole_notes(robot, capsules) -> list[str]:
+    """Where the soles came from and what the floor check left out (any robot)."""
+    from ..experiment.planning.ground import ground_checks
+
+    out = [s.note for s in (robot.sole, robot.free_sole) if s is not None and s.derived]
+    if robot.sole is None:
+        out.append("no sole: no profile sole size and no geometry on the support body")
+    if capsules is not None:
+        out += ground_checks(robot, capsules).notes
+    return out
+
+
 @click.command()
 @robot_options
 @click.option(
@@ -291,10 +303,10 @@ def report(fit_file, measured, out_dir, force):
 @click.option(
     "--candidates",
     "n_candidates",
-    default=20_000,
-    show_default=True,
+    default=None,
     type=click.IntRange(min=1, max=10_000_000),
-    help="Stable, collision-free candidate poses to choose from.",
+    help="Stable, collision-free candidate poses to choose from "
+    "[default: 20000 for uniform draws (op2), 5000 with the adjusted sampler].",
 )
 @click.option(
     "--test-poses",
@@ -381,6 +393,8 @@ def poses(
     """
     outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
+    if n_candidates is None:
+        n_candidates = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
     need = min_poses(robot)
     if count < need:
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
@@ -408,6 +422,7 @@ def poses(
     )
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
+    notes += _sole_notes(robot, capsules)
     cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
     names = robot.joint_names
     cols |= {j: plan.q[:, k] for k, j in enumerate(names)}

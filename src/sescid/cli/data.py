@@ -25,10 +25,16 @@ from .common import force_option, load, mm, robot_options, seed_option
     "--noise", default=PAPER_NOISE, show_default=True, help="CoP noise standard deviation [m]."
 )
 @seed_option
-@click.option("--clip", is_flag=True, help="Clip the poses to the joint limits.")
+@click.option(
+    "--clip/--no-clip",
+    default=None,
+    help="Clip the poses to the joint limits [default: clip, except for a robot whose profile "
+    "carries the paper's convention (op2: the paper's ±30° study is unclipped)].",
+)
+@click.option("--stable", is_flag=True, help="Keep only poses whose CoP is inside the sole.")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
 @force_option
-def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out, force):
+def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, out, force):
     """Simulate poses and CoP measurements (paper §3) into a CSV.
 
     Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m).
@@ -38,13 +44,26 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, out, forc
 
     outs = OutputSet([out], [robot_name], force=force)
     robot = load(robot_name, support)
-    sim = run_simulate(robot, poses, range_deg, noise, seed, clip)
+    if clip is None:
+        clip = robot.profile.paper_limits_file is None
+    sim = run_simulate(robot, poses, range_deg, noise, seed, clip, stable=stable)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
     cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
     with outs:
         write_table(outs.path(out), cols)
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, noise {noise} m")
+    if clip:
+        click.echo(f"  clipped to the joint limits: {sim.n_clipped} of {poses} poses")
+    else:
+        lim = robot.joint_limits
+        out_of = int(np.sum(np.any((sim.q < lim[:, 0]) | (sim.q > lim[:, 1]), axis=1)))
+        click.echo(f"  not clipped: {out_of} of {poses} poses exceed a joint limit")
+    if stable:
+        click.echo(
+            f"  --stable: {sim.n_drawn - poses} of {sim.n_drawn} draws rejected "
+            f"(CoP outside the sole {robot.sole.size[0]:.3f} x {robot.sole.size[1]:.3f} m)"
+        )
 
 
 @click.command()

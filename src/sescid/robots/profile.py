@@ -81,6 +81,9 @@ class RobotProfile:
     sensors_file: Path | None = None  #: foot-sensor layout (sescid-fsr/1 JSON)
     paper_limits_file: Path | None = None  #: paper angle convention and Table 2 limits (CSV)
     body_table_file: Path | None = None  #: the paper's Table 1: index → body (CSV)
+    #: pose candidates: "adjusted" (supporting leg moved to put the CoP in the box) or
+    #: "uniform" (plain uniform draws, the paper's study)
+    pose_sampler: str = "adjusted"
 
 
 def generic_profile(name: str) -> RobotProfile:

@@ -13,7 +13,13 @@ from ...errors import SescidError
 from ...robot import Robot
 from .collision import Capsules, collision_capsules, collision_free_mask
 from .limits import sampling_limits
-from .stability import DEFAULT_CLEARANCE, cop_half_extents, ground_clear_mask, stable_mask
+from .stability import (
+    DEFAULT_CLEARANCE,
+    cop_centre,
+    cop_half_extents,
+    ground_clear_mask,
+    stable_mask,
+)
 
 
 @dataclass
@@ -29,6 +35,8 @@ class Candidates:
     n_ground: int  #: of which also clear of the ground
     n_free: int  #: of which also free of self-collision (= accepted, before truncation)
     capsules: Capsules | None = None
+    sampler: str = "uniform"  #: "uniform" or "adjusted" (supporting leg moved)
+    centre: np.ndarray | None = None  #: (2,) centre of the CoP rectangle, m (None: 0)
 
     @property
     def acceptance(self) -> float:
@@ -38,8 +46,13 @@ class Candidates:
     def summary(self) -> str:
         """One line: acceptance at each stage and the number accepted."""
         s = max(self.n_sampled, 1)
+        kind = (
+            "uniform poses"
+            if self.sampler == "uniform"
+            else "draws (those in self-collision dropped first, then the supporting leg adjusted)"
+        )
         return (
-            f"{self.n_sampled} uniform poses: {self.n_stable / s:.2%} stable, "
+            f"{self.n_sampled} {kind}: {self.n_stable / s:.2%} stable, "
             f"{self.n_ground / s:.2%} also ground-clear, {self.n_free / s:.2%} also free of "
             f"self-collision ({self.n_free} accepted)"
         )
@@ -57,25 +70,41 @@ def candidates(
     chunk: int = 100_000,
     max_sampled: int = 200_000_000,
     progress: Callable[[int, int], None] | None = None,
+    sampler: str | None = None,
 ) -> Candidates:
     """Draw ``n`` accepted poses (uniform within ``limits``, default ``sampling_limits(robot)``).
 
     ``half_extents``: CoP rectangle (default ``cop_half_extents(robot)``). Raises SescidError when
-    the acceptance rate would need more than ``max_sampled`` raw poses.
+    the acceptance rate would need more than ``max_sampled`` raw poses. ``sampler``:
+    "uniform" or "adjusted" (``adjust.adjust_support_leg``; default the profile's).
     """
+    from .adjust import adjusted_draws
+    from .broadphase import collision_free_mask_broad
+
+    sampler = sampler or robot.profile.pose_sampler
+    if sampler not in ("uniform", "adjusted"):
+        raise SescidError(f"unknown pose sampler '{sampler}' (uniform or adjusted)")
+    centre = cop_centre(robot)
+    if sampler == "adjusted":
+        chunk = min(chunk, 4_000)
     if n < 1:
         raise SescidError(f"number of candidates must be ≥ 1, got {n}")
     rng = np.random.default_rng(seed)
     lim = sampling_limits(robot) if limits is None else np.asarray(limits, dtype=float)
     half = cop_half_extents(robot) if half_extents is None else np.asarray(half_extents, float)
     cap = collision_capsules(robot)
-    qs, cops = [], []
+    qs: list[np.ndarray] = []
+    cops: list[np.ndarray] = []
     n_sampled = n_stable = n_ground = n_free = 0
     width = lim[:, 1] - lim[:, 0]
     while n_free < n:
-        q = lim[:, 0] + width * rng.random((chunk, robot.nq))
+        if sampler == "adjusted":
+            pool = np.concatenate(qs) if qs else None
+            q = adjusted_draws(robot, cap, lim, chunk, rng, pool, half, centre)
+        else:
+            q = lim[:, 0] + width * rng.random((chunk, robot.nq))
         n_sampled += chunk
-        ok, cop = stable_mask(robot, q, half)
+        ok, cop = stable_mask(robot, q, half, centre)
         q, cop = q[ok], cop[ok]
         n_stable += len(q)
         if len(q):
@@ -83,13 +112,17 @@ def candidates(
             g = ground_clear_mask(robot, q, cap, rot, org, clearance, sole_size)
             q, cop, rot, org = q[g], cop[g], rot[g], org[g]
             n_ground += len(q)
-            f = collision_free_mask(cap, rot, org)
+            f = (collision_free_mask_broad if sampler == "adjusted" else collision_free_mask)(
+                cap, rot, org
+            )
             q, cop = q[f], cop[f]
             n_free += len(q)
             qs.append(q)
             cops.append(cop)
         if progress is not None:
             progress(min(n_free, n), n)
+        if sampler == "adjusted" and n_free:  # next chunk sized to what is still missing
+            chunk = int(min(100_000, max(1_000, 1.2 * (n - n_free) * n_sampled / n_free)))
         rate = n_free / n_sampled
         if n_sampled >= 1_000_000 and (rate == 0 or n / rate > max_sampled):
             raise SescidError(
@@ -107,4 +140,6 @@ def candidates(
         n_ground=n_ground,
         n_free=n_free,
         capsules=cap,
+        sampler=sampler,
+        centre=centre,
     )

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...kinematics import njit
-from ...model.geometry import BOX, CAPSULE, CYLINDER, SPHERE
+from ...model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from ...robot import Robot
 
 _CAPSULE_RMAX = 0.025  #: m, largest capsule radius used to cover a box cross-section
@@ -32,6 +32,7 @@ class Capsules:
     pairs: np.ndarray  #: (P, 2) capsule pairs checked for self-collision
     skipped_zero: list[tuple[str, str]] = field(default_factory=list)  #: bodies touching at q = 0
     notes: list[str] = field(default_factory=list)
+    from_mesh: np.ndarray | None = None  #: (C,) bool: a mesh's bounding capsule
 
     def world(self, rot: np.ndarray, org: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Segment ends (n, C, 3) [m] in the support frame from body rotations/origins."""
@@ -68,10 +69,11 @@ def box_capsules(size) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def collision_capsules(robot: Robot) -> Capsules:
-    """Capsules from the model's collision boxes, cylinders, capsules, spheres (meshes ignored)."""
-    body, p0, p1, rad, links = [], [], [], [], []
-    n_mesh = 0
-    for shape in robot.model.shapes:
+    """Capsules from the model's collision boxes, cylinders, capsules, spheres, and one bounding
+    capsule per mesh whose vertices are loaded (``mesh_capsule``; unloaded meshes ignored)."""
+    body, p0, p1, rad, links, meshy = [], [], [], [], [], []
+    n_mesh = n_mesh_capsules = 0
+    for shape in robot.shapes:
         if shape.role != "collision":
             continue
         t = shape.pose
@@ -90,19 +92,30 @@ def collision_capsules(robot: Robot) -> Capsules:
         elif shape.kind == SPHERE:
             e0 = e1 = np.zeros((1, 3))
             r = float(shape.size[0])
+        elif shape.kind == MESH and shape.vertices is not None:
+            local = (shape.vertices - t[:3, 3]) @ t[:3, :3]
+            e0, e1, r = mesh_capsules(local)
+            n_mesh_capsules += 1
         else:
             n_mesh += 1
             continue
         for a0, a1 in zip(e0, e1, strict=True):
+            meshy.append(shape.kind == MESH)
             body.append(shape.body)
             p0.append(t[:3, :3] @ a0 + t[:3, 3])
             p1.append(t[:3, :3] @ a1 + t[:3, 3])
             rad.append(r)
             links.append(shape.link)
-    notes = []
+    notes = list(robot.geometry_notes)
+    if n_mesh_capsules:
+        notes.append(
+            f"{n_mesh_capsules} mesh collision shape(s) covered by capsules around "
+            "their principal-axis boxes (self-collision; the floor check uses their vertices)"
+        )
     if n_mesh:
         notes.append(
-            f"{n_mesh} mesh collision element(s) ignored (only boxes/cylinders/capsules/spheres)"
+            f"{n_mesh} mesh collision element(s) without vertices ignored: not checked for "
+            "self-collision"
         )
     cap = Capsules(
         body=np.array(body, dtype=np.int64),
@@ -112,6 +125,7 @@ def collision_capsules(robot: Robot) -> Capsules:
         link=links,
         pairs=np.zeros((0, 2), dtype=np.int64),
         notes=notes,
+        from_mesh=np.array(meshy, dtype=bool),
     )
     if not body:
         cap.notes.append("no collision shapes: self-collision is not checked")
@@ -125,6 +139,7 @@ def collision_capsules(robot: Robot) -> Capsules:
     w0, w1 = cap.world(rot, org)
     d = segment_distance(w0[:, i], w1[:, i], w0[:, j], w1[:, j])[0]
     touch = d < cap.radius[i] + cap.radius[j]
+    touch = _whole_mesh_pairs(cap, i, j, touch)
     names = robot.body_names
     cap.skipped_zero = sorted(
         {(names[a], names[b]) for a, b in zip(cap.body[i[touch]], cap.body[j[touch]], strict=True)}
@@ -135,6 +150,53 @@ def collision_capsules(robot: Robot) -> Capsules:
         )
     cap.pairs = np.column_stack([i[~touch], j[~touch]])
     return cap
+
+
+def _whole_mesh_pairs(cap: Capsules, i, j, touch) -> np.ndarray:
+    """Capsule pairs to skip: those touching at q = 0, and every pair of mesh capsules of a body
+    pair some of whose capsules touch there (a mesh's capsule grid is one covering)."""
+    if cap.from_mesh is None or not cap.from_mesh.any() or not touch.any():
+        return touch
+    mesh = cap.from_mesh[i] | cap.from_mesh[j]
+    nb = int(cap.body.max()) + 1
+    key = np.minimum(cap.body[i], cap.body[j]) * nb + np.maximum(cap.body[i], cap.body[j])
+    return touch | (mesh & np.isin(key, key[touch & mesh]))
+
+
+MESH_CELL = 0.08  #: m, target cross-section cell of the capsules covering a mesh's box
+_MESH_GRID = 3  #: at most this many cells per cross-section side
+
+
+def mesh_capsules(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Capsules (ends0 (k, 3), ends1 (k, 3), radius) containing every vertex (k, 3) [m].
+
+    The vertices' principal-axis box is split across its two shorter sides into a grid of at
+    most 3 × 3 cells of about ``MESH_CELL``; one capsule per cell runs the box's full length with
+    the radius of the cell's half-diagonal, so the whole box (hence the mesh hull) is covered.
+    """
+    v = np.asarray(vertices, dtype=float)
+    c = v.mean(axis=0)
+    _, _, vt = np.linalg.svd(v - c, full_matrices=False)
+    if vt.shape[0] < 3:  # fewer than 3 independent directions: complete the basis
+        vt = np.linalg.qr(np.vstack([vt, np.eye(3)]).T)[0].T[:3]
+    loc = (v - c) @ vt.T
+    lo, hi = loc.min(axis=0), loc.max(axis=0)
+    mid, size = (lo + hi) / 2, hi - lo
+    order = np.argsort(-size)
+    a, b, cc = size[order]
+    nb = int(min(_MESH_GRID, max(1, math.ceil(b / MESH_CELL - 1e-9))))
+    nc = int(min(_MESH_GRID, max(1, math.ceil(cc / MESH_CELL - 1e-9))))
+    r = 0.5 * math.hypot(b / nb, cc / nc) + 1e-9
+    gb = (np.arange(nb) + 0.5) * b / nb - b / 2
+    gc = (np.arange(nc) + 0.5) * cc / nc - cc / 2
+    gb, gc = (g.ravel() for g in np.meshgrid(gb, gc, indexing="ij"))
+    e0 = np.zeros((gb.size, 3))
+    e1 = np.zeros((gb.size, 3))
+    for e, sgn in ((e0, -a / 2), (e1, a / 2)):
+        e[:, order[0]] = sgn
+        e[:, order[1]] = gb
+        e[:, order[2]] = gc
+    return c + (e0 + mid) @ vt, c + (e1 + mid) @ vt, r
 
 
 def segment_distance(p0, p1, q0, q1) -> np.ndarray:

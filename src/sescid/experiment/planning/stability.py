@@ -1,9 +1,11 @@
 """Static stability and ground clearance of candidate poses.
 
-A pose is stable when the model's CoP lies inside a rectangle around the support-frame origin:
-the profile's CoP box (the OP2: the paper's ±23 mm), or the sole rectangle shrunk by a margin.
-It is ground-clear when every collision capsule of a body other than the support body is above
-the floor (z = 0 of the support frame) and the free sole's corners above ``clearance``.
+A pose is stable when the model's CoP lies inside a rectangle around the support sole's centre:
+the profile's CoP box (the OP2: the paper's ±23 mm), else the middle ``SOLE_BOX_FRACTION`` of the
+robot's sole (``Robot.sole``: the profile's, or derived from the foot's geometry), or the sole
+rectangle shrunk by a margin. It is ground-clear when every body other than the support body is
+above the floor (``Robot.floor``) and the free sole's corners (``Robot.free_sole``) above
+``clearance`` (see ``ground``).
 """
 
 from __future__ import annotations
@@ -21,6 +23,9 @@ FALLBACK_COP_BOX = 0.023
 
 DEFAULT_CLEARANCE = 0.005  #: m, free sole corners above the ground
 
+#: default CoP box of a robot without a profile CoP box: this fraction of its sole's half-sizes
+SOLE_BOX_FRACTION = 0.5
+
 
 def cop_half_extents(
     robot: Robot,
@@ -30,12 +35,17 @@ def cop_half_extents(
 ) -> np.ndarray:
     """(2,) half-extents [m] of the allowed CoP rectangle around the support-frame origin.
 
-    ``margin`` given: the sole rectangle (``sole_size``; the profile's by default) shrunk by it;
-    otherwise the box ``cop_box`` (a half-width, or (x, y) half-widths; default the profile's,
-    else ``FALLBACK_COP_BOX``).
+    ``margin`` given: the sole rectangle (``sole_size``; the robot's sole by default) shrunk by
+    it; otherwise the box ``cop_box`` (a half-width, or (x, y) half-widths; default the
+    profile's, else ``SOLE_BOX_FRACTION`` of the robot's sole, else ``FALLBACK_COP_BOX``).
+    The rectangle is centred on ``cop_centre(robot)``.
     """
+    if margin is None and cop_box is None and robot.profile.cop_box is None:
+        sole = robot.sole
+        if sole is not None:
+            return SOLE_BOX_FRACTION * np.asarray(sole.size, dtype=float) / 2
     if margin is not None:
-        sole_size = sole_size or robot.profile.sole_size
+        sole_size = sole_size or (robot.sole.size if robot.sole is not None else None)
         if sole_size is None:
             raise SescidError("a support-polygon margin needs the sole size (sole_size)")
         half = np.asarray(sole_size, dtype=float) / 2 - margin
@@ -50,15 +60,23 @@ def cop_half_extents(
     return half
 
 
-def stable_mask(robot: Robot, q, half_extents) -> tuple[np.ndarray, np.ndarray]:
-    """(mask (n,), cop (n, 2) [m]): model CoP strictly inside the rectangle ±half_extents."""
+def cop_centre(robot: Robot) -> np.ndarray:
+    """(2,) centre [m] of the CoP rectangle: the support sole's centre (0 for a sole frame)."""
+    return robot.sole_centre
+
+
+def stable_mask(robot: Robot, q, half_extents, centre=None) -> tuple[np.ndarray, np.ndarray]:
+    """(mask (n,), cop (n, 2) [m]): model CoP strictly inside ``centre`` ± half_extents."""
     cop = robot.cop(q)
-    return np.all(np.abs(cop) < np.asarray(half_extents), axis=1), cop
+    off = cop if centre is None else cop - np.asarray(centre, dtype=float)
+    return np.all(np.abs(off) < np.asarray(half_extents), axis=1), cop
 
 
 def free_sole(robot: Robot) -> str | None:
-    """The sole frame of the free foot (the profile's other sole), or None if not known."""
-    return robot.profile.free_sole.get(robot.support)
+    """The free foot's sole link (the profile's other sole, else the mirror-named foot's, see
+    ``Robot.free_sole``), or None if not known."""
+    sole = robot.free_sole
+    return None if sole is None else sole.link
 
 
 def sole_corners(robot: Robot, q: ArrayLike, sole: str, sole_size: ArrayLike) -> np.ndarray:
@@ -78,18 +96,9 @@ def ground_clear_mask(
     clearance: float,
     sole_size: ArrayLike | None = None,
 ) -> np.ndarray:
-    """(n,) True where all non-support capsules are above z = 0 and the free sole's corners
-    (the profile's other sole, of ``sole_size``, default the profile's) above ``clearance``
-    [m]."""
-    n = rot.shape[0]
-    ok = np.ones(n, dtype=bool)
-    moving = cap.body != 0
-    if moving.any():
-        w0, w1 = cap.world(rot, org)
-        low = np.minimum(w0[..., 2], w1[..., 2]) - cap.radius
-        ok &= np.all(low[:, moving] > 0.0, axis=1)
-    free = free_sole(robot)
-    sole_size = sole_size or robot.profile.sole_size
-    if free is not None and sole_size is not None:
-        ok &= np.all(sole_corners(robot, q, free, sole_size)[..., 2] > clearance, axis=1)
-    return ok
+    """(n,) True where every checked body is above the floor and the free sole's corners
+    (``Robot.free_sole``; ``sole_size`` overrides a profile sole's size) above ``clearance``
+    [m]. What is checked: ``ground.ground_checks``."""
+    from .ground import ground_clear
+
+    return ground_clear(robot, cap, rot, org, clearance, sole_size)

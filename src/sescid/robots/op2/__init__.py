@@ -34,6 +34,7 @@ PROFILE = RobotProfile(
     sensors_file=_HERE / "op2_fsr.json",
     paper_limits_file=_HERE / "op2_paper_limits.csv",
     body_table_file=_HERE / "op2_table1.csv",
+    pose_sampler="uniform",  # the paper's uniform draws within Table 2
 )
 
 __all__ = ["PROFILE"]
