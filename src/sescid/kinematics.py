@@ -3,7 +3,8 @@
 The chain is evaluated block by block (``CHAIN_BLOCK`` poses) by a small compiled kernel
 (numba) in structure-of-arrays layout, its inner loops running across poses (SIMD); sin/cos are
 computed in the kernel (Cody–Waite reduction and Taylor polynomials, within 2 ulp of libm),
-which lets the compiler vectorise them too. There is no Python loop per pose. Each body's joint
+which lets the compiler vectorise them too. There is no Python loop per pose. numba is imported
+when a kernel first runs (``lazy_njit``), so loading a robot does not pay for it. Each body's joint
 contributes
 
     M_b(θ) = C_b Rot(a_b, θ) = A0_b + sin θ · A1_b + (1 − cos θ) · A2_b,   θ = coef_b q_j + off_b
@@ -13,9 +14,11 @@ with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Ro
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -84,6 +87,45 @@ class Tree:
         )
 
 
+class _LazyKernel:
+    """A numba kernel compiled on first call; until then numba is not even imported."""
+
+    def __init__(self, fn: Callable, options: dict[str, Any]):
+        self.fn, self.options = fn, options
+        self.__doc__, self.__name__ = fn.__doc__, fn.__name__
+
+    def __call__(self, *args):
+        return _compile_module(self.fn.__module__)[self.fn.__name__](*args)
+
+
+_LAZY: dict[str, list[_LazyKernel]] = {}
+
+
+def _compile_module(module: str) -> dict[str, Any]:
+    """Swap every lazy kernel of ``module`` for its numba dispatcher (kernels call each other
+    through module globals, so all of them are swapped before any compiles). The dispatchers
+    use numba's on-disk cache (``cache=True``): after the first run a process loads them."""
+    import sys
+
+    import numba
+
+    namespace = vars(sys.modules[module])
+    for kernel in _LAZY.pop(module, []):
+        namespace[kernel.fn.__name__] = numba.njit(**kernel.options)(kernel.fn)
+    return namespace
+
+
+def lazy_njit(**options: Any) -> Callable[[Callable], Any]:
+    """``numba.njit(**options)`` deferred to the first call of any kernel of the module."""
+
+    def wrap(fn: Callable) -> _LazyKernel:
+        kernel = _LazyKernel(fn, options)
+        _LAZY.setdefault(fn.__module__, []).append(kernel)
+        return kernel
+
+    return wrap
+
+
 # Cody–Waite split of π/2 (fdlibm) and Taylor coefficients: |error| ≤ 2 ulp for |θ| < 1e5.
 _PIO2_1 = 1.57079632673412561417e00
 _PIO2_2 = 6.07710050630396597660e-11
@@ -92,7 +134,7 @@ _TWO_OVER_PI = 6.36619772367581382433e-01
 _MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@lazy_njit(cache=True, nogil=True, inline="always")
 def _sin_cos1m(x):
     """sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
     q = np.floor(x * _TWO_OVER_PI + 0.5)
@@ -119,7 +161,7 @@ def _sin_cos1m(x):
     return sn, (-cm if qi == 0 else 1.0 - cs)
 
 
-@numba.njit(cache=True, nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _joint_trig(qt, jcol, coef, off, s, c1):
     """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off.
 
@@ -140,7 +182,7 @@ def _joint_trig(qt, jcol, coef, off, s, c1):
             s[b, k], c1[b, k] = _sin_cos1m(cb * qt[j, k] + ob)
 
 
-@numba.njit(cache=True, nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
     """Rotations of every body for a block of poses, structure-of-arrays.
 
@@ -181,7 +223,7 @@ def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
                         rot[b, jj, i, k] += rot[p, kk, i, k] * m[k]
 
 
-@numba.njit(cache=True, nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _origins_block(rot, parent, t, root_o, org):
     """org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
     nb = parent.shape[0]
@@ -225,11 +267,49 @@ class Workspace:
         return buf
 
 
+#: blocks of at most this many poses run in numpy until the compiled kernels are loaded
+SMALL_BLOCK = 256
+#: seconds of numpy-path work after which the kernels are loaded anyway: loading them costs
+#: 0.3–1 s per process (numba's import and type registries), which a command on a few dozen
+#: poses should not pay, but a long session of small calls should (ski rental)
+NUMPY_BUDGET = 0.25
+_numpy_spent = [0.0]
+
+
+def _numpy_path(m: int) -> bool:
+    """True while the kernels are not loaded, the block is small and the budget not spent."""
+    return m <= SMALL_BLOCK and bool(_LAZY.get(__name__)) and _numpy_spent[0] < NUMPY_BUDGET
+
+
+def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
+    """sin θ and 1 − cos θ = 2 sin²(θ/2) of every body's joint angle, exact reduction (libm)."""
+    moving = tree.jcol >= 0
+    theta = np.zeros(s.shape)
+    theta[moving] = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]
+    s[:] = np.sin(theta)
+    c1[:] = 2.0 * np.sin(0.5 * theta) ** 2
+
+
+def _chain_numpy(tree: Tree, s: np.ndarray, c1: np.ndarray, rot: np.ndarray) -> None:
+    """``_chain_block`` in numpy (one product per body, across poses): R_b = R_p M_b(θ)."""
+    nb, m = s.shape
+    r = np.empty((nb, m, 3, 3))
+    for b in range(nb):
+        p = tree.parent[b]
+        if p < 0:
+            r[b] = tree.root_r
+            continue
+        mb = tree.a0[b] + s[b, :, None, None] * tree.a1[b] + c1[b, :, None, None] * tree.a2[b]
+        np.matmul(r[p], mb, out=r[b])
+    rot[:] = r.transpose(0, 3, 2, 1)  # [b, k, i, j] → [b, j, i, k]
+
+
 def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     """Rotations of a block of m ≤ ws.block poses, layout (N, 3, 3, m): [b, j, i, k] = R_b[i, j].
 
     ``q`` must already be validated (see ``as_poses``). The result is a view into the
-    workspace, overwritten by the next call.
+    workspace, overwritten by the next call. Small blocks run in numpy until the compiled
+    kernels are worth loading (``_numpy_path``); both agree to rounding (~1e-16).
     """
     ws = ws or Workspace(tree, max(len(q), 1))
     m = q.shape[0]
@@ -238,16 +318,31 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     else:
         s, c1 = np.empty((len(tree.parent), m)), np.empty((len(tree.parent), m))
         rot = np.empty(ws.rot.shape[:3] + (m,))
+    if _numpy_path(m):
+        t0 = time.perf_counter()
+        _trig_numpy(tree, q, s, c1)
+        _chain_numpy(tree, s, c1, rot)
+        _numpy_spent[0] += time.perf_counter() - t0
+        return rot
     if np.abs(q).max(initial=0.0) < _MAX_ANGLE:
         _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
-        moving = tree.jcol >= 0
-        theta = np.zeros(s.shape)
-        theta[moving] = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]
-        s[:] = np.sin(theta)
-        c1[:] = 1.0 - np.cos(theta)
+        _trig_numpy(tree, q, s, c1)
     _chain_block(s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot)
     return rot
+
+
+def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray) -> None:
+    """org (N, 3, m) from rot (N, 3, 3, m): the kernel, or numpy for a block it did in numpy."""
+    if not _LAZY.get(__name__):
+        _origins_block(rot, tree.parent, tree.t, tree.root_o, org)
+        return
+    for b in range(tree.parent.shape[0]):
+        p = tree.parent[b]
+        if p < 0:
+            org[b] = tree.root_o[:, None]
+        else:
+            org[b] = org[p] + np.einsum("jik,j->ik", rot[p], tree.t[b])
 
 
 def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
@@ -275,7 +370,7 @@ def forward(tree: Tree, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         blk = q[s0 : s0 + ws.block]
         rot = chain(tree, blk, ws)
         o = org[..., : len(blk)] if len(blk) == ws.block else np.empty((nb, 3, len(blk)))
-        _origins_block(rot, tree.parent, tree.t, tree.root_o, o)
+        _origins(rot, tree, o)
         rot_out[s0 : s0 + len(blk)] = rot.transpose(3, 0, 2, 1)
         org_out[s0 : s0 + len(blk)] = o.transpose(2, 0, 1)
     return rot_out, org_out
@@ -352,7 +447,7 @@ def reduction(tree: Tree, axes: np.ndarray, rows=(0, 1)) -> Reduction:
     return Reduction(rows, u, g)
 
 
-@numba.njit(cache=True, nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _reduced_kernel(rot, rows, u, out):
     """out (P_red, len(rows)·m), columns ordered (row, pose): intercepts, then R_b[row] u_l."""
     nb = rot.shape[0]
@@ -382,5 +477,12 @@ def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | N
     rot = chain(tree, q, ws)
     shape = (red.g.shape[0], len(red.rows) * rot.shape[3])
     out = ws.buffer("reduced", shape) if ws is not None else np.empty(shape)
+    if _LAZY.get(__name__):  # the chain ran in numpy: so does this
+        nr, m = len(red.rows), rot.shape[3]
+        out[:nr] = np.repeat(np.eye(nr), m, axis=1)
+        # out[nr + 2(b−1) + l, i·m + k] = Σ_j rot[b, j, row_i, k] u[b, l, j]
+        part = np.einsum("bjik,blj->blik", rot[1:][:, :, list(red.rows), :], red.u[1:])
+        out[nr:] = part.reshape(out.shape[0] - nr, -1)
+        return out
     _reduced_kernel(rot, np.asarray(red.rows, dtype=np.int64), red.u, out)
     return out

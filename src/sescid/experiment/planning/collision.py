@@ -11,9 +11,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
+from ...kinematics import lazy_njit
 from ...model.geometry import BOX, CAPSULE, CYLINDER, SPHERE
 from ...robot import Robot
 
@@ -166,7 +166,7 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     return np.sqrt(np.einsum("...i,...i", diff, diff))
 
 
-@numba.njit(cache=True, nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _first_contact(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
     """out[k] = index of the first capsule pair closer than its reach in pose k, or −1.
 
