@@ -276,6 +276,11 @@ NUMPY_BUDGET = 0.25
 _numpy_spent = [0.0]
 
 
+def compiled() -> bool:
+    """True once this module's kernels are loaded (the chain no longer runs in numpy)."""
+    return not _LAZY.get(__name__)
+
+
 def _numpy_path(m: int) -> bool:
     """True while the kernels are not loaded, the block is small and the budget not spent."""
     return m <= SMALL_BLOCK and bool(_LAZY.get(__name__)) and _numpy_spent[0] < NUMPY_BUDGET
