@@ -17,11 +17,11 @@ from ..estimation import (
     OnlineEstimator,
     com_interval,
     cross_validate,
+    identify_chunks,
     joint_noise_mc,
     load_fit,
     make_fitter,
     to_consistent,
-    truth_error,
 )
 from ..estimation import (
     identify as run_identify,
@@ -37,6 +37,7 @@ from ..io import (
     read_table,
     write_table,
 )
+from ..io.tables import iter_table
 from ..progress import TerminalProgress
 from .common import load, mm, robot_options, seed_option
 
@@ -213,15 +214,10 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
     """
     check_outputs([out], [data, robot_name])
     robot = load(robot_name, support)
-    table = read_table(data)
-    q = read_poses(table, robot.joint_names, robot.profile.servo)
-    cop = read_cop(table)
-    gravity = read_gravity(table)
-    sigma = None
-    if weighted:
-        sigma = read_cop_se(table)
-        if sigma is None:
-            raise DataError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
+    chunks, truth = _read_chunks(data, robot, weighted)
+    streamed = method == "ls" and not (opts["robust"] or opts["online"])
+    streamed = streamed and opts["cv"] is None and opts["joint_noise_deg"] is None
+    q, cop, sigma, gravity = ((None,) * 4) if streamed else _join(chunks)
     if method != "map":
         given = [
             name
@@ -255,7 +251,10 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
         )
     if gravity is not None and opts["joint_noise_deg"] is not None:
         raise OptionError("gravity", "--joint-noise-deg does not use the grav_x/y/z columns")
-    if opts["online"]:
+    if streamed:  # the file's chunks, never joined (flat memory on long files)
+        with TerminalProgress(f"identifying {sum(len(c[0]) for c in chunks)} poses") as bar:
+            fit = identify_chunks(robot, chunks, rtol=rtol, progress=bar)
+    elif opts["online"]:
         fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
     else:
         with TerminalProgress(f"identifying {len(q)} poses"):
@@ -280,10 +279,11 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
         def fitter(qq, cc, ss):
             return huber(plain, qq, cc, ss)
 
-    _extras(fit, fitter, q, cop, sigma, opts)
-    if "cop_x_true" in table and "cop_y_true" in table:  # simulated data: the noise-free CoP
-        truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
-        fit.truth_cop_rmse = truth_error(fit, q, truth)
+    if not streamed:
+        _extras(fit, fitter, q, cop, sigma, opts)
+    if truth[0] is not None:  # simulated data: the noise-free CoP
+        sq = [np.sum((fit.predict_cop(c[0]) - t) ** 2) for c, t in zip(chunks, truth, strict=True)]
+        fit.truth_cop_rmse = float(np.sqrt(np.sum(sq) / (2 * sum(len(t) for t in truth))))
         click.echo(
             f"truth: RMS of predicted − noise-free CoP at these poses "
             f"{mm(fit.truth_cop_rmse)} (columns cop_x_true, cop_y_true)"
@@ -291,6 +291,35 @@ def identify(data, robot_name, support, out, weighted, rtol, method, **opts):
     fit.save(out)
     click.echo(fit.summary())
     click.echo(f"wrote {out}")
+
+
+def _read_chunks(data, robot, weighted: bool) -> tuple[list[tuple], list]:
+    """(q, cop, sigma, gravity) per streamed chunk of the data file, and the noise-free CoP
+    (cop_x_true, cop_y_true) per chunk when the file has it (else [None])."""
+    chunks, truth = [], []
+    for table in iter_table(data):
+        q = read_poses(table, robot.joint_names, robot.profile.servo)
+        cop, gravity, sigma = read_cop(table), read_gravity(table), None
+        if weighted:
+            sigma = read_cop_se(table)
+            if sigma is None:
+                raise DataError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
+        chunks.append((q, cop, sigma, gravity))
+        has_truth = "cop_x_true" in table and "cop_y_true" in table
+        truth.append(
+            np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
+            if has_truth
+            else None
+        )
+    return chunks, truth if truth and truth[0] is not None else [None]
+
+
+def _join(chunks: list[tuple]) -> tuple:
+    """One (q, cop, sigma, gravity) from the chunks."""
+    first = chunks[0]
+    return tuple(
+        None if first[i] is None else np.concatenate([c[i] for c in chunks]) for i in range(4)
+    )
 
 
 def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:

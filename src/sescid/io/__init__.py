@@ -14,7 +14,7 @@ from ..files import atomic_open, atomic_path, read_json
 from ..table import Table, read_cop, read_cop_se, read_gravity, read_joint_columns, read_poses
 from .export import FORMATS, export_model, export_urdf
 from .mjcf_export import export_mjcf
-from .tables import read_table, write_table
+from .tables import iter_table, read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
@@ -43,6 +43,7 @@ __all__ = [
     "read_json",
     "read_poses",
     "read_table",
+    "iter_table",
     "save_fit",
     "write_table",
 ]
