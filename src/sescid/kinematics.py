@@ -14,6 +14,7 @@ with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Ro
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -244,6 +245,54 @@ def _origins_block(rot, parent, t, root_o, org):
                 )
 
 
+@lazy_njit(cache=True, nogil=True)
+def _com_one(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, root_o, r, out):
+    """out (3,) = root_o + Σ_b R_b r_b at one pose: the chain and the sum in one call."""
+    nb = parent.shape[0]
+    rot = np.empty((nb, 3, 3))
+    for b in range(nb):
+        p = parent[b]
+        if p < 0:
+            for i in range(3):
+                for j in range(3):
+                    rot[b, i, j] = root_r[i, j]
+            continue
+        s, c1 = 0.0, 0.0
+        if jcol[b] >= 0:
+            theta = coef[b] * q[jcol[b]] + off[b]
+            if abs(theta) < _MAX_ANGLE:
+                s, c1 = _sin_cos1m(theta)
+            else:
+                s, c1 = np.sin(theta), 1.0 - np.cos(theta)
+        for i in range(3):
+            for j in range(3):
+                rot[b, i, j] = 0.0
+        for z in range(nz_ptr[b], nz_ptr[b + 1]):
+            kk = nz_k[z]
+            jj = nz_j[z]
+            m = nz_a[z, 0] + nz_a[z, 1] * s + nz_a[z, 2] * c1
+            for i in range(3):
+                rot[b, i, jj] += rot[p, i, kk] * m
+    for i in range(3):
+        acc = 0.0
+        for b in range(nb):
+            acc += rot[b, i, 0] * r[b, 0] + rot[b, i, 1] * r[b, 1] + rot[b, i, 2] * r[b, 2]
+        out[i] = acc + root_o[i]
+
+
+def com_one(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
+    """CoM (3,) at one validated pose q (nq,) for C-contiguous SESC vectors r (N, 3), in one
+    compiled call (a controller's per-pose query); None while the kernels are not loaded."""
+    if not compiled():
+        return None
+    out = np.empty(3)
+    _com_one(
+        q, tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j,
+        tree.nz_a, tree.root_r, tree.root_o, r, out,
+    )  # fmt: skip
+    return out
+
+
 #: poses per block of the compiled chain (keeps the block's rotations in cache)
 CHAIN_BLOCK = 1024
 
@@ -352,6 +401,9 @@ def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray) -> None:
 
 def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
     """Validate joint angles: (n, nq) or (nq,) finite radians → C-contiguous (n, nq) float64."""
+    if type(q) is np.ndarray and q.shape == (nq,) and q.dtype == np.float64:
+        if math.isfinite(q.sum()) and q.flags.c_contiguous:  # one pose, the common case
+            return q.reshape(1, nq)
     arr = np.asarray(q, dtype=float)
     if arr.ndim == 1:
         arr = arr[None, :]

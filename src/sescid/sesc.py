@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import DataError
-from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain
+from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain, com_one
 from .model import RobotModel
 
 
@@ -45,6 +45,10 @@ def com_from_sesc(
 ) -> np.ndarray:
     """CoM[rows] (n, len(rows)) in metres for SESC vectors r (N, 3); rows (0, 1) is the CoP."""
     q = as_poses(q, tree.nq)
+    if q.shape[0] == 1:  # one pose: one compiled call, no blocks
+        com = com_one(tree, q[0], np.ascontiguousarray(r, dtype=float).reshape(-1, 3))
+        if com is not None:
+            return com[list(rows)][None, :]
     rows = list(rows)
     vec = np.asarray(r, dtype=float).reshape(-1)
     out = np.empty((q.shape[0], len(rows)))
