@@ -26,6 +26,7 @@ slow: $(STAMP)
 	$(PY) -m pytest -q -m slow
 
 bench: $(STAMP)
+	$(PY) benchmarks/bench_commands.py
 	$(PY) benchmarks/bench_regressor.py
 	$(PY) benchmarks/bench_poses.py
 	$(PY) benchmarks/bench_consistent.py

@@ -68,6 +68,33 @@ def pinocchio_rate(robot, q, cop, block=2048) -> float:
     return len(q) / (time.perf_counter() - t)
 
 
+def single_pose_com(robot, n=20000) -> tuple[float, float]:
+    """µs per call of ``robot.com`` on one pose and of Pinocchio's ``centerOfMass``."""
+    import pinocchio as pin
+
+    from sescid import kinematics
+
+    kinematics.NUMPY_BUDGET = 0.0  # a long session: the compiled single-pose path
+    rng = np.random.default_rng(1)
+    qs = rng.uniform(-0.5, 0.5, (n, robot.nq))
+    robot.com(qs[0])
+    model = pin.buildModelFromUrdf(str(robot.model_path))
+    data = model.createData()
+    idx = [model.joints[model.getJointId(j)].idx_q for j in robot.joint_names]
+    qp = np.tile(pin.neutral(model), (n, 1))
+    qp[:, idx] = qs
+
+    def ours():
+        for k in range(n):
+            robot.com(qs[k])
+
+    def theirs():
+        for k in range(n):
+            pin.centerOfMass(model, data, qp[k])
+
+    return best_of(ours, 3) / n * 1e6, best_of(theirs, 3) / n * 1e6
+
+
 _MEMORY_CHILD = """
 import sys, tracemalloc, json
 import numpy as np
@@ -115,6 +142,12 @@ def main() -> None:
     print(f"  Pinocchio per-pose loop + same BLAS   : {ref / 1e6:6.3f} M poses/s")
     print(f"  ratio sescid / Pinocchio loop        : {ours / ref:6.1f}x  (target >= 5x)")
 
+    ours_us, pin_us = single_pose_com(robot)
+    print(
+        f"  robot.com, one pose per call         : {ours_us:6.2f} us  "
+        f"(Pinocchio centerOfMass {pin_us:.2f} us; target <= 5 us)"
+    )
+
     print(f"memory: identify_stream on {args.poses} poses in chunks of 50000 …", flush=True)
     t = time.perf_counter()
     out = subprocess.run(
@@ -130,7 +163,7 @@ def main() -> None:
     )
     print(
         f"  peak RSS {res['peak_rss_mb']:.0f} MB (after imports {res['rss_after_imports_mb']:.0f}"
-        " MB: interpreter, numpy/scipy/numba/yourdfpy); peak numpy/Python allocations "
+        " MB: interpreter, numpy/scipy/numba); peak numpy/Python allocations "
         f"{res['peak_traced_mb']:.0f} MB  (target <= 300 MB)"
     )
 
