@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import os
 import subprocess
 import sys
 import tempfile
@@ -26,10 +27,22 @@ from timing import best_of
 CLI = "import sys; from sescid.cli import main; sys.argv[0] = 'sescid'; main()"
 
 
+def _env() -> dict[str, str]:
+    """The environment of the timed processes: this sescid (absolute path), whatever the cwd."""
+    import sescid
+
+    env = dict(os.environ)
+    src = str(Path(sescid.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join([src, *filter(None, [env.get("PYTHONPATH")])])
+    return env
+
+
 def run(args: list[str], cwd: Path) -> float:
     """Wall time (s) of one fresh ``sescid`` process."""
     t = time.perf_counter()
-    subprocess.run([sys.executable, "-c", CLI, *args], cwd=cwd, check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-c", CLI, *args], cwd=cwd, check=True, capture_output=True, env=_env()
+    )
     return time.perf_counter() - t
 
 
@@ -54,7 +67,12 @@ def peak_of(args: list[str], cwd: Path) -> tuple[float, float]:
         "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)"
     )
     out = subprocess.run(
-        [sys.executable, "-c", code, *args], cwd=cwd, check=True, capture_output=True, text=True
+        [sys.executable, "-c", code, *args],
+        cwd=cwd,
+        check=True,
+        capture_output=True,
+        text=True,
+        env=_env(),
     )
     wall, mb = out.stdout.split()
     return float(wall), float(mb)

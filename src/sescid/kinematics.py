@@ -18,6 +18,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,18 @@ class Tree:
     nz_k: np.ndarray  #: row of each entry
     nz_j: np.ndarray  #: column of each entry
     nz_a: np.ndarray  #: (nnz, 3) coefficients a0, a1, a2 of each entry
+
+    @cached_property
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The tree as one int64 and one float64 array (see ``_com_one``)."""
+        nb, nnz = self.parent.shape[0], self.nz_k.shape[0]
+        ints = np.concatenate(
+            [[nb, nnz], self.parent, self.jcol, self.nz_ptr, self.nz_k, self.nz_j]
+        ).astype(np.int64)
+        reals = np.concatenate(
+            [self.coef, self.off, self.nz_a.reshape(-1), self.root_r.reshape(-1), self.root_o]
+        ).astype(float)
+        return ints, reals
 
     @classmethod
     def from_model(cls, model: RobotModel) -> Tree:
@@ -246,20 +259,31 @@ def _origins_block(rot, parent, t, root_o, org):
 
 
 @lazy_njit(cache=True, nogil=True)
-def _com_one(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, root_o, r, out):
-    """out (3,) = root_o + Σ_b R_b r_b at one pose: the chain and the sum in one call."""
-    nb = parent.shape[0]
+def _com_one(q, ints, reals, r, out):
+    """out (3,) = root_o + Σ_b R_b r_b at one pose: the chain and the sum in one call.
+
+    The tree comes packed (``Tree.packed``) so the call checks five arguments, not thirteen:
+    ints = [N, nnz, parent (N), jcol (N), nz_ptr (N + 1), nz_k (nnz), nz_j (nnz)],
+    reals = [coef (N), off (N), nz_a (3·nnz), root_r (9), root_o (3)].
+    """
+    nb = ints[0]
+    nnz = ints[1]
+    o_par, o_jc, o_ptr = 2, 2 + nb, 2 + 2 * nb
+    o_k = o_ptr + nb + 1
+    o_j = o_k + nnz
+    o_a, o_rr = 2 * nb, 2 * nb + 3 * nnz
     rot = np.empty((nb, 3, 3))
     for b in range(nb):
-        p = parent[b]
+        p = ints[o_par + b]
         if p < 0:
             for i in range(3):
                 for j in range(3):
-                    rot[b, i, j] = root_r[i, j]
+                    rot[b, i, j] = reals[o_rr + 3 * i + j]
             continue
         s, c1 = 0.0, 0.0
-        if jcol[b] >= 0:
-            theta = coef[b] * q[jcol[b]] + off[b]
+        jc = ints[o_jc + b]
+        if jc >= 0:
+            theta = reals[b] * q[jc] + reals[nb + b]
             if abs(theta) < _MAX_ANGLE:
                 s, c1 = _sin_cos1m(theta)
             else:
@@ -267,29 +291,27 @@ def _com_one(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, root_
         for i in range(3):
             for j in range(3):
                 rot[b, i, j] = 0.0
-        for z in range(nz_ptr[b], nz_ptr[b + 1]):
-            kk = nz_k[z]
-            jj = nz_j[z]
-            m = nz_a[z, 0] + nz_a[z, 1] * s + nz_a[z, 2] * c1
+        for z in range(ints[o_ptr + b], ints[o_ptr + b + 1]):
+            kk = ints[o_k + z]
+            jj = ints[o_j + z]
+            m = reals[o_a + 3 * z] + reals[o_a + 3 * z + 1] * s + reals[o_a + 3 * z + 2] * c1
             for i in range(3):
                 rot[b, i, jj] += rot[p, i, kk] * m
     for i in range(3):
         acc = 0.0
         for b in range(nb):
             acc += rot[b, i, 0] * r[b, 0] + rot[b, i, 1] * r[b, 1] + rot[b, i, 2] * r[b, 2]
-        out[i] = acc + root_o[i]
+        out[i] = acc + reals[o_rr + 9 + i]
 
 
 def com_one(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
     """CoM (3,) at one validated pose q (nq,) for C-contiguous SESC vectors r (N, 3), in one
     compiled call (a controller's per-pose query); None while the kernels are not loaded."""
-    if not compiled():
+    if _LAZY.get(__name__):
         return None
     out = np.empty(3)
-    _com_one(
-        q, tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j,
-        tree.nz_a, tree.root_r, tree.root_o, r, out,
-    )  # fmt: skip
+    ints, reals = tree.packed
+    _com_one(q, ints, reals, r, out)
     return out
 
 
