@@ -30,6 +30,7 @@ docs: $(STAMP)
 	$(PY) tools/readme_numbers.py
 
 bench: $(STAMP)
+	$(PY) benchmarks/bench_commands.py
 	$(PY) benchmarks/bench_regressor.py
 	$(PY) benchmarks/bench_poses.py
 	$(PY) benchmarks/bench_consistent.py

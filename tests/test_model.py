@@ -124,3 +124,44 @@ def test_mimic_joints_follow_their_master(tmp_path):
     q = rng.uniform(-2, 2, (30, robot.nq))
     oracle = PinOracle(path, links[5], robot.joint_names, mimic=mimics)
     np.testing.assert_allclose(robot.com(q), oracle.com(q), atol=1e-12)
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+
+
+@pytest.mark.parametrize("which", ["op2", "icub"])
+def test_urdf_parser_matches_yourdfpy(op2, icub_path, which):
+    """The ElementTree parser reads every number statics and shapes use exactly as yourdfpy."""
+    import yourdfpy
+
+    from sescid.model.urdf import load_urdf
+
+    path = op2.model_path if which == "op2" else icub_path
+    ref = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False).robot
+    ours = load_urdf(path).robot
+    assert ours.name == ref.name
+    for a, b in zip(ref.joints, ours.joints, strict=True):
+        assert (a.name, a.type, a.parent, a.child) == (b.name, b.type, b.parent, b.child)
+        assert _same(a.origin, b.origin) and _same(a.axis, b.axis), a.name
+        assert (a.limit is None) == (b.limit is None) and (a.mimic is None) == (b.mimic is None)
+        if a.limit is not None:
+            assert (a.limit.lower, a.limit.upper) == (b.limit.lower, b.limit.upper)
+    for a, b in zip(ref.links, ours.links, strict=True):
+        assert a.name == b.name and (a.inertial is None) == (b.inertial is None)
+        if a.inertial is not None:
+            assert a.inertial.mass == b.inertial.mass, a.name
+            assert _same(a.inertial.origin, b.inertial.origin)
+            assert _same(a.inertial.inertia, b.inertial.inertia)
+        for ea, eb in zip(a.visuals + a.collisions, b.visuals + b.collisions, strict=True):
+            assert _same(ea.origin, eb.origin), a.name
+            for kind in ("box", "cylinder", "sphere", "mesh"):
+                ga, gb = getattr(ea.geometry, kind), getattr(eb.geometry, kind)
+                assert (ga is None) == (gb is None)
+            if ea.geometry.box is not None:
+                assert _same(ea.geometry.box.size, eb.geometry.box.size)
+            if ea.geometry.mesh is not None:
+                assert ea.geometry.mesh.filename == eb.geometry.mesh.filename
+                assert _same(ea.geometry.mesh.scale, eb.geometry.mesh.scale)

@@ -3,7 +3,8 @@
 The chain is evaluated block by block (``CHAIN_BLOCK`` poses) by a small compiled kernel
 (numba) in structure-of-arrays layout, its inner loops running across poses (SIMD); sin/cos are
 computed in the kernel (Cody–Waite reduction and Taylor polynomials, within 2 ulp of libm),
-which lets the compiler vectorise them too. There is no Python loop per pose. Each body's joint
+which lets the compiler vectorise them too. There is no Python loop per pose. numba is imported
+when a kernel first runs (``lazy_njit``), so loading a robot does not pay for it. Each body's joint
 contributes
 
     M_b(θ) = C_b Rot(a_b, θ) = A0_b + sin θ · A1_b + (1 − cos θ) · A2_b,   θ = coef_b q_j + off_b
@@ -13,30 +14,18 @@ with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Ro
 
 from __future__ import annotations
 
+import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import DataError
 from .model import RobotModel
-
-
-def njit(**options):
-    """``numba.njit`` with an on-disk cache where one is writable (beside the package, else
-    ``NUMBA_CACHE_DIR`` or the user's cache folder), else compiled in memory, silently: a
-    read-only install (service user, read-only container) works, only slower to start."""
-
-    def wrap(func):
-        try:
-            return numba.njit(cache=True, **options)(func)
-        except RuntimeError as exc:  # "cannot cache function …: no locator available"
-            if "no locator available" not in str(exc):
-                raise
-            return numba.njit(cache=False, **options)(func)
-
-    return wrap
 
 
 @dataclass(frozen=True)
@@ -58,6 +47,18 @@ class Tree:
     nz_k: np.ndarray  #: row of each entry
     nz_j: np.ndarray  #: column of each entry
     nz_a: np.ndarray  #: (nnz, 3) coefficients a0, a1, a2 of each entry
+
+    @cached_property
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The tree as one int64 and one float64 array (see ``_com_one``)."""
+        nb, nnz = self.parent.shape[0], self.nz_k.shape[0]
+        ints = np.concatenate(
+            [[nb, nnz], self.parent, self.jcol, self.nz_ptr, self.nz_k, self.nz_j]
+        ).astype(np.int64)
+        reals = np.concatenate(
+            [self.coef, self.off, self.nz_a.reshape(-1), self.root_r.reshape(-1), self.root_o]
+        ).astype(float)
+        return ints, reals
 
     @classmethod
     def from_model(cls, model: RobotModel) -> Tree:
@@ -101,6 +102,53 @@ class Tree:
         )
 
 
+class _LazyKernel:
+    """A numba kernel compiled on first call; until then numba is not even imported."""
+
+    def __init__(self, fn: Callable, options: dict[str, Any]):
+        self.fn, self.options = fn, options
+        self.__doc__, self.__name__ = fn.__doc__, fn.__name__
+
+    def __call__(self, *args):
+        return _compile_module(self.fn.__module__)[self.fn.__name__](*args)
+
+
+_LAZY: dict[str, list[_LazyKernel]] = {}
+
+
+def _compile_module(module: str) -> dict[str, Any]:
+    """Swap every lazy kernel of ``module`` for its numba dispatcher (kernels call each other
+    through module globals, so all of them are swapped before any compiles). The dispatchers
+    use numba's on-disk cache (``cache=True``) where one is writable (beside the package, else
+    ``NUMBA_CACHE_DIR`` or the user's cache folder), else compile in memory, silently."""
+    import sys
+
+    import numba
+
+    namespace = vars(sys.modules[module])
+    for kernel in _LAZY.pop(module, []):
+        try:
+            compiled = numba.njit(**kernel.options)(kernel.fn)
+        except RuntimeError as exc:  # "cannot cache function …: no locator available"
+            if "no locator available" not in str(exc):
+                raise
+            # a read-only install (service user, read-only container): compile in memory
+            compiled = numba.njit(**(kernel.options | {"cache": False}))(kernel.fn)
+        namespace[kernel.fn.__name__] = compiled
+    return namespace
+
+
+def lazy_njit(**options: Any) -> Callable[[Callable], Any]:
+    """``numba.njit(**options)`` deferred to the first call of any kernel of the module."""
+
+    def wrap(fn: Callable) -> _LazyKernel:
+        kernel = _LazyKernel(fn, options)
+        _LAZY.setdefault(fn.__module__, []).append(kernel)
+        return kernel
+
+    return wrap
+
+
 # Cody–Waite split of π/2 (fdlibm) and Taylor coefficients: |error| ≤ 2 ulp for |θ| < 1e5.
 _PIO2_1 = 1.57079632673412561417e00
 _PIO2_2 = 6.07710050630396597660e-11
@@ -109,7 +157,7 @@ _TWO_OVER_PI = 6.36619772367581382433e-01
 _MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
 
 
-@njit(nogil=True, inline="always")
+@lazy_njit(cache=True, nogil=True, inline="always")
 def _sin_cos1m(x):
     """Sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
     q = np.floor(x * _TWO_OVER_PI + 0.5)
@@ -136,7 +184,7 @@ def _sin_cos1m(x):
     return sn, (-cm if qi == 0 else 1.0 - cs)
 
 
-@njit(nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _joint_trig(qt, jcol, coef, off, s, c1):
     """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off.
 
@@ -157,7 +205,7 @@ def _joint_trig(qt, jcol, coef, off, s, c1):
             s[b, k], c1[b, k] = _sin_cos1m(cb * qt[j, k] + ob)
 
 
-@njit(nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
     """Rotations of every body for a block of poses, structure-of-arrays.
 
@@ -198,7 +246,7 @@ def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
                         rot[b, jj, i, k] += rot[p, kk, i, k] * m[k]
 
 
-@njit(nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _origins_block(rot, parent, t, root_o, org):
     """Org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
     nb = parent.shape[0]
@@ -217,6 +265,63 @@ def _origins_block(rot, parent, t, root_o, org):
                     + rot[p, 1, i, k] * t[b, 1]
                     + rot[p, 2, i, k] * t[b, 2]
                 )
+
+
+@lazy_njit(cache=True, nogil=True)
+def _com_one(q, ints, reals, r, out):
+    """Out (3,) = root_o + Σ_b R_b r_b at one pose: the chain and the sum in one call.
+
+    The tree comes packed (``Tree.packed``) so the call checks five arguments, not thirteen:
+    ints = [N, nnz, parent (N), jcol (N), nz_ptr (N + 1), nz_k (nnz), nz_j (nnz)],
+    reals = [coef (N), off (N), nz_a (3·nnz), root_r (9), root_o (3)].
+    """
+    nb = ints[0]
+    nnz = ints[1]
+    o_par, o_jc, o_ptr = 2, 2 + nb, 2 + 2 * nb
+    o_k = o_ptr + nb + 1
+    o_j = o_k + nnz
+    o_a, o_rr = 2 * nb, 2 * nb + 3 * nnz
+    rot = np.empty((nb, 3, 3))
+    for b in range(nb):
+        p = ints[o_par + b]
+        if p < 0:
+            for i in range(3):
+                for j in range(3):
+                    rot[b, i, j] = reals[o_rr + 3 * i + j]
+            continue
+        s, c1 = 0.0, 0.0
+        jc = ints[o_jc + b]
+        if jc >= 0:
+            theta = reals[b] * q[jc] + reals[nb + b]
+            if abs(theta) < _MAX_ANGLE:
+                s, c1 = _sin_cos1m(theta)
+            else:
+                s, c1 = np.sin(theta), 1.0 - np.cos(theta)
+        for i in range(3):
+            for j in range(3):
+                rot[b, i, j] = 0.0
+        for z in range(ints[o_ptr + b], ints[o_ptr + b + 1]):
+            kk = ints[o_k + z]
+            jj = ints[o_j + z]
+            m = reals[o_a + 3 * z] + reals[o_a + 3 * z + 1] * s + reals[o_a + 3 * z + 2] * c1
+            for i in range(3):
+                rot[b, i, jj] += rot[p, i, kk] * m
+    for i in range(3):
+        acc = 0.0
+        for b in range(nb):
+            acc += rot[b, i, 0] * r[b, 0] + rot[b, i, 1] * r[b, 1] + rot[b, i, 2] * r[b, 2]
+        out[i] = acc + reals[o_rr + 9 + i]
+
+
+def com_one(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
+    """CoM (3,) at one validated pose q (nq,) for C-contiguous SESC vectors r (N, 3), in one
+    compiled call (a controller's per-pose query); None while the kernels are not loaded."""
+    if _LAZY.get(__name__):
+        return None
+    out = np.empty(3)
+    ints, reals = tree.packed
+    _com_one(q, ints, reals, r, out)
+    return out
 
 
 #: poses per block of the compiled chain (keeps the block's rotations in cache)
@@ -242,11 +347,54 @@ class Workspace:
         return buf
 
 
+#: blocks of at most this many poses run in numpy until the compiled kernels are loaded
+SMALL_BLOCK = 256
+#: seconds of numpy-path work after which the kernels are loaded anyway: loading them costs
+#: 0.3–1 s per process (numba's import and type registries), which a command on a few dozen
+#: poses should not pay, but a long session of small calls should (ski rental)
+NUMPY_BUDGET = 0.25
+_numpy_spent = [0.0]
+
+
+def compiled() -> bool:
+    """True once this module's kernels are loaded (the chain no longer runs in numpy)."""
+    return not _LAZY.get(__name__)
+
+
+def _numpy_path(m: int) -> bool:
+    """True while the kernels are not loaded, the block is small and the budget not spent."""
+    return m <= SMALL_BLOCK and bool(_LAZY.get(__name__)) and _numpy_spent[0] < NUMPY_BUDGET
+
+
+def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
+    """Sin θ and 1 − cos θ = 2 sin²(θ/2) of every body's joint angle, exact reduction (libm)."""
+    moving = tree.jcol >= 0
+    theta = np.zeros(s.shape)
+    theta[moving] = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]
+    s[:] = np.sin(theta)
+    c1[:] = 2.0 * np.sin(0.5 * theta) ** 2
+
+
+def _chain_numpy(tree: Tree, s: np.ndarray, c1: np.ndarray, rot: np.ndarray) -> None:
+    """``_chain_block`` in numpy (one product per body, across poses): R_b = R_p M_b(θ)."""
+    nb, m = s.shape
+    r = np.empty((nb, m, 3, 3))
+    for b in range(nb):
+        p = tree.parent[b]
+        if p < 0:
+            r[b] = tree.root_r
+            continue
+        mb = tree.a0[b] + s[b, :, None, None] * tree.a1[b] + c1[b, :, None, None] * tree.a2[b]
+        np.matmul(r[p], mb, out=r[b])
+    rot[:] = r.transpose(0, 3, 2, 1)  # [b, k, i, j] → [b, j, i, k]
+
+
 def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     """Rotations of a block of m ≤ ws.block poses, layout (N, 3, 3, m): [b, j, i, k] = R_b[i, j].
 
     ``q`` must already be validated (see ``as_poses``). The result is a view into the
-    workspace, overwritten by the next call.
+    workspace, overwritten by the next call. Small blocks run in numpy until the compiled
+    kernels are worth loading (``_numpy_path``); both agree to rounding (~1e-16).
     """
     ws = ws or Workspace(tree, max(len(q), 1))
     m = q.shape[0]
@@ -255,20 +403,38 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     else:
         s, c1 = np.empty((len(tree.parent), m)), np.empty((len(tree.parent), m))
         rot = np.empty(ws.rot.shape[:3] + (m,))
+    if _numpy_path(m):
+        t0 = time.perf_counter()
+        _trig_numpy(tree, q, s, c1)
+        _chain_numpy(tree, s, c1, rot)
+        _numpy_spent[0] += time.perf_counter() - t0
+        return rot
     if np.abs(q).max(initial=0.0) < _MAX_ANGLE:
         _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
-        moving = tree.jcol >= 0
-        theta = np.zeros(s.shape)
-        theta[moving] = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]
-        s[:] = np.sin(theta)
-        c1[:] = 1.0 - np.cos(theta)
+        _trig_numpy(tree, q, s, c1)
     _chain_block(s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot)
     return rot
 
 
+def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray) -> None:
+    """Org (N, 3, m) from rot (N, 3, 3, m): the kernel, or numpy for a block it did in numpy."""
+    if not _LAZY.get(__name__):
+        _origins_block(rot, tree.parent, tree.t, tree.root_o, org)
+        return
+    for b in range(tree.parent.shape[0]):
+        p = tree.parent[b]
+        if p < 0:
+            org[b] = tree.root_o[:, None]
+        else:
+            org[b] = org[p] + np.einsum("jik,j->ik", rot[p], tree.t[b])
+
+
 def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
     """Validate joint angles: (n, nq) or (nq,) finite radians → C-contiguous (n, nq) float64."""
+    if type(q) is np.ndarray and q.shape == (nq,) and q.dtype == np.float64:
+        if math.isfinite(q.sum()) and q.flags.c_contiguous:  # one pose, the common case
+            return q.reshape(1, nq)
     arr = np.asarray(q, dtype=float)
     if arr.ndim == 1:
         arr = arr[None, :]
@@ -292,7 +458,7 @@ def forward(tree: Tree, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         blk = q[s0 : s0 + ws.block]
         rot = chain(tree, blk, ws)
         o = org[..., : len(blk)] if len(blk) == ws.block else np.empty((nb, 3, len(blk)))
-        _origins_block(rot, tree.parent, tree.t, tree.root_o, o)
+        _origins(rot, tree, o)
         rot_out[s0 : s0 + len(blk)] = rot.transpose(3, 0, 2, 1)
         org_out[s0 : s0 + len(blk)] = o.transpose(2, 0, 1)
     return rot_out, org_out
@@ -369,7 +535,7 @@ def reduction(tree: Tree, axes: np.ndarray, rows=(0, 1)) -> Reduction:
     return Reduction(rows, u, g)
 
 
-@njit(nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _reduced_kernel(rot, rows, u, out):
     """Out (P_red, len(rows)·m), columns ordered (row, pose): intercepts, then R_b[row] u_l."""
     nb = rot.shape[0]
@@ -399,5 +565,12 @@ def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | N
     rot = chain(tree, q, ws)
     shape = (red.g.shape[0], len(red.rows) * rot.shape[3])
     out = ws.buffer("reduced", shape) if ws is not None else np.empty(shape)
+    if _LAZY.get(__name__):  # the chain ran in numpy: so does this
+        nr, m = len(red.rows), rot.shape[3]
+        out[:nr] = np.repeat(np.eye(nr), m, axis=1)
+        # out[nr + 2(b−1) + l, i·m + k] = Σ_j rot[b, j, row_i, k] u[b, l, j]
+        part = np.einsum("bjik,blj->blik", rot[1:][:, :, list(red.rows), :], red.u[1:])
+        out[nr:] = part.reshape(out.shape[0] - nr, -1)
+        return out
     _reduced_kernel(rot, np.asarray(red.rows, dtype=np.int64), red.u, out)
     return out

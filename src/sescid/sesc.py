@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import DataError
-from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain
+from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain, com_one
 from .model import RobotModel
 
 
@@ -45,6 +45,12 @@ def com_from_sesc(
 ) -> np.ndarray:
     """CoM[rows] (n, len(rows)) in metres for SESC vectors r (N, 3); rows (0, 1) is the CoP."""
     q = as_poses(q, tree.nq)
+    if q.shape[0] == 1:  # one pose: one compiled call, no blocks
+        rr = r if _plain(r) else np.ascontiguousarray(r, dtype=float)
+        com = com_one(tree, q[0], rr.reshape(-1, 3))
+        if com is not None:
+            first = tuple(rows) in ((0, 1), (0, 1, 2))  # CoP or CoM: a view, no index array
+            return com[None, : len(rows)] if first else com[None, list(rows)]
     rows = list(rows)
     vec = np.asarray(r, dtype=float).reshape(-1)
     out = np.empty((q.shape[0], len(rows)))
@@ -55,6 +61,10 @@ def com_from_sesc(
         com = vec @ rot.reshape(vec.size, 3 * m)  # (3·m,), ordered (i, k)
         out[s : s + m] = com.reshape(3, m)[rows].T
     return out + tree.root_o[rows]
+
+
+def _plain(r) -> bool:
+    return type(r) is np.ndarray and r.dtype == np.float64 and r.flags.c_contiguous
 
 
 def gravity_ratios(gravity, n: int) -> np.ndarray:

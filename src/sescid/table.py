@@ -24,13 +24,26 @@ class Table:
     """Named float columns read from a file, with the file name for error messages.
 
     ``columns``: name → float array (n,); ``text``: columns that are not all numbers, as strings.
+    ``first_row``: the file's row number of the first data row (2 under a header; a chunk of a
+    streamed file starts further down), so every error names the file's own row.
     """
 
-    def __init__(self, path: Path, columns: dict[str, np.ndarray], text: dict[str, list]):
+    def __init__(
+        self,
+        path: Path,
+        columns: dict[str, np.ndarray],
+        text: dict[str, list],
+        first_row: int = 2,
+    ):
         self.path = path
+        self.first_row = first_row
         self.columns = columns
         self.text = text  #: columns that are not numbers (e.g. labels), as strings
         self.n = len(next(iter(columns.values()))) if columns else 0
+
+    def row(self, i) -> int:
+        """The file's row number of data row ``i`` of this table."""
+        return int(i) + self.first_row
 
     def __contains__(self, name: str) -> bool:
         return name in self.columns
@@ -44,7 +57,7 @@ class Table:
         if name in self.text:
             row, value = next((i, v) for i, v in enumerate(self.text[name]) if not _is_number(v))
             raise DataError(
-                f"{self.path}: row {row + 2}, column '{name}': '{value}' is not a number"
+                f"{self.path}: row {self.row(row)}, column '{name}': '{value}' is not a number"
             )
         if name not in self.columns:
             raise DataError(f"{self.path}: missing {what} '{name}'")
@@ -52,7 +65,8 @@ class Table:
         bad = np.flatnonzero(~np.isfinite(col))
         if bad.size:
             raise DataError(
-                f"{self.path}: row {bad[0] + 2}, column '{name}': value {col[bad[0]]} is not finite"
+                f"{self.path}: row {self.row(bad[0])}, "
+                f"column '{name}': value {col[bad[0]]} is not finite"
             )
         return col
 
@@ -79,7 +93,7 @@ def column_with_missing(table: Table, name: str) -> np.ndarray:
             out[i] = float(v)
         except ValueError:
             raise DataError(
-                f"{table.path}: row {i + 2}, column '{name}': '{v}' is not a number"
+                f"{table.path}: row {table.row(i)}, column '{name}': '{v}' is not a number"
             ) from None
     return out
 
@@ -92,13 +106,16 @@ def pose_ids(table: Table, name: str = "pose") -> np.ndarray:
         ids = np.array([v.strip() for v in table.text[name]])
         empty = np.flatnonzero(ids == "")
         if empty.size:
-            raise DataError(f"{table.path}: row {empty[0] + 2}, column '{name}': empty pose id")
+            raise DataError(
+                f"{table.path}: row {table.row(empty[0])}, column '{name}': empty pose id"
+            )
         return ids
     col = table.columns[name]
     bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
     if bad.size:
         raise DataError(
-            f"{table.path}: row {bad[0] + 2}, column '{name}': pose id {col[bad[0]]} is not an "
+            f"{table.path}: row {table.row(bad[0])}, "
+            f"column '{name}': pose id {col[bad[0]]} is not an "
             "integer or a label"
         )
     return np.array([str(int(v)) for v in col])
@@ -144,14 +161,16 @@ def read_joint_columns(
             bad = np.flatnonzero(np.abs(v) > 2 * math.pi)
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} looks like "
+                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"column '{name}': {v[bad[0]]:g} looks like "
                     f"degrees or ticks; joint columns are in radians (use '{j}_deg' for degrees)"
                 )
         elif unit == "deg":
             bad = np.flatnonzero(np.abs(v) > 360)
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} is not an "
+                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"column '{name}': {v[bad[0]]:g} is not an "
                     "angle in degrees"
                 )
             v = np.radians(v)
@@ -164,7 +183,8 @@ def read_joint_columns(
             bad = np.flatnonzero((v < 0) | (v > servo.max_tick))
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {bad[0] + 2}, column '{name}': {v[bad[0]]:g} is outside "
+                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"column '{name}': {v[bad[0]]:g} is outside "
                     f"the {servo.name} range 0–{servo.max_tick} ticks"
                 )
             v = servo.to_rad(v)
@@ -187,7 +207,7 @@ def read_cop(table: Table) -> np.ndarray:
     if big.size:
         i, j = big[0]
         raise DataError(
-            f"{table.path}: row {i + 2}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
+            f"{table.path}: row {table.row(i)}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
             "plausible CoP (columns are in metres)"
         )
     return cop
@@ -219,7 +239,8 @@ def read_gravity(table: Table) -> np.ndarray | None:
     if bad.size:
         i = int(bad[0])
         raise DataError(
-            f"{table.path}: row {i + 2}: gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
+            f"{table.path}: row {table.row(i)}: "
+            f"gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
             "finite and point down through the sole (grav_z < 0, tilt < 60°)"
         )
     return g / norm[:, None]

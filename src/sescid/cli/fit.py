@@ -18,12 +18,12 @@ from ..estimation import (
     com_interval,
     cross_validate,
     fit_warnings,
+    identify_chunks,
     joint_noise_mc,
     load_fit,
     make_fitter,
     outside_limits,
     to_consistent,
-    truth_error,
 )
 from ..estimation import (
     identify as run_identify,
@@ -39,6 +39,7 @@ from ..io import (
     read_table,
     write_table,
 )
+from ..io.tables import iter_table
 from ..progress import TerminalProgress
 from .common import force_option, load, mm, robot_options, seed_option
 
@@ -222,16 +223,12 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     """
     outs = OutputSet([out], [data, robot_name], force=force)
     robot = load(robot_name, support)
-    table = read_table(data)
-    q = read_poses(table, robot.joint_names, robot.profile.servo)
-    cop = read_cop(table)
-    gravity = read_gravity(table)
-    simulated = "cop_x_true" in table and "cop_y_true" in table
-    sigma = None
-    if weighted:
-        sigma = read_cop_se(table)
-        if sigma is None:
-            raise DataError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
+    chunks, truth = _read_chunks(data, robot, weighted)
+    streamed = method == "ls" and not (opts["robust"] or opts["online"])
+    streamed = streamed and opts["cv"] is None and opts["joint_noise_deg"] is None
+    q, cop, sigma, gravity = ((None,) * 4) if streamed else _join(chunks)
+    simulated = truth[0] is not None
+    n_poses = sum(len(c[0]) for c in chunks)
     if method != "map":
         given = [
             name
@@ -265,13 +262,16 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
         )
     if gravity is not None and opts["joint_noise_deg"] is not None:
         raise OptionError("gravity", "--joint-noise-deg does not use the grav_x/y/z columns")
-    limits = outside_limits(robot, q)
+    limits = outside_limits(robot, [c[0] for c in chunks])
     if limits is not None and not (opts["allow_outside_limits"] or simulated):
         raise DataError(
-            f"{data}: {limits.message(len(q))}; degrees in a radian column, or another robot? "
+            f"{data}: {limits.message(n_poses)}; degrees in a radian column, or another robot? "
             "(--allow-outside-limits accepts them)"
         )
-    if opts["online"]:
+    if streamed:  # the file's chunks, never joined (flat memory on long files)
+        with TerminalProgress(f"identifying {n_poses} poses") as bar:
+            fit = identify_chunks(robot, chunks, rtol=rtol, progress=bar)
+    elif opts["online"]:
         fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
     else:
         with TerminalProgress(f"identifying {len(q)} poses"):
@@ -297,13 +297,14 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
             return huber(plain, qq, cc, ss)
 
     if limits is not None:
-        fit.warnings.append(limits.message(len(q)))
-    if opts["online"]:
+        fit.warnings.append(limits.message(n_poses))
+    if opts["online"] or streamed:
         fit.warnings += fit_warnings(fit)
-    _extras(fit, fitter, q, cop, sigma, opts)
+    if not streamed:
+        _extras(fit, fitter, q, cop, sigma, opts)
     if simulated:  # simulated data: the noise-free CoP
-        truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
-        fit.truth_cop_rmse = truth_error(fit, q, truth)
+        sq = [np.sum((fit.predict_cop(c[0]) - t) ** 2) for c, t in zip(chunks, truth, strict=True)]
+        fit.truth_cop_rmse = float(np.sqrt(np.sum(sq) / (2 * n_poses)))
         click.echo(
             f"truth: RMS of predicted − noise-free CoP at these poses "
             f"{mm(fit.truth_cop_rmse)} (columns cop_x_true, cop_y_true)"
@@ -312,6 +313,35 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
         fit.save(outs.path(out))
     click.echo(fit.summary())
     click.echo(f"wrote {out}")
+
+
+def _read_chunks(data, robot, weighted: bool) -> tuple[list[tuple], list]:
+    """(q, cop, sigma, gravity) per streamed chunk of the data file, and the noise-free CoP
+    (cop_x_true, cop_y_true) per chunk when the file has it (else [None])."""
+    chunks, truth = [], []
+    for table in iter_table(data):
+        q = read_poses(table, robot.joint_names, robot.profile.servo)
+        cop, gravity, sigma = read_cop(table), read_gravity(table), None
+        if weighted:
+            sigma = read_cop_se(table)
+            if sigma is None:
+                raise DataError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
+        chunks.append((q, cop, sigma, gravity))
+        has_truth = "cop_x_true" in table and "cop_y_true" in table
+        truth.append(
+            np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
+            if has_truth
+            else None
+        )
+    return chunks, truth if truth and truth[0] is not None else [None]
+
+
+def _join(chunks: list[tuple]) -> tuple:
+    """One (q, cop, sigma, gravity) from the chunks."""
+    first = chunks[0]
+    return tuple(
+        None if first[i] is None else np.concatenate([c[i] for c in chunks]) for i in range(4)
+    )
 
 
 def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:

@@ -2,6 +2,7 @@
 
 - ``identify`` (one entry, ``method`` = "ls" | "map" | "consistent", ``robust=True`` for Huber),
   ``identify_ls`` / ``identify_map`` / ``identify_consistent``, ``identify_stream`` (chunks),
+  ``identify_chunks`` (a streamed file's chunks, with MAE),
   ``to_consistent`` (masses/CoMs from an existing fit), ``OnlineEstimator`` (pose by pose);
 - ``Fit`` and its typed records; ``save_fit`` / ``load_fit``;
 - identifiability (the rank rule, ``min_poses``), validation (intervals, cross-validation,
@@ -27,7 +28,7 @@ from .fit import (
 )
 from .fit_json import load_fit, save_fit
 from .identifiability import DEFAULT_RTOL, identifiable_eigen, min_poses, structural_rank
-from .least_squares import identify_ls, identify_stream, solve
+from .least_squares import identify_chunks, identify_ls, identify_stream, solve
 from .map import identify_map
 from .normal_equations import NormalEquations, accumulate
 from .online import OnlineEstimator
@@ -75,6 +76,7 @@ __all__ = [
     "identify_ls",
     "identify_map",
     "identify_stream",
+    "identify_chunks",
     "joint_noise_mc",
     "load_fit",
     "make_fitter",

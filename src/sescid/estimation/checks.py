@@ -8,6 +8,7 @@ implausible against the model's (grams for kilograms).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -48,24 +49,31 @@ class LimitViolation:
         )
 
 
-def outside_limits(robot: Robot, q: ArrayLike) -> LimitViolation | None:
-    """The poses of q (n, nq) [rad] outside ``robot.joint_limits``, or None."""
-    qq = np.asarray(q, dtype=float)
+def outside_limits(robot: Robot, q: ArrayLike | list[np.ndarray]) -> LimitViolation | None:
+    """The poses of q (n, nq) [rad] — or of a list of such chunks, counted as one sequence —
+    outside ``robot.joint_limits``, or None."""
+    chunks = q if isinstance(q, list) else [q]
     lim = np.asarray(robot.joint_limits, dtype=float)
-    bad = (qq < lim[:, 0] - LIMIT_SLACK) | (qq > lim[:, 1] + LIMIT_SLACK)
-    rows = np.flatnonzero(bad.any(axis=1))
-    if rows.size == 0:
-        return None
-    i = int(rows[0])
-    j = int(np.flatnonzero(bad[i])[0])
-    return LimitViolation(
-        int(rows.size),
-        i,
-        robot.joint_names[j],
-        float(qq[i, j]),
-        float(lim[j, 0]),
-        float(lim[j, 1]),
-    )
+    first: LimitViolation | None = None
+    n_bad, start = 0, 0
+    for chunk in chunks:
+        qq = np.asarray(chunk, dtype=float)
+        bad = (qq < lim[:, 0] - LIMIT_SLACK) | (qq > lim[:, 1] + LIMIT_SLACK)
+        rows = np.flatnonzero(bad.any(axis=1))
+        if rows.size and first is None:
+            i = int(rows[0])
+            j = int(np.flatnonzero(bad[i])[0])
+            first = LimitViolation(
+                0,
+                start + i,
+                robot.joint_names[j],
+                float(qq[i, j]),
+                float(lim[j, 0]),
+                float(lim[j, 1]),
+            )
+        n_bad += int(rows.size)
+        start += len(qq)
+    return None if first is None else dataclasses.replace(first, n_poses=n_bad)
 
 
 def condition(fit: Fit) -> float:

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import DataError
 from ..robot import Robot
@@ -135,6 +134,8 @@ def _sparse_terms(vec: np.ndarray, labels, tol: float = 1e-9) -> list[tuple[str,
 
 def base_combinations(sv, vecs, p, labels, r, cov) -> list[Combination]:
     """Base parameters by QR with column pivoting of S = diag(s) Vᵀ (same structure as Φ)."""
+    import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
+
     s_mat = sv[:p, None] * vecs[:, :p].T  # (p, P): SᵀS = ΦᵀΦ on the identifiable part
     _, rr, piv = scipy.linalg.qr(s_mat, pivoting=True, mode="economic")
     r11, r12 = rr[:p, :p], rr[:p, p:]

@@ -28,8 +28,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 
 from ..errors import SescidError
 from ..kinematics import as_poses
@@ -81,6 +79,8 @@ def _terms(ne: NormalEquations, x0: np.ndarray):
 
 def log_evidence(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray, noise: float) -> float:
     """Log p(y | σ, prior) for prior precisions ``prec`` (P,) [m⁻²] and noise σ [m]."""
+    import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
+
     s2 = noise**2
     b, ztz = _terms(ne, x0)
     try:
@@ -99,6 +99,8 @@ def posterior(
     ne: NormalEquations, x0: np.ndarray, prior_scale: float, noise: float, n_bias: int = 0
 ) -> Posterior:
     """Posterior mean and covariance for a prior N(x0, τ²I) (+ flat-ish bias) and noise σ."""
+    import scipy.linalg
+
     p = ne.ata.shape[0]
     prec = _prior_precision(p - n_bias, prior_scale, n_bias)
     mat = ne.ata + np.diag(noise**2 * prec)
@@ -129,6 +131,8 @@ def maximise_evidence(
     A grid over log τ (25 points in ``TAU_RANGE``) with σ optimised at each, then Brent
     refinement around the best grid point; σ alone is a bounded 1-D search.
     """
+    import scipy.optimize
+
     p = ne.ata.shape[0] - n_bias
 
     def neg(log_tau: float, log_sigma: float) -> float:
@@ -241,6 +245,8 @@ def identify_map(
 
 def profiled_noise(ne: NormalEquations, x0: np.ndarray, ridge: float) -> float:
     """Maximum-likelihood σ (m) for a fixed ratio ``ridge`` = σ²/τ²: √((zᵀz − bᵀM⁻¹b)/m)."""
+    import scipy.linalg
+
     b, ztz = _terms(ne, x0)
     mat = ne.ata + ridge * np.eye(x0.size)
     quad = b @ scipy.linalg.solve(mat, b, assume_a="pos")
@@ -253,6 +259,7 @@ def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0, gravity
     Fold normal equations make each candidate cost one Cholesky per fold: the held-out sum of
     squares is ``yᵀy − 2xᵀΦᵀy + xᵀΦᵀΦx`` from the test fold's sums.
     """
+    import scipy.linalg
 
     def sub(v, f):
         return None if v is None else np.asarray(v)[f]

@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import SescidError
 from ..robot import Robot
@@ -106,12 +105,16 @@ class OnlineEstimator:
 
     def estimate(self) -> np.ndarray:
         """Current SESC vectors (N, 3), m."""
+        import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
+
         if self.prior_scale is None:
             return self.fit().r
         h, eta = self._information()
         return scipy.linalg.solve(h, eta, assume_a="pos").reshape(-1, 3)
 
     def _status(self) -> Step:
+        import scipy.linalg
+
         ne = self.ne
         if self.prior_scale is not None:
             h, _ = self._information()

@@ -12,22 +12,10 @@ from __future__ import annotations
 from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from ..files import atomic_open, atomic_path, read_json
 from ..table import Table, read_cop, read_cop_se, read_gravity, read_joint_columns, read_poses
-from .bags import (
-    MAPPING_FORMAT,
-    BagMapping,
-    FootSource,
-    JointSource,
-    PoseSource,
-    RawLogTable,
-    Segment,
-    load_mapping,
-    parse_mapping,
-    read_bag,
-)
 from .export import FORMATS, export_model, export_urdf
 from .mjcf_export import export_mjcf
 from .session_files import SESSION_FILES, read_session_reasons, write_session
-from .tables import read_table, write_table
+from .tables import iter_table, read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
@@ -58,7 +46,31 @@ __all__ = [
     "read_poses",
     "read_session_reasons",
     "read_table",
+    "iter_table",
     "save_fit",
     "write_session",
     "write_table",
 ]
+
+
+#: names of ``bags`` (ROS recordings), imported on first use: they pull in ``experiment``
+_BAGS = {
+    "MAPPING_FORMAT",
+    "BagMapping",
+    "FootSource",
+    "JointSource",
+    "PoseSource",
+    "RawLogTable",
+    "Segment",
+    "load_mapping",
+    "parse_mapping",
+    "read_bag",
+}
+
+
+def __getattr__(name: str):
+    if name in _BAGS:
+        from . import bags
+
+        return getattr(bags, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,13 +1,22 @@
 """Pose and CoP tables on disk: CSV (header row) and Parquet, read into ``Table`` columns and
 written atomically with floats in their shortest exact form (a CSV round trip is lossless).
 
+Files are read and written in streamed chunks by pyarrow (its CSV reader and writer, Parquet row
+batches): ``iter_table`` yields one ``Table`` per chunk, whose ``first_row`` keeps every error
+naming the file's own row, so a fit can be accumulated over a file of any length in flat memory
+(``read_table`` is the same chunks joined). A file pyarrow cannot parse as a whole (a short row,
+a number column that turns to text further down) is read again by the plain ``csv`` reader,
+which has the final word on what the file holds and on the error message.
+
 The column conventions and the joint/CoP readers are ``sescid.table``'s.
 """
 
 from __future__ import annotations
 
 import csv
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -15,14 +24,50 @@ from ..errors import DataError
 from ..files import atomic_open, atomic_path
 from ..table import Table
 
+#: bytes of CSV text per streamed chunk (about 2400 OP2 poses; larger blocks cost memory)
+CSV_BLOCK_BYTES = 1 << 20
+#: rows per streamed Parquet chunk, and per chunk of a CSV write
+CHUNK_ROWS = 1 << 16
+
+
+def _is_parquet(path: Path) -> bool:
+    return path.suffix.lower() in (".parquet", ".pq")
+
 
 def read_table(path: str | Path) -> Table:
     """Read a CSV (header row) or Parquet file into float columns (text columns kept apart)."""
     path = Path(path)
+    chunks = list(iter_table(path))
+    if len(chunks) == 1:
+        return chunks[0]
+    return _join(path, chunks)
+
+
+def iter_table(path: str | Path, chunk_rows: int | None = None) -> Iterator[Table]:
+    """Read a CSV or Parquet file as consecutive ``Table`` chunks (file order).
+
+    Each chunk's errors name the file's rows (``Table.first_row``). ``chunk_rows`` bounds a
+    Parquet chunk; a CSV chunk is about ``CSV_BLOCK_BYTES`` of text.
+    """
+    path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: file not found")
-    if path.suffix.lower() in (".parquet", ".pq"):
-        return _read_parquet(path)
+    if _is_parquet(path):
+        yield from _iter_parquet(path, chunk_rows or CHUNK_ROWS)
+        return
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:  # pragma: no cover - pyarrow is a dependency; plain reader otherwise
+        yield _read_csv_plain(path)
+        return
+    yield from _iter_csv(path)
+
+
+# --- CSV ---------------------------------------------------------------------------------
+
+
+def _read_csv_plain(path: Path, skip_data_rows: int = 0) -> Table:
+    """The reference reader (``csv`` module): every check, every message, in Python."""
     try:
         with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's BOM
             reader = csv.reader(fh)
@@ -34,10 +79,7 @@ def read_table(path: str | Path) -> Table:
     rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip())]
     if not rows:
         raise DataError(f"{path}: empty file (expected a header row)")
-    header = [h.strip() for h in rows[0]]
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise DataError(f"{path}: column '{dup}' appears twice in the header")
+    header = _check_header(path, rows[0])
     body = rows[1:]
     if not body:
         raise DataError(f"{path}: no data rows")
@@ -46,52 +88,216 @@ def read_table(path: str | Path) -> Table:
             raise DataError(
                 f"{path}: row {i + 2} has {len(r)} fields, the header has {len(header)}"
             )
-    columns, text = {}, {}
+    body = body[skip_data_rows:]
+    columns: dict[str, np.ndarray] = {}
+    text: dict[str, list] = {}
     for j, name in enumerate(header):
-        values = [r[j].strip() for r in body]
-        try:
-            columns[name] = np.array([float(v) for v in values])
-        except ValueError:
-            text[name] = values
-    return Table(path, columns, text)
+        _put(columns, text, name, [r[j].strip() for r in body])
+    return Table(path, columns, text, first_row=2 + skip_data_rows)
 
 
-def _read_parquet(path: Path) -> Table:
+def _check_header(path: Path, row: list[str]) -> list[str]:
+    header = [h.strip() for h in row]
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise DataError(f"{path}: column '{dup}' appears twice in the header")
+    return header
+
+
+def _put(columns: dict, text: dict, name: str, values: list[str]) -> None:
+    """A column of cell texts: floats when every cell is a number, else kept as text."""
     try:
+        columns[name] = np.array([float(v) for v in values], dtype=float)
+    except ValueError:
+        text[name] = values
+
+
+def _csv_header(path: Path) -> tuple[list[str], int]:
+    """The header (checked) and the number of physical lines up to and including it."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's BOM
+            reader = csv.reader(fh)
+            for row in reader:
+                if row and not (len(row) == 1 and not row[0].strip()):
+                    return _check_header(path, row), reader.line_num
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise DataError(f"{path}: cannot read ({exc.__class__.__name__})") from None
+    raise DataError(f"{path}: empty file (expected a header row)")
+
+
+def _open_csv(path: Path, header: list[str], skip: int, types: dict[str, Any]) -> Any:
+    import pyarrow.csv as pcsv
+
+    return pcsv.open_csv(
+        path,
+        read_options=pcsv.ReadOptions(
+            column_names=header,
+            skip_rows=skip,
+            block_size=CSV_BLOCK_BYTES,
+            use_threads=False,  # one core per command: steady when the machine is busy
+        ),
+        convert_options=pcsv.ConvertOptions(
+            column_types=types,
+            null_values=[],  # an empty cell is text, as for the plain reader
+            strings_can_be_null=False,
+            quoted_strings_can_be_null=False,
+            true_values=["\x00"],  # no boolean columns: "true" stays text
+            false_values=["\x01"],
+        ),
+    )
+
+
+def _iter_csv(path: Path) -> Iterator[Table]:
+    import pyarrow as pa
+
+    header, skip = _csv_header(path)
+    done = 0
+    try:
+        # types from the first chunk: numbers as float64 (a column of "0" is not an integer
+        # column), anything else as text
+        first = _open_csv(path, header, skip, {})
+        types = {
+            f.name: pa.float64() if _numeric(pa, f.type) else pa.string() for f in first.schema
+        }
+        first.close()
+        reader = _open_csv(path, header, skip, types)
+        for batch in reader:
+            if batch.num_rows:
+                yield _from_arrow(path, header, batch, 2 + done, pa)
+                done += batch.num_rows
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError):
+        # a short row, text below numbers, …: the plain reader decides (and words the error)
+        yield _read_csv_plain(path, skip_data_rows=done)
+        return
+    if done == 0:
+        raise DataError(f"{path}: no data rows")
+
+
+def _numeric(pa: Any, kind: Any) -> bool:
+    return pa.types.is_floating(kind) or pa.types.is_integer(kind)
+
+
+def _from_arrow(path: Path, names: list[str], batch: Any, first_row: int, pa: Any) -> Table:
+    columns: dict[str, np.ndarray] = {}
+    text: dict[str, list] = {}
+    for name, col in zip(names, batch.columns, strict=True):
+        if _numeric(pa, col.type):
+            columns[name] = col.to_numpy(zero_copy_only=False).astype(float, copy=False)
+        else:
+            _put(columns, text, name, [v.strip() for v in col.to_pylist()])
+    return Table(path, columns, text, first_row=first_row)
+
+
+# --- Parquet -----------------------------------------------------------------------------
+
+
+def _iter_parquet(path: Path, chunk_rows: int) -> Iterator[Table]:
+    try:
+        import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:  # pragma: no cover - optional dependency
         raise DataError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
     try:
-        tab = pq.read_table(path)
+        pf = pq.ParquetFile(path)
+        names = pf.schema_arrow.names
+        if not names:
+            raise DataError(f"{path}: no columns")
+        batches = pf.iter_batches(batch_size=chunk_rows)
+        done = 0
+        for batch in batches:
+            yield _parquet_chunk(path, names, batch, 2 + done, pa)
+            done += batch.num_rows
+    except DataError:
+        raise
     except Exception as exc:
         raise DataError(f"{path}: cannot read Parquet ({str(exc).splitlines()[0]})") from None
-    columns, text = {}, {}
-    for name in tab.column_names:
-        col = tab.column(name).to_pylist()
+    if done == 0:
+        yield Table(path, {n: np.zeros(0) for n in names}, {})
+
+
+def _parquet_chunk(path: Path, names: list[str], batch: Any, first_row: int, pa: Any) -> Table:
+    columns: dict[str, np.ndarray] = {}
+    text: dict[str, list] = {}
+    for name, col in zip(names, batch.columns, strict=True):
+        if _numeric(pa, col.type) or pa.types.is_null(col.type):
+            # nulls become NaN (then "not finite" in the column readers)
+            columns[name] = col.to_numpy(zero_copy_only=False).astype(float)
+            continue
+        values = col.to_pylist()
         try:
-            columns[name] = np.array([np.nan if v is None else float(v) for v in col])
+            columns[name] = np.array([np.nan if v is None else float(v) for v in values])
         except (TypeError, ValueError):
-            text[name] = ["" if v is None else str(v) for v in col]
-    if not columns and not text:
-        raise DataError(f"{path}: no columns")
-    return Table(path, columns, text)
+            text[name] = ["" if v is None else str(v) for v in values]
+    return Table(path, columns, text, first_row=first_row)
+
+
+def _join(path: Path, chunks: list[Table]) -> Table:
+    """One table from consecutive chunks (a column that is text in any chunk is text)."""
+    names = chunks[0].names()
+    columns: dict[str, np.ndarray] = {}
+    text: dict[str, list] = {}
+    for name in names:
+        if any(name in c.text for c in chunks):
+            text[name] = [
+                v
+                for c in chunks
+                for v in (c.text[name] if name in c.text else [_exact(x) for x in c.columns[name]])
+            ]
+        else:
+            columns[name] = np.concatenate([c.columns[name] for c in chunks])
+    return Table(path, columns, text, first_row=chunks[0].first_row)
+
+
+def _exact(x: float) -> str:
+    return repr(float(x))
+
+
+# --- writing -----------------------------------------------------------------------------
 
 
 def write_table(path: str | Path, columns: dict[str, np.ndarray]) -> None:
     """Write float (or string) columns as CSV (or Parquet by suffix), atomically.
 
-    Floats are written in their shortest exact form, so a CSV round trip is lossless.
+    Floats are written in their shortest exact form, so a CSV round trip is lossless. The CSV
+    is written in chunks of ``CHUNK_ROWS`` rows by pyarrow's writer.
     """
     path = Path(path)
     names = list(columns)
     cols = [np.asarray(columns[k]) for k in names]
-    if path.suffix.lower() in (".parquet", ".pq"):
+    try:
         import pyarrow as pa
+    except ImportError:  # pragma: no cover - pyarrow is a dependency; plain writer otherwise
+        _write_csv_plain(path, names, cols)
+        return
+    if _is_parquet(path):
         import pyarrow.parquet as pq
 
         with atomic_path(path) as tmp:
             pq.write_table(pa.table(dict(zip(names, cols, strict=True))), tmp)
         return
+    if any(c.dtype.kind not in "fiu" for c in cols):  # text or flags: the plain writer
+        _write_csv_plain(path, names, cols)
+        return
+    import pyarrow.csv as pcsv
+
+    n = len(cols[0]) if cols else 0
+    opts = pcsv.WriteOptions(include_header=False, batch_size=CHUNK_ROWS)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write((",".join(_csv_field(k) for k in names) + "\n").encode())
+            for s in range(0, n, CHUNK_ROWS):
+                part = [c[s : s + CHUNK_ROWS] for c in cols]
+                table = pa.Table.from_arrays([pa.array(c) for c in part], names=names)
+                pcsv.write_csv(table, fh, opts)
+
+
+def _csv_field(name: str) -> str:
+    if any(ch in name for ch in ',"\r\n'):
+        return '"' + name.replace('"', '""') + '"'
+    return name
+
+
+def _write_csv_plain(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import MissingExtraError
 from .geometry import MESH, Shape
 
 
@@ -47,7 +48,10 @@ def resolve_mesh(filename: str, model_path: Path) -> Path | None:
 @lru_cache(maxsize=512)
 def _hull_vertices(path: str) -> np.ndarray | None:
     """(k, 3) convex-hull vertices of a mesh file in its own frame (None if unreadable)."""
-    import trimesh  # lazy: a yourdfpy dependency; only needed for mesh geometry
+    try:
+        import trimesh  # lazy: only needed for mesh geometry
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise MissingExtraError("reading mesh geometry", "meshes") from None
 
     try:
         mesh: Any = trimesh.load(path, force="mesh", process=False)

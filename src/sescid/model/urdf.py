@@ -1,9 +1,12 @@
 """URDF → ``RobotModel``: parse, check, merge fixed links, re-root at the support link.
 
-Parsing is strict XML first (ElementTree), then yourdfpy for the URDF semantics (no meshes
-loaded). Real-world quirks are accepted with a note in ``RobotModel.notes``: a ``<mimic>`` left on
-a fixed joint is ignored; a ``floating`` joint that attaches the whole robot to a world link is
-dropped (the robot is re-rooted at its support anyway). Everything else that statics cannot use
+Parsing is strict XML (ElementTree) into small typed records holding just what statics, the
+shapes and the physics bench use (origins as 4×4 transforms, URDF's fixed-axis roll-pitch-yaw);
+no URDF library is imported, so loading a robot costs milliseconds (yourdfpy, which pulls in
+trimesh, is the tests' oracle for this parser). Real-world quirks are accepted with a note in
+``RobotModel.notes``: a ``<mimic>`` left on a fixed joint is ignored; a ``floating`` joint that
+attaches the whole robot to a world link is dropped (the robot is re-rooted at its support
+anyway). Everything else that statics cannot use
 (prismatic, planar joints; non-finite numbers; duplicate names; lower > upper) is a one-line
 ``ModelError`` naming the file and the element.
 """
@@ -11,6 +14,7 @@ dropped (the robot is re-rooted at its support anyway). Everything else that sta
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree
@@ -24,10 +28,220 @@ from .tree import Body, RobotModel, inv_transform
 _SUPPORTED = {"revolute", "continuous", "fixed"}
 
 
+@dataclass
+class Geometry:
+    """One of box (size), cylinder (radius, length), sphere (radius) or mesh (file, scale)."""
+
+    box: Box | None = None
+    cylinder: Cylinder | None = None
+    sphere: Sphere | None = None
+    mesh: Mesh | None = None
+
+
+@dataclass
+class Box:
+    """A box: full sizes (3,), m."""
+
+    size: np.ndarray
+
+
+@dataclass
+class Cylinder:
+    """A cylinder along z: radius and length, m."""
+
+    radius: float
+    length: float
+
+
+@dataclass
+class Sphere:
+    """A sphere: radius, m."""
+
+    radius: float
+
+
+@dataclass
+class Mesh:
+    """A mesh file and its scale."""
+
+    filename: str | None
+    scale: float | np.ndarray | None
+
+
+@dataclass
+class Element:
+    """A <visual> or <collision>: geometry placed by an origin in the link frame."""
+
+    geometry: Geometry | None
+    origin: np.ndarray | None
+
+
+@dataclass
+class Inertial:
+    """An <inertial>: CoM frame (4, 4), mass kg, inertia."""
+
+    origin: np.ndarray | None
+    mass: float | None
+    inertia: np.ndarray | None  #: (3, 3) about the CoM, in the inertial frame
+
+
+@dataclass
+class Link:
+    """A <link>: its inertial and its visual/collision elements."""
+
+    name: str
+    inertial: Inertial | None
+    visuals: list[Element] = field(default_factory=list)
+    collisions: list[Element] = field(default_factory=list)
+
+
+@dataclass
+class Limit:
+    """A joint's <limit>: lower/upper in rad (None where absent)."""
+
+    lower: float | None
+    upper: float | None
+
+
+@dataclass
+class Mimic:
+    """A <mimic>: q = multiplier · q_master + offset."""
+
+    joint: str | None
+    multiplier: float
+    offset: float
+
+
+@dataclass
+class Joint:
+    """A <joint>: type, parent/child links, origin (4, 4), unit axis, limit, mimic."""
+
+    name: str
+    type: str | None
+    parent: str | None
+    child: str | None
+    origin: np.ndarray | None
+    axis: np.ndarray
+    limit: Limit | None
+    mimic: Mimic | None
+
+
+@dataclass
+class Robot:
+    """The <robot>: its name, links and joints in file order."""
+
+    name: str
+    links: list[Link]
+    joints: list[Joint]
+
+
+@dataclass
+class Urdf:
+    """A parsed URDF file (``.robot`` holds its links and joints, in file order)."""
+
+    robot: Robot
+
+
+def _floats(text: str) -> list[float]:
+    return [float(v) for v in text.replace(",", " ").split()]
+
+
+def _opt_float(text: str | None) -> float | None:
+    return None if text is None else float(text)
+
+
+def _rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
+    """Rz(y)·Ry(p)·Rx(r): URDF's roll-pitch-yaw about fixed axes."""
+    si, sj, sk = math.sin(r), math.sin(p), math.sin(y)
+    ci, cj, ck = math.cos(r), math.cos(p), math.cos(y)
+    cc, cs, sc, ss = ci * ck, ci * sk, si * ck, si * sk
+    return np.array(
+        [
+            [cj * ck, sj * sc - cs, sj * cc + ss],
+            [cj * sk, sj * ss + cc, sj * cs - sc],
+            [-sj, cj * si, cj * ci],
+        ]
+    )
+
+
+def _origin_el(el: ElementTree.Element | None) -> np.ndarray | None:
+    if el is None:
+        return None
+    out = np.eye(4)
+    out[:3, 3] = _floats(el.get("xyz", "0 0 0"))
+    out[:3, :3] = _rpy_matrix(*_floats(el.get("rpy", "0 0 0")))
+    return out
+
+
+def _geometry_el(el: ElementTree.Element | None) -> Geometry | None:
+    if el is None:
+        return None
+    if len(el) == 0:
+        raise ValueError("<geometry> has no shape")
+    g, shape = Geometry(), el[0]
+    if shape.tag == "box":
+        g.box = Box(np.array(_floats(shape.attrib["size"]), dtype=float))
+    elif shape.tag == "cylinder":
+        g.cylinder = Cylinder(float(shape.attrib["radius"]), float(shape.attrib["length"]))
+    elif shape.tag == "sphere":
+        g.sphere = Sphere(float(shape.attrib["radius"]))
+    elif shape.tag == "mesh":
+        scale: float | np.ndarray | None = None
+        if "scale" in shape.attrib:
+            s = _floats(shape.attrib["scale"])
+            scale = None if not s else s[0] if len(s) == 1 else np.array(s)
+        g.mesh = Mesh(shape.get("filename"), scale)
+    else:
+        raise ValueError(f"unknown geometry <{shape.tag}>")
+    return g
+
+
+def _inertial_el(el: ElementTree.Element | None) -> Inertial | None:
+    if el is None:
+        return None
+    m, i = el.find("mass"), el.find("inertia")
+    inertia = None
+    if i is not None:
+        xx, yy, zz = (float(i.get(k, 1.0)) for k in ("ixx", "iyy", "izz"))
+        xy, xz, yz = (float(i.get(k, 0.0)) for k in ("ixy", "ixz", "iyz"))
+        inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    mass = None if m is None else float(m.get("value", 0.0))
+    return Inertial(_origin_el(el.find("origin")), mass, inertia)
+
+
+def _link_el(el: ElementTree.Element) -> Link:
+    link = Link(el.attrib["name"], _inertial_el(el.find("inertial")))
+    for kind, items in (("visual", link.visuals), ("collision", link.collisions)):
+        for v in el.findall(kind):
+            items.append(Element(_geometry_el(v.find("geometry")), _origin_el(v.find("origin"))))
+    return link
+
+
+def _joint_el(el: ElementTree.Element) -> Joint:
+    parent, child = el.find("parent"), el.find("child")
+    axis, lim, mimic = el.find("axis"), el.find("limit"), el.find("mimic")
+    return Joint(
+        name=el.attrib["name"],
+        type=el.get("type"),
+        parent=None if parent is None else parent.get("link"),
+        child=None if child is None else child.get("link"),
+        origin=_origin_el(el.find("origin")),
+        axis=np.array(_floats("1 0 0" if axis is None else axis.get("xyz", "1 0 0"))),
+        limit=None
+        if lim is None
+        else Limit(_opt_float(lim.get("lower")), _opt_float(lim.get("upper"))),
+        mimic=None
+        if mimic is None
+        else Mimic(
+            mimic.get("joint"), float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0))
+        ),
+    )
+
+
 def _check_xml(path: Path) -> ElementTree.Element:
     if not path.is_file():
         raise ModelError(f"{path}: URDF file not found")
-    try:  # strict XML first: yourdfpy would otherwise recover silently from broken XML
+    try:
         root = ElementTree.parse(path).getroot()
     except (ElementTree.ParseError, OSError, UnicodeDecodeError) as exc:
         raise ModelError(f"{path}: malformed URDF (XML: {exc})") from None
@@ -43,25 +257,22 @@ def _check_xml(path: Path) -> ElementTree.Element:
     return root
 
 
-def load_urdf(path: Path) -> Any:
-    """The parsed ``yourdfpy.URDF`` (no meshes loaded); ModelError on malformed files."""
-    _check_xml(path)
-    import yourdfpy  # a maintained URDF library; imported here to keep start-up light
-
+def load_urdf(path: Path) -> Urdf:
+    """The parsed URDF (links, joints; no meshes loaded); ModelError on malformed files."""
+    root = _check_xml(path)
     try:
-        urdf = yourdfpy.URDF.load(
-            str(path),
-            build_scene_graph=False,
-            build_collision_scene_graph=False,
-            load_meshes=False,
-            load_collision_meshes=False,
+        robot = Robot(
+            name=root.attrib["name"],
+            links=[_link_el(el) for el in root.findall("link")],
+            joints=[_joint_el(el) for el in root.findall("joint")],
         )
-    except Exception as exc:  # lxml / parser errors: one line, naming the file
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ModelError(f"{path}: malformed URDF ({msg})") from None
-    if urdf.robot is None or not urdf.robot.links:
+    except KeyError as exc:
+        raise ModelError(f"{path}: malformed URDF (missing attribute {exc})") from None
+    except (ValueError, TypeError) as exc:
+        raise ModelError(f"{path}: malformed URDF ({exc})") from None
+    if not robot.links:
         raise ModelError(f"{path}: malformed URDF (no links)")
-    return urdf
+    return Urdf(robot)
 
 
 def _finite(path: Path, what: str, values: Any) -> np.ndarray:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...kinematics import njit
+from ...kinematics import lazy_njit
 from ...model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from ...robot import Robot
 
@@ -228,7 +228,7 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     return np.sqrt(np.einsum("...i,...i", diff, diff))
 
 
-@njit(nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _first_contact(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
     """out[k] = index of the first capsule pair closer than its reach in pose k, or −1.
 
