@@ -74,6 +74,8 @@ class ExperimentConfig:
     readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
     fsr_noise: float = 1.5  #: N, per sensor and sample (std)
     fsr_bias: float = 0.1  #: N, per-sensor constant bias (std over sensors)
+    #: relative std of per-pad gain errors: a pad reads F / g + bias, g ~ N(1, fsr_gain²)
+    fsr_gain: float = 0.0
     registers: str = "forces"  #: "forces", "centroid" or "both"
 
 
@@ -118,6 +120,24 @@ def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list
     return sesc_vectors(model), float(sum(b.mass for b in bodies)), placed
 
 
+def pad_gains(sensors: SensorConfig, config: ExperimentConfig, seed: int | None) -> dict:
+    """Per-pad gains g ~ N(1, fsr_gain²) of each foot (a pad reads F / g + bias).
+
+    Drawn from their own random stream (seed, 11), so adding gain errors leaves every other
+    draw of a seeded bench unchanged; all ones when ``fsr_gain`` is 0.
+    """
+    if config.fsr_gain == 0:
+        return {f.name: np.ones(4) for f in sensors.feet}
+    rng = np.random.default_rng(None if seed is None else (seed, 11))
+    out = {}
+    for f in sensors.feet:
+        g = 1.0 + rng.normal(0.0, config.fsr_gain, size=4)
+        if np.any(g <= 0.1):
+            raise DataError(f"FSR gain error {config.fsr_gain} gives a gain ≤ 0.1; use less")
+        out[f.name] = g
+    return out
+
+
 def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
     """Error naming the first pose/joint outside the robot's joint limits."""
     lim = robot.joint_limits
@@ -157,6 +177,7 @@ def run_experiment(
         ("backlash", config.backlash_deg),
         ("FSR noise", config.fsr_noise),
         ("FSR bias", config.fsr_bias),
+        ("FSR gain error", config.fsr_gain),
         ("read-back jitter", config.readback_jitter_ticks),
     ):
         if not (v >= 0 and math.isfinite(v)):
@@ -198,6 +219,7 @@ def run_experiment(
     u, v = uv[:, 0], uv[:, 1]
     f_true = weight * np.stack([(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v], axis=1)
     bias = {f.name: rng.normal(0.0, config.fsr_bias, size=4) for f in sensors.feet}
+    gain = pad_gains(sensors, config, seed)
 
     m = n * samples
     pose_of = np.repeat(np.arange(n), samples)
@@ -221,7 +243,7 @@ def run_experiment(
     counts_by_foot = {}
     for f in sensors.feet:
         if f is foot:
-            loaded = f_true[pose_of] + bias[f.name]
+            loaded = f_true[pose_of] / gain[f.name] + bias[f.name]
             noisy = loaded + rng.normal(0.0, config.fsr_noise, size=(m, 4))
             counts = np.clip(np.round(noisy / sensors.force_unit), 0, sensors.saturation)
         else:
@@ -241,7 +263,7 @@ def run_experiment(
             cols[f"{f.columns}_y"] = np.where(on, y, sensors.no_load).astype(int)
 
     # noise-free measured CoP: what a perfect average of the biased sensors gives
-    fb = f_true + bias[foot.name]
+    fb = f_true / gain[foot.name] + bias[foot.name]
     cop_expected = (fb @ foot.sensors) / fb.sum(axis=1, keepdims=True)
     names = robot.body_names
     truth = {
@@ -258,6 +280,7 @@ def run_experiment(
             "readback_jitter_ticks": config.readback_jitter_ticks,
             "fsr_noise_N": config.fsr_noise,
             "fsr_bias_N": config.fsr_bias,
+            "fsr_gain": config.fsr_gain,
             "registers": config.registers,
             "sensors": sensors.source,
         },
@@ -267,6 +290,7 @@ def run_experiment(
         "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
         "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
         "fsr_bias_N": {k: v.tolist() for k, v in bias.items()},
+        "fsr_gain": {k: v.tolist() for k, v in gain.items()},
         "joint_names": robot.joint_names,
         "pose": pose_ids.tolist(),
         "q_commanded": q_cmd.tolist(),
