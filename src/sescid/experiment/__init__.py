@@ -5,6 +5,7 @@ boards in ``sensors``; ankle force/torque sensors and force plates in ``wrench``
 
 from __future__ import annotations
 
+from .calibration import calibrated_sensor_document, pad_session, table_from_columns
 from .planning import PosePlan, candidates, plan_poses
 from .sensors import (
     REASONS,
@@ -55,11 +56,13 @@ __all__ = [
     "cop_from_force_plate",
     "cop_from_plate",
     "cop_from_wrench",
+    "calibrated_sensor_document",
     "fsr",
     "load_plate",
     "load_sensors",
     "load_truth",
     "measure",
+    "pad_session",
     "paper_study",
     "plan_poses",
     "plate_to_sole",
@@ -68,4 +71,5 @@ __all__ = [
     "real_robot",
     "rpy_matrix",
     "run_experiment",
+    "table_from_columns",
 ]

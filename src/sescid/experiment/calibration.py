@@ -108,14 +108,23 @@ def calibrated_sensor_document(
     cal_feet = {}
     for foot_name, f in data.get("feet", {}).items():
         gains, gstd = calibration.gain(sensors, foot_name)
-        offs, ostd = calibration.offset(session, foot_name)
-        if gains.size != 4 or offs.size != 4:
-            raise DataError(f"the calibration has no gains/offsets for the {foot_name} foot")
+        if gains.size != 4:
+            raise DataError(f"the calibration has no gains for the {foot_name} foot")
+        # offsets: the chosen session's, else the last session that loads this foot
+        source_session = None
+        for name in [session] + names[::-1]:
+            offs, ostd = calibration.offset(name, foot_name)
+            if offs.size == 4:
+                source_session = name
+                break
+        if source_session is None:
+            offs, ostd = np.zeros(4), np.full(4, calibration.offset_prior)
         f["gains"] = [float(v) for v in gains]
         f["offsets_N"] = [float(v) for v in offs]
         cal_feet[foot_name] = {
             "gains_std": [float(v) for v in gstd],
             "offsets_std_N": [float(v) for v in ostd],
+            "offsets_from_session": source_session,
         }
     unseen = [
         {"kind": d.kind, "direction": d.label(), "reason": d.reason}
