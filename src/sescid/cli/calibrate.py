@@ -63,7 +63,9 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
     multiple=True,
     help="SESSION=M: given noise of the session's moment rows, as CoP [m] (default: estimated).",
 )
-@click.option("--prior-scale", type=float, default=None, help="SESC prior τ [m] (default: evidence).")
+@click.option(
+    "--prior-scale", type=float, default=None, help="SESC prior τ [m] (default: evidence)."
+)
 @click.option("--gain-prior", type=float, default=GAIN_PRIOR, show_default=True,
               help="Prior std of each gain (relative).")  # fmt: skip
 @click.option("--offset-prior", type=float, default=OFFSET_PRIOR, show_default=True,
@@ -150,9 +152,7 @@ def calibrate(
     click.echo(cal.summary())
     click.echo(f"mass model: CoP residual RMS {mm(cal.fit.rms)}, rank {cal.fit.rank}")
     session = offsets_from or names[-1]
-    doc = calibrated_sensor_document(
-        source, cal, session, sets.get(session, "default")
-    )
+    doc = calibrated_sensor_document(source, cal, session, sets.get(session, "default"))
     with atomic_open(out, "w") as fh:
         json.dump(doc, fh, indent=1)
         fh.write("\n")

@@ -19,12 +19,11 @@ from ..errors import OptionError
 from ..kinematics import as_poses
 from ..robot import Robot
 from .consistent import COM_SCALE, FIT_TOL, consistent_from_fit, identify_consistent
+from .consistent_prior import evidence_prior_std, least_squares_view
 from .fit import METHODS, Fit
 from .identifiability import DEFAULT_RTOL, check_rtol
-from .least_squares import identify_ls
-from .least_squares import residual_stats
+from .least_squares import identify_ls, residual_stats
 from .map import identify_map
-from .consistent_prior import evidence_prior_std, least_squares_view
 from .robust import HUBER_K, huber
 from .validation import Fitter
 

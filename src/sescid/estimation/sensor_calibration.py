@@ -31,7 +31,11 @@ What the pads cannot tell (``SensorDirection.kind``):
 - ``support-confounded``: with one foot only, the offsets' moments add a constant CoP shift in
   that foot's frame, exactly as the SESC components of the body fixed to that sole do — poses on
   the other foot separate them;
-- ``scale``: without a weighed mass the weight is the model's, an assumption, not a measurement.
+- ``scale``: without a weighed mass the weight is the model's, an assumption, not a measurement;
+- ``not-excited``: the gains are told apart only because the pads' load pattern varies beyond
+  what the CoP fixes (the statically indeterminate part of the split changes from pose to pose,
+  as a real foot's compliance makes it); a split that is linear in the CoP (a rigid plate on
+  equal springs) leaves one gain direction per foot unseen.
 
 Noise. Each session has its own noise level on the force rows (N) and on the moment rows (m,
 which also take up joint play and other model error), estimated by iterating
@@ -73,6 +77,7 @@ UNLOADED_FOOT = "unloaded-foot"
 OFFSET_TWIST = "offset-twist"
 SUPPORT_CONFOUNDED = "support-confounded"
 SCALE = "scale"
+NOT_EXCITED = "not-excited"
 
 
 # --- inputs -----------------------------------------------------------------------------
@@ -205,7 +210,9 @@ class SensorCalibration:
             )
         for p in self.gains + self.offsets:
             unit = "" if p.kind == "gain" else " N"
-            flag = " (given)" if p.known else (" (partly from the prior)" if p.unseen > 0.01 else "")
+            flag = (
+                " (given)" if p.known else (" (partly from the prior)" if p.unseen > 0.01 else "")
+            )
             lines.append(f"  {p.label} = {p.value:.4f} ± {p.std:.4f}{unit}{flag}")
         for d in self.unidentifiable:
             lines.append(f"  unidentifiable ({d.kind}): {d.label()}: {d.reason}")
@@ -363,6 +370,17 @@ def _build(robot: Robot, sessions: list[PadSession], cols: list[_Column], weight
 
 
 # --- estimation -------------------------------------------------------------------------
+def _spd_inverse(mat: np.ndarray) -> np.ndarray:
+    """Inverse of a symmetric positive (semi)definite matrix: Cholesky, else eigen (clipped)."""
+    try:
+        cf = scipy.linalg.cho_factor(mat, check_finite=False)
+        return scipy.linalg.cho_solve(cf, np.eye(mat.shape[0]), check_finite=False)
+    except np.linalg.LinAlgError:
+        lam, vec = np.linalg.eigh(0.5 * (mat + mat.T))
+        lam = np.maximum(lam, lam.max() * 1e-15)
+        return (vec / lam) @ vec.T
+
+
 def _log_evidence(a: np.ndarray, z: np.ndarray, prec: np.ndarray) -> float:
     """log p(z | priors) of whitened rows a θ ≈ z, θ ~ N(0, diag(1/prec)) (constants dropped)."""
     mat = a.T @ a + np.diag(prec)
@@ -436,7 +454,6 @@ def calibrate_sensors(
     free = ~fixed
     z_all = rows.y - rows.a @ theta0  # residual at the prior mean (fixed parts exact)
     a_free = rows.a[:, free]
-    n_sess = len(sessions)
     var_f = np.array(
         [START_NOISE_FORCE**2 if s.noise_force is None else s.noise_force**2 for s in sessions]
     )
@@ -447,16 +464,17 @@ def calibrate_sensors(
     sens_prec = 1.0 / prior_sd[p_x:][free[p_x:]] ** 2
     tau = prior_scale if prior_scale is not None else 1e-3
     converged = False
-    it = 0
+    iterations = 0
     for it in range(1, max_iter + 1):
+        iterations = it
         sw = 1.0 / np.sqrt(np.where(rows.moment, var_c[rows.session], var_f[rows.session]))
         aw, zw = a_free * sw[:, None], z_all * sw
         if prior_scale is None:
 
             def neg(lt: float, aw=aw, zw=zw) -> float:
                 prec = np.concatenate([np.full(int(free_x.sum()), math.exp(-2 * lt)), sens_prec])
-                v = -_log_evidence(aw, zw, prec)
-                return v if math.isfinite(v) else 1e300
+                val = -_log_evidence(aw, zw, prec)
+                return val if math.isfinite(val) else 1e300
 
             grid = np.linspace(math.log(TAU_RANGE[0]), math.log(TAU_RANGE[1]), 13)
             vals = [neg(t) for t in grid]
@@ -466,11 +484,9 @@ def calibrate_sensors(
             )
             tau = math.exp(float(res.x) if res.fun <= vals[kk] else float(grid[kk]))
         prec = np.concatenate([np.full(int(free_x.sum()), tau**-2), sens_prec])
-        mat = aw.T @ aw + np.diag(prec)
-        cf = scipy.linalg.cho_factor(mat, check_finite=False)
-        delta = scipy.linalg.cho_solve(cf, aw.T @ zw, check_finite=False)
+        minv = _spd_inverse(aw.T @ aw + np.diag(prec))
+        delta = minv @ (aw.T @ zw)
         resid = z_all - a_free @ delta
-        minv = scipy.linalg.cho_solve(cf, np.eye(mat.shape[0]), check_finite=False)
         lev = np.einsum("ij,jk,ik->i", aw, minv, aw)
         new_f, new_c = var_f.copy(), var_c.copy()
         for si, s in enumerate(sessions):
@@ -480,9 +496,7 @@ def calibrate_sensors(
                     continue
                 dof = max(sel.sum() - lev[sel].sum(), 1.0)
                 new[si] = max(float(resid[sel] @ resid[sel]) / dof, 1e-24)
-        change = max(
-            np.max(np.abs(np.log(new_f / var_f))), np.max(np.abs(np.log(new_c / var_c)))
-        )
+        change = max(np.max(np.abs(np.log(new_f / var_f))), np.max(np.abs(np.log(new_c / var_c))))
         var_f, var_c = new_f, new_c
         if change < tol:
             converged = True
@@ -551,7 +565,7 @@ def calibrate_sensors(
         prior_scale_by="given" if prior_scale is not None else "evidence",
         gain_prior=gain_prior,
         offset_prior=offset_prior,
-        iterations=it,
+        iterations=iterations,
         converged=converged,
     )
 
@@ -563,13 +577,12 @@ def _mass_fit(robot, aw, zw, free, p_x, theta0, tau, sens_prec, rtol, rows) -> F
         raise OptionError("known", "the SESC vectors cannot be held fixed here")
     ax, as_ = aw[:, :nx], aw[:, nx:]
     if as_.shape[1]:
-        mss = as_.T @ as_ + np.diag(sens_prec)
-        cf = scipy.linalg.cho_factor(mss, check_finite=False)
+        minv = _spd_inverse(as_.T @ as_ + np.diag(sens_prec))
         cross = ax.T @ as_
         bs = as_.T @ zw
-        ata = ax.T @ ax - cross @ scipy.linalg.cho_solve(cf, cross.T, check_finite=False)
-        b = ax.T @ zw - cross @ scipy.linalg.cho_solve(cf, bs, check_finite=False)
-        ztz = float(zw @ zw - bs @ scipy.linalg.cho_solve(cf, bs, check_finite=False))
+        ata = ax.T @ ax - cross @ minv @ cross.T
+        b = ax.T @ zw - cross @ (minv @ bs)
+        ztz = float(zw @ zw - bs @ minv @ bs)
     else:
         ata, b, ztz = ax.T @ ax, ax.T @ zw, float(zw @ zw)
     ata = 0.5 * (ata + ata.T)
@@ -716,7 +729,17 @@ def _directions(robot, sessions, cols, rows, free, p_x, prior_sd, sw, rtol, thet
         v = u[:, k]
         xcomp = -pinv @ cross @ v  # the SESC change that hides it
         terms = [(labels[i], float(v[i])) for i in np.flatnonzero(np.abs(v) > 1e-3)]
-        mass = _sparse_terms(xcomp, mass_labels, tol=1e-2) if np.any(xcomp) else []
+        if np.linalg.norm(xcomp) <= 1e-6 * max(np.linalg.norm(v), 1e-300):
+            out.append(
+                SensorDirection(
+                    terms,
+                    NOT_EXCITED,
+                    "the pads' load pattern did not vary independently of the CoP in these "
+                    "poses (e.g. a split linear in the CoP), so these gains are not separated",
+                )
+            )
+            continue
+        mass = _sparse_terms(xcomp, mass_labels, tol=1e-2)
         out.append(
             SensorDirection(
                 terms,
