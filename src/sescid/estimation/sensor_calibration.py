@@ -477,12 +477,12 @@ def calibrate_sensors(
                 return val if math.isfinite(val) else 1e300
 
             grid = np.linspace(math.log(TAU_RANGE[0]), math.log(TAU_RANGE[1]), 13)
-            vals = [neg(t) for t in grid]
-            kk = int(np.argmin(vals))
+            evid = [neg(t) for t in grid]
+            kk = int(np.argmin(evid))
             res = scipy.optimize.minimize_scalar(
                 neg, bounds=(grid[max(kk - 1, 0)], grid[min(kk + 1, 12)]), method="bounded"
             )
-            tau = math.exp(float(res.x) if res.fun <= vals[kk] else float(grid[kk]))
+            tau = math.exp(float(res.x) if res.fun <= evid[kk] else float(grid[kk]))
         prec = np.concatenate([np.full(int(free_x.sum()), tau**-2), sens_prec])
         minv = _spd_inverse(aw.T @ aw + np.diag(prec))
         delta = minv @ (aw.T @ zw)

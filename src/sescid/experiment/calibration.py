@@ -4,8 +4,9 @@
 each foot) to per-pose mean pad readings in N, the mean joint read-backs, which feet carry
 load and the mean gravity direction: the input of
 ``estimation.sensor_calibration.calibrate_sensors``. Samples with a missing or saturated value
-are dropped, and so are poses where a loaded foot's pad reads 0 in more than 2 % of the
-samples (the reading is censored at the floor, its mean biased); a foot is loaded at a pose
+are dropped; a loaded pad that reads 0 in some samples (censored at the floor, its mean
+biased) takes the median of its samples, and poses where that happens in 40 % of the samples
+or more are dropped; a foot is loaded at a pose
 when its mean total reading reaches the configuration's ``min_foot_force``.
 ``calibrated_sensor_document`` writes the layout back with the estimated gains and one
 session's offsets, which ``load_sensors`` reads and ``fsr`` applies.
@@ -24,8 +25,9 @@ from ..files import read_json
 from ..table import Table
 from .sensors import FSR_FORMAT, FSR_FORMAT_2, SensorConfig, read_raw
 
-#: a pose is dropped when more than this share of its samples has a loaded pad reading 0
-FLOOR_SHARE = 0.02
+#: a pose is dropped when this share of its samples has a loaded pad reading 0 (censored);
+#: below it, such a pad's reading is the median of its samples (unbiased by the floor)
+FLOOR_SHARE = 0.4
 
 
 def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>") -> Table:
@@ -79,21 +81,26 @@ def pad_session(
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.stack(cols, axis=1) / count[:, None]
 
-    # a pad at its floor (0) while its foot is loaded is censored: its mean is biased upward
-    # (by < 0.4 % of its noise σ while at most 2 % of the samples floor)
-    floored = np.zeros(k, dtype=bool)
+    # a pad at its floor (0) while its foot is loaded is censored: its mean is biased upward;
+    # the median is not while under half the samples floor, so such pads take the median and
+    # poses where a loaded pad floors in FLOOR_SHARE of the samples or more are dropped
+    out, fixes = [], []
     for f in feet:
-        arr = log.forces[f.name]
-        on = np.nan_to_num(arr).sum(axis=1) * config.force_unit >= config.min_foot_force
-        hit = ok & on & np.any(np.nan_to_num(arr) <= 0, axis=1)
-        floored |= np.bincount(g[hit], minlength=k) > FLOOR_SHARE * np.maximum(count, 1)
-    keep &= ~floored
+        arr = np.nan_to_num(log.forces[f.name]) * config.force_unit
+        on = ok & (arr.sum(axis=1) >= config.min_foot_force)
+        y = mean(arr)
+        hit = on[:, None] & (arr <= 0)
+        share = np.stack([np.bincount(g[hit[:, j]], minlength=k) for j in range(4)], 1)
+        share = share / np.maximum(count, 1)[:, None]
+        keep &= ~np.any(share >= FLOOR_SHARE, axis=1)
+        for i, j in zip(*np.nonzero((share > 0) & (share < FLOOR_SHARE)), strict=True):
+            y[i, j] = float(np.median(arr[ok & (g == i), j]))  # few (pose, pad) pairs
+        fixes.append(y)
     if not keep.any():
-        raise DataError(f"{table.path}: every pose has a loaded pad reading 0 (censored)")
+        raise DataError(f"{table.path}: every pose has a loaded pad reading 0 too often")
     q = mean(log.q)[keep]
-    out = []
-    for f in feet:
-        y = mean(log.forces[f.name] * config.force_unit)[keep]
+    for f, y in zip(feet, fixes, strict=True):
+        y = y[keep]
         loaded = y.sum(axis=1) >= config.min_foot_force
         out.append(PadFoot(f.name, f.sole_frame, f.sensors.copy(), y, loaded))
     grav = None
