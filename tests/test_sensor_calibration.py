@@ -23,8 +23,6 @@ from sescid.experiment import (
 from sescid.experiment.planning import candidates
 
 BENCH = ExperimentConfig(fsr_gain=0.05, fsr_bias=0.1)
-#: CoP box (m) of the sessions: every pad keeps ≥ ~3 N, so no reading floors at 0
-BOX = (0.02, 0.012)
 BENCH_TWO = ExperimentConfig(double_support=True, fsr_gain=0.05, fsr_noise=0.5, backlash_deg=0.0)
 
 
@@ -33,8 +31,9 @@ def setup():
     right = sescid.load_robot("op2")
     left = sescid.load_robot("op2", support="l_sole")
     cfg = load_sensors(profile=right.profile)
-    q_r = candidates(right, 38, seed=2, half_extents=BOX).q
-    q_l = candidates(left, 38, seed=1, half_extents=BOX).q
+    kw = {"n_candidates": 1500, "n_test": 100, "random_draws": 1}  # the protocol: D-optimal
+    q_r = sescid.plan_poses(right, count=38, seed=0, **kw).q
+    q_l = sescid.plan_poses(left, count=38, seed=1, **kw).q
     return right, left, cfg, q_r, q_l
 
 

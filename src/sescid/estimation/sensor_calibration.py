@@ -72,6 +72,9 @@ OFFSET_PRIOR = 0.2
 #: starting noise levels of the iteration: force rows N, moment rows m
 START_NOISE_FORCE = 0.5
 START_NOISE_COP = 0.001
+#: smallest estimated noise levels (resolution: 1 mN counts; 1 µm), N and m
+NOISE_FLOOR_FORCE = 1e-3
+NOISE_FLOOR_COP = 1e-6
 
 UNLOADED_FOOT = "unloaded-foot"
 OFFSET_TWIST = "offset-twist"
@@ -495,7 +498,8 @@ def calibrate_sensors(
                 if given is not None or not sel.any():
                     continue
                 dof = max(sel.sum() - lev[sel].sum(), 1.0)
-                new[si] = max(float(resid[sel] @ resid[sel]) / dof, 1e-24)
+                floor = NOISE_FLOOR_COP if is_m else NOISE_FLOOR_FORCE
+                new[si] = max(float(resid[sel] @ resid[sel]) / dof, floor**2)
         change = max(np.max(np.abs(np.log(new_f / var_f))), np.max(np.abs(np.log(new_c / var_c))))
         var_f, var_c = new_f, new_c
         if change < tol:
