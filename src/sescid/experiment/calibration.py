@@ -90,8 +90,8 @@ def pad_session(
         on = ok & (arr.sum(axis=1) >= config.min_foot_force)
         y = mean(arr)
         hit = on[:, None] & (arr <= 0)
-        share = np.stack([np.bincount(g[hit[:, j]], minlength=k) for j in range(4)], 1)
-        share = share / np.maximum(count, 1)[:, None]
+        hits = np.stack([np.bincount(g[hit[:, j]], minlength=k) for j in range(4)], 1)
+        share = hits / np.maximum(count, 1)[:, None]
         keep &= ~np.any(share >= FLOOR_SHARE, axis=1)
         for i, j in zip(*np.nonzero((share > 0) & (share < FLOOR_SHARE)), strict=True):
             y[i, j] = float(np.median(arr[ok & (g == i), j]))  # few (pose, pad) pairs
