@@ -61,3 +61,9 @@ def test_any_urdf_example_on_icub():
     """Any URDF: iCub from example-robot-data identifies from simulated CoPs."""
     out = _run("icub_any_urdf.py", str(ICUB), "r_sole", "--poses", "400")
     assert "noise-free CoP RMSE on fresh poses" in out
+
+
+def test_sensor_calibration_example():
+    """Pad calibration on the bench prints the 2σ coverage of gains and offsets."""
+    out = _run("op2_sensor_calibration.py", "--seeds", "1", "--candidates", "1500")
+    assert "gains within 2σ of the truth" in out and "known sensors" in out

@@ -27,6 +27,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "experiment": ("bench", "experiment", "Virtual bench experiment: a raw sensor log."),
     "bag": ("record", "bag", "Read a ROS bag into the raw foot-sensor log (mapping file)."),
     "fsr": ("bench", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
+    "calibrate": (
+        "calibrate",
+        "calibrate",
+        "Foot-pad gains and offsets estimated with the masses from raw sessions.",
+    ),
     "report": ("bench", "report", "Figures and one self-contained HTML page from a fit."),
     "truth": ("truth", "truth", "Compare a fit with a virtual experiment's truth file."),
     "session": ("session", "session", "Guided identification: next-best pose until converged."),

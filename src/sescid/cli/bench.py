@@ -144,6 +144,18 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, fo
     "--fsr-bias", default=_EXP.fsr_bias, show_default=True, help="Per-sensor bias std [N]."
 )
 @click.option(
+    "--fsr-gain",
+    default=_EXP.fsr_gain,
+    show_default=True,
+    help="Per-pad gain error std (relative): a pad reads force / gain + bias.",
+)
+@click.option(
+    "--double-support",
+    is_flag=True,
+    help="Both feet on the floor where the pose puts them there (plan with poses "
+    "--double-support); the load splits over all their pads.",
+)
+@click.option(
     "--registers",
     type=click.Choice(["forces", "centroid", "both"]),
     default=_EXP.registers,
@@ -183,6 +195,8 @@ def experiment(
     backlash_deg,
     fsr_noise,
     fsr_bias,
+    fsr_gain,
+    double_support,
     registers,
     engine,
     weld_foot,
@@ -202,6 +216,8 @@ def experiment(
         backlash_deg=backlash_deg,
         fsr_noise=fsr_noise,
         fsr_bias=fsr_bias,
+        fsr_gain=fsr_gain,
+        double_support=double_support,
         registers=registers,
     )
     if engine == "kinematic" and (weld_foot or kp is not None):
@@ -210,7 +226,7 @@ def experiment(
         if engine == "mujoco":
             from ..experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
 
-            bench = MujocoBenchConfig(kp=kp, weld_foot=weld_foot)
+            bench = MujocoBenchConfig(kp=kp, weld_foot=weld_foot, double_support=double_support)
             ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench, pose_ids=ids)
         else:
             ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
@@ -229,7 +245,7 @@ def experiment(
     click.echo(
         f"wrote {out}: {n_logged} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
         f"(model {t['model_mass_kg']:.4f} kg), backlash ±{backlash_deg:g}°, "
-        f"FSR noise {fsr_noise:g} N, bias {fsr_bias:g} N"
+        f"FSR noise {fsr_noise:g} N, bias {fsr_bias:g} N, gain error {fsr_gain:g}"
     )
     for pose, why in ex.skipped:
         click.echo(f"  pose {pose} skipped: {why}", err=True)

@@ -73,6 +73,17 @@ def consistent_options(f):
                 help="consistent: grow the CoM boxes by this [m] (default 0, fallback boxes 0.02).",
             ),
             click.option(
+                "--via",
+                type=click.Choice(["auto", "prior", "fit"]),
+                default=_CONSISTENT.via,
+                show_default=True,
+                help="consistent: 'prior' weighs the data against a CAD prior on masses/CoMs "
+                "whose scale the data choose (controller-ready; a weighed total mass goes "
+                "where the data put it); 'fit' reproduces the fit first (least squares follows "
+                "the noise); 'auto': 'fit' for a MAP fit, else 'prior'. --cad-std fixes the "
+                "prior scale instead.",
+            ),
+            click.option(
                 "--cad-std",
                 type=float,
                 default=_CONSISTENT.prior_std,
@@ -93,6 +104,7 @@ def consistent_from_flags(opts: dict) -> ConsistentOptions:
         symmetric=opts["symmetric"],
         box_margin=opts["box_margin"],
         prior_std=opts["cad_std"],
+        via=opts["via"],
     )
 
 
@@ -312,6 +324,8 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     with outs:
         fit.save(outs.path(out))
     click.echo(fit.summary())
+    if fit.inertials is not None:
+        _echo_masses(fit)
     click.echo(f"wrote {out}")
 
 
@@ -456,6 +470,15 @@ def _echo_masses(fit: Fit) -> None:
         f"{len(b.active_constraints)} active constraints, solver clarabel "
         f"({b.solve_time * 1e3:.0f} ms)"
     )
+    worst = b.worst_mass_change()
+    if worst is not None and b.cad_masses is not None:
+        i, rel = worst
+        name = fit.robot.body_names[i]
+        click.echo(
+            f"  worst body-mass change from the model: {name} {100 * rel:.1f} % "
+            f"({b.cad_masses[i]:.4f} → {b.masses[i]:.4f} kg)"
+            + ("" if b.prior_std is None else f"; CAD prior std {100 * b.prior_std:.1f} %")
+        )
     for c in b.active_constraints[:8]:
         click.echo(f"  active: {c}")
     if len(b.active_constraints) > 8:

@@ -33,6 +33,16 @@ from .map import identify_map
 from .normal_equations import NormalEquations, accumulate
 from .online import OnlineEstimator
 from .robust import huber, joint_noise_mc
+from .sensor_calibration import (
+    KnownSensors,
+    PadFoot,
+    PadSession,
+    SensorCalibration,
+    SensorDirection,
+    SensorParameter,
+    SessionContribution,
+    calibrate_sensors,
+)
 from .validation import (
     Interval,
     com_interval,
@@ -56,14 +66,22 @@ __all__ = [
     "Fit",
     "Interval",
     "JointNoiseEffect",
+    "KnownSensors",
     "MapInfo",
     "MapOptions",
     "NormalEquations",
     "OnlineEstimator",
     "OnlineInfo",
+    "PadFoot",
+    "PadSession",
     "RobustInfo",
+    "SensorCalibration",
+    "SensorDirection",
+    "SensorParameter",
+    "SessionContribution",
     "accumulate",
     "body_boxes",
+    "calibrate_sensors",
     "com_interval",
     "consistent_from_fit",
     "cop_interval",

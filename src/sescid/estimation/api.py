@@ -20,9 +20,10 @@ from ..kinematics import as_poses
 from ..robot import Robot
 from .checks import fit_warnings
 from .consistent import COM_SCALE, FIT_TOL, consistent_from_fit, identify_consistent
+from .consistent_prior import evidence_prior_std, least_squares_view
 from .fit import METHODS, Fit
 from .identifiability import DEFAULT_RTOL, check_rtol
-from .least_squares import identify_ls
+from .least_squares import identify_ls, residual_stats
 from .map import identify_map
 from .robust import HUBER_K, huber
 from .validation import Fitter
@@ -54,10 +55,42 @@ class ConsistentOptions:
     com_scale: float = COM_SCALE
     fit_tol: float = FIT_TOL
     boxes: dict[str, tuple] | None = None
+    #: "prior": one QP, data + a CAD prior on masses/CoMs whose scale the data choose
+    #: (evidence, ``consistent_prior``), CAD masses as the target so a weighed total goes
+    #: where the data put it — controller-ready masses; "fit": reproduce the fit first, then
+    #: closest to CAD (follows the noise of a least-squares fit). "auto" (default): "fit" for a
+    #: MAP fit (it already weighs the data against CAD with a scale the data chose, and the
+    #: masses then reproduce its CoP), "prior" otherwise. With ``prior_std`` given, that scale
+    #: is used (CAD masses scaled uniformly to the total, as before).
+    via: str = "auto"
 
     def kwargs(self) -> dict:
         """Keyword arguments of ``consistent_from_fit``."""
-        return dataclasses.asdict(self)
+        out = dataclasses.asdict(self)
+        del out["via"]
+        return out
+
+    def check(self) -> None:
+        """OptionError for a value outside its range."""
+        if self.via not in ("auto", "prior", "fit"):
+            raise OptionError("via", f"must be 'auto', 'prior' or 'fit', got {self.via!r}")
+
+    def path_for(self, fit: Fit) -> str:
+        """The path, "prior" or "fit", that ``via`` means for this source fit."""
+        if self.via != "auto":
+            return self.via
+        return "fit" if fit.method == "map" else "prior"
+
+    def resolved(self, fit: Fit) -> tuple[Fit, dict]:
+        """The fit and ``consistent_from_fit`` keywords this choice means for ``fit``."""
+        kw = self.kwargs()
+        if self.path_for(fit) == "prior" and self.prior_std is None:
+            ls = least_squares_view(fit)
+            tau, com_std = evidence_prior_std(ls, self.total_mass, self.com_scale)
+            kw["prior_std"], kw["com_scale"] = tau, com_std / tau
+            kw["spread"] = "data"
+            return ls, kw
+        return fit, kw
 
 
 def _map(robot, q, cop, sigma, rtol, opts: MapOptions, seed: int, gravity=None) -> Fit:
@@ -92,6 +125,7 @@ def make_fitter(
     check_rtol(rtol)
     mopts = map_options or MapOptions()
     copts = consistent_options or ConsistentOptions()
+    copts.check()
     if method != "map" and map_options is not None and map_options != MapOptions():
         raise OptionError("map_options", f"apply to method 'map' only, not {method!r}")
     if method != "consistent" and consistent_options is not None:
@@ -105,6 +139,12 @@ def make_fitter(
             return identify_ls(robot, q, cop, sigma=sigma, rtol=rtol, gravity=gravity)
         if method == "map":
             return _map(robot, q, cop, sigma, rtol, mopts, seed, gravity)
+        if copts.via in ("auto", "prior") and copts.prior_std is None:
+            base = identify_ls(robot, q, cop, sigma=sigma, rtol=rtol, gravity=gravity)
+            src, kw = copts.resolved(base)
+            fit = consistent_from_fit(src, **kw)
+            residual_stats(fit, q, cop, gravity)
+            return fit
         return identify_consistent(
             robot, q, cop, sigma=sigma, rtol=rtol, gravity=gravity, **copts.kwargs()
         )
@@ -153,5 +193,10 @@ def identify(
 
 
 def to_consistent(fit: Fit, options: ConsistentOptions | None = None) -> Fit:
-    """Masses/CoMs that reproduce an existing fit's SESC vectors (``consistent_from_fit``)."""
-    return consistent_from_fit(fit, **(options or ConsistentOptions()).kwargs())
+    """Masses/CoMs for a fit (``consistent_from_fit``): by default (``via="auto"``) a MAP fit's
+    SESC vectors are reproduced, any other fit is weighed against an evidence-chosen CAD prior
+    on the masses and CoMs (``ConsistentOptions.via``)."""
+    opts = options or ConsistentOptions()
+    opts.check()
+    src, kw = opts.resolved(fit)
+    return consistent_from_fit(src, **kw)

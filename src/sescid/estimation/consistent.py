@@ -252,6 +252,7 @@ def consistent_from_fit(
     com_scale: float = COM_SCALE,
     fit_tol: float = FIT_TOL,
     prior_std: float | None = None,
+    spread: str = "uniform",
 ) -> Fit:
     """Masses and CoMs that reproduce ``fit``'s identified directions (see the module doc).
 
@@ -359,7 +360,11 @@ def consistent_from_fit(
     a_in, b_in = np.vstack(in_rows), np.concatenate(in_rhs)
 
     # Closeness to CAD (scaled to the total mass): ‖w ⊙ (x − x_cad)‖².
-    m_prior = m_cad * (big_m / m_cad.sum())
+    if spread not in ("uniform", "data"):
+        raise SescidError(f"spread must be 'uniform' or 'data', got {spread!r}")
+    # CAD target: masses scaled to M ("uniform"), or as they are ("data": the sum constraint
+    # and the data term place the weighed difference, the prior spreads only what is left)
+    m_prior = m_cad * (big_m / m_cad.sum()) if spread == "uniform" else m_cad.copy()
     m_bar = np.maximum(m_prior, big_m / (10 * nb)) / big_m
     x_cad = np.concatenate([m_prior / big_m, (m_prior[:, None] * model_coms(robot)).ravel()])
     x_cad[nb:] /= big_m * _ELL

@@ -7,6 +7,7 @@ session (``session``: next-best pose until converged, through the ``adapters`` p
 from __future__ import annotations
 
 from .adapters import MujocoAdapter, ReplayAdapter, RobotAdapter, load_adapter_class
+from .calibration import calibrated_sensor_document, pad_session, table_from_columns
 from .planning import PosePlan, candidates, plan_poses
 from .sensors import (
     REASONS,
@@ -65,12 +66,14 @@ __all__ = [
     "cop_from_force_plate",
     "cop_from_plate",
     "cop_from_wrench",
+    "calibrated_sensor_document",
     "fsr",
     "load_adapter_class",
     "load_plate",
     "load_sensors",
     "load_truth",
     "measure",
+    "pad_session",
     "paper_study",
     "plan_poses",
     "plate_to_sole",
@@ -80,4 +83,5 @@ __all__ = [
     "rpy_matrix",
     "run_experiment",
     "run_session",
+    "table_from_columns",
 ]

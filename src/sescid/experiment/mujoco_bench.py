@@ -81,7 +81,15 @@ from ..errors import DataError, MissingExtraError, ModelError, OptionError, Sesc
 from ..robots.profile import ServoGains
 from .planning import collision_capsules
 from .sensors import SensorConfig
-from .virtual import Experiment, ExperimentConfig, G, check_limits, real_bodies, real_robot
+from .virtual import (
+    Experiment,
+    ExperimentConfig,
+    G,
+    check_limits,
+    pad_gains,
+    real_bodies,
+    real_robot,
+)
 
 
 @dataclass(frozen=True)
@@ -535,6 +543,7 @@ def run_mujoco_experiment(
         ("backlash", config.backlash_deg),
         ("FSR noise", config.fsr_noise),
         ("FSR bias", config.fsr_bias),
+        ("FSR gain error", config.fsr_gain),
         ("read-back jitter", config.readback_jitter_ticks),
         ("IMU noise", bench.imu_noise),
     ):
@@ -560,6 +569,7 @@ def run_mujoco_experiment(
     delta = rng.uniform(-b, b, size=q_cmd.shape)
     target = q_cmd + delta
     bias = {f.name: rng.normal(0.0, config.fsr_bias, size=4) for f in sensors.feet}
+    gain = pad_gains(sensors, config, seed)
     support = next(f for f in sensors.feet if f.sole_frame == robot.support)
 
     kept, skipped, runs, timings = [], [], [], []
@@ -614,7 +624,7 @@ def run_mujoco_experiment(
         forces[f.name] = fs.reshape(m, 4)
     for f in sensors.feet:
         true = forces[f.name]
-        noisy = true + bias[f.name] + rng.normal(0.0, config.fsr_noise, size=(m, 4))
+        noisy = true / gain[f.name] + bias[f.name] + rng.normal(0.0, config.fsr_noise, size=(m, 4))
         counts = np.clip(np.round(noisy / sensors.force_unit), 0, sensors.saturation)
         counts = np.where(true > 0, counts, 0).astype(int)  # an unloaded FSR conducts nothing
         if config.registers in ("forces", "both"):
@@ -660,7 +670,7 @@ def run_mujoco_experiment(
     fsum_b = np.zeros(k)
     for f in sensors.feet:
         fs = forces[f.name].reshape(k, samples, 4)[:, 0]
-        fb = np.where(fs > 0, fs + bias[f.name], 0.0)
+        fb = np.where(fs > 0, fs / gain[f.name] + bias[f.name], 0.0)
         rel_r = np.einsum("nji,njk->nik", rot, np.array([r.foot_rot[f.name] for r, _ in runs]))
         rel_o = np.einsum("nji,nj->ni", rot, np.array([r.foot_pos[f.name] for r, _ in runs]) - pos)
         pts = np.einsum("nij,kj->nki", rel_r[:, :2, :2], f.sensors) + rel_o[:, None, :2]
@@ -688,6 +698,7 @@ def run_mujoco_experiment(
             "readback_jitter_ticks": config.readback_jitter_ticks,
             "fsr_noise_N": config.fsr_noise,
             "fsr_bias_N": config.fsr_bias,
+            "fsr_gain": config.fsr_gain,
             "registers": config.registers,
             "sensors": sensors.source,
             "bench": dataclasses.asdict(bench),
@@ -699,6 +710,7 @@ def run_mujoco_experiment(
         "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
         "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
         "fsr_bias_N": {kk: v.tolist() for kk, v in bias.items()},
+        "fsr_gain": {kk: v.tolist() for kk, v in gain.items()},
         "joint_names": robot.joint_names,
         "pose": pose_ids[kept].tolist(),
         "q_commanded": q_cmd[kept].tolist(),

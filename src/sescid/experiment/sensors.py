@@ -48,6 +48,8 @@ from ..table import (
 )
 
 FSR_FORMAT = "sescid-fsr/1"
+#: version 2 adds calibrated per-pad ``gains`` and ``offsets_N`` per foot (``sescid calibrate``)
+FSR_FORMAT_2 = "sescid-fsr/2"
 #: board corner (u, v) ∈ [0, 1]² of FSR1..FSR4 (X = 254 u, Y = 254 v)
 CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
 #: rejection reasons, in the order they are tested (a sample counts under the first that applies)
@@ -71,10 +73,23 @@ class Foot:
     #: prefix of a logged CoP, e.g. "r" → r_cop_x, r_cop_y, r_fz; default ``columns`` without
     #: a trailing "_fsr"
     cop_prefix: str = ""
+    #: (4,) calibrated gains g_k and offsets o_k (N) of the model reading = F / g + o;
+    #: None: uncalibrated (g = 1, o = 0)
+    gains: np.ndarray | None = None
+    offsets: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not self.cop_prefix:
             object.__setattr__(self, "cop_prefix", default_cop_prefix(self.columns))
+
+    def pad_forces(self, readings: np.ndarray) -> np.ndarray:
+        """Forces F = g (y − o) (m, 4) N from readings y (m, 4) N (identity if uncalibrated)."""
+        out = np.asarray(readings, dtype=float)
+        if self.offsets is not None:
+            out = out - self.offsets
+        if self.gains is not None:
+            out = out * self.gains
+        return out
 
     def centroid_point(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Point (n, 2) [m] of board coordinates u = X/254, v = Y/254 (bilinear in the sensors)."""
@@ -143,7 +158,8 @@ def load_sensors(
             raise DataError("give a foot-sensor file or a robot profile that ships one")
         path = default_sensors_path(profile)
     path = Path(path)
-    data = read_json(path, FSR_FORMAT, "a sensor configuration")
+    data = read_json(path, (FSR_FORMAT, FSR_FORMAT_2), "a sensor configuration")
+    calibrated = data.get("format") == FSR_FORMAT_2
     feet = []
     raw_feet = data.get("feet")
     if not isinstance(raw_feet, dict) or not raw_feet:
@@ -171,8 +187,20 @@ def load_sensors(
             cop = f.get("cop_columns")
             if cop is not None and (not isinstance(cop, str) or not cop.strip()):
                 raise DataError(f"{where}.cop_columns: expected a column prefix, got {cop!r}")
+            gains = offsets = None
+            if calibrated:
+                gains = _vec(f["gains"], 4, f"{where}.gains")
+                offsets = _vec(f["offsets_N"], 4, f"{where}.offsets_N")
+                if np.any(gains <= 0):
+                    raise DataError(f"{where}.gains: gains must be positive, got {gains.tolist()}")
             foot = Foot(
-                str(name), str(f["sole_frame"]), str(f["columns"]), sensors, (cop or "").strip()
+                str(name),
+                str(f["sole_frame"]),
+                str(f["columns"]),
+                sensors,
+                (cop or "").strip(),
+                gains,
+                offsets,
             )
         except KeyError as exc:
             raise DataError(f"{where}: missing field {exc}") from None
@@ -452,8 +480,9 @@ def measure(
             reject(~np.all(np.isfinite(arr), axis=1), "missing")
             reject(np.any(arr >= config.saturation, axis=1), "saturated")
             f = np.nan_to_num(arr) * config.force_unit
+            on = f.sum(axis=1) >= config.min_foot_force  # on the raw readings
+            f = np.where(on[:, None], foot.pad_forces(f), 0.0)
             total = f.sum(axis=1)
-            on = total >= config.min_foot_force
             with np.errstate(invalid="ignore", divide="ignore"):
                 c = (f @ foot.sensors) / np.where(on, total, 1.0)[:, None]
         elif foot.name in log.centroid:

@@ -75,6 +75,12 @@ class ExperimentConfig:
     readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
     fsr_noise: float = 1.5  #: N, per sensor and sample (std)
     fsr_bias: float = 0.1  #: N, per-sensor constant bias (std over sensors)
+    #: relative std of per-pad gain errors: a pad reads F / g + bias, g ~ N(1, fsr_gain²)
+    fsr_gain: float = 0.0
+    #: kinematic bench: feet whose sole the model puts on the floor share the load (two-foot
+    #: poses); the split over all their pads is the elastic one (least squares, as a rigid
+    #: body on equal springs): statics fixes only the total force and its moments
+    double_support: bool = False
     registers: str = "forces"  #: "forces", "centroid" or "both"
 
 
@@ -119,6 +125,57 @@ def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list
     return sesc_vectors(model), float(sum(b.mass for b in bodies)), placed
 
 
+def pad_gains(sensors: SensorConfig, config: ExperimentConfig, seed: int | None) -> dict:
+    """Per-pad gains g ~ N(1, fsr_gain²) of each foot (a pad reads F / g + bias).
+
+    Drawn from their own random stream (seed, 11), so adding gain errors leaves every other
+    draw of a seeded bench unchanged; all ones when ``fsr_gain`` is 0.
+    """
+    if config.fsr_gain == 0:
+        return {f.name: np.ones(4) for f in sensors.feet}
+    rng = np.random.default_rng(None if seed is None else (seed, 11))
+    out = {}
+    for f in sensors.feet:
+        g = 1.0 + rng.normal(0.0, config.fsr_gain, size=4)
+        if np.any(g <= 0.1):
+            raise DataError(f"FSR gain error {config.fsr_gain} gives a gain ≤ 0.1; use less")
+        out[f.name] = g
+    return out
+
+
+def pads_in_support(robot, foot, q: np.ndarray) -> np.ndarray:
+    """(n, 4, 2) a foot's pad centres in the support frame (x, y) at poses q (n, nq)."""
+    rot, org = robot.link_poses(q, foot.sole_frame)
+    return org[:, None, :2] + np.einsum("nij,kj->nki", rot[:, :2, :2], foot.sensors)
+
+
+def two_foot_split(robot, sensors: SensorConfig, q: np.ndarray, cop: np.ndarray, weight: float):
+    """Pad forces of every foot on the floor: the least-squares (elastic) split of the weight.
+
+    Feet count as on the floor where the model puts their sole within 10 mm of the ground and
+    5° of level at q (``sensors.OFF_FLOOR_*``). Returns forces {foot: (n, 4)} N, a mask of
+    poses whose CoP needs a pulling pad (outside the support), and its description.
+    """
+    from .sensors import OFF_FLOOR_M, OFF_FLOOR_TILT
+
+    n = q.shape[0]
+    pts, on = [], []
+    for f in sensors.feet:
+        rot, org = robot.link_poses(q, f.sole_frame)
+        tilt = np.arccos(np.clip(rot[:, 2, 2], -1.0, 1.0))
+        on.append((np.abs(org[:, 2]) <= OFF_FLOOR_M) & (tilt <= OFF_FLOOR_TILT))
+        pts.append(pads_in_support(robot, f, q))
+    mask = np.repeat(np.stack(on, axis=1), 4, axis=1)  # (n, 4·feet)
+    p = np.concatenate(pts, axis=1)  # (n, 4·feet, 2)
+    a = np.concatenate([np.ones(p.shape[:2] + (1,)), p], axis=2) * mask[:, :, None]
+    rhs = weight * np.concatenate([np.ones((n, 1)), cop], axis=1)
+    lam = np.linalg.solve(np.einsum("nki,nkj->nij", a, a), rhs[:, :, None])[:, :, 0]
+    forces = np.einsum("nki,ni->nk", a, lam)
+    bad = np.any(forces < 0, axis=1)
+    out = {f.name: forces[:, 4 * i : 4 * i + 4] for i, f in enumerate(sensors.feet)}
+    return out, bad, "the pads of the feet on the floor (a pad would pull)"
+
+
 def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
     """Error naming the first pose/joint outside the robot's joint limits."""
     lim = robot.joint_limits
@@ -159,6 +216,7 @@ def run_experiment(
         ("backlash", config.backlash_deg),
         ("FSR noise", config.fsr_noise),
         ("FSR bias", config.fsr_bias),
+        ("FSR gain error", config.fsr_gain),
         ("read-back jitter", config.readback_jitter_ticks),
     ):
         if not (v >= 0 and math.isfinite(v)):
@@ -179,13 +237,18 @@ def run_experiment(
     delta = rng.uniform(-b, b, size=q_cmd.shape)
     q_act = q_cmd + delta
     cop_true = robot.cop(q_act, r_true)
-    uv = foot.board_coordinates(cop_true)
-    tips = np.any((uv < 0) | (uv > 1), axis=1)
+    weight = mass_true * G
+    if config.double_support:
+        f_split, tips, where = two_foot_split(robot, sensors, q_act, cop_true, weight)
+    else:
+        uv = foot.board_coordinates(cop_true)
+        tips = np.any((uv < 0) | (uv > 1), axis=1)
+        where = f"the sensor rectangle of {robot.support}"
     skipped = [
         (
             str(pose_ids[i]),
             f"the real robot's CoP ({cop_true[i, 0] * 1e3:.1f}, {cop_true[i, 1] * 1e3:.1f}) mm "
-            f"lies outside the sensor rectangle of {robot.support}: it would rest on the sole "
+            f"lies outside {where}: it would rest on the sole "
             "edge or tip over, so it was not measured",
         )
         for i in np.flatnonzero(tips)
@@ -194,12 +257,16 @@ def run_experiment(
         raise DataError(f"no pose can be measured: pose {skipped[0][0]}: {skipped[0][1]}")
     keep = ~tips
     q_cmd, delta, q_act = q_cmd[keep], delta[keep], q_act[keep]
-    cop_true, uv, pose_ids = cop_true[keep], uv[keep], pose_ids[keep]
+    cop_true, pose_ids = cop_true[keep], pose_ids[keep]
     n = len(q_cmd)
-    weight = mass_true * G
-    u, v = uv[:, 0], uv[:, 1]
-    f_true = weight * np.stack([(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v], axis=1)
+    if config.double_support:
+        f_feet = {name: f[keep] for name, f in f_split.items()}
+    else:
+        u, v = uv[keep, 0], uv[keep, 1]
+        w = np.stack([(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v], axis=1)
+        f_feet = {f.name: (weight * w if f is foot else np.zeros((n, 4))) for f in sensors.feet}
     bias = {f.name: rng.normal(0.0, config.fsr_bias, size=4) for f in sensors.feet}
+    gain = pad_gains(sensors, config, seed)
 
     m = n * samples
     pose_of = np.repeat(np.arange(n), samples)
@@ -222,10 +289,12 @@ def run_experiment(
             cols[name] = q_read[pose_of, j]
     counts_by_foot = {}
     for f in sensors.feet:
-        if f is foot:
-            loaded = f_true[pose_of] + bias[f.name]
+        if f_feet[f.name].any():
+            true = f_feet[f.name][pose_of]
+            loaded = true / gain[f.name] + bias[f.name]
             noisy = loaded + rng.normal(0.0, config.fsr_noise, size=(m, 4))
             counts = np.clip(np.round(noisy / sensors.force_unit), 0, sensors.saturation)
+            counts = np.where(true.sum(axis=1, keepdims=True) > 0, counts, 0)  # unloaded: 0
         else:
             counts = np.zeros((m, 4))
         counts = counts.astype(int)
@@ -243,8 +312,13 @@ def run_experiment(
             cols[f"{f.columns}_y"] = np.where(on, y, sensors.no_load).astype(int)
 
     # noise-free measured CoP: what a perfect average of the biased sensors gives
-    fb = f_true + bias[foot.name]
-    cop_expected = (fb @ foot.sensors) / fb.sum(axis=1, keepdims=True)
+    num, den = np.zeros((n, 2)), np.zeros(n)
+    for f in sensors.feet:
+        on = f_feet[f.name].sum(axis=1) > 0
+        fb = np.where(on[:, None], f_feet[f.name] / gain[f.name] + bias[f.name], 0.0)
+        num += np.einsum("nk,nki->ni", fb, pads_in_support(robot, f, q_act))
+        den += fb.sum(axis=1)
+    cop_expected = num / den[:, None]
     names = robot.body_names
     truth = {
         "format": TRUTH_FORMAT,
@@ -260,6 +334,8 @@ def run_experiment(
             "readback_jitter_ticks": config.readback_jitter_ticks,
             "fsr_noise_N": config.fsr_noise,
             "fsr_bias_N": config.fsr_bias,
+            "fsr_gain": config.fsr_gain,
+            "double_support": config.double_support,
             "registers": config.registers,
             "sensors": sensors.source,
         },
@@ -269,6 +345,7 @@ def run_experiment(
         "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
         "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
         "fsr_bias_N": {k: v.tolist() for k, v in bias.items()},
+        "fsr_gain": {k: v.tolist() for k, v in gain.items()},
         "joint_names": robot.joint_names,
         "pose": pose_ids.tolist(),
         "q_commanded": q_cmd.tolist(),
