@@ -21,10 +21,10 @@ lint: $(STAMP)
 	$(VENV)/bin/mypy src/sescid
 
 test: lint
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto
 
 slow: $(STAMP)
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -n auto -m slow
 
 docs: $(STAMP)
 	$(PY) tools/readme_numbers.py
