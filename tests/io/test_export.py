@@ -2,22 +2,19 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
 from lxml import etree
+from oracle import PinOracle  # noqa: E402  (tests/ is on sys.path through its conftest)
 
 import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation.consistent import identify_consistent
 from sescid.io.export import export_urdf
-
-sys.path.insert(0, str(Path(__file__).parent))
-from oracle import PinOracle  # noqa: E402
 
 TOTAL = 2.97  # kg, a "weighed" mass 45 g above the URDF's
 

@@ -10,7 +10,7 @@ import matplotlib.image
 import numpy as np
 import pytest
 from op2_stance import stable_poses
-from test_report import _browse, _chromium
+from test_html import _browse, _chromium
 
 from sescid.estimation import identify_ls
 from sescid.experiment.session import SessionStep

@@ -26,7 +26,7 @@ from sescid.experiment.planning.sequential import SequentialDesign
 from sescid.experiment.session import SessionOptions, run_session
 from sescid.io import read_table
 
-EXAMPLES = Path(__file__).parents[1] / "examples"
+EXAMPLES = Path(__file__).parents[2] / "examples"
 DUMMY = f"{EXAMPLES / 'op2_dummy_robot_session.py'}:DummyRobot"
 #: the small session the MuJoCo tests share (CLI options and the same as SessionOptions)
 SMALL = ["--budget", "28", "--samples", "6", "--candidates", "300", "--window", "3"]
