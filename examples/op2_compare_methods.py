@@ -2,11 +2,11 @@
 
 The "true" robot differs from the CAD model by 4 % of its mass (``--fraction``), added as point
 masses on 6 random bodies at up to 3 cm (``--offset``) from their CoMs
-(``sescid.validation.perturbed_sesc``). Each method fits n random ±30° poses with CoP noise
+(``sescid.estimation.perturbed_sesc``). Each method fits n random ±30° poses with CoP noise
 σ = 4.93 mm; the error is the RMS of predicted minus noise-free CoP over 5000 fresh poses of the
 true robot. Prints a Markdown table (mean over seeds, mm) and the MAP / least-squares ratio.
 
-    .venv/bin/python examples/compare_methods.py [--seeds 5] [--fraction 0.15 --offset 0.05]
+    .venv/bin/python examples/op2_compare_methods.py [--seeds 5] [--fraction 0.15 --offset 0.05]
 """
 
 from __future__ import annotations
@@ -49,7 +49,12 @@ def methods(robot):
         from sescid.estimation.consistent import identify_consistent
     except ImportError:
         return out
-    out["consistent (masses ≥ 0, CoM in box)"] = lambda q, c: identify_consistent(robot, q, c)
+    out["consistent (default: CAD prior by evidence)"] = lambda q, c: sescid.identify(
+        robot, q, c, method="consistent"
+    )
+    out["consistent `--via fit` (masses ≥ 0, CoM in box)"] = lambda q, c: identify_consistent(
+        robot, q, c
+    )
     out["consistent `--cad-std 0.05`"] = lambda q, c: identify_consistent(
         robot, q, c, prior_std=0.05
     )
