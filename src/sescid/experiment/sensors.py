@@ -624,7 +624,7 @@ def pose_list_ids(table: Table) -> np.ndarray:
     return np.array([str(i) for i in range(table.n)])
 
 
-def _imu_gravity(robot, table: Table, q: np.ndarray, link: str | None) -> np.ndarray | None:
+def imu_gravity_samples(robot, table: Table, q: np.ndarray, link: str | None) -> np.ndarray | None:
     """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
     from .imu import gravity_from_imu, imu_link, read_imu
 
@@ -655,7 +655,7 @@ def fsr(
     """
     log = read_raw(log_table, robot.joint_names, config, robot.profile.servo)
     if log.gravity is None:
-        log.gravity = _imu_gravity(robot, log_table, log.q, imu_link)
+        log.gravity = imu_gravity_samples(robot, log_table, log.q, imu_link)
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(log.pose, pose_list_ids(pose_list), str(log_table.path))
