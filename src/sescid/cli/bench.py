@@ -182,6 +182,14 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     type=click.FloatRange(min=0, min_open=True),
     help="mujoco: servo stiffness [N·m/rad] (default: the robot profile's servo gains).",
 )
+@click.option(
+    "--tilt-deg",
+    default=0.0,
+    show_default=True,
+    type=click.FloatRange(0, 30),
+    help="kinematic: the support stands tilted by a random roll and pitch of this standard "
+    "deviation per pose [degrees]; the log gets grav_x, grav_y, grav_z.",
+)
 @force_option
 def experiment(
     robot_name,
@@ -202,6 +210,7 @@ def experiment(
     engine,
     weld_foot,
     kp,
+    tilt_deg,
     force,
 ):
     """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs)
@@ -220,9 +229,14 @@ def experiment(
         fsr_gain=fsr_gain,
         double_support=double_support,
         registers=registers,
+        tilt_deg=tilt_deg,
     )
     if engine == "kinematic" and (weld_foot or kp is not None):
         raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
+    if engine == "mujoco" and tilt_deg > 0:
+        raise OptionError(
+            "tilt_deg", "--tilt-deg is for --engine kinematic (the MuJoCo foot tilts by itself)"
+        )
     try:
         if engine == "mujoco":
             from ..experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
