@@ -62,3 +62,27 @@ def test_kinematic_bench_tilt(op2, tmp_path):
         fit = sescid.identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav, method="map")
         err[label] = np.sqrt(np.mean((fit.predict_cop(qa, g) - np.array(t["cop_true"])) ** 2))
     assert err["gravity"] < 0.7 * err["flat"], err
+
+
+def test_cli_predict_and_report_use_gravity(tmp_path):
+    """predict and report on tilted data project along grav_*: report's RMS is the tilted one."""
+
+    data, fit, pred = tmp_path / "sim.csv", tmp_path / "fit.json", tmp_path / "p.csv"
+    run = CliRunner().invoke
+    sim = ["simulate", "--poses", "60", "--noise", "0.001", "--tilt-deg", "2", "--out", str(data)]
+    assert run(cli, sim).exit_code == 0
+    res = run(cli, ["identify", str(data), "--method", "map", "--out", str(fit)])
+    assert res.exit_code == 0, res.output
+    res = run(cli, ["predict", str(fit), str(data), "--level", "0.95", "--out", str(pred)])
+    assert res.exit_code == 0, res.output
+    p, d = read_table(pred).columns, read_table(data).columns
+    f = sescid.load_fit(fit)
+    q = np.column_stack([d[j] for j in f.robot.joint_names])
+    g = np.column_stack([d["grav_x"], d["grav_y"], d["grav_z"]])
+    assert np.abs(p["cop_x"] - f.predict_cop(q, g)[:, 0]).max() < 1e-12
+    inside = (p["cop_x_lower"] <= d["cop_x_true"]) & (d["cop_x_true"] <= p["cop_x_upper"])
+    assert inside.mean() > 0.85  # the tilted noise-free CoP is covered
+    res = run(cli, ["report", str(fit), str(data), "--out-dir", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.output
+    rms = np.sqrt(np.mean((np.column_stack([d["cop_x"], d["cop_y"]]) - f.predict_cop(q, g)) ** 2))
+    assert "identified mean" in res.output and f"RMS {rms * 1e3:.3f} mm" in res.output
