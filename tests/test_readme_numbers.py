@@ -28,3 +28,37 @@ def test_readme_quotes_a_verbatim_run():
     figures.pop("seconds")
     missing = {k: v for k, v in figures.items() if v not in section}
     assert not missing, f"README quotes other figures than a run gives: {missing}"
+
+
+@pytest.mark.slow
+def test_readme_quotes_the_physics_bench_run():
+    """The walk-through's physics-bench rows and figures are what `--engine mujoco` gives now."""
+    pytest.importorskip("mujoco")
+    spec = importlib.util.spec_from_file_location(
+        "readme_numbers", ROOT / "tools/readme_numbers.py"
+    )
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("## On a real OP2") : readme.index("## Pose planning")]
+    m = mod.walk_through("mujoco")
+    quoted = [
+        "manufacturer offset",
+        "manufacturer |mean|",
+        "manufacturer RMS",
+        "identified |mean|",
+        "identified RMS",
+        "truth identified",
+        "truth manufacturer",
+        "fresh identified",
+        "fresh manufacturer",
+        "pads − gravity-aware statics max",
+        "pads − flat statics max",
+        "pads − flat statics RMS",
+        "foot tilt max",
+        "servo sag max",
+    ]
+    missing = {k: m[k] for k in quoted if m[k] not in section}
+    assert not missing, f"README quotes other figures than a run gives: {missing}"
+    assert f"{m['skipped']} of the 38 poses topple" in section

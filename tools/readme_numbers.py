@@ -2,6 +2,7 @@
 
     python tools/readme_numbers.py            # prints the table and the truth sentence
     make docs                                  # the same
+    python tools/readme_numbers.py --engine mujoco   # the physics bench's row and figures
 
 Runs ``poses → experiment → fsr → identify → report → truth`` (the commands of the README's
 "On a real OP2" section) in a temporary folder through the ``sescid`` command line, then reads
@@ -29,7 +30,14 @@ COMMANDS = [
 ]
 
 
-def walk_through() -> dict[str, str]:
+def commands(engine: str = "kinematic") -> list[str]:
+    """The walk-through, with ``--engine mujoco`` on the experiment line for the physics bench."""
+    if engine == "kinematic":
+        return list(COMMANDS)
+    return [f"{c} --engine {engine}" if c.startswith("sescid experiment ") else c for c in COMMANDS]
+
+
+def walk_through(engine: str = "kinematic") -> dict[str, str]:
     """Run the commands in a temporary folder; the quoted figures as the README prints them."""
     from click.testing import CliRunner
 
@@ -44,7 +52,7 @@ def walk_through() -> dict[str, str]:
         os.chdir(tmp)
         try:
             start = time.perf_counter()
-            for line in COMMANDS:
+            for line in commands(engine):
                 res = CliRunner().invoke(cli, line.split()[1:])
                 if res.exit_code != 0:
                     raise SystemExit(f"{line}: exit {res.exit_code}\n{res.output}")
@@ -56,6 +64,7 @@ def walk_through() -> dict[str, str]:
             before = cop_offset_stats(cop, fit.robot.cop(q, fit.r_prior))
             after = cop_offset_stats(cop, fit.predict_cop(q))
             truth = compare_truth(fit, "truth.json")
+            extra = _physics_figures(fit, table, q, cop) if engine == "mujoco" else {}
         finally:
             os.chdir(here)
 
@@ -76,11 +85,78 @@ def walk_through() -> dict[str, str]:
         "true mass": f"{truth.true_mass_kg:.3f} kg",
         "model mass": f"{truth.model_mass_kg:.3f} kg",
         "seconds": f"{seconds:.0f}",
+    } | extra
+
+
+def _physics_figures(fit, table, q, cop) -> dict[str, str]:
+    """Physics bench only: statics vs the pads' CoP, gravity's share, LS vs MAP CoM height."""
+    import json
+
+    import numpy as np
+
+    from sescid.estimation import identify
+    from sescid.estimation.tilt import tilt_direction
+    from sescid.experiment.imu import table_gravity
+    from sescid.io import read_cop_se
+
+    t = json.loads(open("truth.json").read())
+    pads, grav = np.array(t["cop_pads"]), np.array(t["cop_gravity"])
+    flat = np.array(t["cop_true"])
+    robot = fit.robot
+    r_true = np.array([t["r_true"][b] for b in robot.body_names])
+    qa = np.array(t["q_actual"])
+    g = table_gravity(robot, table, q)
+    se = read_cop_se(table)
+    com_true = robot.com(qa, r_true)[:, 2]
+    out = {
+        "skipped": str(len(t["skipped"])),
+        "pads − gravity-aware statics max": f"{np.abs(pads - grav).max() * 1e6:.1f} µm",
+        "pads − flat statics max": f"{np.abs(pads - flat).max() * 1e3:.2f} mm",
+        "pads − flat statics RMS": f"{np.sqrt(np.mean((pads - flat) ** 2)) * 1e3:.2f} mm",
+        "foot tilt max": f"{max(t['foot_tilt']) * 1e3:.1f} mrad",
+        "servo sag max": f"{np.abs(np.array(t['servo_sag'])).max() * 1e3:.1f} mrad",
     }
+    for label, method, grav_cols in (
+        ("flat LS", "ls", None),
+        ("gravity LS", "ls", g),
+        ("gravity MAP", "map", g),
+    ):
+        f = identify(robot, q, cop, sigma=se, method=method, gravity=grav_cols)
+        d = f.predict_cop(qa) - flat
+        dz = f.predict_com(qa)[:, 2] - com_true
+        td = tilt_direction(f)
+        out[f"{label} truth CoP RMS"] = f"{np.sqrt(np.mean(d**2)) * 1e3:.2f} mm"
+        out[f"{label} CoM height RMS"] = f"{np.sqrt(np.mean(dz**2)) * 1e3:.1f} mm"
+        out[f"{label} rank"] = str(f.rank)
+        if td is not None:
+            out[f"{label} height offset"] = (
+                f"{td.value * 1e3:.1f} ± {td.std * 1e3:.1f} mm (prior {td.prior * 1e3:.1f} mm)"
+            )
+    return out
 
 
 def main() -> None:
-    """Print the README's table and truth sentence from a fresh run."""
+    """Print the README's table and truth sentence from a fresh run (``--engine mujoco``: the
+    physics bench's row and figures)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--engine", choices=["kinematic", "mujoco"], default="kinematic")
+    engine = ap.parse_args().engine
+    if engine == "mujoco":
+        m = walk_through("mujoco")
+        print(
+            f"| physics bench (`--engine mujoco`), manufacturer | {m['manufacturer offset']} | "
+            f"{m['manufacturer |mean|']} | {m['manufacturer RMS']} |"
+        )
+        print(
+            f"| physics bench (`--engine mujoco`), identified | — | {m['identified |mean|']} | "
+            f"{m['identified RMS']} |"
+        )
+        print()
+        for key, value in m.items():
+            print(f"{key}: {value}")
+        return
     n = walk_through()
     print("| CoP predicted − measured, 38 poses | mean offset (x, y) | \\|mean\\| | RMS |")
     print("|---|---|---|---|")

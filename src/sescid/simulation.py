@@ -35,6 +35,8 @@ class SimData:
     noise: float
     n_drawn: int = 0  #: raw draws (more than n when ``stable`` rejected some)
     n_clipped: int = 0  #: kept poses with at least one joint clipped to its limits
+    #: (n, 3) gravity direction per pose in the support frame (a tilted support); None: level
+    gravity: np.ndarray | None = None
 
 
 #: peak bytes per stored float of a pose array while simulating or identifying it (temporaries)
@@ -88,15 +90,20 @@ def simulate(
     clip: bool = False,
     r_true: np.ndarray | None = None,
     stable: bool = False,
+    tilt: float = 0.0,
 ) -> SimData:
     """Random poses and their CoP = CoM projection + N(0, noise²) per axis.
 
     ``r_true``: SESC vectors of the "true" robot (default: the model's own). ``stable``: keep
     only poses whose noise-free CoP lies inside the support sole (``Robot.sole``), drawing
-    until there are ``n``.
+    until there are ``n``. ``tilt`` (rad): the support is tilted per pose by a random roll and
+    pitch ~ N(0, tilt²); the CoP is then the CoM projected along gravity (``gravity``, support
+    frame). The draws for ``tilt = 0`` are those of a level simulation.
     """
     if not (noise >= 0 and math.isfinite(noise)):
         raise OptionError("noise", f"must be a finite standard deviation ≥ 0 m, got {noise}")
+    if not (0 <= tilt <= math.radians(30)):
+        raise OptionError("tilt", f"must be a standard deviation in [0, 30°], got {tilt} rad")
     rng = np.random.default_rng(seed)
     if not stable:
         q = random_poses(robot, n, range_deg, rng, clip)
@@ -105,10 +112,23 @@ def simulate(
         q, n_drawn = _stable_poses(robot, n, range_deg, rng, clip)
     lim = robot.joint_limits
     n_clipped = int(np.sum(np.any((q <= lim[:, 0]) | (q >= lim[:, 1]), axis=1))) if clip else 0
-    cop_true = robot.cop(q, r_true)
-    cop = cop_true + rng.normal(0.0, noise, size=cop_true.shape)
+    e = rng.normal(0.0, noise, size=(q.shape[0], 2))
+    gravity = None
+    if tilt > 0:  # roll φ, pitch θ of the support: gravity (sin θ, −cos θ sin φ, −cos θ cos φ)
+        roll, pitch = rng.normal(0.0, tilt, size=(2, q.shape[0]))
+        gravity = np.stack(
+            [np.sin(pitch), -np.cos(pitch) * np.sin(roll), -np.cos(pitch) * np.cos(roll)], axis=1
+        )
+    cop_true = robot.cop(q, r_true, gravity)
+    cop = cop_true + e
     return SimData(
-        q=q, cop=cop, cop_true=cop_true, noise=noise, n_drawn=n_drawn, n_clipped=n_clipped
+        q=q,
+        cop=cop,
+        cop_true=cop_true,
+        noise=noise,
+        n_drawn=n_drawn,
+        n_clipped=n_clipped,
+        gravity=gravity,
     )
 
 

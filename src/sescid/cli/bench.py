@@ -26,7 +26,7 @@ from ..io import read_cop, read_cop_se, read_poses, read_table, write_table
 from ..progress import TerminalProgress
 from ..report import design_figure, write_report
 from ..simulation import PAPER_NOISE
-from .common import force_option, load, mm, robot_options, seed_option
+from .common import force_option, imu_link_option, load, mm, robot_options, seed_option
 
 _EXP = ExperimentConfig()
 
@@ -56,8 +56,9 @@ _EXP = ExperimentConfig()
     help="Usable samples per pose.",
 )
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
+@imu_link_option
 @force_option
-def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, force):
+def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, imu_link, force):
     """Reduce a raw foot-sensor log to one CoP per pose (support frame, m) with its error.
 
     Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m),
@@ -67,7 +68,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, fo
     robot = load(robot_name, support)
     config = load_sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
-    res, unmeasured = run_fsr(robot, read_table(raw), config, min_samples, pose_list)
+    res, unmeasured = run_fsr(robot, read_table(raw), config, min_samples, pose_list, imu_link)
     with outs:
         write_table(outs.path(out), res.columns(robot.joint_names))
     total = res.rejected.sum(axis=0)
@@ -181,6 +182,14 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, fo
     type=click.FloatRange(min=0, min_open=True),
     help="mujoco: servo stiffness [N·m/rad] (default: the robot profile's servo gains).",
 )
+@click.option(
+    "--tilt-deg",
+    default=0.0,
+    show_default=True,
+    type=click.FloatRange(0, 30),
+    help="kinematic: the support stands tilted by a random roll and pitch of this standard "
+    "deviation per pose [degrees]; the log gets grav_x, grav_y, grav_z.",
+)
 @force_option
 def experiment(
     robot_name,
@@ -201,6 +210,7 @@ def experiment(
     engine,
     weld_foot,
     kp,
+    tilt_deg,
     force,
 ):
     """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs)
@@ -219,9 +229,14 @@ def experiment(
         fsr_gain=fsr_gain,
         double_support=double_support,
         registers=registers,
+        tilt_deg=tilt_deg,
     )
     if engine == "kinematic" and (weld_foot or kp is not None):
         raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
+    if engine == "mujoco" and tilt_deg > 0:
+        raise OptionError(
+            "tilt_deg", "--tilt-deg is for --engine kinematic (the MuJoCo foot tilts by itself)"
+        )
     try:
         if engine == "mujoco":
             from ..experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
@@ -257,13 +272,20 @@ def experiment(
 @click.argument("fit_file", type=click.Path(dir_okay=False))
 @click.argument("measured", type=click.Path(dir_okay=False))
 @click.option("--out-dir", default="report", show_default=True, type=click.Path(file_okay=False))
+@imu_link_option
 @force_option
-def report(fit_file, measured, out_dir, force):
-    """Figures and one self-contained HTML page from a fit and measured CoPs (never re-fits)."""
+def report(fit_file, measured, out_dir, imu_link, force):
+    """Figures and one self-contained HTML page from a fit and measured CoPs (never re-fits).
+
+    With grav_x/y/z (or IMU) columns the predicted CoPs are projected along that gravity.
+    """
+    from ..experiment.imu import table_gravity
+
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
     table = read_table(measured)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
+    gravity = table_gravity(fit.robot, table, q, imu_link)
     cop = read_cop(table)
     se = read_cop_se(table)
     with outs:
@@ -275,6 +297,7 @@ def report(fit_file, measured, out_dir, force):
             cop_se=se,
             pose_ids=pose_list_ids(table),
             progress=TerminalProgress("report files"),
+            gravity=gravity,
         )
     b, a = res["before"], res["after"]
     click.echo(

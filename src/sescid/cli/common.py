@@ -78,6 +78,16 @@ def seed_option(f: Any) -> Any:
     return click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))(f)
 
 
+def imu_link_option(f: Any) -> Any:
+    """--imu-link: the link whose IMU roll/pitch columns give gravity (no grav_x/y/z)."""
+    return click.option(
+        "--imu-link",
+        default=None,
+        help="Link carrying the IMU of the imu_roll/imu_pitch columns; they give the gravity "
+        "direction when there are no grav_x/y/z columns (default: the profile's).",
+    )(f)
+
+
 def force_option(f: Any) -> Any:
     """--force: replace write-protected output files (inputs, devices and folders never)."""
     return click.option("--force", is_flag=True, help="Replace write-protected output files.")(f)

@@ -32,13 +32,26 @@ from .common import force_option, load, mm, robot_options, seed_option
     "carries the paper's convention (op2: the paper's ±30° study is unclipped)].",
 )
 @click.option("--stable", is_flag=True, help="Keep only poses whose CoP is inside the sole.")
+@click.option(
+    "--tilt-deg",
+    default=0.0,
+    show_default=True,
+    type=click.FloatRange(0, 30),
+    help="Tilt the support per pose by a random roll and pitch of this standard deviation "
+    "[degrees]; writes grav_x, grav_y, grav_z.",
+)
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
 @force_option
-def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, out, force):
+def simulate(
+    robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out, force
+):
     """Simulate poses and CoP measurements (paper §3) into a CSV.
 
-    Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m).
+    Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m);
+    with --tilt-deg also grav_x, grav_y, grav_z (gravity direction in the support frame).
     """
+    import math
+
     from ..io import write_table
     from ..simulation import simulate as run_simulate
 
@@ -46,10 +59,14 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, o
     robot = load(robot_name, support)
     if clip is None:
         clip = robot.profile.paper_limits_file is None
-    sim = run_simulate(robot, poses, range_deg, noise, seed, clip, stable=stable)
+    sim = run_simulate(
+        robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg)
+    )
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
     cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
+    if sim.gravity is not None:
+        cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
     with outs:
         write_table(outs.path(out), cols)
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, noise {noise} m")

@@ -34,14 +34,13 @@ from ..io import (
     export_model,
     read_cop,
     read_cop_se,
-    read_gravity,
     read_poses,
     read_table,
     write_table,
 )
 from ..io.tables import iter_table
 from ..progress import TerminalProgress
-from .common import force_option, load, mm, robot_options, seed_option
+from .common import force_option, imu_link_option, load, mm, robot_options, seed_option
 
 _CONSISTENT = ConsistentOptions()
 
@@ -226,6 +225,7 @@ def _run_online(robot, q, cop, sigma, opts, method, rtol) -> Fit:
     help="Accept poses outside the model's joint limits (a warning stored in the fit); "
     "simulated data (cop_x_true columns) get the warning without the flag.",
 )
+@imu_link_option
 @force_option
 def identify(data, robot_name, support, out, weighted, rtol, method, force, **opts):
     """Identify the SESC vectors from a CSV/Parquet of poses (radians) and cop_x, cop_y (m).
@@ -235,7 +235,7 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     """
     outs = OutputSet([out], [data, robot_name], force=force)
     robot = load(robot_name, support)
-    chunks, truth = _read_chunks(data, robot, weighted)
+    chunks, truth = _read_chunks(data, robot, weighted, opts["imu_link"])
     streamed = method == "ls" and not (opts["robust"] or opts["online"])
     streamed = streamed and opts["cv"] is None and opts["joint_noise_deg"] is None
     q, cop, sigma, gravity = ((None,) * 4) if streamed else _join(chunks)
@@ -315,7 +315,10 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     if not streamed:
         _extras(fit, fitter, q, cop, sigma, opts)
     if simulated:  # simulated data: the noise-free CoP
-        sq = [np.sum((fit.predict_cop(c[0]) - t) ** 2) for c, t in zip(chunks, truth, strict=True)]
+        sq = [
+            np.sum((fit.predict_cop(c[0], c[3]) - t) ** 2)
+            for c, t in zip(chunks, truth, strict=True)
+        ]
         fit.truth_cop_rmse = float(np.sqrt(np.sum(sq) / (2 * n_poses)))
         click.echo(
             f"truth: RMS of predicted − noise-free CoP at these poses "
@@ -329,13 +332,16 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     click.echo(f"wrote {out}")
 
 
-def _read_chunks(data, robot, weighted: bool) -> tuple[list[tuple], list]:
+def _read_chunks(data, robot, weighted: bool, imu_link=None) -> tuple[list[tuple], list]:
     """(q, cop, sigma, gravity) per streamed chunk of the data file, and the noise-free CoP
-    (cop_x_true, cop_y_true) per chunk when the file has it (else [None])."""
+    (cop_x_true, cop_y_true) per chunk when the file has it (else [None]). Gravity: grav_x/y/z,
+    else the IMU columns on ``imu_link`` (``experiment.imu.table_gravity``)."""
+    from ..experiment.imu import table_gravity
+
     chunks, truth = [], []
     for table in iter_table(data):
         q = read_poses(table, robot.joint_names, robot.profile.servo)
-        cop, gravity, sigma = read_cop(table), read_gravity(table), None
+        cop, gravity, sigma = read_cop(table), table_gravity(robot, table, q, imu_link), None
         if weighted:
             sigma = read_cop_se(table)
             if sigma is None:
@@ -415,17 +421,23 @@ def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
     help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
     "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
 )
+@imu_link_option
 @force_option
-def predict(fit_file, poses, out, level, force):
+def predict(fit_file, poses, out, level, imu_link, force):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
 
-    With columns grav_x, grav_y, grav_z the CoP is projected along that gravity direction.
+    With columns grav_x, grav_y, grav_z (or imu_roll, imu_pitch of the IMU link) the CoP is
+    projected along that gravity direction; its interval then includes the CoM-height
+    uncertainty through g_xy/g_z.
     """
+    from ..estimation import cop_interval
+    from ..experiment.imu import table_gravity
+
     outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
     table = read_table(poses)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
-    gravity = read_gravity(table)
+    gravity = table_gravity(fit.robot, table, q, imu_link)
     cop = fit.predict_cop(q, gravity)
     com = fit.predict_com(q)
     std = fit.predict_std(q)
@@ -444,10 +456,9 @@ def predict(fit_file, poses, out, level, force):
         iv = com_interval(fit, q, level)  # CoP = CoM x, y
         for j, name in enumerate(("com_x", "com_y", "com_z")):
             cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
-        shift = cop - com[:, :2]  # tilted gravity: the CoM interval moved along gravity
+        civ = cop_interval(fit, q, level, gravity=gravity)  # with g_xy/g_z · CoM-height error
         for j, name in enumerate(("cop_x", "cop_y")):
-            cols[f"{name}_lower"] = iv.lower[:, j] + shift[:, j]
-            cols[f"{name}_upper"] = iv.upper[:, j] + shift[:, j]
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = civ.lower[:, j], civ.upper[:, j]
     with outs:
         write_table(outs.path(out), cols)
     lost = int(np.sum(np.isnan(std[:, 0])))

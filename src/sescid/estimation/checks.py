@@ -102,6 +102,16 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"the information matrix is ill-conditioned ({cond:.3g}): some combinations are "
             "barely excited, their intervals are wide"
         )
+    from .tilt import TILT_REL_STD_WARN, tilt_direction
+
+    tilt = tilt_direction(fit) if fit.map is None else None
+    if tilt is not None and tilt.rel_std > TILT_REL_STD_WARN:
+        out.append(
+            f"the tilted support determines a CoM-height offset only weakly: "
+            f"{tilt.value * 1e3:.1f} ± {tilt.std * 1e3:.1f} mm (prior model "
+            f"{tilt.prior * 1e3:.1f} mm); least squares takes it from the data, so CoM heights "
+            "are that uncertain: use a MAP fit (method map) with the gravity columns"
+        )
     if fit.sigma_hat < EXACT_FIT and fit.n_rows > fit.rank:
         out.append(
             "σ̂ = 0: the CoP is fitted exactly (a constant or all-zero CoP, or noise-free data); "

@@ -29,6 +29,15 @@ def fit_notes(fit: Fit) -> list[str]:
             f"{len(fit.unidentifiable)} of {n_par} directions are not determined by the data; "
             f"{filled} (CoP predictions do not depend on them, CoM height partly does)"
         )
+    from .tilt import tilt_direction
+
+    tilt = tilt_direction(fit)
+    if tilt is not None:
+        notes.append(
+            f"tilted support: the data determine a CoM-height offset of {tilt.value * 1e3:.2f} "
+            f"± {tilt.std * 1e3:.2f} mm (prior model {tilt.prior * 1e3:.2f} mm; rank +1 over "
+            "a level sole)"
+        )
     if fit.weighted:
         notes.append(
             "weighted by the given CoP standard errors: sigma_hat is the dimensionless scale "

@@ -83,11 +83,13 @@ class OnlineEstimator:
         self._weighted = False
 
     # --- the recursion ------------------------------------------------------------------
-    def update(self, q, cop, sigma=None) -> Step:
-        """Add one pose (nq,) / (1, nq) or a chunk (n, nq) [rad] with CoP (n, 2) [m]."""
+    def update(self, q, cop, sigma=None, gravity=None) -> Step:
+        """Add one pose (nq,) / (1, nq) or a chunk (n, nq) [rad] with CoP (n, 2) [m];
+        ``gravity`` (n, 3): the gravity direction per pose in the support frame (tilted rows)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         cop = np.atleast_2d(np.asarray(cop, dtype=float))
-        accumulate(self.robot, [(q, cop, sigma)], self.ne)
+        g = None if gravity is None else np.atleast_2d(np.asarray(gravity, dtype=float))
+        accumulate(self.robot, [(q, cop, sigma, g)], self.ne)
         self._weighted = self._weighted or sigma is not None
         step = self._status()
         self.history.append(step)

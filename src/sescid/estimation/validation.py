@@ -75,17 +75,42 @@ def _interval(value, std, level, dof) -> Interval:
     return Interval(value, std, value - k * std, value + k * std, level)
 
 
-def cop_interval(fit: Fit, q, level: float = 0.95, new_measurement: bool = False) -> Interval:
-    """Interval for the CoP (n, 2) [m] at poses q (n, nq) [rad].
+def cop_std(fit: Fit, q, gravity=None) -> np.ndarray:
+    """Standard error (n, 2) [m] of the predicted CoP at poses q, under gravity (n, 3) if given.
 
-    Default: confidence interval of the noise-free CoP; ``new_measurement`` adds σ̂² to cover
-    a future measurement.
+    Under tilted gravity the CoP row is Φ_xy − (g_xy/g_z) Φ_z, so its variance carries the
+    CoM-height uncertainty: var_x − 2 t cov(x, z) + t² var_z with t = g_x/g_z (likewise y).
+    nan where the level x/y row is not determined (``Fit.predict_std``).
     """
     q = as_poses(q, fit.robot.nq)
-    std = fit.predict_std(q, rows=(0, 1))
+    level = fit.predict_std(q, rows=(0, 1))
+    if gravity is None:
+        return level
+    g = np.asarray(gravity, dtype=float)
+    out = np.empty_like(level)
+    for s in range(0, q.shape[0], 4096):
+        blk = slice(s, s + 4096)
+        phi = fit.robot.regressor_tilted(q[blk], g[blk])
+        var = np.einsum("nri,ij,nrj->nr", phi, fit.cov, phi)
+        out[blk] = np.sqrt(np.clip(var, 0, None))
+    out[np.isnan(level)] = np.nan
+    return out
+
+
+def cop_interval(
+    fit: Fit, q, level: float = 0.95, new_measurement: bool = False, gravity=None
+) -> Interval:
+    """Interval for the CoP (n, 2) [m] at poses q (n, nq) [rad], under gravity (n, 3) if given.
+
+    Default: confidence interval of the noise-free CoP; ``new_measurement`` adds σ̂² to cover
+    a future measurement. Under tilted gravity it includes the CoM-height uncertainty
+    (``cop_std``).
+    """
+    q = as_poses(q, fit.robot.nq)
+    std = cop_std(fit, q, gravity)
     if new_measurement:
         std = np.sqrt(std**2 + fit.sigma_hat**2)
-    return _interval(fit.predict_cop(q), std, level, residual_dof(fit))
+    return _interval(fit.predict_cop(q, gravity), std, level, residual_dof(fit))
 
 
 def com_interval(fit: Fit, q, level: float = 0.95) -> Interval:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from .adapters import MujocoAdapter, ReplayAdapter, RobotAdapter, load_adapter_class
 from .calibration import calibrated_sensor_document, pad_session, table_from_columns
+from .imu import IMU_COLUMNS, gravity_from_imu, gravity_in_link, read_imu, table_gravity
 from .planning import PosePlan, candidates, plan_poses
 from .sensors import (
     REASONS,
@@ -44,6 +45,7 @@ from .wrench import (
 
 __all__ = [
     "DEFAULT_EXTRA",
+    "IMU_COLUMNS",
     "REASONS",
     "Experiment",
     "ExperimentConfig",
@@ -68,6 +70,8 @@ __all__ = [
     "cop_from_wrench",
     "calibrated_sensor_document",
     "fsr",
+    "gravity_from_imu",
+    "gravity_in_link",
     "load_adapter_class",
     "load_plate",
     "load_sensors",
@@ -78,10 +82,12 @@ __all__ = [
     "plan_poses",
     "plate_to_sole",
     "pose_list_ids",
+    "read_imu",
     "read_raw",
     "real_robot",
     "rpy_matrix",
     "run_experiment",
     "run_session",
     "table_from_columns",
+    "table_gravity",
 ]

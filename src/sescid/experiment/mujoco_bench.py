@@ -118,7 +118,9 @@ class MujocoBenchConfig:
     contact_timeconst: float = 0.02  #: s, pad contact stiffness (MuJoCo solref; its default)
     contact_dampratio: float = 1.0  #: pad contact damping ratio (MuJoCo solref)
     inertia_radius: float = 0.02  #: m, fallback inertia 0.4 m ρ² for bodies without one
-    imu_body: str | None = None  #: body whose orientation the IMU reports; None: the heaviest
+    #: link whose orientation the IMU reports; None: the profile's ``imu_link``, else the
+    #: heaviest body
+    imu_body: str | None = None
     imu_noise: float = 0.0  #: rad, per sample (std)
     weld_foot: bool = False  #: fix the support body level to the world (statics check)
     double_support: bool = False  #: both feet stand on the floor
@@ -368,10 +370,15 @@ class _Bench:
         self.root = m.body(robot.body_names[0]).id
         self.root_q = 0 if not bench.weld_foot else None  # free joint first in qpos
         names = robot.body_names
-        imu = bench.imu_body or names[int(np.argmax(robot.masses))]
-        if imu not in names:
-            raise OptionError("imu_body", f"'{imu}' is not a body (bodies: {', '.join(names)})")
-        self.imu = m.body(imu).id
+        imu = bench.imu_body or robot.profile.imu_link or names[int(np.argmax(robot.masses))]
+        if imu in robot.model.link_frames:
+            b_imu, x_imu = robot.model.link_frames[imu]
+        elif imu in names:
+            b_imu, x_imu = names.index(imu), np.eye(4)
+        else:
+            raise OptionError("imu_body", f"'{imu}' is not a link (bodies: {', '.join(names)})")
+        self.imu = m.body(names[b_imu]).id
+        self.imu_rot = np.asarray(x_imu[:3, :3], dtype=float)  # the link in its body's frame
         self.pads = {
             f.name: np.array([m.geom(f"pad_{f.name}_{k}").id for k in range(1, 5)])
             for f in sensors.feet
@@ -468,7 +475,7 @@ class _Bench:
         pads, _ = self._contacts()
         rot = d.xmat[self.root].reshape(3, 3).copy()
         pos = d.xpos[self.root].copy()
-        imu_r = d.xmat[self.imu].reshape(3, 3)
+        imu_r = d.xmat[self.imu].reshape(3, 3) @ self.imu_rot
         roll = math.atan2(imu_r[2, 1], imu_r[2, 2])
         pitch = -math.asin(max(-1.0, min(1.0, imu_r[2, 0])))
         foot_rot = {k: d.site_xmat[s].reshape(3, 3).copy() for k, s in self.sole_site.items()}

@@ -573,7 +573,8 @@ def measure(
 
     grav = None
     if log.gravity is not None:  # mean direction over the usable samples, renormalised
-        g_sum = np.stack([np.bincount(g[ok], log.gravity[ok, a], minlength=k) for a in range(3)], 1)
+        og = ok & np.all(np.isfinite(log.gravity), axis=1)
+        g_sum = np.stack([np.bincount(g[og], log.gravity[og, a], minlength=k) for a in range(3)], 1)
         with np.errstate(invalid="ignore", divide="ignore"):
             grav = g_sum / np.linalg.norm(g_sum, axis=1, keepdims=True)
     keep = (n_used >= min_samples) & good_q
@@ -623,18 +624,38 @@ def pose_list_ids(table: Table) -> np.ndarray:
     return np.array([str(i) for i in range(table.n)])
 
 
+def imu_gravity_samples(robot, table: Table, q: np.ndarray, link: str | None) -> np.ndarray | None:
+    """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
+    from .imu import gravity_from_imu, imu_link, read_imu
+
+    rp = read_imu(table)
+    name = imu_link(robot, link)
+    if rp is None or name is None:
+        return None
+    out = np.full((q.shape[0], 3), np.nan)
+    ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(rp), axis=1)
+    if np.any(ok):
+        out[ok] = gravity_from_imu(robot, q[ok], rp[ok, 0], rp[ok, 1], name)
+    return out
+
+
 def fsr(
     robot,
     log_table: Table,
     config: SensorConfig,
     min_samples: int = 5,
     pose_list: Table | None = None,
+    imu_link: str | None = None,
 ) -> tuple[Measured, list[str]]:
     """Reduce a raw log table per pose; with a ``pose_list`` table, check the ids against it.
 
+    Without ``grav_x/y/z`` columns, ``imu_roll``/``imu_pitch`` of the IMU on ``imu_link`` (or
+    the profile's) give the gravity direction per sample (``experiment.imu``).
     Returns the result and the pose-list ids that were not measured.
     """
     log = read_raw(log_table, robot.joint_names, config, robot.profile.servo)
+    if log.gravity is None:
+        log.gravity = imu_gravity_samples(robot, log_table, log.q, imu_link)
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(log.pose, pose_list_ids(pose_list), str(log_table.path))

@@ -15,7 +15,9 @@ Loop (``run_session``):
    adapter reports as failed — fell, did not settle — is skipped and logged), read ``samples``
    samples, reduce them to one CoP per pose exactly as ``sescid fsr`` does (``measure``);
 5. update the online estimator (``estimation.OnlineEstimator``, weighted by the CoP standard
-   errors: at every step equal to the batch ``identify --weighted`` fit);
+   errors, with the gravity direction the adapter logs (``grav_x/y/z``, or the IMU's roll/pitch
+   on the profile's IMU link): at every step equal to the batch ``identify --weighted`` fit of
+   the session's measured poses);
 6. stop when **converged** — the predicted RMS CoP standard error over reference poses fell by
    less than ``tol`` (relative) over the last ``window`` measured poses, with at least
    ``min_measured`` poses — or when it reached ``target_std``, or when the ``budget`` of
@@ -48,7 +50,7 @@ from .planning import (
     projected_regressor,
 )
 from .planning.sequential import SequentialDesign
-from .sensors import Measured, SensorConfig, measure, read_raw
+from .sensors import Measured, RawLog, SensorConfig, imu_gravity_samples, measure, read_raw
 from .virtual import check_limits
 
 #: m, prior scale of a body's SESC components, for the per-body uncertainty shown (0..1 scale)
@@ -149,6 +151,15 @@ def raw_table(cols: dict[str, np.ndarray]) -> Table:
     return Table(Path("session raw log"), num, text)
 
 
+def _read_log(robot: Robot, cols: dict[str, np.ndarray], sensors: SensorConfig) -> RawLog:
+    """The raw log of these columns as ``sescid fsr`` reads it (IMU gravity included)."""
+    table = raw_table(cols)
+    log = read_raw(table, robot.joint_names, sensors, robot.profile.servo)
+    if log.gravity is None:
+        log.gravity = imu_gravity_samples(robot, table, log.q, None)
+    return log
+
+
 def _body_std(est: OnlineEstimator, basis: np.ndarray, n_bodies: int) -> np.ndarray:
     """(N,) RMS SESC std per body [m] over the identifiable directions (prior scale τ)."""
     s = est.history[-1].noise if est.history else 1.0
@@ -239,7 +250,7 @@ def run_session(
                 raise DataError(f"pose {pose}: the adapter changed its columns")
             m = n.pop()
             part = {"pose": np.full(m, pose), "sample": np.arange(m)} | {c: cols[c] for c in names}
-            log = read_raw(raw_table(part), robot.joint_names, sensors, robot.profile.servo)
+            log = _read_log(robot, part, sensors)
             meas = measure(robot, log, sensors, opt.min_samples)
             if len(meas.pose) == 0:
                 step.reason = meas.dropped[0][1] if meas.dropped else "no usable CoP"
@@ -256,13 +267,13 @@ def run_session(
             step.status = "measured"
             step.q_measured, step.cop, step.cop_se = meas.q[0], meas.cop[0], se
             if est.ne.n_poses:
-                step.cop_predicted = robot.cop(meas.q, _estimate(est, basis))[0]
-            st = est.update(meas.q, meas.cop, meas.cop_se)
+                step.cop_predicted = robot.cop(meas.q, _estimate(est, basis), meas.gravity)[0]
+            st = est.update(meas.q, meas.cop, meas.cop_se, meas.gravity)  # as identify does
             design.add(nxt.index)
             step.cop_std, step.rank = st.cop_std, st.rank
             step.converged = st.converged and st.n_poses >= min_measured
             step.body_std = _body_std(est, basis, n_bodies)
-            if st.rank == basis.shape[1]:  # identified: check stability on the estimate too
+            if st.rank >= basis.shape[1]:  # identified: check stability on the estimate too
                 r_est = _estimate(est, basis)
             steps.append(step)
             obs.finished_pose(step, steps)
@@ -281,7 +292,7 @@ def run_session(
         why = steps[0].reason if steps else "no pose commanded"
         raise DataError(f"the session measured no pose (first: {why})")
     raw = {k: np.concatenate([p[k] for p in raw_parts]) for k in raw_parts[0]}
-    log = read_raw(raw_table(raw), robot.joint_names, sensors, robot.profile.servo)
+    log = _read_log(robot, raw, sensors)
     result = SessionResult(
         steps=steps,
         stop_reason=stop,

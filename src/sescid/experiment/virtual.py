@@ -82,6 +82,9 @@ class ExperimentConfig:
     #: body on equal springs): statics fixes only the total force and its moments
     double_support: bool = False
     registers: str = "forces"  #: "forces", "centroid" or "both"
+    #: kinematic bench: the support stands tilted by a random roll and pitch ~ N(0, tilt_deg²)
+    #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
+    tilt_deg: float = 0.0
 
 
 @dataclass
@@ -218,6 +221,7 @@ def run_experiment(
         ("FSR bias", config.fsr_bias),
         ("FSR gain error", config.fsr_gain),
         ("read-back jitter", config.readback_jitter_ticks),
+        ("support tilt", config.tilt_deg),
     ):
         if not (v >= 0 and math.isfinite(v)):
             raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
@@ -236,7 +240,13 @@ def run_experiment(
     b = math.radians(config.backlash_deg)
     delta = rng.uniform(-b, b, size=q_cmd.shape)
     q_act = q_cmd + delta
-    cop_true = robot.cop(q_act, r_true)
+    grav = None
+    if config.tilt_deg > 0:  # roll φ, pitch θ of the support: (sin θ, −cos θ sin φ, −cos θ cos φ)
+        roll, pitch = rng.normal(0.0, math.radians(config.tilt_deg), size=(2, n))
+        grav = np.stack(
+            [np.sin(pitch), -np.cos(pitch) * np.sin(roll), -np.cos(pitch) * np.cos(roll)], axis=1
+        )
+    cop_true = robot.cop(q_act, r_true, grav)
     weight = mass_true * G
     if config.double_support:
         f_split, tips, where = two_foot_split(robot, sensors, q_act, cop_true, weight)
@@ -258,6 +268,7 @@ def run_experiment(
     keep = ~tips
     q_cmd, delta, q_act = q_cmd[keep], delta[keep], q_act[keep]
     cop_true, pose_ids = cop_true[keep], pose_ids[keep]
+    grav = None if grav is None else grav[keep]
     n = len(q_cmd)
     if config.double_support:
         f_feet = {name: f[keep] for name, f in f_split.items()}
@@ -319,6 +330,8 @@ def run_experiment(
         num += np.einsum("nk,nki->ni", fb, pads_in_support(robot, f, q_act))
         den += fb.sum(axis=1)
     cop_expected = num / den[:, None]
+    if grav is not None:  # the pads sit on the sole plane, so their centroid is the tilted CoP
+        cols |= {f"grav_{a}": grav[pose_of, i] for i, a in enumerate("xyz")}
     names = robot.body_names
     truth = {
         "format": TRUTH_FORMAT,
@@ -338,6 +351,7 @@ def run_experiment(
             "double_support": config.double_support,
             "registers": config.registers,
             "sensors": sensors.source,
+            "tilt_deg": config.tilt_deg,
         },
         "model_mass_kg": robot.total_mass,
         "true_mass_kg": mass_true,
@@ -355,6 +369,8 @@ def run_experiment(
         "cop_expected": cop_expected.tolist(),
         "skipped": [{"pose": p, "reason": why} for p, why in skipped],
     }
+    if grav is not None:
+        truth["grav"] = grav.tolist()
     return Experiment(columns=cols, truth=truth, skipped=skipped)
 
 

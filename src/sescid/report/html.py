@@ -27,12 +27,22 @@ from .view3d import scene_data, view3d_html
 
 
 def write_report(
-    fit, q, cop, out_dir, cop_se=None, pose_ids=None, n_side: int = 4, progress=None
+    fit,
+    q,
+    cop,
+    out_dir,
+    cop_se=None,
+    pose_ids=None,
+    n_side: int = 4,
+    progress=None,
+    gravity=None,
 ) -> dict:
     """PNG figures and one self-contained HTML page (figures embedded) from a fit and data.
 
     ``q`` (n, nq) rad and ``cop`` (n, 2) m are the measured poses; ``cop_se`` (n, 2) m their
-    standard errors. Never re-fits. ``progress(done, total)`` is called after each file.
+    standard errors; ``gravity`` (n, 3) the gravity direction per pose in the support frame
+    (None: along −z), under which the predicted CoPs are projected. Never re-fits.
+    ``progress(done, total)`` is called after each file.
     Returns the numbers quoted in the page and the paths.
     """
     robot = fit.robot
@@ -47,8 +57,8 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     idx = np.arange(1, n + 1)
     labels = [str(p) for p in (pose_ids if pose_ids is not None else range(n))]
-    cop_prior = robot.cop(q, fit.r_prior)
-    cop_fit = fit.predict_cop(q)
+    cop_prior = robot.cop(q, fit.r_prior, gravity)
+    cop_fit = fit.predict_cop(q, gravity)
     com_prior = robot.com(q, fit.r_prior)
     com_fit = fit.predict_com(q)
     std_z = np.nan_to_num(fit.predict_std(q, rows=(2,))[:, 0])

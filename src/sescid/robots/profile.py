@@ -84,6 +84,9 @@ class RobotProfile:
     #: pose candidates: "adjusted" (supporting leg moved to put the CoP in the box) or
     #: "uniform" (plain uniform draws, the paper's study)
     pose_sampler: str = "adjusted"
+    #: link carrying the IMU whose roll/pitch (``imu_roll``, ``imu_pitch``) give the gravity
+    #: direction; None: unknown (``--imu-link`` names it)
+    imu_link: str | None = None
 
 
 def generic_profile(name: str) -> RobotProfile:

@@ -35,6 +35,7 @@ PROFILE = RobotProfile(
     paper_limits_file=_HERE / "op2_paper_limits.csv",
     body_table_file=_HERE / "op2_table1.csv",
     pose_sampler="uniform",  # the paper's uniform draws within Table 2
+    imu_link="MP_BODY",  # the CM-730 board's gyro/accelerometer sit in the torso
 )
 
 __all__ = ["PROFILE"]
