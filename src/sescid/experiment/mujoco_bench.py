@@ -544,18 +544,9 @@ def run_mujoco_experiment(
     n = q_cmd.shape[0]
     if samples < 1:
         raise DataError(f"samples per pose must be ≥ 1, got {samples}")
-    if config.registers not in ("forces", "centroid", "both"):
-        raise DataError(f"registers must be forces, centroid or both, got {config.registers}")
-    for name, v in (
-        ("backlash", config.backlash_deg),
-        ("FSR noise", config.fsr_noise),
-        ("FSR bias", config.fsr_bias),
-        ("FSR gain error", config.fsr_gain),
-        ("read-back jitter", config.readback_jitter_ticks),
-        ("IMU noise", bench.imu_noise),
-    ):
-        if not (v >= 0 and math.isfinite(v)):
-            raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
+    config.check()
+    if not (bench.imu_noise >= 0 and math.isfinite(bench.imu_noise)):
+        raise DataError(f"IMU noise must be a finite number ≥ 0, got {bench.imu_noise}")
     servo_gains(robot, bench)  # checks the gains
     for name, v in (
         ("timestep", bench.timestep),

@@ -86,6 +86,21 @@ class ExperimentConfig:
     #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
     tilt_deg: float = 0.0
 
+    def check(self) -> None:
+        """DataError for a setting outside its range (the one check both benches use)."""
+        if self.registers not in ("forces", "centroid", "both"):
+            raise DataError(f"registers must be forces, centroid or both, got {self.registers}")
+        for name, v in (
+            ("backlash", self.backlash_deg),
+            ("FSR noise", self.fsr_noise),
+            ("FSR bias", self.fsr_bias),
+            ("FSR gain error", self.fsr_gain),
+            ("read-back jitter", self.readback_jitter_ticks),
+            ("support tilt", self.tilt_deg),
+        ):
+            if not (v >= 0 and math.isfinite(v)):
+                raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
+
 
 @dataclass
 class Experiment:
@@ -213,18 +228,7 @@ def run_experiment(
     if samples < 1:
         raise DataError(f"samples per pose must be ≥ 1, got {samples}")
     check_count(n * samples, 8 * (robot.nq + 16) * 16, "samples", "samples (poses × samples)")
-    if config.registers not in ("forces", "centroid", "both"):
-        raise DataError(f"registers must be forces, centroid or both, got {config.registers}")
-    for name, v in (
-        ("backlash", config.backlash_deg),
-        ("FSR noise", config.fsr_noise),
-        ("FSR bias", config.fsr_bias),
-        ("FSR gain error", config.fsr_gain),
-        ("read-back jitter", config.readback_jitter_ticks),
-        ("support tilt", config.tilt_deg),
-    ):
-        if not (v >= 0 and math.isfinite(v)):
-            raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
+    config.check()
     check_limits(robot, q_cmd)
     pose_ids = np.array([str(i) for i in range(n)]) if pose_ids is None else pose_ids
     support = [f for f in sensors.feet if f.sole_frame == robot.support]
