@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from sescid.errors import DataError
-from sescid.estimation import identify_chunks, identify_ls
+from sescid.estimation import identify_chunks, identify_ls, identify_once
 from sescid.io import iter_table, read_table, tables, write_table
+from sescid.io.tables import read_ahead
 from sescid.simulation import simulate
 from sescid.table import read_cop, read_poses
 
@@ -74,3 +75,41 @@ def test_identify_chunks_equals_in_memory(op2, small_blocks, tmp_path):
     np.testing.assert_array_equal(fit.r, ref.r)  # same blocks, same sums
     assert fit.mae == pytest.approx(ref.mae, rel=1e-12)
     assert fit.rms == pytest.approx(ref.rms, rel=1e-12)
+
+
+def test_identify_once_equals_chunks_and_memory(op2, small_blocks, tmp_path):
+    """One pass with a spill: the same r bit for bit, MAE/RMS as the chunked and in-memory fits,
+    and the noise-free CoP error equal to one computed directly."""
+    path = tmp_path / "sim.csv"
+    cols = _columns(op2, 3000, seed=5)
+    cols["cop_x_true"], cols["cop_y_true"] = cols["cop_x"] + 1e-4, cols["cop_y"] - 2e-4
+    write_table(path, cols)
+    tables = list(iter_table(path))
+    chunks = [(read_poses(t, op2.joint_names), read_cop(t)) for t in tables]
+    truth = [np.column_stack([t.get("cop_x_true"), t.get("cop_y_true")]) for t in tables]
+    ref = identify_chunks(op2, chunks)
+    once = [(q, c, None, None, t) for (q, c), t in zip(chunks, truth, strict=True)]
+    fit = identify_once(op2, iter(once))
+    np.testing.assert_array_equal(fit.r, ref.r)
+    assert fit.mae == ref.mae and fit.rms == ref.rms  # same chunks, same sums
+    q = np.concatenate([c[0] for c in chunks])
+    err = ref.predict_cop(q) - np.concatenate(truth)
+    assert fit.truth_cop_rmse == pytest.approx(np.sqrt(np.mean(err**2)), rel=1e-12)
+
+
+def test_read_ahead_same_chunks_errors_and_early_exit(op2, tmp_path):
+    """read_ahead yields the same chunks, raises the reader's error, and stops when left."""
+    path = tmp_path / "sim.csv"
+    write_table(path, _columns(op2, 6000, seed=6))
+    plain = [t.columns["cop_x"] for t in iter_table(path)]
+    ahead = [t.columns["cop_x"] for t in read_ahead(iter_table(path))]
+    assert len(plain) > 2 and all(np.array_equal(a, b) for a, b in zip(plain, ahead, strict=True))
+
+    def failing():
+        yield from iter_table(path)
+        raise DataError("boom")
+
+    with pytest.raises(DataError, match="boom"):
+        list(read_ahead(failing()))
+    for _ in read_ahead(iter_table(path), depth=1):
+        break  # leaving early must not hang on the reader thread

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 
 import click
 import numpy as np
@@ -18,7 +20,7 @@ from ..estimation import (
     com_interval,
     cross_validate,
     fit_warnings,
-    identify_chunks,
+    identify_once,
     joint_noise_mc,
     load_fit,
     make_fitter,
@@ -38,7 +40,7 @@ from ..io import (
     read_table,
     write_table,
 )
-from ..io.tables import iter_table
+from ..io.tables import iter_table, read_ahead
 from ..progress import TerminalProgress
 from .common import force_option, imu_link_option, load, mm, robot_options, seed_option
 
@@ -235,10 +237,14 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     """
     outs = OutputSet([out], [data, robot_name], force=force)
     robot = load(robot_name, support)
-    chunks, truth = _read_chunks(data, robot, weighted, opts["imu_link"])
     streamed = method == "ls" and not (opts["robust"] or opts["online"])
     streamed = streamed and opts["cv"] is None and opts["joint_noise_deg"] is None
-    q, cop, sigma, gravity = ((None,) * 4) if streamed else _join(chunks)
+    if streamed:  # read below, once, as it is fitted
+        chunks, truth = [], [None]
+        q = cop = sigma = gravity = None
+    else:
+        chunks, truth = _read_chunks(data, robot, weighted, opts["imu_link"])
+        q, cop, sigma, gravity = _join(chunks)
     simulated = truth[0] is not None
     n_poses = sum(len(c[0]) for c in chunks)
     if method != "map":
@@ -274,15 +280,19 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
         )
     if gravity is not None and opts["joint_noise_deg"] is not None:
         raise OptionError("gravity", "--joint-noise-deg does not use the grav_x/y/z columns")
-    limits = outside_limits(robot, [c[0] for c in chunks])
+    if streamed:  # the file read once, chunk by chunk, never joined (flat memory)
+        fit, n_poses, limits, simulated = _identify_streamed(
+            data, robot, weighted, rtol, opts["allow_outside_limits"], opts["imu_link"]
+        )
+    else:
+        limits = outside_limits(robot, [c[0] for c in chunks])
     if limits is not None and not (opts["allow_outside_limits"] or simulated):
         raise DataError(
             f"{data}: {limits.message(n_poses)}; degrees in a radian column, or another robot? "
             "(--allow-outside-limits accepts them)"
         )
-    if streamed:  # the file's chunks, never joined (flat memory on long files)
-        with TerminalProgress(f"identifying {n_poses} poses") as bar:
-            fit = identify_chunks(robot, chunks, rtol=rtol, progress=bar)
+    if streamed:
+        pass  # fitted above
     elif opts["online"]:
         fit = _run_online(robot, q, cop, sigma, opts, method, rtol)
     else:
@@ -315,11 +325,12 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
     if not streamed:
         _extras(fit, fitter, q, cop, sigma, opts)
     if simulated:  # simulated data: the noise-free CoP
-        sq = [
-            np.sum((fit.predict_cop(c[0], c[3]) - t) ** 2)
-            for c, t in zip(chunks, truth, strict=True)
-        ]
-        fit.truth_cop_rmse = float(np.sqrt(np.sum(sq) / (2 * n_poses)))
+        if not streamed:
+            sq = [
+                np.sum((fit.predict_cop(c[0], c[3]) - t) ** 2)
+                for c, t in zip(chunks, truth, strict=True)
+            ]
+            fit.truth_cop_rmse = float(np.sqrt(np.sum(sq) / (2 * n_poses)))
         click.echo(
             f"truth: RMS of predicted − noise-free CoP at these poses "
             f"{mm(fit.truth_cop_rmse)} (columns cop_x_true, cop_y_true)"
@@ -333,27 +344,89 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
 
 
 def _read_chunks(data, robot, weighted: bool, imu_link=None) -> tuple[list[tuple], list]:
-    """(q, cop, sigma, gravity) per streamed chunk of the data file, and the noise-free CoP
-    (cop_x_true, cop_y_true) per chunk when the file has it (else [None]). Gravity: grav_x/y/z,
-    else the IMU columns on ``imu_link`` (``experiment.imu.table_gravity``)."""
+    """(q, cop, sigma, gravity) per chunk of the data file, all in memory, and the noise-free
+    CoP per chunk when the file has it (else [None]); see ``_iter_chunks``."""
+    chunks, truth = [], []
+    for q, cop, sigma, gravity, t in _iter_chunks(data, robot, weighted, imu_link):
+        chunks.append((q, cop, sigma, gravity))
+        truth.append(t)
+    return chunks, truth if truth and truth[0] is not None else [None]
+
+
+def _identify_streamed(
+    data, robot, weighted: bool, rtol: float, allow: bool, imu_link=None
+) -> tuple:
+    """Least squares over the file read once (``identify_once``): (fit, poses, limits,
+    simulated). Poses outside the joint limits stop the fit at once unless allowed (or
+    simulated); the rest of the file is then only read to count them for the message."""
+    state: dict = {"n": 0, "simulated": None, "bad": []}
+
+    def limits():
+        if not state["bad"]:
+            return None
+        start, first = state["bad"][0]
+        n_bad = sum(lim.n_poses for _, lim in state["bad"])
+        return dataclasses.replace(first, row=first.row + start, n_poses=n_bad)
+
+    def chunks():
+        stop = False
+        for q, cop, sigma, gravity, truth in _iter_chunks(data, robot, weighted, imu_link):
+            if state["simulated"] is None:
+                state["simulated"] = truth is not None
+            lim = outside_limits(robot, q)
+            if lim is not None:
+                state["bad"].append((state["n"], lim))
+                stop = stop or not (allow or state["simulated"])
+            state["n"] += len(q)
+            if not stop:
+                yield q, cop, sigma, gravity, truth
+        if stop:
+            raise DataError(
+                f"{data}: {limits().message(state['n'])}; degrees in a radian column, or "
+                "another robot? (--allow-outside-limits accepts them)"
+            )
+
+    size = _rows_estimate(data)
+    with TerminalProgress("identifying poses") as bar:
+        report = None if size is None else (lambda d: bar(d, max(size, d + 1)))
+        fit = identify_once(robot, chunks(), rtol=rtol, progress=report)
+        bar(state["n"], state["n"])
+    return fit, state["n"], limits(), bool(state["simulated"])
+
+
+def _rows_estimate(data) -> int | None:
+    """Rough row count of a data file for the progress line (file bytes / bytes of a row)."""
+    try:
+        path = Path(data)
+        with path.open("rb") as fh:
+            head = fh.read(1 << 16)
+        lines = head.count(b"\n")
+        return int(path.stat().st_size / (len(head) / lines)) if lines > 1 else None
+    except OSError:
+        return None
+
+
+def _iter_chunks(data, robot, weighted: bool, imu_link=None):
+    """(q, cop, sigma, gravity, truth) per streamed chunk of the data file (gravity: grav_x/y/z,
+    else the IMU columns on ``imu_link`` (``experiment.imu.table_gravity``); truth: the
+    noise-free CoP of simulated data, else None)."""
     from ..experiment.imu import table_gravity
 
-    chunks, truth = [], []
-    for table in iter_table(data):
+    for table in read_ahead(iter_table(data)):
         q = read_poses(table, robot.joint_names, robot.profile.servo)
-        cop, gravity, sigma = read_cop(table), table_gravity(robot, table, q, imu_link), None
+        cop, sigma = read_cop(table), None
+        gravity = table_gravity(robot, table, q, imu_link)
         if weighted:
             sigma = read_cop_se(table)
             if sigma is None:
                 raise DataError(f"{data}: --weighted needs columns cop_se_x, cop_se_y")
-        chunks.append((q, cop, sigma, gravity))
         has_truth = "cop_x_true" in table and "cop_y_true" in table
-        truth.append(
+        truth = (
             np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
             if has_truth
             else None
         )
-    return chunks, truth if truth and truth[0] is not None else [None]
+        yield q, cop, sigma, gravity, truth
 
 
 def _join(chunks: list[tuple]) -> tuple:

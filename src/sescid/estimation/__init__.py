@@ -31,6 +31,7 @@ from .identifiability import DEFAULT_RTOL, identifiable_eigen, min_poses, struct
 from .least_squares import identify_chunks, identify_ls, identify_stream, solve
 from .map import identify_map
 from .normal_equations import NormalEquations, accumulate
+from .one_pass import identify_once
 from .online import OnlineEstimator
 from .robust import huber, joint_noise_mc
 from .sensor_calibration import (
@@ -56,6 +57,7 @@ __all__ = [
     "check_total_mass",
     "fit_warnings",
     "outside_limits",
+    "identify_once",
     "DEFAULT_RTOL",
     "METHODS",
     "BodyInertials",

@@ -25,8 +25,6 @@ import dataclasses
 import math
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 
 from ..errors import SescidError
 from .consistent import _ELL, COM_SCALE, model_coms, sesc_map
@@ -89,6 +87,9 @@ def evidence_prior_std(
     s2 = ls.sigma_hat**2
     if not (math.isfinite(s2) and s2 > 0):
         raise SescidError("the fit has no residual scale to weigh the CAD prior against")
+
+    import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
+    import scipy.optimize
 
     def neg(v) -> float:
         c = s2 * np.eye(p) + math.exp(2 * v[0]) * gm + math.exp(2 * v[1]) * gh

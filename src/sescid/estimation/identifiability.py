@@ -9,7 +9,10 @@ pose set).
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -132,14 +135,58 @@ def _sparse_terms(vec: np.ndarray, labels, tol: float = 1e-9) -> list[tuple[str,
     return [(labels[i][0], labels[i][1], float(vec[i])) for i in big]
 
 
+@functools.cache
+def _flapack():
+    """The LAPACK wrapper module of scipy without ``scipy.linalg``'s package import (~0.3 s, more
+    than a fit of a few dozen poses): the same ``dgeqp3``/``dtrtrs``, so the same pivots and
+    hence the same named combinations. None if this scipy does not lay it out that way."""
+    import importlib.util
+
+    import scipy  # the bare package: ~15 ms
+
+    for path in sorted(Path(scipy.__path__[0], "linalg").glob("_flapack.*")):
+        spec = importlib.util.spec_from_file_location("_flapack", path)
+        if spec is None or spec.loader is None:
+            continue
+        try:
+            mod = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(mod)
+        except ImportError:
+            continue
+        if hasattr(mod, "dgeqp3") and hasattr(mod, "dtrtrs"):
+            return mod
+    return None
+
+
+def qr_pivoted(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, Callable]:
+    """R (min(m, n) × n), the column order of LAPACK's QR with column pivoting (``dgeqp3``,
+    as ``scipy.linalg.qr(a, pivoting=True)``) and an upper-triangular solver."""
+    lp = _flapack()
+    if lp is None:  # pragma: no cover - other scipy layouts
+        import scipy.linalg
+
+        _, rr, piv = scipy.linalg.qr(a, pivoting=True, mode="economic")
+        return rr, piv, scipy.linalg.solve_triangular
+    qr, jpvt, _, _, info = lp.dgeqp3(np.asarray(a, dtype=float))
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dgeqp3 info {info}")
+
+    def solve(r11: np.ndarray, b: np.ndarray) -> np.ndarray:
+        x, inf = lp.dtrtrs(r11, b)
+        if inf != 0:
+            raise np.linalg.LinAlgError(f"dtrtrs info {inf}")
+        return x
+
+    m = min(qr.shape)
+    return np.triu(qr[:m]), jpvt - 1, solve
+
+
 def base_combinations(sv, vecs, p, labels, r, cov) -> list[Combination]:
     """Base parameters by QR with column pivoting of S = diag(s) Vᵀ (same structure as Φ)."""
-    import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
-
     s_mat = sv[:p, None] * vecs[:, :p].T  # (p, P): SᵀS = ΦᵀΦ on the identifiable part
-    _, rr, piv = scipy.linalg.qr(s_mat, pivoting=True, mode="economic")
+    rr, piv, solve_upper = qr_pivoted(s_mat)
     r11, r12 = rr[:p, :p], rr[:p, p:]
-    k = scipy.linalg.solve_triangular(r11, r12) if r12.size else np.zeros((p, 0))
+    k = solve_upper(r11, r12) if r12.size else np.zeros((p, 0))
     out = []
     vec_r = r.reshape(-1)
     for i in range(p):

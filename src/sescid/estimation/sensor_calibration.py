@@ -54,8 +54,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 
 from ..errors import DataError, OptionError
 from ..kinematics import as_poses
@@ -377,6 +375,8 @@ def _build(robot: Robot, sessions: list[PadSession], cols: list[_Column], weight
 # --- estimation -------------------------------------------------------------------------
 def _spd_inverse(mat: np.ndarray) -> np.ndarray:
     """Inverse of a symmetric positive (semi)definite matrix: Cholesky, else eigen (clipped)."""
+    import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
+
     try:
         cf = scipy.linalg.cho_factor(mat, check_finite=False)
         return scipy.linalg.cho_solve(cf, np.eye(mat.shape[0]), check_finite=False)
@@ -388,6 +388,8 @@ def _spd_inverse(mat: np.ndarray) -> np.ndarray:
 
 def _log_evidence(a: np.ndarray, z: np.ndarray, prec: np.ndarray) -> float:
     """Log p(z | priors) of whitened rows a θ ≈ z, θ ~ N(0, diag(1/prec)) (constants dropped)."""
+    import scipy.linalg
+
     mat = a.T @ a + np.diag(prec)
     try:
         cf = scipy.linalg.cho_factor(mat, check_finite=False)
@@ -484,6 +486,8 @@ def calibrate_sensors(
             grid = np.linspace(math.log(TAU_RANGE[0]), math.log(TAU_RANGE[1]), 13)
             evid = [neg(t) for t in grid]
             kk = int(np.argmin(evid))
+            import scipy.optimize
+
             res = scipy.optimize.minimize_scalar(
                 neg, bounds=(grid[max(kk - 1, 0)], grid[min(kk + 1, 12)]), method="bounded"
             )
@@ -715,6 +719,8 @@ def _directions(robot, sessions, cols, rows, free, p_x, prior_sd, sw, rtol, thet
             if not idx or any(i is None for i in idx):
                 continue
             basis = np.column_stack([np.ones(len(f.pads)), f.pads])
+            import scipy.linalg
+
             tw = scipy.linalg.null_space(basis.T)
             for t in tw.T:
                 v = np.zeros(len(s_idx))

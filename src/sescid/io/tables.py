@@ -63,6 +63,53 @@ def iter_table(path: str | Path, chunk_rows: int | None = None) -> Iterator[Tabl
     yield from _iter_csv(path)
 
 
+def read_ahead(chunks: Iterator[Table], depth: int = 2) -> Iterator[Table]:
+    """The same chunks, read by a second thread up to ``depth`` chunks ahead.
+
+    pyarrow parses without the GIL, so the next chunk is read while this thread works on the
+    current one (on two cores, reading and fitting a long file overlap). Errors are raised
+    here, at the chunk where they occurred; leaving the loop early stops the reader.
+    """
+    import queue
+    import threading
+
+    box: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    end = object()
+
+    def put(item: tuple) -> bool:
+        while not stop.is_set():
+            try:
+                box.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False  # the consumer has left
+
+    def work() -> None:
+        try:
+            for c in chunks:
+                if not put((c, None)):
+                    return
+            put((end, None))
+        except BaseException as exc:  # handed to the consumer
+            put((end, exc))
+
+    thread = threading.Thread(target=work, name="sescid-read-ahead", daemon=True)
+    thread.start()
+    try:
+        while True:
+            item, exc = box.get()
+            if item is end:
+                if exc is not None:
+                    raise exc
+                return
+            yield item
+    finally:
+        stop.set()
+        thread.join()
+
+
 # --- CSV ---------------------------------------------------------------------------------
 
 
