@@ -88,21 +88,26 @@ def _coloured(img: np.ndarray) -> np.ndarray:
 def test_live_page_draws_the_robot_in_chromium(op2, tmp_path):
     """Headless Chromium renders the live scene: coloured robot pixels in the 3-D area."""
     view = _live(op2)
-    try:
-        shot = tmp_path / "live.png"
-        res = _browse(
-            _chromium(),
-            view.url,
-            "--window-size=1000,800",
-            "--virtual-time-budget=5000",
-            f"--screenshot={shot}",
-        )
-        assert res.returncode == 0, res.stderr[-2000:]
+    counts = []
+    try:  # the scene arrives over a websocket: a loaded machine may need another look
+        for attempt in range(3):
+            shot = tmp_path / f"live{attempt}.png"
+            res = _browse(
+                _chromium(),
+                view.url,
+                "--window-size=1000,800",
+                "--virtual-time-budget=5000",
+                f"--screenshot={shot}",
+            )
+            assert res.returncode == 0, res.stderr[-2000:]
+            img = matplotlib.image.imread(shot)
+            # below the notice, left of the control panel
+            counts.append(int(_coloured(img[200:750, 150:650]).sum()))
+            if counts[-1] > 2000:
+                break
     finally:
         view.close()
-    img = matplotlib.image.imread(shot)
-    scene = _coloured(img[200:750, 150:650])  # below the notice, left of the control panel
-    assert scene.sum() > 2000
+    assert max(counts) > 2000, counts
 
 
 @pytest.fixture(scope="module")
