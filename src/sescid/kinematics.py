@@ -154,7 +154,7 @@ _PIO2_1 = 1.57079632673412561417e00
 _PIO2_2 = 6.07710050630396597660e-11
 _PIO2_2T = 2.02226624879595063154e-21
 _TWO_OVER_PI = 6.36619772367581382433e-01
-_MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
+MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
 
 
 @lazy_njit(cache=True, nogil=True, inline="always")
@@ -269,7 +269,8 @@ def _origins_block(rot, parent, t, root_o, org):
 
 @lazy_njit(cache=True, nogil=True)
 def _com_one(q, ints, reals, r, out):
-    """Out (3,) = root_o + Σ_b R_b r_b at one pose: the chain and the sum in one call.
+    """Out (1, k) = the first k of root_o + Σ_b R_b r_b at one pose: the chain and the sum in
+    one call. False (out untouched) when q is not finite or q, r do not fit the tree.
 
     The tree comes packed (``Tree.packed``) so the call checks five arguments, not thirteen:
     ints = [N, nnz, parent (N), jcol (N), nz_ptr (N + 1), nz_k (nnz), nz_j (nnz)],
@@ -281,6 +282,11 @@ def _com_one(q, ints, reals, r, out):
     o_k = o_ptr + nb + 1
     o_j = o_k + nnz
     o_a, o_rr = 2 * nb, 2 * nb + 3 * nnz
+    if r.shape[0] != nb or r.shape[1] != 3 or out.shape[1] > 3:
+        return False
+    for j in range(q.shape[0]):
+        if not math.isfinite(q[j]):
+            return False
     rot = np.empty((nb, 3, 3))
     for b in range(nb):
         p = ints[o_par + b]
@@ -293,7 +299,7 @@ def _com_one(q, ints, reals, r, out):
         jc = ints[o_jc + b]
         if jc >= 0:
             theta = reals[b] * q[jc] + reals[nb + b]
-            if abs(theta) < _MAX_ANGLE:
+            if abs(theta) < MAX_ANGLE:
                 s, c1 = _sin_cos1m(theta)
             else:
                 s, c1 = np.sin(theta), 1.0 - np.cos(theta)
@@ -306,22 +312,24 @@ def _com_one(q, ints, reals, r, out):
             m = reals[o_a + 3 * z] + reals[o_a + 3 * z + 1] * s + reals[o_a + 3 * z + 2] * c1
             for i in range(3):
                 rot[b, i, jj] += rot[p, i, kk] * m
-    for i in range(3):
+    for i in range(out.shape[1]):
         acc = 0.0
         for b in range(nb):
             acc += rot[b, i, 0] * r[b, 0] + rot[b, i, 1] * r[b, 1] + rot[b, i, 2] * r[b, 2]
-        out[i] = acc + reals[o_rr + 9 + i]
+        out[0, i] = acc + reals[o_rr + 9 + i]
+    return True
 
 
-def com_one(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """CoM (3,) at one validated pose q (nq,) for C-contiguous SESC vectors r (N, 3), in one
-    compiled call (a controller's per-pose query); None while the kernels are not loaded."""
-    if _LAZY.get(__name__):
+def com_one(tree: Tree, q: np.ndarray, r: np.ndarray, k: int = 3) -> np.ndarray | None:
+    """The first k of the CoM, (1, k), at one pose q (nq,) float64 C-contiguous, for SESC
+    vectors r (N, 3) float64 C-contiguous, in one compiled call (a controller's per-pose query).
+    None while the kernels are not loaded, or when q is not finite or q, r do not fit the tree
+    (the caller's checked path then says what is wrong)."""
+    if _LAZY.get(__name__) or q.shape[0] != tree.nq:
         return None
-    out = np.empty(3)
+    out = np.empty((1, k))
     ints, reals = tree.packed
-    _com_one(q, ints, reals, r, out)
-    return out
+    return out if _com_one(q, ints, reals, r, out) else None
 
 
 #: poses per block of the compiled chain (keeps the block's rotations in cache)
@@ -354,6 +362,75 @@ SMALL_BLOCK = 256
 #: poses should not pay, but a long session of small calls should (ski rental)
 NUMPY_BUDGET = 0.25
 _numpy_spent = [0.0]
+
+
+@lazy_njit(cache=True, nogil=True)
+def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, r, root_o, out):
+    """Out (n, 2): x, y of root_o + Σ R_b r_b, rows 0 and 1 of each R_b only, in blocks."""
+    nb = parent.shape[0]
+    n = q.shape[0]
+    blk = 256
+    rot = np.empty((nb, 2, 3, blk))
+    s = np.empty(blk)
+    c1 = np.empty(blk)
+    m = np.empty(blk)
+    ox = np.empty(blk)
+    oy = np.empty(blk)
+    qt = np.empty((q.shape[1], blk))
+    for s0 in range(0, n, blk):
+        w = min(blk, n - s0)
+        for k in range(w):
+            for j in range(q.shape[1]):
+                qt[j, k] = q[s0 + k, j]
+        ox[:] = root_o[0]
+        oy[:] = root_o[1]
+        for b in range(nb):
+            p = parent[b]
+            if p < 0:
+                for i in range(2):
+                    for j in range(3):
+                        rot[b, i, j, :] = root_r[i, j]
+            else:
+                jc = jcol[b]
+                if jc < 0:
+                    s[:] = 0.0
+                    c1[:] = 0.0
+                else:
+                    cb = coef[b]
+                    ob = off[b]
+                    for k in range(w):
+                        s[k], c1[k] = _sin_cos1m(cb * qt[jc, k] + ob)
+                rot[b, :, :, :] = 0.0
+                for z in range(nz_ptr[b], nz_ptr[b + 1]):
+                    kk = nz_k[z]
+                    jj = nz_j[z]
+                    a0 = nz_a[z, 0]
+                    a1 = nz_a[z, 1]
+                    a2 = nz_a[z, 2]
+                    for k in range(w):
+                        m[k] = a0 + a1 * s[k] + a2 * c1[k]
+                    for i in range(2):
+                        for k in range(w):
+                            rot[b, i, jj, k] += rot[p, i, kk, k] * m[k]
+            for j in range(3):
+                rj = r[b, j]
+                for k in range(w):
+                    ox[k] += rot[b, 0, j, k] * rj
+                    oy[k] += rot[b, 1, j, k] * rj
+        for k in range(w):
+            out[s0 + k, 0] = ox[k]
+            out[s0 + k, 1] = oy[k]
+
+
+def cop_xy(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """CoM x, y (n, 2) [m] of validated poses ``q`` (n, nq) within |q| < 1e5 rad, one compiled
+    pass: for screening many poses (rounding differs from ``sesc.com_from_sesc`` by ~1e-16 m)."""
+    out = np.empty((q.shape[0], 2))
+    _cop_xy_kernel(
+        q, tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j,
+        tree.nz_a, tree.root_r, np.ascontiguousarray(r, dtype=float), tree.root_o, out,
+    )  # fmt: skip
+    return out
 
 
 def compiled() -> bool:
@@ -409,7 +486,7 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
         _chain_numpy(tree, s, c1, rot)
         _numpy_spent[0] += time.perf_counter() - t0
         return rot
-    if np.abs(q).max(initial=0.0) < _MAX_ANGLE:
+    if np.abs(q).max(initial=0.0) < MAX_ANGLE:
         _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
         _trig_numpy(tree, q, s, c1)

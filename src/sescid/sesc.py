@@ -44,13 +44,19 @@ def com_from_sesc(
     tree: Tree, q: ArrayLike, r: np.ndarray, rows: tuple[int, ...] = (0, 1, 2)
 ) -> np.ndarray:
     """CoM[rows] (n, len(rows)) in metres for SESC vectors r (N, 3); rows (0, 1) is the CoP."""
+    if type(q) is np.ndarray and q.ndim == 1 and _plain(q) and _plain(r) and r.ndim == 2:
+        # one pose, the common case (a controller's query): one compiled call that also checks q
+        if rows == (0, 1, 2) or rows == (0, 1):
+            com = com_one(tree, q, r, len(rows))
+            if com is not None:
+                return com
     q = as_poses(q, tree.nq)
     if q.shape[0] == 1:  # one pose: one compiled call, no blocks
         rr = r if _plain(r) else np.ascontiguousarray(r, dtype=float)
         com = com_one(tree, q[0], rr.reshape(-1, 3))
         if com is not None:
             first = tuple(rows) in ((0, 1), (0, 1, 2))  # CoP or CoM: a view, no index array
-            return com[None, : len(rows)] if first else com[None, list(rows)]
+            return com[:, : len(rows)] if first else com[:, list(rows)]
     rows = list(rows)
     vec = np.asarray(r, dtype=float).reshape(-1)
     out = np.empty((q.shape[0], len(rows)))

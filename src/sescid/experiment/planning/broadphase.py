@@ -7,13 +7,13 @@ computed from body rotations/origins without forming every capsule's world ends.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from ...kinematics import lazy_njit
 from .collision import Capsules
 
 
-@numba.njit(cache=True, inline="always")
+@lazy_njit(cache=True, inline="always")
 def _seg_dist2(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz):  # pragma: no cover - compiled
     """Squared distance between segments a–b and c–d (clamped closest points)."""
     eps = 1e-18
@@ -44,7 +44,7 @@ def _seg_dist2(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz):  # pragma: no co
     return ux * ux + uy * uy + uz * uz
 
 
-@numba.njit(cache=True, nogil=True)
+@lazy_njit(cache=True, nogil=True)
 def _broad(rot, org, cbody, p0, p1, rad, sph_c, sph_r, pb_i, pb_j, pb_start, pi, pj, out):
     """out[k] = True where no checked capsule pair of pose k intersects."""  # pragma: no cover
     w0 = np.empty((p0.shape[0], 3))

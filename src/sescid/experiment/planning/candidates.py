@@ -11,14 +11,14 @@ import numpy as np
 
 from ...errors import SescidError
 from ...robot import Robot
-from .collision import Capsules, collision_capsules, collision_free_mask
+from .collision import Capsules, collision_capsules
 from .limits import sampling_limits
 from .stability import (
     DEFAULT_CLEARANCE,
     cop_centre,
     cop_half_extents,
     ground_clear_mask,
-    stable_mask,
+    stable_subset,
 )
 
 
@@ -97,24 +97,26 @@ def candidates(
     cops: list[np.ndarray] = []
     n_sampled = n_stable = n_ground = n_free = 0
     width = lim[:, 1] - lim[:, 0]
+    draw = np.empty((chunk if sampler == "uniform" else 0, robot.nq))
     while n_free < n:
         if sampler == "adjusted":
             pool = np.concatenate(qs) if qs else None
             q = adjusted_draws(robot, cap, lim, chunk, rng, pool, half, centre)
         else:
-            q = lim[:, 0] + width * rng.random((chunk, robot.nq))
+            # in place, the same numbers as lim[:, 0] + width * rng.random((chunk, nq))
+            q = rng.random((chunk, robot.nq), out=draw[:chunk])
+            q *= width
+            q += lim[:, 0]
         n_sampled += chunk
-        ok, cop = stable_mask(robot, q, half, centre)
-        q, cop = q[ok], cop[ok]
+        ok, cop = stable_subset(robot, q, half, centre)
+        q = q[ok]
         n_stable += len(q)
         if len(q):
             rot, org = robot.forward(q)
             g = ground_clear_mask(robot, q, cap, rot, org, clearance, sole_size)
             q, cop, rot, org = q[g], cop[g], rot[g], org[g]
             n_ground += len(q)
-            f = (collision_free_mask_broad if sampler == "adjusted" else collision_free_mask)(
-                cap, rot, org
-            )
+            f = collision_free_mask_broad(cap, rot, org)
             q, cop = q[f], cop[f]
             n_free += len(q)
             qs.append(q)

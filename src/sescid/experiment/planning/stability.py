@@ -10,10 +10,13 @@ above the floor (``Robot.floor``) and the free sole's corners (``Robot.free_sole
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ...errors import SescidError
+from ...kinematics import MAX_ANGLE, Tree, cop_xy
 from ...robot import Robot
 from .collision import Capsules
 
@@ -22,6 +25,11 @@ FALLBACK_COP_BOX = 0.023
 
 
 DEFAULT_CLEARANCE = 0.005  #: m, free sole corners above the ground
+
+#: coarse stability pre-check (``stable_subset``): bodies whose subtree carries more than this
+#: fraction of the summed SESC norms, and from how many poses it is worth it
+COARSE_SUBTREE = 0.1
+COARSE_MIN_POSES = 1_000
 
 #: default CoP box of a robot without a profile CoP box: this fraction of its sole's half-sizes
 SOLE_BOX_FRACTION = 0.5
@@ -70,6 +78,66 @@ def stable_mask(robot: Robot, q, half_extents, centre=None) -> tuple[np.ndarray,
     cop = robot.cop(q)
     off = cop if centre is None else cop - np.asarray(centre, dtype=float)
     return np.all(np.abs(off) < np.asarray(half_extents), axis=1), cop
+
+
+def stable_subset(robot: Robot, q, half_extents, centre=None) -> tuple[np.ndarray, np.ndarray]:
+    """(mask (n,), cop (mask.sum(), 2) [m]): ``stable_mask`` with the CoP of the kept poses only.
+
+    Many poses are first rejected by a coarse CoP from the heavy bodies alone
+    (``coarse_cop_tree``): the light bodies move the CoP by at most their bound, so a pose whose
+    coarse CoP lies outside the box widened by it is unstable. The rest get the exact CoP, so the
+    mask is ``stable_mask``'s.
+    """
+    q = np.ascontiguousarray(q, dtype=float)
+    half = np.asarray(half_extents, dtype=float)
+    c = np.zeros(2) if centre is None else np.asarray(centre, dtype=float)
+    idx = np.arange(len(q))
+    # the pre-check on plain finite poses only; anything else gets stable_mask's checks
+    if q.ndim == 2 and q.shape[1] == robot.nq and len(q) >= COARSE_MIN_POSES:
+        if -MAX_ANGLE < q.min() and q.max() < MAX_ANGLE:
+            tree, r, bound = coarse_cop_tree(robot)
+            coarse = cop_xy(tree, q, r) - c
+            idx = np.flatnonzero(np.all(np.abs(coarse) < half + bound, axis=1))
+    ok, cop = stable_mask(robot, q[idx], half, c)
+    mask = np.zeros(len(q), dtype=bool)
+    mask[idx[ok]] = True
+    return mask, cop[ok]
+
+
+def coarse_cop_tree(robot: Robot) -> tuple[Tree, np.ndarray, float]:
+    """(tree, r, bound): the bodies whose subtree's SESC norms sum to more than
+    ``COARSE_SUBTREE`` of the whole (closed under parents) and their SESC vectors; ``bound``
+    [m] ≥ how far the other bodies can move the CoP (the sum of their norms, plus rounding)."""
+    full, r = robot.tree, robot.sesc_vectors()
+    norm = np.linalg.norm(r, axis=1)
+    sub = norm.copy()
+    for i in range(len(norm) - 1, 0, -1):  # children come after their parents
+        sub[full.parent[i]] += sub[i]
+    keep = np.flatnonzero(sub > COARSE_SUBTREE * sub[0])
+    keep = np.union1d(keep, [0])
+    new = -np.ones(len(norm), dtype=np.int64)
+    new[keep] = np.arange(len(keep))
+    nz = [np.arange(full.nz_ptr[b], full.nz_ptr[b + 1]) for b in keep]
+    ptr = np.r_[0, np.cumsum([len(z) for z in nz])].astype(np.int64)
+    z = np.concatenate(nz)
+    tree = dataclasses.replace(
+        full,
+        parent=np.array([new[p] if p >= 0 else -1 for p in full.parent[keep]], dtype=np.int64),
+        jcol=full.jcol[keep],
+        coef=full.coef[keep],
+        off=full.off[keep],
+        a0=full.a0[keep],
+        a1=full.a1[keep],
+        a2=full.a2[keep],
+        t=full.t[keep],
+        nz_ptr=ptr,
+        nz_k=full.nz_k[z],
+        nz_j=full.nz_j[z],
+        nz_a=full.nz_a[z],
+    )
+    rest = np.setdiff1d(np.arange(len(norm)), keep)
+    bound = float(norm[rest].sum()) + 1e-9 * (1.0 + float(norm.sum()))
+    return tree, np.ascontiguousarray(r[keep]), bound
 
 
 def free_sole(robot: Robot) -> str | None:
