@@ -89,6 +89,7 @@ from .virtual import (
     pad_gains,
     real_bodies,
     real_robot,
+    truth_record,
 )
 
 
@@ -680,36 +681,25 @@ def run_mujoco_experiment(
         pad_cop /= fsum[:, None]
         pad_cop_biased /= fsum_b[:, None]
     q_read = q_act - unseen
-    names = robot.body_names
-    truth = {
-        "format": "sescid-experiment-truth/1",
-        "engine": "mujoco",
-        "units": "m, kg, N, rad, s",
-        "robot": robot.source,
-        "support": robot.support,
-        "seed": seed,
-        "samples": samples,
-        "settings": {
-            "extra_mass_fraction": config.extra_mass_fraction,
-            "backlash_deg": config.backlash_deg,
-            "readback_seen": config.readback_seen,
-            "readback_jitter_ticks": config.readback_jitter_ticks,
-            "fsr_noise_N": config.fsr_noise,
-            "fsr_bias_N": config.fsr_bias,
-            "fsr_gain": config.fsr_gain,
-            "registers": config.registers,
-            "sensors": sensors.source,
-            "bench": dataclasses.asdict(bench),
-            "servo_gains": dataclasses.asdict(servo_gains(robot, bench)),
-        },
-        "model_mass_kg": robot.total_mass,
-        "true_mass_kg": mass_true,
-        "extra_masses": placed,
-        "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
-        "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
-        "fsr_bias_N": {kk: v.tolist() for kk, v in bias.items()},
-        "fsr_gain": {kk: v.tolist() for kk, v in gain.items()},
-        "joint_names": robot.joint_names,
+    truth = truth_record(
+        robot,
+        config,
+        sensors,
+        seed,
+        samples,
+        mass_true,
+        placed,
+        r_true,
+        bias,
+        gain,
+        units="m, kg, N, rad, s",
+    )
+    truth["engine"] = "mujoco"
+    truth["settings"] |= {
+        "bench": dataclasses.asdict(bench),
+        "servo_gains": dataclasses.asdict(servo_gains(robot, bench)),
+    }
+    truth |= {
         "pose": pose_ids[kept].tolist(),
         "q_commanded": q_cmd[kept].tolist(),
         "q_target": target[kept].tolist(),

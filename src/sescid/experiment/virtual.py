@@ -207,6 +207,51 @@ def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
         )
 
 
+def truth_record(
+    robot,
+    config: ExperimentConfig,
+    sensors: SensorConfig,
+    seed: int | None,
+    samples: int,
+    mass_true: float,
+    placed: list[dict],
+    r_true: np.ndarray,
+    bias: dict[str, np.ndarray],
+    gain: dict[str, np.ndarray],
+    units: str = "m, kg, N, rad",
+) -> dict:
+    """The part of a bench's truth record that every bench writes (format, settings, the true
+    robot and the sensor errors); each bench adds its per-pose entries."""
+    names = robot.body_names
+    return {
+        "format": TRUTH_FORMAT,
+        "units": units,
+        "robot": robot.source,
+        "support": robot.support,
+        "seed": seed,
+        "samples": samples,
+        "settings": {
+            "extra_mass_fraction": config.extra_mass_fraction,
+            "backlash_deg": config.backlash_deg,
+            "readback_seen": config.readback_seen,
+            "readback_jitter_ticks": config.readback_jitter_ticks,
+            "fsr_noise_N": config.fsr_noise,
+            "fsr_bias_N": config.fsr_bias,
+            "fsr_gain": config.fsr_gain,
+            "registers": config.registers,
+            "sensors": sensors.source,
+        },
+        "model_mass_kg": robot.total_mass,
+        "true_mass_kg": mass_true,
+        "extra_masses": placed,
+        "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
+        "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
+        "fsr_bias_N": {k: v.tolist() for k, v in bias.items()},
+        "fsr_gain": {k: v.tolist() for k, v in gain.items()},
+        "joint_names": robot.joint_names,
+    }
+
+
 def run_experiment(
     robot,
     q_cmd: np.ndarray,
@@ -336,35 +381,11 @@ def run_experiment(
     cop_expected = num / den[:, None]
     if grav is not None:  # the pads sit on the sole plane, so their centroid is the tilted CoP
         cols |= {f"grav_{a}": grav[pose_of, i] for i, a in enumerate("xyz")}
-    names = robot.body_names
-    truth = {
-        "format": TRUTH_FORMAT,
-        "units": "m, kg, N, rad",
-        "robot": robot.source,
-        "support": robot.support,
-        "seed": seed,
-        "samples": samples,
-        "settings": {
-            "extra_mass_fraction": config.extra_mass_fraction,
-            "backlash_deg": config.backlash_deg,
-            "readback_seen": config.readback_seen,
-            "readback_jitter_ticks": config.readback_jitter_ticks,
-            "fsr_noise_N": config.fsr_noise,
-            "fsr_bias_N": config.fsr_bias,
-            "fsr_gain": config.fsr_gain,
-            "double_support": config.double_support,
-            "registers": config.registers,
-            "sensors": sensors.source,
-            "tilt_deg": config.tilt_deg,
-        },
-        "model_mass_kg": robot.total_mass,
-        "true_mass_kg": mass_true,
-        "extra_masses": placed,
-        "r_true": {bn: r_true[i].tolist() for i, bn in enumerate(names)},
-        "r_model": {bn: robot.sesc_vectors()[i].tolist() for i, bn in enumerate(names)},
-        "fsr_bias_N": {k: v.tolist() for k, v in bias.items()},
-        "fsr_gain": {k: v.tolist() for k, v in gain.items()},
-        "joint_names": robot.joint_names,
+    truth = truth_record(
+        robot, config, sensors, seed, samples, mass_true, placed, r_true, bias, gain
+    )
+    truth["settings"] |= {"double_support": config.double_support, "tilt_deg": config.tilt_deg}
+    truth |= {
         "pose": pose_ids.tolist(),
         "q_commanded": q_cmd.tolist(),
         "q_actual": q_act.tolist(),
