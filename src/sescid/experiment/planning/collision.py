@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...kinematics import lazy_njit
 from ...model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from ...robot import Robot
+from .capsule_kernels import _first_contact
 
 _CAPSULE_RMAX = 0.025  #: m, largest capsule radius used to cover a box cross-section
 
@@ -226,53 +226,6 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     t = np.clip(t, 0.0, 1.0)
     diff = r + d1 * s[..., None] - d2 * t[..., None]
     return np.sqrt(np.einsum("...i,...i", diff, diff))
-
-
-@lazy_njit(cache=True, nogil=True)
-def _first_contact(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
-    """out[k] = index of the first capsule pair closer than its reach in pose k, or −1.
-
-    Closest points of two segments (clamped parameters, as in ``segment_distance``).
-    """
-    eps = 1e-18
-    for k in range(w0.shape[0]):
-        out[k] = -1
-        for m in range(pi.shape[0]):
-            i = pi[m]
-            j = pj[m]
-            d1x = w1[k, i, 0] - w0[k, i, 0]
-            d1y = w1[k, i, 1] - w0[k, i, 1]
-            d1z = w1[k, i, 2] - w0[k, i, 2]
-            d2x = w1[k, j, 0] - w0[k, j, 0]
-            d2y = w1[k, j, 1] - w0[k, j, 1]
-            d2z = w1[k, j, 2] - w0[k, j, 2]
-            rx = w0[k, i, 0] - w0[k, j, 0]
-            ry = w0[k, i, 1] - w0[k, j, 1]
-            rz = w0[k, i, 2] - w0[k, j, 2]
-            a = d1x * d1x + d1y * d1y + d1z * d1z
-            e = d2x * d2x + d2y * d2y + d2z * d2z
-            f = d2x * rx + d2y * ry + d2z * rz
-            c = d1x * rx + d1y * ry + d1z * rz
-            b = d1x * d2x + d1y * d2y + d1z * d2z
-            denom = a * e - b * b
-            s = 0.0
-            if a > eps and denom > 1e-12 * max(a * e, eps):
-                s = min(max((b * f - c * e) / denom, 0.0), 1.0)
-            if e <= eps:  # second segment is a point
-                s = min(max(-c / a, 0.0), 1.0) if a > eps else 0.0
-            t = (b * s + f) / e if e > eps else 0.0
-            if t < 0.0:
-                t = 0.0
-                s = min(max(-c / a, 0.0), 1.0) if a > eps else 0.0
-            elif t > 1.0:
-                t = 1.0
-                s = min(max((b - c) / a, 0.0), 1.0) if a > eps else 0.0
-            dx = rx + d1x * s - d2x * t
-            dy = ry + d1y * s - d2y * t
-            dz = rz + d1z * s - d2z * t
-            if dx * dx + dy * dy + dz * dz < reach[m] * reach[m]:
-                out[k] = m
-                break
 
 
 def first_contact(cap: Capsules, rot, org, chunk: int = 4096) -> np.ndarray:
