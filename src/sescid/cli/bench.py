@@ -26,7 +26,16 @@ from ..io import read_cop, read_cop_se, read_poses, read_table, write_table
 from ..progress import TerminalProgress
 from ..report import design_figure, write_report
 from ..simulation import PAPER_NOISE
-from .common import force_option, imu_link_option, load, mm, robot_options, seed_option
+from .common import (
+    force_option,
+    imu_link_option,
+    load,
+    min_samples_option,
+    mm,
+    robot_options,
+    seed_option,
+    sensors_option,
+)
 
 _EXP = ExperimentConfig()
 
@@ -34,13 +43,7 @@ _EXP = ExperimentConfig()
 @click.command()
 @click.argument("raw", type=click.Path(dir_okay=False))
 @robot_options
-@click.option(
-    "--sensors",
-    "sensors_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Foot-sensor configuration JSON (default: the robot profile's; for op2 a hypothesis).",
-)
+@sensors_option
 @click.option(
     "--poses",
     "poses_file",
@@ -48,13 +51,7 @@ _EXP = ExperimentConfig()
     type=click.Path(dir_okay=False),
     help="Pose list: every pose id in the log must be in it (its 'pose' column or row number).",
 )
-@click.option(
-    "--min-samples",
-    default=5,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Usable samples per pose.",
-)
+@min_samples_option
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
 @imu_link_option
 @force_option
@@ -119,13 +116,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     type=click.Path(dir_okay=False),
     help="Also write the truth (true SESC vectors, actual poses, true CoPs) as JSON.",
 )
-@click.option(
-    "--sensors",
-    "sensors_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Foot-sensor configuration JSON (default: the robot profile's).",
-)
+@sensors_option
 @click.option(
     "--extra-mass",
     default=_EXP.extra_mass_fraction,

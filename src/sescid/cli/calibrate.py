@@ -14,7 +14,7 @@ from ..experiment.calibration import calibrated_sensor_document, pad_session
 from ..experiment.sensors import default_sensors_path
 from ..files import atomic_open, check_outputs
 from ..io import read_table
-from .common import load, mm, robot_options
+from .common import load, min_samples_option, mm, robot_options, sensors_option
 
 
 def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
@@ -30,13 +30,7 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
 @click.command()
 @click.argument("raw", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @robot_options
-@click.option(
-    "--sensors",
-    "sensors_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Foot-sensor layout JSON (default: the robot profile's).",
-)
+@sensors_option
 @click.option(
     "--total-mass",
     type=float,
@@ -70,7 +64,7 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
               help="Prior std of each gain (relative).")  # fmt: skip
 @click.option("--offset-prior", type=float, default=OFFSET_PRIOR, show_default=True,
               help="Prior std of each offset [N]; the offset twist comes from it.")  # fmt: skip
-@click.option("--min-samples", type=int, default=5, show_default=True)
+@min_samples_option
 @click.option(
     "--offsets-from",
     default=None,

@@ -103,3 +103,25 @@ def load(robot_name: str, support: str | None) -> Any:
 def mm(x: float | None) -> str:
     """A length in m shown in mm, or n/a."""
     return "n/a" if x is None or math.isnan(x) else f"{x * 1e3:.3f} mm"
+
+
+def sensors_option(f: Any) -> Any:
+    """--sensors: the foot-sensor file (default: the robot profile's)."""
+    return click.option(
+        "--sensors",
+        "sensors_file",
+        default=None,
+        type=click.Path(dir_okay=False),
+        help="Foot-sensor configuration JSON (default: the robot profile's; for op2 a hypothesis).",
+    )(f)
+
+
+def min_samples_option(f: Any) -> Any:
+    """--min-samples: usable samples a pose needs."""
+    return click.option(
+        "--min-samples",
+        default=5,
+        show_default=True,
+        type=click.IntRange(min=1),
+        help="Usable samples per pose.",
+    )(f)

@@ -10,7 +10,7 @@ import click
 import numpy as np
 
 from ..errors import OptionError
-from .common import load, mm, robot_options, seed_option
+from .common import load, mm, robot_options, seed_option, sensors_option
 
 
 class _Printer:
@@ -134,13 +134,7 @@ class _Both:
     type=click.FloatRange(min=0, min_open=True),
     help="Also stop when the predicted CoP std reaches this [m].",
 )
-@click.option(
-    "--sensors",
-    "sensors_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Foot-sensor configuration JSON (default: the robot profile's).",
-)
+@sensors_option
 @click.option("--no-view", is_flag=True, help="No live 3-D view (the session runs the same).")
 @click.option(
     "--view-port",
