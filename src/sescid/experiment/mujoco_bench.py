@@ -86,6 +86,7 @@ from .virtual import (
     ExperimentConfig,
     G,
     check_limits,
+    pad_columns,
     pad_gains,
     real_bodies,
     real_robot,
@@ -626,17 +627,7 @@ def run_mujoco_experiment(
         noisy = true / gain[f.name] + bias[f.name] + rng.normal(0.0, config.fsr_noise, size=(m, 4))
         counts = np.clip(np.round(noisy / sensors.force_unit), 0, sensors.saturation)
         counts = np.where(true > 0, counts, 0).astype(int)  # an unloaded FSR conducts nothing
-        if config.registers in ("forces", "both"):
-            for kk in range(4):
-                cols[f"{f.columns}{kk + 1}"] = counts[:, kk]
-        if config.registers in ("centroid", "both"):
-            total = counts.sum(axis=1)
-            on = total * sensors.force_unit >= sensors.min_foot_force
-            safe = np.where(on, total, 1)
-            x = np.round(sensors.centroid_max * (counts[:, 1] + counts[:, 3]) / safe)
-            y = np.round(sensors.centroid_max * (counts[:, 2] + counts[:, 3]) / safe)
-            cols[f"{f.columns}_x"] = np.where(on, x, sensors.no_load).astype(int)
-            cols[f"{f.columns}_y"] = np.where(on, y, sensors.no_load).astype(int)
+        cols |= pad_columns(f, counts, config.registers, sensors)
     imu = np.array([[s.imu for s in reads] for _, reads in runs]).reshape(m, 2)
     imu = imu + rng.normal(0.0, bench.imu_noise, size=imu.shape)
     cols["imu_roll"] = imu[:, 0]

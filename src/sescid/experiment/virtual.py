@@ -36,7 +36,7 @@ from ..errors import DataError
 from ..files import read_json
 from ..sesc import sesc_vectors
 from ..simulation import check_count
-from .sensors import SensorConfig
+from .sensors import Foot, SensorConfig
 
 G = 9.80665  #: m/s², standard gravity
 TRUTH_FORMAT = "sescid-experiment-truth/1"
@@ -207,6 +207,27 @@ def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
         )
 
 
+def pad_columns(
+    foot: Foot, counts: np.ndarray, registers: str, sensors: SensorConfig
+) -> dict[str, np.ndarray]:
+    """Raw-log columns of one foot board from its force counts (m, 4): the four forces, the
+    centroid registers the board computes from them (X = 254 (F2 + F4)/F, Y = 254 (F3 + F4)/F,
+    ``no_load`` below the minimum foot force), or both (``registers``)."""
+    cols: dict[str, np.ndarray] = {}
+    if registers in ("forces", "both"):
+        for k in range(4):
+            cols[f"{foot.columns}{k + 1}"] = counts[:, k]
+    if registers in ("centroid", "both"):
+        total = counts.sum(axis=1)
+        on = total * sensors.force_unit >= sensors.min_foot_force
+        safe = np.where(on, total, 1)
+        x = np.round(sensors.centroid_max * (counts[:, 1] + counts[:, 3]) / safe)
+        y = np.round(sensors.centroid_max * (counts[:, 2] + counts[:, 3]) / safe)
+        cols[f"{foot.columns}_x"] = np.where(on, x, sensors.no_load).astype(int)
+        cols[f"{foot.columns}_y"] = np.where(on, y, sensors.no_load).astype(int)
+    return cols
+
+
 def truth_record(
     robot,
     config: ExperimentConfig,
@@ -359,17 +380,7 @@ def run_experiment(
             counts = np.zeros((m, 4))
         counts = counts.astype(int)
         counts_by_foot[f.name] = counts
-        if config.registers in ("forces", "both"):
-            for k in range(4):
-                cols[f"{f.columns}{k + 1}"] = counts[:, k]
-        if config.registers in ("centroid", "both"):
-            total = counts.sum(axis=1)
-            on = total * sensors.force_unit >= sensors.min_foot_force
-            safe = np.where(on, total, 1)
-            x = np.round(sensors.centroid_max * (counts[:, 1] + counts[:, 3]) / safe)
-            y = np.round(sensors.centroid_max * (counts[:, 2] + counts[:, 3]) / safe)
-            cols[f"{f.columns}_x"] = np.where(on, x, sensors.no_load).astype(int)
-            cols[f"{f.columns}_y"] = np.where(on, y, sensors.no_load).astype(int)
+        cols |= pad_columns(f, counts, config.registers, sensors)
 
     # noise-free measured CoP: what a perfect average of the biased sensors gives
     num, den = np.zeros((n, 2)), np.zeros(n)
