@@ -1,0 +1,155 @@
+"""The compiled float formatter against Python's repr (David Gay's dtoa), byte for byte, and the
+float64 CSV writer against the csv module's writer and the readers (bit-exact round trips)."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sescid.estimation import identify_ls
+from sescid.io import iter_table, read_table, tables, write_table
+from sescid.io.float_text import float_text, format_rows
+from sescid.simulation import simulate
+from sescid.table import read_cop, read_poses
+
+
+def _reference(values) -> list[str]:
+    return [repr(float(v)) for v in np.asarray(values, dtype=float).ravel()]
+
+
+def _assert_bit_exact(text: list[str], values) -> None:
+    back = np.array([float(t) for t in text])
+    want = np.asarray(values, dtype=float).ravel()
+    np.testing.assert_array_equal(back.view(np.uint64), want.view(np.uint64))
+
+
+def test_edge_values_are_written_as_repr():
+    """Zeros, signs, nan/inf, subnormals, extremes and the fixed/exponent switch points."""
+    values = [
+        0.0,
+        -0.0,
+        1.0,
+        -1.0,
+        0.1,
+        0.3,
+        2 / 3,
+        1e-4,
+        1e-5,
+        9.999999999999999e-5,
+        1e15,
+        1e16,
+        9999999999999998.0,
+        1.5e16,
+        123456789012345678.0,
+        1e22,
+        1e23,
+        2.0**53 + 2,
+        5e-324,
+        -5e-324,
+        2.2250738585072009e-308,  # largest subnormal
+        2.2250738585072014e-308,  # smallest normal
+        1.7976931348623157e308,
+        -1.7976931348623157e308,
+        math.inf,
+        -math.inf,
+    ]
+    assert float_text(np.array(values)) == _reference(values)
+    nans = np.array(
+        [math.nan, -math.nan, struct.unpack("<d", b"\x01\x00\x00\x00\x00\x00\xf8\xff")[0]]
+    )
+    assert float_text(nans) == ["nan", "nan", "nan"]
+
+
+def test_every_binary_exponent_and_power_of_ten():
+    """2^e for every e of float64 (and the doubles beside each), 10^k for every k: as repr."""
+    twos = np.ldexp(1.0, np.arange(-1074, 1024))
+    near = np.concatenate([twos, np.nextafter(twos, 0), np.nextafter(twos, np.inf)])
+    near = near[np.isfinite(near)]
+    tens = np.array([float(f"1e{k}") for k in range(-323, 309)])
+    values = np.concatenate([near, -near, tens, np.nextafter(tens, 0), np.arange(-2000.0, 2000.0)])
+    assert float_text(values) == _reference(values)
+
+
+def test_random_bit_patterns_as_repr():
+    """100 000 uniformly random 64-bit patterns (every exponent, nan payloads): as repr."""
+    bits = np.random.default_rng(8).integers(0, 2**64, size=100_000, dtype=np.uint64)
+    values = bits.view(np.float64)
+    text = float_text(values)
+    assert text == _reference(values)
+    finite = np.isfinite(values)
+    _assert_bit_exact([t for t, f in zip(text, finite, strict=True) if f], values[finite])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True), max_size=40))
+def test_any_float_reads_back_bit_exact(values):
+    """Hypothesis over floats (subnormals, huge, −0.0, integers): repr's text, float(text) exact."""
+    text = float_text(np.array(values, dtype=float))
+    assert text == [repr(float(v)) for v in values]
+    keep = [i for i, v in enumerate(values) if not math.isnan(v)]
+    _assert_bit_exact([text[i] for i in keep], [values[i] for i in keep])
+
+
+def test_format_rows_is_csv_rows():
+    """Commas between the numbers of a row, a newline after each row."""
+    x = np.array([[1.0, -0.5, 1e-7], [2.5, 0.0, -3e20]])
+    assert format_rows(x).tobytes() == b"1.0,-0.5,1e-07\n2.5,0.0,-3e+20\n"
+    assert format_rows(np.zeros((0, 3))).tobytes() == b""
+
+
+def test_float_csv_equals_the_csv_module_writer(tmp_path, monkeypatch):
+    """The threaded float64 writer (many small blocks) writes the csv module's bytes, reread
+    bit for bit by both readers."""
+    monkeypatch.setattr(tables, "WRITE_BLOCK_ROWS", 7)
+    rng = np.random.default_rng(2)
+    cols = {
+        "a": rng.normal(size=101),
+        "b,quoted": rng.normal(size=101) * 1e-6,
+        "c": np.round(rng.normal(size=101) * 1e3),
+        "d": (rng.integers(0, 2**64, size=101, dtype=np.uint64)).view(np.float64),
+    }
+    cols["d"][~np.isfinite(cols["d"])] = 1.0
+    fast, plain = tmp_path / "fast.csv", tmp_path / "plain.csv"
+    write_table(fast, cols)
+    tables._write_csv_plain(plain, list(cols), list(cols.values()))
+    assert fast.read_bytes() == plain.read_bytes().replace(b"\r\n", b"\n")
+    for table in (read_table(fast), tables._read_csv_plain(fast)):
+        for name, values in cols.items():
+            np.testing.assert_array_equal(
+                table.columns[name].view(np.uint64), values.view(np.uint64)
+            )
+
+
+def test_simulated_file_round_trip_and_fit(op2, tmp_path, monkeypatch):
+    """A simulate-style file: every number reread bit for bit in streamed chunks, and the fit
+    of the file is the in-memory fit of the same arrays, bit for bit."""
+    monkeypatch.setattr(tables, "WRITE_BLOCK_ROWS", 500)
+    monkeypatch.setattr(tables, "CSV_BLOCK_BYTES", 1 << 16)
+    sim = simulate(op2, 3000, seed=11)
+    cols = {name: sim.q[:, j] for j, name in enumerate(op2.joint_names)}
+    cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
+    path = tmp_path / "sim.csv"
+    write_table(path, cols)
+    chunks = list(iter_table(path))
+    assert len(chunks) > 2
+    q = np.concatenate([read_poses(t, op2.joint_names) for t in chunks])
+    cop = np.concatenate([read_cop(t) for t in chunks])
+    np.testing.assert_array_equal(q.view(np.uint64), sim.q.view(np.uint64))
+    np.testing.assert_array_equal(cop.view(np.uint64), sim.cop.view(np.uint64))
+    assert path.read_text().splitlines()[0] == ",".join(cols)
+    np.testing.assert_array_equal(identify_ls(op2, q, cop).r, identify_ls(op2, sim.q, sim.cop).r)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.int64])
+def test_other_number_columns_keep_their_writer(tmp_path, dtype):
+    """float32 and integer columns still go through pyarrow's writer (their own shortest form)."""
+    path = tmp_path / "t.csv"
+    values = np.array([1, 2, 300], dtype=dtype) / (3 if dtype == np.float32 else 1)
+    write_table(path, {"x": values.astype(dtype), "y": np.array([0.5, 0.25, 0.125])})
+    back = read_table(path).columns["x"]
+    np.testing.assert_array_equal(back.astype(dtype), values.astype(dtype))
