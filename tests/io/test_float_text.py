@@ -130,6 +130,7 @@ def test_simulated_file_round_trip_and_fit(op2, tmp_path, monkeypatch):
     of the file is the in-memory fit of the same arrays, bit for bit."""
     monkeypatch.setattr(tables, "WRITE_BLOCK_ROWS", 500)
     monkeypatch.setattr(tables, "CSV_BLOCK_BYTES", 1 << 16)
+    monkeypatch.setattr(tables, "CSV_CHUNK_ROWS", 1)
     sim = simulate(op2, 3000, seed=11)
     cols = {name: sim.q[:, j] for j, name in enumerate(op2.joint_names)}
     cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}

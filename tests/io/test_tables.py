@@ -13,10 +13,12 @@ from sescid.simulation import simulate
 from sescid.table import read_cop, read_poses
 
 
-@pytest.fixture
-def small_blocks(monkeypatch):
-    """Chunks of a few hundred bytes, so a small file streams in many chunks."""
+@pytest.fixture(params=[1, 40])
+def small_blocks(monkeypatch, request):
+    """Parsed blocks of 4 kB, each its own chunk or joined into chunks of ≥ 40 rows, so a
+    small file streams in many chunks."""
     monkeypatch.setattr(tables, "CSV_BLOCK_BYTES", 4096)
+    monkeypatch.setattr(tables, "CSV_CHUNK_ROWS", request.param)
 
 
 def _columns(op2, n, seed=3):
@@ -33,6 +35,7 @@ def test_streamed_csv_equals_plain_reader(op2, tmp_path, small_blocks):
     write_table(path, cols)
     chunks = list(iter_table(path))
     assert len(chunks) > 5
+    assert all(c.n >= tables.CSV_CHUNK_ROWS for c in chunks[:-1])
     plain = tables._read_csv_plain(path)
     assert [c.first_row for c in chunks][:2] == [2, 2 + chunks[0].n]
     for name in plain.names():
@@ -97,7 +100,7 @@ def test_identify_once_equals_chunks_and_memory(op2, small_blocks, tmp_path):
     assert fit.truth_cop_rmse == pytest.approx(np.sqrt(np.mean(err**2)), rel=1e-12)
 
 
-def test_read_ahead_same_chunks_errors_and_early_exit(op2, tmp_path):
+def test_read_ahead_same_chunks_errors_and_early_exit(op2, tmp_path, small_blocks):
     """read_ahead yields the same chunks, raises the reader's error, and stops when left."""
     path = tmp_path / "sim.csv"
     write_table(path, _columns(op2, 6000, seed=6))

@@ -24,8 +24,12 @@ from ..errors import DataError
 from ..files import atomic_open, atomic_path
 from ..table import Table
 
-#: bytes of CSV text per streamed chunk (about 2400 OP2 poses; larger blocks cost memory)
-CSV_BLOCK_BYTES = 1 << 20
+#: bytes of CSV text per block that pyarrow parses (about 540 OP2 poses); pyarrow's reader
+#: keeps up to 32 blocks read ahead, so its memory is ~32 times this
+CSV_BLOCK_BYTES = 1 << 18
+#: rows of a streamed CSV chunk at least (parsed blocks are joined up to this): fewer,
+#: larger chunks spend less time per chunk in the column checks
+CSV_CHUNK_ROWS = 1 << 14
 #: rows per streamed Parquet chunk, and per chunk of a CSV write of non-float64 columns
 CHUNK_ROWS = 1 << 16
 #: rows per block of a float64 CSV write (24 OP2 columns: ~7 MB of text), and its threads
@@ -50,7 +54,8 @@ def iter_table(path: str | Path, chunk_rows: int | None = None) -> Iterator[Tabl
     """Read a CSV or Parquet file as consecutive ``Table`` chunks (file order).
 
     Each chunk's errors name the file's rows (``Table.first_row``). ``chunk_rows`` bounds a
-    Parquet chunk; a CSV chunk is about ``CSV_BLOCK_BYTES`` of text.
+    Parquet chunk; a CSV chunk is the parsed blocks of ``CSV_BLOCK_BYTES`` joined up to
+    ``CSV_CHUNK_ROWS`` rows or more.
     """
     path = Path(path)
     if not path.is_file():
@@ -211,10 +216,19 @@ def _iter_csv(path: Path) -> Iterator[Table]:
         }
         first.close()
         reader = _open_csv(path, header, skip, types)
+        batches: list = []
+        rows = 0
         for batch in reader:
             if batch.num_rows:
-                yield _from_arrow(path, header, batch, 2 + done, pa)
-                done += batch.num_rows
+                batches.append(batch)
+                rows += batch.num_rows
+            if rows >= CSV_CHUNK_ROWS:
+                yield _from_arrow(path, header, batches, 2 + done, pa)
+                done += rows
+                batches, rows = [], 0
+        if rows:
+            yield _from_arrow(path, header, batches, 2 + done, pa)
+            done += rows
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError):
         # a short row, text below numbers, …: the plain reader decides (and words the error)
         yield _read_csv_plain(path, skip_data_rows=done)
@@ -227,12 +241,14 @@ def _numeric(pa: Any, kind: Any) -> bool:
     return pa.types.is_floating(kind) or pa.types.is_integer(kind)
 
 
-def _from_arrow(path: Path, names: list[str], batch: Any, first_row: int, pa: Any) -> Table:
+def _from_arrow(path: Path, names: list[str], batches: list, first_row: int, pa: Any) -> Table:
+    """One ``Table`` of consecutive record batches (each column copied once into numpy)."""
     columns: dict[str, np.ndarray] = {}
     text: dict[str, list] = {}
-    for name, col in zip(names, batch.columns, strict=True):
+    for i, name in enumerate(names):
+        col = pa.chunked_array([b.column(i) for b in batches])
         if _numeric(pa, col.type):
-            columns[name] = col.to_numpy(zero_copy_only=False).astype(float, copy=False)
+            columns[name] = col.to_numpy().astype(float, copy=False)
         else:
             _put(columns, text, name, [v.strip() for v in col.to_pylist()])
     return Table(path, columns, text, first_row=first_row)
