@@ -122,3 +122,59 @@ def test_poses_are_validated(op2):
     bad[1, 4] = np.nan
     with pytest.raises(sescid.SescidError, match="pose 1, joint 4"):
         op2.cop(bad)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("rows", [(0, 1), (0, 1, 2), (2,)])
+def test_fused_normal_equations_equal_the_columns_product(op2, rng, rows, weighted):
+    """One compiled pass (chain rows, reduced columns, symmetric product) = Φ_redᵀWΦ_red by BLAS."""
+    n = 3 * kinematics.GRAM_BLOCK + 17  # several blocks and a partial one
+    q = rng.uniform(-2, 2, (n, op2.nq))
+    y = rng.normal(0, 0.05, (n, len(rows)))
+    sw = rng.uniform(0.5, 2.0, (n, len(rows))) if weighted else None
+    red = kinematics.reduction(op2.tree, np.array([b.axis for b in op2.model.bodies]), rows)
+    p = red.g.shape[0]
+    x = kinematics.reduced_columns(op2.tree, red, q)  # (p, len(rows)·n), columns (row, pose)
+    yv = y.T.reshape(-1)
+    if weighted:
+        x, yv = x * sw.T.reshape(-1), yv * sw.T.reshape(-1)
+    p4 = kinematics.padded(p)
+    ata, atb = np.zeros((p4, p4)), np.zeros(p4)
+    yty = kinematics.gram_reduced(op2.tree, red, q, y, sw, ata, atb)
+    assert yty is not None  # the kernels are loaded for a block this size
+    upper = np.triu(ata)[:p, :p]
+    np.testing.assert_allclose(upper + np.triu(upper, 1).T, x @ x.T, rtol=1e-13, atol=1e-12)
+    np.testing.assert_allclose(atb[:p], x @ yv, rtol=1e-13, atol=1e-14)
+    assert yty == pytest.approx(yv @ yv, rel=1e-14)
+    assert not ata[p:].any() and not atb[p:].any()  # padding rows stay zero
+
+
+def test_symmetric_product_matches_blas_for_any_width(rng):
+    """``gram_upper`` (2 × 4 register blocks, rows padded to 4) = X Xᵀ, X y, yᵀy."""
+    for p, m in [(1, 1), (5, 3), (42, 512), (63, 1000)]:
+        x, y = rng.normal(size=(p, m)), rng.normal(size=m)
+        p4 = kinematics.padded(p)
+        ata, atb = np.zeros((p4, p4)), np.zeros(p4)
+        yty = kinematics.gram_upper(x, y, ata, atb)
+        np.testing.assert_allclose(np.triu(ata)[:p, :p], np.triu(x @ x.T), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(atb[:p], x @ y, rtol=1e-12, atol=1e-12)
+        assert yty == pytest.approx(y @ y, rel=1e-13)
+
+
+def test_compiled_cop_equals_the_full_chain(op2, rng):
+    """The CoP path over rows 0, 1 only agrees with the 3-row chain and Pinocchio's CoM."""
+    q = rng.uniform(-3, 3, (2 * kinematics.CHAIN_BLOCK + 5, op2.nq))
+    fast = kinematics.cop_xy_compiled(op2.tree, q, op2.sesc_vectors())
+    assert fast is not None
+    np.testing.assert_allclose(fast, op2.com(q)[:, :2], rtol=0, atol=1e-15)
+    assert kinematics.cop_xy_compiled(op2.tree, q + 1e6, op2.sesc_vectors()) is None  # huge
+
+
+def test_nan_hidden_in_a_finite_looking_sum_is_found(op2):
+    """Validation: angles whose sum overflows are checked one by one, a nan is still named."""
+    q = np.zeros((3, op2.nq))
+    q[0, 0], q[0, 1] = 1e308, 1e308  # the sum overflows to inf: every angle is finite
+    assert kinematics.as_poses(q, op2.nq).shape == (3, op2.nq)
+    q[2, 7] = np.nan
+    with pytest.raises(sescid.SescidError, match="pose 2, joint 7"):
+        kinematics.as_poses(q, op2.nq)

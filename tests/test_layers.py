@@ -20,6 +20,7 @@ LAYERS = {
     "files": 0,
     "table": 0,
     "progress": 0,
+    "threads": 0,
     "robots": 0,
     "model": 1,
     "kinematics": 2,

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import DataError
-from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain, com_one
+from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain, com_one, cop_xy_compiled
 from .model import RobotModel
 
 
@@ -57,6 +57,10 @@ def com_from_sesc(
         if com is not None:
             first = tuple(rows) in ((0, 1), (0, 1, 2))  # CoP or CoM: a view, no index array
             return com[:, : len(rows)] if first else com[:, list(rows)]
+    if tuple(rows) == (0, 1) and np.shape(r) == (tree.parent.shape[0], 3):
+        cop = cop_xy_compiled(tree, q, np.ascontiguousarray(r, dtype=float))  # rows 0, 1 only
+        if cop is not None:
+            return cop
     rows = list(rows)
     vec = np.asarray(r, dtype=float).reshape(-1)
     out = np.empty((q.shape[0], len(rows)))

@@ -66,7 +66,10 @@ def cli() -> None:
 
 
 def main() -> None:
-    """Entry point of the ``sescid`` script."""
+    """Entry point of the ``sescid`` script (one BLAS thread: see ``sescid.threads``)."""
+    from ..threads import pin_process
+
+    pin_process()
     cli(prog_name="sescid")
 
 

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import OptionError
 from ..kinematics import as_poses
 from ..robot import Robot
+from ..threads import one_blas_thread
 from .checks import fit_warnings
 from .consistent import COM_SCALE, FIT_TOL, consistent_from_fit, identify_consistent
 from .consistent_prior import evidence_prior_std, least_squares_view
@@ -152,6 +153,7 @@ def make_fitter(
     return fitter
 
 
+@one_blas_thread()
 def identify(
     robot: Robot,
     q: ArrayLike,
@@ -192,6 +194,7 @@ def identify(
     return fit
 
 
+@one_blas_thread()
 def to_consistent(fit: Fit, options: ConsistentOptions | None = None) -> Fit:
     """Masses/CoMs for a fit (``consistent_from_fit``): by default (``via="auto"``) a MAP fit's
     SESC vectors are reproduced, any other fit is weighed against an evidence-chosen CAD prior

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike
 from ..errors import DataError
 from ..kinematics import as_poses
 from ..robot import Robot
+from ..threads import one_blas_thread
 from .fit import Fit
 from .identifiability import (
     DEFAULT_RTOL,
@@ -90,6 +91,7 @@ def residual_stats(fit: Fit, q: np.ndarray, cop: np.ndarray, gravity=None) -> No
     fit.rms = float(np.sqrt(np.mean(resid**2)))
 
 
+@one_blas_thread()
 def identify_ls(
     robot: Robot,
     q: ArrayLike,
@@ -117,6 +119,7 @@ def identify_ls(
     return fit
 
 
+@one_blas_thread()
 def identify_stream(
     robot: Robot,
     chunks: Iterable[tuple],
@@ -145,6 +148,7 @@ def identify_stream(
     return fit
 
 
+@one_blas_thread()
 def identify_chunks(
     robot: Robot,
     chunks: Sequence[tuple],

@@ -14,7 +14,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import DataError
-from ..kinematics import Workspace, as_poses, compiled, lazy_njit, reduced_columns
+from ..kinematics import (
+    Workspace,
+    as_poses,
+    compiled,
+    gram_reduced,
+    gram_upper,
+    padded,
+    reduced_columns,
+)
 from ..robot import Robot
 
 #: poses per block when accumulating normal equations
@@ -48,62 +56,20 @@ class NormalEquations:
         self.n_rows += phi_t.shape[1]
 
 
-#: columns per pass of the compiled product (two rows of X stay in L1 while they are dotted)
-_K_BLOCK = 512
-
-
-@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
-def _add_upper(x, y, ata, atb):  # pragma: no cover - compiled
-    """ata[i, j ≥ i] += Σ_k x[i, k] x[j, k]; atb += X y; returns yᵀy.
-
-    The normal-equation product on one core (dot products four at a time over column blocks),
-    instead of a BLAS call whose two threads spin against each other on a busy machine.
-    """
-    p, m = x.shape
-    yty = 0.0
-    for k in range(m):
-        yty += y[k] * y[k]
-    for k0 in range(0, m, _K_BLOCK):
-        k1 = min(m, k0 + _K_BLOCK)
-        for i in range(p):
-            s = 0.0
-            for k in range(k0, k1):
-                s += x[i, k] * y[k]
-            atb[i] += s
-            j = i
-            while j + 3 < p:
-                s0 = s1 = s2 = s3 = 0.0
-                for k in range(k0, k1):
-                    xi = x[i, k]
-                    s0 += xi * x[j, k]
-                    s1 += xi * x[j + 1, k]
-                    s2 += xi * x[j + 2, k]
-                    s3 += xi * x[j + 3, k]
-                ata[i, j] += s0
-                ata[i, j + 1] += s1
-                ata[i, j + 2] += s2
-                ata[i, j + 3] += s3
-                j += 4
-            while j < p:
-                s0 = 0.0
-                for k in range(k0, k1):
-                    s0 += x[i, k] * x[j, k]
-                ata[i, j] += s0
-                j += 1
-    return yty
-
-
-def _add_block(ne: NormalEquations, x: np.ndarray, y: np.ndarray, w: np.ndarray | None) -> None:
-    """``ne.add`` for a block of the accumulation: compiled (upper triangle only) once the
-    kinematics kernels are loaded, BLAS for the few small blocks before."""
-    if not compiled():
-        ne.add(x, y, w)
-        return
-    if w is not None:
-        sw = np.sqrt(w)
+def _add_columns(acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndarray | None) -> None:
+    """Add a block given as columns x = Φᵀ (P, m) ≤ acc's padded size, targets y (m,) and
+    square-root weights sw (m,) or None: compiled (one core) once the kernels are loaded,
+    BLAS for the few small blocks before."""
+    if sw is not None:
         x, y = x * sw, y * sw
-    ne.yty += _add_upper(np.ascontiguousarray(x), np.ascontiguousarray(y), ne.ata, ne.atb)
-    ne.n_rows += x.shape[1]
+    if compiled():
+        acc.yty += gram_upper(x, y, acc.ata, acc.atb)
+    else:
+        p = x.shape[0]
+        acc.ata[:p, :p] += x @ x.T
+        acc.atb[:p] += x @ y
+        acc.yty += float(y @ y)
+    acc.n_rows += x.shape[1]
 
 
 def _upper_to_full(a: np.ndarray) -> np.ndarray:
@@ -170,7 +136,8 @@ def accumulate(
     d_xy = robot.d[:2]
     ws = Workspace(robot.tree, ACCUMULATE_BLOCK)
     red = robot.reduction
-    acc = NormalEquations.empty(red.g.shape[0])  # in reduced coordinates β = G r
+    p_red = red.g.shape[0]
+    acc = NormalEquations.empty(padded(p_red))  # in reduced coordinates β = G r (zero-padded)
     for chunk in chunks:
         q, cop = chunk[0], chunk[1]
         sigma = chunk[2] if len(chunk) > 2 else None
@@ -182,16 +149,25 @@ def accumulate(
             _add_tilted(robot, ne, q, cop, w, gravity, ws.block, progress)
             ne.n_poses += q.shape[0]
             continue
+        y = cop - d_xy
+        sw = None if w is None else np.sqrt(w).reshape(-1, 2)
         for s in range(0, q.shape[0], ws.block):
             blk = slice(s, s + ws.block)
-            x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
-            y = (cop[blk] - d_xy).T.reshape(-1)
-            _add_block(acc, x, y, None if w is None else w.reshape(-1, 2)[blk].T.reshape(-1))
+            sw_b = None if sw is None else sw[blk]
+            yty = gram_reduced(robot.tree, red, q[blk], y[blk], sw_b, acc.ata, acc.atb)
+            if yty is None:  # kernels not loaded yet, or huge angles: columns, then product
+                x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
+                _add_columns(
+                    acc, x, y[blk].T.reshape(-1), None if sw_b is None else sw_b.T.reshape(-1)
+                )
+            else:
+                acc.yty += yty
+                acc.n_rows += 2 * y[blk].shape[0]
             if progress is not None:
                 progress(min(s + ws.block, q.shape[0]), q.shape[0])
         ne.n_poses += q.shape[0]
-    ne.ata += red.g.T @ _upper_to_full(acc.ata) @ red.g
-    ne.atb += red.g.T @ acc.atb
+    ne.ata += red.g.T @ _upper_to_full(acc.ata)[:p_red, :p_red] @ red.g
+    ne.atb += red.g.T @ acc.atb[:p_red]
     ne.yty += acc.yty
     ne.n_rows += acc.n_rows
     return ne

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..kinematics import as_poses
 from ..robot import Robot
+from ..threads import one_blas_thread
 from .fit import Fit
 from .identifiability import DEFAULT_RTOL, check_enough_poses
 from .least_squares import _reblock, solve
@@ -46,6 +47,7 @@ def _get(fh: IO[bytes], shapes: Iterator) -> tuple:
     return tuple(out)
 
 
+@one_blas_thread()
 def identify_once(
     robot: Robot,
     chunks: Iterable[tuple],

@@ -19,6 +19,16 @@ def collision_free_mask_broad(cap: Capsules, rot: np.ndarray, org: np.ndarray) -
     out = np.ones(n, dtype=bool)
     if not len(cap.pairs):
         return out
+    _broad(np.ascontiguousarray(rot), np.ascontiguousarray(org), *_spheres(cap, nb), out)
+    return out
+
+
+def _spheres(cap: Capsules, nb: int) -> tuple:
+    """The kernel's fixed arguments (body spheres, body pairs, capsule pairs grouped by body
+    pair), built once per capsule set and kept on it."""
+    kept = getattr(cap, "_broad_args", None)
+    if kept is not None and kept[0] == (nb, len(cap.pairs)):
+        return kept[1]
     sph_c = np.zeros((nb, 3))
     sph_r = np.zeros(nb)
     for b in np.unique(cap.body):
@@ -35,9 +45,7 @@ def collision_free_mask_broad(cap: Capsules, rot: np.ndarray, org: np.ndarray) -
     pairs = cap.pairs[order]
     first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     start = np.r_[first, len(key)].astype(np.int64)
-    _broad(
-        np.ascontiguousarray(rot),
-        np.ascontiguousarray(org),
+    args = (
         cap.body.astype(np.int64),
         np.ascontiguousarray(cap.p0),
         np.ascontiguousarray(cap.p1),
@@ -49,6 +57,6 @@ def collision_free_mask_broad(cap: Capsules, rot: np.ndarray, org: np.ndarray) -
         start,
         np.ascontiguousarray(pairs[:, 0]),
         np.ascontiguousarray(pairs[:, 1]),
-        out,
     )
-    return out
+    cap._broad_args = ((nb, len(cap.pairs)), args)  # type: ignore[attr-defined]
+    return args

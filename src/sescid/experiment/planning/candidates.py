@@ -10,14 +10,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import SescidError
+from ...kinematics import MAX_ANGLE, cop_xy
 from ...robot import Robot
 from .collision import Capsules, collision_capsules
 from .limits import sampling_limits
 from .stability import (
     DEFAULT_CLEARANCE,
+    coarse_screen_tree,
     cop_centre,
     cop_half_extents,
     ground_clear_mask,
+    inside_box,
     stable_subset,
 )
 
@@ -98,17 +101,29 @@ def candidates(
     n_sampled = n_stable = n_ground = n_free = 0
     width = lim[:, 1] - lim[:, 0]
     draw = np.empty((chunk if sampler == "uniform" else 0, robot.nq))
+    screen = None
+    if sampler == "uniform" and np.all(np.abs(lim) < MAX_ANGLE):
+        screen = coarse_screen_tree(robot, lim[:, 0], width)
     while n_free < n:
         if sampler == "adjusted":
             pool = np.concatenate(qs) if qs else None
             q = adjusted_draws(robot, cap, lim, chunk, rng, pool, half, centre)
-        else:
-            # in place, the same numbers as lim[:, 0] + width * rng.random((chunk, nq))
+            ok, cop = stable_subset(robot, q, half, centre)
+        elif screen is None:
             q = rng.random((chunk, robot.nq), out=draw[:chunk])
             q *= width
             q += lim[:, 0]
+            ok, cop = stable_subset(robot, q, half, centre)
+        else:
+            # unit draws screened by the coarse CoP before they are scaled; the survivors get
+            # the same numbers as lim[:, 0] + width * rng.random((chunk, nq))
+            u = rng.random((chunk, robot.nq), out=draw[:chunk])
+            tree, r, bound = screen
+            q = u[inside_box(cop_xy(tree, u, r), centre, half + bound)]
+            q *= width
+            q += lim[:, 0]
+            ok, cop = stable_subset(robot, q, half, centre, coarse=False)
         n_sampled += chunk
-        ok, cop = stable_subset(robot, q, half, centre)
         q = q[ok]
         n_stable += len(q)
         if len(q):

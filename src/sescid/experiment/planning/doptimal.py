@@ -16,63 +16,54 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import SescidError
-from ...estimation import DEFAULT_RTOL, identifiable_eigen
+from ...estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
+from ...kinematics import CHAIN_BLOCK, Workspace, as_poses, reduced_columns
 from ...robot import Robot
+from .doptimal_kernels import project_columns, rank2, sandwich
 
 
 def identifiable_basis(
     robot: Robot, q: np.ndarray, rtol: float = DEFAULT_RTOL, chunk: int = 50_000
 ) -> np.ndarray:
-    """(3N, p) orthonormal basis of the span of the x/y regressor rows over poses ``q``."""
-    ata = np.zeros((3 * len(robot.body_names),) * 2)
-    for s in range(0, len(q), chunk):
-        x = robot.regressor(q[s : s + chunk]).reshape(-1, ata.shape[0])
-        ata += x.T @ x
-    return identifiable_eigen(ata, rtol)[1]
+    """(3N, p) orthonormal basis of the span of the x/y regressor rows over poses ``q``.
+
+    From ΦᵀΦ accumulated by ``estimation.accumulate`` (reduced coordinates, compiled)."""
+    q = as_poses(q, robot.nq)
+    ne = accumulate(
+        robot,
+        ((q[s : s + chunk], np.zeros((len(q[s : s + chunk]), 2))) for s in range(0, len(q), chunk)),
+    )
+    return identifiable_eigen(ne.ata, rtol)[1]
 
 
 def projected_regressor(robot: Robot, q, basis: np.ndarray, chunk: int = 50_000) -> np.ndarray:
-    """(n, 2, p) x/y regressor in the coordinates of ``basis``: A = Φ_xy V."""
+    """(n, 2, p) x/y regressor in the coordinates of ``basis``: A = Φ_xy V.
+
+    Computed as Φ_red (G V) from the reduced columns (``kinematics.reduced_columns``: Φ = Φ_red G
+    exactly), block by block, the small product in a compiled kernel."""
+    q = as_poses(q, robot.nq)
+    red = robot.reduction
+    t = np.ascontiguousarray(red.g @ basis)  # (P_red, p)
     out = np.empty((len(q), 2, basis.shape[1]))
-    for s in range(0, len(q), chunk):
-        out[s : s + chunk] = robot.regressor(q[s : s + chunk]) @ basis
+    ws = Workspace(robot.tree, min(CHAIN_BLOCK, max(len(q), 1)))
+    for s in range(0, len(q), ws.block):
+        x = reduced_columns(robot.tree, red, q[s : s + ws.block], ws)  # (P_red, 2m)
+        project_columns(x, t, out[s : s + ws.block])
     return out
 
 
 def _logdet2(s: np.ndarray) -> np.ndarray:
-    """Log det(I + S) for S (n, 2, 2) symmetric (nan where not positive)."""
-    det = (1.0 + s[:, 0, 0]) * (1.0 + s[:, 1, 1]) - s[:, 0, 1] * s[:, 1, 0]
+    """Log det(I + S) for S (n, 3) = (s00, s01, s11) (nan where not positive)."""
+    det = (1.0 + s[:, 0]) * (1.0 + s[:, 2]) - s[:, 1] * s[:, 1]
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.log(np.where(det > 0, det, np.nan))
 
 
-def _inv2(g: np.ndarray) -> np.ndarray:
-    det = g[0, 0] * g[1, 1] - g[0, 1] * g[1, 0]
-    return np.array([[g[1, 1], -g[0, 1]], [-g[1, 0], g[0, 0]]]) / det
-
-
-def _quad(w: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """W_j G W_jᵀ (n, 2, 2) for W (n, 2, 2) and a symmetric G (2, 2)."""
-    w0, w1 = w[:, :, 0], w[:, :, 1]  # (n, 2): columns of each W_j
-    t0 = w0 * g[0, 0] + w1 * g[1, 0]
-    t1 = w0 * g[0, 1] + w1 * g[1, 1]
-    out = np.empty_like(w)
-    for i in range(2):
-        for j in range(i, 2):
-            out[:, i, j] = t0[:, i] * w0[:, j] + t1[:, i] * w1[:, j]
-            out[:, j, i] = out[:, i, j]
-    return out
-
-
-def _sandwich(a: np.ndarray, minv: np.ndarray) -> np.ndarray:
-    """S_i = A_i M⁻¹ A_iᵀ (n, 2, 2) for A (n, 2, p)."""
-    n, _, p = a.shape
-    y = (a.reshape(2 * n, p) @ minv).reshape(n, 2, p)
-    out = np.empty((n, 2, 2))
-    out[:, 0, 0] = np.einsum("np,np->n", y[:, 0], a[:, 0])
-    out[:, 1, 1] = np.einsum("np,np->n", y[:, 1], a[:, 1])
-    out[:, 0, 1] = out[:, 1, 0] = np.einsum("np,np->n", y[:, 0], a[:, 1])
-    return out
+def _inv2(s: np.ndarray, sign: float) -> tuple[np.ndarray, float]:
+    """(inverse, determinant) of I + sign · S for one S = (s00, s01, s11)."""
+    h00, h01, h11 = 1.0 + sign * s[0], sign * s[1], 1.0 + sign * s[2]
+    det = h00 * h11 - h01 * h01
+    return np.array([[h11, -h01], [-h01, h00]]) / det, det
 
 
 def information(a: np.ndarray) -> np.ndarray:
@@ -94,49 +85,48 @@ class Selection:
 class _Design:
     """Rank-2 bookkeeping for D-optimal search over candidates A (n, 2, p).
 
-    Keeps M⁻¹ and, for every candidate, S_i = A_i M⁻¹ A_iᵀ (2 × 2) current under additions and
-    removals (Woodbury), so a step costs O(n p) instead of O(n p²).
+    Keeps M⁻¹ and, for every candidate, S_i = A_i M⁻¹ A_iᵀ (stored as (s00, s01, s11)) current
+    under additions and removals (Woodbury), so a step costs O(n p) instead of O(n p²); each
+    step is one compiled pass over the candidates (``doptimal_kernels``).
     """
 
-    def __init__(self, a: np.ndarray, minv: np.ndarray):
-        self.a = a
-        self.x = a.reshape(-1, a.shape[-1])
+    def __init__(self, a: np.ndarray, minv: np.ndarray, s: np.ndarray | None = None):
+        self.a = np.ascontiguousarray(a)
         self.minv = minv
-        self.s = _sandwich(a, minv)
+        self.s = sandwich(self.a, minv) if s is None else s
+        self._buf = np.empty_like(self.s)
         self.chosen = np.zeros(len(a), dtype=bool)
 
-    def _w(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        u = self.minv @ self.a[i].T  # (p, 2)
-        return u, (self.x @ u).reshape(len(self.a), 2, 2)
-
-    def add(self, i: int) -> None:
-        u, w = self._w(i)
-        g_inv = _inv2(np.eye(2) + self.s[i])
-        self.s = self.s - _quad(w, g_inv)
-        self.minv = self.minv - u @ g_inv @ u.T
-        self.chosen[i] = True
-
-    def best_add(self) -> int:
+    def best(self) -> int:
+        """The unchosen candidate of largest log det(I + S_i)."""
         gain = _logdet2(self.s)
         gain[self.chosen] = -np.inf
         return int(np.nanargmax(gain))
 
+    def add(self, i: int) -> int:
+        """Add candidate i; returns the unchosen candidate of largest gain afterwards (−1: none)."""
+        u = self.minv @ self.a[i].T  # (p, 2)
+        g_inv = _inv2(self.s[i], 1.0)[0]
+        self.chosen[i] = True
+        best = rank2(self.a, u, g_inv, -1.0, self.s, self.s, self.chosen)
+        self.minv = self.minv - u @ g_inv @ u.T
+        return best
+
     def try_exchange(self, i_out: int, tol: float = 1e-10) -> int | None:
         """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None."""
-        h = np.eye(2) - self.s[i_out]
-        det_h = h[0, 0] * h[1, 1] - h[0, 1] * h[1, 0]
+        h_inv, det_h = _inv2(self.s[i_out], -1.0)
         if not det_h > 0:
             return None
-        h_inv = _inv2(h)
-        u, w = self._w(i_out)
-        s_minus = self.s + _quad(w, h_inv)  # S_j once i_out is removed
-        gain = _logdet2(s_minus) + math.log(det_h)
-        gain[self.chosen] = -np.inf
-        j = int(np.nanargmax(gain))
-        if not gain[j] > tol:
+        u = self.minv @ self.a[i_out].T
+        # S_j once i_out is removed, into the spare buffer; i_out itself stays excluded
+        j = rank2(self.a, u, h_inv, 1.0, self.s, self._buf, self.chosen)
+        if j < 0:
+            return None
+        gain = _logdet2(self._buf[j : j + 1])[0] + math.log(det_h)
+        if not gain > tol:
             return None
         self.minv = self.minv + u @ h_inv @ u.T
-        self.s = s_minus
+        self.s, self._buf = self._buf, self.s
         self.chosen[i_out] = False
         self.add(j)
         return j
@@ -161,27 +151,34 @@ def select_d_optimal(
     if not 1 <= k <= n:
         raise SescidError(f"cannot choose {k} poses from {n} candidates")
     rng = np.random.default_rng(seed)
+    a = np.ascontiguousarray(a, dtype=float)
     x = a.reshape(2 * n, p)
     delta = 1e-8 * float(np.einsum("ij,ij->", x, x)) / (n * p)
-    st = _Design(a, np.eye(p) / delta)
+    s0 = np.empty((n, 3))  # S_i = A_i A_iᵀ / δ
+    s0[:, 0] = np.einsum("np,np->n", a[:, 0], a[:, 0]) / delta
+    s0[:, 1] = np.einsum("np,np->n", a[:, 0], a[:, 1]) / delta
+    s0[:, 2] = np.einsum("np,np->n", a[:, 1], a[:, 1]) / delta
+    st = _Design(a, np.eye(p) / delta, s0)
+    i = st.best()
     order = []
     for _ in range(k):
-        i = st.best_add()
-        st.add(i)
         order.append(i)
+        i = st.add(i)
+        if i < 0 and len(order) < k:
+            i = st.best()
     minv = st.minv
     exchanges = passes = 0
     for passes in range(1, max_passes + 1):  # noqa: B007
         m = information(a[order])
         if np.linalg.matrix_rank(m) == p:  # drop the ridge once the design is non-singular
             minv = np.linalg.inv(m)
-        score = _logdet2(_sandwich(a, minv))
-        score[order] = -np.inf
-        score = np.nan_to_num(score, nan=-np.inf)
         n_short = min(shortlist, n - k)
+        s_all = sandwich(a, minv)
+        score = np.nan_to_num(_logdet2(s_all), nan=-np.inf)
+        score[order] = -np.inf
         top = np.argpartition(-score, n_short - 1)[:n_short] if n_short > 0 else np.zeros(0, int)
         idx = np.concatenate([np.asarray(order), top])
-        sub = _Design(a[idx], minv)
+        sub = _Design(a[idx], minv, s_all[idx])
         sub.chosen[:k] = True
         pos_sub = list(range(k))
         improved = False

@@ -80,28 +80,63 @@ def stable_mask(robot: Robot, q, half_extents, centre=None) -> tuple[np.ndarray,
     return np.all(np.abs(off) < np.asarray(half_extents), axis=1), cop
 
 
-def stable_subset(robot: Robot, q, half_extents, centre=None) -> tuple[np.ndarray, np.ndarray]:
+def stable_subset(
+    robot: Robot, q, half_extents, centre=None, coarse: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """(mask (n,), cop (mask.sum(), 2) [m]): ``stable_mask`` with the CoP of the kept poses only.
 
     Many poses are first rejected by a coarse CoP from the heavy bodies alone
-    (``coarse_cop_tree``): the light bodies move the CoP by at most their bound, so a pose whose
-    coarse CoP lies outside the box widened by it is unstable. The rest get the exact CoP, so the
-    mask is ``stable_mask``'s.
+    (``coarse_cop_tree``; ``coarse=False`` skips it): the light bodies move the CoP by at most
+    their bound, so a pose whose coarse CoP lies outside the box widened by it is unstable. The
+    rest get the whole tree's CoP in one compiled pass (``kinematics.cop_xy``); only poses within
+    ``EXACT_BAND`` of the box edge are decided by ``robot.cop``, which also gives the kept poses'
+    CoP — so the mask and the CoPs are ``stable_mask``'s.
     """
     q = np.ascontiguousarray(q, dtype=float)
     half = np.asarray(half_extents, dtype=float)
     c = np.zeros(2) if centre is None else np.asarray(centre, dtype=float)
     idx = np.arange(len(q))
-    # the pre-check on plain finite poses only; anything else gets stable_mask's checks
-    if q.ndim == 2 and q.shape[1] == robot.nq and len(q) >= COARSE_MIN_POSES:
-        if -MAX_ANGLE < q.min() and q.max() < MAX_ANGLE:
-            tree, r, bound = coarse_cop_tree(robot)
-            coarse = cop_xy(tree, q, r) - c
-            idx = np.flatnonzero(np.all(np.abs(coarse) < half + bound, axis=1))
+    plain = q.ndim == 2 and q.shape[1] == robot.nq and len(q) > 0
+    plain = plain and bool(-MAX_ANGLE < q.min() and q.max() < MAX_ANGLE)
+    # the pre-checks on plain finite poses only; anything else gets stable_mask's checks
+    if plain and coarse and len(q) >= COARSE_MIN_POSES:
+        tree, r, bound = coarse_cop_tree(robot)
+        idx = inside_box(cop_xy(tree, q, r), c, half + bound)
+    if plain and len(idx) >= COARSE_MIN_POSES // 10:
+        full = cop_xy(robot.tree, q[idx], robot.sesc_vectors())
+        keep = inside_box(full, c, half + EXACT_BAND)  # the rest are certainly unstable
+        idx = idx[keep]
     ok, cop = stable_mask(robot, q[idx], half, c)
     mask = np.zeros(len(q), dtype=bool)
     mask[idx[ok]] = True
     return mask, cop[ok]
+
+
+#: m: ``kinematics.cop_xy`` and ``robot.cop`` round differently by ~1e-16 m; poses whose
+#: compiled CoP lies farther than this outside the box are unstable by either
+EXACT_BAND = 1e-12
+
+
+def inside_box(xy: np.ndarray, centre: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Indices of the rows of ``xy`` (n, 2) strictly within ``centre`` ± ``half``."""
+    dx = np.abs(xy[:, 0] - centre[0]) < half[0]
+    dx &= np.abs(xy[:, 1] - centre[1]) < half[1]
+    return np.flatnonzero(dx)
+
+
+def coarse_screen_tree(
+    robot: Robot, lo: np.ndarray, width: np.ndarray
+) -> tuple[Tree, np.ndarray, float]:
+    """``coarse_cop_tree`` for unit draws u ∈ [0, 1)^nq standing for q = lo + width · u: each
+    joint's scale and offset folded into the tree (θ = coef·q + off = coef·width·u + coef·lo +
+    off, equal to rounding, far below the bound's margin), so draws need not be scaled first."""
+    tree, r, bound = coarse_cop_tree(robot)
+    moving = tree.jcol >= 0
+    coef, off = tree.coef.copy(), tree.off.copy()
+    col = tree.jcol[moving]
+    coef[moving] = tree.coef[moving] * width[col]
+    off[moving] = tree.coef[moving] * lo[col] + tree.off[moving]
+    return dataclasses.replace(tree, coef=coef, off=off), r, bound
 
 
 def coarse_cop_tree(robot: Robot) -> tuple[Tree, np.ndarray, float]:

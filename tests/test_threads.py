@@ -1,0 +1,66 @@
+"""One BLAS thread for small products: limited inside, restored after, nested, pinned by the CLI."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+from threadpoolctl import threadpool_info
+
+from sescid import threads
+
+
+def _blas_threads() -> set[int]:
+    return {i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+
+
+def test_one_thread_inside_and_the_callers_setting_after():
+    """Inside the context every loaded BLAS runs one thread; nesting keeps it; after, as before."""
+    np.linalg.eigh(np.eye(3))  # numpy's BLAS is loaded
+    before = _blas_threads()
+    with threads.one_blas_thread():
+        assert _blas_threads() == {1}
+        with threads.one_blas_thread():
+            assert _blas_threads() == {1}
+        assert _blas_threads() == {1}
+    assert _blas_threads() == before
+
+
+def test_identify_runs_on_one_blas_thread(op2, rng, monkeypatch):
+    """``sescid.identify`` does its dense algebra inside the one-thread context."""
+    from sescid.estimation import least_squares
+
+    seen = []
+    real = least_squares.solve
+
+    def spy(*args, **kwargs):
+        seen.append(_blas_threads())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(least_squares, "solve", spy)
+    q = rng.uniform(-0.5, 0.5, (200, op2.nq))
+    import sescid
+
+    sescid.identify(op2, q, op2.cop(q))
+    assert seen == [{1}]
+
+
+def test_the_command_line_pins_blas_before_numpy_loads():
+    """``sescid`` sets the thread variables (keeping the user's) before numpy is imported."""
+    code = (
+        "import os, sys\n"
+        "from sescid.threads import pin_process\n"
+        "pin_process()\n"
+        "import numpy\n"
+        "from threadpoolctl import threadpool_info\n"
+        "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['MKL_NUM_THREADS'],\n"
+        "      sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'}))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in threads.THREAD_VARIABLES}
+    env["MKL_NUM_THREADS"] = "3"  # the user's own choice survives
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.split() == ["1", "3", "[1]"]
