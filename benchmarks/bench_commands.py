@@ -3,12 +3,17 @@
 Each figure is printed beside a reference measured in the same run:
 - start-up: wall time of ``sescid --version``, ``info``, ``identify``/``predict`` on 38 poses,
   against the floor of ``python -c "import numpy"`` (the interpreter and numpy alone);
-- large files: ``simulate`` writing N poses, ``identify`` on that CSV (wall, peak memory), and
-  the streamed CSV reader against pyarrow's own ``read_csv`` and the ``csv`` module (on 10⁵
-  rows) as references.
+- large files: ``simulate`` writing N poses, ``identify`` on that CSV (wall, peak memory), the
+  streamed CSV reader against pyarrow's own ``read_csv`` and the ``csv`` module, and the CSV
+  writer against pyarrow's ``write_csv`` and the ``csv`` module writing ``repr`` (the same
+  bytes), on 10⁵ rows of that file;
+- with ``--huge``: ``identify`` on 10 N poses (10 ``simulate`` runs joined: a 4.6 GB CSV for
+  N = 10⁶, in the temporary folder, deleted after), beside the N-pose figure: time ×10 and the
+  same peak memory mean linear time and flat memory. Not part of ``make bench`` (~2 min more).
 
 Wall times are the best of ``--repeat`` runs (each a fresh process); peak memory is the
-process's maximum resident set. Usage: ``python benchmarks/bench_commands.py [--poses 1000000]``.
+process's maximum resident set; the load average is printed beside the large-file figures.
+Usage: ``python benchmarks/bench_commands.py [--poses 1000000] [--huge]``.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -97,10 +103,55 @@ def readers(path: Path) -> dict[str, float]:
     return out
 
 
+def writers(path: Path, out: Path) -> dict[str, float]:
+    """Seconds to write the float columns of ``path`` as CSV: sescid's writer (two threads, one
+    thread), pyarrow's ``write_csv`` (its shortest float form, one thread) and the ``csv``
+    module writing ``repr`` (the bytes sescid writes)."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    from sescid.io import read_table, tables, write_table
+
+    cols = read_table(path).columns
+    table = pa.table(cols)
+    names = list(cols)
+    rows = list(zip(*[c.tolist() for c in cols.values()], strict=True))
+
+    def one_thread():
+        threads, tables.WRITE_THREADS = tables.WRITE_THREADS, 1
+        try:
+            write_table(out, cols)
+        finally:
+            tables.WRITE_THREADS = threads
+
+    def plain():
+        with out.open("w", newline="") as fh:
+            w = csv.writer(fh, lineterminator="\n")
+            w.writerow(names)
+            w.writerows(rows)
+
+    pa.set_cpu_count(1)
+    return {
+        f"sescid write_table ({tables.WRITE_THREADS} threads)": best_of(
+            lambda: write_table(out, cols), 3
+        ),
+        "sescid write_table (1 thread)": best_of(one_thread, 3),
+        "pyarrow write_csv (1 thread)": best_of(lambda: pcsv.write_csv(table, out), 3),
+        "csv module, repr (rows given)": best_of(plain, 3),
+    }
+
+
+def load() -> str:
+    return "load average " + " ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--poses", type=int, default=1_000_000, help="rows of the large file")
     ap.add_argument("--repeat", type=int, default=3, help="runs per start-up figure")
+    ap.add_argument(
+        "--huge", action="store_true", help="also identify 10 × --poses poses (not in make bench)"
+    )
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -124,16 +175,8 @@ def main() -> None:
             print(f"  {label:<40} {t:6.2f} s   (target ≤ {target} s, {t / base:4.1f}× the floor)")
 
         n = args.poses
-        print(f"large files ({n} poses of the OP2, one process each)")
-        wall, mb = peak_of(
-            ["simulate", "--robot", "op2", "--poses", str(n), "--seed", "0", "--out", "big.csv"], d
-        )
-        size = (d / "big.csv").stat().st_size / 2**20
-        print(
-            f"  simulate --poses {n} (writes {size:.0f} MB CSV)  {wall:6.2f} s  {mb:5.0f} MB peak"
-        )
-        wall, mb = peak_of(["identify", "big.csv", "--robot", "op2", "--out", "big.json"], d)
-        print(f"  {'identify big.csv':<40} {wall:6.2f} s  {mb:5.0f} MB peak")
+        print(f"large files ({n} poses of the OP2, best of {r} fresh processes; {load()})")
+        figures = large(n, d, r)
         small = d / "rows1e5.csv"
         with (d / "big.csv").open() as src, small.open("w") as dst:
             for i, line in enumerate(src):
@@ -143,6 +186,56 @@ def main() -> None:
         print("  reading 10⁵ rows (same file's head), best of 3:")
         for label, t in readers(small).items():
             print(f"    {label:<38} {t:6.2f} s")
+        print(f"  writing those 10⁵ rows (24 float64 columns), best of 3 ({load()}):")
+        for label, t in writers(small, d / "w.csv").items():
+            print(f"    {label:<38} {t:6.2f} s")
+        (d / "big.csv").unlink()
+        if args.huge:
+            print(f"huge file ({10 * n} poses: 10 simulate runs joined; {load()})")
+            wall, mb = huge_csv(n, d)
+            print(f"  {'identify huge.csv':<40} {wall:6.2f} s  {mb:5.0f} MB peak")
+            w1, m1 = figures[1]
+            print(f"  ×{wall / w1:.1f} the time of {n} poses, ×{mb / m1:.2f} the peak memory")
+            (d / "huge.csv").unlink()
+
+
+def huge_csv(n: int, d: Path) -> tuple[float, float]:
+    """Wall and peak memory of ``identify`` on 10 n poses: 10 ``simulate`` runs of n poses
+    (seeds 1–10) joined into one CSV (one header)."""
+    with (d / "huge.csv").open("wb") as dst:
+        for seed in range(1, 11):
+            part = d / "part.csv"
+            sim = ["simulate", "--robot", "op2", "--poses", str(n), "--seed", str(seed)]
+            run([*sim, "--out", part.name], d)
+            with part.open("rb") as src:
+                if seed > 1:
+                    src.readline()
+                shutil.copyfileobj(src, dst, 1 << 24)
+            part.unlink()
+    return peak_of(["identify", "huge.csv", "--robot", "op2", "--out", "huge.json"], d)
+
+
+def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
+    """Best wall and highest peak memory of ``repeat`` runs of ``simulate`` of n poses into
+    big.csv and of ``identify`` of it."""
+    sim = ["simulate", "--robot", "op2", "--poses", str(n), "--seed", "0", "--out", "big.csv"]
+    fit = ["identify", "big.csv", "--robot", "op2", "--out", "big.json", "--force"]
+    out = []
+    for what, args, target in [
+        ("simulate", sim, "≤ 4 s"),
+        ("identify big.csv", fit, "≤ 5 s, ≤ 300 MB"),
+    ]:
+        runs = []
+        for _ in range(repeat):
+            if what == "simulate":
+                (d / "big.csv").unlink(missing_ok=True)  # a fresh file each time
+            runs.append(peak_of(args, d))
+        wall, mb = min(w for w, _ in runs), max(m for _, m in runs)
+        if what == "simulate":
+            what = f"simulate --poses {n} ({(d / 'big.csv').stat().st_size / 2**20:.0f} MB CSV)"
+        print(f"  {what:<40} {wall:6.2f} s  {mb:5.0f} MB peak   (target {target} for 10⁶)")
+        out.append((wall, mb))
+    return out
 
 
 if __name__ == "__main__":
