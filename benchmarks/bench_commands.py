@@ -137,7 +137,7 @@ def writers(path: Path, out: Path) -> dict[str, float]:
         ),
         "sescid write_table (1 thread)": best_of(one_thread, 3),
         "pyarrow write_csv (1 thread)": best_of(lambda: pcsv.write_csv(table, out), 3),
-        "csv module, repr (rows given)": best_of(plain, 3),
+        "csv module, repr (rows given, 1 run)": best_of(plain, 1),
     }
 
 

@@ -106,6 +106,7 @@ def test_float_csv_equals_the_csv_module_writer(tmp_path, monkeypatch):
     """The threaded float64 writer (many small blocks) writes the csv module's bytes, reread
     bit for bit by both readers."""
     monkeypatch.setattr(tables, "WRITE_BLOCK_ROWS", 7)
+    monkeypatch.setattr(tables, "PYTHON_WRITE_NUMBERS", 0)  # the compiled path, however small
     rng = np.random.default_rng(2)
     cols = {
         "a": rng.normal(size=101),
@@ -123,6 +124,20 @@ def test_float_csv_equals_the_csv_module_writer(tmp_path, monkeypatch):
             np.testing.assert_array_equal(
                 table.columns[name].view(np.uint64), values.view(np.uint64)
             )
+
+
+def test_small_table_in_python_same_bytes(tmp_path, monkeypatch):
+    """A small table written without numba (Python's repr) has the compiled formatter's bytes."""
+    x = np.random.default_rng(5).normal(size=(40, 5)) * np.logspace(-8, 8, 5)
+    x[0] = [0.0, -0.0, 1.0, 5e-324, 1e16]
+    cols = {f"c{j}": x[:, j] for j in range(5)}
+    monkeypatch.setattr(tables, "_small_write", lambda numbers: True)
+    small, big = tmp_path / "small.csv", tmp_path / "big.csv"
+    write_table(small, cols)
+    monkeypatch.setattr(tables, "_small_write", lambda numbers: False)
+    write_table(big, cols)
+    assert small.read_bytes() == big.read_bytes()
+    assert small.read_bytes().split(b"\n", 1)[1] == format_rows(x).tobytes()
 
 
 def test_simulated_file_round_trip_and_fit(op2, tmp_path, monkeypatch):

@@ -14,6 +14,7 @@ The column conventions and the joint/CoP readers are ``sescid.table``'s.
 from __future__ import annotations
 
 import csv
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,9 @@ CHUNK_ROWS = 1 << 16
 #: rows per block of a float64 CSV write (24 OP2 columns: ~7 MB of text), and its threads
 WRITE_BLOCK_ROWS = 1 << 14
 WRITE_THREADS = 2
+#: numbers up to which a float64 CSV is formatted by Python's repr while numba is not loaded
+#: (~50 ms, against ~0.5 s to load numba for the compiled formatter)
+PYTHON_WRITE_NUMBERS = 1 << 18
 
 
 def _is_parquet(path: Path) -> bool:
@@ -364,13 +368,19 @@ def write_table(path: str | Path, columns: dict[str, np.ndarray]) -> None:
 def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
     """Float64 columns as CSV, each number as ``repr`` writes it (``float_text``): blocks of
     ``WRITE_BLOCK_ROWS`` rows formatted by ``WRITE_THREADS`` threads (the compiled formatter
-    holds no GIL) while this thread writes the finished ones in order."""
+    holds no GIL) while this thread writes the finished ones in order; a small table by
+    Python's ``repr`` itself while numba is not loaded."""
     from collections import deque
     from concurrent.futures import ThreadPoolExecutor
 
-    from .float_text import format_rows
-
     n, k = len(cols[0]), len(cols)
+    header = (",".join(_csv_field(name) for name in names) + "\n").encode()
+    if _small_write(n * k):
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            fh.write(header)
+            fh.write(_rows_repr(cols))
+        return
+    from .float_text import format_rows
 
     def block(start: int) -> np.ndarray:
         stop = min(start + WRITE_BLOCK_ROWS, n)
@@ -381,7 +391,7 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
 
     format_rows(np.zeros((1, 1)))  # the kernel loaded here, once, before two threads call it
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write((",".join(_csv_field(name) for name in names) + "\n").encode())
+        fh.write(header)
         with ThreadPoolExecutor(max_workers=WRITE_THREADS, thread_name_prefix="sescid-csv") as pool:
             pending: deque = deque()
             for start in range(0, n, WRITE_BLOCK_ROWS):
@@ -390,6 +400,18 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
                     fh.write(pending.popleft().result())
             while pending:
                 fh.write(pending.popleft().result())
+
+
+def _small_write(numbers: int) -> bool:
+    """True for a table small enough to format in Python while numba is not loaded (a
+    prediction of a few dozen poses need not load it)."""
+    return numbers <= PYTHON_WRITE_NUMBERS and "numba" not in sys.modules
+
+
+def _rows_repr(cols: list[np.ndarray]) -> bytes:
+    """The CSV rows of float64 columns by Python's ``repr``: the compiled formatter's bytes."""
+    rows = zip(*[c.tolist() for c in cols], strict=True)
+    return "".join(",".join(map(repr, row)) + "\n" for row in rows).encode()
 
 
 def _csv_field(name: str) -> str:
