@@ -249,8 +249,9 @@ def _from_arrow(path: Path, names: list[str], batches: list, first_row: int, pa:
     """One ``Table`` of consecutive record batches (each column copied once into numpy)."""
     columns: dict[str, np.ndarray] = {}
     text: dict[str, list] = {}
+    table = pa.Table.from_batches(batches)
     for i, name in enumerate(names):
-        col = pa.chunked_array([b.column(i) for b in batches])
+        col = table.column(i)
         if _numeric(pa, col.type):
             columns[name] = col.to_numpy().astype(float, copy=False)
         else:
