@@ -375,17 +375,25 @@ def _format_block(bits, buf, inv, fwd):
     return pos
 
 
-def format_rows(x: np.ndarray) -> np.ndarray:
+def format_rows(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """CSV text (uint8 bytes, a buffer ``write`` takes as it is) of a (m, k) float64 block:
     every number as Python's ``repr``, ``,`` between them, a newline after each row. Holds no
-    GIL while it formats."""
+    GIL while it formats. ``out``: a uint8 buffer of at least ``text_bytes(x.shape)`` to
+    write into (the result is then a view of it)."""
     x = np.ascontiguousarray(x, dtype=np.float64)
     if x.ndim != 2:
         raise ValueError(f"format_rows: expected a (m, k) block, got shape {x.shape}")
-    buf = np.empty(x.size * MAX_CHARS + x.shape[0], dtype=np.uint8)
+    need = text_bytes(x.shape)
+    if out is None or out.size < need:
+        out = np.empty(need, dtype=np.uint8)
     inv, fwd = tables()
-    used = _format_block(x.view(np.uint64), buf, inv, fwd)
-    return buf[:used]
+    used = _format_block(x.view(np.uint64), out, inv, fwd)
+    return out[:used]
+
+
+def text_bytes(shape: tuple[int, int]) -> int:
+    """Bytes that the text of a (m, k) block can take at most."""
+    return shape[0] * shape[1] * MAX_CHARS + shape[0]
 
 
 def float_text(values: np.ndarray) -> list[str]:

@@ -381,26 +381,39 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
             fh.write(header)
             fh.write(_rows_repr(cols))
         return
-    from .float_text import format_rows
+    import queue
 
-    def block(start: int) -> np.ndarray:
-        stop = min(start + WRITE_BLOCK_ROWS, n)
-        x = np.empty((stop - start, k))
+    from .float_text import format_rows, text_bytes
+
+    rows = max(1, min(WRITE_BLOCK_ROWS, n))
+    free: queue.SimpleQueue = queue.SimpleQueue()  # (numbers, text) buffers written out
+
+    def block(start: int) -> tuple[tuple, np.ndarray]:
+        try:
+            bufs = free.get_nowait()
+        except queue.Empty:  # at most WRITE_THREADS + 2 pairs of buffers, reused
+            bufs = (np.empty((rows, k)), np.empty(text_bytes((rows, k)), dtype=np.uint8))
+        x = bufs[0][: min(start + rows, n) - start]
         for j, c in enumerate(cols):
-            x[:, j] = c[start:stop]
-        return format_rows(x)
+            x[:, j] = c[start : start + len(x)]
+        return bufs, format_rows(x, bufs[1])
+
+    def write(done: Any) -> None:
+        bufs, text = done.result()
+        fh.write(text)
+        free.put(bufs)
 
     format_rows(np.zeros((1, 1)))  # the kernel loaded here, once, before two threads call it
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write(header)
         with ThreadPoolExecutor(max_workers=WRITE_THREADS, thread_name_prefix="sescid-csv") as pool:
             pending: deque = deque()
-            for start in range(0, n, WRITE_BLOCK_ROWS):
+            for start in range(0, n, rows):
                 pending.append(pool.submit(block, start))
                 if len(pending) > WRITE_THREADS:  # at most this many blocks wait in memory
-                    fh.write(pending.popleft().result())
+                    write(pending.popleft())
             while pending:
-                fh.write(pending.popleft().result())
+                write(pending.popleft())
 
 
 def _small_write(numbers: int) -> bool:
