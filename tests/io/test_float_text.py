@@ -169,3 +169,12 @@ def test_other_number_columns_keep_their_writer(tmp_path, dtype):
     write_table(path, {"x": values.astype(dtype), "y": np.array([0.5, 0.25, 0.125])})
     back = read_table(path).columns["x"]
     np.testing.assert_array_equal(back.astype(dtype), values.astype(dtype))
+
+
+@pytest.mark.parametrize("small", [True, False])
+def test_no_rows_header_only(tmp_path, monkeypatch, small):
+    """Float columns of no rows: the header alone, by either path."""
+    monkeypatch.setattr(tables, "_small_write", lambda numbers: small)
+    path = tmp_path / "empty.csv"
+    write_table(path, {"a": np.zeros(0), "b": np.zeros(0)})
+    assert path.read_bytes() == b"a,b\n"
