@@ -1,12 +1,14 @@
 """Pose and CoP tables on disk: CSV (header row) and Parquet, read into ``Table`` columns and
 written atomically with floats in their shortest exact form (a CSV round trip is lossless).
 
-Files are read and written in streamed chunks by pyarrow (its CSV reader and writer, Parquet row
-batches): ``iter_table`` yields one ``Table`` per chunk, whose ``first_row`` keeps every error
-naming the file's own row, so a fit can be accumulated over a file of any length in flat memory
+Files are read in streamed chunks by pyarrow (its CSV reader, Parquet row batches):
+``iter_table`` yields one ``Table`` per chunk, whose ``first_row`` keeps every error naming the
+file's own row, so a fit can be accumulated over a file of any length in flat memory
 (``read_table`` is the same chunks joined). A file pyarrow cannot parse as a whole (a short row,
 a number column that turns to text further down) is read again by the plain ``csv`` reader,
-which has the final word on what the file holds and on the error message.
+which has the final word on what the file holds and on the error message. Float64 columns are
+written in blocks by the compiled formatter of ``float_text`` (each number as ``repr`` writes
+it, so the bytes are the ``csv`` module's), other number columns by pyarrow's CSV writer.
 
 The column conventions and the joint/CoP readers are ``sescid.table``'s.
 """
