@@ -374,11 +374,10 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
         for j in range(q.shape[1]):
             if not abs(q[k, j]) < MAX_ANGLE:
                 return False
-    blk = 256
+    blk = 128
     rot = np.empty((nb, 2, 3, blk))
     s = np.empty(blk)
     c1 = np.empty(blk)
-    m = np.empty(blk)
     ox = np.empty(blk)
     oy = np.empty(blk)
     qt = np.empty((q.shape[1], blk))
@@ -412,11 +411,14 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                     a0 = nz_a[z, 0]
                     a1 = nz_a[z, 1]
                     a2 = nz_a[z, 2]
-                    for k in range(w):
-                        m[k] = a0 + a1 * s[k] + a2 * c1[k]
-                    for i in range(2):
-                        for k in range(w):
-                            rot[b, i, jj, k] += rot[p, i, kk, k] * m[k]
+                    o0 = rot[b, 0, jj]
+                    o1 = rot[b, 1, jj]
+                    i0 = rot[p, 0, kk]
+                    i1 = rot[p, 1, kk]
+                    for k in range(w):  # the entry of M_b in a register, both rows in one pass
+                        mz = a0 + a1 * s[k] + a2 * c1[k]
+                        o0[k] += i0[k] * mz
+                        o1[k] += i1[k] * mz
             for j in range(3):
                 rj = r[b, j]
                 for k in range(w):
@@ -685,7 +687,7 @@ def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | N
 # product, all in L2, in one compiled call: Φ is never written to memory.
 
 #: poses per block of the fused accumulation (rotations, columns and product stay in L2)
-GRAM_BLOCK = 256
+GRAM_BLOCK = 128
 
 
 @lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
