@@ -53,6 +53,17 @@ def test_numpy_chain_is_the_kernel_bit_for_bit(op2, scale, monkeypatch):
     assert np.array_equal(cols, cols_ref)
 
 
+def test_chain_paths_agree_beyond_the_kernel_angle_range(op2, monkeypatch):
+    """chain() on angles beyond MAX_ANGLE (libm sin/cos on both paths) gives the same bits in
+    numpy as with the kernels loaded."""
+    q = np.random.default_rng(3).uniform(-1, 1, (40, op2.nq)) * 3 * kin.MAX_ANGLE
+    _kernel_chain(op2.tree, q[:1])  # loads the kernels
+    ref = kin.chain(op2.tree, q).copy()
+    monkeypatch.setitem(kin._LAZY, kin.__name__, [object()])
+    monkeypatch.setattr(kin, "_numpy_spent", [0])
+    assert np.array_equal(kin.chain(op2.tree, q), ref) and kin._numpy_spent[0] > 0
+
+
 def test_numpy_path_rule(monkeypatch):
     """Blocks of ≤ SMALL_BLOCK poses run in numpy while the body-poses run so far plus the
     block's stay within NUMPY_BUDGET, and never once the kernels are loaded."""

@@ -517,7 +517,7 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
 
     ``q`` must already be validated (see ``as_poses``). The result is a view into the
     workspace, overwritten by the next call. Small blocks run in numpy until the compiled
-    kernels are worth loading (``_numpy_path``); both give the same bits (for |q| < MAX_ANGLE).
+    kernels are worth loading (``_numpy_path``); both give the same bits.
     """
     ws = ws or Workspace(tree, max(len(q), 1))
     m = q.shape[0]

