@@ -54,6 +54,25 @@ def test_child_failure_is_raised_here(tmp_path):
     assert (tmp_path / "cop.png").is_file()
 
 
+@needs_fork
+def test_stuck_child_is_stopped_and_its_figure_drawn_here(tmp_path, monkeypatch):
+    """A child still busy CHILD_TIMEOUT s after this process's share is killed and its job
+    runs here instead."""
+    import time
+
+    monkeypatch.setattr(parallel, "CHILD_TIMEOUT", 0.5)
+    parent, ran = os.getpid(), []
+
+    def slow_in_child():
+        if os.getpid() != parent:
+            time.sleep(30)
+        ran.append(os.getpid())
+
+    start = time.monotonic()
+    run_figures([lambda: None, slow_in_child], fork=True)
+    assert ran == [parent] and time.monotonic() - start < 10
+
+
 def test_fixed_layout_keeps_every_text_inside(monkeypatch, tmp_path):
     """With the fixed margins, every visible title, axis label, tick label and caveat of the
     report's figures lies inside its figure (on OP2-sized numbers and ten times larger)."""

@@ -10,7 +10,9 @@ drawn again here, so an error is raised exactly as without it.
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import time
 from collections.abc import Callable, Sequence
 
 
@@ -34,7 +36,8 @@ def run_figures(
 ) -> None:
     """Run ``jobs`` (each draws and writes one figure): the first half here, the rest in a
     forked child meanwhile (``fork``: None = where ``can_fork``). ``progress(done)`` is called
-    as figures are written here and once the child's are."""
+    as figures are written here and once the child's are. A child that fails, or is not done
+    ``CHILD_TIMEOUT`` s after this process's share, is stopped and its jobs run here."""
     jobs = list(jobs)
     split = (len(jobs) + 1) // 2
     pid = -1
@@ -69,7 +72,23 @@ def run_figures(
             progress(len(jobs))
 
 
+#: seconds the child may take beyond this process's share before it is stopped and its
+#: figures are drawn here (a figure takes ~0.1–0.3 s; a stuck child must not hang a command)
+CHILD_TIMEOUT = 60.0
+
+
 def _wait(pid: int) -> bool:
-    """Wait for the child; True if it exited normally with status 0."""
-    _, status = os.waitpid(pid, 0)
-    return os.waitstatus_to_exitcode(status) == 0
+    """Wait for the child up to ``CHILD_TIMEOUT`` s (then kill it); True if it exited with
+    status 0."""
+    deadline = time.monotonic() + CHILD_TIMEOUT
+    delay = 0.001
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return os.waitstatus_to_exitcode(status) == 0
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return False
+        time.sleep(delay)
+        delay = min(2 * delay, 0.01)
