@@ -73,6 +73,19 @@ def test_stuck_child_is_stopped_and_its_figure_drawn_here(tmp_path, monkeypatch)
     assert ran == [parent] and time.monotonic() - start < 10
 
 
+def test_no_fork_to_be_had_draws_everything_here(tmp_path, monkeypatch):
+    """Where fork fails (process limits, a sandbox) every figure is drawn in this process."""
+
+    def refuse():
+        raise BlockingIOError("fork: resource temporarily unavailable")
+
+    monkeypatch.setattr(os, "fork", refuse)
+    done = []
+    run_figures(_jobs(tmp_path, ""), progress=done.append, fork=True)
+    assert (tmp_path / "cop.png").is_file() and (tmp_path / "res.png").is_file()
+    assert done == [1, 2]
+
+
 def test_fixed_layout_keeps_every_text_inside(monkeypatch, tmp_path):
     """With the fixed margins, every visible title, axis label, tick label and caveat of the
     report's figures lies inside its figure (on OP2-sized numbers and ten times larger)."""

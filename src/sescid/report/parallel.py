@@ -47,7 +47,10 @@ def run_figures(
 
         sys.stdout.flush()
         sys.stderr.flush()
-        pid = os.fork()
+        try:
+            pid = os.fork()
+        except OSError:  # no process to spare (limits, sandbox): draw them all here
+            pid = -1
         if pid == 0:  # the child: its jobs, then leave without running any exit handler
             code = 1
             try:
