@@ -453,9 +453,9 @@ def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | No
 
 
 def cop_xy_compiled(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """``cop_xy`` where ``chain`` would run compiled (q validated, |q| < MAX_ANGLE), else None:
-    the CoP of many poses in one pass over the rows it needs."""
-    if _numpy_path(q.shape[0]):
+    """``cop_xy`` once the kernels are loaded (q validated, |q| < MAX_ANGLE), else None: the
+    CoP of many poses in one pass over the rows it needs."""
+    if _LAZY.get(__name__):  # not loaded yet: the chain decides block by block (its budget)
         return None
     return _cop_xy_or_none(tree, q, r)
 
@@ -905,7 +905,7 @@ def gram_reduced(
     4 × 4 blocks only) and atb (P4,) in one compiled pass; y (n, len(rows)) [m] targets, sw
     (n, len(rows)) square-root weights or None. Returns yᵀWy, or None (nothing added) where
     ``chain`` would run in numpy (``_numpy_path``) or an angle needs numpy's exact reduction."""
-    if _numpy_path(q.shape[0]):
+    if _numpy_path(q.shape[0], tree.parent.shape[0]):
         return None
     nr = len(red.rows)
     w = np.empty((0, nr)) if sw is None else np.ascontiguousarray(sw, dtype=float)
