@@ -3,6 +3,9 @@
 Each figure is printed beside a reference measured in the same run:
 - start-up: wall time of ``sescid --version``, ``info``, ``identify``/``predict`` on 38 poses,
   against the floor of ``python -c "import numpy"`` (the interpreter and numpy alone);
+- ``make demo`` (``sescid demo``) and the README's six-command walk-through (``poses`` →
+  ``experiment`` → ``fsr`` → ``identify`` → ``report`` → ``truth``, each command in a fresh
+  process, its wall and CPU time), against the same floor;
 - large files: ``simulate`` writing N poses, ``identify`` on that CSV (wall, peak memory), the
   streamed CSV reader against pyarrow's own ``read_csv`` and the ``csv`` module, and the CSV
   writer against pyarrow's ``write_csv`` and the ``csv`` module writing ``repr`` (the same
@@ -20,7 +23,9 @@ from __future__ import annotations
 
 import argparse
 import csv
+import importlib.util
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -38,6 +43,7 @@ def _env() -> dict[str, str]:
     import sescid
 
     env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # warm-up runs leave bytecode, as an install does
     src = str(Path(sescid.__file__).resolve().parents[1])
     env["PYTHONPATH"] = os.pathsep.join([src, *filter(None, [env.get("PYTHONPATH")])])
     return env
@@ -61,6 +67,55 @@ def floor(repeat: int) -> float:
         subprocess.run([sys.executable, "-c", "import numpy"], check=True)
 
     return best_of(once, repeat)
+
+
+def _walk_commands() -> list[list[str]]:
+    """The README's walk-through, verbatim (one home: ``tools/readme_numbers.COMMANDS``)."""
+    path = Path(__file__).resolve().parents[1] / "tools" / "readme_numbers.py"
+    spec = importlib.util.spec_from_file_location("readme_numbers", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return [line.split()[1:] for line in mod.COMMANDS]
+
+
+def timed(args: list[str], cwd: Path) -> tuple[float, float]:
+    """Wall and CPU time (user + system of the process and any child it waited for), s."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = run(args, cwd)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def walk_through(root: Path, repeat: int) -> None:
+    """``make demo`` and the README walk-through, best of ``repeat`` fresh runs of each command
+    (the six in order, each run in its own folder: a command reads the files of the one
+    before), with the load average at start and end: wall time on a shared machine is the
+    figure, CPU time what it would be alone."""
+    load = os.getloadavg()[0]
+    for k in range(repeat):
+        (root / f"demo{k}").mkdir()
+        (root / f"walk{k}").mkdir()
+    demo = [timed(["demo", "--out-dir", "demo_out"], root / f"demo{k}") for k in range(repeat)]
+    walk = _walk_commands()
+    best: list[tuple[float, float]] = [(1e9, 1e9)] * len(walk)
+    for k in range(repeat):
+        folder = root / f"walk{k}"
+        for i, cmd in enumerate(walk):
+            wall, cpu = timed(cmd, folder)
+            best[i] = (min(best[i][0], wall), min(best[i][1], cpu))
+    print(
+        f"demo and walk-through (best of {repeat}; load average {load:.1f} → "
+        f"{os.getloadavg()[0]:.1f})"
+    )
+    print(f"  {'':<40} {'wall':>6}   {'CPU':>6}")
+    wall, cpu = min(w for w, _ in demo), min(c for _, c in demo)
+    print(f"  {'sescid demo (make demo)':<40} {wall:6.2f} s {cpu:6.2f} s   (target ≤ 2 s)")
+    for cmd, (wall, cpu) in zip(walk, best, strict=True):
+        label = f"sescid {cmd[0]}"
+        print(f"  {label:<40} {wall:6.2f} s {cpu:6.2f} s")
+    wall, cpu = sum(w for w, _ in best), sum(c for _, c in best)
+    print(f"  {'walk-through, six commands':<40} {wall:6.2f} s {cpu:6.2f} s   (target ≤ 8 s)")
 
 
 def peak_of(args: list[str], cwd: Path) -> tuple[float, float]:
@@ -173,6 +228,7 @@ def main() -> None:
         ]:
             t = best(cmd, d, r)
             print(f"  {label:<40} {t:6.2f} s   (target ≤ {target} s, {t / base:4.1f}× the floor)")
+        walk_through(d, r)
 
         n = args.poses
         print(f"large files ({n} poses of the OP2, best of {r} fresh processes; {load()})")

@@ -15,7 +15,6 @@ with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Ro
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
@@ -355,13 +354,17 @@ class Workspace:
         return buf
 
 
-#: blocks of at most this many poses run in numpy until the compiled kernels are loaded
-SMALL_BLOCK = 256
-#: seconds of numpy-path work after which the kernels are loaded anyway: loading them costs
-#: 0.3–1 s per process (numba's import and type registries), which a command on a few dozen
-#: poses should not pay, but a long session of small calls should (ski rental)
-NUMPY_BUDGET = 0.25
-_numpy_spent = [0.0]
+#: blocks of at most this many poses may run in numpy until the compiled kernels are loaded (one
+#: chain block: a CoP/CoM over many poses, or the normal equations of up to this many poses)
+SMALL_BLOCK = CHAIN_BLOCK
+#: body-poses (poses × bodies) the chain runs in numpy in a process before the compiled kernels
+#: are loaded anyway (ski rental). Loading them costs 0.5–1 s (numba's import and type
+#: registries); the numpy chain ~0.1 µs per body-pose (~2.5 µs per OP2 pose), so this budget
+#: is ~0.2 s of numpy work: a command on a few thousand poses (``demo``: ~70 000 OP2 poses)
+#: never loads numba, a large file or a long session does. Counted in work, not seconds, so
+#: which path runs does not depend on the machine's load.
+NUMPY_BUDGET = 2_000_000
+_numpy_spent = [0]  # body-poses run in numpy so far
 
 
 @lazy_njit(cache=True, nogil=True, fastmath={"contract"})
@@ -374,11 +377,10 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
         for j in range(q.shape[1]):
             if not abs(q[k, j]) < MAX_ANGLE:
                 return False
-    blk = 256
+    blk = 128
     rot = np.empty((nb, 2, 3, blk))
     s = np.empty(blk)
     c1 = np.empty(blk)
-    m = np.empty(blk)
     ox = np.empty(blk)
     oy = np.empty(blk)
     qt = np.empty((q.shape[1], blk))
@@ -412,11 +414,14 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                     a0 = nz_a[z, 0]
                     a1 = nz_a[z, 1]
                     a2 = nz_a[z, 2]
-                    for k in range(w):
-                        m[k] = a0 + a1 * s[k] + a2 * c1[k]
-                    for i in range(2):
-                        for k in range(w):
-                            rot[b, i, jj, k] += rot[p, i, kk, k] * m[k]
+                    o0 = rot[b, 0, jj]
+                    o1 = rot[b, 1, jj]
+                    i0 = rot[p, 0, kk]
+                    i1 = rot[p, 1, kk]
+                    for k in range(w):  # the entry of M_b in a register, both rows in one pass
+                        mz = a0 + a1 * s[k] + a2 * c1[k]
+                        o0[k] += i0[k] * mz
+                        o1[k] += i1[k] * mz
             for j in range(3):
                 rj = r[b, j]
                 for k in range(w):
@@ -448,9 +453,9 @@ def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | No
 
 
 def cop_xy_compiled(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """``cop_xy`` where ``chain`` would run compiled (q validated, |q| < MAX_ANGLE), else None:
-    the CoP of many poses in one pass over the rows it needs."""
-    if _numpy_path(q.shape[0]):
+    """``cop_xy`` once the kernels are loaded (q validated, |q| < MAX_ANGLE), else None: the
+    CoP of many poses in one pass over the rows it needs."""
+    if _LAZY.get(__name__):  # not loaded yet: the chain decides block by block (its budget)
         return None
     return _cop_xy_or_none(tree, q, r)
 
@@ -460,9 +465,12 @@ def compiled() -> bool:
     return not _LAZY.get(__name__)
 
 
-def _numpy_path(m: int) -> bool:
-    """True while the kernels are not loaded, the block is small and the budget not spent."""
-    return m <= SMALL_BLOCK and bool(_LAZY.get(__name__)) and _numpy_spent[0] < NUMPY_BUDGET
+def _numpy_path(m: int, nb: int) -> bool:
+    """True while the kernels are not loaded, the block (m poses of nb bodies) is at most
+    ``SMALL_BLOCK`` poses and the numpy work stays within ``NUMPY_BUDGET`` with it."""
+    return (
+        m <= SMALL_BLOCK and bool(_LAZY.get(__name__)) and _numpy_spent[0] + m * nb <= NUMPY_BUDGET
+    )
 
 
 def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
@@ -474,18 +482,58 @@ def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> Non
     c1[:] = 2.0 * np.sin(0.5 * theta) ** 2
 
 
+def _sin_cos1m_numpy(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``_sin_cos1m`` in numpy, the same operations in the same order: the same bits."""
+    q = np.floor(x * _TWO_OVER_PI + 0.5)
+    r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T
+    z = r * r
+    poly = 1 / 6227020800
+    for c in (-1 / 39916800, 1 / 362880, -1 / 5040, 1 / 120, -1 / 6):
+        poly = c + z * poly
+    z7 = z**7
+    sp = r + r * z * poly
+    sp += r * z7 * (-1 / 1307674368000)
+    poly = -1 / 3628800 + z / 479001600
+    for c in (1 / 40320, -1 / 720, 1 / 24, -0.5):
+        poly = c + z * poly
+    cm = z * poly
+    cm += z7 * (-1 / 87178291200 + z / 20922789888000)  # cos r − 1
+    qi = q.astype(np.int64) & 3
+    odd = (qi & 1).astype(bool)
+    a = np.where(odd, 1.0 + cm, sp)
+    c = np.where(odd, sp, 1.0 + cm)
+    sn = np.where(qi >= 2, -a, a)
+    cs = np.where((qi == 1) | (qi == 2), -c, c)
+    return sn, np.where(qi == 0, -cm, 1.0 - cs)
+
+
+def _trig_poly_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
+    """``_joint_trig`` in numpy (|q| < ``MAX_ANGLE``): the kernel's sin θ and 1 − cos θ, bit
+    for bit."""
+    moving = tree.jcol >= 0
+    theta = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]
+    s[~moving] = 0.0
+    c1[~moving] = 0.0
+    s[moving], c1[moving] = _sin_cos1m_numpy(theta)
+
+
 def _chain_numpy(tree: Tree, s: np.ndarray, c1: np.ndarray, rot: np.ndarray) -> None:
-    """``_chain_block`` in numpy (one product per body, across poses): R_b = R_p M_b(θ)."""
-    nb, m = s.shape
-    r = np.empty((nb, m, 3, 3))
-    for b in range(nb):
+    """``_chain_block`` in numpy, the same products and sums in the same order (the same bits):
+    R_b[:, j] = Σ_k R_p[:, k] M_b[k, j] over M_b's non-zero entries, across the block's poses."""
+    a = tree.nz_a
+    body = np.repeat(np.arange(tree.parent.shape[0]), np.diff(tree.nz_ptr))
+    mb = (a[:, 0, None] + a[:, 1, None] * s[body]) + a[:, 2, None] * c1[body]  # M_b entries
+    tmp = np.empty(rot.shape[2:])
+    for b in range(tree.parent.shape[0]):
         p = tree.parent[b]
         if p < 0:
-            r[b] = tree.root_r
+            rot[b] = tree.root_r.T[:, :, None]
             continue
-        mb = tree.a0[b] + s[b, :, None, None] * tree.a1[b] + c1[b, :, None, None] * tree.a2[b]
-        np.matmul(r[p], mb, out=r[b])
-    rot[:] = r.transpose(0, 3, 2, 1)  # [b, k, i, j] → [b, j, i, k]
+        rb, rp = rot[b], rot[p]
+        rb[...] = 0.0
+        for z in range(tree.nz_ptr[b], tree.nz_ptr[b + 1]):
+            np.multiply(rp[tree.nz_k[z]], mb[z], out=tmp)
+            rb[tree.nz_j[z]] += tmp
 
 
 def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
@@ -493,7 +541,7 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
 
     ``q`` must already be validated (see ``as_poses``). The result is a view into the
     workspace, overwritten by the next call. Small blocks run in numpy until the compiled
-    kernels are worth loading (``_numpy_path``); both agree to rounding (~1e-16).
+    kernels are worth loading (``_numpy_path``); both give the same bits.
     """
     ws = ws or Workspace(tree, max(len(q), 1))
     m = q.shape[0]
@@ -502,11 +550,13 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     else:
         s, c1 = np.empty((len(tree.parent), m)), np.empty((len(tree.parent), m))
         rot = np.empty(ws.rot.shape[:3] + (m,))
-    if _numpy_path(m):
-        t0 = time.perf_counter()
-        _trig_numpy(tree, q, s, c1)
+    if _numpy_path(m, len(tree.parent)):
+        _numpy_spent[0] += m * len(tree.parent)
+        if np.abs(q).max(initial=0.0) < MAX_ANGLE:
+            _trig_poly_numpy(tree, q, s, c1)
+        else:
+            _trig_numpy(tree, q, s, c1)
         _chain_numpy(tree, s, c1, rot)
-        _numpy_spent[0] += time.perf_counter() - t0
         return rot
     if np.abs(q).max(initial=0.0) < MAX_ANGLE:
         _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
@@ -521,12 +571,15 @@ def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray) -> None:
     if not _LAZY.get(__name__):
         _origins_block(rot, tree.parent, tree.t, tree.root_o, org)
         return
-    for b in range(tree.parent.shape[0]):
+    for b in range(tree.parent.shape[0]):  # the kernel's sums in its order: the same bits
         p = tree.parent[b]
         if p < 0:
             org[b] = tree.root_o[:, None]
         else:
-            org[b] = org[p] + np.einsum("jik,j->ik", rot[p], tree.t[b])
+            t = tree.t[b]
+            np.add(org[p], rot[p, 0] * t[0], out=org[b])
+            org[b] += rot[p, 1] * t[1]
+            org[b] += rot[p, 2] * t[2]
 
 
 def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
@@ -671,8 +724,12 @@ def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | N
     if _LAZY.get(__name__):  # the chain ran in numpy: so does this
         nr, m = len(red.rows), rot.shape[3]
         out[:nr] = np.repeat(np.eye(nr), m, axis=1)
-        # out[nr + 2(b−1) + l, i·m + k] = Σ_j rot[b, j, row_i, k] u[b, l, j]
-        part = np.einsum("bjik,blj->blik", rot[1:][:, :, list(red.rows), :], red.u[1:])
+        # out[nr + 2(b−1) + l, i·m + k] = Σ_j rot[b, j, row_i, k] u[b, l, j], the kernel's order
+        r = rot[1:][:, :, list(red.rows), :, None].transpose(0, 1, 4, 2, 3)  # (b, j, 1, i, k)
+        u = red.u[1:, :, :, None, None]  # (b, l, j, 1, 1)
+        part = r[:, 0] * u[:, :, 0]
+        part += r[:, 1] * u[:, :, 1]
+        part += r[:, 2] * u[:, :, 2]
         out[nr:] = part.reshape(out.shape[0] - nr, -1)
         return out
     _reduced_kernel(rot, np.asarray(red.rows, dtype=np.int64), red.u, out)
@@ -685,7 +742,7 @@ def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | N
 # product, all in L2, in one compiled call: Φ is never written to memory.
 
 #: poses per block of the fused accumulation (rotations, columns and product stay in L2)
-GRAM_BLOCK = 256
+GRAM_BLOCK = 128
 
 
 @lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
@@ -848,7 +905,7 @@ def gram_reduced(
     4 × 4 blocks only) and atb (P4,) in one compiled pass; y (n, len(rows)) [m] targets, sw
     (n, len(rows)) square-root weights or None. Returns yᵀWy, or None (nothing added) where
     ``chain`` would run in numpy (``_numpy_path``) or an angle needs numpy's exact reduction."""
-    if _numpy_path(q.shape[0]):
+    if _numpy_path(q.shape[0], tree.parent.shape[0]):
         return None
     nr = len(red.rows)
     w = np.empty((0, nr)) if sw is None else np.ascontiguousarray(sw, dtype=float)

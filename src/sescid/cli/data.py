@@ -145,22 +145,24 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
 def _demo_files(robot, st, out: Path) -> None:
     """The demo's fit, figures and summary, written into ``out``."""
     from ..io import write_table
-    from ..report import plot_cop_comparison, plot_r_magnitudes
+    from ..report import plot_cop_comparison, plot_r_magnitudes, run_figures
 
     fit = st.fit
     p = fit.rank
     fit.save(out / "fit.json")
-    plot_r_magnitudes(fit, out / "fig3a_r_magnitudes.png")
     k = np.arange(min(26, len(st.sim.q)))
-    plot_cop_comparison(
-        k + 1,
-        st.sim.cop[k],
-        {
-            "manufacturer model": robot.cop(st.sim.q[k]),
-            "identified": fit.predict_cop(st.sim.q[k]),
-        },
-        out / "fig3b_cop.png",
-        title=f"CoP over {len(k)} of the poses (paper Fig. 3b)",
+    predicted = {
+        "manufacturer model": robot.cop(st.sim.q[k]),
+        "identified": fit.predict_cop(st.sim.q[k]),
+    }
+    title = f"CoP over {len(k)} of the poses (paper Fig. 3b)"
+    run_figures(  # the second figure on the second core where there is one
+        [
+            lambda: plot_r_magnitudes(fit, out / "fig3a_r_magnitudes.png"),
+            lambda: plot_cop_comparison(
+                k + 1, st.sim.cop[k], predicted, out / "fig3b_cop.png", title=title
+            ),
+        ]
     )
     names = [
         "rank",

@@ -86,9 +86,11 @@ def solve(
 
 def residual_stats(fit: Fit, q: np.ndarray, cop: np.ndarray, gravity=None) -> None:
     """Set ``fit.mae`` and ``fit.rms`` (m) from the data, net of any estimated CoP offset."""
-    resid = cop - fit.predict_cop(q, gravity) - fit.cop_bias
-    fit.mae = float(np.mean(np.abs(resid)))
-    fit.rms = float(np.sqrt(np.mean(resid**2)))
+    resid = np.subtract(cop, fit.predict_cop(q, gravity))
+    resid -= fit.cop_bias
+    flat = resid.reshape(-1)
+    fit.mae = float(np.abs(resid, out=resid).mean()) if flat.size else float("nan")
+    fit.rms = math.sqrt(float(np.dot(flat, flat)) / flat.size) if flat.size else float("nan")
 
 
 @one_blas_thread()
@@ -112,7 +114,7 @@ def identify_ls(
     qq = as_poses(q, robot.nq)
     cc = check_cop(cop, qq.shape[0])
     check_enough_poses(robot, qq.shape[0])
-    ne = accumulate(robot, [(qq, cc, sigma, gravity)], progress=progress)
+    ne = accumulate(robot, [(qq, cc, sigma, gravity)], progress=progress, validated=True)
     fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
     fit.weighted = sigma is not None
     residual_stats(fit, qq, cc, gravity)

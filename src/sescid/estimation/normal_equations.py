@@ -124,6 +124,8 @@ def accumulate(
     chunks: Iterable[tuple],
     ne: NormalEquations | None = None,
     progress: Callable[[int, int], None] | None = None,
+    *,
+    validated: bool = False,
 ) -> NormalEquations:
     """Accumulate normal equations from chunks ``(q, cop)``, ``(q, cop, sigma)`` or
     ``(q, cop, sigma, gravity)``.
@@ -131,6 +133,7 @@ def accumulate(
     ``gravity`` (n, 3): per-pose gravity direction in the support frame; its rows are the tilted
     ones Φx − (gx/gz) Φz, Φy − (gy/gz) Φz (accumulated in full coordinates: z information
     breaks the x/y reduction). ``progress(done, total)`` is called after each block.
+    ``validated``: q and cop already passed ``as_poses``/``check_cop`` (not checked again).
     """
     ne = ne or NormalEquations.empty(3 * len(robot.body_names))
     d_xy = robot.d[:2]
@@ -142,8 +145,9 @@ def accumulate(
         q, cop = chunk[0], chunk[1]
         sigma = chunk[2] if len(chunk) > 2 else None
         gravity = chunk[3] if len(chunk) > 3 else None
-        q = as_poses(q, robot.nq)
-        cop = check_cop(cop, q.shape[0])
+        if not validated:
+            q = as_poses(q, robot.nq)
+            cop = check_cop(cop, q.shape[0])
         w = row_weights(sigma, q.shape[0])
         if gravity is not None:
             _add_tilted(robot, ne, q, cop, w, gravity, ws.block, progress)

@@ -39,7 +39,7 @@ CHUNK_ROWS = 1 << 16
 WRITE_BLOCK_ROWS = 1 << 14
 WRITE_THREADS = 2
 #: numbers up to which a float64 CSV is formatted by Python's repr while numba is not loaded
-#: (~50 ms, against ~0.5 s to load numba for the compiled formatter)
+#: (≤ ~0.2 s, against ~0.5 s to import numba and load the compiled formatter)
 PYTHON_WRITE_NUMBERS = 1 << 18
 
 

@@ -1,6 +1,7 @@
 """Reports: the paper's figures (R_i, CoP per pose, CoM height), residuals, a side view, the
 pose-selection curve, one self-contained HTML page with a 3-D view of the poses (``view3d``),
-and a guided session's live view (``live``, viser; imported on use)."""
+and a guided session's live view (``live``, viser; imported on use). Several figures are drawn
+on two cores where there are two (``parallel``)."""
 
 from __future__ import annotations
 
@@ -16,10 +17,12 @@ from .figures import (
     plot_side_view,
 )
 from .html import write_report
+from .parallel import can_fork, run_figures
 from .view3d import scene_data, view3d_html
 
 __all__ = [
     "body_labels",
+    "can_fork",
     "cop_offset_stats",
     "design_figure",
     "paper_order",
@@ -28,6 +31,7 @@ __all__ = [
     "plot_r_magnitudes",
     "plot_residuals",
     "plot_side_view",
+    "run_figures",
     "scene_data",
     "view3d_html",
     "write_report",

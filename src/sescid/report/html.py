@@ -23,6 +23,7 @@ from .figures import (
     plot_side_view,
     r_magnitude_std,
 )
+from .parallel import run_figures
 from .view3d import scene_data, view3d_html
 
 
@@ -74,44 +75,30 @@ def write_report(
         "side_view.png": "Side view of a few poses with CoM and CoP",
     }
 
-    def tick(done):
-        if progress is not None:
-            progress(done, len(figs) + 1)
-
-    plot_r_magnitudes(fit, out / "fig6_r_magnitudes.png", title=list(figs.values())[0])
-    tick(1)
-    plot_cop_comparison(
-        idx,
-        cop,
-        {"manufacturer model": cop_prior, "identified": cop_fit},
-        out / "fig7_cop.png",
-        title=list(figs.values())[1],
-    )
-    tick(2)
     short = (
         f"{np.mean(frac):.0%} of the CoM-height regressor row is outside the identifiable "
         f"subspace: {np.mean(from_prior) * 1e3:.1f} mm of the identified height comes from the "
         "prior model"
     )
-    plot_com_height(
-        idx, com_prior[:, 2], com_fit[:, 2], std_z, out / "fig8_com_height.png", caveat=short
-    )
-    tick(3)
-    plot_residuals(
-        idx, cop, {"manufacturer model": cop_prior, "identified": cop_fit}, out / "residuals.png"
-    )
-    tick(4)
+    predicted = {"manufacturer model": cop_prior, "identified": cop_fit}
     pick = np.unique(np.linspace(0, n - 1, min(n_side, n)).round().astype(int))
-    plot_side_view(
-        robot,
-        q[pick],
-        cop[pick],
-        {"identified": com_fit[pick], "manufacturer": com_prior[pick]},
-        out / "side_view.png",
-        labels=[labels[i] for i in pick],
-    )
-
-    tick(5)
+    titles = list(figs.values())
+    jobs = [  # in the order of ``figs``; the last ones are drawn on the second core
+        lambda: plot_r_magnitudes(fit, out / "fig6_r_magnitudes.png", title=titles[0]),
+        lambda: plot_cop_comparison(idx, cop, predicted, out / "fig7_cop.png", title=titles[1]),
+        lambda: plot_com_height(
+            idx, com_prior[:, 2], com_fit[:, 2], std_z, out / "fig8_com_height.png", caveat=short
+        ),
+        lambda: plot_residuals(idx, cop, predicted, out / "residuals.png"),
+        lambda: plot_side_view(
+            robot,
+            q[pick],
+            cop[pick],
+            {"identified": com_fit[pick], "manufacturer": com_prior[pick]},
+            out / "side_view.png",
+            labels=[labels[i] for i in pick],
+        ),
+    ]
 
     def mm(x, digits=2):
         return "n/a" if x is None or not math.isfinite(x) else f"{x * 1e3:.{digits}f}"
@@ -156,6 +143,8 @@ def write_report(
         f"{mm(float(np.mean(com_fit[:, 2])), 1)} mm) comes from the prior (manufacturer) model, "
         "not from the data. The band counts the identified directions only."
     )
+    view3d = view3d_html(scene_data(robot, q, com_fit, cop, cop_fit, labels))
+    run_figures(jobs, None if progress is None else lambda done: progress(done, len(figs) + 1))
     imgs = []
     for name, caption in figs.items():
         data = base64.b64encode((out / name).read_bytes()).decode("ascii")
@@ -164,7 +153,6 @@ def write_report(
             f"<figcaption>{esc(caption)} — <code>{name}</code></figcaption></figure>"
         )
     fig6, fig7, fig8, fig_res, fig_side = imgs
-    view3d = view3d_html(scene_data(robot, q, com_fit, cop, cop_fit, labels))
     notes = "".join(f"<li>{esc(t)}</li>" for t in fit.notes)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -222,7 +210,8 @@ window.addEventListener("load", function () {{
 """
     with atomic_open(out / "report.html", "w", encoding="utf-8") as fh:
         fh.write(page)
-    tick(len(figs) + 1)
+    if progress is not None:
+        progress(len(figs) + 1, len(figs) + 1)
     return {
         "html": out / "report.html",
         "figures": [out / f for f in figs],
