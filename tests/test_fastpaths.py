@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 
 from sescid import kinematics as kin
@@ -34,3 +37,24 @@ def test_single_pose_com_equals_blocked(op2, rng):
     for k in range(5):
         np.testing.assert_allclose(op2.com(q[k])[0], batch[k], rtol=0, atol=1e-16)
         np.testing.assert_allclose(op2.cop(q[k])[0], batch[k, :2], rtol=0, atol=1e-16)
+
+
+def test_first_kernel_calls_from_two_threads_at_once():
+    """Two threads whose first calls load the lazy kernels together both get results."""
+    code = (
+        "import threading, numpy as np, sescid\n"
+        "from sescid import kinematics\n"
+        "r = sescid.load_robot('op2')\n"
+        "q = np.random.default_rng(0).uniform(-1, 1, (5000, r.nq))\n"
+        "out, go = {}, threading.Barrier(4)\n"
+        "def run(k):\n"
+        "    go.wait()\n"
+        "    out[k] = kinematics.cop_xy(r.tree, q, r.sesc_vectors())\n"
+        "ts = [threading.Thread(target=run, args=(k,)) for k in range(4)]\n"
+        "[t.start() for t in ts]; [t.join() for t in ts]\n"
+        "assert len(out) == 4 and all(np.array_equal(out[0], v) for v in out.values())\n"
+        "print('ok')\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip() == "ok"

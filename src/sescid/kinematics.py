@@ -15,6 +15,7 @@ with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Ro
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
@@ -113,6 +114,7 @@ class _LazyKernel:
 
 
 _LAZY: dict[str, list[_LazyKernel]] = {}
+_SWAP_LOCK = threading.Lock()
 
 
 def _compile_module(module: str) -> dict[str, Any]:
@@ -125,6 +127,12 @@ def _compile_module(module: str) -> dict[str, Any]:
     import numba
 
     namespace = vars(sys.modules[module])
+    with _SWAP_LOCK:  # a second thread's first call waits here, then finds the dispatchers
+        _swap(module, namespace, numba)
+    return namespace
+
+
+def _swap(module: str, namespace: dict[str, Any], numba: Any) -> None:
     for kernel in _LAZY.pop(module, []):
         try:
             compiled = numba.njit(**kernel.options)(kernel.fn)
@@ -134,7 +142,6 @@ def _compile_module(module: str) -> dict[str, Any]:
             # a read-only install (service user, read-only container): compile in memory
             compiled = numba.njit(**(kernel.options | {"cache": False}))(kernel.fn)
         namespace[kernel.fn.__name__] = compiled
-    return namespace
 
 
 def lazy_njit(**options: Any) -> Callable[[Callable], Any]:
