@@ -91,6 +91,27 @@ def test_in_kernel_sincos_is_accurate():
     np.testing.assert_allclose(c1[1], exact_c1, rtol=1e-14, atol=4.5e-16)
 
 
+def test_small_angle_trig_gives_the_reduced_paths_bits(rng):
+    """Blocks whose angles all lie within ±SMALL_ANGLE skip the reduction: the same bits."""
+    tree = kinematics.Tree(  # a bare one-joint tree to drive _joint_trig directly
+        parent=np.array([-1, 0]), jcol=np.array([-1, 0]), coef=np.ones(2), off=np.zeros(2),
+        a0=np.zeros((2, 3, 3)), a1=np.zeros((2, 3, 3)), a2=np.zeros((2, 3, 3)),
+        t=np.zeros((2, 3)), root_r=np.eye(3), root_o=np.zeros(3), nq=1,
+        nz_ptr=np.zeros(3, dtype=np.int64), nz_k=np.zeros(0, dtype=np.int64),
+        nz_j=np.zeros(0, dtype=np.int64), nz_a=np.zeros((0, 3)),
+    )  # fmt: skip
+    lim = np.nextafter(kinematics.SMALL_ANGLE, 0)
+    x = np.concatenate([rng.uniform(-lim, lim, 4000), [0.0, -0.0, lim, -lim, 1e-300]])
+    fast = np.empty((2, x.size)), np.empty((2, x.size))
+    kinematics._joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, *fast)
+    with_big = np.append(x, 3.0)  # one large angle: the whole block takes the reduction
+    full = np.empty((2, with_big.size)), np.empty((2, with_big.size))
+    kinematics._joint_trig(with_big[None, :], tree.jcol, tree.coef, tree.off, *full)
+    assert np.array_equal(fast[0][1], full[0][1, :-1]) and np.array_equal(
+        fast[1][1], full[1][1, :-1]
+    )
+
+
 def test_huge_angles_use_exact_reduction(op2, rng):
     q = rng.uniform(-1, 1, (5, op2.nq))
     big = q + 2 * np.pi * 1e6  # same pose, angles beyond the kernel's reduction range

@@ -163,11 +163,14 @@ _TWO_OVER_PI = 6.36619772367581382433e-01
 MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
 
 
+#: rad: below this |θ| the reduction is the identity (its quotient is 0 since θ·2/π + ½ < 1),
+#: so the polynomials alone give ``_sin_cos1m``'s bits for less work
+SMALL_ANGLE = 0.78
+
+
 @lazy_njit(cache=True, nogil=True, inline="always")
-def _sin_cos1m(x):
-    """Sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
-    q = np.floor(x * _TWO_OVER_PI + 0.5)
-    r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T  # |r| ≤ π/4
+def _sin_cm(r):
+    """Sin r and cos r − 1 for |r| ≤ π/4 (Taylor, ≤ 2 ulp)."""
     z = r * r
     sp = r + r * z * (
         -1 / 6
@@ -182,12 +185,38 @@ def _sin_cos1m(x):
         -0.5 + z * (1 / 24 + z * (-1 / 720 + z * (1 / 40320 + z * (-1 / 3628800 + z / 479001600))))
     )
     cm += z**7 * (-1 / 87178291200 + z / 20922789888000)  # cm = cos r − 1
+    return sp, cm
+
+
+@lazy_njit(cache=True, nogil=True, inline="always")
+def _sin_cos1m(x):
+    """Sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
+    q = np.floor(x * _TWO_OVER_PI + 0.5)
+    r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T  # |r| ≤ π/4
+    sp, cm = _sin_cm(r)
     qi = np.int64(q) & 3
     a = (1.0 + cm) if qi & 1 else sp
     c = sp if qi & 1 else (1.0 + cm)
     sn = -a if qi >= 2 else a
     cs = -c if (qi == 1 or qi == 2) else c
     return sn, (-cm if qi == 0 else 1.0 - cs)
+
+
+@lazy_njit(cache=True, nogil=True, inline="always")
+def _trig_row(qrow, cb, ob, w, s, c1):
+    """s[:w], c1[:w] = sin θ, 1 − cos θ of θ = cb·qrow[:w] + ob: the polynomials alone when
+    every |θ| < SMALL_ANGLE (the same bits), else with the reduction."""
+    big = 0.0
+    for k in range(w):
+        big = max(big, abs(cb * qrow[k] + ob))
+    if big < SMALL_ANGLE:
+        for k in range(w):
+            sp, cm = _sin_cm(cb * qrow[k] + ob)
+            s[k] = sp
+            c1[k] = -cm
+    else:
+        for k in range(w):
+            s[k], c1[k] = _sin_cos1m(cb * qrow[k] + ob)
 
 
 @lazy_njit(cache=True, nogil=True)
@@ -207,8 +236,7 @@ def _joint_trig(qt, jcol, coef, off, s, c1):
             continue
         cb = coef[b]
         ob = off[b]
-        for k in range(m):
-            s[b, k], c1[b, k] = _sin_cos1m(cb * qt[j, k] + ob)
+        _trig_row(qt[j], cb, ob, m, s[b], c1[b])
 
 
 @lazy_njit(cache=True, nogil=True)
@@ -412,8 +440,7 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                 else:
                     cb = coef[b]
                     ob = off[b]
-                    for k in range(w):
-                        s[k], c1[k] = _sin_cos1m(cb * qt[jc, k] + ob)
+                    _trig_row(qt[jc], cb, ob, w, s, c1)
                 rot[b, :, :, :] = 0.0
                 for z in range(nz_ptr[b], nz_ptr[b + 1]):
                     kk = nz_k[z]
@@ -846,8 +873,7 @@ def _gram_reduced(
             if jc >= 0:
                 cb = coef[b]
                 ob = off[b]
-                for k in range(w):
-                    s[k], c1[k] = _sin_cos1m(cb * qt[jc, k] + ob)
+                _trig_row(qt[jc], cb, ob, w, s, c1)
             else:
                 for k in range(w):
                     s[k] = 0.0

@@ -24,6 +24,7 @@ from ..kinematics import (
     reduced_columns,
 )
 from ..robot import Robot
+from ..threads import one_blas_thread
 
 #: poses per block when accumulating normal equations
 ACCUMULATE_BLOCK = 2048
@@ -119,6 +120,7 @@ def _add_tilted(robot, ne, q, cop, w, gravity, block, progress) -> None:
             progress(min(s + block, q.shape[0]), q.shape[0])
 
 
+@one_blas_thread()
 def accumulate(
     robot: Robot,
     chunks: Iterable[tuple],

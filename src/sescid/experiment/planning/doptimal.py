@@ -19,9 +19,11 @@ from ...errors import SescidError
 from ...estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
 from ...kinematics import CHAIN_BLOCK, Workspace, as_poses, reduced_columns
 from ...robot import Robot
+from ...threads import one_blas_thread
 from .doptimal_kernels import project_columns, rank2, sandwich
 
 
+@one_blas_thread()
 def identifiable_basis(
     robot: Robot, q: np.ndarray, rtol: float = DEFAULT_RTOL, chunk: int = 50_000
 ) -> np.ndarray:
@@ -36,6 +38,7 @@ def identifiable_basis(
     return identifiable_eigen(ne.ata, rtol)[1]
 
 
+@one_blas_thread()
 def projected_regressor(robot: Robot, q, basis: np.ndarray, chunk: int = 50_000) -> np.ndarray:
     """(n, 2, p) x/y regressor in the coordinates of ``basis``: A = Φ_xy V.
 
@@ -132,6 +135,7 @@ class _Design:
         return j
 
 
+@one_blas_thread()
 def select_d_optimal(
     a: np.ndarray,
     k: int,
@@ -217,6 +221,7 @@ def expected_cop_error(a_sel: np.ndarray, c_test: np.ndarray, sigma: float) -> f
     return sigma * math.sqrt(val) if val > 0 else math.inf
 
 
+@one_blas_thread()
 def per_row_information(a_test: np.ndarray) -> np.ndarray:
     """c_test = Σ_t A_tᵀA_t / rows for A_test (n, 2, p)."""
     return information(a_test) / (2 * len(a_test))

@@ -12,6 +12,7 @@ from ...errors import OptionError, SescidError
 from ...estimation import min_poses, structural_rank
 from ...robot import Robot
 from ...simulation import PAPER_NOISE
+from ...threads import one_blas_thread
 from .candidates import Candidates, candidates
 from .doptimal import (
     Selection,
@@ -48,6 +49,7 @@ class PosePlan:
     c_test: np.ndarray = field(repr=False)  #: (p, p)
 
 
+@one_blas_thread()
 def plan_poses(
     robot: Robot,
     count: int = 38,
@@ -120,6 +122,7 @@ def plan_poses(
     )
 
 
+@one_blas_thread()
 def design_curve(
     a_pool: np.ndarray,
     c_test: np.ndarray,
