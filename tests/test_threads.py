@@ -64,3 +64,40 @@ def test_the_command_line_pins_blas_before_numpy_loads():
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
     )
     assert out.stdout.split() == ["1", "3", "[1]"]
+
+
+def test_ordered_map_keeps_the_order_and_runs_alone_on_one_core(monkeypatch):
+    """Results come back in the items' order; with one usable core no worker is used."""
+    import threading
+
+    names = []
+
+    def f(k):
+        names.append(threading.current_thread().name)
+        return k * k
+
+    assert list(threads.ordered_map(f, range(50))) == [k * k for k in range(50)]
+    monkeypatch.setattr(threads, "usable_cores", lambda: 1)
+    names.clear()
+    assert list(threads.ordered_map(f, range(5))) == [0, 1, 4, 9, 16]
+    assert set(names) == {threading.current_thread().name}
+
+
+def test_sums_and_cops_are_the_same_bits_on_any_number_of_cores(op2, rng, monkeypatch):
+    """Blocks on worker threads, added in block order: normal equations and CoPs equal those
+    computed on one core bit for bit."""
+    from sescid import kinematics
+    from sescid.estimation import accumulate
+
+    n = 9 * 2048 + 77  # several blocks and a partial one, more than two CoP parts
+    q = rng.uniform(-1, 1, (n, op2.nq))
+    cop = rng.normal(0, 0.02, (n, 2))
+    sigma = rng.uniform(0.001, 0.01, (n, 2))
+    op2.cop(q)  # the kernels are loaded
+    many = accumulate(op2, [(q, cop, sigma)])
+    cops = kinematics.cop_xy(op2.tree, q, op2.sesc_vectors())
+    monkeypatch.setattr(threads, "usable_cores", lambda: 1)
+    one = accumulate(op2, [(q, cop, sigma)])
+    assert np.array_equal(many.ata, one.ata) and np.array_equal(many.atb, one.atb)
+    assert many.yty == one.yty and many.n_rows == one.n_rows == 2 * n
+    assert np.array_equal(kinematics.cop_xy(op2.tree, q, op2.sesc_vectors()), cops)

@@ -477,13 +477,27 @@ def cop_xy(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray:
     return out
 
 
+#: poses per part when the CoP of many poses is shared out among the cores
+PARALLEL_PART = 16384
+
+
 def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    out = np.empty((q.shape[0], 2))
-    ok = _cop_xy_kernel(
-        q, tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j,
-        tree.nz_a, tree.root_r, np.ascontiguousarray(r, dtype=float), tree.root_o, out,
-    )  # fmt: skip
-    return out if ok else None
+    from .threads import ordered_map, usable_cores
+
+    n = q.shape[0]
+    out = np.empty((n, 2))
+    rr = np.ascontiguousarray(r, dtype=float)
+    parts = max(min(usable_cores(), n // PARALLEL_PART), 1)
+    edges = [n * k // parts for k in range(parts + 1)]
+
+    def part(k: int) -> bool:  # poses are independent: any split gives the same bits
+        a, b = edges[k], edges[k + 1]
+        return _cop_xy_kernel(
+            q[a:b], tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k,
+            tree.nz_j, tree.nz_a, tree.root_r, rr, tree.root_o, out[a:b],
+        )  # fmt: skip
+
+    return out if all(list(ordered_map(part, range(parts)))) else None
 
 
 def cop_xy_compiled(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:

@@ -10,14 +10,21 @@ against 0.3 ms on one thread. So:
 - API entry points that do dense algebra run inside ``one_blas_thread()``, which limits the
   BLAS libraries already loaded (threadpoolctl) for the duration of the call and restores the
   caller's setting after.
+
+Large jobs use every core this process may run on through ``ordered_map``: independent blocks
+of poses on worker threads (the compiled kernels release the GIL), results in block order, so
+a sum over blocks is the same bit for bit whatever the number of threads.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
 
 #: environment variables read by OpenBLAS, MKL, BLIS and OpenMP at load time
 THREAD_VARIABLES = (
@@ -75,4 +82,38 @@ def one_blas_thread() -> Iterator[None]:
         _state["depth"] -= 1
 
 
-__all__ = ["THREAD_VARIABLES", "one_blas_thread", "pin_process"]
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity), at least 1."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+#: worker threads of ``ordered_map`` at most (beyond this the blocks' memory traffic dominates)
+MAX_WORKERS = 8
+
+
+def ordered_map(fn: Callable[[T], R], items: Sequence[T]) -> Iterator[R]:
+    """``map(fn, items)`` on the usable cores, results yielded in the items' order; in this
+    thread alone when there is one core or one item. ``fn`` must release the GIL to gain."""
+    workers = min(usable_cores(), MAX_WORKERS, len(items))
+    if workers <= 1:
+        yield from map(fn, items)
+        return
+    pool = _state.get("pool")
+    if pool is None or pool._max_workers < workers:
+        from concurrent.futures import ThreadPoolExecutor
+
+        pool = _state["pool"] = ThreadPoolExecutor(workers, thread_name_prefix="sescid")
+    yield from pool.map(fn, items)
+
+
+__all__ = [
+    "MAX_WORKERS",
+    "THREAD_VARIABLES",
+    "one_blas_thread",
+    "ordered_map",
+    "pin_process",
+    "usable_cores",
+]

@@ -7,6 +7,7 @@ same sums as one array without storing Φ.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -24,7 +25,7 @@ from ..kinematics import (
     reduced_columns,
 )
 from ..robot import Robot
-from ..threads import one_blas_thread
+from ..threads import one_blas_thread, ordered_map
 
 #: poses per block when accumulating normal equations
 ACCUMULATE_BLOCK = 2048
@@ -120,6 +121,44 @@ def _add_tilted(robot, ne, q, cop, w, gravity, block, progress) -> None:
             progress(min(s + block, q.shape[0]), q.shape[0])
 
 
+def _add_chunk(robot, acc: NormalEquations, q, y, sw, ws: Workspace, progress) -> None:
+    """Add a validated chunk's reduced sums to ``acc``, block by block: each block's sums on
+    their own, added in block order (the same bits on any number of threads)."""
+    red = robot.reduction
+    starts = range(0, q.shape[0], ws.block)
+
+    def block_sums(s: int, ws: Workspace | None = ws) -> NormalEquations:
+        """One block's sums; ``ws`` None on a worker thread (the shared one is not safe)."""
+        part = NormalEquations.empty(acc.ata.shape[0])
+        blk = slice(s, s + ACCUMULATE_BLOCK)
+        sw_b = None if sw is None else sw[blk]
+        yty = gram_reduced(robot.tree, red, q[blk], y[blk], sw_b, part.ata, part.atb)
+        if yty is None:  # kernels not loaded yet, or huge angles: columns, then product
+            x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
+            _add_columns(
+                part, x, y[blk].T.reshape(-1), None if sw_b is None else sw_b.T.reshape(-1)
+            )
+        else:
+            part.yty, part.n_rows = yty, 2 * y[blk].shape[0]
+        return part
+
+    if not starts:
+        return
+    first = block_sums(starts[0])  # alone: it may load the kernels
+    rest = starts[1:]
+    if compiled() and len(rest) > 1:  # then on every core: the kernels release the GIL
+        parts: Iterable[NormalEquations] = ordered_map(lambda s: block_sums(s, None), rest)
+    else:
+        parts = map(block_sums, rest)
+    for k, part in enumerate(itertools.chain([first], parts)):
+        acc.ata += part.ata
+        acc.atb += part.atb
+        acc.yty += part.yty
+        acc.n_rows += part.n_rows
+        if progress is not None:
+            progress(min(starts[k] + ws.block, q.shape[0]), q.shape[0])
+
+
 @one_blas_thread()
 def accumulate(
     robot: Robot,
@@ -157,20 +196,7 @@ def accumulate(
             continue
         y = cop - d_xy
         sw = None if w is None else np.sqrt(w).reshape(-1, 2)
-        for s in range(0, q.shape[0], ws.block):
-            blk = slice(s, s + ws.block)
-            sw_b = None if sw is None else sw[blk]
-            yty = gram_reduced(robot.tree, red, q[blk], y[blk], sw_b, acc.ata, acc.atb)
-            if yty is None:  # kernels not loaded yet, or huge angles: columns, then product
-                x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
-                _add_columns(
-                    acc, x, y[blk].T.reshape(-1), None if sw_b is None else sw_b.T.reshape(-1)
-                )
-            else:
-                acc.yty += yty
-                acc.n_rows += 2 * y[blk].shape[0]
-            if progress is not None:
-                progress(min(s + ws.block, q.shape[0]), q.shape[0])
+        _add_chunk(robot, acc, q, y, sw, ws, progress)
         ne.n_poses += q.shape[0]
     ne.ata += red.g.T @ _upper_to_full(acc.ata)[:p_red, :p_red] @ red.g
     ne.atb += red.g.T @ acc.atb[:p_red]
