@@ -501,9 +501,11 @@ def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | No
 
 
 def cop_xy_compiled(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """``cop_xy`` once the kernels are loaded (q validated, |q| < MAX_ANGLE), else None: the
-    CoP of many poses in one pass over the rows it needs."""
-    if _LAZY.get(__name__):  # not loaded yet: the chain decides block by block (its budget)
+    """``cop_xy`` (q validated, |q| < MAX_ANGLE): the CoP of many poses in one pass over the
+    rows it needs, loading the kernels if the whole job would overrun the numpy path's budget;
+    None while the job fits that budget (``chain`` then runs it in numpy, block by block)."""
+    nb = tree.parent.shape[0]
+    if _LAZY.get(__name__) and _numpy_spent[0] + q.shape[0] * nb <= NUMPY_BUDGET:
         return None
     return _cop_xy_or_none(tree, q, r)
 
