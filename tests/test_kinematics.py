@@ -74,15 +74,20 @@ def test_forward_rotations_are_orthonormal_and_origins_chain(op2, rng):
         np.testing.assert_allclose(org[:, b], expect, atol=1e-15)
 
 
-def test_in_kernel_sincos_is_accurate():
-    x = np.concatenate([np.linspace(-7, 7, 20001), [0, 1e-9, -1e-9, np.pi / 4, np.pi, 1e4]])
-    tree = kinematics.Tree(  # a bare one-joint tree to drive _joint_trig directly
+def _one_joint_tree() -> kinematics.Tree:
+    """A bare one-joint tree, to drive ``_joint_trig`` directly."""
+    return kinematics.Tree(
         parent=np.array([-1, 0]), jcol=np.array([-1, 0]), coef=np.ones(2), off=np.zeros(2),
         a0=np.zeros((2, 3, 3)), a1=np.zeros((2, 3, 3)), a2=np.zeros((2, 3, 3)),
         t=np.zeros((2, 3)), root_r=np.eye(3), root_o=np.zeros(3), nq=1,
         nz_ptr=np.zeros(3, dtype=np.int64), nz_k=np.zeros(0, dtype=np.int64),
         nz_j=np.zeros(0, dtype=np.int64), nz_a=np.zeros((0, 3)),
     )  # fmt: skip
+
+
+def test_in_kernel_sincos_is_accurate():
+    x = np.concatenate([np.linspace(-7, 7, 20001), [0, 1e-9, -1e-9, np.pi / 4, np.pi, 1e4]])
+    tree = _one_joint_tree()
     s = np.empty((2, x.size))
     c1 = np.empty((2, x.size))
     kinematics._joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, s, c1)
@@ -93,13 +98,7 @@ def test_in_kernel_sincos_is_accurate():
 
 def test_small_angle_trig_gives_the_reduced_paths_bits(rng):
     """Blocks whose angles all lie within ±SMALL_ANGLE skip the reduction: the same bits."""
-    tree = kinematics.Tree(  # a bare one-joint tree to drive _joint_trig directly
-        parent=np.array([-1, 0]), jcol=np.array([-1, 0]), coef=np.ones(2), off=np.zeros(2),
-        a0=np.zeros((2, 3, 3)), a1=np.zeros((2, 3, 3)), a2=np.zeros((2, 3, 3)),
-        t=np.zeros((2, 3)), root_r=np.eye(3), root_o=np.zeros(3), nq=1,
-        nz_ptr=np.zeros(3, dtype=np.int64), nz_k=np.zeros(0, dtype=np.int64),
-        nz_j=np.zeros(0, dtype=np.int64), nz_a=np.zeros((0, 3)),
-    )  # fmt: skip
+    tree = _one_joint_tree()
     lim = np.nextafter(kinematics.SMALL_ANGLE, 0)
     x = np.concatenate([rng.uniform(-lim, lim, 4000), [0.0, -0.0, lim, -lim, 1e-300]])
     fast = np.empty((2, x.size)), np.empty((2, x.size))
