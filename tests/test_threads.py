@@ -101,3 +101,24 @@ def test_sums_and_cops_are_the_same_bits_on_any_number_of_cores(op2, rng, monkey
     assert np.array_equal(many.ata, one.ata) and np.array_equal(many.atb, one.atb)
     assert many.yty == one.yty and many.n_rows == one.n_rows == 2 * n
     assert np.array_equal(kinematics.cop_xy(op2.tree, q, op2.sesc_vectors()), cops)
+
+
+def test_a_forked_child_gets_its_own_workers():
+    """After fork the parent's pool has no threads in the child: the child makes its own."""
+    import os
+
+    assert list(threads.ordered_map(abs, [-1, -2, -3])) == [1, 2, 3]  # the parent's pool
+    pid = os.fork()
+    if pid == 0:  # the child: would wait forever on the inherited pool
+        ok = list(threads.ordered_map(abs, [-4, -5, -6])) == [4, 5, 6]
+        os._exit(0 if ok else 1)
+    import signal
+    import time
+
+    deadline = time.monotonic() + 30
+    while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    if done[0] == 0:  # stuck on the inherited pool
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    assert done[0] == pid and os.waitstatus_to_exitcode(done[1]) == 0

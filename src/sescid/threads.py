@@ -102,10 +102,12 @@ def ordered_map(fn: Callable[[T], R], items: Sequence[T]) -> Iterator[R]:
         yield from map(fn, items)
         return
     pool = _state.get("pool")
-    if pool is None or pool._max_workers < workers:
+    # a forked child inherits the pool but not its threads: it makes its own
+    if pool is None or pool._max_workers < workers or _state.get("pool_pid") != os.getpid():
         from concurrent.futures import ThreadPoolExecutor
 
         pool = _state["pool"] = ThreadPoolExecutor(workers, thread_name_prefix="sescid")
+        _state["pool_pid"] = os.getpid()
     yield from pool.map(fn, items)
 
 
