@@ -73,6 +73,23 @@ def _fmt(values) -> str:
     return " ".join(repr(float(v)) for v in values)
 
 
+def merged_body_change(
+    src: Path, kind: str, body, m_old: float, mass: float, com: np.ndarray
+) -> tuple[float, np.ndarray] | None:
+    """How the file's parts of a (merged) body move to the identified mass (kg) and CoM (body
+    frame, m): every part's mass times ``ratio`` and its CoM plus ``shift`` (body frame) keep
+    the parts' proportions; None when the parts weigh nothing. ``m_old``: the parts' mass in
+    the ``kind`` file ("URDF", "MJCF"), which must be the fit's model's (else ModelError)."""
+    if abs(m_old - body.mass) > 1e-9 * max(1.0, body.mass):
+        raise ModelError(
+            f"{src}: body {body.name} weighs {m_old} kg in the {kind} but {body.mass} kg in "
+            f"the fit's model; the {kind} changed since the fit was made"
+        )
+    if not m_old > 0:
+        return None
+    return mass / m_old, com - body.com
+
+
 def _read_inertial(link) -> tuple[float, np.ndarray]:
     """(mass kg, CoM m in the link frame) of a <link> element; (0, 0) when it has none."""
     inertial = link.find("inertial")
@@ -137,15 +154,11 @@ def export_urdf(fit: Fit, path: str | Path) -> list[str]:
                 raise ModelError(f"{src}: link '{name}' of the fit's model is missing")
             m, c = _read_inertial(links[name])
             cad.append((links[name], m, c, model.link_frames[name][1]))
-        m_old = sum(m for _, m, _, _ in cad)
-        if abs(m_old - body.mass) > 1e-9 * max(1.0, body.mass):
-            raise ModelError(
-                f"{src}: body {body.name} weighs {m_old} kg in the URDF but {body.mass} kg in "
-                "the fit's model; the URDF changed since the fit was made"
-            )
-        if m_old > 0:
-            ratio = masses[b] / m_old
-            shift = coms[b] - body.com  # body frame
+        change = merged_body_change(
+            src, "URDF", body, sum(m for _, m, _, _ in cad), masses[b], coms[b]
+        )
+        if change is not None:
+            ratio, shift = change
             for el, m, c, x in cad:
                 if m > 0:
                     _write_inertial(el, m * ratio, c + x[:3, :3].T @ shift, ratio)

@@ -34,12 +34,9 @@ from ..errors import ModelError
 from ..estimation import Fit, fit_inertials
 from ..files import atomic_path
 from ..model.mjcf import _mujoco, _names, compile_mjcf
+from .export import _fmt, merged_body_change
 
 _ORIENT = ("quat", "axisangle", "xyaxes", "zaxis", "euler")
-
-
-def _fmt(values) -> str:
-    return " ".join(repr(float(v)) for v in values)
 
 
 def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = None) -> list[str]:
@@ -122,15 +119,9 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
             bid = body_id.get(name)
             if bid is not None and m.body_mass[bid] > 0:
                 parts.append((bid, float(m.body_mass[bid]), m.body_ipos[bid], name))
-        m_old = sum(p[1] for p in parts)
-        if abs(m_old - body.mass) > 1e-9 * max(1.0, body.mass):
-            raise ModelError(
-                f"{src}: body {body.name} weighs {m_old} kg in the MJCF but {body.mass} kg in "
-                "the fit's model; the MJCF changed since the fit was made"
-            )
-        if m_old > 0:
-            ratio = masses[b] / m_old
-            shift = coms[b] - body.com  # body frame
+        change = merged_body_change(src, "MJCF", body, sum(p[1] for p in parts), masses[b], coms[b])
+        if change is not None:
+            ratio, shift = change
             for bid, mk, ck, name in parts:
                 x = model.link_frames[name][1]
                 write(bid, mk * ratio, ck + x[:3, :3].T @ shift, ratio)
