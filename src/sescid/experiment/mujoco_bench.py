@@ -79,6 +79,7 @@ import numpy as np
 
 from ..errors import DataError, MissingExtraError, ModelError, OptionError, SescidError
 from ..robots.profile import ServoGains
+from ..sesc import tilted_cop
 from .planning import collision_capsules
 from .sensors import SensorConfig
 from .virtual import (
@@ -517,11 +518,6 @@ class _Bench:
         return np.array([-t[1] / fz, t[0] / fz]), float(fz)
 
 
-def _gravity_cop(c: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """Where the line through c along g meets the plane z = 0: c_xy − c_z g_xy / g_z."""
-    return c[..., :2] - c[..., 2:3] * g[..., :2] / g[..., 2:3]
-
-
 def run_mujoco_experiment(
     robot,
     q_cmd: np.ndarray,
@@ -652,7 +648,7 @@ def run_mujoco_experiment(
     tilt = np.arccos(np.clip(rot[:, 2, 2], -1.0, 1.0))
     cop_flat = robot.cop(q_act, r_true)
     com_statics = robot.com(q_act, r_true)
-    cop_gravity = _gravity_cop(com_statics, grav)
+    cop_gravity = tilted_cop(com_statics, grav[:, :2] / grav[:, 2:3])
     # noise-free pad CoP in the support frame (each loaded foot carried by the sim's pose)
     pad_cop = np.zeros((k, 2))
     pad_cop_biased = np.zeros((k, 2))
