@@ -505,7 +505,7 @@ def cop_xy_compiled(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | No
     rows it needs, loading the kernels if the whole job would overrun the numpy path's budget;
     None while the job fits that budget (``chain`` then runs it in numpy, block by block)."""
     nb = tree.parent.shape[0]
-    if _LAZY.get(__name__) and _numpy_spent[0] + q.shape[0] * nb <= NUMPY_BUDGET:
+    if _within_budget(q.shape[0], nb):
         return None
     return _cop_xy_or_none(tree, q, r)
 
@@ -515,12 +515,16 @@ def compiled() -> bool:
     return not _LAZY.get(__name__)
 
 
+def _within_budget(m: int, nb: int) -> bool:
+    """True while the kernels are not loaded and m more poses of nb bodies keep the numpy
+    work within ``NUMPY_BUDGET``."""
+    return bool(_LAZY.get(__name__)) and _numpy_spent[0] + m * nb <= NUMPY_BUDGET
+
+
 def _numpy_path(m: int, nb: int) -> bool:
     """True while the kernels are not loaded, the block (m poses of nb bodies) is at most
     ``SMALL_BLOCK`` poses and the numpy work stays within ``NUMPY_BUDGET`` with it."""
-    return (
-        m <= SMALL_BLOCK and bool(_LAZY.get(__name__)) and _numpy_spent[0] + m * nb <= NUMPY_BUDGET
-    )
+    return m <= SMALL_BLOCK and _within_budget(m, nb)
 
 
 def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
