@@ -21,8 +21,8 @@ import numpy as np
 
 import sescid
 from sescid.estimation import min_poses
-from sescid.experiment.planning import candidates, collision_capsules
-from sescid.experiment.planning.ground import ground_checks
+from sescid.planning import candidates, collision_capsules
+from sescid.planning.ground import ground_checks
 
 ROBOTS = {
     "op2": ("op2", None),

@@ -12,10 +12,10 @@ from collections import Counter
 import numpy as np
 
 import sescid
-from sescid.experiment import load_sensors
-from sescid.experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
-from sescid.experiment.planning import candidates
+from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
+from sescid.planning import candidates
 from sescid.robots.profile import mx28_kp
+from sescid.sensors import load_sensors
 
 
 def summary(label: str, ex, wall: float) -> None:

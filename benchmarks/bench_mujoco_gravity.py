@@ -11,12 +11,13 @@ from pathlib import Path
 import numpy as np
 
 import sescid
+from sescid.base.columns import Table
+from sescid.bench import ExperimentConfig
+from sescid.bench.kinematic import real_robot
+from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 from sescid.estimation import identify
-from sescid.experiment import ExperimentConfig, load_sensors, measure, read_raw
-from sescid.experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
-from sescid.experiment.planning import candidates
-from sescid.experiment.virtual import real_robot
-from sescid.table import Table
+from sescid.planning import candidates
+from sescid.sensors import load_sensors, measure, read_raw
 
 
 def rms(e: np.ndarray) -> float:

@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 import sescid
-from sescid.experiment import planning as design
-from sescid.experiment.planning.stability import stable_subset
+from sescid import planning as design
+from sescid.planning.stability import stable_subset
 from sescid.simulation import PAPER_NOISE
 
 

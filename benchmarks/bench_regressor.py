@@ -21,7 +21,7 @@ import numpy as np
 from timing import best_of, best_of_both
 
 import sescid
-import sescid.threads
+import sescid.base.threads
 from sescid.estimation import accumulate
 from sescid.kinematics import Workspace, gram_upper, padded, regressor_columns
 
@@ -201,7 +201,7 @@ def machine_ceiling(robot) -> tuple[float, str]:
     from threadpoolctl import threadpool_limits
 
     best, how = 0.0, ""
-    for threads in sorted({1, sescid.threads.usable_cores()}):
+    for threads in sorted({1, sescid.base.threads.usable_cores()}):
         for block in (2048, 8192, 32768):
             with threadpool_limits(threads):
                 run, poses, _ = ceiling_run(robot, block, reps=max(1, 100_000 // block))
@@ -255,7 +255,7 @@ def main() -> None:
         )
     ours, whole, ref = n / best["acc"], n / best["identify"], n_ref / best["pin"]
     ceil = ceil_poses / best["ceiling"]
-    cores = sescid.threads.usable_cores()
+    cores = sescid.base.threads.usable_cores()
     per_core = {k: (n_ref if k == "pin" else n) / v for k, v in cpu.items()}
     per_core["ceiling"] = ceil_poses / cpu["ceiling"]
     print(

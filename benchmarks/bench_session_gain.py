@@ -26,11 +26,11 @@ import time
 import numpy as np
 
 import sescid
-from sescid.experiment import load_sensors
-from sescid.experiment.adapters import MujocoAdapter
-from sescid.experiment.planning import candidates, plan_poses
-from sescid.experiment.sensors import measure, read_raw
-from sescid.experiment.session import SessionOptions, raw_table, run_session
+from sescid.planning import candidates, plan_poses
+from sescid.sensors import load_sensors
+from sescid.sensors.pads import measure, read_raw
+from sescid.session.adapters import MujocoAdapter
+from sescid.session.loop import SessionOptions, raw_table, run_session
 
 
 def measure_poses(robot, sensors, q, seed, samples):

@@ -1,7 +1,7 @@
 """A guided session on your own robot: a Python class with four methods (here a dummy OP2).
 
 Write a class with ``move``, ``wait_settled``, ``read`` and ``stop`` (the protocol in
-``sescid.experiment.adapters``) that talks to your robot, then run
+``sescid.session.adapters``) that talks to your robot, then run
 
     sescid session --adapter python:examples/op2_dummy_robot_session.py:DummyRobot \\
         --out-dir session/ --no-view
@@ -21,8 +21,8 @@ import math
 import numpy as np
 
 import sescid
-from sescid.experiment import load_sensors
-from sescid.experiment.session import SessionOptions, run_session
+from sescid.sensors import load_sensors
+from sescid.session.loop import SessionOptions, run_session
 
 
 class DummyRobot:
@@ -71,7 +71,7 @@ def main(budget: int = 60, candidates: int = 3000, samples: int = 20) -> float:
     bot = DummyRobot(robot)
     opt = SessionOptions(budget=budget, samples=samples, n_candidates=candidates)
     res = run_session(robot, bot, load_sensors(None, robot.profile), opt)
-    q_test = sescid.experiment.candidates(robot, 500, seed=99).q
+    q_test = sescid.planning.candidates(robot, 500, seed=99).q
     err = res.fit.predict_cop(q_test) - robot.cop(q_test, bot.r_true)
     rms = float(np.sqrt(np.mean(err**2)))
     print(

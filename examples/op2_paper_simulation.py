@@ -11,7 +11,7 @@ import argparse
 import numpy as np
 
 import sescid
-from sescid.experiment import paper_study
+from sescid.study import paper_study
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--poses", type=int, default=1000)

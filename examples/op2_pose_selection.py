@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 import sescid
-from sescid.experiment import planning as design
+from sescid import planning as design
 from sescid.io import write_table
 from sescid.report import design_figure
 

@@ -15,13 +15,12 @@ import math
 import numpy as np
 
 import sescid
-from sescid.estimation import KnownSensors, calibrate_sensors
-from sescid.experiment import (
-    ExperimentConfig,
+from sescid.bench import ExperimentConfig, real_robot, run_experiment
+from sescid.sensors import (
+    KnownSensors,
+    calibrate_sensors,
     load_sensors,
     pad_session,
-    real_robot,
-    run_experiment,
     table_from_columns,
 )
 

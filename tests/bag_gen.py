@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.experiment.wrench import G, rpy_matrix
+from sescid.sensors.wrench import G, rpy_matrix
 
 FOOT_MSG = "std_msgs/Header header\nfloat32[4] force\nuint8 board_id\n"
 FOOT_TYPE = "op2_msgs/msg/FootFsr"
@@ -78,8 +78,8 @@ def make_session(joint_names, n_poses=4, hold=1.0, move=0.6, seed=0) -> Session:
             prev = max(kk for aa, bb, kk in edges if bb <= tf[i] and kk >= 0)
             cop[i] = cops[prev] + (cops[prev + 1] - cops[prev]) * rng.uniform()
     # right foot: four pads (OP2 board layout of op2_fsr.json), mN, float32
-    from sescid.experiment.sensors import load_sensors
     from sescid.robots import profile_for
+    from sescid.sensors.pads import load_sensors
 
     sensors = load_sensors(profile=profile_for("op2")).foot("right").sensors
     ex, ey = sensors[1] - sensors[0], sensors[2] - sensors[0]

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 import sescid
-from sescid.experiment.planning import collision_capsules, collision_free_mask
-from sescid.experiment.planning.adjust import _subtrees, adjust_support_leg, support_chain
-from sescid.experiment.planning.broadphase import collision_free_mask_broad
-from sescid.experiment.planning.collision import mesh_capsules, segment_distance
-from sescid.experiment.planning.ground import ground_checks
 from sescid.model.meshes import resolve_mesh
+from sescid.planning import collision_capsules, collision_free_mask
+from sescid.planning.adjust import _subtrees, adjust_support_leg, support_chain
+from sescid.planning.broadphase import collision_free_mask_broad
+from sescid.planning.collision import mesh_capsules, segment_distance
+from sescid.planning.ground import ground_checks
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -110,7 +110,7 @@ def test_sole_derived_from_box_foot(biped):
 
 def test_stability_box_scaled_to_the_sole(biped):
     """Without a profile CoP box the default box is half the sole's half-sizes, on its centre."""
-    from sescid.experiment.planning import cop_half_extents
+    from sescid.planning import cop_half_extents
 
     np.testing.assert_allclose(cop_half_extents(biped), np.array(FOOT[:2]) / 4, atol=1e-12)
     assert np.all(cop_half_extents(sescid.load_robot("op2")) == 0.023)
@@ -136,7 +136,7 @@ def test_poses_on_biped_are_honest(biped):
 
 def test_adjusted_draws_mostly_stable(biped):
     """Moving the supporting leg puts most draws' CoP in the box (uniform draws: far fewer)."""
-    from sescid.experiment.planning import cop_half_extents, sampling_limits
+    from sescid.planning import cop_half_extents, sampling_limits
 
     rng = np.random.default_rng(0)
     lim = sampling_limits(biped)

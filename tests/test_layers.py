@@ -17,10 +17,7 @@ SRC = Path(sescid.__file__).parent
 #: layer of each top-level part of the package; a module may import its own or lower layers only
 LAYERS = {
     "errors": 0,
-    "files": 0,
-    "table": 0,
-    "progress": 0,
-    "threads": 0,
+    "base": 0,
     "robots": 0,
     "model": 1,
     "kinematics": 2,
@@ -28,11 +25,15 @@ LAYERS = {
     "robot": 4,
     "simulation": 5,
     "estimation": 6,
-    "experiment": 7,
-    "io": 8,
-    "report": 9,
-    "cli": 10,
-    "__init__": 10,
+    "sensors": 7,
+    "planning": 8,
+    "bench": 9,
+    "session": 10,
+    "study": 10,
+    "io": 11,
+    "report": 12,
+    "cli": 13,
+    "__init__": 13,
 }
 
 

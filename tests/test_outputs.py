@@ -7,9 +7,9 @@ import os
 import pytest
 from click.testing import CliRunner
 
+from sescid.base.files import atomic_open, check_outputs
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.files import atomic_open, check_outputs
 
 
 def _sim(tmp_path):

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import io
 
+from sescid.base.progress import TerminalProgress
 from sescid.estimation import identify_ls
-from sescid.progress import TerminalProgress
 from sescid.simulation import simulate
 
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import sescid
-from sescid.experiment import paper_study
 from sescid.simulation import PAPER_NOISE, random_poses, simulate
+from sescid.study import paper_study
 
 
 def test_simulated_cop_is_the_com_projection_plus_noise(op2):

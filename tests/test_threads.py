@@ -9,7 +9,7 @@ import sys
 import numpy as np
 from threadpoolctl import threadpool_info
 
-from sescid import threads
+from sescid.base import threads
 
 
 def _blas_threads() -> set[int]:
@@ -51,7 +51,7 @@ def test_the_command_line_pins_blas_before_numpy_loads():
     """``sescid`` sets the thread variables (keeping the user's) before numpy is imported."""
     code = (
         "import os, sys\n"
-        "from sescid.threads import pin_process\n"
+        "from sescid.base.threads import pin_process\n"
         "pin_process()\n"
         "import numpy\n"
         "from threadpoolctl import threadpool_info\n"

@@ -41,10 +41,11 @@ def test_cli_simulate_tilt_identify_truth(tmp_path):
 
 def test_kinematic_bench_tilt(op2, tmp_path):
     """Kinematic bench with tilt_deg: grav_* logged; gravity-aware fit beats the flat one."""
-    from sescid.experiment import ExperimentConfig, load_sensors, run_experiment
-    from sescid.experiment.planning import candidates
-    from sescid.experiment.sensors import fsr
-    from sescid.experiment.session import raw_table
+    from sescid.bench import ExperimentConfig, run_experiment
+    from sescid.planning import candidates
+    from sescid.sensors import load_sensors
+    from sescid.sensors.pads import fsr
+    from sescid.session.loop import raw_table
 
     sensors = load_sensors(None, op2.profile)
     q = candidates(op2, 60, seed=2).q

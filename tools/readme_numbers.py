@@ -41,9 +41,9 @@ def walk_through(engine: str = "kinematic") -> dict[str, str]:
     """Run the commands in a temporary folder; the quoted figures as the README prints them."""
     from click.testing import CliRunner
 
+    from sescid.bench.truth import compare_truth
     from sescid.cli import cli
     from sescid.estimation import load_fit
-    from sescid.experiment.truth import compare_truth
     from sescid.io import read_cop, read_poses, read_table
     from sescid.report.figures import cop_offset_stats
 
@@ -96,8 +96,8 @@ def _physics_figures(fit, table, q, cop) -> dict[str, str]:
 
     from sescid.estimation import identify
     from sescid.estimation.tilt import tilt_direction
-    from sescid.experiment.imu import table_gravity
     from sescid.io import read_cop_se
+    from sescid.sensors.imu import table_gravity
 
     t = json.loads(open("truth.json").read())
     pads, grav = np.array(t["cop_pads"]), np.array(t["cop_gravity"])

@@ -40,12 +40,12 @@ _EXPORTS: dict[str, str] = {
     "to_consistent": "sescid.estimation",
     "load_fit": "sescid.estimation",
     "save_fit": "sescid.estimation",
-    "plan_poses": "sescid.experiment",
-    "run_experiment": "sescid.experiment",
-    "measure": "sescid.experiment",
-    "fsr": "sescid.experiment",
-    "load_sensors": "sescid.experiment",
-    "paper_study": "sescid.experiment",
+    "plan_poses": "sescid.planning",
+    "run_experiment": "sescid.bench",
+    "measure": "sescid.sensors",
+    "fsr": "sescid.sensors",
+    "load_sensors": "sescid.sensors",
+    "paper_study": "sescid.study",
     "export_model": "sescid.io",
     "export_mjcf": "sescid.io",
     "export_urdf": "sescid.io",
@@ -110,7 +110,8 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
-    from .errors import (
+    from sescid.bench import run_experiment
+    from sescid.errors import (
         DataError,
         MissingExtraError,
         ModelError,
@@ -118,7 +119,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         SescidError,
         SolverError,
     )
-    from .estimation import (
+    from sescid.estimation import (
         ConsistentOptions,
         Fit,
         MapOptions,
@@ -132,8 +133,10 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         save_fit,
         to_consistent,
     )
-    from .experiment import fsr, load_sensors, measure, paper_study, plan_poses, run_experiment
-    from .io import export_mjcf, export_model, export_urdf, read_table, write_table
-    from .report import write_report
-    from .robot import Robot, load_robot
-    from .simulation import simulate
+    from sescid.io import export_mjcf, export_model, export_urdf, read_table, write_table
+    from sescid.planning import plan_poses
+    from sescid.report import write_report
+    from sescid.robot import Robot, load_robot
+    from sescid.sensors import fsr, load_sensors, measure
+    from sescid.simulation import simulate
+    from sescid.study import paper_study

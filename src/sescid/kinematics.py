@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import DataError
-from .model import RobotModel
+from sescid.errors import DataError
+from sescid.model import RobotModel
 
 
 @dataclass(frozen=True)
@@ -482,7 +482,7 @@ PARALLEL_PART = 16384
 
 
 def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    from .threads import ordered_map, usable_cores
+    from sescid.base.threads import ordered_map, usable_cores
 
     n = q.shape[0]
     out = np.empty((n, 2))

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import kinematics, sesc
-from .errors import ModelError
-from .model import RobotModel, Shape, load_model
-from .model.sole import Sole
-from .robots import EMBEDDED, RobotProfile, generic_profile, profile_for
+from sescid import kinematics, sesc
+from sescid.errors import ModelError
+from sescid.model import RobotModel, Shape, load_model
+from sescid.model.sole import Sole
+from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
 
 class Robot:
@@ -137,7 +137,7 @@ class Robot:
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
     def _geometry(self) -> tuple[list[Shape], list[str]]:
-        from .model.meshes import with_mesh_vertices
+        from sescid.model.meshes import with_mesh_vertices
 
         if self.model.format == "urdf":
             return with_mesh_vertices(self.model.shapes, self.model.path)
@@ -157,7 +157,7 @@ class Robot:
     def sole(self) -> Sole | None:
         """The support foot's sole: the profile's sole size around the support frame, else
         derived from the support body's lowest geometry; None when neither exists."""
-        from .model.sole import derive_sole, profile_sole
+        from sescid.model.sole import derive_sole, profile_sole
 
         b, x = self.model.link_frames[self.support]
         size = self.profile.sole_size
@@ -171,7 +171,7 @@ class Robot:
     def free_sole(self) -> Sole | None:
         """The other foot's sole: the profile's free sole, else the mirror-named link's foot
         (``r_*``/``l_*``, ``right``/``left``, …) derived from its geometry; None if unknown."""
-        from .model.sole import derive_sole, mirror_link, profile_sole
+        from sescid.model.sole import derive_sole, mirror_link, profile_sole
 
         link = self.profile.free_sole.get(self.support)
         if link is None:

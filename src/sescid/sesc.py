@@ -16,9 +16,17 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import DataError
-from .kinematics import CHAIN_BLOCK, Tree, Workspace, as_poses, chain, com_one, cop_xy_compiled
-from .model import RobotModel
+from sescid.errors import DataError
+from sescid.kinematics import (
+    CHAIN_BLOCK,
+    Tree,
+    Workspace,
+    as_poses,
+    chain,
+    com_one,
+    cop_xy_compiled,
+)
+from sescid.model import RobotModel
 
 
 def subtree_masses(model: RobotModel) -> np.ndarray:

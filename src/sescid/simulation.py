@@ -1,7 +1,7 @@
 """Synthetic CoP data with known truth: random poses, the CoP they give plus noise.
 
 The paper's §3 settings (``PAPER_*``) live here, their one home; the study itself (simulate,
-identify, validate) is ``sescid.experiment.paper_study``.
+identify, validate) is ``sescid.study.paper_study``.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import OptionError
+from sescid.errors import OptionError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .robot import Robot
+    from sescid.robot import Robot
 
 #: the paper's §3 settings
 PAPER_POSES = 1000

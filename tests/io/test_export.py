@@ -14,7 +14,7 @@ import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation.consistent import identify_consistent
-from sescid.io.export import export_urdf
+from sescid.io.export.urdf import export_urdf
 
 TOTAL = 2.97  # kg, a "weighed" mass 45 g above the URDF's
 

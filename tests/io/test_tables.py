@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sescid.base.columns import read_cop, read_poses
 from sescid.errors import DataError
 from sescid.estimation import identify_chunks, identify_ls, identify_once
 from sescid.io import iter_table, read_table, tables, write_table
 from sescid.io.tables import read_ahead
 from sescid.simulation import simulate
-from sescid.table import read_cop, read_poses
 
 
 @pytest.fixture(params=[1, 40])

@@ -13,8 +13,8 @@ from op2_stance import stable_poses
 from test_html import _browse, _chromium
 
 from sescid.estimation import identify_ls
-from sescid.experiment.session import SessionStep
 from sescid.report import write_report
+from sescid.session.loop import SessionStep
 
 CHROMIUM = pytest.mark.skipif(_chromium() is None, reason="no chromium (apt-get install chromium)")
 

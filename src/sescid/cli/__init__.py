@@ -13,7 +13,7 @@ from typing import Any
 
 import click
 
-from .common import run_guarded
+from sescid.cli.common import run_guarded
 
 #: command → (module, function, one-line help shown by ``sescid --help``)
 COMMANDS: dict[str, tuple[str, str, str]] = {
@@ -66,8 +66,8 @@ def cli() -> None:
 
 
 def main() -> None:
-    """Entry point of the ``sescid`` script (one BLAS thread: see ``sescid.threads``)."""
-    from ..threads import pin_process
+    """Entry point of the ``sescid`` script (one BLAS thread: see ``sescid.base.threads``)."""
+    from sescid.base.threads import pin_process
 
     pin_process()
     cli(prog_name="sescid")

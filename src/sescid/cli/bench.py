@@ -7,26 +7,10 @@ import json
 import click
 import numpy as np
 
-from ..errors import DataError, MissingExtraError, OptionError, SescidError
-from ..estimation import load_fit, min_poses
-from ..experiment import ExperimentConfig, load_sensors, pose_list_ids, run_experiment
-from ..experiment import fsr as run_fsr
-from ..experiment.planning import (
-    DEFAULT_CLEARANCE,
-    cop_half_extents,
-    design_curve,
-    free_sole,
-    plan_poses,
-    sampling_limits,
-)
-from ..experiment.planning import paper_convention as robot_paper_convention
-from ..experiment.sensors import REASONS
-from ..files import OutputSet
-from ..io import read_cop, read_cop_se, read_poses, read_table, write_table
-from ..progress import TerminalProgress
-from ..report import design_figure, write_report
-from ..simulation import PAPER_NOISE
-from .common import (
+from sescid.base.files import OutputSet
+from sescid.base.progress import TerminalProgress
+from sescid.bench import ExperimentConfig, run_experiment
+from sescid.cli.common import (
     force_option,
     imu_link_option,
     load,
@@ -36,6 +20,23 @@ from .common import (
     seed_option,
     sensors_option,
 )
+from sescid.errors import DataError, MissingExtraError, OptionError, SescidError
+from sescid.estimation import load_fit, min_poses
+from sescid.io import read_cop, read_cop_se, read_poses, read_table, write_table
+from sescid.planning import (
+    DEFAULT_CLEARANCE,
+    cop_half_extents,
+    design_curve,
+    free_sole,
+    plan_poses,
+    sampling_limits,
+)
+from sescid.planning import paper_convention as robot_paper_convention
+from sescid.report import design_figure, write_report
+from sescid.sensors import fsr as run_fsr
+from sescid.sensors import load_sensors, pose_list_ids
+from sescid.sensors.pads import REASONS
+from sescid.simulation import PAPER_NOISE
 
 _EXP = ExperimentConfig()
 
@@ -230,7 +231,7 @@ def experiment(
         )
     try:
         if engine == "mujoco":
-            from ..experiment.mujoco_bench import MujocoBenchConfig, run_mujoco_experiment
+            from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 
             bench = MujocoBenchConfig(kp=kp, weld_foot=weld_foot, double_support=double_support)
             ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench, pose_ids=ids)
@@ -270,7 +271,7 @@ def report(fit_file, measured, out_dir, imu_link, force):
 
     With grav_x/y/z (or IMU) columns the predicted CoPs are projected along that gravity.
     """
-    from ..experiment.imu import table_gravity
+    from sescid.sensors.imu import table_gravity
 
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
@@ -302,7 +303,7 @@ def report(fit_file, measured, out_dir, imu_link, force):
 
 def _sole_notes(robot, capsules) -> list[str]:
     """Where the soles came from and what the floor check left out (any robot)."""
-    from ..experiment.planning.ground import ground_checks
+    from sescid.planning.ground import ground_checks
 
     out = [s.note for s in (robot.sole, robot.free_sole) if s is not None and s.derived]
     if robot.sole is None:

@@ -7,14 +7,14 @@ from pathlib import Path
 
 import click
 
-from ..errors import OptionError
-from ..estimation.sensor_calibration import GAIN_PRIOR, OFFSET_PRIOR, calibrate_sensors
-from ..experiment import load_sensors
-from ..experiment.calibration import calibrated_sensor_document, pad_session
-from ..experiment.sensors import default_sensors_path
-from ..files import atomic_open, check_outputs
-from ..io import read_table
-from .common import load, min_samples_option, mm, robot_options, sensors_option
+from sescid.base.files import atomic_open, check_outputs
+from sescid.cli.common import load, min_samples_option, mm, robot_options, sensors_option
+from sescid.errors import OptionError
+from sescid.io import read_table
+from sescid.sensors import load_sensors
+from sescid.sensors.calibration import GAIN_PRIOR, OFFSET_PRIOR, calibrate_sensors
+from sescid.sensors.pad_logs import calibrated_sensor_document, pad_session
+from sescid.sensors.pads import default_sensors_path
 
 
 def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from ..errors import MissingExtraError, OptionError, SescidError
+from sescid.errors import MissingExtraError, OptionError, SescidError
 
 #: CLI spelling of API parameters, for errors about options
 FLAG = {
@@ -95,7 +95,7 @@ def force_option(f: Any) -> Any:
 
 def load(robot_name: str, support: str | None) -> Any:
     """The robot named on the command line."""
-    from ..robot import load_robot
+    from sescid.robot import load_robot
 
     return load_robot(robot_name, support)
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..files import OutputSet
-from ..simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
-from .common import force_option, load, mm, robot_options, seed_option
+from sescid.base.files import OutputSet
+from sescid.cli.common import force_option, load, mm, robot_options, seed_option
+from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 
 @click.command()
@@ -52,8 +52,8 @@ def simulate(
     """
     import math
 
-    from ..io import write_table
-    from ..simulation import simulate as run_simulate
+    from sescid.io import write_table
+    from sescid.simulation import simulate as run_simulate
 
     outs = OutputSet([out], [robot_name], force=force)
     robot = load(robot_name, support)
@@ -93,8 +93,8 @@ def simulate(
 @force_option
 def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     """Reproduce the paper's §3 simulation study; print its numbers and write its figures."""
-    from ..experiment import paper_study
-    from ..report import body_labels, paper_order
+    from sescid.report import body_labels, paper_order
+    from sescid.study import paper_study
 
     names = ["fit.json", "fig3a_r_magnitudes.png", "fig3b_cop.png", "summary.csv"]
     OutputSet([Path(out_dir) / f for f in names], [robot_name], folders=[out_dir], force=force)
@@ -144,8 +144,8 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
 
 def _demo_files(robot, st, out: Path) -> None:
     """The demo's fit, figures and summary, written into ``out``."""
-    from ..io import write_table
-    from ..report import plot_cop_comparison, plot_r_magnitudes, run_figures
+    from sescid.io import write_table
+    from sescid.report import plot_cop_comparison, plot_r_magnitudes, run_figures
 
     fit = st.fit
     p = fit.rank

@@ -9,8 +9,11 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..errors import DataError, OptionError
-from ..estimation import (
+from sescid.base.files import OutputSet
+from sescid.base.progress import TerminalProgress
+from sescid.cli.common import force_option, imu_link_option, load, mm, robot_options, seed_option
+from sescid.errors import DataError, OptionError
+from sescid.estimation import (
     DEFAULT_RTOL,
     METHODS,
     ConsistentOptions,
@@ -27,11 +30,10 @@ from ..estimation import (
     outside_limits,
     to_consistent,
 )
-from ..estimation import (
+from sescid.estimation import (
     identify as run_identify,
 )
-from ..files import OutputSet
-from ..io import (
+from sescid.io import (
     FORMATS,
     export_model,
     read_cop,
@@ -40,9 +42,7 @@ from ..io import (
     read_table,
     write_table,
 )
-from ..io.tables import iter_table, read_ahead
-from ..progress import TerminalProgress
-from .common import force_option, imu_link_option, load, mm, robot_options, seed_option
+from sescid.io.tables import iter_table, read_ahead
 
 _CONSISTENT = ConsistentOptions()
 
@@ -311,7 +311,7 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
                 gravity=gravity,
             )
     if opts["robust"]:
-        from ..estimation import huber
+        from sescid.estimation import huber
 
         plain = fitter
 
@@ -410,7 +410,7 @@ def _iter_chunks(data, robot, weighted: bool, imu_link=None):
     """(q, cop, sigma, gravity, truth) per streamed chunk of the data file (gravity: grav_x/y/z,
     else the IMU columns on ``imu_link`` (``experiment.imu.table_gravity``); truth: the
     noise-free CoP of simulated data, else None)."""
-    from ..experiment.imu import table_gravity
+    from sescid.sensors.imu import table_gravity
 
     for table in read_ahead(iter_table(data)):
         q = read_poses(table, robot.joint_names, robot.profile.servo)
@@ -503,8 +503,8 @@ def predict(fit_file, poses, out, level, imu_link, force):
     projected along that gravity direction; its interval then includes the CoM-height
     uncertainty through g_xy/g_z.
     """
-    from ..estimation import cop_interval
-    from ..experiment.imu import table_gravity
+    from sescid.estimation import cop_interval
+    from sescid.sensors.imu import table_gravity
 
     outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
@@ -601,7 +601,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
-    from ..estimation.cad_check import cad_violations
+    from sescid.estimation.cad_check import cad_violations
 
     assert fit.inertials is not None
     for line in cad_violations(fit.inertials, fit.robot.body_names):

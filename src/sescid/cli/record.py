@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import click
 
-from ..errors import DataError
-from ..experiment import pose_list_ids
-from ..files import OutputSet
-from ..io import read_bag, read_poses, read_table, write_table
-from .common import force_option, load, robot_options
+from sescid.base.files import OutputSet
+from sescid.cli.common import force_option, load, robot_options
+from sescid.errors import DataError
+from sescid.io import read_bag, read_poses, read_table, write_table
+from sescid.sensors import pose_list_ids
 
 
 @click.command()

@@ -9,8 +9,8 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..errors import OptionError
-from .common import load, mm, robot_options, seed_option, sensors_option
+from sescid.cli.common import load, mm, robot_options, seed_option, sensors_option
+from sescid.errors import OptionError
 
 
 class _Printer:
@@ -176,12 +176,12 @@ def session(
     session.json (the decisions). Progress is printed per pose; the live view (viser, the
     'view' extra) serves http://127.0.0.1:PORT while the session runs.
     """
-    from ..experiment import load_sensors
-    from ..experiment.adapters import MujocoAdapter, ReplayAdapter, load_adapter_class
-    from ..experiment.session import SessionOptions, run_session
-    from ..io import read_table
-    from ..io.session_files import check_session_outputs, read_session_reasons, write_session
-    from ..progress import TerminalProgress
+    from sescid.base.progress import TerminalProgress
+    from sescid.io import read_table
+    from sescid.io.session_files import check_session_outputs, read_session_reasons, write_session
+    from sescid.sensors import load_sensors
+    from sescid.session.adapters import MujocoAdapter, ReplayAdapter, load_adapter_class
+    from sescid.session.loop import SessionOptions, run_session
 
     inputs = [robot_name, sensors_file]
     raw_file = poses_file = None
@@ -221,7 +221,7 @@ def session(
     )
     view = None
     if not no_view:
-        from ..report.live import LiveView
+        from sescid.report.live import LiveView
 
         view = LiveView(robot, port=view_port)
         click.echo(f"live view: {view.url} (Ctrl-C stops the session)")

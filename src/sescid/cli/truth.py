@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import mm, seed_option
+from sescid.cli.common import mm, seed_option
 
 
 @click.command()
@@ -22,8 +22,8 @@ from .common import mm, seed_option
 def truth(fit_file, truth_file, fresh, within_deg, seed):
     """Compare a fit with the truth of `sescid experiment --truth`: RMS CoP error of the
     identified and the manufacturer model at the actual poses and at fresh poses near them."""
-    from ..estimation import load_fit
-    from ..experiment.truth import compare_truth
+    from sescid.bench.truth import compare_truth
+    from sescid.estimation import load_fit
 
     c = compare_truth(load_fit(fit_file), truth_file, fresh, within_deg, seed)
     click.echo(

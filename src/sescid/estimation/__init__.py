@@ -11,10 +11,21 @@
 
 from __future__ import annotations
 
-from .api import ConsistentOptions, MapOptions, identify, make_fitter, to_consistent
-from .checks import check_total_mass, fit_warnings, outside_limits
-from .consistent import body_boxes, consistent_from_fit, fit_inertials, identify_consistent
-from .fit import (
+from sescid.estimation.api import (
+    ConsistentOptions,
+    MapOptions,
+    identify,
+    make_fitter,
+    to_consistent,
+)
+from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
+from sescid.estimation.consistent import (
+    body_boxes,
+    consistent_from_fit,
+    fit_inertials,
+    identify_consistent,
+)
+from sescid.estimation.fit import (
     METHODS,
     BodyInertials,
     Combination,
@@ -26,25 +37,20 @@ from .fit import (
     OnlineInfo,
     RobustInfo,
 )
-from .fit_json import load_fit, save_fit
-from .identifiability import DEFAULT_RTOL, identifiable_eigen, min_poses, structural_rank
-from .least_squares import identify_chunks, identify_ls, identify_stream, solve
-from .map import identify_map
-from .normal_equations import NormalEquations, accumulate
-from .one_pass import identify_once
-from .online import OnlineEstimator
-from .robust import huber, joint_noise_mc
-from .sensor_calibration import (
-    KnownSensors,
-    PadFoot,
-    PadSession,
-    SensorCalibration,
-    SensorDirection,
-    SensorParameter,
-    SessionContribution,
-    calibrate_sensors,
+from sescid.estimation.fit_json import load_fit, save_fit
+from sescid.estimation.identifiability import (
+    DEFAULT_RTOL,
+    identifiable_eigen,
+    min_poses,
+    structural_rank,
 )
-from .validation import (
+from sescid.estimation.least_squares import identify_chunks, identify_ls, identify_stream, solve
+from sescid.estimation.map import identify_map
+from sescid.estimation.normal_equations import NormalEquations, accumulate
+from sescid.estimation.one_pass import identify_once
+from sescid.estimation.online import OnlineEstimator
+from sescid.estimation.robust import huber, joint_noise_mc
+from sescid.estimation.validation import (
     Interval,
     com_interval,
     cop_interval,
@@ -68,22 +74,14 @@ __all__ = [
     "Fit",
     "Interval",
     "JointNoiseEffect",
-    "KnownSensors",
     "MapInfo",
     "MapOptions",
     "NormalEquations",
     "OnlineEstimator",
     "OnlineInfo",
-    "PadFoot",
-    "PadSession",
     "RobustInfo",
-    "SensorCalibration",
-    "SensorDirection",
-    "SensorParameter",
-    "SessionContribution",
     "accumulate",
     "body_boxes",
-    "calibrate_sensors",
     "com_interval",
     "consistent_from_fit",
     "cop_interval",

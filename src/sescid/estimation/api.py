@@ -15,19 +15,24 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import OptionError
-from ..kinematics import as_poses
-from ..robot import Robot
-from ..threads import one_blas_thread
-from .checks import fit_warnings
-from .consistent import COM_SCALE, FIT_TOL, consistent_from_fit, identify_consistent
-from .consistent_prior import evidence_prior_std, least_squares_view
-from .fit import METHODS, Fit
-from .identifiability import DEFAULT_RTOL, check_rtol
-from .least_squares import identify_ls, residual_stats
-from .map import identify_map
-from .robust import HUBER_K, huber
-from .validation import Fitter
+from sescid.base.threads import one_blas_thread
+from sescid.errors import OptionError
+from sescid.estimation.checks import fit_warnings
+from sescid.estimation.consistent import (
+    COM_SCALE,
+    FIT_TOL,
+    consistent_from_fit,
+    identify_consistent,
+)
+from sescid.estimation.consistent_prior import evidence_prior_std, least_squares_view
+from sescid.estimation.fit import METHODS, Fit
+from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
+from sescid.estimation.least_squares import identify_ls, residual_stats
+from sescid.estimation.map import identify_map
+from sescid.estimation.robust import HUBER_K, huber
+from sescid.estimation.validation import Fitter
+from sescid.kinematics import as_poses
+from sescid.robot import Robot
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fit import BodyInertials
+from sescid.estimation.fit import BodyInertials
 
 TOTAL_TOL = 1e-9  #: kg, a total mass this close to the CAD's counts as the same
 

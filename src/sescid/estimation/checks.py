@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import SescidError
-from ..robot import Robot
-from .fit import Fit
+from sescid.errors import SescidError
+from sescid.estimation.fit import Fit
+from sescid.robot import Robot
 
 #: a weighed total mass outside [1/x, x] × the model's is refused (unit slip, wrong robot)
 MASS_RATIO_LIMIT = 3.0
@@ -102,7 +102,7 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"the information matrix is ill-conditioned ({cond:.3g}): some combinations are "
             "barely excited, their intervals are wide"
         )
-    from .tilt import TILT_REL_STD_WARN, tilt_direction
+    from sescid.estimation.tilt import TILT_REL_STD_WARN, tilt_direction
 
     tilt = tilt_direction(fit) if fit.map is None else None
     if tilt is not None and tilt.rel_std > TILT_REL_STD_WARN:

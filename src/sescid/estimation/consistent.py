@@ -55,14 +55,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SescidError, SolverError
-from ..model import body_hulls
-from ..robot import Robot
-from ..sesc import sesc_vectors
-from .checks import check_total_mass
-from .fit import BodyInertials, Fit
-from .identifiability import DEFAULT_RTOL
-from .least_squares import identify_ls, residual_stats
+from sescid.errors import SescidError, SolverError
+from sescid.estimation.checks import check_total_mass
+from sescid.estimation.fit import BodyInertials, Fit
+from sescid.estimation.identifiability import DEFAULT_RTOL
+from sescid.estimation.least_squares import identify_ls, residual_stats
+from sescid.model import body_hulls
+from sescid.robot import Robot
+from sescid.sesc import sesc_vectors
 
 #: default growth of the fallback box (joint points + CAD CoM), m
 FALLBACK_MARGIN = 0.02

@@ -26,9 +26,9 @@ import math
 
 import numpy as np
 
-from ..errors import SescidError
-from .consistent import _ELL, COM_SCALE, model_coms, sesc_map
-from .fit import Fit
+from sescid.errors import SescidError
+from sescid.estimation.consistent import _ELL, COM_SCALE, model_coms, sesc_map
+from sescid.estimation.fit import Fit
 
 #: search range of the relative CAD prior std
 PRIOR_STD_RANGE = (1e-3, 10.0)

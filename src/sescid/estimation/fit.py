@@ -21,10 +21,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..kinematics import as_poses, regressor
+from sescid.kinematics import as_poses, regressor
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..robot import Robot
+    from sescid.robot import Robot
 
 #: the estimation methods, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
 METHODS = ("ls", "map", "consistent")
@@ -310,7 +310,7 @@ class Fit:
     @property
     def notes(self) -> list[str]:
         """What a reader should know about this fit, generated from its fields."""
-        from .notes import fit_notes
+        from sescid.estimation.notes import fit_notes
 
         return fit_notes(self)
 
@@ -333,6 +333,6 @@ class Fit:
 
     def save(self, path: Any) -> None:
         """Write the fit as JSON (format ``sescid-fit/2``, see ``sescid.estimation.fit_json``)."""
-        from .fit_json import save_fit
+        from sescid.estimation.fit_json import save_fit
 
         save_fit(self, path)

@@ -22,10 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataError, SescidError
-from ..files import atomic_open, read_json
-from ..robot import load_robot
-from .fit import (
+from sescid.base.files import atomic_open, read_json
+from sescid.errors import DataError, SescidError
+from sescid.estimation.fit import (
     BodyInertials,
     Combination,
     CopOffset,
@@ -36,6 +35,7 @@ from .fit import (
     OnlineInfo,
     RobustInfo,
 )
+from sescid.robot import load_robot
 
 FIT_FORMAT = "sescid-fit/2"
 FIT_FORMAT_V1 = "sescid-fit/1"

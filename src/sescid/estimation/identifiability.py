@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataError
-from ..robot import Robot
-from .fit import AXES, Combination
+from sescid.errors import DataError
+from sescid.estimation.fit import AXES, Combination
+from sescid.robot import Robot
 
 DEFAULT_RTOL = 1e-6
 

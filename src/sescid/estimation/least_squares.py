@@ -22,12 +22,10 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import DataError
-from ..kinematics import as_poses
-from ..robot import Robot
-from ..threads import one_blas_thread
-from .fit import Fit
-from .identifiability import (
+from sescid.base.threads import one_blas_thread
+from sescid.errors import DataError
+from sescid.estimation.fit import Fit
+from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     base_combinations,
     check_enough_poses,
@@ -37,7 +35,14 @@ from .identifiability import (
     rank_of,
     unidentifiable,
 )
-from .normal_equations import ACCUMULATE_BLOCK, NormalEquations, accumulate, check_cop
+from sescid.estimation.normal_equations import (
+    ACCUMULATE_BLOCK,
+    NormalEquations,
+    accumulate,
+    check_cop,
+)
+from sescid.kinematics import as_poses
+from sescid.robot import Robot
 
 
 def solve(

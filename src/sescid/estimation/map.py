@@ -29,14 +29,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SescidError
-from ..kinematics import as_poses
-from ..robot import Robot
-from .fit import CopOffset, Fit, MapInfo
-from .identifiability import DEFAULT_RTOL, combination_vector
-from .least_squares import residual_stats, solve
-from .normal_equations import NormalEquations, accumulate, check_cop, row_weights
-from .validation import folds as split
+from sescid.errors import SescidError
+from sescid.estimation.fit import CopOffset, Fit, MapInfo
+from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
+from sescid.estimation.least_squares import residual_stats, solve
+from sescid.estimation.normal_equations import NormalEquations, accumulate, check_cop, row_weights
+from sescid.estimation.validation import folds as split
+from sescid.kinematics import as_poses
+from sescid.robot import Robot
 
 #: prior standard deviation of a CoP offset when ``bias=True``: effectively flat, m
 BIAS_PRIOR_SCALE = 1.0

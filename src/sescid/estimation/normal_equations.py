@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import DataError
-from ..kinematics import (
+from sescid.base.threads import one_blas_thread, ordered_map
+from sescid.errors import DataError
+from sescid.kinematics import (
     Workspace,
     as_poses,
     compiled,
@@ -24,8 +25,7 @@ from ..kinematics import (
     padded,
     reduced_columns,
 )
-from ..robot import Robot
-from ..threads import one_blas_thread, ordered_map
+from sescid.robot import Robot
 
 #: poses per block when accumulating normal equations
 ACCUMULATE_BLOCK = 2048

@@ -6,7 +6,7 @@ import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .fit import Fit
+    from sescid.estimation.fit import Fit
 
 
 def fit_notes(fit: Fit) -> list[str]:
@@ -29,7 +29,7 @@ def fit_notes(fit: Fit) -> list[str]:
             f"{len(fit.unidentifiable)} of {n_par} directions are not determined by the data; "
             f"{filled} (CoP predictions do not depend on them, CoM height partly does)"
         )
-    from .tilt import tilt_direction
+    from sescid.estimation.tilt import tilt_direction
 
     tilt = tilt_direction(fit)
     if tilt is not None:

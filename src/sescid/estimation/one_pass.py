@@ -18,13 +18,13 @@ from typing import IO
 
 import numpy as np
 
-from ..kinematics import as_poses
-from ..robot import Robot
-from ..threads import one_blas_thread
-from .fit import Fit
-from .identifiability import DEFAULT_RTOL, check_enough_poses
-from .least_squares import _reblock, solve
-from .normal_equations import ACCUMULATE_BLOCK, accumulate, check_cop
+from sescid.base.threads import one_blas_thread
+from sescid.estimation.fit import Fit
+from sescid.estimation.identifiability import DEFAULT_RTOL, check_enough_poses
+from sescid.estimation.least_squares import _reblock, solve
+from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, accumulate, check_cop
+from sescid.kinematics import as_poses
+from sescid.robot import Robot
 
 
 def _put(fh: IO[bytes], arrays: tuple, shapes: list) -> None:

@@ -20,14 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SescidError
-from ..robot import Robot
-from ..simulation import random_poses
-from .fit import Fit, OnlineInfo
-from .identifiability import DEFAULT_RTOL, identifiable_eigen
-from .least_squares import solve
-from .map import fit_from_normal_equations
-from .normal_equations import NormalEquations, accumulate
+from sescid.errors import SescidError
+from sescid.estimation.fit import Fit, OnlineInfo
+from sescid.estimation.identifiability import DEFAULT_RTOL, identifiable_eigen
+from sescid.estimation.least_squares import solve
+from sescid.estimation.map import fit_from_normal_equations
+from sescid.estimation.normal_equations import NormalEquations, accumulate
+from sescid.robot import Robot
+from sescid.simulation import random_poses
 
 
 @dataclass

@@ -21,11 +21,11 @@ import math
 
 import numpy as np
 
-from ..errors import SescidError
-from ..kinematics import as_poses
-from ..simulation import random_poses
-from .fit import Fit, JointNoiseEffect, RobustInfo
-from .validation import Fitter
+from sescid.errors import SescidError
+from sescid.estimation.fit import Fit, JointNoiseEffect, RobustInfo
+from sescid.estimation.validation import Fitter
+from sescid.kinematics import as_poses
+from sescid.simulation import random_poses
 
 #: Huber threshold on the standardised 2-D residual norm: √χ²₂(0.95)
 HUBER_K = 2.4477

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fit import Fit
+from sescid.estimation.fit import Fit
 
 #: relative standard error of the tilt-determined CoM-height offset above which an LS fit warns
 TILT_REL_STD_WARN = 0.1

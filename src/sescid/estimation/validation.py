@@ -20,11 +20,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import SescidError
-from ..kinematics import as_poses
-from ..robot import Robot
-from ..sesc import sesc_vectors
-from .fit import CrossValidation, Fit
+from sescid.errors import SescidError
+from sescid.estimation.fit import CrossValidation, Fit
+from sescid.kinematics import as_poses
+from sescid.robot import Robot
+from sescid.sesc import sesc_vectors
 
 #: a fitting function: (q, cop, sigma[, gravity]) → Fit (arrays as in ``identify``)
 Fitter = Callable[..., Fit]

@@ -1,7 +1,7 @@
 """Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export, ROS bags.
 
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
-``read_cop_se`` (column conventions of ``sescid.table``), ``save_fit``/``load_fit`` (the fit
+``read_cop_se`` (column conventions of ``sescid.base.columns``), ``save_fit``/``load_fit`` (the fit
 JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
 ``export_mjcf``), ``read_bag`` (a ROS bag and a mapping file → the ``fsr`` step's raw table; the
 ``bags`` extra).
@@ -9,13 +9,20 @@ JSON), ``export_model`` (the fit's model file with identified masses and CoMs: `
 
 from __future__ import annotations
 
-from ..estimation.fit_json import FIT_FORMAT, load_fit, save_fit
-from ..files import atomic_open, atomic_path, read_json
-from ..table import Table, read_cop, read_cop_se, read_gravity, read_joint_columns, read_poses
-from .export import FORMATS, export_model, export_urdf
-from .mjcf_export import export_mjcf
-from .session_files import SESSION_FILES, read_session_reasons, write_session
-from .tables import iter_table, read_table, write_table
+from sescid.base.columns import (
+    Table,
+    read_cop,
+    read_cop_se,
+    read_gravity,
+    read_joint_columns,
+    read_poses,
+)
+from sescid.base.files import atomic_open, atomic_path, read_json
+from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
+from sescid.io.export.mjcf import export_mjcf
+from sescid.io.export.urdf import FORMATS, export_model, export_urdf
+from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
+from sescid.io.tables import iter_table, read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
@@ -70,7 +77,7 @@ _BAGS = {
 
 def __getattr__(name: str):
     if name in _BAGS:
-        from . import bags
+        from sescid.io import bags
 
         return getattr(bags, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -37,9 +37,9 @@ from typing import NoReturn, overload
 
 import numpy as np
 
-from ..errors import DataError, MissingExtraError, SescidError
-from ..experiment.wrench import cop_from_plate, cop_from_wrench, load_plate, rpy_matrix
-from ..files import read_document
+from sescid.base.files import read_document
+from sescid.errors import DataError, MissingExtraError, SescidError
+from sescid.sensors.wrench import cop_from_plate, cop_from_wrench, load_plate, rpy_matrix
 
 MAPPING_FORMAT = "sescid-bag-mapping/1"
 _FORCE_N = {"N": 1.0, "mN": 1e-3, "kgf": 9.80665}

@@ -18,7 +18,7 @@ import functools
 
 import numpy as np
 
-from ..kinematics import lazy_njit
+from sescid.kinematics import lazy_njit
 
 #: bits of the powers of five in the tables (Ryū's DOUBLE_POW5_INV_BITCOUNT / _BITCOUNT)
 _POW5_INV_BITS = 125

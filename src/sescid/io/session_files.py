@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SescidError
-from ..files import atomic_open, check_outputs, read_json
-from .tables import write_table
+from sescid.base.files import atomic_open, check_outputs, read_json
+from sescid.errors import SescidError
+from sescid.io.tables import write_table
 
 SESSION_FORMAT = "sescid-session/1"
 #: file names inside a session's output folder

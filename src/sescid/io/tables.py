@@ -10,7 +10,7 @@ which has the final word on what the file holds and on the error message. Float6
 written in blocks by the compiled formatter of ``float_text`` (each number as ``repr`` writes
 it, so the bytes are the ``csv`` module's), other number columns by pyarrow's CSV writer.
 
-The column conventions and the joint/CoP readers are ``sescid.table``'s.
+The column conventions and the joint/CoP readers are ``sescid.base.columns``'s.
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataError
-from ..files import atomic_open, atomic_path
-from ..table import Table
+from sescid.base.columns import Table
+from sescid.base.files import atomic_open, atomic_path
+from sescid.errors import DataError
 
 #: bytes of CSV text per block that pyarrow parses (about 540 OP2 poses); pyarrow's reader
 #: keeps up to 32 blocks read ahead, so its memory is ~32 times this
@@ -385,7 +385,7 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
         return
     import queue
 
-    from .float_text import format_rows, text_bytes
+    from sescid.io.float_text import format_rows, text_bytes
 
     rows = max(1, min(WRITE_BLOCK_ROWS, n))
     free: queue.SimpleQueue = queue.SimpleQueue()  # (numbers, text) buffers written out

@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 from xml.etree import ElementTree
 
-from ..errors import ModelError
-from .geometry import Shape, body_hulls, shape_hull
-from .tree import Body, RobotModel, inv_transform, rot_axis
-from .urdf import build_model as build_urdf_model
+from sescid.errors import ModelError
+from sescid.model.geometry import Shape, body_hulls, shape_hull
+from sescid.model.tree import Body, RobotModel, inv_transform, rot_axis
+from sescid.model.urdf import build_model as build_urdf_model
 
 
 def model_format(path: Path) -> str:
@@ -40,7 +40,7 @@ def load_model(path: str | Path, support: str) -> RobotModel:
     """Read a URDF or MJCF file into the body tree rooted at the frame ``support``."""
     p = Path(path)
     if model_format(p) == "mjcf":
-        from .mjcf import build_model as build_mjcf_model
+        from sescid.model.mjcf import build_model as build_mjcf_model
 
         return build_mjcf_model(p, support)
     return build_urdf_model(p, support)

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import MissingExtraError
-from .geometry import MESH, Shape
+from sescid.errors import MissingExtraError
+from sescid.model.geometry import MESH, Shape
 
 
 def resolve_mesh(filename: str, model_path: Path) -> Path | None:

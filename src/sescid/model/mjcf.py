@@ -53,10 +53,10 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from ..errors import MissingExtraError, ModelError
-from .geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
-from .tree import Body, RobotModel, inv_transform, rot_axis
-from .urdf import _main_link
+from sescid.errors import MissingExtraError, ModelError
+from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
+from sescid.model.tree import Body, RobotModel, inv_transform, rot_axis
+from sescid.model.urdf import _main_link
 
 
 def _mujoco():

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
+from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
 
 CONTACT_TOL = 0.003  #: m, points this close to the lowest one touch the floor
 MIN_SOLE = 0.01  #: m, a derived side shorter than this is widened to the foot's x/y extent

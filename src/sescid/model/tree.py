@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .geometry import Shape
+from sescid.model.geometry import Shape
 
 
 @dataclass(frozen=True)

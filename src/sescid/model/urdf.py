@@ -21,9 +21,9 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from ..errors import ModelError
-from .geometry import BOX, CYLINDER, MESH, SPHERE, Shape
-from .tree import Body, RobotModel, inv_transform
+from sescid.errors import ModelError
+from sescid.model.geometry import BOX, CYLINDER, MESH, SPHERE, Shape
+from sescid.model.tree import Body, RobotModel, inv_transform
 
 _SUPPORTED = {"revolute", "continuous", "fixed"}
 

@@ -5,7 +5,7 @@ on two cores where there are two (``parallel``)."""
 
 from __future__ import annotations
 
-from .figures import (
+from sescid.report.figures import (
     body_labels,
     cop_offset_stats,
     design_figure,
@@ -16,9 +16,9 @@ from .figures import (
     plot_residuals,
     plot_side_view,
 )
-from .html import write_report
-from .parallel import can_fork, run_figures
-from .view3d import scene_data, view3d_html
+from sescid.report.html import write_report
+from sescid.report.parallel import can_fork, run_figures
+from sescid.report.view3d import scene_data, view3d_html
 
 __all__ = [
     "body_labels",

@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from ..files import atomic_path
-from ..robots import body_table
+from sescid.base.files import atomic_path
+from sescid.robots import body_table
 
 #: resolution of the paper's figures (Figs. 3, 6, 7, pose selection) and of the report's others
 PAPER_DPI = 120

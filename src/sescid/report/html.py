@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataError
-from ..files import atomic_open
-from .figures import (
+from sescid.base.files import atomic_open
+from sescid.errors import DataError
+from sescid.report.figures import (
     body_labels,
     cop_offset_stats,
     paper_order,
@@ -23,8 +23,8 @@ from .figures import (
     plot_side_view,
     r_magnitude_std,
 )
-from .parallel import run_figures
-from .view3d import scene_data, view3d_html
+from sescid.report.parallel import run_figures
+from sescid.report.view3d import scene_data, view3d_html
 
 
 def write_report(

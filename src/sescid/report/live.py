@@ -15,9 +15,9 @@ import time
 
 import numpy as np
 
-from ..errors import MissingExtraError, OptionError
-from ..experiment.planning import collision_capsules, cop_half_extents
-from ..experiment.session import BODY_PRIOR_SCALE, SessionObserver, SessionStep
+from sescid.errors import MissingExtraError, OptionError
+from sescid.planning import collision_capsules, cop_half_extents
+from sescid.session.loop import BODY_PRIOR_SCALE, SessionObserver, SessionStep
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 MAX_LINGER = 3600.0  #: s, the longest a finished view keeps serving

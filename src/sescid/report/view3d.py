@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from ..experiment.planning import collision_capsules, cop_half_extents
+from sescid.planning import collision_capsules, cop_half_extents
 
 
 def scene_data(robot, q, com, cop, cop_fit, labels) -> dict:

@@ -10,9 +10,9 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from ..errors import ModelError
-from .op2 import PROFILE as _OP2
-from .profile import MX28, RobotProfile, ServoEncoding, ServoGains, generic_profile
+from sescid.errors import ModelError
+from sescid.robots.op2 import PROFILE as _OP2
+from sescid.robots.profile import MX28, RobotProfile, ServoEncoding, ServoGains, generic_profile
 
 #: embedded robot name → its profile
 EMBEDDED: dict[str, RobotProfile] = {"op2": _OP2}

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import DataError
+from sescid.errors import DataError
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from ..profile import MX28, RobotProfile, ServoGains
+from sescid.robots.profile import MX28, RobotProfile, ServoGains
 
 _HERE = Path(str(resources.files(__name__)))
 

@@ -1,0 +1,246 @@
+"""Named columns of a data file, and the one reader of joint, CoP and pose-id columns.
+
+Joint columns are named as the model's joints: ``<joint>`` in rad, ``<joint>_deg`` in degrees or
+``<joint>_ticks`` in servo ticks (the robot profile's encoder); exactly one unit per joint.
+``cop_x``, ``cop_y`` are metres in the support frame; ``cop_se_x``/``cop_se_y`` (or ``cop_se``)
+per-pose CoP standard errors in metres. Every error names the file, row and column.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from sescid.errors import DataError
+from sescid.robots import ServoEncoding
+
+#: cell texts read as a missing value
+MISSING_TEXT = {"", "nan", "na", "n/a", "none", "null"}
+
+
+class Table:
+    """Named float columns read from a file, with the file name for error messages.
+
+    ``columns``: name → float array (n,); ``text``: columns that are not all numbers, as strings.
+    ``first_row``: the file's row number of the first data row (2 under a header; a chunk of a
+    streamed file starts further down), so every error names the file's own row.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        columns: dict[str, np.ndarray],
+        text: dict[str, list],
+        first_row: int = 2,
+    ):
+        self.path = path
+        self.first_row = first_row
+        self.columns = columns
+        self.text = text  #: columns that are not numbers (e.g. labels), as strings
+        self.n = len(next(iter(columns.values()))) if columns else 0
+
+    def row(self, i) -> int:
+        """The file's row number of data row ``i`` of this table."""
+        return int(i) + self.first_row
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.columns
+
+    def names(self) -> list[str]:
+        """All column names, numeric first."""
+        return list(self.columns) + list(self.text)
+
+    def get(self, name: str, what: str = "column") -> np.ndarray:
+        """A numeric column; a clear error when it is missing, non-numeric or non-finite."""
+        if name in self.text:
+            row, value = next((i, v) for i, v in enumerate(self.text[name]) if not _is_number(v))
+            raise DataError(
+                f"{self.path}: row {self.row(row)}, column '{name}': '{value}' is not a number"
+            )
+        if name not in self.columns:
+            raise DataError(f"{self.path}: missing {what} '{name}'")
+        col = self.columns[name]
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size:
+            raise DataError(
+                f"{self.path}: row {self.row(bad[0])}, "
+                f"column '{name}': value {col[bad[0]]} is not finite"
+            )
+        return col
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def column_with_missing(table: Table, name: str) -> np.ndarray:
+    """A float column where empty cells and 'nan' are missing (NaN); other text is an error."""
+    if name in table.columns:
+        return table.columns[name]
+    values = table.text[name]
+    out = np.empty(len(values))
+    for i, v in enumerate(values):
+        if v.strip().lower() in MISSING_TEXT:
+            out[i] = np.nan
+            continue
+        try:
+            out[i] = float(v)
+        except ValueError:
+            raise DataError(
+                f"{table.path}: row {table.row(i)}, column '{name}': '{v}' is not a number"
+            ) from None
+    return out
+
+
+def pose_ids(table: Table, name: str = "pose") -> np.ndarray:
+    """Pose ids as text ('3' for 3.0); integer-valued numbers only when numeric."""
+    if name not in table.columns and name not in table.text:
+        raise DataError(f"{table.path}: missing column '{name}' (the pose id of each sample)")
+    if name in table.text:
+        ids = np.array([v.strip() for v in table.text[name]])
+        empty = np.flatnonzero(ids == "")
+        if empty.size:
+            raise DataError(
+                f"{table.path}: row {table.row(empty[0])}, column '{name}': empty pose id"
+            )
+        return ids
+    col = table.columns[name]
+    bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
+    if bad.size:
+        raise DataError(
+            f"{table.path}: row {table.row(bad[0])}, "
+            f"column '{name}': pose id {col[bad[0]]} is not an "
+            "integer or a label"
+        )
+    return np.array([str(int(v)) for v in col])
+
+
+def read_joint_columns(
+    table: Table,
+    joint_names: list[str],
+    servo: ServoEncoding | None = None,
+    allow_missing: bool = True,
+) -> tuple[np.ndarray, dict[str, str]]:
+    """Joint angles (m, nq) in rad from ``<j>`` (rad), ``<j>_deg`` or ``<j>_ticks`` columns.
+
+    Exactly one unit per joint (a raw log), except that a pose list (``allow_missing=False``)
+    may carry derived ``_deg``/``_ticks`` copies beside the radians, which are then used;
+    ``_ticks`` needs the robot's ``servo`` encoding. With ``allow_missing`` empty cells become
+    NaN, otherwise they are errors. Radians beyond ±2π,
+    degrees beyond ±360 and ticks outside the encoder's range are errors.
+    """
+    names = set(table.names())
+    cols, units = [], {}
+    for j in joint_names:
+        found = [
+            (u, c)
+            for u, c in (("rad", j), ("deg", f"{j}_deg"), ("ticks", f"{j}_ticks"))
+            if c in names
+        ]
+        if not found:
+            raise DataError(
+                f"{table.path}: missing joint column '{j}' (in rad; or '{j}_deg' in degrees"
+                + (f", '{j}_ticks' in {servo.name} ticks)" if servo else ")")
+            )
+        if len(found) > 1 and not allow_missing and found[0][0] == "rad":
+            found = found[:1]  # a pose list: radians plus derived copies for the operator
+        if len(found) > 1:
+            raise DataError(
+                f"{table.path}: joint '{j}' is given in two units "
+                f"({', '.join(c for _, c in found)}): keep one column per joint"
+            )
+        unit, name = found[0]
+        v = column_with_missing(table, name) if allow_missing else table.get(name, "joint column")
+        if unit == "rad":
+            bad = np.flatnonzero(np.abs(v) > 2 * math.pi)
+            if bad.size:
+                raise DataError(
+                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"column '{name}': {v[bad[0]]:g} looks like "
+                    f"degrees or ticks; joint columns are in radians (use '{j}_deg' for degrees)"
+                )
+        elif unit == "deg":
+            bad = np.flatnonzero(np.abs(v) > 360)
+            if bad.size:
+                raise DataError(
+                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"column '{name}': {v[bad[0]]:g} is not an "
+                    "angle in degrees"
+                )
+            v = np.radians(v)
+        else:
+            if servo is None:
+                raise DataError(
+                    f"{table.path}: column '{name}' is in servo ticks, but this robot's profile "
+                    "has no servo encoding; give the angle in rad or degrees"
+                )
+            bad = np.flatnonzero((v < 0) | (v > servo.max_tick))
+            if bad.size:
+                raise DataError(
+                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"column '{name}': {v[bad[0]]:g} is outside "
+                    f"the {servo.name} range 0–{servo.max_tick} ticks"
+                )
+            v = servo.to_rad(v)
+        cols.append(v)
+        units[j] = unit
+    return np.column_stack(cols), units
+
+
+def read_poses(
+    table: Table, joint_names: list[str], servo: ServoEncoding | None = None
+) -> np.ndarray:
+    """Joint angles (n, nq) in rad; every cell present and finite (see ``read_joint_columns``)."""
+    return read_joint_columns(table, joint_names, servo, allow_missing=False)[0]
+
+
+def read_cop(table: Table) -> np.ndarray:
+    """Measured CoP (n, 2) in metres from ``cop_x``, ``cop_y``."""
+    cop = np.column_stack([table.get("cop_x"), table.get("cop_y")])
+    big = np.argwhere(np.abs(cop) > 2.0)
+    if big.size:
+        i, j = big[0]
+        raise DataError(
+            f"{table.path}: row {table.row(i)}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
+            "plausible CoP (columns are in metres)"
+        )
+    return cop
+
+
+def read_cop_se(table: Table) -> np.ndarray | None:
+    """Per-pose CoP standard errors (n, 2) in m, if the table has them."""
+    if "cop_se_x" in table or "cop_se_y" in table:
+        return np.column_stack([table.get("cop_se_x"), table.get("cop_se_y")])
+    if "cop_se" in table:
+        return table.get("cop_se")
+    return None
+
+
+GRAVITY_COLUMNS = ("grav_x", "grav_y", "grav_z")
+
+
+def read_gravity(table: Table) -> np.ndarray | None:
+    """Unit gravity directions (n, 3), support frame, from ``grav_x/y/z``; None when absent."""
+    has = [c in table for c in GRAVITY_COLUMNS]
+    if not any(has):
+        return None
+    if not all(has):
+        missing = GRAVITY_COLUMNS[has.index(False)]
+        raise DataError(f"{table.path}: missing column '{missing}' (gravity direction)")
+    g = np.column_stack([table.get(c) for c in GRAVITY_COLUMNS])
+    norm = np.linalg.norm(g, axis=1)
+    bad = np.flatnonzero(~np.isfinite(norm) | (g[:, 2] >= -0.5 * norm))
+    if bad.size:
+        i = int(bad[0])
+        raise DataError(
+            f"{table.path}: row {table.row(i)}: "
+            f"gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
+            "finite and point down through the sole (grav_z < 0, tilt < 60°)"
+        )
+    return g / norm[:, None]

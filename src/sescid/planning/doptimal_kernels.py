@@ -1,0 +1,155 @@
+"""Compiled kernels of the D-optimal search (``doptimal``): one pass over the candidates per
+greedy step or exchange trial, single-threaded (no BLAS threads spinning on a busy machine).
+
+Each candidate's S_j = A_j M⁻¹ A_jᵀ (2 × 2, symmetric) is stored as (s00, s01, s11). They live in
+one module because a lazily compiled kernel calls other kernels through its own module's globals
+(``kinematics.lazy_njit``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sescid.kinematics import lazy_njit
+
+
+@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+def _rank2(a, ut, g, sign, s_in, s_out, chosen):  # pragma: no cover - compiled
+    """s_out[j] = s_in[j] + sign · W_j g W_jᵀ with W_j = A_j U (2 × 2), for every candidate j.
+
+    ``a`` (n, 2, p), ``ut`` = Uᵀ (2, p), ``g`` (2, 2) symmetric, ``s_in``/``s_out`` (n, 3) (may be
+    the same array). Returns the unchosen j of largest det(I + s_out[j]) > 0, or −1.
+    """
+    n, _, p = a.shape
+    g00 = g[0, 0]
+    g01 = g[0, 1]
+    g11 = g[1, 1]
+    best = -1
+    best_det = 0.0
+    for j in range(n):
+        w00 = 0.0
+        w01 = 0.0
+        w10 = 0.0
+        w11 = 0.0
+        for t in range(p):
+            a0 = a[j, 0, t]
+            a1 = a[j, 1, t]
+            w00 += a0 * ut[0, t]
+            w01 += a0 * ut[1, t]
+            w10 += a1 * ut[0, t]
+            w11 += a1 * ut[1, t]
+        h0 = g00 * w00 + g01 * w01  # (G Wᵀ)[:, 0] = G · (row 0 of W)
+        h1 = g01 * w00 + g11 * w01
+        k0 = g00 * w10 + g01 * w11
+        k1 = g01 * w10 + g11 * w11
+        s00 = s_in[j, 0] + sign * (w00 * h0 + w01 * h1)
+        s01 = s_in[j, 1] + sign * (w00 * k0 + w01 * k1)
+        s11 = s_in[j, 2] + sign * (w10 * k0 + w11 * k1)
+        s_out[j, 0] = s00
+        s_out[j, 1] = s01
+        s_out[j, 2] = s11
+        if not chosen[j]:
+            det = (1.0 + s00) * (1.0 + s11) - s01 * s01
+            if det > best_det:
+                best_det = det
+                best = j
+    return best
+
+
+@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+def _sandwich(a, kt, s):  # pragma: no cover - compiled
+    """s[j] = (s00, s01, s11) of A_j M⁻¹ A_jᵀ = |K A_jᵀ|² with M⁻¹ = KᵀK, ``kt`` = Kᵀ (p, p)
+    lower triangular: y = K a accumulated column by column (contiguous, vectorised)."""
+    n, _, p = a.shape
+    y0 = np.empty(p)
+    y1 = np.empty(p)
+    for j in range(n):
+        y0[:] = 0.0
+        y1[:] = 0.0
+        for t in range(p):
+            a0 = a[j, 0, t]
+            a1 = a[j, 1, t]
+            for r in range(t + 1):
+                y0[r] += kt[t, r] * a0
+                y1[r] += kt[t, r] * a1
+        s00 = 0.0
+        s01 = 0.0
+        s11 = 0.0
+        for r in range(p):
+            s00 += y0[r] * y0[r]
+            s01 += y0[r] * y1[r]
+            s11 += y1[r] * y1[r]
+        s[j, 0] = s00
+        s[j, 1] = s01
+        s[j, 2] = s11
+
+
+@lazy_njit(cache=True, nogil=True)
+def _project(x, t, out):  # pragma: no cover - compiled
+    """out[k, i, :] = Σ_c x[c, i·m + k] t[c, :] for x (P, 2m), t (P, p), out (m, 2, p); x is
+    transposed first, then eight output columns at a time are held in registers."""
+    m = out.shape[0]
+    p = t.shape[1]
+    nc = x.shape[0]
+    xt = np.empty((2 * m, nc))
+    for c in range(nc):
+        for col in range(2 * m):
+            xt[col, c] = x[c, col]
+    for i in range(2):
+        for k in range(m):
+            col = i * m + k
+            e0 = 0
+            while e0 + 8 <= p:
+                a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
+                for c in range(nc):
+                    v = xt[col, c]
+                    a0 += v * t[c, e0]
+                    a1 += v * t[c, e0 + 1]
+                    a2 += v * t[c, e0 + 2]
+                    a3 += v * t[c, e0 + 3]
+                    a4 += v * t[c, e0 + 4]
+                    a5 += v * t[c, e0 + 5]
+                    a6 += v * t[c, e0 + 6]
+                    a7 += v * t[c, e0 + 7]
+                out[k, i, e0] = a0
+                out[k, i, e0 + 1] = a1
+                out[k, i, e0 + 2] = a2
+                out[k, i, e0 + 3] = a3
+                out[k, i, e0 + 4] = a4
+                out[k, i, e0 + 5] = a5
+                out[k, i, e0 + 6] = a6
+                out[k, i, e0 + 7] = a7
+                e0 += 8
+            for e in range(e0, p):
+                acc = 0.0
+                for c in range(nc):
+                    acc += xt[col, c] * t[c, e]
+                out[k, i, e] = acc
+
+
+def project_columns(x: np.ndarray, t: np.ndarray, out: np.ndarray) -> None:
+    """Out (m, 2, p) = the block's rows Φ_red (columns of ``x`` (P, 2m), ordered (row, pose))
+    times ``t`` (P, p): one compiled pass, no BLAS threads."""
+    _project(x, t, out)
+
+
+def sandwich(a: np.ndarray, minv: np.ndarray) -> np.ndarray:
+    """(n, 3) (s00, s01, s11) of S_j = A_j M⁻¹ A_jᵀ for A (n, 2, p) and a positive definite
+    M⁻¹ (p, p), one compiled pass (M⁻¹ = KᵀK, Kᵀ the Cholesky factor of M⁻¹)."""
+    k = np.ascontiguousarray(np.linalg.cholesky(minv))
+    s = np.empty((a.shape[0], 3))
+    _sandwich(np.ascontiguousarray(a), k, s)
+    return s
+
+
+def rank2(
+    a: np.ndarray,
+    u: np.ndarray,
+    g: np.ndarray,
+    sign: float,
+    s_in: np.ndarray,
+    s_out: np.ndarray,
+    chosen: np.ndarray,
+) -> int:
+    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ into ``s_out``; the best unchosen j."""
+    return int(_rank2(a, np.ascontiguousarray(u.T), g, float(sign), s_in, s_out, chosen))

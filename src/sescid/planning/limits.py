@@ -1,0 +1,101 @@
+"""Sampling limits of candidate poses: the model's joint limits ∩ the paper's Table 2 (robots
+whose profile carries the paper's angle convention, the OP2) ∩ an optional ±range.
+
+The OP2 paper convention: ``paper = sign · servo + offset`` per joint
+(``robots/op2/op2_paper_limits.csv``).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sescid.errors import OptionError
+from sescid.robot import Robot
+
+
+@dataclass(frozen=True)
+class PaperConvention:
+    """The paper's joint-angle convention for the OP2: ``paper = sign · servo + offset``."""
+
+    joint_names: list[str]
+    sign: np.ndarray  #: (nq,) ±1
+    offset: np.ndarray  #: (nq,) rad
+    paper_limits: np.ndarray  #: (nq, 2) the paper's Table 2 limits, rad, paper convention
+    servo_limits: np.ndarray  #: (nq, 2) the same in servo angles, rad
+
+    def to_paper(self, q) -> np.ndarray:
+        """Servo angles (n, nq) [rad] → paper angles (n, nq) [rad]."""
+        return np.asarray(q, dtype=float) * self.sign + self.offset
+
+    def to_servo(self, q_paper) -> np.ndarray:
+        """Paper angles (n, nq) [rad] → servo angles (n, nq) [rad]."""
+        return (np.asarray(q_paper, dtype=float) - self.offset) * self.sign
+
+
+def load_paper_convention(path: Path) -> PaperConvention:
+    """A paper angle convention and its Table 2 limits from a profile's CSV."""
+    with path.open() as fh:
+        rows = list(csv.DictReader(fh))
+    f = np.array(
+        [
+            [float(r[k]) for k in ("paper_sign_vs_servo", "paper_offset_deg")]
+            + [float(r[k]) for k in ("paper_min_deg", "paper_max_deg")]
+            + [float(r[k]) for k in ("servo_min_deg", "servo_max_deg")]
+            for r in rows
+        ]
+    )
+    return PaperConvention(
+        joint_names=[r["joint"] for r in rows],
+        sign=f[:, 0],
+        offset=np.radians(f[:, 1]),
+        paper_limits=np.radians(f[:, 2:4]),
+        servo_limits=np.radians(f[:, 4:6]),
+    )
+
+
+def paper_convention(robot: Robot) -> PaperConvention | None:
+    """The paper convention in ``robot.joint_names`` order when the profile has one, else None."""
+    path = robot.profile.paper_limits_file
+    if path is None:
+        return None
+    pc = load_paper_convention(path)
+    if not set(robot.joint_names) <= set(pc.joint_names):
+        return None
+    idx = [pc.joint_names.index(j) for j in robot.joint_names]
+    return PaperConvention(
+        joint_names=robot.joint_names,
+        sign=pc.sign[idx],
+        offset=pc.offset[idx],
+        paper_limits=pc.paper_limits[idx],
+        servo_limits=pc.servo_limits[idx],
+    )
+
+
+def sampling_limits(robot: Robot, paper: bool = True, range_deg: float | None = None) -> np.ndarray:
+    """(nq, 2) sampling limits [rad]: URDF limits ∩ the paper's Table 2 (OP2, ``paper``) ∩ ±range.
+
+    Continuous joints are limited to ±π.
+    """
+    lim = np.clip(robot.joint_limits, -math.pi, math.pi)
+    pc = paper_convention(robot) if paper else None
+    if pc is not None:
+        lim = np.column_stack(
+            [
+                np.maximum(lim[:, 0], pc.servo_limits[:, 0]),
+                np.minimum(lim[:, 1], pc.servo_limits[:, 1]),
+            ]
+        )
+    if range_deg is not None:
+        if not 0 < range_deg <= 180:
+            raise OptionError("range_deg", f"must be in (0, 180] degrees, got {range_deg}")
+        r = math.radians(range_deg)
+        lim = np.column_stack([np.maximum(lim[:, 0], -r), np.minimum(lim[:, 1], r)])
+    bad = np.flatnonzero(lim[:, 0] > lim[:, 1])
+    if bad.size:
+        raise OptionError("limits", f"joint '{robot.joint_names[bad[0]]}': empty sampling range")
+    return lim

@@ -1,0 +1,88 @@
+"""Gravity direction in the support frame from an IMU's roll and pitch on a named link.
+
+An IMU at rest reports its link's roll φ and pitch θ relative to the world (Z-Y-X Euler angles,
+yaw unobservable and irrelevant): with ``R_world←link = Rz(ψ) Ry(θ) Rx(φ)`` the world's down
+direction in the link frame is
+
+    g_link = R_link←world (0, 0, −1) = (sin θ, −cos θ sin φ, −cos θ cos φ).
+
+The model carries it to the support frame at the pose's joint angles:
+``g = R_support←link(q) · g_link`` (``Robot.link_poses``). The MuJoCo bench logs ``imu_roll``,
+``imu_pitch`` in this convention (``experiment.mujoco_bench``). Columns: ``imu_roll``,
+``imu_pitch`` (rad); the link is named by the caller (``--imu-link``) or the robot profile
+(``RobotProfile.imu_link``). Logged ``grav_x/y/z`` columns take precedence.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from sescid.base.columns import GRAVITY_COLUMNS, Table, read_gravity
+from sescid.errors import DataError, OptionError
+
+#: raw-log / data columns of an IMU's roll and pitch (rad)
+IMU_COLUMNS = ("imu_roll", "imu_pitch")
+
+
+def gravity_in_link(roll: ArrayLike, pitch: ArrayLike) -> np.ndarray:
+    """Unit gravity direction (n, 3) in the IMU link's frame from roll, pitch (n,) [rad]."""
+    r = np.asarray(roll, dtype=float).reshape(-1)
+    p = np.asarray(pitch, dtype=float).reshape(-1)
+    return np.stack([np.sin(p), -np.cos(p) * np.sin(r), -np.cos(p) * np.cos(r)], axis=1)
+
+
+def imu_link(robot, link: str | None = None) -> str | None:
+    """The IMU's link: ``link`` if given (checked), else the profile's; None when unknown."""
+    name = link if link is not None else robot.profile.imu_link
+    if name is not None and name not in robot.model.link_frames:
+        raise OptionError(
+            "imu_link", f"'{name}' is not a link of {robot.model_path.name} (the IMU's link)"
+        )
+    return name
+
+
+def gravity_from_imu(robot, q: ArrayLike, roll: ArrayLike, pitch: ArrayLike, link: str):
+    """Gravity directions (n, 3) in the support frame from IMU roll/pitch (n,) on ``link``.
+
+    ``q`` (n, nq) [rad] are the joint angles at which the IMU was read.
+    """
+    rot, _ = robot.link_poses(q, link)
+    g_link = gravity_in_link(roll, pitch)
+    if g_link.shape[0] != rot.shape[0]:
+        raise DataError(f"IMU: {g_link.shape[0]} roll/pitch values for {rot.shape[0]} poses")
+    return np.einsum("nij,nj->ni", rot, g_link)
+
+
+def read_imu(table: Table) -> np.ndarray | None:
+    """IMU roll and pitch (n, 2) [rad] from ``imu_roll``, ``imu_pitch``; None when absent."""
+    have = [c in table for c in IMU_COLUMNS]
+    if not any(have):
+        return None
+    if not all(have):
+        missing = IMU_COLUMNS[have.index(False)]
+        raise DataError(f"{table.path}: missing column '{missing}' (IMU roll/pitch)")
+    out = np.column_stack([np.asarray(table.get(c), dtype=float) for c in IMU_COLUMNS])
+    bad = np.argwhere(~(np.abs(out) < np.pi / 2))
+    if bad.size:
+        i, k = bad[0]
+        raise DataError(
+            f"{table.path}: row {i + 2}, column '{IMU_COLUMNS[k]}': {out[i, k]:g} is not an "
+            "angle in radians below 90° (degrees?)"
+        )
+    return out
+
+
+def table_gravity(robot, table: Table, q: np.ndarray, link: str | None = None):
+    """Gravity (n, 3) of a data table: ``grav_x/y/z``, else the IMU columns through the model.
+
+    ``q`` (n, nq) [rad]: the table's poses. None when the table has neither, or has IMU
+    columns but no IMU link is known (``link`` or the profile's).
+    """
+    if any(c in table for c in GRAVITY_COLUMNS):
+        return read_gravity(table)
+    rp = read_imu(table)
+    name = imu_link(robot, link)
+    if rp is None or name is None:
+        return None
+    return gravity_from_imu(robot, q, rp[:, 0], rp[:, 1], name)
