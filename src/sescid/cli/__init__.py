@@ -2,7 +2,7 @@
 
 Each command parses its options, calls the API, prints. Every error a user can cause is one
 line ``sescid: error: …`` with exit code 2; outputs are written atomically. Commands live in one
-module per group (``data``, ``fit``, ``bench``, ``record``, ``session``) and are imported only
+module per command (``cli/<command>.py``) and are imported only
 when run, so ``--help`` and ``--version`` answer without loading numpy or the compiled kernels.
 """
 
@@ -17,22 +17,22 @@ from sescid.cli.common import run_guarded
 
 #: command → (module, function, one-line help shown by ``sescid --help``)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "simulate": ("data", "simulate", "Simulate poses and CoP measurements (paper §3) into a CSV."),
-    "demo": ("data", "demo", "Reproduce the paper's §3 simulation study."),
-    "info": ("data", "info", "Print the robot's bodies, masses, joints and limits."),
-    "identify": ("fit", "identify", "Identify the SESC vectors from poses and CoPs."),
-    "predict": ("fit", "predict", "Predict CoP and CoM at poses from a fit."),
-    "export": ("fit", "export_cmd", "Write the model file with identified masses and CoMs."),
-    "poses": ("bench", "poses", "Plan stable, collision-free, informative bench poses."),
-    "experiment": ("bench", "experiment", "Virtual bench experiment: a raw sensor log."),
-    "bag": ("record", "bag", "Read a ROS bag into the raw foot-sensor log (mapping file)."),
-    "fsr": ("bench", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
+    "simulate": ("simulate", "simulate", "Simulate poses and CoP measurements (paper §3)."),
+    "demo": ("demo", "demo", "Reproduce the paper's §3 simulation study."),
+    "info": ("info", "info", "Print the robot's bodies, masses, joints and limits."),
+    "identify": ("identify", "identify", "Identify the SESC vectors from poses and CoPs."),
+    "predict": ("predict", "predict", "Predict CoP and CoM at poses from a fit."),
+    "export": ("export", "export_cmd", "Write the model file with identified masses and CoMs."),
+    "poses": ("poses", "poses", "Plan stable, collision-free, informative bench poses."),
+    "experiment": ("experiment", "experiment", "Virtual bench experiment: a raw sensor log."),
+    "bag": ("bag", "bag", "Read a ROS bag into the raw foot-sensor log (mapping file)."),
+    "fsr": ("fsr", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
     "calibrate": (
         "calibrate",
         "calibrate",
         "Foot-pad gains and offsets estimated with the masses from raw sessions.",
     ),
-    "report": ("bench", "report", "Figures and one self-contained HTML page from a fit."),
+    "report": ("report", "report", "Figures and one self-contained HTML page from a fit."),
     "truth": ("truth", "truth", "Compare a fit with a virtual experiment's truth file."),
     "session": ("session", "session", "Guided identification: next-best pose until converged."),
 }

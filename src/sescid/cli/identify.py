@@ -1,4 +1,4 @@
-"""Commands on fits: identify, predict, export."""
+"""``sescid identify``: the SESC vectors (or masses) from poses and measurements."""
 
 from __future__ import annotations
 
@@ -12,101 +12,35 @@ import numpy as np
 from sescid.base.files import OutputSet
 from sescid.base.progress import TerminalProgress
 from sescid.cli.common import force_option, imu_link_option, load, mm, robot_options, seed_option
+from sescid.cli.options import (
+    DEFAULT_CONSISTENT,
+    consistent_from_flags,
+    consistent_options,
+    echo_masses,
+)
 from sescid.errors import DataError, OptionError
 from sescid.estimation import (
     DEFAULT_RTOL,
     METHODS,
-    ConsistentOptions,
     Fit,
     MapOptions,
     OnlineEstimator,
-    com_interval,
     cross_validate,
     fit_warnings,
     identify_once,
     joint_noise_mc,
-    load_fit,
     make_fitter,
     outside_limits,
-    to_consistent,
 )
 from sescid.estimation import (
     identify as run_identify,
 )
 from sescid.io import (
-    FORMATS,
-    export_model,
     read_cop,
     read_cop_se,
     read_poses,
-    read_table,
-    write_table,
 )
 from sescid.io.tables import iter_table, read_ahead
-
-_CONSISTENT = ConsistentOptions()
-
-
-def consistent_options(f):
-    """Options of the consistent step (identify --method consistent, export)."""
-    for opt in reversed(
-        [
-            click.option(
-                "--total-mass",
-                type=float,
-                default=_CONSISTENT.total_mass,
-                help="consistent: weighed total mass [kg] (default: the model's).",
-            ),
-            click.option(
-                "--mass-floor",
-                type=float,
-                default=_CONSISTENT.mass_floor,
-                show_default=True,
-                help="consistent: lower bound on every body's mass [kg].",
-            ),
-            click.option(
-                "--symmetric", is_flag=True, help="consistent: mirrored bodies (*_R/*_L) equal."
-            ),
-            click.option(
-                "--box-margin",
-                type=float,
-                default=_CONSISTENT.box_margin,
-                help="consistent: grow the CoM boxes by this [m] (default 0, fallback boxes 0.02).",
-            ),
-            click.option(
-                "--via",
-                type=click.Choice(["auto", "prior", "fit"]),
-                default=_CONSISTENT.via,
-                show_default=True,
-                help="consistent: 'prior' weighs the data against a CAD prior on masses/CoMs "
-                "whose scale the data choose (controller-ready; a weighed total mass goes "
-                "where the data put it); 'fit' reproduces the fit first (least squares follows "
-                "the noise); 'auto': 'fit' for a MAP fit, else 'prior'. --cad-std fixes the "
-                "prior scale instead.",
-            ),
-            click.option(
-                "--cad-std",
-                type=float,
-                default=_CONSISTENT.prior_std,
-                help="consistent: trade data fit against a Gaussian prior on the relative "
-                "deviation from CAD of this std (e.g. 0.05) instead of fitting the data first.",
-            ),
-        ]
-    ):
-        f = opt(f)
-    return f
-
-
-def consistent_from_flags(opts: dict) -> ConsistentOptions:
-    """The typed options from the consistent flags."""
-    return ConsistentOptions(
-        total_mass=opts["total_mass"],
-        mass_floor=opts["mass_floor"],
-        symmetric=opts["symmetric"],
-        box_margin=opts["box_margin"],
-        prior_std=opts["cad_std"],
-        via=opts["via"],
-    )
 
 
 def _map_from_flags(opts: dict) -> MapOptions:
@@ -269,7 +203,11 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
             )
     mopts = _map_from_flags(opts) if method == "map" else None
     copts = consistent_from_flags(opts) if method == "consistent" else None
-    if method != "consistent" and copts is None and consistent_from_flags(opts) != _CONSISTENT:
+    if (
+        method != "consistent"
+        and copts is None
+        and consistent_from_flags(opts) != DEFAULT_CONSISTENT
+    ):
         raise OptionError("method", f"the consistent options need --method consistent ({method})")
     fitter = make_fitter(
         robot, method, rtol=rtol, map_options=mopts, consistent_options=copts, seed=opts["seed"]
@@ -339,7 +277,7 @@ def identify(data, robot_name, support, out, weighted, rtol, method, force, **op
         fit.save(outs.path(out))
     click.echo(fit.summary())
     if fit.inertials is not None:
-        _echo_masses(fit)
+        echo_masses(fit)
     click.echo(f"wrote {out}")
 
 
@@ -481,135 +419,3 @@ def _extras(fit: Fit, fitter, q, cop, sigma, opts) -> None:
             f"{mm(mc.cop_std_joint)} from joint angles vs {mm(mc.cop_std_noise)} from CoP noise "
             f"(joint share {mc.share_joint:.0%} of the variance)"
         )
-
-
-@click.command()
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.argument("poses", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-@click.option(
-    "--level",
-    type=click.FloatRange(0, 1, min_open=True, max_open=True),
-    default=None,
-    help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
-    "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
-)
-@imu_link_option
-@force_option
-def predict(fit_file, poses, out, level, imu_link, force):
-    """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
-
-    With columns grav_x, grav_y, grav_z (or imu_roll, imu_pitch of the IMU link) the CoP is
-    projected along that gravity direction; its interval then includes the CoM-height
-    uncertainty through g_xy/g_z.
-    """
-    from sescid.estimation import cop_interval
-    from sescid.sensors.imu import table_gravity
-
-    outs = OutputSet([out], [fit_file, poses], force=force)
-    fit = load_fit(fit_file)
-    table = read_table(poses)
-    q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
-    gravity = table_gravity(fit.robot, table, q, imu_link)
-    cop = fit.predict_cop(q, gravity)
-    com = fit.predict_com(q)
-    std = fit.predict_std(q)
-    cols = {
-        "cop_x": cop[:, 0],
-        "cop_y": cop[:, 1],
-        "com_x": com[:, 0],
-        "com_y": com[:, 1],
-        "com_z": com[:, 2],
-        "com_x_std": std[:, 0],
-        "com_y_std": std[:, 1],
-        "com_z_std": std[:, 2],
-        "com_z_from_prior": fit.com_z_from_prior(q),
-    }
-    if level is not None:
-        iv = com_interval(fit, q, level)  # CoP = CoM x, y
-        for j, name in enumerate(("com_x", "com_y", "com_z")):
-            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
-        civ = cop_interval(fit, q, level, gravity=gravity)  # with g_xy/g_z · CoM-height error
-        for j, name in enumerate(("cop_x", "cop_y")):
-            cols[f"{name}_lower"], cols[f"{name}_upper"] = civ.lower[:, j], civ.upper[:, j]
-    with outs:
-        write_table(outs.path(out), cols)
-    lost = int(np.sum(np.isnan(std[:, 0])))
-    if lost:
-        click.echo(
-            f"sescid: warning: at {lost} of {len(q)} poses the fit's data do not determine the "
-            f"CoP (rank {fit.rank}): their std and interval columns are nan (not determined)",
-            err=True,
-        )
-    for w in fit.warnings:
-        click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
-    click.echo(f"wrote {out}: {len(q)} poses")
-
-
-def _echo_masses(fit: Fit) -> None:
-    b = fit.inertials
-    assert b is not None
-    click.echo(
-        f"consistent: total mass {b.total_mass:.4f} kg, "
-        f"{len(b.active_constraints)} active constraints, solver clarabel "
-        f"({b.solve_time * 1e3:.0f} ms)"
-    )
-    worst = b.worst_mass_change()
-    if worst is not None and b.cad_masses is not None:
-        i, rel = worst
-        name = fit.robot.body_names[i]
-        click.echo(
-            f"  worst body-mass change from the model: {name} {100 * rel:.1f} % "
-            f"({b.cad_masses[i]:.4f} → {b.masses[i]:.4f} kg)"
-            + ("" if b.prior_std is None else f"; CAD prior std {100 * b.prior_std:.1f} %")
-        )
-    for c in b.active_constraints[:8]:
-        click.echo(f"  active: {c}")
-    if len(b.active_constraints) > 8:
-        click.echo(f"  … and {len(b.active_constraints) - 8} more (see the fit file)")
-
-
-@click.command("export")
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output model file.")
-@click.option(
-    "--format",
-    "model_format",
-    type=click.Choice(FORMATS),
-    default=None,
-    help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
-)
-@consistent_options
-@force_option
-def export_cmd(fit_file, out, model_format, force, **opts):
-    """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
-
-    A fit without masses (e.g. least squares) first goes through the consistent step with the
-    --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
-    """
-    OutputSet([out], [fit_file], force=force)
-    fit = load_fit(fit_file)
-    outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
-    copts = consistent_from_flags(opts)
-    if fit.inertials is None:
-        click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
-        fit = to_consistent(fit, copts)
-        _echo_masses(fit)
-    elif copts != _CONSISTENT:
-        raise OptionError(
-            "consistent_options",
-            f"{fit_file}: this fit already holds masses; the consistent options apply only to "
-            "fits without (re-run identify --method consistent to change them)",
-        )
-    from sescid.estimation.cad_check import cad_violations
-
-    assert fit.inertials is not None
-    for line in cad_violations(fit.inertials, fit.robot.body_names):
-        click.echo(f"  the CAD model itself violates a constraint: {line}")
-    with outs:
-        warnings = export_model(fit, outs.path(out), model_format)
-    for warning in warnings:
-        click.echo(f"sescid: warning: {warning}", err=True)
-    assert fit.inertials is not None
-    total = float(np.sum(fit.inertials.masses))
-    click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")

@@ -1,0 +1,70 @@
+"""``sescid export``: the model file with identified masses and CoMs."""
+
+from __future__ import annotations
+
+import click
+import numpy as np
+
+from sescid.base.files import OutputSet
+from sescid.cli.common import force_option
+from sescid.cli.options import (
+    DEFAULT_CONSISTENT,
+    consistent_from_flags,
+    consistent_options,
+    echo_masses,
+)
+from sescid.errors import OptionError
+from sescid.estimation import (
+    load_fit,
+    to_consistent,
+)
+from sescid.io import (
+    FORMATS,
+    export_model,
+)
+
+
+@click.command("export")
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output model file.")
+@click.option(
+    "--format",
+    "model_format",
+    type=click.Choice(FORMATS),
+    default=None,
+    help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
+)
+@consistent_options
+@force_option
+def export_cmd(fit_file, out, model_format, force, **opts):
+    """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
+
+    A fit without masses (e.g. least squares) first goes through the consistent step with the
+    --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
+    """
+    OutputSet([out], [fit_file], force=force)
+    fit = load_fit(fit_file)
+    outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
+    copts = consistent_from_flags(opts)
+    if fit.inertials is None:
+        click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
+        fit = to_consistent(fit, copts)
+        echo_masses(fit)
+    elif copts != DEFAULT_CONSISTENT:
+        raise OptionError(
+            "consistent_options",
+            f"{fit_file}: this fit already holds masses; the consistent options apply only to "
+            "fits without (re-run identify --method consistent to change them)",
+        )
+    from sescid.estimation.cad_check import cad_violations
+
+    assert fit.inertials is not None
+    for line in cad_violations(fit.inertials, fit.robot.body_names):
+        click.echo(f"  the CAD model itself violates a constraint: {line}")
+    with outs:
+        warnings = export_model(fit, outs.path(out), model_format)
+    for warning in warnings:
+        click.echo(f"sescid: warning: {warning}", err=True)
+    assert fit.inertials is not None
+    total = float(np.sum(fit.inertials.masses))
+    click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")

@@ -1,0 +1,235 @@
+"""``sescid poses``: plan stable, collision-free, informative bench poses."""
+
+from __future__ import annotations
+
+import click
+import numpy as np
+
+from sescid.base.files import OutputSet
+from sescid.base.progress import TerminalProgress
+from sescid.cli.common import (
+    force_option,
+    load,
+    mm,
+    robot_options,
+    seed_option,
+)
+from sescid.errors import OptionError, SescidError
+from sescid.estimation import min_poses
+from sescid.io import write_table
+from sescid.planning import (
+    DEFAULT_CLEARANCE,
+    cop_half_extents,
+    design_curve,
+    free_sole,
+    plan_poses,
+    sampling_limits,
+)
+from sescid.planning import paper_convention as robot_paper_convention
+from sescid.report import design_figure
+from sescid.simulation import PAPER_NOISE
+
+
+def _sole_notes(robot, capsules) -> list[str]:
+    """Where the soles came from and what the floor check left out (any robot)."""
+    from sescid.planning.ground import ground_checks
+
+    out = [s.note for s in (robot.sole, robot.free_sole) if s is not None and s.derived]
+    if robot.sole is None:
+        out.append("no sole: no profile sole size and no geometry on the support body")
+    if capsules is not None:
+        out += ground_checks(robot, capsules).notes
+    return out
+
+
+@click.command()
+@robot_options
+@click.option(
+    "--count",
+    default=38,
+    show_default=True,
+    type=click.IntRange(min=1),
+    help="Number of poses K to choose.",
+)
+@click.option(
+    "--select",
+    type=click.Choice(["d-optimal", "random"]),
+    default="d-optimal",
+    show_default=True,
+    help="D-optimal (greedy + exchange) or K random candidates.",
+)
+@seed_option
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Pose list CSV.")
+@click.option(
+    "--candidates",
+    "n_candidates",
+    default=None,
+    type=click.IntRange(min=1, max=10_000_000),
+    help="Stable, collision-free candidate poses to choose from "
+    "[default: 20000 for uniform draws (op2), 5000 with the adjusted sampler].",
+)
+@click.option(
+    "--test-poses",
+    default=2_000,
+    show_default=True,
+    type=click.IntRange(min=1, max=10_000_000),
+    help="Held-out poses for the error.",
+)
+@click.option(
+    "--cop-box",
+    default=None,
+    type=float,
+    help="Stability: model CoP within ±this of the sole centre in x and y [m] "
+    "(default: the robot profile's; op2 the paper's 0.023).",
+)
+@click.option(
+    "--margin",
+    default=None,
+    type=float,
+    help="Stability: CoP inside the sole rectangle shrunk by this [m] (instead of --cop-box).",
+)
+@click.option(
+    "--sole-size",
+    nargs=2,
+    type=float,
+    default=None,
+    help="Sole rectangle length and width [m] for --margin (default: the profile's).",
+)
+@click.option(
+    "--clearance",
+    default=DEFAULT_CLEARANCE,
+    show_default=True,
+    help="Free sole corners above the ground by at least this [m].",
+)
+@click.option(
+    "--range-deg", default=None, type=float, help="Also limit every joint to ±this [degrees]."
+)
+@click.option(
+    "--urdf-limits", is_flag=True, help="Sample within the model's limits, not the paper's."
+)
+@click.option(
+    "--noise",
+    default=PAPER_NOISE,
+    show_default=True,
+    help="CoP noise σ for the expected error [m].",
+)
+@click.option(
+    "--figure",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Also write a PNG: expected CoP error vs K, D-optimal vs random.",
+)
+@click.option(
+    "--paper-convention",
+    is_flag=True,
+    help="Add <joint>_paper_deg columns (the paper's Table 2 angle convention; op2).",
+)
+@force_option
+def poses(
+    robot_name,
+    support,
+    count,
+    select,
+    seed,
+    out,
+    n_candidates,
+    test_poses,
+    cop_box,
+    margin,
+    sole_size,
+    clearance,
+    range_deg,
+    urdf_limits,
+    noise,
+    figure,
+    paper_convention: bool,
+    force: bool,
+):
+    """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
+    informative, ordered to keep consecutive poses close.
+
+    Columns: pose (id), one per joint in radians (servo convention), <joint>_deg,
+    <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m).
+    """
+    outs = OutputSet([out, figure], [robot_name], force=force)
+    robot = load(robot_name, support)
+    if n_candidates is None:
+        n_candidates = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
+    need = min_poses(robot)
+    if count < need:
+        raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
+    if n_candidates < count:
+        raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
+    if not noise > 0 or not clearance >= 0:
+        raise OptionError("noise", "must be > 0 and --clearance ≥ 0 (metres)")
+    pc = robot_paper_convention(robot)
+    if paper_convention and pc is None:
+        raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
+    half = cop_half_extents(robot, cop_box, margin, sole_size)
+    limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
+    plan = plan_poses(
+        robot,
+        count,
+        select,
+        seed,
+        n_candidates=n_candidates,
+        n_test=test_poses,
+        sigma=noise,
+        limits=limits,
+        half_extents=half,
+        clearance=clearance,
+        progress=TerminalProgress("candidates"),
+    )
+    capsules = plan.candidates.capsules
+    notes = list(capsules.notes) if capsules is not None else []
+    notes += _sole_notes(robot, capsules)
+    cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
+    names = robot.joint_names
+    cols |= {j: plan.q[:, k] for k, j in enumerate(names)}
+    cols |= {f"{j}_deg": np.degrees(plan.q[:, k]) for k, j in enumerate(names)}
+    servo = robot.profile.servo
+    if servo is not None:
+        try:
+            ticks = servo.to_ticks(plan.q)
+            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
+        except SescidError:
+            notes.append(f"no _ticks columns: some angles are outside the {servo.name} range")
+    if paper_convention and pc is not None:
+        qp = np.degrees(pc.to_paper(plan.q))
+        cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
+    cols |= {"cop_x": plan.cop[:, 0], "cop_y": plan.cop[:, 1]}
+    echo = click.echo
+    cand = plan.candidates
+    echo(f"candidates: {cand.summary()}")
+    free = free_sole(robot)
+    n_pairs = len(capsules.pairs) if capsules is not None else 0
+    echo(
+        f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
+        + (f"{free} corners ≥ {clearance * 1e3:g} mm above ground; " if free else "")
+        + f"{n_pairs} capsule pairs checked"
+    )
+    for note in notes:
+        echo(f"  note: {note}")
+    echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({select})")
+    echo(
+        f"expected noise-free CoP error on fresh poses (σ = {noise * 1e3:g} mm): "
+        f"chosen {mm(plan.expected_error)}, {count} random {mm(plan.random_error)} (median)"
+    )
+    echo(
+        f"joint-space path from the zero pose: {plan.path_unordered:.2f} rad in selection "
+        f"order → {plan.path_ordered:.2f} rad ordered"
+    )
+    curve = None
+    if figure:
+        ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
+        ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
+        curve = design_curve(
+            plan.a_pool, plan.c_test, ks, noise, seed, progress=TerminalProgress("figure: K values")
+        )
+    with outs:
+        write_table(outs.path(out), cols)
+        if curve is not None:
+            design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection")
+    echo(f"wrote {out}: {count} poses ({len(cols)} columns)")
+    if curve is not None:
+        echo(f"wrote {figure}")

@@ -1,0 +1,81 @@
+"""``sescid predict``: CoP and CoM at poses from a fit, with intervals."""
+
+from __future__ import annotations
+
+import click
+import numpy as np
+
+from sescid.base.files import OutputSet
+from sescid.cli.common import force_option, imu_link_option
+from sescid.estimation import (
+    com_interval,
+    load_fit,
+)
+from sescid.io import (
+    read_poses,
+    read_table,
+    write_table,
+)
+
+
+@click.command()
+@click.argument("fit_file", type=click.Path(dir_okay=False))
+@click.argument("poses", type=click.Path(dir_okay=False))
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
+@click.option(
+    "--level",
+    type=click.FloatRange(0, 1, min_open=True, max_open=True),
+    default=None,
+    help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
+    "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
+)
+@imu_link_option
+@force_option
+def predict(fit_file, poses, out, level, imu_link, force):
+    """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
+
+    With columns grav_x, grav_y, grav_z (or imu_roll, imu_pitch of the IMU link) the CoP is
+    projected along that gravity direction; its interval then includes the CoM-height
+    uncertainty through g_xy/g_z.
+    """
+    from sescid.estimation import cop_interval
+    from sescid.sensors.imu import table_gravity
+
+    outs = OutputSet([out], [fit_file, poses], force=force)
+    fit = load_fit(fit_file)
+    table = read_table(poses)
+    q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
+    gravity = table_gravity(fit.robot, table, q, imu_link)
+    cop = fit.predict_cop(q, gravity)
+    com = fit.predict_com(q)
+    std = fit.predict_std(q)
+    cols = {
+        "cop_x": cop[:, 0],
+        "cop_y": cop[:, 1],
+        "com_x": com[:, 0],
+        "com_y": com[:, 1],
+        "com_z": com[:, 2],
+        "com_x_std": std[:, 0],
+        "com_y_std": std[:, 1],
+        "com_z_std": std[:, 2],
+        "com_z_from_prior": fit.com_z_from_prior(q),
+    }
+    if level is not None:
+        iv = com_interval(fit, q, level)  # CoP = CoM x, y
+        for j, name in enumerate(("com_x", "com_y", "com_z")):
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
+        civ = cop_interval(fit, q, level, gravity=gravity)  # with g_xy/g_z · CoM-height error
+        for j, name in enumerate(("cop_x", "cop_y")):
+            cols[f"{name}_lower"], cols[f"{name}_upper"] = civ.lower[:, j], civ.upper[:, j]
+    with outs:
+        write_table(outs.path(out), cols)
+    lost = int(np.sum(np.isnan(std[:, 0])))
+    if lost:
+        click.echo(
+            f"sescid: warning: at {lost} of {len(q)} poses the fit's data do not determine the "
+            f"CoP (rank {fit.rank}): their std and interval columns are nan (not determined)",
+            err=True,
+        )
+    for w in fit.warnings:
+        click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
+    click.echo(f"wrote {out}: {len(q)} poses")
