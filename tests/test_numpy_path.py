@@ -11,16 +11,27 @@ import numpy as np
 import pytest
 
 from sescid import kinematics as kin
+from sescid.kinematics import chains as kchain
+from sescid.kinematics import compile as kcompile
+from sescid.kinematics import trig as ktrig
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(autouse=True)
+def _keep_numpy_spent():
+    """Tests that reset the process's numpy-work counter restore it."""
+    old = kcompile._numpy_spent[0]
+    yield
+    kcompile._numpy_spent[0] = old
 
 
 def _kernel_chain(tree, q):
     nb = len(tree.parent)
     s, c1 = np.empty((nb, len(q))), np.empty((nb, len(q)))
     rot = np.empty((nb, 3, 3, len(q)))
-    kin._joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
-    kin._chain_block(
+    ktrig._joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
+    kchain._chain_block(
         s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot
     )
     return s, c1, rot
@@ -35,21 +46,21 @@ def test_numpy_chain_is_the_kernel_bit_for_bit(op2, scale, monkeypatch):
     s_ref, c_ref, rot_ref = _kernel_chain(tree, q)  # loads the kernels
     nb = len(tree.parent)
     org_ref = np.empty((nb, 3, m))
-    kin._origins_block(rot_ref, tree.parent, tree.t, tree.root_o, org_ref)
+    kchain._origins_block(rot_ref, tree.parent, tree.t, tree.root_o, org_ref)
     cols_ref = kin.reduced_columns(tree, op2.reduction, q).copy()
     # the numpy path, as it runs while the kernels are not loaded
-    monkeypatch.setitem(kin._LAZY, kin.__name__, [object()])
-    monkeypatch.setattr(kin, "_numpy_spent", [0])
+    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [object()])
+    kcompile._numpy_spent[0] = 0
     s, c1, rot = np.empty((nb, m)), np.empty((nb, m)), np.empty((nb, 3, 3, m))
-    kin._trig_poly_numpy(tree, q, s, c1)
-    kin._chain_numpy(tree, s, c1, rot)
+    ktrig._trig_poly_numpy(tree, q, s, c1)
+    kchain._chain_numpy(tree, s, c1, rot)
     assert np.array_equal(s, s_ref) and np.array_equal(c1, c_ref)
     assert np.array_equal(rot, rot_ref)
     org = np.empty((nb, 3, m))
-    kin._origins(rot, tree, org)
+    kchain._origins(rot, tree, org)
     assert np.array_equal(org, org_ref)
     cols = kin.reduced_columns(tree, op2.reduction, q)
-    assert kin._numpy_spent[0] == m * nb  # the chain ran in numpy
+    assert kcompile._numpy_spent[0] == m * nb  # the chain ran in numpy
     assert np.array_equal(cols, cols_ref)
 
 
@@ -59,22 +70,24 @@ def test_chain_paths_agree_beyond_the_kernel_angle_range(op2, monkeypatch):
     q = np.random.default_rng(3).uniform(-1, 1, (40, op2.nq)) * 3 * kin.MAX_ANGLE
     _kernel_chain(op2.tree, q[:1])  # loads the kernels
     ref = kin.chain(op2.tree, q).copy()
-    monkeypatch.setitem(kin._LAZY, kin.__name__, [object()])
-    monkeypatch.setattr(kin, "_numpy_spent", [0])
-    assert np.array_equal(kin.chain(op2.tree, q), ref) and kin._numpy_spent[0] > 0
+    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [object()])
+    kcompile._numpy_spent[0] = 0
+    assert np.array_equal(kin.chain(op2.tree, q), ref) and kcompile._numpy_spent[0] > 0
 
 
 def test_numpy_path_rule(monkeypatch):
     """Blocks of ≤ SMALL_BLOCK poses run in numpy while the body-poses run so far plus the
     block's stay within NUMPY_BUDGET, and never once the kernels are loaded."""
-    monkeypatch.setitem(kin._LAZY, kin.__name__, [object()])
-    monkeypatch.setattr(kin, "_numpy_spent", [0])
+    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [object()])
+    kcompile._numpy_spent[0] = 0
     nb = 21
-    assert kin._numpy_path(kin.SMALL_BLOCK, nb) and not kin._numpy_path(kin.SMALL_BLOCK + 1, nb)
-    kin._numpy_spent[0] = kin.NUMPY_BUDGET - 100 * nb
-    assert kin._numpy_path(100, nb) and not kin._numpy_path(101, nb)
-    monkeypatch.setitem(kin._LAZY, kin.__name__, [])
-    assert not kin._numpy_path(1, nb)
+    assert kcompile._numpy_path(kcompile.SMALL_BLOCK, nb) and not kcompile._numpy_path(
+        kcompile.SMALL_BLOCK + 1, nb
+    )
+    kcompile._numpy_spent[0] = kcompile.NUMPY_BUDGET - 100 * nb
+    assert kcompile._numpy_path(100, nb) and not kcompile._numpy_path(101, nb)
+    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [])
+    assert not kcompile._numpy_path(1, nb)
 
 
 def test_demo_runs_without_numba_and_prints_the_readme_numbers(tmp_path):
