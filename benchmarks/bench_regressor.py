@@ -24,6 +24,7 @@ import sescid
 import sescid.base.threads
 from sescid.estimation import accumulate
 from sescid.kinematics import Workspace, gram_upper, padded, regressor_columns
+from sescid.kinematics import compile as kcompile
 
 
 def sescid_rate(robot, q, cop, repeat=3) -> float:
@@ -115,9 +116,7 @@ def single_pose_com(robot, n=20000) -> tuple[float, float]:
     """µs per call of ``robot.com`` on one pose and of Pinocchio's ``centerOfMass``."""
     import pinocchio as pin
 
-    from sescid import kinematics
-
-    kinematics.NUMPY_BUDGET = 0.0  # a long session: the compiled single-pose path
+    kcompile.NUMPY_BUDGET = 0.0  # a long session: the compiled single-pose path
     rng = np.random.default_rng(1)
     qs = rng.uniform(-0.5, 0.5, (n, robot.nq))
     robot.com(qs[0])
