@@ -211,15 +211,15 @@ class Accumulator:
                 add_cop_tilted(self.robot, self.cop_full, m.q, m.cop, sw, m.gravity)
             self.cop_red.n_poses += m.n
         if m.tau is not None and m.tau_joints:
-            k = len(torque_nuisance(m))
+            size = padded(self.p_red + len(torque_nuisance(m)))  # the product's 4 × 4 blocks
             if self.tau_red is None:
-                self.tau_red = NormalEquations.empty(self.p_red + k)
+                self.tau_red = NormalEquations.empty(size)
             for s in range(0, m.n, ACCUMULATE_BLOCK):
                 blk = m.take(slice(s, s + ACCUMULATE_BLOCK))
                 x, y, sw = torque_columns(
                     self.robot, blk, self.mass, self.options.weighted, self.options.gravity_accel
                 )
-                part = NormalEquations.empty(self.p_red + k)
+                part = NormalEquations.empty(size)
                 add_columns(part, x, y, sw)
                 self.tau_red.ata += part.ata
                 self.tau_red.atb += part.atb
@@ -238,7 +238,6 @@ class Accumulator:
             raise DataError("no poses to identify from")
         first = self.first
         nuisance = cop_offsets() if (COP in first.kinds and self.options.cop_offset) else ()
-        nuisance += torque_nuisance(first) if TORQUE in first.kinds else ()
         n_x = 3 * len(self.robot.body_names)
         g = self.robot.reduction.g
         parts: dict[str, KindSums] = {}
@@ -260,13 +259,14 @@ class Accumulator:
         system = System(n_x, nuisance, parts, self.mass, self.options.total_mass is not None)
         if self.tau_red is not None:
             t = self.tau_red
-            k = t.ata.shape[0] - self.p_red
-            expand = np.zeros((self.p_red + k, n_x + k))
+            k = len(torque_nuisance(first))
+            size = self.p_red + k
+            expand = np.zeros((size, n_x + k))
             expand[: self.p_red, :n_x] = g
             expand[self.p_red :, n_x:] = np.eye(k)
-            full = upper_to_full(t.ata) if t.ata is not None else t.ata
+            full = upper_to_full(t.ata)[:size, :size]
             ne = NormalEquations(
-                expand.T @ full @ expand, expand.T @ t.atb, t.yty, t.n_rows, t.n_poses
+                expand.T @ full @ expand, expand.T @ t.atb[:size], t.yty, t.n_rows, t.n_poses
             )
             tau_sys = System(
                 n_x,
