@@ -124,7 +124,13 @@ def structural_null_directions(
             reason = (
                 f"{'xyz'[axis]} component of the support body {support}: its own weight goes "
                 "to the floor (or the fixture) without crossing a joint, so no joint torque "
-                "sees it" + ("" if axis == 2 else "; a CoP measurement (a floor sensor) does")
+                "sees it"
+                + (
+                    ""
+                    if axis == 2
+                    else " (a constant horizontal CoM shift, with the joint-axis parts of the "
+                    "bodies it carries); a CoP measurement (a floor sensor) sees it"
+                )
             )
         out.append((v.reshape(-1), kind, reason))
     for i, b in enumerate(robot.model.bodies):

@@ -157,6 +157,7 @@ def fit_from_solution(
         nuisance=nuisance_estimates(system, sol),
         total_mass=system.total_mass if TORQUE in system.kinds else math.nan,
         mass_given=system.mass_given,
+        gravity_accel=system.gravity_accel,
     )
 
 

@@ -31,6 +31,10 @@ from sescid.estimation.system import System
 #: unit of each kind's rows, and the noise a weighted-free multi-kind fit starts from
 UNITS = {COP: "m", TORQUE: "N·m"}
 START_NOISE = {COP: 0.005, TORQUE: 0.05}
+#: a kind's estimated noise is never taken below this fraction of its measurements' RMS (a
+#: noise-free kind would otherwise outweigh the others by any factor and hide what only they
+#: determine below the rank tolerance)
+NOISE_FLOOR = 1e-6
 #: variance-component iterations stop when every σ_k changed by less than this (relative)
 VCE_TOL = 1e-10
 VCE_MAX_ITER = 200
@@ -129,7 +133,9 @@ def solve_system(
         new = dict(sigma)
         for k in kinds:
             if k not in given and share[k] > 0:
-                new[k] = math.sqrt(_rss(system.parts[k].ne, theta) / share[k]) or sigma[k]
+                part = system.parts[k].ne
+                floor = NOISE_FLOOR * math.sqrt(part.yty / max(part.n_rows, 1))
+                new[k] = max(math.sqrt(_rss(part, theta) / share[k]), floor) or sigma[k]
         done = all(abs(new[k] - sigma[k]) <= VCE_TOL * sigma[k] for k in kinds)
         sigma = new
         if done:

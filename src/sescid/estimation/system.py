@@ -88,6 +88,7 @@ class System:
     mass_given: bool  #: the total mass was weighed, not taken from the model
     n_poses: int = 0
     sources: list[str] = field(default_factory=list)
+    gravity_accel: float = STANDARD_GRAVITY  #: |g| behind the torque rows, m/s²
 
     @property
     def size(self) -> int:
@@ -122,8 +123,8 @@ class System:
 
     def merged(self, other: System) -> System:
         """The sums of two sources over the union of their nuisance columns."""
-        if other.total_mass != self.total_mass:
-            raise DataError("sources with different total masses cannot be pooled")
+        if other.total_mass != self.total_mass or other.gravity_accel != self.gravity_accel:
+            raise DataError("sources with different total masses or |g| cannot be pooled")
         union = self.nuisance + tuple(n for n in other.nuisance if n not in self.nuisance)
         a, b = self.embedded(union), other.embedded(union)
         parts = dict(a.parts)
@@ -281,6 +282,7 @@ class Accumulator:
                 system = tau_sys
         system.n_poses = self.n_poses
         system.sources = [first.source]
+        system.gravity_accel = self.options.gravity_accel
         return system
 
 
