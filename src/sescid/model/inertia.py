@@ -1,0 +1,55 @@
+"""Inertia tensors as the model file gives them: per-body parts, and the physical-validity rule.
+
+Statics (CoM, CoP) uses masses and CoMs only; the inertia tensors matter to the physics bench
+and to export. ``inertia_parts`` lists, per sescid body, each link's (mass, CoM, inertia) in the
+body frame, read once with the model (no second parse of the file). ``inertia_issue`` is the one
+home of the rule a physical inertia tensor obeys (finite, symmetric, positive principal moments
+that satisfy the triangle inequality).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sescid.model.tree import RobotModel
+
+#: relative tolerance of the validity rule (MuJoCo's own check is as loose: it is a sanity test)
+INERTIA_RTOL = 1e-9
+
+
+def inertia_issue(inertia: np.ndarray) -> str | None:
+    """Why a (3, 3) inertia tensor [kg·m²] about a CoM is not physical, or None when it is.
+
+    Physical: finite, symmetric, principal moments ≥ 0 and each at most the sum of the other two
+    (within ``INERTIA_RTOL`` of the largest moment). A zero tensor (a point mass) is physical.
+    """
+    t = np.asarray(inertia, dtype=float)
+    if t.shape != (3, 3) or not np.all(np.isfinite(t)):
+        return "has a non-finite or missing component"
+    scale = float(np.abs(t).max())
+    tol = INERTIA_RTOL * scale
+    if np.abs(t - t.T).max() > tol:
+        return "is not symmetric"
+    moments = np.linalg.eigvalsh(t)
+    if moments[0] < -tol:
+        return f"has a negative principal moment ({moments[0]:.3g} kg·m²)"
+    if moments[2] > moments[0] + moments[1] + tol:
+        a, b, c = (f"{v:.3g}" for v in moments)
+        return f"violates the triangle inequality (principal moments {a}, {b}, {c} kg·m²)"
+    return None
+
+
+def inertia_parts(model: RobotModel) -> dict[int, list[tuple[float, np.ndarray, np.ndarray]]]:
+    """Per body index: (mass kg, CoM (3,) m, inertia (3, 3) kg·m² about that CoM), body frame,
+    one entry per link (MJCF body) with mass > 0 and an inertia tensor, in file order."""
+    out: dict[int, list[tuple[float, np.ndarray, np.ndarray]]] = {}
+    for name, inertial in model.inertials.items():
+        if name not in model.link_frames or not inertial.mass > 0 or inertial.inertia is None:
+            continue
+        b, x = model.link_frames[name]
+        t = x @ inertial.frame
+        rot = t[:3, :3]
+        out.setdefault(b, []).append(
+            (inertial.mass, t[:3, 3].copy(), rot @ inertial.inertia @ rot.T)
+        )
+    return out
