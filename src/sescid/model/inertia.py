@@ -17,6 +17,18 @@ from sescid.model.tree import RobotModel
 INERTIA_RTOL = 1e-9
 
 
+def physical(inertias: np.ndarray) -> np.ndarray:
+    """(n,) bool: which of ``inertias`` (n, 3, 3) [kg·m²] obey the rule of ``inertia_issue``."""
+    t = np.asarray(inertias, dtype=float).reshape(-1, 3, 3)
+    ok = np.all(np.isfinite(t), axis=(1, 2))
+    t = np.where(ok[:, None, None], t, 0.0)
+    tol = INERTIA_RTOL * np.abs(t).max(axis=(1, 2))
+    ok &= np.abs(t - t.transpose(0, 2, 1)).max(axis=(1, 2)) <= tol
+    moments = np.linalg.eigvalsh(np.where(ok[:, None, None], t, 0.0))
+    ok &= moments[:, 0] >= -tol
+    return ok & (moments[:, 2] <= moments[:, 0] + moments[:, 1] + tol)
+
+
 def inertia_issue(inertia: np.ndarray) -> str | None:
     """Why a (3, 3) inertia tensor [kg·m²] about a CoM is not physical, or None when it is.
 
@@ -26,17 +38,16 @@ def inertia_issue(inertia: np.ndarray) -> str | None:
     t = np.asarray(inertia, dtype=float)
     if t.shape != (3, 3) or not np.all(np.isfinite(t)):
         return "has a non-finite or missing component"
-    scale = float(np.abs(t).max())
-    tol = INERTIA_RTOL * scale
+    if physical(t)[0]:
+        return None
+    tol = INERTIA_RTOL * float(np.abs(t).max())
     if np.abs(t - t.T).max() > tol:
         return "is not symmetric"
     moments = np.linalg.eigvalsh(t)
     if moments[0] < -tol:
         return f"has a negative principal moment ({moments[0]:.3g} kg·m²)"
-    if moments[2] > moments[0] + moments[1] + tol:
-        a, b, c = (f"{v:.3g}" for v in moments)
-        return f"violates the triangle inequality (principal moments {a}, {b}, {c} kg·m²)"
-    return None
+    a, b, c = (f"{v:.3g}" for v in moments)
+    return f"violates the triangle inequality (principal moments {a}, {b}, {c} kg·m²)"
 
 
 def inertia_parts(model: RobotModel) -> dict[int, list[tuple[float, np.ndarray, np.ndarray]]]:

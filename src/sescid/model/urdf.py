@@ -17,7 +17,8 @@ from sescid.model.geometry import BOX, CYLINDER, MESH, SPHERE, Shape
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.tree import RobotModel, reroot
 from sescid.model.urdf_check import UrdfTree, check_urdf, finite
-from sescid.model.urdf_parse import Link, Urdf, load_urdf, parse_inertial
+from sescid.model.urdf_parse import load_urdf, parse_inertial
+from sescid.model.urdf_records import Link, Urdf
 
 
 def _inertial(link: Link) -> LinkInertial | None:

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import ModelError
-from sescid.model.inertia import inertia_issue
-from sescid.model.urdf_parse import Joint, Link, Urdf
+from sescid.model.inertia import inertia_issue, physical
+from sescid.model.urdf_records import Joint, Link, Urdf
 
 _SUPPORTED = {"revolute", "continuous", "fixed"}
 
@@ -160,7 +160,7 @@ def _limits(path: Path, joints: list[Joint], joint_names: list[str]) -> np.ndarr
 
 def _inertials(path: Path, links: dict[str, Link], notes: list[str]) -> None:
     """Masses finite and ≥ 0, inertial origins and tensors finite; unphysical tensors noted."""
-    odd = []
+    tensors = {}
     for name, link in links.items():
         inertial = link.inertial
         if inertial is None:
@@ -173,10 +173,12 @@ def _inertials(path: Path, links: dict[str, Link], notes: list[str]) -> None:
         if inertial.origin is not None:
             finite(path, f"link '{name}' inertial origin", inertial.origin)
         if inertial.inertia is not None:
-            finite(path, f"link '{name}' inertia", inertial.inertia)
-            issue = inertia_issue(inertial.inertia) if m else None
-            if issue is not None:
-                odd.append(f"link '{name}' inertia {issue}")
+            tensors[name] = finite(path, f"link '{name}' inertia", inertial.inertia)
+            if not m:
+                del tensors[name]  # a massless link's tensor means nothing
+    ok = physical(np.array(list(tensors.values()))) if tensors else np.zeros(0, bool)
+    bad = [n for n, good in zip(tensors, ok, strict=True) if not good]
+    odd = [f"link '{n}' inertia {inertia_issue(tensors[n])}" for n in bad]
     if odd:
         notes.append(
             f"{len(odd)} unphysical inertia tensor(s), e.g. {odd[0]}: statics does not use "
@@ -209,12 +211,11 @@ def check_urdf(path: Path, urdf: Urdf, support: str) -> UrdfTree:
             notes.append(f"fixed joint '{j.name}': its <mimic> is ignored (a fixed joint is rigid)")
     joint_names, drive = _drives(path, joints)
     limits = _limits(path, joints, joint_names)
-    origins = {
-        j.name: np.eye(4)
-        if j.origin is None
-        else finite(path, f"joint '{j.name}' origin", j.origin)
-        for j in joints
-    }
+    given = [j for j in joints if j.origin is not None]
+    if given and not np.all(np.isfinite(np.array([j.origin for j in given]))):
+        for j in given:  # name the first culprit
+            finite(path, f"joint '{j.name}' origin", j.origin)
+    origins = {j.name: np.eye(4) if j.origin is None else j.origin for j in joints}
     axes = {j.name: _axis(path, j) for j in joints if j.type != "fixed"}
     _inertials(path, links, notes)
     return UrdfTree(

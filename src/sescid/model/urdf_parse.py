@@ -9,7 +9,6 @@ tests' oracle). A xacro file is recognised and refused with the command that exp
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree
@@ -17,122 +16,23 @@ from xml.etree import ElementTree
 import numpy as np
 
 from sescid.errors import ModelError
+from sescid.model.urdf_records import (
+    Box,
+    Cylinder,
+    Element,
+    Geometry,
+    Inertial,
+    Joint,
+    Limit,
+    Link,
+    Mesh,
+    Mimic,
+    Robot,
+    Sphere,
+    Urdf,
+)
 
 _XACRO_NS = "{http://www.ros.org/wiki/xacro}"
-
-
-@dataclass
-class Geometry:
-    """One of box (size), cylinder (radius, length), sphere (radius) or mesh (file, scale)."""
-
-    box: Box | None = None
-    cylinder: Cylinder | None = None
-    sphere: Sphere | None = None
-    mesh: Mesh | None = None
-
-
-@dataclass
-class Box:
-    """A box: full sizes (3,), m."""
-
-    size: np.ndarray
-
-
-@dataclass
-class Cylinder:
-    """A cylinder along z: radius and length, m."""
-
-    radius: float
-    length: float
-
-
-@dataclass
-class Sphere:
-    """A sphere: radius, m."""
-
-    radius: float
-
-
-@dataclass
-class Mesh:
-    """A mesh file and its scale."""
-
-    filename: str | None
-    scale: float | np.ndarray | None
-
-
-@dataclass
-class Element:
-    """A <visual> or <collision>: geometry placed by an origin in the link frame."""
-
-    geometry: Geometry | None
-    origin: np.ndarray | None
-
-
-@dataclass
-class Inertial:
-    """An <inertial>: CoM frame (4, 4), mass kg, inertia."""
-
-    origin: np.ndarray | None
-    mass: float | None
-    inertia: np.ndarray | None  #: (3, 3) about the CoM, in the inertial frame
-
-
-@dataclass
-class Link:
-    """A <link>: its inertial and its visual/collision elements."""
-
-    name: str
-    inertial: Inertial | None
-    visuals: list[Element] = field(default_factory=list)
-    collisions: list[Element] = field(default_factory=list)
-
-
-@dataclass
-class Limit:
-    """A joint's <limit>: lower/upper in rad (None where absent)."""
-
-    lower: float | None
-    upper: float | None
-
-
-@dataclass
-class Mimic:
-    """A <mimic>: q = multiplier · q_master + offset."""
-
-    joint: str | None
-    multiplier: float
-    offset: float
-
-
-@dataclass
-class Joint:
-    """A <joint>: type, parent/child links, origin (4, 4), unit axis, limit, mimic."""
-
-    name: str
-    type: str | None
-    parent: str | None
-    child: str | None
-    origin: np.ndarray | None
-    axis: np.ndarray
-    limit: Limit | None
-    mimic: Mimic | None
-
-
-@dataclass
-class Robot:
-    """The <robot>: its name, links and joints in file order."""
-
-    name: str
-    links: list[Link]
-    joints: list[Joint]
-
-
-@dataclass
-class Urdf:
-    """A parsed URDF file (``.robot`` holds its links and joints, in file order)."""
-
-    robot: Robot
 
 
 def _floats(text: str) -> list[float]:
@@ -211,6 +111,11 @@ def _link_el(el: ElementTree.Element) -> Link:
     return link
 
 
+def _num(el: ElementTree.Element, key: str) -> float | None:
+    v = el.get(key)
+    return None if v is None else float(v)
+
+
 def _joint_el(el: ElementTree.Element) -> Joint:
     parent, child = el.find("parent"), el.find("child")
     axis, lim, mimic = el.find("axis"), el.find("limit"), el.find("mimic")
@@ -221,11 +126,7 @@ def _joint_el(el: ElementTree.Element) -> Joint:
         child=None if child is None else child.get("link"),
         origin=_origin_el(el.find("origin")),
         axis=np.array(_floats("1 0 0" if axis is None else axis.get("xyz", "1 0 0"))),
-        limit=None
-        if lim is None
-        else Limit(
-            *(None if v is None else float(v) for v in (lim.get("lower"), lim.get("upper")))
-        ),
+        limit=None if lim is None else Limit(_num(lim, "lower"), _num(lim, "upper")),
         mimic=None
         if mimic is None
         else Mimic(
@@ -234,8 +135,10 @@ def _joint_el(el: ElementTree.Element) -> Joint:
     )
 
 
-def _is_xacro(root: ElementTree.Element) -> bool:
+def _is_xacro(data: bytes, root: ElementTree.Element) -> bool:
     """True when the document uses xacro: tags in its namespace, or ``${…}`` / ``$(…)``."""
+    if b"xacro" not in data and b"${" not in data and b"$(" not in data:
+        return False  # the common case, without walking the tree
     for el in root.iter():
         if isinstance(el.tag, str) and el.tag.startswith(_XACRO_NS):
             return True
@@ -257,15 +160,17 @@ def _check_xml(path: Path) -> ElementTree.Element:
         raise ModelError(f"{path}: URDF file not found")
     if path.suffix.lower() == ".xacro":
         raise _xacro_error(path)
+    data = b""
     try:
-        root = ElementTree.parse(path).getroot()
-    except (ElementTree.ParseError, OSError, UnicodeDecodeError) as exc:
-        if "unbound prefix" in str(exc) and "xacro:" in path.read_text(errors="replace"):
+        data = path.read_bytes()
+        root = ElementTree.fromstring(data)
+    except (ElementTree.ParseError, OSError) as exc:
+        if "unbound prefix" in str(exc) and b"xacro:" in data:
             raise _xacro_error(path) from None
         raise ModelError(f"{path}: malformed URDF (XML: {exc})") from None
     if root.tag != "robot":
         raise ModelError(f"{path}: malformed URDF (root element <{root.tag}>, not <robot>)")
-    if _is_xacro(root):
+    if _is_xacro(data, root):
         raise _xacro_error(path)
     for kind in ("link", "joint"):
         seen: set[str] = set()
@@ -298,3 +203,6 @@ def load_urdf(path: str | Path) -> Urdf:
     if not parsed["link"]:
         raise ModelError(f"{path}: malformed URDF (no links)")
     return Urdf(Robot(root.get("name") or "", parsed["link"], parsed["joint"]))
+
+
+__all__ = ["Inertial", "Joint", "Link", "Urdf", "load_urdf", "parse_inertial"]
