@@ -62,8 +62,6 @@ from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 from sescid.model.mjcf_joints import MjcfJoints, robot_joints
 from sescid.model.tree import RobotModel, reroot, rot_axis
 
-_mujoco = mujoco_module  # the names io.export.mjcf imports
-
 
 def _pose(pos, quat) -> np.ndarray:
     """4×4 transform from a position (3,) and a unit quaternion (w, x, y, z)."""
@@ -86,9 +84,14 @@ def _trans(v) -> np.ndarray:
     return out
 
 
-def _names(model: Any, kind: str, count: int, prefix: str) -> list[str]:
-    """Every object's name by MuJoCo id (``<prefix><id>`` for an unnamed one)."""
+def object_names(model: Any, kind: str, count: int, prefix: str) -> list[str]:
+    """Every object's name by MuJoCo id (``<prefix><id>`` for an unnamed one), e.g.
+    ``object_names(m, "body", m.nbody, "body")``."""
     return [getattr(model, kind)(i).name or f"{prefix}{i}" for i in range(count)]
+
+
+#: the private names ``io.export.mjcf`` imports today (shims: use the public ones)
+_mujoco, _names = mujoco_module, object_names
 
 
 def _unique(names: list[str]) -> None:
@@ -159,8 +162,8 @@ def _body_frames(m: Any, b: int, name: str, prev: str | None, joints: MjcfJoints
 
 def mjcf_graph(path: Path, m: Any, in_robot: list[int], joints: MjcfJoints) -> Graph:
     """The robot's bodies (and hinge frames), hinges and sites as a format-neutral graph."""
-    bodies = _names(m, "body", m.nbody, "body")
-    names = _names(m, "joint", m.njnt, "joint")
+    bodies = object_names(m, "body", m.nbody, "body")
+    names = object_names(m, "joint", m.njnt, "joint")
     _unique(names)
     graph = Graph(path, {}, [])
     for b in in_robot:
@@ -169,7 +172,7 @@ def mjcf_graph(path: Path, m: Any, in_robot: list[int], joints: MjcfJoints) -> G
         graph.frames |= {f.name: f for f in frames}
         graph.edges += edges
     robot = set(in_robot)
-    for s, site in enumerate(_names(m, "site", m.nsite, "site")):
+    for s, site in enumerate(object_names(m, "site", m.nsite, "site")):
         b = int(m.site_bodyid[s])
         if b in robot and site not in graph.frames:
             graph.frames[site] = Frame(site)
@@ -186,10 +189,10 @@ def build_model(path: str | Path, support: str) -> RobotModel:
     path = Path(path)
     notes: list[str] = []
     spec, m = compile_mjcf(path, notes)
-    body_names = _names(m, "body", m.nbody, "body")
-    joint_names = _names(m, "joint", m.njnt, "joint")
+    body_names = object_names(m, "body", m.nbody, "body")
+    joint_names = object_names(m, "joint", m.njnt, "joint")
     _unique(joint_names)
-    sup = _support_body(path, m, support, body_names, _names(m, "site", m.nsite, "site"))
+    sup = _support_body(path, m, support, body_names, object_names(m, "site", m.nsite, "site"))
     root = int(m.body_rootid[sup])
     in_robot = [b for b in range(1, m.nbody) if int(m.body_rootid[b]) == root]
     joints = robot_joints(path, m, in_robot, joint_names)
@@ -251,4 +254,4 @@ def _shapes(spec, m, body_names, in_robot: set[int], link_frames) -> list[Shape]
     return out
 
 
-__all__ = ["build_model", "compile_mjcf", "mjcf_graph"]
+__all__ = ["build_model", "compile_mjcf", "mjcf_graph", "mujoco_module", "object_names"]
