@@ -291,3 +291,19 @@ def test_deep_trees_keep_the_recursion_limit(tmp_path, monkeypatch):
     bodies, where = reroot(Graph(tmp_path / "g", frames, edges), f"f{m - 1}")
     assert len(bodies) == 1 and bodies[0].mass == m
     assert bodies[0].com[2] == pytest.approx(-(m - 1) / 2) and where["f0"][1][2, 3] == 1 - m
+
+
+def test_mjcf_pair_geoms_are_collision_geometry(tmp_path):
+    """Feet that collide only through explicit <contact><pair> (contype = conaffinity = 0, a
+    common MuJoCo Playground style) are collision shapes, not visual ones."""
+    pytest.importorskip("mujoco")
+    path = tmp_path / "pairs.xml"
+    path.write_text(
+        '<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/><body name="a">'
+        '<geom name="torso" size="0.1" contype="0" conaffinity="0"/><body name="foot" pos="0 0 -1">'
+        '<joint name="j"/><geom name="sole" type="box" size=".1 .05 .01" contype="0" '
+        'conaffinity="0"/></body></body></worldbody><contact><pair geom1="floor" geom2="sole"/>'
+        "</contact></mujoco>"
+    )
+    shapes = load_model(path, "a").shapes
+    assert [(s.link, s.role) for s in shapes] == [("a", "visual"), ("foot", "collision")]
