@@ -13,8 +13,10 @@ import numpy as np
 
 from sescid.model.tree import RobotModel
 
-#: relative tolerance of the validity rule (MuJoCo's own check is as loose: it is a sanity test)
+#: tolerances of the validity rule, relative to the tensor's largest entry and absolute (kg·m²,
+#: about 1 g at 0.03 mm): rounding noise on a zero tensor (iCub's 1e-20) is a point mass
 INERTIA_RTOL = 1e-9
+INERTIA_ATOL = 1e-12
 
 
 def physical(inertias: np.ndarray) -> np.ndarray:
@@ -22,7 +24,7 @@ def physical(inertias: np.ndarray) -> np.ndarray:
     t = np.asarray(inertias, dtype=float).reshape(-1, 3, 3)
     ok = np.all(np.isfinite(t), axis=(1, 2))
     t = np.where(ok[:, None, None], t, 0.0)
-    tol = INERTIA_RTOL * np.abs(t).max(axis=(1, 2))
+    tol = np.maximum(INERTIA_RTOL * np.abs(t).max(axis=(1, 2)), INERTIA_ATOL)
     ok &= np.abs(t - t.transpose(0, 2, 1)).max(axis=(1, 2)) <= tol
     moments = np.linalg.eigvalsh(np.where(ok[:, None, None], t, 0.0))
     ok &= moments[:, 0] >= -tol
@@ -33,14 +35,15 @@ def inertia_issue(inertia: np.ndarray) -> str | None:
     """Why a (3, 3) inertia tensor [kg·m²] about a CoM is not physical, or None when it is.
 
     Physical: finite, symmetric, principal moments ≥ 0 and each at most the sum of the other two
-    (within ``INERTIA_RTOL`` of the largest moment). A zero tensor (a point mass) is physical.
+    (within ``INERTIA_RTOL`` of the largest entry or ``INERTIA_ATOL``). A zero tensor (a point
+    mass) is physical.
     """
     t = np.asarray(inertia, dtype=float)
     if t.shape != (3, 3) or not np.all(np.isfinite(t)):
         return "has a non-finite or missing component"
     if physical(t)[0]:
         return None
-    tol = INERTIA_RTOL * float(np.abs(t).max())
+    tol = max(INERTIA_RTOL * float(np.abs(t).max()), INERTIA_ATOL)
     if np.abs(t - t.T).max() > tol:
         return "is not symmetric"
     moments = np.linalg.eigvalsh(t)
