@@ -106,6 +106,8 @@ def test_inertia_rule_against_closed_forms():
     assert inertia_issue(rot @ box @ rot.T) is None
     assert inertia_issue(np.diag([1.0, 1.0, 0.0])) is None  # a thin rod along z: A + B = C …
     assert inertia_issue(np.zeros((3, 3))) is None  # a point mass
+    noise = np.array([[0.0, 0.0, 2.4e-35], [0.0, 0.0, 0.0], [2.4e-35, 0.0, 0.0]])
+    assert inertia_issue(noise) is None  # iCub's head: rounding noise on a point mass
     assert "triangle" in inertia_issue(np.diag([0.0, 0.0, 1.0]))  # … but not (0, 0, 1)
     assert "symmetric" in inertia_issue(np.array([[1.0, 0.5, 0], [0, 1, 0], [0, 0, 1]]))
     assert "non-finite" in inertia_issue(np.diag([1.0, math.nan, 1.0]))
