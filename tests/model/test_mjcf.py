@@ -62,6 +62,60 @@ def test_random_tree_com_equals_mujoco(tmp_path, seed):
     assert np.abs(robot.com(q) - ref).max() <= 1e-12
 
 
+@pytest.mark.parametrize("seed", range(12))
+def test_random_tree_frames_and_inertias_equal_mujoco(tmp_path, seed):
+    """Random MJCF trees re-rooted anywhere: every body and site frame in the support frame is
+    MuJoCo's (xpos/xmat, site_xpos/xmat), and every body's inertial (CoM, inertia in body
+    axes, ``inertia_parts``) MuJoCo's xipos/ximat·diag(body_inertia)·ximatᵀ."""
+    from mjcf_gen import _mujoco_states
+
+    from sescid.model import inertia_parts
+
+    xml, frames = random_mjcf(seed)
+    path = tmp_path / "r.xml"
+    path.write_text(xml)
+    rng = np.random.default_rng(50 + seed)
+    support = frames[rng.integers(len(frames))]
+    robot = _load(path, support)
+    q = rng.uniform(-2.5, 2.5, (5, robot.nq))
+    rot, org = robot.forward(q)
+    parts = inertia_parts(robot.model)
+    states = _mujoco_states(path, support, robot.joint_names, q, seed)
+    for k, (m, data, r_s, o_s, root) in enumerate(states):
+        bodies = [b for b in range(m.nbody) if m.body_rootid[b] == root]
+        sites = [s for s in range(m.nsite) if m.site_bodyid[s] in bodies]
+        checked = 0
+        for kind, ids, xpos, xmat in (
+            ("body", bodies, data.xpos, data.xmat),
+            ("site", sites, data.site_xpos, data.site_xmat),
+        ):
+            for i in ids:
+                name = getattr(m, kind)(i).name or f"{kind}{i}"
+                if name not in robot.model.link_frames:  # a site named like a body
+                    continue
+                r_lk, o_lk = robot.link_poses(q[k : k + 1], name)
+                np.testing.assert_allclose(r_lk[0], r_s.T @ xmat[i].reshape(3, 3), atol=1e-12)
+                np.testing.assert_allclose(o_lk[0], r_s.T @ (xpos[i] - o_s), atol=1e-12)
+                checked += 1
+        assert checked == len(bodies) + len(sites) - sum(
+            (m.site(s).name or f"site{s}") not in robot.model.link_frames for s in sites
+        )
+        for b in bodies:
+            if not m.body_mass[b] > 0:
+                continue
+            sb = robot.model.link_frames[m.body(b).name or f"body{b}"][0]
+            c_ref = r_s.T @ (data.xipos[b] - o_s)
+            i_ref = r_s.T @ data.ximat[b].reshape(3, 3)
+            i_ref = i_ref @ np.diag(m.body_inertia[b]) @ i_ref.T
+            hits = [
+                (rot[k, sb] @ c + org[k, sb], rot[k, sb] @ i_c @ rot[k, sb].T)
+                for _, c, i_c in parts[sb]
+                if np.allclose(rot[k, sb] @ c + org[k, sb], c_ref, atol=1e-12, rtol=0)
+            ]
+            assert hits, (seed, b)
+            np.testing.assert_allclose(hits[0][1], i_ref, atol=1e-14)
+
+
 _HAND = """<mujoco model="hand">
   <compiler angle="degree"/>
   <worldbody>
