@@ -18,7 +18,7 @@ def test_fit_round_trip(op2, tmp_path):
     sim = simulate(op2, 200, seed=1)
     fit = identify_ls(op2, sim.q, sim.cop)
     path = tmp_path / "fit.json"
-    fit.save(path)
+    sescid.save_fit(fit, path)
     data = json.loads(path.read_text())
     assert data["format"] == "sescid-fit/3"
     assert data["rank"] == 42 and data["n_poses"] == 200

@@ -95,7 +95,7 @@ def test_report_never_refits(case, monkeypatch, tmp_path):
 
 def test_cli_report_and_bad_input(case, tmp_path):
     robot, q, cop, fit, *_ = case
-    fit.save(tmp_path / "fit.json")
+    sescid.save_fit(fit, tmp_path / "fit.json")
     cols = {"pose": np.arange(len(q))} | {j: q[:, i] for i, j in enumerate(robot.joint_names)}
     write_table(tmp_path / "m.csv", cols | {"cop_x": cop[:, 0], "cop_y": cop[:, 1]})
     args = ["report", str(tmp_path / "fit.json"), str(tmp_path / "m.csv")]

@@ -10,6 +10,7 @@ import click
 from sescid.base.files import atomic_open, check_outputs
 from sescid.cli.common import load, min_samples_option, mm, robot_options, sensors_option
 from sescid.errors import OptionError
+from sescid.estimation.fit_json import save_fit
 from sescid.io import read_table
 from sescid.sensors import load_sensors
 from sescid.sensors.calibration import GAIN_PRIOR, OFFSET_PRIOR, calibrate_sensors
@@ -152,5 +153,5 @@ def calibrate(
         fh.write("\n")
     click.echo(f"wrote {out} (gains, offsets of session {session})")
     if fit_out:
-        cal.fit.save(fit_out)
+        save_fit(cal.fit, fit_out)
         click.echo(f"wrote {fit_out}")

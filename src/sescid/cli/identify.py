@@ -18,6 +18,7 @@ from sescid.cli.common import force_option, imu_link_option, load, mm, robot_opt
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
 from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions
+from sescid.estimation.fit_json import save_fit
 from sescid.io.measurements import rows_estimate
 
 DEFAULTS = IdentifyOptions()
@@ -214,7 +215,7 @@ def identify(data, robot_name, support, out, method, force, **opts):
             progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
         )
     with outs:
-        fit.save(outs.path(out))
+        save_fit(fit, outs.path(out))
     echo_fit(fit)
     click.echo(f"wrote {out}")
 

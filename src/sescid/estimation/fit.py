@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -406,9 +406,3 @@ class Fit:
         lines += [f"  note: {n}" for n in self.notes]
         lines += [f"  warning: {w}" for w in self.warnings]
         return "\n".join(lines)
-
-    def save(self, path: Any) -> None:
-        """Write the fit as JSON (format ``sescid-fit/2``, see ``sescid.estimation.fit_json``)."""
-        from sescid.estimation.fit_json import save_fit
-
-        save_fit(self, path)
