@@ -34,6 +34,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
                 ("--bias", opts["bias"]),
                 ("--prior-scale", opts["prior_scale"] is not None),
                 ("--prior-select cv", opts["prior_select"] == "cv"),
+                ("--prior bodies", opts["prior"] == "bodies"),
             )
             if on
         ]
@@ -73,6 +74,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
             noise=opts["noise"],
             select=opts["prior_select"],
             bias=opts["bias"],
+            prior=opts["prior"],
         )
         if method == "map"
         else MapOptions(),
@@ -135,6 +137,14 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     type=float,
     default=MAP_DEFAULTS.prior_scale,
     help="map: prior standard deviation of each SESC component [m] (default: evidence).",
+)
+@click.option(
+    "--prior",
+    type=click.Choice(["sesc", "bodies"]),
+    default=MAP_DEFAULTS.prior,
+    show_default=True,
+    help="map: the CAD prior's shape: each SESC component ±τ m, or each body's mass ±τ and "
+    "first moment ±τ·5 cm per unit mass (τ relative).",
 )
 @click.option(
     "--prior-select",

@@ -40,13 +40,16 @@ from sescid.sesc import STANDARD_GRAVITY
 @dataclass(frozen=True)
 class MapOptions:
     """MAP parameters: prior scale τ and noise σ (m; None = chosen by the data), how τ is
-    chosen ("evidence" or "cv" with ``folds``), and whether a constant CoP offset is fitted."""
+    chosen ("evidence" or "cv" with ``folds``), whether a constant CoP offset is fitted, and the
+    prior's shape: "sesc" (each SESC component ±τ m) or "bodies" (each body's mass ±τ and first
+    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction)."""
 
     prior_scale: float | None = None
     noise: float | None = None
     select: str = "evidence"
     folds: int = 5
     bias: bool = False
+    prior: str = "sesc"
 
 
 @dataclass(frozen=True)
@@ -265,7 +268,7 @@ def _fit(robot, method, options, sources, memory: list[Measurements] | None, pro
             raise OptionError("select", f"must be 'evidence' or 'cv', got {m.select!r}")
         fit = fit_map(
             robot, system, prior_scale=m.prior_scale, noise=m.noise, rtol=options.rtol,
-            cv_folds=cv, kind_noise=options.noise(), r_prior=options.r_prior,
+            cv_folds=cv, kind_noise=options.noise(), r_prior=options.r_prior, prior=m.prior,
         )  # fmt: skip
     fit = with_residuals(fit, (c for s in sources for c in s.chunks()))
     if method == "consistent":

@@ -106,6 +106,7 @@ class MapInfo:
     #: directions of vec(r) the prior decided: unseen by the data, or where the data carry less
     #: than half of the posterior information
     prior_decided: int = 0
+    prior: str = "sesc"  #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
 
 
 @dataclass

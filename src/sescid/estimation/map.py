@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,9 +77,57 @@ class Posterior:
     edf: float  #: effective number of parameters tr(A M⁻¹)
 
 
-def prior_precision(n_x: int, prior_scale: float, nuisance_scales: np.ndarray) -> np.ndarray:
-    """(P,) prior precisions: 1/τ² on the SESC components, 1/s² on each nuisance parameter."""
-    return np.concatenate([np.full(n_x, 1.0 / prior_scale**2), 1.0 / nuisance_scales**2])
+@dataclass(frozen=True)
+class Prior:
+    """The prior precision over θ = [vec(r); nuisance] for a scale τ: on vec(r), 1/τ² I
+    ("sesc": every SESC component ±τ m) or Σ₀⁻¹/τ² ("bodies": each body's mass ±τ (relative)
+    and first moment ±τ·ℓ per unit mass, mapped to r; Σ₀ = K D Kᵀ), and 1/s² on each nuisance
+    parameter (effectively flat)."""
+
+    n_x: int
+    nuisance_scales: np.ndarray  #: (K,) prior std of each nuisance parameter
+    x_precision: np.ndarray | None = None  #: Σ₀⁻¹ (3N, 3N); None: the identity
+    x_logdet: float = 0.0  #: log det Σ₀⁻¹
+    kind: str = "sesc"
+
+    def matrix(self, tau: float) -> np.ndarray:
+        """(P, P) prior precision for scale τ."""
+        size = self.n_x + self.nuisance_scales.size
+        out = np.zeros((size, size))
+        if self.x_precision is None:
+            out[: self.n_x, : self.n_x] = np.eye(self.n_x) / tau**2
+        else:
+            out[: self.n_x, : self.n_x] = self.x_precision / tau**2
+        k = np.arange(self.n_x, size)
+        out[k, k] = 1.0 / self.nuisance_scales**2
+        return out
+
+    def logdet(self, tau: float) -> float:
+        """Log det of ``matrix(tau)``."""
+        x = self.x_logdet - 2 * self.n_x * math.log(tau)
+        return x - 2 * float(np.sum(np.log(self.nuisance_scales)))
+
+
+#: the "bodies" prior: a body's first moment per unit relative mass std, m (τ = 0.1 → ±5 mm)
+BODY_COM_SCALE = 0.05
+
+
+def body_prior(robot: Robot, n_x: int, nuisance_scales: np.ndarray) -> Prior:
+    """The per-body prior (``Prior`` "bodies"): body masses m̄_j = m_j + M/(10 N) ± τ m̄_j and
+    first moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r)."""
+    from sescid.estimation.consistent import _ELL, sesc_map
+
+    k = sesc_map(robot)  # vec(r) = K [m/M, vec(h)/(M ℓ)]
+    masses = robot.masses
+    big_m = float(masses.sum())
+    m_bar = (masses + big_m / (10 * masses.size)) / big_m
+    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / _ELL) ** 2, 3)])
+    sigma0 = (k * d) @ k.T
+    sigma0 = (sigma0 + sigma0.T) / 2
+    lam, vecs = np.linalg.eigh(sigma0)
+    lam = np.maximum(lam, 1e-12 * lam.max())
+    precision = (vecs / lam) @ vecs.T
+    return Prior(n_x, nuisance_scales, precision, float(-np.sum(np.log(lam))), "bodies")
 
 
 def _terms(ne: NormalEquations, x0: np.ndarray):
@@ -89,31 +136,29 @@ def _terms(ne: NormalEquations, x0: np.ndarray):
     return b, max(ztz, 0.0)
 
 
-def log_evidence(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray, noise: float) -> float:
-    """Log p(y | σ, prior) for prior precisions ``prec`` (P,) [m⁻²] and noise σ [m]."""
+def log_evidence(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
+    """Log p(y | σ, prior) for the prior at scale τ and noise σ."""
     import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
 
     s2 = noise**2
     b, ztz = _terms(ne, x0)
     try:
-        cf = scipy.linalg.cho_factor(ne.ata + np.diag(s2 * prec), check_finite=False)
+        cf = scipy.linalg.cho_factor(ne.ata + s2 * prior.matrix(tau), check_finite=False)
     except np.linalg.LinAlgError:
         return -math.inf
     logdet = 2 * np.sum(np.log(np.diag(cf[0])))
     quad = (ztz - b @ scipy.linalg.cho_solve(cf, b, check_finite=False)) / s2
     m = ne.n_rows
-    return -0.5 * (
-        m * math.log(2 * math.pi * s2) + logdet - np.sum(np.log(s2 * prec)) + max(quad, 0.0)
-    )
+    prior_logdet = x0.size * math.log(s2) + prior.logdet(tau)
+    return -0.5 * (m * math.log(2 * math.pi * s2) + logdet - prior_logdet + max(quad, 0.0))
 
 
-def posterior(ne: NormalEquations, x0: np.ndarray, prec_unit: Callable, tau: float, noise: float):
-    """Posterior mean and covariance for prior precisions ``prec_unit(τ)`` and noise σ."""
+def posterior(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
+    """Posterior mean and covariance for the prior at scale τ and noise σ."""
     import scipy.linalg
 
     p = ne.ata.shape[0]
-    prec = prec_unit(tau)
-    cf = scipy.linalg.cho_factor(ne.ata + np.diag(noise**2 * prec), check_finite=False)
+    cf = scipy.linalg.cho_factor(ne.ata + noise**2 * prior.matrix(tau), check_finite=False)
     b, _ = _terms(ne, x0)
     x = x0 + scipy.linalg.cho_solve(cf, b, check_finite=False)
     minv = scipy.linalg.cho_solve(cf, np.eye(p), check_finite=False)
@@ -122,7 +167,7 @@ def posterior(ne: NormalEquations, x0: np.ndarray, prec_unit: Callable, tau: flo
         cov=noise**2 * minv,
         noise=noise,
         prior_scale=tau,
-        log_evidence=log_evidence(ne, x0, prec, noise),
+        log_evidence=log_evidence(ne, x0, prior, tau, noise),
         edf=float(np.sum(minv * ne.ata)),
     )
 
@@ -130,7 +175,7 @@ def posterior(ne: NormalEquations, x0: np.ndarray, prec_unit: Callable, tau: flo
 def maximise_evidence(
     ne: NormalEquations,
     x0: np.ndarray,
-    prec_unit: Callable[[float], np.ndarray],
+    prior: Prior,
     *,
     prior_scale: float | None = None,
     noise: float | None = None,
@@ -143,7 +188,7 @@ def maximise_evidence(
     import scipy.optimize
 
     def neg(log_tau: float, log_sigma: float) -> float:
-        val = -log_evidence(ne, x0, prec_unit(math.exp(log_tau)), math.exp(log_sigma))
+        val = -log_evidence(ne, x0, prior, math.exp(log_tau), math.exp(log_sigma))
         return val if math.isfinite(val) else 1e300  # singular M: finite for Brent's steps
 
     s_lo, s_hi = (math.log(v) for v in sigma_range(ne, x0))
@@ -187,18 +232,18 @@ def check_scale(value, what: str) -> None:
 
 
 def profiled_noise(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray) -> float:
-    """Maximum-likelihood σ for fixed ratios σ²·prec (m): √((zᵀz − bᵀM⁻¹b)/m)."""
+    """Maximum-likelihood σ for a fixed ridge σ²·P, ``prec`` = σ²P (P, P): √((zᵀz − bᵀM⁻¹b)/m)."""
     import scipy.linalg
 
     b, ztz = _terms(ne, x0)
-    quad = b @ scipy.linalg.solve(ne.ata + np.diag(prec), b, assume_a="pos")
+    quad = b @ scipy.linalg.solve(ne.ata + prec, b, assume_a="pos")
     return math.sqrt(max(ztz - quad, 0.0) / ne.n_rows) or SIGMA_RANGE[0]
 
 
 def cv_ridge(parts: list[NormalEquations], x0: np.ndarray, unit: np.ndarray, n_poses: int):
     """Ratio σ²/τ² minimising the held-out error of k folds (each fold's weighted sums in
-    ``parts``); also the curve [[τ/σ, rmse], …]. ``unit`` (P,) scales the ridge per parameter
-    (1 on the SESC part, τ²/s² on nuisance). Each candidate costs one solve per fold."""
+    ``parts``); also the curve [[τ/σ, rmse], …]. ``unit`` (P, P): the prior precision at τ = 1
+    (no nuisance part: flat). Each candidate costs one solve per fold."""
     import scipy.linalg
 
     total_a = sum(p.ata for p in parts)
@@ -210,7 +255,7 @@ def cv_ridge(parts: list[NormalEquations], x0: np.ndarray, unit: np.ndarray, n_p
         sq = 0.0
         for p in parts:
             a, b = total_a - p.ata, total_b - p.atb
-            x = x0 + scipy.linalg.solve(a + np.diag(unit) / t**2, b - a @ x0, assume_a="pos")
+            x = x0 + scipy.linalg.solve(a + unit / t**2, b - a @ x0, assume_a="pos")
             sq += p.yty - 2 * x @ p.atb + x @ p.ata @ x
         curve.append([float(t), math.sqrt(max(sq, 0.0) / max(rows, 1))])
     best = min(range(len(curve)), key=lambda i: curve[i][1])
@@ -228,11 +273,13 @@ def fit_map(
     rtol: float = DEFAULT_RTOL,
     cv_folds: list[System] | None = None,
     kind_noise: dict[str, float] | None = None,
+    prior: str = "sesc",
 ) -> Fit:
     """MAP ``Fit`` of a pooled system (module docstring). ``prior_scale`` τ [m] and ``noise`` σ
     (the kinds' common noise scale; m for one unweighted CoP kind) are chosen by evidence when
     None; ``cv_folds``: the systems of k folds of the data, to choose σ²/τ² by cross-validation
-    instead; ``kind_noise``: given noise of some kinds (the others from least squares)."""
+    instead; ``kind_noise``: given noise of some kinds (the others from least squares);
+    ``prior``: "sesc" or "bodies" (``Prior``; τ is then relative)."""
     check_scale(prior_scale, "prior scale")
     check_scale(noise, "noise")
     if system.n_poses == 0:
@@ -244,23 +291,40 @@ def fit_map(
     ne = weighted_sums(system, ratios)
     n_x = system.n_x
     scales = np.array([n.prior_scale for n in system.nuisance], dtype=float)
-
-    def prec_unit(tau: float) -> np.ndarray:
-        return prior_precision(n_x, tau, scales)
+    if prior == "bodies":
+        pri = body_prior(robot, n_x, scales)
+    elif prior == "sesc":
+        pri = Prior(n_x, scales)
+    else:
+        raise SescidError(f"MAP prior must be 'sesc' or 'bodies', got {prior!r}")
 
     chosen = "given" if prior_scale is not None else "evidence"
     curve = None
     if cv_folds is not None and prior_scale is None:
         folds = [weighted_sums(f.embedded(system.nuisance), ratios) for f in cv_folds]
-        unit = np.concatenate([np.ones(n_x), np.zeros(len(scales))])
-        ridge, curve = cv_ridge(folds, theta0, unit + 1e-12, system.n_poses)
+        unit = pri.matrix(1.0)
+        unit[n_x:, n_x:] = 1e-12 * np.eye(len(scales))  # the nuisance: flat
+        ridge, curve = cv_ridge(folds, theta0, unit, system.n_poses)
         if noise is None:
-            noise = profiled_noise(ne, theta0, ridge * prec_unit(1.0))
+            noise = profiled_noise(ne, theta0, ridge * unit)
         prior_scale = noise / math.sqrt(ridge)
         chosen = f"{len(cv_folds)}-fold cv"
-    tau, sig = maximise_evidence(ne, theta0, prec_unit, prior_scale=prior_scale, noise=noise)
-    post = posterior(ne, theta0, prec_unit, tau, sig)
-    return _map_fit(base, system, post, ls, chosen, noise is not None, curve)
+    tau, sig = maximise_evidence(ne, theta0, pri, prior_scale=prior_scale, noise=noise)
+    post = posterior(ne, theta0, pri, tau, sig)
+    return _map_fit(base, system, post, ls, chosen, noise is not None, curve, pri)
+
+
+def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) -> int:
+    """Directions of vec(r) the prior decided: unseen by the data, or where the data carry less
+    than ``PRIOR_DECIDED`` of the posterior information (generalised eigenvalues of the data's
+    marginal information against the prior's)."""
+    import scipy.linalg
+
+    lam, vecs, p = marginal_x(ls, n_x, rtol)
+    data = (vecs[:, :p] * lam[:p]) @ vecs[:, :p].T
+    pri = prior_info[:n_x, :n_x]
+    share = scipy.linalg.eigh(data, data + pri, eigvals_only=True)
+    return int(np.sum(share < PRIOR_DECIDED))
 
 
 def _noise_ratios(system: System, ls: Solution) -> dict[str, float]:
@@ -271,7 +335,7 @@ def _noise_ratios(system: System, ls: Solution) -> dict[str, float]:
 
 
 def _map_fit(
-    base: Fit, system: System, post: Posterior, ls: Solution, chosen, noise_given, curve
+    base: Fit, system: System, post: Posterior, ls: Solution, chosen, noise_given, curve, pri
 ) -> Fit:
     n_x = system.n_x
     x, cov = post.x[:n_x], post.cov[:n_x, :n_x]
@@ -281,10 +345,7 @@ def _map_fit(
         for c in base.base
         for g in [combination_vector(robot, c.terms)]
     )
-    lam, _, p = marginal_x(ls, n_x, base.rtol)
-    ridge = (post.noise / post.prior_scale) ** 2  # the prior's information per direction
-    data_share = lam[:p] / (lam[:p] + ridge)
-    decided = int(np.sum(data_share < PRIOR_DECIDED)) + (n_x - p)
+    decided = _prior_decided(ls, n_x, base.rtol, post.noise**2 * pri.matrix(post.prior_scale))
     info = MapInfo(
         prior_scale=post.prior_scale,
         prior_scale_by=chosen,
@@ -295,6 +356,7 @@ def _map_fit(
         cv_curve=curve,
         at_lower_bound=chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0],
         prior_decided=decided,
+        prior=pri.kind,
     )
     mapped = dataclasses.replace(
         ls,
