@@ -89,7 +89,7 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
     information matrix, σ̂ = 0. ``structural_rank``: rank of the robot's x/y regressor over all
     poses (default ``robot.reduction``'s)."""
     out = []
-    p = structural_rank if structural_rank is not None else fit.robot.reduction.g.shape[0]
+    p = structural_rank if structural_rank is not None else _structural(fit)
     cond = condition(fit)
     if fit.rank < p:
         out.append(
@@ -118,6 +118,16 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "intervals have zero width"
         )
     return out
+
+
+def _structural(fit: Fit) -> int:
+    """Combinations of vec(r) that data of the fit's kinds determine on generic poses: the CoP's
+    reduced coordinates, less the support body's two horizontal ones for torques alone."""
+    p = int(fit.robot.reduction.g.shape[0])
+    names = {k.kind for k in fit.kinds}
+    if names and "cop" not in names:
+        p -= len(fit.robot.reduction.rows)
+    return p
 
 
 def check_total_mass(robot: Robot, total_mass: float | None) -> None:

@@ -392,18 +392,42 @@ class Fit:
         return fit_notes(self)
 
     def summary(self) -> str:
-        """A few lines: method, poses, rank, residual scale, notes and warnings."""
-        scale = (
-            f"sigma_hat {self.sigma_hat:.3f} (scale of normalised residuals)"
-            if self.weighted
-            else f"sigma_hat {self.sigma_hat * 1e3:.3f} mm"
-        )
+        """A few lines: method, poses, rank, each kind's noise and residuals, notes, warnings."""
         lines = [
             f"{self.method_label} fit of {self.robot.name} (support {self.robot.support}): "
-            f"{self.n_poses} poses, rank {self.rank} of {self.r.size}",
-            f"  {scale}, residual RMS {self.rms * 1e3:.3f} mm"
-            + ("" if math.isnan(self.mae) else f", MAE {self.mae * 1e3:.3f} mm"),
+            f"{self.n_poses} poses, rank {self.rank} of {self.r.size}"
         ]
+        kinds = self.kinds or (None,)
+        for k in kinds:
+            lines.append("  " + _kind_line(self, k))
         lines += [f"  note: {n}" for n in self.notes]
         lines += [f"  warning: {w}" for w in self.warnings]
         return "\n".join(lines)
+
+
+def _number(x: float, unit: str) -> str:
+    """A value in a kind's display unit: mm for metres, N·m as is; "not determined" for nan."""
+    if not math.isfinite(x):
+        return "not determined"
+    return f"{x * 1e3:.3f} mm" if unit == "m" else f"{x:.4f} {unit}"
+
+
+def _kind_line(fit: Fit, k: KindFit | None) -> str:
+    """One kind's noise and residuals (the fit's own figures for a fit without kinds)."""
+    if k is None or len(fit.kinds) == 1:
+        unit = "m" if k is None else k.unit
+        weighted = fit.weighted
+        sigma, rms, mae, name = fit.sigma_hat, fit.rms, fit.mae, "" if k is None else k.kind
+    else:
+        unit, weighted, sigma, rms, mae, name = k.unit, k.weighted, k.sigma, k.rms, k.mae, k.kind
+    label = {"cop": "CoP", "tau": "joint torques"}.get(name, name)
+    head = f"{label}: " if label else ""
+    if weighted:
+        scale = "not determined" if not math.isfinite(sigma) else f"{sigma:.3f}"
+        noise = f"sigma_hat {scale} (scale of normalised residuals)"
+    else:
+        noise = f"sigma_hat {_number(sigma, unit)}"
+    if k is not None and k.sigma_by == "given":
+        noise += " (given)"
+    out = f"{head}{noise}, residual RMS {_number(rms, unit)}"
+    return out + ("" if math.isnan(mae) else f", MAE {_number(mae, unit)}")

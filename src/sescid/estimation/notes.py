@@ -25,9 +25,21 @@ def fit_notes(fit: Fit) -> list[str]:
             if fit.method == "consistent"
             else "they are filled from the prior model"
         )
+        kinds = {k.kind for k in fit.kinds} or {"cop"}
+        seen = " and ".join(
+            {"cop": "CoP", "tau": "torque"}[k] for k in ("cop", "tau") if k in kinds
+        )
+        effect = (
+            "CoM height partly does"
+            if "cop" in kinds
+            else (
+                "the CoM does: a constant horizontal shift (the support body's own moments) and "
+                "part of its height"
+            )
+        )
         notes.append(
             f"{len(fit.unidentifiable)} of {n_par} directions are not determined by the data; "
-            f"{filled} (CoP predictions do not depend on them, CoM height partly does)"
+            f"{filled} ({seen} predictions do not depend on them, {effect})"
         )
     from sescid.estimation.tilt import tilt_direction
 
@@ -55,6 +67,12 @@ def fit_notes(fit: Fit) -> list[str]:
                 "the evidence is largest at the smallest prior scale searched: these data cannot "
                 "detect any deviation from CAD, and the intervals (±τ) assume there is none"
             )
+    notes += _sensor_notes(fit)
+    if fit.map is not None and fit.map.prior_decided:
+        notes.append(
+            f"the prior, not the data, decided {fit.map.prior_decided} of {n_par} directions "
+            "(unseen by the data, or where they carry less than half of the information)"
+        )
     if fit.cop_offset is not None:
         bv, bs = fit.cop_offset.value, fit.cop_offset.std
         notes.append(
@@ -96,3 +114,35 @@ def fit_notes(fit: Fit) -> list[str]:
             + f" (predicted CoP error fell < {fit.online.tol:.0%} over {fit.online.window} poses)"
         )
     return notes
+
+
+def _sensor_notes(fit: Fit) -> list[str]:
+    """What the torque sensors' nuisance parameters came to: offsets, friction bands."""
+    tau = [e for e in fit.nuisance if e.kind == "tau"]
+    if not tau:
+        return []
+    out = []
+    offsets = [e for e in tau if e.what == "offset"]
+    lost = [e.name for e in offsets if not e.determined]
+    out.append(
+        f"a constant offset estimated for each of the {len(offsets)} torque sensors"
+        + (
+            f"; not determined for {', '.join(lost)} (see the fit's nuisance reasons)"
+            if lost
+            else ""
+        )
+    )
+    friction = [e for e in tau if e.what == "friction"]
+    if friction:
+        sep = [e for e in friction if e.determined]
+        out.append(
+            f"static friction bands separated from the offsets for {len(sep)} of "
+            f"{len(friction)} joints (approach sides"
+            + (")" if len(sep) == len(friction) else "; the others were approached from one side)")
+        )
+    elif fit.robust is None:
+        out.append(
+            "no approach column: static friction (a held torque anywhere within ±f of the "
+            "gravity torque) is left in the residuals; a robust fit or approach sides separate it"
+        )
+    return out
