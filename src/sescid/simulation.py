@@ -1,4 +1,5 @@
-"""Synthetic CoP data with known truth: random poses, the CoP they give plus noise.
+"""Synthetic data with known truth: random poses, the CoP and the joint torques they give, with
+sensor errors.
 
 The paper's §3 settings (``PAPER_*``) live here, their one home; the study itself (simulate,
 identify, validate) is ``sescid.study.paper_study``.
@@ -37,6 +38,59 @@ class SimData:
     n_clipped: int = 0  #: kept poses with at least one joint clipped to its limits
     #: (n, 3) gravity direction per pose in the support frame (a tilted support); None: level
     gravity: np.ndarray | None = None
+    torques: TorqueData | None = None  #: simulated joint-torque readings, when asked for
+
+
+@dataclass(frozen=True)
+class TorqueNoise:
+    """A torque sensor model: reading = τ + offset_j + side·friction + N(0, noise²) [N·m].
+
+    ``offset``: std of a random constant offset per joint; ``friction``: half-width of the
+    static-friction band (a held torque sits at its edge on the side the pose was approached
+    from, a random side per pose, written as the ``approach`` column); ``g0``: |g| [m/s²];
+    ``total_mass``: the true robot's mass [kg] (None: the model's)."""
+
+    noise: float = 0.05
+    offset: float = 0.0
+    friction: float = 0.0
+    g0: float = 9.80665
+    total_mass: float | None = None
+
+    def check(self) -> None:
+        """OptionError for a value out of range."""
+        for name in ("noise", "offset", "friction"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and 0 <= v <= 1e3):
+                raise OptionError(f"tau_{name}", f"must be in [0, 1000] N·m, got {v}")
+        if not (math.isfinite(self.g0) and 1.0 <= self.g0 <= 30.0):
+            raise OptionError("g0", f"must be |g| in m/s² (1–30), got {self.g0}")
+
+
+@dataclass(frozen=True)
+class TorqueData:
+    """Simulated torque readings (n, J) [N·m] of ``joints`` and the truth behind them."""
+
+    joints: tuple[str, ...]
+    tau: np.ndarray  #: (n, J) readings
+    tau_true: np.ndarray  #: (n, J) noise-free holding torques
+    offsets: np.ndarray  #: (J,) true sensor offsets
+    friction: float  #: half-width of the friction band
+    approach: np.ndarray | None  #: (n,) ±1 approach sides (with friction)
+
+
+def simulate_torques(
+    robot: Robot, q: np.ndarray, model: TorqueNoise, rng: np.random.Generator, r_true=None
+) -> TorqueData:
+    """Torque readings of every joint at poses q (n, nq) for the sensor ``model`` (level)."""
+    model.check()
+    tau_true = robot.torques(q, r_true, total_mass=model.total_mass, g0=model.g0)
+    offsets = rng.normal(0.0, model.offset, robot.nq) if model.offset > 0 else np.zeros(robot.nq)
+    tau = tau_true + offsets + rng.normal(0.0, model.noise, tau_true.shape)
+    approach = None
+    if model.friction > 0:
+        approach = np.where(rng.random(q.shape[0]) < 0.5, 1.0, -1.0)
+        tau += approach[:, None] * model.friction
+    return TorqueData(tuple(robot.joint_names), tau, tau_true, offsets, model.friction, approach)
 
 
 #: peak bytes per stored float of a pose array while simulating it, with margin (measured: 10⁶
@@ -93,6 +147,7 @@ def simulate(
     r_true: np.ndarray | None = None,
     stable: bool = False,
     tilt: float = 0.0,
+    torques: TorqueNoise | None = None,
 ) -> SimData:
     """Random poses and their CoP = CoM projection + N(0, noise²) per axis.
 
@@ -100,7 +155,8 @@ def simulate(
     only poses whose noise-free CoP lies inside the support sole (``Robot.sole``), drawing
     until there are ``n``. ``tilt`` (rad): the support is tilted per pose by a random roll and
     pitch ~ N(0, tilt²); the CoP is then the CoM projected along gravity (``gravity``, support
-    frame). The draws for ``tilt = 0`` are those of a level simulation.
+    frame). The draws for ``tilt = 0`` are those of a level simulation. ``torques``: also the
+    joints' torque readings under that sensor model (level support only; drawn after the CoP).
     """
     if not (noise >= 0 and math.isfinite(noise)):
         raise OptionError("noise", f"must be a finite standard deviation ≥ 0 m, got {noise}")
@@ -123,6 +179,11 @@ def simulate(
         )
     cop_true = robot.cop(q, r_true, gravity)
     cop = cop_true + e
+    tau = None
+    if torques is not None:
+        if gravity is not None:
+            raise OptionError("tilt", "torques are simulated on a level support only")
+        tau = simulate_torques(robot, q, torques, rng, r_true)
     return SimData(
         q=q,
         cop=cop,
@@ -131,6 +192,7 @@ def simulate(
         n_drawn=n_drawn,
         n_clipped=n_clipped,
         gravity=gravity,
+        torques=tau,
     )
 
 

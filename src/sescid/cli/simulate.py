@@ -7,7 +7,9 @@ import numpy as np
 
 from sescid.base.files import OutputSet
 from sescid.cli.common import force_option, load, robot_options, seed_option
-from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
+from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
+
+TORQUES = TorqueNoise()
 
 
 @click.command()
@@ -38,15 +40,43 @@ from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
     help="Tilt the support per pose by a random roll and pitch of this standard deviation "
     "[degrees]; writes grav_x, grav_y, grav_z.",
 )
+@click.option(
+    "--measure",
+    type=click.Choice(["cop", "tau", "both"]),
+    default="cop",
+    show_default=True,
+    help="What the robot measures: the CoP under its foot, its joint torques, or both.",
+)
+@click.option(
+    "--tau-noise",
+    default=TORQUES.noise,
+    show_default=True,
+    type=float,
+    help="Joint-torque noise standard deviation [N·m].",
+)
+@click.option(
+    "--tau-offset",
+    default=TORQUES.offset,
+    show_default=True,
+    type=float,
+    help="Std of a random constant offset per torque sensor [N·m].",
+)
+@click.option(
+    "--tau-friction",
+    default=TORQUES.friction,
+    show_default=True,
+    type=float,
+    help="Half-width of each joint's static-friction band [N·m] (writes the approach column).",
+)
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
 @force_option
-def simulate(
-    robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out, force
-):
-    """Simulate poses and CoP measurements (paper §3) into a CSV.
+def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out,
+             force, **kinds):  # fmt: skip
+    """Simulate poses and what a robot measures there (paper §3) into a CSV.
 
-    Columns: one per joint (radians), cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m);
-    with --tilt-deg also grav_x, grav_y, grav_z (gravity direction in the support frame).
+    Columns: one per joint (radians); cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m); with
+    --measure tau or both, tau_<joint> (N·m, noisy, with the sensor offsets and friction) and
+    tau_true_<joint>; with --tilt-deg also grav_x, grav_y, grav_z (gravity, support frame).
     """
     import math
 
@@ -57,17 +87,34 @@ def simulate(
     robot = load(robot_name, support)
     if clip is None:
         clip = robot.profile.paper_limits_file is None
+    measure = kinds["measure"]
+    torque = None
+    if measure != "cop":
+        torque = TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
     sim = run_simulate(
-        robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg)
-    )
+        robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
+        torques=torque,
+    )  # fmt: skip
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
-    cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
-    cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
+    if measure != "tau":
+        cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
+        cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
+    if sim.torques is not None:
+        t = sim.torques
+        cols |= {f"tau_{j}": t.tau[:, k] for k, j in enumerate(t.joints)}
+        cols |= {f"tau_true_{j}": t.tau_true[:, k] for k, j in enumerate(t.joints)}
+        if t.approach is not None:
+            cols["approach"] = t.approach
     if sim.gravity is not None:
         cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
     with outs:
         write_table(outs.path(out), cols)
-    click.echo(f"wrote {out}: {poses} poses of {robot.name}, noise {noise} m")
+    what = {
+        "cop": f"CoP noise {noise} m",
+        "tau": f"torque noise {kinds['tau_noise']} N·m",
+        "both": f"CoP noise {noise} m, torque noise {kinds['tau_noise']} N·m",
+    }[measure]
+    click.echo(f"wrote {out}: {poses} poses of {robot.name}, {what}")
     if clip:
         click.echo(f"  clipped to the joint limits: {sim.n_clipped} of {poses} poses")
     else:
