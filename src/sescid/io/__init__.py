@@ -36,6 +36,7 @@ __all__ = [
     "RawLogTable",
     "Segment",
     "Table",
+    "TorqueSource",
     "atomic_open",
     "atomic_path",
     "export_mjcf",
@@ -60,7 +61,7 @@ __all__ = [
 ]
 
 
-#: names of ``bags`` (ROS recordings), imported on first use: they pull in ``experiment``
+#: names of ``bags`` (ROS recordings), imported on first use: they pull in ``sensors``
 _BAGS = {
     "MAPPING_FORMAT",
     "BagMapping",
@@ -69,6 +70,7 @@ _BAGS = {
     "PoseSource",
     "RawLogTable",
     "Segment",
+    "TorqueSource",
     "load_mapping",
     "parse_mapping",
     "read_bag",
