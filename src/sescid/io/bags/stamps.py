@@ -49,11 +49,8 @@ def topic_stamps(topic: Topic, mode: str, where: str, notes: list[str]) -> Clock
 
 
 def _steps_back(st: np.ndarray, tol_ns: int) -> np.ndarray:
-    """Indices i where stamp i+1 lies more than ``tol_ns`` before the latest stamp so far."""
-    if len(st) < 2:
-        return np.zeros(0, dtype=int)
-    latest = np.maximum.accumulate(st)[:-1]
-    return np.flatnonzero(st[1:] < latest - tol_ns)
+    """Indices i where stamp i+1 lies more than ``tol_ns`` before stamp i."""
+    return np.flatnonzero(np.diff(st) < -tol_ns)
 
 
 def one_clock(clocks: list[Clocked], tol_ns: int, notes: list[str]) -> list[Clocked]:
@@ -63,11 +60,11 @@ def one_clock(clocks: list[Clocked], tol_ns: int, notes: list[str]) -> list[Cloc
     if not bad:
         return clocks
     c, idx = bad[0]
-    latest = np.maximum.accumulate(c.stamps)
-    size = float((latest[idx] - c.stamps[idx + 1]).max()) * 1e-9
+    size = float(-np.diff(c.stamps)[idx].max()) * 1e-9
+    behind = int((c.stamps[1:] < np.maximum.accumulate(c.stamps)[:-1] - tol_ns).sum())
     what = (
         f"'{c.topic.name}': the header stamps step back {len(idx)} time(s) by up to {size:.3g} s "
-        f"(first at message {int(idx[0]) + 1})"
+        f"(first at message {int(idx[0]) + 1}; {behind} messages stamped before an earlier one)"
     )
     strict = next((k for k in clocks if k.mode == "header"), None)
     if strict is not None:
