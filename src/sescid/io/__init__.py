@@ -20,7 +20,8 @@ from sescid.base.columns import (
 from sescid.base.files import atomic_open, atomic_path, read_json
 from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from sescid.io.export.mjcf import export_mjcf
-from sescid.io.export.urdf import FORMATS, export_model, export_urdf
+from sescid.io.export.model import FORMATS, export_model
+from sescid.io.export.urdf import export_urdf
 from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
 from sescid.io.tables import iter_table, read_table, write_table
 

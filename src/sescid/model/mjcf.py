@@ -35,10 +35,11 @@ How MJCF maps onto ``RobotModel`` (see ``sescid.model.tree`` for the frame conve
   provided every body that had such a geom has an explicit ``<inertial>``; otherwise ModelError.
   A note in ``RobotModel.notes`` says so;
 - geoms become ``Shape``s in their sescid body's frame: role "collision" when ``contype`` or
-  ``conaffinity`` ≠ 0, else "visual"; box, sphere, cylinder and capsule keep their kind (sizes as
-  ``Shape`` documents: full box sides, cylinder/capsule radius and full segment length), an
-  ellipsoid is covered by its bounding box, a mesh carries the compiled vertices (MuJoCo's own,
-  scaled, in the body frame); planes, height fields and SDFs are left out.
+  ``conaffinity`` ≠ 0 or when a ``<contact><pair>`` names them, else "visual"; box, sphere,
+  cylinder and capsule keep their kind (sizes as ``Shape`` documents: full box sides,
+  cylinder/capsule radius and full segment length), an ellipsoid is covered by its bounding
+  box, a mesh carries the compiled vertices (MuJoCo's own, scaled, in the body frame); planes,
+  height fields and SDFs are left out.
 
 ``compiler fusestatic`` and ``alignfree`` are switched off before compiling so that every body
 keeps its own frame as written (neither changes the physics).
@@ -372,6 +373,7 @@ def _shapes(spec, m, body_names, in_robot: set[int], link_frames) -> list[Shape]
     mujoco = _mujoco()
     gt = mujoco.mjtGeom
     files = {mesh.name: mesh.file for mesh in spec.meshes}
+    paired = {int(g) for g in m.pair_geom1} | {int(g) for g in m.pair_geom2}  # <contact><pair>
     out = []
     for g in range(m.ngeom):
         bid = int(m.geom_bodyid[g])
@@ -379,7 +381,8 @@ def _shapes(spec, m, body_names, in_robot: set[int], link_frames) -> list[Shape]
             continue
         b, x = link_frames[body_names[bid]]
         pose = x @ _pose(m.geom_pos[g], m.geom_quat[g])
-        role = "collision" if m.geom_contype[g] or m.geom_conaffinity[g] else "visual"
+        collides = m.geom_contype[g] or m.geom_conaffinity[g] or g in paired
+        role = "collision" if collides else "visual"
         size = np.asarray(m.geom_size[g], dtype=float)
         kind, mesh, verts = None, "", None
         t = m.geom_type[g]
