@@ -60,7 +60,8 @@ SCRIPT = textwrap.dedent(
             if top in allowed or top.startswith("_") or top in sys.builtin_module_names:
                 return None
             blocked_seen.add(top)
-            raise ModuleNotFoundError(f"No module named {name!r} (not a core dependency)", name=name)
+            msg = f"No module named {name!r} (not a core dependency)"
+            raise ModuleNotFoundError(msg, name=name)
 
     for mod in [m for m in sys.modules if m.split(".")[0] not in allowed and not m.startswith("_")]:
         del sys.modules[mod]
@@ -86,17 +87,22 @@ SCRIPT = textwrap.dedent(
             out["extras"][label] = f"{exc.__class__.__name__}: {exc}"
 
     tmp = Path(tempfile.mkdtemp())
-    (tmp / "m.xml").write_text('<mujoco><worldbody><body name="a"><joint/><geom size="1"/></body></worldbody></mujoco>')
+    body = '<body name="a"><joint/><geom size="1"/></body>'
+    (tmp / "m.xml").write_text(f"<mujoco><worldbody>{body}</worldbody></mujoco>")
     (tmp / "map.yaml").write_text("format: sescid-bag-mapping/1\n")
     from sescid.io.bags import parse_mapping, read_bag
     mp = parse_mapping({"format": "sescid-bag-mapping/1", "joints": {"topic": "/j"},
                         "feet": {"right": {"source": "pads", "topic": "/f"}}})
     extra("mjcf", lambda: sescid.load_robot(tmp / "m.xml", support="a"))
     extra("bag", lambda: read_bag(tmp, mp, ["a"]))
-    extra("yaml", lambda: __import__("sescid.base.files", fromlist=["x"]).read_document(tmp / "map.yaml"))
-    extra("meshes", lambda: __import__("sescid.model.meshes", fromlist=["x"])._hull_vertices(str(tmp / "x.stl")))
-    extra("view", lambda: __import__("sescid.report.live", fromlist=["x"])._viser())
-    extra("bench", lambda: __import__("sescid.bench.mujoco", fromlist=["x"])._mujoco())
+    from sescid.base.files import read_document
+    from sescid.bench import mujoco as bench_mujoco
+    from sescid.model import meshes
+    from sescid.report import live
+    extra("yaml", lambda: read_document(tmp / "map.yaml"))
+    extra("meshes", lambda: meshes._hull_vertices(str(tmp / "x.stl")))
+    extra("view", lambda: live._viser())
+    extra("bench", lambda: bench_mujoco._mujoco())
 
     from click.testing import CliRunner
     from sescid.cli import cli
@@ -106,7 +112,8 @@ SCRIPT = textwrap.dedent(
         "identify": ["identify", str(tmp / "sim.csv"), "--method", "consistent",
                      "--allow-outside-limits", "--out", str(tmp / "fit.json")],
         "export": ["export", str(tmp / "fit.json"), "--out", str(tmp / "op2.urdf")],
-        "bag": ["bag", str(tmp), "--map", str(tmp / "map.yaml"), "--out", str(tmp.parent / "raw.csv")],
+        "bag": ["bag", str(tmp), "--map", str(tmp / "map.yaml"),
+                "--out", str(tmp.parent / "raw.csv")],
     }
     for name, args in steps.items():
         res = runner.invoke(cli, args)
