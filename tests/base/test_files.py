@@ -134,3 +134,38 @@ def test_cli_error_names_the_output(tmp_path, monkeypatch, write_dataset, op2):
     assert res.exit_code == 2
     assert res.output == f"sescid: error: {ro / 'o.json'}: cannot write (Permission denied)\n"
     assert os.listdir(ro) == []
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "where"),
+    [
+        (
+            "s.json",
+            '{"format": "x", "feet": {"right": {"saturation_count": Infinity}}}',
+            "feet.right.saturation_count",
+        ),
+        ("s.json", '{"format": "x", "cells": [1, 1e999]}', "cells.1"),
+        ("s.yaml", "format: x\nscale: .inf\n", "scale"),
+    ],
+)
+def test_infinite_numbers_are_refused_with_their_field(tmp_path, name, text, where):
+    """`saturation_count: Infinity` in a sensor file was an OverflowError traceback."""
+    from sescid.base.files import read_document, read_json
+
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(DataError, match=rf"{name}: {re.escape(where)}: -?inf is not a finite"):
+        read_document(path)
+    if name.endswith(".json"):
+        with pytest.raises(DataError, match=re.escape(where)):
+            read_json(path, "x", "a test file")
+
+
+def test_sensor_file_with_infinity_is_one_line(tmp_path, op2):
+    """The hostile case through the sensor reader: one line naming the file and the field."""
+    from sescid.sensors.pads import load_sensors
+
+    path = tmp_path / "fsr.json"
+    path.write_text('{"format": "sescid-fsr/1", "saturation_count": Infinity}')
+    with pytest.raises(DataError, match=r"fsr.json: saturation_count: inf is not a finite"):
+        load_sensors(path, profile=op2.profile)

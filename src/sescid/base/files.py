@@ -110,7 +110,7 @@ class _AtomicPath:
 
 def read_json(path: str | Path, fmt: str | tuple[str, ...], what: str) -> dict:
     """A JSON object whose ``"format"`` is ``fmt`` (or one of them); one-line errors naming the
-    file."""
+    file (and the field of an infinite number)."""
     path = Path(path)
     fmts = (fmt,) if isinstance(fmt, str) else fmt
     if not path.is_file():
@@ -119,9 +119,23 @@ def read_json(path: str | Path, fmt: str | tuple[str, ...], what: str) -> dict:
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
+    _finite(data, path, "")
     if not isinstance(data, dict) or data.get("format") not in fmts:
         raise DataError(f'{path}: not {what} (expected "format": "{fmts[-1]}")')
     return data
+
+
+def _finite(obj: object, path: Path, where: str) -> None:
+    """DataError naming the field when a document holds an infinite number (JSON's Infinity,
+    a number too large for a float, YAML's .inf): no sescid file holds one."""
+    if isinstance(obj, float) and obj in (float("inf"), float("-inf")):
+        raise DataError(f"{path}: {where or 'the document'}: {obj} is not a finite number")
+    if isinstance(obj, dict):
+        items = list(obj.items())
+    else:
+        items = list(enumerate(obj)) if isinstance(obj, list) else []
+    for key, value in items:
+        _finite(value, path, f"{where}.{key}" if where else str(key))
 
 
 def check_outputs(
@@ -333,18 +347,22 @@ def read_document(path: str | Path) -> object:
         raise DataError(f"{path}: cannot read ({exc.__class__.__name__})") from None
     if path.suffix.lower() == ".json":
         try:
-            return json.loads(text)
+            doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise DataError(f"{path}: not a JSON file (line {exc.lineno}: {exc.msg})") from None
+        _finite(doc, path, "")
+        return doc
     try:
         from ruamel.yaml import YAML
         from ruamel.yaml.error import YAMLError
     except ImportError:  # pragma: no cover - ruamel.yaml ships with the bags extra
         raise MissingExtraError(f"{path}: reading YAML", "bags") from None
     try:
-        return YAML(typ="safe", pure=True).load(text)
+        doc = YAML(typ="safe", pure=True).load(text)
     except YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}: " if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise DataError(f"{path}: not a YAML file ({where}{problem})") from None
+    _finite(doc, path, "")
+    return doc

@@ -1,10 +1,11 @@
-"""Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export, ROS bags.
+"""Files in and out: pose/CoP/torque tables (CSV, Parquet), the fit file, model export, ROS bags.
 
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
 ``read_cop_se`` (column conventions of ``sescid.base.columns``), ``save_fit``/``load_fit`` (the fit
 JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
-``export_mjcf``), ``read_bag`` (a ROS bag and a mapping file → the ``fsr`` step's raw table; the
-``bags`` extra).
+``export_mjcf``; ``sescid.io.export``), ``read_bag`` (a ROS bag and a mapping file → the raw log:
+joints, joint torques, foot forces; ``sescid.io.bags``, the ``bags`` extra). Outputs are never
+written over an input nor inside an input folder (``sescid.base.files``).
 """
 
 from __future__ import annotations
