@@ -4,6 +4,8 @@ collision geometry is the feet, colliding with the floor through ``<contact><pai
 
 from __future__ import annotations
 
+import struct
+import zlib
 from pathlib import Path
 
 #: a tetrahedron (OBJ), the head's visual mesh
@@ -61,9 +63,28 @@ MAIN = """<?xml version="1.0"?>
 ASSETS = """<mujoco>
   <asset>
     <mesh name="head_mesh" file="tetra.obj"/>
+    <texture name="skin" type="2d" file="textures/skin.png"/>
+    <material name="skin" texture="skin"/>
   </asset>
 </mujoco>
 """
+
+
+def png_2x2() -> bytes:
+    """A 2×2 RGB PNG (the head's texture; no texturedir: relative to the main file)."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    rows = b"".join(b"\x00" + bytes([200, 120, 90] * 2) for _ in range(2))
+    header = struct.pack(">IIBBBBB", 2, 2, 8, 2, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(rows))
+        + chunk(b"IEND", b"")
+    )
 
 
 def robot_xml() -> str:
@@ -82,7 +103,8 @@ def robot_xml() -> str:
         <inertial pos="0 0 0.15" mass="4.0" diaginertia="0.06 0.05 0.03"/>{arms}
         <body name="head" pos="0 0 0.32">
           <joint name="neck" axis="0 1 0" range="-0.5 0.5"/>
-          <geom type="mesh" mesh="head_mesh" density="2000" contype="0" conaffinity="0"/>
+          <geom type="mesh" mesh="head_mesh" density="2000" material="skin"
+                contype="0" conaffinity="0"/>
         </body>
       </body>
     </body>
@@ -94,6 +116,8 @@ def write_humanoid(folder: Path) -> Path:
     """Write the humanoid's files under ``folder``; the main file's path."""
     (folder / "parts").mkdir(parents=True)
     (folder / "assets").mkdir()
+    (folder / "textures").mkdir()
+    (folder / "textures" / "skin.png").write_bytes(png_2x2())
     (folder / "assets" / "tetra.obj").write_text(TETRA_OBJ)
     (folder / "parts" / "assets.xml").write_text(ASSETS)
     (folder / "parts" / "robot.xml").write_text(robot_xml())

@@ -169,3 +169,12 @@ def test_sensor_file_with_infinity_is_one_line(tmp_path, op2):
     path.write_text('{"format": "sescid-fsr/1", "saturation_count": Infinity}')
     with pytest.raises(DataError, match=r"fsr.json: saturation_count: inf is not a finite"):
         load_sensors(path, profile=op2.profile)
+
+
+def test_a_folder_named_like_the_robot_is_not_an_input(tmp_path, monkeypatch):
+    """`--robot op2` (the default) beside a folder called op2: outputs may go into it."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "op2").mkdir()
+    check_outputs([Path("op2") / "sim.csv"], ["op2"])
+    with pytest.raises(DataError, match="inside the input"):
+        check_outputs([Path("op2") / "sim.csv"], ["./op2"])  # a path: the folder itself

@@ -70,7 +70,13 @@ def test_mjcf_with_include_loads_in_mujoco_with_the_fit(humanoid, tmp_path):
     out.parent.mkdir()
     warnings = export_model(fit, out)
     text = out.read_text()
-    assert "<include" not in text and 'meshdir="../' in text
+    assert "<include" not in text
+    root = ET.fromstring(text)
+    meshdir = root.find("compiler").get("meshdir")
+    texture = root.find("asset/texture").get("file")  # no texturedir: the file itself
+    assert meshdir.startswith("../") and texture.startswith("../")
+    assert (out.parent / meshdir).resolve() == (main.parent / "assets").resolve()
+    assert (out.parent / texture).resolve() == (main.parent / "textures" / "skin.png").resolve()
     assert "a generated humanoid: main file" in text  # a comment before the root
     assert "the robot, included by the main file" in text  # a comment of the included file
     assert text.count("<pair ") == 2
@@ -101,6 +107,7 @@ def test_mjcf_export_beside_the_source_keeps_its_paths(humanoid, tmp_path):
         export_mjcf(fit, out)
         text = out.read_text()
         assert 'meshdir="assets"' in text and "<include" not in text
+        assert 'file="textures/skin.png"' in text
         assert mujoco.MjModel.from_xml_path(str(out)).body_mass.sum() == pytest.approx(
             fit.inertials.masses.sum(), rel=1e-12
         )
