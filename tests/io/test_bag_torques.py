@@ -205,3 +205,16 @@ def test_cli_bag_writes_torque_columns(tmp_path, robot):
     tab = read_table(out)
     assert {f"tau_{j}" for j in robot.joint_names} <= set(tab.names())
     assert tab.n > 100
+
+
+def test_joint_states_without_efforts_are_refused(tmp_path, robot):
+    """torques: on a JointState whose effort arrays are all empty: one line, not NaN columns."""
+    from bag_gen import session_topics
+
+    s = make_session(robot.joint_names, n_poses=2)
+    b = TorqueBuilder()
+    path = write_bag(tmp_path / "s", "mcap", session_topics(s, b, robot.joint_names), b)
+    mp = mapping_dict(torques={"topic": "/joint_states"})
+    with pytest.raises(SescidError, match=r"no message on /joint_states has effort values") as e:
+        read_bag(path, parse_mapping(mp, "map.yaml"), robot.joint_names)
+    assert "map.yaml: torques.field" in str(e.value) and "\n" not in str(e.value)

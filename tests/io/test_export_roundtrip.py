@@ -187,6 +187,7 @@ BAD_INERTIA_URDF = """<?xml version="1.0"?>
       <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.005"/></inertial>
     <visual><geometry><mesh filename="meshes/base.stl" scale="1 1 1"/></geometry></visual>
     <visual><geometry><mesh filename="package://bad_description/meshes/b.stl"/></geometry></visual>
+    <visual><geometry><mesh filename="file://meshes/base.stl"/></geometry></visual>
   </link>
   <link name="arm">
     <inertial><origin xyz="0.1 0 -0.05"/><mass value="0.4"/>
@@ -247,6 +248,7 @@ def test_urdf_relative_meshes_resolve_from_the_output(bad, tmp_path):
     names = [m.get("filename") for m in ET.parse(out).getroot().iter("mesh")]
     assert (out.parent / names[0]).resolve() == (folder / "src" / "meshes" / "base.stl").resolve()
     assert names[1] == "package://bad_description/meshes/b.stl"
+    assert names[2] == "file://" + names[0]
     text = out.read_text()
     assert 'xmlns:xacro="http://www.ros.org/wiki/xacro"' in text
     assert "<!-- a robot whose CAD inertias are not all physical -->" in text

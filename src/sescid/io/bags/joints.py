@@ -76,6 +76,11 @@ def joint_torques(
                 f"{', '.join(bag_names(c.topic)[:8])}); add torques.rename"
             )
         tau = full[:, [joint_names.index(j) for j in names]]
+        if empty == len(c.topic.msgs):
+            raise DataError(
+                f"{c.topic.bag}: no message on {c.topic.name} has {ts.field} values "
+                f"({where}.field; the recording holds no joint torques there)"
+            )
         if empty:
             notes.append(f"{c.topic.name}: {empty} messages have no {ts.field} values (NaN)")
     tau = tau * (ts.scale * TORQUE_NM[ts.unit])

@@ -7,8 +7,8 @@ relative to the including file's; the included file's top-level element is dropp
 children take the ``<include>``'s place. Mesh, height-field and skin files are relative to
 ``compiler meshdir`` (else ``assetdir``, else the model's folder), textures to ``texturedir``
 (else ``assetdir``): a relative directory attribute is rewritten, else each relative file
-name. URDF ``<mesh filename>``/``<texture filename>`` without a URI scheme (``package://``,
-``file://``) are rewritten.
+name. URDF ``<mesh filename>``/``<texture filename>`` that are relative paths (or relative
+``file://`` URIs) are rewritten; ``package://`` URIs and absolute paths are left alone.
 """
 
 from __future__ import annotations
@@ -43,10 +43,12 @@ def relative(target: Path, folder: Path) -> str:
 
 
 def _moved(name: str, src_dir: Path, out_dir: Path) -> str | None:
-    """The new value of a relative file name, None when it needs none."""
-    if not name or "://" in name or Path(name).is_absolute():
+    """The new value of a relative file name (``file://`` kept), None when it needs none."""
+    scheme = "file://" if name.startswith("file://") else ""
+    rest = name[len(scheme) :]
+    if not rest or "://" in rest or Path(rest).is_absolute():
         return None
-    return relative(src_dir / name, out_dir)
+    return scheme + relative(src_dir / rest, out_dir)
 
 
 def relocate_urdf(root: ET.Element, src_dir: Path, out_dir: Path) -> int:
