@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 import scipy.stats
 from click.testing import CliRunner
+from fitting import identify_ls, identify_map
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import accumulate, identify_ls, load_fit
-from sescid.estimation.map import identify_map, log_evidence
+from sescid.estimation import accumulate, load_fit
+from sescid.estimation.map import log_evidence
 from sescid.estimation.validation import perturbed_sesc, truth_error
 from sescid.simulation import simulate
 

@@ -8,12 +8,12 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_consistent
 from oracle import PinOracle  # noqa: E402  (tests/ is on sys.path through its conftest)
 
 import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation.consistent import identify_consistent
 from sescid.io.export.urdf import export_urdf
 
 TOTAL = 2.97  # kg, a "weighed" mass 45 g above the URDF's

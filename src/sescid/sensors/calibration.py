@@ -50,6 +50,7 @@ poorly determined, so they stay a given of the sensor file (measure them).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -58,7 +59,8 @@ import numpy as np
 from sescid.errors import DataError, OptionError
 from sescid.estimation.fit import Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, _sparse_terms, check_rtol, label_columns
-from sescid.estimation.map import TAU_RANGE, fit_from_normal_equations
+from sescid.estimation.least_squares import cop_system
+from sescid.estimation.map import TAU_RANGE, fit_map
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
@@ -518,17 +520,22 @@ def calibrate_sensors(
 
     # the mass model: the x block with the sensors marginalised (a MAP Fit)
     fit = _mass_fit(robot, aw, zw, free, p_x, theta0, tau, sens_prec, rtol, rows)
-    fit.r = theta[:p_x].reshape(-1, 3)
     fx = np.flatnonzero(free[:p_x])
-    fit.cov = cov[np.ix_(range(p_x), range(p_x))]
-    if fx.size != p_x:
-        fit.cov = np.zeros((p_x, p_x))
     cop_rows = rows.moment
-    fit.rms = float(np.sqrt(np.mean(resid[cop_rows] ** 2)))
-    fit.mae = float(np.mean(np.abs(resid[cop_rows])))
-    if fit.map is not None:
-        fit.map.prior_scale_by = "given" if prior_scale is not None else "evidence"
-        fit.map.noise_by = "per-session estimate"
+    fit = dataclasses.replace(
+        fit,
+        r=theta[:p_x].reshape(-1, 3),
+        cov=cov[np.ix_(range(p_x), range(p_x))] if fx.size == p_x else np.zeros((p_x, p_x)),
+        rms=float(np.sqrt(np.mean(resid[cop_rows] ** 2))),
+        mae=float(np.mean(np.abs(resid[cop_rows]))),
+        map=None
+        if fit.map is None
+        else dataclasses.replace(
+            fit.map,
+            prior_scale_by="given" if prior_scale is not None else "evidence",
+            noise_by="per-session estimate",
+        ),
+    )
 
     null_proj = _sensor_null_projector(rows, free, p_x, prior_sd, sw, rtol)
     params = _parameters(cols, theta, cov, p_x, fixed, null_proj, free, sens_of)
@@ -600,9 +607,9 @@ def _mass_fit(robot, aw, zw, free, p_x, theta0, tau, sens_prec, rtol, rows) -> F
     atb = b + ata @ x0
     yty = ztz + 2 * x0 @ atb - x0 @ ata @ x0
     ne = NormalEquations(ata, atb, float(yty), int(aw.shape[0]), rows.n_poses)
-    fit = fit_from_normal_equations(robot, ne, prior_scale=tau, noise=1.0, rtol=rtol)
-    fit.weighted = True
-    return fit
+    return fit_map(
+        robot, cop_system(robot, ne, weighted=True), prior_scale=tau, noise=1.0, rtol=rtol
+    )
 
 
 def _scaled_schur(rows, free, p_x, prior_sd, sw, rtol):
