@@ -9,10 +9,11 @@ warning when a body's mass leaves the CAD's neighbourhood.
   do not identify them.
 - A body that was massless, or whose tensor is (nearly) zero, gets the inertia of a solid
   sphere of radius ``NEW_BODY_RADIUS``.
-- Every written tensor is checked: positive definite and satisfying the triangle inequality
-  (principal moments a ≤ b ≤ c with a + b ≥ c, what MuJoCo demands and any rigid body has). A
-  CAD tensor that is not is replaced by a valid one on the same axes (moments floored at
-  ``MIN_MOMENT`` × the largest, the largest lowered to a + b), with a warning.
+- Every written tensor is checked: positive definite and physical by the model's rule
+  (``sescid.model.inertia_issue``: symmetric, principal moments a ≤ b ≤ c with a + b ≥ c, what
+  MuJoCo demands and any rigid body has). A CAD tensor that is not is replaced by a valid one on
+  the same axes (moments floored at ``MIN_MOMENT`` × the largest, the largest lowered to
+  a + b), with a warning.
 - A body whose exported mass leaves ±``MASS_WARN`` (50 %) of the CAD's is reported.
 """
 
@@ -23,13 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from sescid.errors import ModelError
+from sescid.model.inertia import INERTIA_ATOL, inertia_issue
 
 #: m, radius of the solid sphere whose inertia a newly massive body gets
 NEW_BODY_RADIUS = 0.01
 #: smallest principal moment written, relative to the largest (a flat plate keeps a sliver)
 MIN_MOMENT = 1e-6
-#: m², largest principal moment per kg below which a body has no inertia (gyration radius 1 µm)
-NO_INERTIA = 1e-12
 #: relative change of a body's mass from the CAD's beyond which export warns
 MASS_WARN = 0.5
 
@@ -62,34 +62,33 @@ def sphere_inertia(mass: float) -> np.ndarray:
 
 
 def valid_inertia(tensor: np.ndarray, mass: float, where: str) -> tuple[np.ndarray, str | None]:
-    """``tensor`` (3, 3) kg·m² about the CoM if physically valid, else the nearest valid tensor
-    on the same principal axes and a warning naming ``where``. A (nearly) zero tensor of a body
-    with mass becomes the sphere's; a massless body's tensor is left as it is."""
+    """``tensor`` (3, 3) kg·m² about the CoM if positive definite and physical (the model's
+    rule, ``sescid.model.inertia_issue``), else a valid tensor on the same principal axes and a
+    warning naming ``where``. A body with mass whose tensor is zero (a point mass, within the
+    rule's absolute tolerance) gets the sphere's; a massless body's tensor is left as it is."""
     t = 0.5 * (np.asarray(tensor, dtype=float) + np.asarray(tensor, dtype=float).T)
     if not np.isfinite(t).all():
         raise ModelError(f"{where}: the inertia tensor is not finite")
-    w, v = np.linalg.eigh(t)  # ascending
-    top = float(w[-1])
     if mass <= 0:
         return t, None
-    if top <= NO_INERTIA * mass:
+    w, v = np.linalg.eigh(t)  # ascending
+    top = float(w[-1])
+    if top <= INERTIA_ATOL:
         return np.diag(sphere_inertia(mass)), (
             f"{where}: no inertia in the model (largest principal moment {top:.3g} kg·m² for "
             f"{mass:.4g} kg); written as a {NEW_BODY_RADIUS * 1000:g} mm solid sphere's"
         )
-    positive = w[0] > 0
-    triangle = w[0] + w[1] >= w[2] * (1 - 1e-9)
-    if positive and triangle:
+    issue = inertia_issue(t)
+    if issue is None and w[0] > 0:
         return t, None
     fixed = np.maximum(w, MIN_MOMENT * top)
     if fixed[0] + fixed[1] < fixed[2]:
         fixed[2] = (fixed[0] + fixed[1]) * (1 - 1e-12)  # strictly inside after round-off
-    why = "not positive" if not positive else "a + b < c"
     out = (v * fixed) @ v.T
     return 0.5 * (out + out.T), (
-        f"{where}: the model's inertia is not physically valid (principal moments "
-        f"{', '.join(f'{x:.3g}' for x in w)} kg·m²: {why}); written as a valid tensor on the "
-        f"same axes ({', '.join(f'{x:.3g}' for x in fixed)})"
+        f"{where}: the model's inertia {issue or 'has a zero principal moment'}; written as a "
+        f"valid tensor on the same axes (principal moments "
+        f"{', '.join(f'{x:.3g}' for x in fixed)} kg·m²)"
     )
 
 

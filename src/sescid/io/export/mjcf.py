@@ -43,7 +43,8 @@ from sescid.io.export.inertia import (
     valid_inertia,
 )
 from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
-from sescid.model.mjcf import _mujoco, _names, compile_mjcf
+from sescid.model.mjcf import object_names
+from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 
 _ORIENT = ("quat", "axisangle", "xyaxes", "zaxis", "euler")
 #: kg written for a moving MJCF body the fit leaves (nearly) massless (MuJoCo needs mass > 0)
@@ -126,7 +127,7 @@ def _compiler_edits(root: ET.Element, warnings: list[str]) -> None:
 
 def _target(src: Path) -> tuple[_Target, XmlDoc, Any]:
     """The source MJCF (includes resolved), matched to MuJoCo's compiled bodies."""
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     spec, m = compile_mjcf(src)
     doc = read_xml(src, "MJCF")
     resolve_includes(doc.root, src)
@@ -158,7 +159,7 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
     total_set = spec.compiler.settotalmass > 0
     t.warnings += mass_warnings(model, masses)
     _compiler_edits(doc.root, t.warnings)
-    names = _names(m, "body", m.nbody, "body")
+    names = object_names(m, "body", m.nbody, "body")
     body_id = {n: i for i, n in enumerate(names) if i}
     written = _write_bodies(t, model, body_id, masses, coms, src)
     if t.from_geom or total_set:  # every other massive body needs its compiled inertial written
