@@ -72,12 +72,13 @@ def test_torques_any_subset_with_standard_errors(tmp_path):
             "tau_c": np.array([1.0, 2.0, 3.0]),
             "tau_a": np.array([-1.0, 0.5, 0.25]),
             "tau_se_c": np.array([0.1, 0.1, 0.2]),
+            "tau_se_a": np.array([0.3, 0.3, 0.3]),
         },
     )
     tor = read_torques(t, ["a", "b", "c"])
     assert tor.joints == ("a", "c")  # model order
     assert np.array_equal(tor.tau, [[-1.0, 1.0], [0.5, 2.0], [0.25, 3.0]])
-    assert np.isnan(tor.se[:, 0]).all() and np.array_equal(tor.se[:, 1], [0.1, 0.1, 0.2])
+    assert np.array_equal(tor.se, [[0.3, 0.1], [0.3, 0.1], [0.3, 0.2]])
     none = read_torques(_table(tmp_path, {"a": np.zeros(2)}, "n.csv"), ["a"])
     assert none.joints == () and none.tau.shape == (2, 0) and none.se is None
 
@@ -90,6 +91,7 @@ def test_torques_any_subset_with_standard_errors(tmp_path):
         ({"tau_a": [1.0, np.nan]}, r"row 3, column 'tau_a': value nan is not finite"),
         ({"tau_a": [1.0, 1.0], "tau_se_a": [0.1, -1]}, r"row 3, column 'tau_se_a'"),
         ({"tau_se_a": [0.1, 0.1]}, r"column 'tau_se_a' has no torque column"),
+        ({"tau_a": [1.0, 1.0], "tau_b": [1.0, 1.0], "tau_se_a": [0.1, 0.1]}, r"'tau_se_b'"),
     ],
 )
 def test_torque_errors_name_file_row_and_column(tmp_path, cols, match):

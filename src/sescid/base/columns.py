@@ -289,7 +289,7 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
 
     With ``allow_missing`` (a raw log) empty cells become NaN, otherwise they are errors.
     Torques beyond ±MAX_TORQUE_NM and negative or non-finite standard errors are errors naming
-    the file, row and column; a standard error column without its torque column too.
+    the file, row and column; standard errors come for every torque column or for none.
     """
     joints = torque_joints(table, joint_names)
     cols = []
@@ -311,11 +311,14 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
         raise DataError(f"{table.path}: column '{orphan}' has no torque column beside it")
     if not se_names:
         return Torques(tuple(joints), tau, None)
-    se = np.full_like(tau, np.nan)
+    se = np.empty_like(tau)
     for k, j in enumerate(joints):
         name = f"{TORQUE_SE_PREFIX}{j}"
         if name not in se_names:
-            continue
+            raise DataError(
+                f"{table.path}: missing column '{name}' (a standard error for every torque "
+                "column, or none)"
+            )
         v = table.get(name, "column")
         bad = np.flatnonzero(v < 0)
         if bad.size:
