@@ -3,12 +3,15 @@
 Joint columns are named as the model's joints: ``<joint>`` in rad, ``<joint>_deg`` in degrees or
 ``<joint>_ticks`` in servo ticks (the robot profile's encoder); exactly one unit per joint.
 ``cop_x``, ``cop_y`` are metres in the support frame; ``cop_se_x``/``cop_se_y`` (or ``cop_se``)
-per-pose CoP standard errors in metres. Every error names the file, row and column.
+per-pose CoP standard errors in metres; ``tau_<joint>`` joint torques in N·m (any subset of
+the joints) with optional ``tau_se_<joint>``; ``approach`` ±1 per pose; ``grav_x/y/z`` the
+gravity direction. Every error names the file, row and column.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -239,8 +242,106 @@ def read_gravity(table: Table) -> np.ndarray | None:
     if bad.size:
         i = int(bad[0])
         raise DataError(
-            f"{table.path}: row {table.row(i)}: "
+            f"{table.path}: row {table.row(i)}, columns grav_x/y/z: "
             f"gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
             "finite and point down through the sole (grav_z < 0, tilt < 60°)"
         )
     return g / norm[:, None]
+
+
+#: joint torque columns: ``tau_<joint>`` N·m, optional ``tau_se_<joint>`` N·m (standard error)
+TORQUE_PREFIX, TORQUE_SE_PREFIX = "tau_", "tau_se_"
+#: N·m beyond which a torque is taken for a unit mistake (mN·m, N·mm)
+MAX_TORQUE_NM = 1e4
+
+
+@dataclass(frozen=True)
+class Torques:
+    """Joint torques read from a table: ``tau`` (n, k) N·m about each joint's axis (model sign)
+    for ``joints`` (k, in the model's joint order), ``se`` (n, k) N·m or None."""
+
+    joints: tuple[str, ...]
+    tau: np.ndarray
+    se: np.ndarray | None
+
+
+def torque_joints(table: Table, joint_names: list[str]) -> list[str]:
+    """Joints that have a ``tau_<joint>`` column, in joint order; a ``tau_`` column that names
+    no joint of the model is a DataError naming the column."""
+    known = set(joint_names)
+    have = set()
+    for name in table.names():
+        if not name.startswith(TORQUE_PREFIX):
+            continue
+        rest = name[len(TORQUE_PREFIX) :]
+        if rest in known:
+            have.add(rest)
+        elif not (name.startswith(TORQUE_SE_PREFIX) and name[len(TORQUE_SE_PREFIX) :] in known):
+            raise DataError(
+                f"{table.path}: column '{name}': '{rest}' is not a joint of the model "
+                "(torque columns are tau_<joint>, joint names as in the model file)"
+            )
+    return [j for j in joint_names if j in have]
+
+
+def read_torques(table: Table, joint_names: list[str], allow_missing: bool = False) -> Torques:
+    """The ``tau_<joint>`` columns (any subset of the joints) and their ``tau_se_<joint>``.
+
+    With ``allow_missing`` (a raw log) empty cells become NaN, otherwise they are errors.
+    Torques beyond ±MAX_TORQUE_NM and negative or non-finite standard errors are errors naming
+    the file, row and column; standard errors come for every torque column or for none.
+    """
+    joints = torque_joints(table, joint_names)
+    cols = []
+    for j in joints:
+        name = f"{TORQUE_PREFIX}{j}"
+        v = column_with_missing(table, name) if allow_missing else table.get(name, "column")
+        big = np.flatnonzero(np.abs(v) > MAX_TORQUE_NM)
+        if big.size:
+            raise DataError(
+                f"{table.path}: row {table.row(big[0])}, column '{name}': {v[big[0]]:g} is not a "
+                "plausible joint torque in N·m"
+            )
+        cols.append(v)
+    n = table.n
+    tau = np.column_stack(cols) if cols else np.zeros((n, 0))
+    se_names = [c for c in table.names() if c.startswith(TORQUE_SE_PREFIX)]
+    orphan = next((c for c in se_names if c[len(TORQUE_SE_PREFIX) :] not in joints), None)
+    if orphan is not None:
+        raise DataError(f"{table.path}: column '{orphan}' has no torque column beside it")
+    if not se_names:
+        return Torques(tuple(joints), tau, None)
+    se = np.empty_like(tau)
+    for k, j in enumerate(joints):
+        name = f"{TORQUE_SE_PREFIX}{j}"
+        if name not in se_names:
+            raise DataError(
+                f"{table.path}: missing column '{name}' (a standard error for every torque "
+                "column, or none)"
+            )
+        v = table.get(name, "column")
+        bad = np.flatnonzero(v < 0)
+        if bad.size:
+            raise DataError(
+                f"{table.path}: row {table.row(bad[0])}, column '{name}': {v[bad[0]]:g} is not "
+                "a standard error (≥ 0 N·m)"
+            )
+        se[:, k] = v
+    return Torques(tuple(joints), tau, se)
+
+
+def read_approach(table: Table, name: str = "approach") -> np.ndarray | None:
+    """The side each pose was reached from (n,): +1 from below, −1 from above; None without
+    the column. Any other value is a DataError naming the row."""
+    if name not in table:
+        if name in table.text:
+            table.get(name)  # raises: names the row and the text
+        return None
+    v = table.get(name)
+    bad = np.flatnonzero((v != 1) & (v != -1))
+    if bad.size:
+        raise DataError(
+            f"{table.path}: row {table.row(bad[0])}, column '{name}': {v[bad[0]]:g} is not +1 "
+            "or -1 (the side the joints came from: +1 below, -1 above)"
+        )
+    return v.astype(int)

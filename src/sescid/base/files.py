@@ -12,6 +12,7 @@ import contextlib
 import functools
 import json
 import os
+import re
 import secrets
 import shutil
 import stat
@@ -36,18 +37,31 @@ def _file_mode() -> int:
 
 @contextlib.contextmanager
 def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO[Any]]:
-    """Open a temporary file beside ``path``; it replaces ``path`` only if the block succeeds."""
+    """Open a temporary file beside ``path``; it replaces ``path`` only if the block succeeds.
+
+    An OS error on the temporary file (creating, writing, replacing) is a DataError naming
+    ``path``, never the temporary.
+    """
     path = Path(path)
     path = path.resolve() if path.is_symlink() else path
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise DataError(f"{path}: output folder '{directory}' does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    os.chmod(tmp, _file_mode())
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        os.chmod(tmp, _file_mode())
+    except OSError as exc:
+        raise DataError(f"{path}: cannot write ({exc.strerror or exc})") from None
     try:
         with os.fdopen(fd, mode, **kwargs) as fh:
             yield fh
         os.replace(tmp, path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if exc.filename in (None, tmp, str(path)):
+            raise DataError(f"{path}: cannot write ({exc.strerror or exc})") from None
+        raise
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
@@ -68,25 +82,35 @@ class _AtomicPath:
         directory = self.path.parent if str(self.path.parent) else Path(".")
         if not directory.is_dir():
             raise DataError(f"{self.path}: output folder '{directory}' does not exist")
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{self.path.stem}.", suffix=self.path.suffix, dir=directory
-        )
-        os.close(fd)
-        os.chmod(tmp, _file_mode())
+        try:
+            fd, tmp = tempfile.mkstemp(
+                prefix=f".{self.path.stem}.", suffix=self.path.suffix, dir=directory
+            )
+            os.close(fd)
+            os.chmod(tmp, _file_mode())
+        except OSError as exc:
+            raise DataError(f"{self.path}: cannot write ({exc.strerror or exc})") from None
         self.tmp = Path(tmp)
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is None:
-            os.replace(self.tmp, self.path)
-        else:
-            with contextlib.suppress(OSError):
-                self.tmp.unlink()
+            try:
+                os.replace(self.tmp, self.path)
+                return
+            except OSError as err:
+                exc = err
+        with contextlib.suppress(OSError):
+            self.tmp.unlink()
+        if isinstance(exc, OSError) and exc.filename in (None, str(self.tmp), str(self.path)):
+            raise DataError(f"{self.path}: cannot write ({exc.strerror or exc})") from None
+        if exc_type is None:
+            raise exc
 
 
 def read_json(path: str | Path, fmt: str | tuple[str, ...], what: str) -> dict:
     """A JSON object whose ``"format"`` is ``fmt`` (or one of them); one-line errors naming the
-    file."""
+    file (and the field of an infinite number)."""
     path = Path(path)
     fmts = (fmt,) if isinstance(fmt, str) else fmt
     if not path.is_file():
@@ -95,9 +119,23 @@ def read_json(path: str | Path, fmt: str | tuple[str, ...], what: str) -> dict:
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
+    _finite(data, path, "")
     if not isinstance(data, dict) or data.get("format") not in fmts:
         raise DataError(f'{path}: not {what} (expected "format": "{fmts[-1]}")')
     return data
+
+
+def _finite(obj: object, path: Path, where: str) -> None:
+    """DataError naming the field when a document holds an infinite number (JSON's Infinity,
+    a number too large for a float, YAML's .inf): no sescid file holds one."""
+    if isinstance(obj, float) and obj in (float("inf"), float("-inf")):
+        raise DataError(f"{path}: {where or 'the document'}: {obj} is not a finite number")
+    if isinstance(obj, dict):
+        items = list(obj.items())
+    else:
+        items = list(enumerate(obj)) if isinstance(obj, list) else []
+    for key, value in items:
+        _finite(value, path, f"{where}.{key}" if where else str(key))
 
 
 def check_outputs(
@@ -109,19 +147,24 @@ def check_outputs(
 ) -> None:
     """DataError unless every output can be written without destroying anything.
 
-    An output must not be one of the inputs (same resolved path or same file), nor a directory,
-    device or FIFO, nor a write-protected file (unless ``force``), its folder must exist, and two
-    outputs must differ. A symlink is written through (its target is replaced, the link kept).
-    ``folders``: output folders (created when missing); each must not be a file.
+    An output must not be one of the inputs (same resolved path or same file), nor lie inside
+    an input folder (a rosbag2 recording, a session folder: a recording is never written
+    into), nor be a directory, device or FIFO, nor a write-protected file (unless ``force``);
+    its folder must exist and be writable, and two outputs must differ. A symlink is written
+    through (its target is replaced, the link kept). ``folders``: output folders (created when
+    missing); each must not be a file nor lie inside an input folder.
     """
     seen: dict[tuple[int, int] | Path, Path] = {}
     ins: dict[tuple[int, int] | Path, Path] = {}
+    in_folders = [Path(p) for p in inputs if p is not None and _data_folder(p)]
     for p in inputs:
         if p is not None and Path(p).exists():
             ins[_identity(Path(p))] = Path(p)
     for d in folders or []:
         if d is not None and Path(d).exists() and not Path(d).is_dir():
             raise DataError(f"{d}: exists and is not a folder")
+        if d is not None:
+            _not_inside(Path(d), in_folders)
     for p in outputs:
         if p is None:
             continue
@@ -134,6 +177,7 @@ def check_outputs(
         if key in seen:
             raise DataError(f"{path}: given twice as an output ({seen[key]})")
         seen[key] = path
+        _not_inside(path, in_folders)
         if path.exists() or path.is_symlink():
             target = path.resolve()
             if target.is_dir():
@@ -149,6 +193,26 @@ def check_outputs(
             d is not None and _inside(path, Path(d)) for d in folders or []
         ):
             raise DataError(f"{path}: output folder '{path.parent}' does not exist")
+        if parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
+            raise DataError(f"{path}: output folder '{path.parent}' is not writable")
+
+
+def _data_folder(p: str | Path) -> bool:
+    """An input folder (a rosbag2 recording, a session): a directory that is not the name of an
+    embedded robot (``--robot op2`` names the robot even beside a folder called op2)."""
+    from sescid.robots import EMBEDDED
+
+    return Path(p).is_dir() and str(p) not in EMBEDDED
+
+
+def _not_inside(path: Path, in_folders: list[Path]) -> None:
+    """DataError when ``path`` lies inside (or is) one of the input folders."""
+    for d in in_folders:
+        if _inside(path, d):
+            raise DataError(
+                f"{path}: inside the input {d} (a recording or input folder is never written "
+                "into); choose another folder"
+            )
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -210,10 +274,36 @@ class OutputSet:
         if exc_type is None:
             try:
                 self.commit()
+            except (OSError, DataError) as err:
+                exc = err
+            else:
+                return
             finally:
                 self._clean()
         else:
             self._clean()
+        named = self._named(exc) if isinstance(exc, OSError | DataError) else None
+        if named is not None:
+            raise DataError(named) from None
+        if exc_type is None:
+            raise exc
+
+    def _named(self, exc: OSError | DataError) -> str | None:
+        """The error's message with every temporary replaced by its output's name (None when
+        it names no temporary)."""
+        if isinstance(exc, OSError):
+            if not exc.filename:
+                return None
+            text = f"{exc.filename}: cannot write ({exc.strerror or exc})"
+        else:
+            text = str(exc)
+        new = text
+        for target, tmp in self._files.items():
+            pattern = re.escape(str(tmp.parent)) + r"/\.?" + re.escape(tmp.name) + r"[^\s:']*"
+            new = re.sub(pattern, str(target).replace("\\", r"\\"), new)
+        for target, tmp_d in self._folders.items():
+            new = new.replace(f"{tmp_d}/", f"{target}/").replace(str(tmp_d), str(target))
+        return new if new != text else None
 
     def commit(self) -> None:
         """Move every temporary onto its target (after checking all targets again)."""
@@ -265,18 +355,22 @@ def read_document(path: str | Path) -> object:
         raise DataError(f"{path}: cannot read ({exc.__class__.__name__})") from None
     if path.suffix.lower() == ".json":
         try:
-            return json.loads(text)
+            doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise DataError(f"{path}: not a JSON file (line {exc.lineno}: {exc.msg})") from None
+        _finite(doc, path, "")
+        return doc
     try:
         from ruamel.yaml import YAML
         from ruamel.yaml.error import YAMLError
     except ImportError:  # pragma: no cover - ruamel.yaml ships with the bags extra
         raise MissingExtraError(f"{path}: reading YAML", "bags") from None
     try:
-        return YAML(typ="safe", pure=True).load(text)
+        doc = YAML(typ="safe", pure=True).load(text)
     except YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}: " if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise DataError(f"{path}: not a YAML file ({where}{problem})") from None
+    _finite(doc, path, "")
+    return doc

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import force_option, load, robot_options
 from sescid.errors import DataError
 from sescid.io import read_bag, read_poses, read_table, write_table
@@ -19,7 +19,7 @@ from sescid.sensors import pose_list_ids
     required=True,
     type=click.Path(dir_okay=False),
     help="Mapping file (YAML or JSON, sescid-bag-mapping/1): which topics hold the joints, "
-    "each foot's force source and the pose ids (see examples/bag_mapping.yaml).",
+    "the joint torques, each foot's force source and the pose ids (see docs/io.md).",
 )
 @robot_options
 @click.option(
@@ -40,9 +40,10 @@ from sescid.sensors import pose_list_ids
 def bag(bag, map_file, robot_name, support, poses_file, out, force):
     """Read a ROS bag (rosbag2 directory, sqlite3 or MCAP; or ROS 1 .bag files) into the raw log.
 
-    Writes pose, t (s), the joint columns (rad) and per foot the pad forces (<p>_fsr1..4, mN) or
-    a CoP in its sole frame (<p>_cop_x, <p>_cop_y, m) with its normal force (<p>_fz, N).
-    Needs the bags extra: pip install 'sescid[bags]'.
+    Writes pose, t (s), the joint columns (rad), the joint torques the mapping names
+    (tau_<joint>, N·m) and per foot the pad forces (<p>_fsr1..4, mN) or a CoP in its sole frame
+    (<p>_cop_x, <p>_cop_y, m) with its normal force (<p>_fz, N). The output may not lie inside
+    the recording. Needs the bags extra: pip install 'sescid[bags]'.
     """
     outs = OutputSet([out], [*bag, map_file, poses_file, robot_name], force=force)
     robot = load(robot_name, support)
@@ -64,4 +65,7 @@ def bag(bag, map_file, robot_name, support, poses_file, out, force):
         click.echo(f"  pose {g.pose}: {g.start:.3f}–{g.end:.3f} s, {g.samples} samples")
     dropped = ", ".join(f"{k} {v}" for k, v in res.dropped.items() if v) or "none"
     click.echo(f"kept {res.n} samples, dropped: {dropped}")
+    taus = [c for c in res.columns if c.startswith("tau_")]
+    if taus:
+        click.echo(f"joint torques of {len(taus)} joints (tau_<joint>, N·m)")
     click.echo(f"wrote {out}")

@@ -1,10 +1,11 @@
-"""Files in and out: pose/CoP tables (CSV, Parquet), the fit file, model export, ROS bags.
+"""Files in and out: pose/CoP/torque tables (CSV, Parquet), the fit file, model export, ROS bags.
 
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
 ``read_cop_se`` (column conventions of ``sescid.base.columns``), ``save_fit``/``load_fit`` (the fit
 JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
-``export_mjcf``), ``read_bag`` (a ROS bag and a mapping file → the ``fsr`` step's raw table; the
-``bags`` extra).
+``export_mjcf``; ``sescid.io.export``), ``read_bag`` (a ROS bag and a mapping file → the raw log:
+joints, joint torques, foot forces; ``sescid.io.bags``, the ``bags`` extra). Outputs are never
+written over an input nor inside an input folder (``sescid.base.files``).
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ from sescid.base.columns import (
 from sescid.base.files import atomic_open, atomic_path, read_json
 from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from sescid.io.export.mjcf import export_mjcf
-from sescid.io.export.urdf import FORMATS, export_model, export_urdf
+from sescid.io.export.model import FORMATS, export_model
+from sescid.io.export.urdf import export_urdf
 from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
 from sescid.io.tables import iter_table, read_table, write_table
 
@@ -36,6 +38,7 @@ __all__ = [
     "RawLogTable",
     "Segment",
     "Table",
+    "TorqueSource",
     "atomic_open",
     "atomic_path",
     "export_mjcf",
@@ -60,7 +63,7 @@ __all__ = [
 ]
 
 
-#: names of ``bags`` (ROS recordings), imported on first use: they pull in ``experiment``
+#: names of ``bags`` (ROS recordings), imported on first use: they pull in ``sensors``
 _BAGS = {
     "MAPPING_FORMAT",
     "BagMapping",
@@ -69,6 +72,7 @@ _BAGS = {
     "PoseSource",
     "RawLogTable",
     "Segment",
+    "TorqueSource",
     "load_mapping",
     "parse_mapping",
     "read_bag",

@@ -18,16 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import Table, read_cop, read_poses
+from sescid.base.columns import Table, read_approach, read_cop, read_poses, read_torques
 from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
 from sescid.robot import Robot
 from sescid.sensors.imu import table_gravity
-
-TORQUE_PREFIX = "tau_"
-TORQUE_SE_PREFIX = "tau_se_"
 
 
 @dataclass
@@ -49,20 +46,6 @@ class ReadReport:
         return dataclasses.replace(first, row=row, n_poses=n_bad).message(self.n_poses)
 
 
-def torque_joints(table: Table, robot: Robot) -> tuple[str, ...]:
-    """The joints with a ``tau_<joint>`` column, in the robot's joint order; DataError for a
-    torque column of a joint the robot does not have."""
-    names = [c for c in table.names() if c.startswith(TORQUE_PREFIX)]
-    names = [c for c in names if not c.startswith(TORQUE_SE_PREFIX)]
-    joints = {c[len(TORQUE_PREFIX) :] for c in names}
-    unknown = sorted(joints - set(robot.joint_names))
-    if unknown:
-        raise DataError(
-            f"{table.path}: column 'tau_{unknown[0]}': the robot has no joint '{unknown[0]}'"
-        )
-    return tuple(j for j in robot.joint_names if j in joints)
-
-
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
     """One chunk of a measurement table as ``Measurements`` (not yet validated)."""
     q = read_poses(table, robot.joint_names, robot.profile.servo)
@@ -70,14 +53,11 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
     cop_se = None
     if "cop_se_x" in table or "cop_se_y" in table:
         cop_se = np.column_stack([table.get("cop_se_x"), table.get("cop_se_y")])
-    joints = torque_joints(table, robot)
-    tau = tau_se = None
-    if joints:
-        tau = np.column_stack([table.get(TORQUE_PREFIX + j) for j in joints])
-        se_cols = [TORQUE_SE_PREFIX + j for j in joints]
-        if any(c in table for c in se_cols):
-            tau_se = np.column_stack([table.get(c) for c in se_cols])
-    approach = table.get("approach") if "approach" in table else None
+    torques = read_torques(table, robot.joint_names)  # file rows and columns in the errors
+    joints = torques.joints
+    tau = torques.tau if joints else None
+    tau_se = torques.se if joints else None
+    approach = read_approach(table)
     truth = None
     if "cop_x_true" in table and "cop_y_true" in table:
         truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])

@@ -285,7 +285,7 @@ def _iter_parquet(path: Path, chunk_rows: int) -> Iterator[Table]:
     except Exception as exc:
         raise DataError(f"{path}: cannot read Parquet ({str(exc).splitlines()[0]})") from None
     if done == 0:
-        yield Table(path, {n: np.zeros(0) for n in names}, {})
+        raise DataError(f"{path}: no data rows")
 
 
 def _parquet_chunk(path: Path, names: list[str], batch: Any, first_row: int, pa: Any) -> Table:

@@ -1,9 +1,15 @@
-"""Model export: the fit's model file (URDF or MJCF) with identified masses and CoMs, everything
-else untouched (``export_model`` picks the writer by the fit's model format)."""
+"""Model export: the fit's model file (URDF or MJCF) with identified masses and CoMs,
+everything else as in the source (``export_model`` picks the writer by the fit's model format).
+
+Modules: ``xmldoc`` (XML read and written with the standard library), ``inertia`` (what an
+inertial gets: merged parts, valid tensors, mass warnings), ``assets`` (MJCF includes resolved,
+relative asset paths rewritten), ``urdf``, ``mjcf``, ``model`` (the dispatch).
+"""
 
 from __future__ import annotations
 
 from sescid.io.export.mjcf import export_mjcf
-from sescid.io.export.urdf import FORMATS, export_model, export_urdf
+from sescid.io.export.model import FORMATS, export_model
+from sescid.io.export.urdf import export_urdf
 
 __all__ = ["FORMATS", "export_mjcf", "export_model", "export_urdf"]

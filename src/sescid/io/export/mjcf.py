@@ -1,76 +1,119 @@
-"""MJCF export: the fit's MJCF with identified masses and CoMs, everything else untouched.
+"""MJCF export: the fit's MJCF with identified masses and CoMs, everything else as in the source.
 
-Mirrors ``io.export.urdf.export_urdf``. The source XML is edited in place with lxml (comments,
-geoms, joints, defaults, element order survive; lxml re-serialises attribute quoting), and only
-``<inertial>`` elements change:
+The source is read with ``xmldoc`` (comments, geoms, joints, defaults and element order
+survive), its ``<include>`` files are resolved into the one file written (``assets``: relative
+asset paths then rewritten to resolve from the output's folder), and only ``<inertial>``
+elements change (see ``sescid.io.export.inertia`` for how a merged body's parts move):
 
-- a sescid body may merge several MJCF bodies (bodies without joints). Its identified mass m and
-  CoM c (body frame) are distributed over the MJCF bodies that carried mass in the source: every
-  one's mass and inertia are scaled by m / m_CAD and its CoM (``<inertial pos>``) moved by the
-  same offset c − c_CAD, so they keep their relative layout and the merged body has exactly
-  (m, c). Inertias keep their orientation (``quat``/``fullinertia`` axes) and are scaled by the
-  mass ratio: static data do not identify them;
-- a body whose inertia MuJoCo inferred from its geoms gets an explicit ``<inertial>`` (first
-  child) with MuJoCo's compiled principal frame (``quat``) and ``diaginertia`` × the ratio;
-- a sescid body that was massless gets its mass on its MJCF body, with the inertia of a 1 mm
-  solid sphere (MuJoCo rejects a moving body with zero inertia). The massless frames between the
-  hinges of one MJCF body (``Body.frame_only``) cannot carry mass in MJCF; the consistent step
-  keeps them at 0, and a fit that gives one more than 1e-12 × the total raises ModelError;
+- an MJCF body whose inertia MuJoCo inferred from its geoms gets an explicit ``<inertial>``
+  (first child) with MuJoCo's compiled principal frame (``quat``) and ``diaginertia`` × the
+  mass ratio; explicit inertials keep their orientation (``quat``/``fullinertia`` axes);
+- a sescid body that was massless gets its mass on its MJCF body with a small sphere's inertia.
+  The massless frames between the hinges of one MJCF body (``Body.frame_only``) cannot carry
+  mass in MJCF; the consistent step keeps them at 0, and a fit that gives one more than 1e-12 ×
+  the total raises ModelError;
+- MuJoCo refuses a moving body without mass: one the fit leaves below ``MIN_MOVING_MASS`` is
+  written with that mass, with a warning;
 - ``<compiler inertiafromgeom="true">`` would override explicit inertials: it becomes "auto"
-  (and every body with mass gets an explicit ``<inertial>``); ``settotalmass`` would rescale the
-  written masses: it is removed (same). Both give a warning.
+  (and every body with mass gets an explicit ``<inertial>``); ``settotalmass`` would rescale
+  the written masses: it is removed. Both give a warning.
 
 Numbers are written with ``repr`` (shortest exact decimal), so MuJoCo reads back exactly the
-doubles computed here.
+doubles computed here. ``<replicate>`` and ``<attach>`` are refused (their bodies are not
+elements of the file).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from sescid.base.files import atomic_path
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
-from sescid.io.export.urdf import _fmt, merged_body_change
-from sescid.model.mjcf import _mujoco, _names, compile_mjcf
+from sescid.io.export.assets import relocate_mjcf, resolve_includes
+from sescid.io.export.inertia import (
+    fmt,
+    mass_warnings,
+    merged_body_change,
+    sphere_inertia,
+    valid_inertia,
+)
+from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
+from sescid.model.mjcf import object_names
+from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 
 _ORIENT = ("quat", "axisangle", "xyaxes", "zaxis", "euler")
+#: kg written for a moving MJCF body the fit leaves (nearly) massless (MuJoCo needs mass > 0)
+MIN_MOVING_MASS = 1e-6
 
 
-def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = None) -> list[str]:
-    """Write ``fit.robot``'s MJCF with the fit's body masses and CoMs to ``path`` (atomically).
+@dataclass
+class _Target:
+    """The parsed source and what its compiled model says about each body."""
 
-    ``source_path``: the MJCF the fit's model was built from (default: the model's path).
-    ``fit`` must hold masses (method "consistent"; see ``sescid.estimation.consistent``).
-    Returns warnings (compiler attributes changed, relative asset paths that no longer resolve).
-    """
-    from lxml import etree
+    elements: list[ET.Element]  #: <body> elements in MuJoCo's body order (world excluded)
+    m: Any  #: the compiled MjModel
+    from_geom: bool  #: compiler inertiafromgeom="true" in the source
+    warnings: list[str]
 
-    mujoco = _mujoco()
-    masses, coms = fit_inertials(fit)
-    model = fit.robot.model
-    src = Path(source_path if source_path is not None else model.path)
-    spec, m = compile_mjcf(src)
-    try:
-        tree = etree.parse(str(src), etree.XMLParser(remove_blank_text=False))
-    except (OSError, etree.XMLSyntaxError) as exc:
-        raise ModelError(f"{src}: cannot read the MJCF to export ({exc})") from None
-    root = tree.getroot()
-    if root.find(".//include") is not None or root.find(".//replicate") is not None:
-        raise ModelError(f"{src}: uses <include>/<replicate>; export needs a single-file MJCF")
-    elements = [el for wb in root.iter("worldbody") for el in wb.iter("body")]
-    names = _names(m, "body", m.nbody, "body")
-    if len(elements) != m.nbody - 1 or any(
-        el.get("name", "") != m.body(i + 1).name for i, el in enumerate(elements)
-    ):
-        raise ModelError(f"{src}: cannot match the <body> elements to MuJoCo's compiled bodies")
-    body_id = {n: i for i, n in enumerate(names) if i}
-    warnings: list[str] = []
 
-    from_geom = spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
-    total_set = spec.compiler.settotalmass > 0
+def _full_tensor(values: list[float]) -> np.ndarray:
+    """MJCF fullinertia 'ixx iyy izz ixy ixz iyz' → (3, 3)."""
+    xx, yy, zz, xy, xz, yz = values
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, scale: float | None) -> None:
+    """Set MJCF body ``bid``'s mass (kg) and CoM (m, body frame); inertia × ``scale`` (None: a
+    newly massive body, a small sphere's)."""
+    el, m = t.elements[bid - 1], t.m
+    name = f"body {el.get('name') or bid}"
+    if m.body_dofnum[bid] > 0 and mass < MIN_MOVING_MASS:
+        t.warnings.append(
+            f"{name}: the fit leaves it {mass:.3g} kg; written as {MIN_MOVING_MASS:g} kg "
+            "(MuJoCo needs a moving body to have mass)"
+        )
+        scale = None if scale is None else scale * MIN_MOVING_MASS / max(mass, 1e-300)
+        mass = MIN_MOVING_MASS
+    inertial = el.find("inertial")
+    if inertial is not None and not t.from_geom and scale is not None:
+        inertial.set("mass", repr(float(mass)))
+        inertial.set("pos", fmt(pos))
+        if inertial.get("fullinertia") is not None:
+            full = _full_tensor([float(v) * scale for v in inertial.get("fullinertia", "").split()])
+            full, warning = valid_inertia(full, mass, name)
+            inertial.set("fullinertia", fmt(full[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]))
+        else:
+            diag = [float(v) * scale for v in inertial.get("diaginertia", "0 0 0").split()]
+            full, warning = valid_inertia(np.diag(diag), mass, name)
+            inertial.set("diaginertia", fmt(np.diag(full)))
+        if warning:
+            t.warnings.append(warning)
+        return
+    if scale is None:
+        diag, quat = sphere_inertia(mass), np.array([1.0, 0.0, 0.0, 0.0])
+    else:
+        diag = np.asarray(m.body_inertia[bid], dtype=float) * scale
+        quat = m.body_iquat[bid]
+    full, warning = valid_inertia(np.diag(diag), mass, name)
+    if warning:
+        t.warnings.append(warning)
+    if inertial is None:
+        inertial = new_child(el, "inertial", first=True)
+    for key in (*_ORIENT, "fullinertia", "diaginertia"):
+        inertial.attrib.pop(key, None)
+    inertial.set("pos", fmt(pos))
+    inertial.set("quat", fmt(quat))
+    inertial.set("mass", repr(float(mass)))
+    inertial.set("diaginertia", fmt(np.diag(full)))
+
+
+def _compiler_edits(root: ET.Element, warnings: list[str]) -> None:
+    """inertiafromgeom="true" → "auto"; settotalmass removed (see the module docstring)."""
     for comp in root.iter("compiler"):
         if comp.get("inertiafromgeom") == "true":
             comp.set("inertiafromgeom", "auto")
@@ -81,40 +124,68 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
             del comp.attrib["settotalmass"]
             warnings.append("compiler settotalmass removed (the masses written are absolute)")
 
-    def write(bid: int, mass: float, pos: np.ndarray, scale: float | None) -> None:
-        """Set body ``bid``'s mass (kg) and CoM (m, MJCF body frame); inertia × ``scale``."""
-        el = elements[bid - 1]
-        inertial = el.find("inertial")
-        if scale is None:  # newly massive: a 1 mm solid sphere
-            diag = np.full(3, max(0.4 * mass * 1e-6, 1e-12))
-        else:
-            diag = np.asarray(m.body_inertia[bid], dtype=float) * scale
-        if inertial is not None and not from_geom and scale is not None:
-            inertial.set("mass", repr(float(mass)))
-            inertial.set("pos", _fmt(pos))
-            for key in ("diaginertia", "fullinertia"):
-                if inertial.get(key) is not None:
-                    vals = [float(v) * scale for v in inertial.get(key).split()]
-                    inertial.set(key, _fmt(vals))
-            return
-        if inertial is None:
-            inertial = etree.Element("inertial")
-            indent = el.text if el.text and not el.text.strip() else None
-            el.insert(0, inertial)
-            if indent is not None:
-                inertial.tail = indent
-        for key in (*_ORIENT, "fullinertia", "diaginertia"):
-            inertial.attrib.pop(key, None)
-        inertial.set("pos", _fmt(pos))
-        quat = m.body_iquat[bid] if scale is not None else np.array([1.0, 0.0, 0.0, 0.0])
-        inertial.set("quat", _fmt(quat))
-        inertial.set("mass", repr(float(mass)))
-        inertial.set("diaginertia", _fmt(diag))
 
+def _target(src: Path) -> tuple[_Target, XmlDoc, Any]:
+    """The source MJCF (includes resolved), matched to MuJoCo's compiled bodies."""
+    mujoco = mujoco_module()
+    spec, m = compile_mjcf(src)
+    doc = read_xml(src, "MJCF")
+    resolve_includes(doc.root, src)
+    for tag in ("replicate", "attach"):
+        if doc.root.find(f".//{tag}") is not None:
+            raise ModelError(f"{src}: uses <{tag}>; export needs bodies written out in the file")
+    elements = [el for wb in doc.root.iter("worldbody") for el in wb.iter("body")]
+    if len(elements) != m.nbody - 1 or any(
+        el.get("name", "") != m.body(i + 1).name for i, el in enumerate(elements)
+    ):
+        raise ModelError(f"{src}: cannot match the <body> elements to MuJoCo's compiled bodies")
+    from_geom = spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+    target = _Target(elements, m, from_geom, [])
+    return target, doc, spec
+
+
+def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = None) -> list[str]:
+    """Write ``fit.robot``'s MJCF with the fit's body masses and CoMs to ``path`` (atomically).
+
+    ``source_path``: the MJCF the fit's model was built from (default: the model's path).
+    ``fit`` must hold masses (method "consistent"). Returns warnings (compiler attributes
+    changed, bodies whose mass leaves ±50 % of the CAD's, inertias made valid).
+    """
+    masses, coms = fit_inertials(fit)
+    model = fit.robot.model
+    src = Path(source_path if source_path is not None else model.path)
+    t, doc, spec = _target(src)
+    m = t.m
+    total_set = spec.compiler.settotalmass > 0
+    t.warnings += mass_warnings(model, masses)
+    _compiler_edits(doc.root, t.warnings)
+    names = object_names(m, "body", m.nbody, "body")
+    body_id = {n: i for i, n in enumerate(names) if i}
+    written = _write_bodies(t, model, body_id, masses, coms, src)
+    if t.from_geom or total_set:  # every other massive body needs its compiled inertial written
+        for bid in range(1, m.nbody):
+            if bid not in written and m.body_mass[bid] > 0:
+                _write(t, bid, float(m.body_mass[bid]), m.body_ipos[bid], 1.0)
+    root = doc.root
+    add_note(
+        root,
+        f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
+        f"total mass {float(masses.sum()):.6f} kg); other elements as in the source MJCF",
+    )
+    out = Path(path)
+    if out.resolve().parent != src.resolve().parent:
+        relocate_mjcf(root, src.parent.resolve(), out.resolve().parent)
+    write_xml(doc, out)
+    return t.warnings
+
+
+def _write_bodies(t: _Target, model, body_id, masses, coms, src: Path) -> set[int]:
+    """Write every sescid body's mass and CoM onto its MJCF bodies; the MJCF body ids written."""
+    m = t.m
     written: set[int] = set()
     big_m = float(masses.sum())
     for b, body in enumerate(model.bodies):
-        parts = []  # (MJCF body id, mass, CoM in the MJCF body frame, its transform in F_body)
+        parts = []  # (MJCF body id, mass, CoM in the MJCF body frame, name)
         for name in body.links:
             bid = body_id.get(name)
             if bid is not None and m.body_mass[bid] > 0:
@@ -124,7 +195,7 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
             ratio, shift = change
             for bid, mk, ck, name in parts:
                 x = model.link_frames[name][1]
-                write(bid, mk * ratio, ck + x[:3, :3].T @ shift, ratio)
+                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, ratio)
                 written.add(bid)
         elif masses[b] > 1e-12 * big_m:
             bid = body_id.get(body.name)
@@ -134,33 +205,6 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
                     "between two hinges of one MJCF body, which cannot carry mass in MJCF"
                 )
             x = model.link_frames[body.name][1]
-            write(bid, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), None)
+            _write(t, bid, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), None)
             written.add(bid)
-    if from_geom or total_set:  # every other massive body needs its compiled inertial written
-        for bid in range(1, m.nbody):
-            if bid not in written and m.body_mass[bid] > 0:
-                write(bid, float(m.body_mass[bid]), m.body_ipos[bid], 1.0)
-
-    note = etree.Comment(
-        f" masses and CoMs identified by sescid (method {fit.method_label}, "
-        f"{fit.n_poses} poses, total mass {big_m:.6f} kg); other elements as in the source MJCF "
-    )
-    note.tail = "\n  "
-    root.insert(0, note)
-    out = Path(path)
-    if out.resolve().parent != src.resolve().parent:
-        for el in root.iter():
-            name = el.get("file") if isinstance(el.tag, str) else None
-            if name and not Path(name).is_absolute():
-                warnings.append(
-                    f"<{el.tag} file='{name}'> is relative to {src.parent}; it will not resolve "
-                    f"from {out.parent} (geometry only: masses and CoMs are unaffected)"
-                )
-    head = src.read_bytes()[:100].lstrip()
-    parts = [b'<?xml version="1.0" encoding="utf-8"?>'] if head.startswith(b"<?xml") else []
-    parts += [etree.tostring(el) for el in reversed(list(root.itersiblings(preceding=True)))]
-    parts += [etree.tostring(root, encoding="utf-8")]
-    parts += [etree.tostring(el) for el in root.itersiblings()]
-    with atomic_path(out) as tmp:
-        tmp.write_bytes(b"\n".join(parts) + b"\n")
-    return warnings
+    return written

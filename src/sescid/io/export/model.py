@@ -1,0 +1,38 @@
+"""``export_model``: the fit's model file in its own format (URDF or MJCF)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sescid.errors import OptionError
+from sescid.estimation import Fit
+from sescid.io.export.mjcf import export_mjcf
+from sescid.io.export.urdf import export_urdf
+
+#: model formats ``export_model`` writes
+FORMATS = ("urdf", "mjcf")
+
+
+def export_model(fit: Fit, path: str | Path, format: str | None = None) -> list[str]:
+    """Write ``fit.robot``'s model file with the fit's masses and CoMs to ``path``; warnings.
+
+    ``format``: "urdf" or "mjcf" (default: the model's own, ``RobotModel.format``). Export
+    edits the model file the fit was made from, so a format other than the model's own raises
+    OptionError (no URDF ↔ MJCF conversion).
+    """
+    own = fit.robot.model.format
+    fmt = own if format is None else str(format).lower()
+    if fmt not in FORMATS:
+        raise OptionError(
+            "format", f"unknown model format '{format}' (one of {', '.join(FORMATS)})"
+        )
+    if fmt != own:
+        raise OptionError(
+            "format",
+            f"cannot write {fmt.upper()} from the {own.upper()} model {fit.robot.model_path}: "
+            "export edits the inertials of the model file the fit was made from (convert the "
+            "model first and identify on it)",
+        )
+    if fmt == "mjcf":
+        return export_mjcf(fit, path)
+    return export_urdf(fit, path)
