@@ -355,3 +355,47 @@ def test_body_prior_fits_torques_and_cop(op2):
 
     assert err(fit.r) < 0.6 * err(op2.sesc_vectors()) and err(cop_fit.r) < err(op2.sesc_vectors())
     assert fit.map.prior == "bodies" and 0 < fit.map.prior_decided < 63
+
+
+def test_few_or_no_degrees_of_freedom_are_flagged(op2):
+    """22 poses (44 equations, 42 combinations): a warning; an exact fit: nan, said so."""
+    q = random_poses(op2, 22, 30, 40)
+    fit = identify(op2, q, op2.cop(q) + np.random.default_rng(41).normal(0, 0.005, (22, 2)))
+    assert any("only 2 residual degrees of freedom" in w for w in fit.warnings)
+    q = random_poses(op2, 21, 30, 42)
+    exact = identify(op2, q, op2.cop(q), allow_exact=True)
+    assert np.isnan(exact.sigma_hat) and any("no degrees of freedom" in w for w in exact.warnings)
+    assert all(np.isnan(c.std) for c in exact.base)
+    assert "not determined" in exact.summary()
+
+
+def test_simulated_torque_readings_follow_the_sensor_model(op2):
+    """simulate(torques=…): readings − truth = offsets + side·friction + N(0, σ²)."""
+    from sescid.simulation import TorqueNoise, simulate
+
+    sim = simulate(op2, 4000, 30, 0.0, 43, torques=TorqueNoise(0.05, 0.1, 0.2))
+    t = sim.torques
+    np.testing.assert_allclose(t.tau_true, op2.torques(sim.q), rtol=0, atol=1e-12)
+    e = t.tau - t.tau_true - t.offsets - t.approach[:, None] * t.friction
+    assert abs(e.std() - 0.05) < 0.002 and abs(e.mean()) < 0.002
+    assert set(np.unique(t.approach)) == {-1.0, 1.0} and np.std(t.offsets) > 0.03
+
+
+def test_cli_simulates_and_identifies_torques_alone(op2, tmp_path):
+    """`simulate --measure tau` writes torque columns only; identify recovers offsets and the
+    friction band from them (the approach column) within their standard errors."""
+    data, out = tmp_path / "t.csv", tmp_path / "fit.json"
+    runner = CliRunner()
+    res = runner.invoke(cli, ["simulate", "--poses", "300", "--measure", "tau", "--tau-offset",
+                              "0.1", "--tau-friction", "0.15", "--out", str(data)])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    header = data.read_text().splitlines()[0].split(",")
+    assert "cop_x" not in header and "tau_r_knee" in header and "approach" in header
+    res = runner.invoke(cli, ["identify", str(data), "--out", str(out), "--total-mass",
+                              str(op2.total_mass)])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    fit = sescid.load_fit(out)
+    friction = [e for e in fit.nuisance if e.what == "friction"]
+    assert len(friction) == 20
+    assert all(abs(e.value - 0.15) < 4 * e.std for e in friction)
+    assert fit.kind("tau").sigma == pytest.approx(0.05, rel=0.1)

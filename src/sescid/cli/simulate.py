@@ -76,7 +76,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
 
     Columns: one per joint (radians); cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m); with
     --measure tau or both, tau_<joint> (N·m, noisy, with the sensor offsets and friction) and
-    tau_true_<joint>; with --tilt-deg also grav_x, grav_y, grav_z (gravity, support frame).
+    true_tau_<joint>; with --tilt-deg also grav_x, grav_y, grav_z (gravity, support frame).
     """
     import math
 
@@ -102,7 +102,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     if sim.torques is not None:
         t = sim.torques
         cols |= {f"tau_{j}": t.tau[:, k] for k, j in enumerate(t.joints)}
-        cols |= {f"tau_true_{j}": t.tau_true[:, k] for k, j in enumerate(t.joints)}
+        cols |= {f"true_tau_{j}": t.tau_true[:, k] for k, j in enumerate(t.joints)}
         if t.approach is not None:
             cols["approach"] = t.approach
     if sim.gravity is not None:

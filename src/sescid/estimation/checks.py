@@ -25,6 +25,8 @@ MASS_RATIO_LIMIT = 3.0
 CONDITION_WARN = 1e8
 #: σ̂ below this (m, or a weighted scale) is an exact fit: constant CoP or noise-free data
 EXACT_FIT = 1e-9
+#: fewer residual degrees of freedom than this share of the rows is flagged (a rough σ̂)
+FEW_DOF = 0.1
 #: angles beyond a limit by less than this are inside (servo play, read-back noise), rad
 LIMIT_SLACK = math.radians(2.0)
 
@@ -111,6 +113,18 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"{tilt.value * 1e3:.1f} ± {tilt.std * 1e3:.1f} mm (prior model "
             f"{tilt.prior * 1e3:.1f} mm); least squares takes it from the data, so CoM heights "
             "are that uncertain: use a MAP fit (method map) with the gravity columns"
+        )
+    dof = fit.n_rows - fit.rank - sum(e.determined for e in fit.nuisance)
+    if dof <= 0:
+        out.append(
+            "no degrees of freedom are left: σ̂ and every standard error are not determined "
+            "(an exact fit was asked for); measure more poses"
+        )
+    elif dof < FEW_DOF * fit.n_rows:
+        out.append(
+            f"only {dof} residual degrees of freedom for {fit.n_rows} equations "
+            f"({100 * dof / fit.n_rows:.0f} %): the noise estimate and the intervals are rough; "
+            "measure more poses"
         )
     if fit.sigma_hat < EXACT_FIT and fit.n_rows > fit.rank:
         out.append(

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from sescid.base.columns import MAX_TORQUE_NM
 from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
@@ -25,9 +26,6 @@ from sescid.robot import Robot
 COP = "cop"
 TORQUE = "tau"
 KINDS = (COP, TORQUE)
-
-#: a measured torque beyond this is not a joint torque of a humanoid held still, N·m
-MAX_TORQUE = 1e4
 
 
 @dataclass(frozen=True)
@@ -93,11 +91,11 @@ class Measurements:
         if joints:
             robot.joint_columns(joints)  # ModelError naming an unknown joint
         tau = _array(self.tau, (n, len(joints)), f"{where}: tau", "N·m")
-        if tau is not None and np.any(np.abs(tau) > MAX_TORQUE):
-            row, col = np.argwhere(np.abs(tau) > MAX_TORQUE)[0]
+        if tau is not None and np.any(np.abs(tau) > MAX_TORQUE_NM):
+            row, col = np.argwhere(np.abs(tau) > MAX_TORQUE_NM)[0]
             raise DataError(
                 f"{where}: row {row}, tau_{joints[col]} = {tau[row, col]:g} N·m: beyond "
-                f"{MAX_TORQUE:g} N·m (a unit slip: mN·m?)"
+                f"{MAX_TORQUE_NM:g} N·m (a unit slip: mN·m?)"
             )
         tau_se = _array(self.tau_se, (n, len(joints)), f"{where}: tau_se", "N·m")
         tau_se = _positive(tau_se, where, "tau_se")

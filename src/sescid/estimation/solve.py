@@ -146,10 +146,12 @@ def solve_system(
         rows_per_pose = n_rows / max(system.n_poses, 1)
         need = system.n_poses + math.ceil((max(p, structural) + 1 - n_rows) / rows_per_pose)
         poses = f"{system.n_poses} pose" + (" is" if system.n_poses == 1 else "s are")
+        where = f"{', '.join(system.sources)}: " if system.sources else ""
         raise DataError(
-            f"{poses} too few: {n_rows} equations for the {p} combinations the data determine "
-            "leave no degrees of freedom to estimate the noise, so nothing could be said about "
-            f"the fit's accuracy; at least {need} poses are needed (or ask for an exact fit: "
+            f"{where}{poses} too few: {n_rows} equations for the {p} combinations the data "
+            "determine leave no degrees of freedom to estimate the noise, so nothing could be "
+            f"said about the fit's accuracy; at least {need} poses are needed (or ask for an "
+            "exact fit: "
             "allow_exact / --allow-exact)"
         )
     rss = {k: _rss(system.parts[k].ne, theta) for k in kinds}

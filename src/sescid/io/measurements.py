@@ -4,7 +4,8 @@ A file (CSV or Parquet, streamed in chunks) holds one row per pose: the joint an
 in rad, or ``<joint>_deg``), and what was measured there — ``cop_x``, ``cop_y`` [m] (optional
 ``cop_se_x``, ``cop_se_y``), ``tau_<joint>`` [N·m] for any subset of joints (optional
 ``tau_se_<joint>``), ``approach`` (±1), gravity (``grav_x/y/z``, or the IMU's roll and pitch on a
-link), and for simulated data the noise-free ``cop_x_true``, ``cop_y_true``. Poses outside the
+link), and for simulated data the noise-free ``cop_x_true``, ``cop_y_true`` (or ``true_tau_<joint>``
+when only torques were simulated). Poses outside the
 model's joint limits stop the read with an error naming the first row (degrees in a radian
 column, or another robot), unless allowed or the data are simulated (then a warning).
 """
@@ -93,7 +94,8 @@ def read_measurements(
     rep = report if report is not None else ReadReport(str(path))
     for table in read_ahead(iter_table(path)):
         m = measurements_of(table, robot, imu_link)
-        rep.simulated = rep.simulated or m.cop_true is not None
+        simulated = m.cop_true is not None or any(c.startswith("true_tau_") for c in table.names())
+        rep.simulated = rep.simulated or simulated
         bad = outside_limits(robot, m.q)
         if bad is not None:
             rep.limits.append((rep.n_poses, bad))
