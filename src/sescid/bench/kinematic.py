@@ -174,7 +174,7 @@ def two_foot_split(robot, sensors: SensorConfig, q: np.ndarray, cop: np.ndarray,
     5° of level at q (``sensors.OFF_FLOOR_*``). Returns forces {foot: (n, 4)} N, a mask of
     poses whose CoP needs a pulling pad (outside the support), and its description.
     """
-    from sescid.sensors.pads import OFF_FLOOR_M, OFF_FLOOR_TILT
+    from sescid.sensors.feet import OFF_FLOOR_M, OFF_FLOOR_TILT
 
     n = q.shape[0]
     pts, on = [], []

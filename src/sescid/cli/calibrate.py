@@ -12,8 +12,13 @@ from sescid.cli.common import load, min_samples_option, mm, robot_options, senso
 from sescid.errors import OptionError
 from sescid.io import read_table
 from sescid.sensors import load_sensors
-from sescid.sensors.calibration import GAIN_PRIOR, OFFSET_PRIOR, calibrate_sensors
-from sescid.sensors.pad_logs import calibrated_sensor_document, pad_session
+from sescid.sensors.calibration import (
+    GAIN_PRIOR,
+    OFFSET_PRIOR,
+    calibrate_sensors,
+    calibrated_sensor_document,
+    pad_session,
+)
 from sescid.sensors.pads import default_sensors_path
 
 

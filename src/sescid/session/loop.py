@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -50,14 +49,7 @@ from sescid.planning import (
 )
 from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
-from sescid.sensors.pads import (
-    Measured,
-    RawLog,
-    SensorConfig,
-    imu_gravity_samples,
-    measure,
-    read_raw,
-)
+from sescid.sensors import Measured, RawLog, SensorConfig, measure, read_log, table_from_columns
 from sescid.session.adapters import RobotAdapter
 
 #: m, prior scale of a body's SESC components, for the per-body uncertainty shown (0..1 scale)
@@ -147,24 +139,12 @@ class SessionObserver:
 
 def raw_table(cols: dict[str, np.ndarray]) -> Table:
     """In-memory raw-log table (as ``read_table`` gives it: numbers as float, text as text)."""
-    num: dict[str, np.ndarray] = {}
-    text: dict[str, list] = {}
-    for k, v in cols.items():
-        v = np.asarray(v)
-        if v.dtype.kind in "biuf":
-            num[k] = v.astype(float)
-        else:
-            text[k] = [str(x) for x in v]
-    return Table(Path("session raw log"), num, text)
+    return table_from_columns(cols, "session raw log")
 
 
 def _read_log(robot: Robot, cols: dict[str, np.ndarray], sensors: SensorConfig) -> RawLog:
     """The raw log of these columns as ``sescid fsr`` reads it (IMU gravity included)."""
-    table = raw_table(cols)
-    log = read_raw(table, robot.joint_names, sensors, robot.profile.servo)
-    if log.gravity is None:
-        log.gravity = imu_gravity_samples(robot, table, log.q, None)
-    return log
+    return read_log(robot, raw_table(cols), sensors)
 
 
 def _body_std(est: OnlineEstimator, basis: np.ndarray, n_bodies: int) -> np.ndarray:
@@ -259,6 +239,11 @@ def run_session(
             part = {"pose": np.full(m, pose), "sample": np.arange(m)} | {c: cols[c] for c in names}
             log = _read_log(robot, part, sensors)
             meas = measure(robot, log, sensors, opt.min_samples)
+            if meas.cop is None or meas.cop_se is None:
+                raise DataError(
+                    f"pose {pose}: the adapter logs no loaded foot sensor: a session measures "
+                    "the CoP (joint torques alone are recorded but not yet used to plan)"
+                )
             if len(meas.pose) == 0:
                 step.reason = meas.dropped[0][1] if meas.dropped else "no usable CoP"
                 steps.append(step)
