@@ -22,7 +22,7 @@ from sescid.cli.common import mm, seed_option
 def truth(fit_file, truth_file, fresh, within_deg, seed):
     """Compare a fit with the truth of `sescid experiment --truth`: RMS CoP error of the
     identified and the manufacturer model at the actual poses and at fresh poses near them."""
-    from sescid.bench.truth import compare_truth
+    from sescid.bench import compare_truth
     from sescid.estimation import load_fit
 
     c = compare_truth(load_fit(fit_file), truth_file, fresh, within_deg, seed)
