@@ -32,6 +32,7 @@ import numpy as np
 
 from sescid.bench.log import RawLogWriter, Readings
 from sescid.bench.real_robot import (
+    NO_POSE_MEASURED,
     ExperimentConfig,
     approach_sides,
     check_limits,
@@ -218,7 +219,7 @@ def run_experiment(
         for i in np.flatnonzero(st.tips)
     ]
     if st.tips.all():
-        raise DataError(f"no pose can be measured: pose {skipped[0][0]}: {skipped[0][1]}")
+        raise DataError(f"{NO_POSE_MEASURED}: pose {skipped[0][0]}: {skipped[0][1]}")
     keep = ~st.tips
     q_cmd, delta, q_act = q_cmd[keep], delta[keep], q_act[keep]
     cop_true, pose_ids = cop_true[keep], pose_ids[keep]

@@ -35,6 +35,8 @@ PAD_GAIN_STREAM = 11
 TORQUE_STREAM = 13
 APPROACH_STREAM = 17
 MOUNTS = ("stand", "gantry")
+#: the start of the error a bench raises when every pose fails (a caller may name its file)
+NO_POSE_MEASURED = "no pose can be measured"
 APPROACHES = ("random", "up", "down", "alternate")
 
 
@@ -101,7 +103,9 @@ class ExperimentConfig:
     """How the virtual real robot differs from the model (SI units, angles in degrees)."""
 
     extra_mass_fraction: float = 0.07  #: unmodelled mass / model mass
-    extra: tuple[ExtraMass, ...] = DEFAULT_EXTRA
+    #: where the unmodelled mass sits (None: ``DEFAULT_EXTRA`` on a robot with those bodies,
+    #: else ``generic_extra``)
+    extra: tuple[ExtraMass, ...] | None = None
     backlash_deg: float = 1.0  #: actual − commanded angle ~ U(−b, b) per pose and joint
     readback_seen: float = 0.5  #: part of that offset the joint encoder reports
     readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
@@ -141,18 +145,40 @@ class ExperimentConfig:
         self.torque.check()
 
 
+def generic_extra(robot, n: int = 4) -> tuple[ExtraMass, ...]:
+    """Unmodelled mass on the ``n`` heaviest bodies in proportion to their masses, 2 cm behind
+    and 1 cm beside their frames' origins (cables and boards of a robot without a known list)."""
+    order = np.argsort(-robot.masses, kind="stable")[:n]
+    m = robot.masses[order]
+    shares = m / m.sum() if m.sum() > 0 else np.full(len(order), 1.0 / len(order))
+    return tuple(
+        ExtraMass(robot.body_names[i], float(s), (-0.02, 0.01, 0.0))
+        for i, s in zip(order, shares, strict=True)
+    )
+
+
+def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
+    """The unmodelled masses of ``config`` on ``robot`` (``ExperimentConfig.extra``)."""
+    if config.extra is not None:
+        return config.extra
+    if all(e.body in robot.body_names for e in DEFAULT_EXTRA):
+        return DEFAULT_EXTRA
+    return generic_extra(robot)
+
+
 def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
     """The real robot's bodies (the model's plus the unmodelled masses) and the masses placed."""
     if not (0 <= config.extra_mass_fraction < 1):
         raise DataError(f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}")
-    shares = sum(e.share for e in config.extra)
-    if config.extra and not math.isclose(shares, 1.0, abs_tol=1e-9):
+    extra = extra_masses(robot, config)
+    shares = sum(e.share for e in extra)
+    if extra and not math.isclose(shares, 1.0, abs_tol=1e-9):
         raise DataError(f"extra-mass shares must sum to 1, got {shares:g}")
     names = robot.body_names
     extra_total = config.extra_mass_fraction * robot.total_mass
     bodies = list(robot.model.bodies)
     placed = []
-    for e in config.extra:
+    for e in extra:
         if e.body not in names:
             raise DataError(f"extra mass on unknown body '{e.body}' (bodies: {', '.join(names)})")
         i = names.index(e.body)

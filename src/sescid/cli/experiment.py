@@ -8,7 +8,8 @@ from typing import Any
 import click
 
 from sescid.base.files import OutputSet
-from sescid.bench import ExperimentConfig, TorqueConfig, run_experiment
+from sescid.bench import ExperimentConfig, TorqueConfig, check_limits, run_experiment
+from sescid.bench.real_robot import NO_POSE_MEASURED
 from sescid.cli.common import (
     force_option,
     load,
@@ -16,7 +17,7 @@ from sescid.cli.common import (
     seed_option,
     sensors_option,
 )
-from sescid.errors import DataError, MissingExtraError, OptionError, SescidError
+from sescid.errors import DataError, OptionError
 from sescid.io import read_poses, read_table, write_table
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
@@ -188,6 +189,7 @@ def experiment(**opts):
     sensors = bench_sensors(opts["sensors_file"], robot.profile, torques)
     table = read_table(opts["poses_file"])
     q = read_poses(table, robot.joint_names, robot.profile.servo)
+    check_limits(robot, q, str(opts["poses_file"]))
     cfg = ExperimentConfig(
         extra_mass_fraction=opts["extra_mass"],
         backlash_deg=opts["backlash_deg"],
@@ -225,10 +227,10 @@ def _run(robot, q, sensors, cfg, opts, ids):
                 robot, q, sensors, opts["samples"], opts["seed"], cfg, bench, pose_ids=ids
             )
         return run_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, pose_ids=ids)
-    except (MissingExtraError, OptionError):
+    except DataError as exc:
+        if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
+            raise DataError(f"{opts['poses_file']}: {exc}") from None
         raise
-    except SescidError as exc:
-        raise DataError(f"{opts['poses_file']}: {exc}") from None
 
 
 def _report(ex, n: int, opts) -> None:

@@ -5,9 +5,13 @@ Per pose: the mean joint read-backs, the mean CoP in the support frame with its 
 standard errors and the ``approach`` side (``sensors.torque``), and the mean gravity direction.
 Samples are rejected (with the reason counted, ``REASONS``) when a value is missing, a sensor is
 saturated, no foot carries load, two feet are loaded but some source has no force to weight
-them, a loaded foot is off the floor in the model, or the CoP, the force or a torque is an
-outlier by the median/MAD rule ``|v − median| > k · max(1.4826 MAD, floor)``. A pose left with
-fewer than ``min_samples`` usable samples gets no measurement (listed in ``dropped``).
+them, a loaded foot is off the floor in the model, or the CoP or the force is an outlier by the
+median/MAD rule ``|v − median| > k · max(1.4826 MAD, floor)``. A pose left with fewer than
+``min_samples`` usable samples gets no measurement (listed in ``dropped``). Torques are
+averaged per joint over the samples with read-backs: a missing torque or one that is an outlier
+of its joint (the same rule) drops that value only (with tens of joints and a handful of samples
+a whole-sample rule would reject almost every sample); a joint left with fewer than
+``min_samples`` values at a pose has no torque there (NaN, not determined).
 
 A log whose feet carry no load anywhere but that has torques (a robot held in a gantry) is
 reduced on its torques alone (mode ``torque``), as is a log without foot-sensor columns.
@@ -37,6 +41,8 @@ from sescid.sensors.torque import (
 
 #: outlier rule without a sensor file (a torque-only log)
 DEFAULT_OUTLIER_K = 4.0
+#: a foot's logged normal force beyond this multiple of the robot's weight is not in N
+FORCE_WEIGHT_FACTOR = 5.0
 
 
 @dataclass(frozen=True)
@@ -155,26 +161,33 @@ def _cop_means(log, config, fs, cop, force_n, s: _Samples):
     return mean, se, fmean
 
 
-def _tau_part(log: RawLog, s: _Samples, outlier_k: float) -> np.ndarray:
-    """Marks samples with a missing torque; returns the torque outliers (m,)."""
+def _tau_values(log: RawLog, s: _Samples, outlier_k: float) -> np.ndarray:
+    """(m, t) torque values to average: read-backs present, the value given, not an outlier of
+    its joint within its pose (a torque outlier drops that value only, not the sample)."""
     assert log.tau is not None
-    s.status.reject(~np.all(np.isfinite(log.tau), axis=1), "missing")
-    ok = s.status.ok
-    out = np.zeros(len(ok), dtype=bool)
+    q_ok = np.all(np.isfinite(log.q), axis=1)
+    use = q_ok[:, None] & np.isfinite(log.tau)
     for j in range(log.tau.shape[1]):
-        out |= s.groups.outliers(log.tau[:, j], ok, outlier_k, TORQUE_OUTLIER_FLOOR)
-    return out
+        use[:, j] &= ~s.groups.outliers(log.tau[:, j], use[:, j], outlier_k, TORQUE_OUTLIER_FLOOR)
+    return use
 
 
-def _tau_means(log: RawLog, s: _Samples) -> tuple[np.ndarray, np.ndarray]:
-    """Per pose: mean torques (k, t) and their standard errors (k, t) [N·m]."""
+def _tau_means(log: RawLog, s: _Samples, use: np.ndarray, min_samples: int):
+    """Per pose: mean torques (k, t) and standard errors (k, t) [N·m]; NaN for a joint with
+    fewer than ``min_samples`` values at that pose (not determined)."""
     assert log.tau is not None
-    ok = s.status.ok
-    mean = s.groups.mean(log.tau, ok)
-    var = s.groups.variance(log.tau, ok, mean)
-    n = s.groups.count(ok)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        se = np.maximum(np.sqrt(var / n[:, None]), TORQUE_SE_FLOOR)
+    k, t = s.groups.k, log.tau.shape[1]
+    mean, se = np.full((k, t), np.nan), np.full((k, t), np.nan)
+    for j in range(t):
+        ok = use[:, j]
+        col = log.tau[:, j : j + 1]
+        m = s.groups.mean(col, ok)
+        var = s.groups.variance(col, ok, m)
+        n = s.groups.count(ok)
+        enough = n >= min_samples
+        mean[enough, j] = m[enough, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            se[enough, j] = np.maximum(np.sqrt(var[enough, 0] / n[enough]), TORQUE_SE_FLOOR)
     return mean, se
 
 
@@ -189,6 +202,25 @@ def _pose_gravity(log: RawLog, s: _Samples) -> np.ndarray | None:
     )
     with np.errstate(invalid="ignore", divide="ignore"):
         return g_sum / np.linalg.norm(g_sum, axis=1, keepdims=True)
+
+
+def check_force_scale(log: RawLog, config: SensorConfig, mass: float) -> None:
+    """DataError naming row and column of a logged foot force beyond ``FORCE_WEIGHT_FACTOR`` ×
+    the robot's weight (a force in mN or a wrong unit, not a standing robot)."""
+    limit = FORCE_WEIGHT_FACTOR * mass * 9.80665
+    for foot in config.feet:
+        fz = log.cop_force.get(foot.name)
+        if fz is None:
+            continue
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(np.abs(fz) > limit)
+        if bad.size:
+            i = int(bad[0])
+            raise DataError(
+                f"{log.path}: row {i + log.first_row}, column '{foot.cop_prefix}_fz': "
+                f"{fz[i]:g} N is more than {FORCE_WEIGHT_FACTOR:g}× the robot's weight "
+                f"({limit / FORCE_WEIGHT_FACTOR:.4g} N): not a force in N"
+            )
 
 
 def _uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
@@ -216,14 +248,15 @@ def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 
     if feet:
         assert config is not None
         check_sensors(robot, config)
+        check_force_scale(log, config, robot.total_mass)
         cop, force_n, fs, out = _cop_part(robot, log, config, s)
         mode = fs.mode
     else:
         mode = "torque"
+    use = None
     if log.tau is not None:
-        check_torque_scale(log.tau, list(log.tau_joints), robot.total_mass, log.path)
-        k_out = config.outlier_k if config is not None else DEFAULT_OUTLIER_K
-        out |= _tau_part(log, s, k_out)
+        check_torque_scale(log, robot.total_mass)
+        use = _tau_values(log, s, config.outlier_k if config is not None else DEFAULT_OUTLIER_K)
     s.status.reject(out, "outlier")
     groups, ok = s.groups, s.status.ok
     n_used = groups.count(ok)
@@ -232,10 +265,12 @@ def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 
     keep = (n_used >= min_samples) & np.isfinite(s.q_mean).all(axis=1)
     if feet:
         mean, se, fmean = _cop_means(log, config, fs, cop, force_n, s)
-    tau, tau_se = _tau_means(log, s) if log.tau is not None else (None, None)
+    tau = tau_se = None
+    if use is not None:
+        tau, tau_se = _tau_means(log, s, use, min_samples)
     approach = None
     if log.approach is not None:
-        approach = pose_approach(log.approach, groups.g, groups.k, log.path)[keep]
+        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.first_row)[keep]
     grav = _pose_gravity(log, s)
     return Measured(
         pose=groups.ids[keep],

@@ -74,21 +74,23 @@ def read_approach(table: Table) -> np.ndarray | None:
     return a
 
 
-def check_torque_scale(tau: np.ndarray, joints: list[str], mass: float, table_path) -> None:
-    """DataError naming the row and column of a torque beyond ``mass``·g·TORQUE_REACH_M."""
+def check_torque_scale(log, mass: float) -> None:
+    """DataError naming the row and column of a torque of the raw log ``log`` beyond
+    ``mass``·g·TORQUE_REACH_M."""
     limit = mass * 9.80665 * TORQUE_REACH_M
     with np.errstate(invalid="ignore"):
-        bad = np.argwhere(np.abs(tau) > limit)
+        bad = np.argwhere(np.abs(log.tau) > limit)
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{table_path}: row {i + 2}, column '{TAU_PREFIX}{joints[k]}': {tau[i, k]:g} N·m is "
+            f"{log.path}: row {i + log.first_row}, column '{TAU_PREFIX}{log.tau_joints[k]}': "
+            f"{log.tau[i, k]:g} N·m is "
             f"more than the robot's weight at {TORQUE_REACH_M:g} m ({limit:.3g} N·m): not a "
             "torque in N·m"
         )
 
 
-def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path) -> np.ndarray:
+def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path, first_row: int = 2):
     """(k,) the approach side of each pose; DataError when a pose's samples disagree."""
     out = np.full(k, np.nan)
     ok = ~np.isnan(approach)
@@ -98,7 +100,7 @@ def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path) -> np.ndarr
     np.maximum.at(hi, g[ok], approach[ok])
     mixed = np.flatnonzero(lo < hi)
     if mixed.size:
-        row = int(np.flatnonzero(g == mixed[0])[0]) + 2
+        row = int(np.flatnonzero(g == mixed[0])[0]) + first_row
         raise DataError(
             f"{path}: column '{APPROACH_COLUMN}': the samples of one pose (from row {row}) give "
             "both +1 and -1 (one approach side per pose id)"

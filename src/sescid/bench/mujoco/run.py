@@ -28,6 +28,7 @@ from sescid.bench.log import RawLogWriter, Readings
 from sescid.bench.mujoco.sim import PoseResult, Simulation
 from sescid.bench.mujoco.spec import MujocoBenchConfig, servo_gains
 from sescid.bench.real_robot import (
+    NO_POSE_MEASURED,
     ExperimentConfig,
     SensorErrors,
     approach_sides,
@@ -178,7 +179,7 @@ def run_mujoco_experiment(
             pose_readings(sim, res, reads, unseen[i], None if sides is None else sides[i])
         )
     if not kept:
-        raise DataError(f"no pose can be measured: pose {skipped[0][0]}: {skipped[0][1]}")
+        raise DataError(f"{NO_POSE_MEASURED}: pose {skipped[0][0]}: {skipped[0][1]}")
     idx = np.array(kept)
     all_r = Readings(
         q=np.concatenate([r.q for r in readings]),

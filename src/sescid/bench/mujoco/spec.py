@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.bench.real_robot import ExperimentConfig, real_bodies
+from sescid.bench.real_robot import ExperimentConfig, extra_masses, real_bodies
 from sescid.errors import DataError, MissingExtraError, ModelError, OptionError, SescidError
 from sescid.planning import collision_capsules
 from sescid.robots.profile import ServoGains
@@ -177,7 +177,7 @@ def _add_bodies(mujoco, spec, robot, config, bench, standing_bodies: set[int]) -
     parts = _urdf_inertias(robot)
     extra_total = config.extra_mass_fraction * robot.total_mass
     extra_parts: dict[int, list] = {}
-    for e in config.extra:
+    for e in extra_masses(robot, config):
         extra_parts.setdefault(robot.body_names.index(e.body), []).append(
             (e.share * extra_total, np.asarray(e.offset, dtype=float), np.zeros((3, 3)))
         )
