@@ -11,11 +11,12 @@ with that truth.
 
 from __future__ import annotations
 
-from sescid.bench.compare import TruthComparison, compare_truth
+from sescid.bench.compare import FRESH_POSES, FRESH_WITHIN_DEG, TruthComparison, compare_truth
 from sescid.bench.kinematic import Experiment, run_experiment
 from sescid.bench.log import RawLogWriter, Readings
 from sescid.bench.real_robot import (
     DEFAULT_EXTRA,
+    NO_POSE_MEASURED,
     ExperimentConfig,
     ExtraMass,
     SensorErrors,
@@ -31,6 +32,9 @@ from sescid.bench.truth import PhysicsTruth, PlacedMass, TorqueTruth, Truth, loa
 
 __all__ = [
     "DEFAULT_EXTRA",
+    "FRESH_POSES",
+    "FRESH_WITHIN_DEG",
+    "NO_POSE_MEASURED",
     "Experiment",
     "ExperimentConfig",
     "ExternalForce",

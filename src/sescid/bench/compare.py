@@ -37,8 +37,17 @@ def _rms(d: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.asarray(d) ** 2)))
 
 
+#: fresh poses and their spread around the actual ones [degrees]
+FRESH_POSES = 2000
+FRESH_WITHIN_DEG = 5.0
+
+
 def compare_truth(
-    fit: Fit, truth_path: str | Path, n_fresh: int = 2000, within_deg: float = 5.0, seed: int = 0
+    fit: Fit,
+    truth_path: str | Path,
+    n_fresh: int = FRESH_POSES,
+    within_deg: float = FRESH_WITHIN_DEG,
+    seed: int = 0,
 ) -> TruthComparison:
     """Compare ``fit`` with the truth file at the actual poses and ``n_fresh`` fresh poses."""
     robot = fit.robot

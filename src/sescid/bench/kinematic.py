@@ -25,6 +25,7 @@ sensor errors) is returned beside the log.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -57,6 +58,21 @@ class Experiment:
     columns: dict[str, np.ndarray]
     truth: Truth
     skipped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) not measured
+
+    def relabel(self, ids) -> Experiment:
+        """The same experiment with pose k called ``ids[k]`` (a run labels poses "0", "1", …)."""
+        ids = np.asarray([str(i) for i in ids])
+
+        def new(p: str) -> str:
+            return str(ids[int(p)])
+
+        cols = dict(self.columns)
+        cols["pose"] = np.array([new(p) for p in self.columns["pose"]])
+        skipped = [(new(p), why) for p, why in self.skipped]
+        truth = dataclasses.replace(
+            self.truth, pose=tuple(new(p) for p in self.truth.pose), skipped=tuple(skipped)
+        )
+        return Experiment(cols, truth, skipped)
 
 
 def pads_in_support(robot, foot, q: np.ndarray) -> np.ndarray:

@@ -8,8 +8,13 @@ from typing import Any
 import click
 
 from sescid.base.files import OutputSet
-from sescid.bench import ExperimentConfig, TorqueConfig, check_limits, run_experiment
-from sescid.bench.real_robot import NO_POSE_MEASURED
+from sescid.bench import (
+    NO_POSE_MEASURED,
+    ExperimentConfig,
+    TorqueConfig,
+    check_limits,
+    run_experiment,
+)
 from sescid.cli.common import (
     force_option,
     load,
@@ -223,9 +228,8 @@ def _run(robot, q, sensors, cfg, opts, ids):
             from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 
             bench = MujocoBenchConfig(kp=kp, weld_foot=weld, double_support=cfg.double_support)
-            return run_mujoco_experiment(
-                robot, q, sensors, opts["samples"], opts["seed"], cfg, bench, pose_ids=ids
-            )
+            ex = run_mujoco_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, bench)
+            return ex.relabel(ids)
         return run_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, pose_ids=ids)
     except DataError as exc:
         if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file

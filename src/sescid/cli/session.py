@@ -199,8 +199,7 @@ def session(**opts):
 def _adapter(robot, opts, opt):
     """The robot adapter, the sensor layout and the journal header; the outputs checked."""
     from sescid.base.files import check_outputs
-    from sescid.io import read_table
-    from sescid.io.session_files import read_session_reasons, session_paths
+    from sescid.io import SESSION_FILES, read_session_reasons, read_table
     from sescid.sensors import load_sensors
     from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
 
@@ -218,9 +217,8 @@ def _adapter(robot, opts, opt):
         raise OptionError("adapter", "--replay needs --adapter replay")
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
-    check_outputs(
-        list(session_paths(out_dir).values()), inputs, force=opts["force"], folders=[out_dir]
-    )
+    outputs = [Path(out_dir) / name for name in SESSION_FILES]
+    check_outputs(outputs, inputs, force=opts["force"], folders=[out_dir])
     sensors = load_sensors(opts["sensors_file"], robot.profile)
     torques = torque_config(opts)
     if adapter in ("mujoco", "kinematic"):
@@ -254,7 +252,7 @@ def _adapter(robot, opts, opt):
 
 
 def _write(res, robot, out_dir, view, opts) -> None:
-    from sescid.io.session_files import write_session
+    from sescid.io import write_session
 
     written = write_session(res, robot, out_dir)
     click.echo(

@@ -144,17 +144,17 @@ def run_mujoco_experiment(
     seed: int | None = 0,
     config: ExperimentConfig | None = None,
     bench: MujocoBenchConfig | None = None,
-    pose_ids: np.ndarray | None = None,
 ) -> Experiment:
     """Stand (or hang) the real robot in each commanded pose (n, nq) [rad] in MuJoCo; log its
     sensors (module docstring). Poses that topple, touch the floor with another body or do not
-    settle are listed in ``skipped`` with the reason and get no samples."""
+    settle are listed in ``skipped`` with the reason and get no samples. Pose ids are "0", "1",
+    … in the list's order (``Experiment.relabel`` gives them a pose list's ids)."""
     config = config or ExperimentConfig()
     bench = bench or MujocoBenchConfig()
     q_cmd = np.asarray(q_cmd, dtype=float)
     _check(robot, q_cmd, sensors, samples, config, bench)
     n = q_cmd.shape[0]
-    pose_ids = np.array([str(i) for i in range(n)]) if pose_ids is None else np.asarray(pose_ids)
+    pose_ids = np.array([str(i) for i in range(n)])
     sim = Simulation(robot, sensors, config, bench)
     real = real_robot(robot, config)
     rng = np.random.default_rng(seed)
