@@ -118,3 +118,22 @@ def test_standing_servo_torques_are_bias_minus_contact(op2, sensors, poses):
     dofs = np.array([m.jnt_dofadr[m.joint(j).id] for j in op2.joint_names])
     contact = d.qfrc_bias[dofs] - d.qfrc_constraint[dofs]
     assert np.abs(res.tau - contact).max() < 5e-4 * scale
+
+
+def test_mujoco_gantry_hangs_the_robot_from_its_torso(sensors):
+    """mount="gantry": the torso welded level, no floor; every pose holds and the servos carry
+    the fixed-base gravity torques, with or without foot sensors."""
+    import sescid
+
+    robot = sescid.load_robot("op2", "MP_BODY")
+    rng = np.random.default_rng(0)
+    q = np.clip(rng.uniform(-0.4, 0.4, (3, robot.nq)), *robot.joint_limits.T)
+    cfg = ExperimentConfig(torque=TorqueConfig("all", noise=0.0, offset=0.0), mount="gantry")
+    for layout in (sensors, None):
+        ex = run_mujoco_experiment(robot, q, layout, 3, 0, cfg, QUICK)
+        t = ex.truth
+        assert not ex.skipped and t.cop_true is None
+        bodies, _ = real_bodies(robot, cfg)
+        statics = holding_torques(robot, t.q_actual, bodies)
+        assert np.abs(t.torque.tau - statics).max() < 1e-6 * np.abs(statics).max()
+        assert ("r_fsr1" in ex.columns) == (layout is not None)
