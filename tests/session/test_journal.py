@@ -83,8 +83,11 @@ def test_interrupted_session_resumes_to_the_same_result(op2, sensors, tmp_path):
     assert np.array_equal(res.fit.r, whole.fit.r) and res.stop_reason == whole.stop_reason
     for k in whole.raw:
         assert np.array_equal(res.raw[k], whole.raw[k]), k
-    with pytest.raises(DataError, match="already finished"):
-        Journal.open(tmp_path / "s", HEADER)
+    again.finish(res.stop_reason)
+    done = Journal.open(tmp_path / "s", HEADER)  # finished: replays to the end, robot still
+    idle = Seeded(op2, crash_after=0)
+    replayed = run_session(op2, idle, sensors, OPT, journal=done)
+    assert done.finished and not idle.moves and np.array_equal(replayed.fit.r, whole.fit.r)
     with pytest.raises(DataError, match="other settings .*adapter"):
         Journal.open(tmp_path / "s", HEADER | {"adapter": "another"})
     assert Journal.open(tmp_path / "s", HEADER, restart=True).entries == []
@@ -112,16 +115,21 @@ def test_the_output_folder_is_checked_before_the_first_pose(op2, tmp_path):
 
 
 def test_cli_session_resumes_and_force_starts_over(tmp_path):
-    """The kinematic bench as the robot: a finished folder is refused with a hint; --force
-    runs it again; the CLI's defaults are SessionOptions'."""
+    """The kinematic bench as the robot: a finished folder replays to the same files; other
+    options are refused with a hint; --force runs it anew; the CLI's defaults are
+    SessionOptions'."""
     run = CliRunner().invoke
     args = ["session", "--adapter", "kinematic", "--budget", "22", "--samples", "6"]
     args += ["--candidates", "300", "--no-view", "--out-dir", str(tmp_path / "k")]
     res = run(cli, args)
     assert res.exit_code == 0, res.output
+    first = (tmp_path / "k" / "session.json").read_text()
     res = run(cli, args)
-    assert res.exit_code == 2 and "already finished" in res.output and "--force" in res.output
-    res = run(cli, [*args, "--force"])
+    assert res.exit_code == 0 and "replaying it" in res.output, res.output
+    assert (tmp_path / "k" / "session.json").read_text() == first
+    res = run(cli, [*args, "--seed", "3"])
+    assert res.exit_code == 2 and "other settings" in res.output and "--force" in res.output
+    res = run(cli, [*args, "--seed", "3", "--force"])
     assert res.exit_code == 0, res.output
     params = {p.name: p.default for p in cli.get_command(None, "session").params}
     opt = SessionOptions()

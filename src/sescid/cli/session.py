@@ -176,7 +176,9 @@ def session(**opts):
     )
     bot, sensors, header = _adapter(robot, opts, opt)
     journal = Journal.open(out_dir, header, restart=opts["force"])
-    if journal.entries:
+    if journal.finished:
+        click.echo(f"{journal.path}: the session finished ({journal.finished}); replaying it")
+    elif journal.entries:
         click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
     view = None
     if not opts["no_view"]:
@@ -194,6 +196,7 @@ def session(**opts):
             view.close()
         raise
     _write(res, robot, out_dir, view, opts)
+    journal.finish(res.stop_reason)
 
 
 def _adapter(robot, opts, opt):

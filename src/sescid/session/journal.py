@@ -8,8 +8,9 @@ before the first pose (``Journal.open`` writes the header there).
 
 Resume: running a session again with the same output folder and the same options replays the
 journaled poses (the decisions depend only on the options and the measurements, so they come
-out the same) and continues with the robot from the first pose not journaled. A finished
-session, or a journal of other options, is refused in one line saying what to do.
+out the same) and continues with the robot from the first pose not journaled; a finished
+session (its outputs written: ``finish``) replays to the same end without moving the robot. A
+journal of other settings is refused in one line saying what to do.
 """
 
 from __future__ import annotations
@@ -66,8 +67,8 @@ class Journal:
     @classmethod
     def open(cls, out_dir: str | Path, header: dict, *, restart: bool = False) -> Journal:
         """The folder's journal: resumed when it holds this session's poses (same header), a
-        new one otherwise; DataError when the folder is not writable or holds another or a
-        finished session (``restart`` discards it instead)."""
+        new one otherwise; DataError when the folder is not writable or holds another session
+        (``restart`` discards it instead)."""
         folder = Path(out_dir)
         try:
             folder.mkdir(parents=True, exist_ok=True)
@@ -83,11 +84,6 @@ class Journal:
                     f"{path}: the folder holds a session with other settings ({', '.join(diff)}):"
                     " run with the same ones to resume it, or choose another --out-dir "
                     "(--force starts over)"
-                )
-            if journal.finished:
-                raise DataError(
-                    f"{path}: this session already finished ({journal.finished}); choose "
-                    "another --out-dir, or --force to run it again"
                 )
             return journal
         journal = cls(path, head)
@@ -140,7 +136,7 @@ class Journal:
         self.entries.append(entry)
 
     def finish(self, stop_reason: str) -> None:
-        """Mark the session finished."""
+        """Mark the session finished (call it once its outputs are written)."""
         self._write({"end": stop_reason})
         self.finished = stop_reason
 

@@ -239,7 +239,8 @@ def run_session(
     """Run a guided session (module docstring); ``progress`` follows the candidate sampling.
 
     ``journal``: write each pose to disk as it is done; the poses it already holds are
-    replayed first (a resumed session), then the robot continues.
+    replayed first (a resumed session), then the robot continues. Mark it ``finish``-ed once
+    the result is saved.
     """
     opt = options or SessionOptions()
     obs = observer or SessionObserver()
@@ -274,8 +275,6 @@ def run_session(
     finally:
         bot.stop()
     result = run.result(stop)
-    if journal is not None:
-        journal.finish(stop)
     obs.stopped(result)
     return result
 
