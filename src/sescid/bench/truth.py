@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from sescid.base.files import atomic_open, read_json
+from sescid.bench.log import expected_torques
 from sescid.errors import DataError
 
 TRUTH_FORMAT = "sescid-experiment-truth/1"
@@ -308,8 +309,6 @@ def torque_truth(errors, tau: np.ndarray, approach: np.ndarray, noise: float) ->
     """The torque sensors' truth from true torques (n, nq) [N·m] and approach sides (n,)."""
     if not errors.tau_joints:
         return None
-    from sescid.bench.log import expected_torques
-
     true = tau[:, errors.tau_index]
     expected = expected_torques(errors, tau, approach)
     return TorqueTruth(
