@@ -91,6 +91,8 @@ def test_interrupted_session_resumes_to_the_same_result(op2, sensors, tmp_path):
     with pytest.raises(DataError, match="other settings .*adapter"):
         Journal.open(tmp_path / "s", HEADER | {"adapter": "another"})
     assert Journal.open(tmp_path / "s", HEADER, restart=True).entries == []
+    # a journal without a measured pose yet (the session failed before) starts afresh
+    assert Journal.open(tmp_path / "s", HEADER | {"adapter": "another"}).entries == []
 
 
 def test_a_journal_cut_mid_line_loses_only_that_pose(op2, sensors, tmp_path):

@@ -160,7 +160,7 @@ def session(**opts):
     http://127.0.0.1:PORT while the session runs.
     """
     from sescid.base.progress import TerminalProgress
-    from sescid.session import Journal, run_session
+    from sescid.session import Journal, check_options, run_session
 
     robot = load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
@@ -174,6 +174,7 @@ def session(**opts):
         tol=opts["tol"],
         target_std=opts["target_std"],
     )
+    check_options(robot, opt)
     bot, sensors, header = _adapter(robot, opts, opt)
     journal = Journal.open(out_dir, header, restart=opts["force"])
     if journal.finished:

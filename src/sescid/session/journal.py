@@ -77,15 +77,16 @@ class Journal:
         path = folder / JOURNAL_NAME
         head = _plain(header) | {"format": JOURNAL_FORMAT}
         if path.exists() and not restart:
-            journal = cls._read(path)
-            if journal.header != head:
-                diff = sorted(k for k in head if journal.header.get(k) != head.get(k))
-                raise DataError(
-                    f"{path}: the folder holds a session with other settings ({', '.join(diff)}):"
-                    " run with the same ones to resume it, or choose another --out-dir "
-                    "(--force starts over)"
-                )
-            return journal
+            old = cls._read(path)
+            if old.entries or old.finished:  # else nothing was measured: start afresh
+                if old.header != head:
+                    diff = sorted(k for k in head if old.header.get(k) != head.get(k))
+                    raise DataError(
+                        f"{path}: the folder holds a session with other settings "
+                        f"({', '.join(diff)}): run with the same ones to resume it, or choose "
+                        "another --out-dir (--force starts over)"
+                    )
+                return old
         journal = cls(path, head)
         try:
             with open(path, "w") as fh:
