@@ -1,8 +1,9 @@
 """Benchmark: one consistent fit (masses/CoMs by two Clarabel QPs) against plain least squares.
 
 Prints, for the embedded OP2 and n simulated poses, the best-of-5 wall time of
-``sescid.identify`` (least squares) and of ``identify_consistent`` (least squares + the two QPs),
-their ratio, and the QP part alone. Usage: ``python benchmarks/bench_consistent.py [--poses 1000]``.
+``sescid.identify`` (least squares) and of ``identify --method consistent --via fit``
+(least squares + the two QPs), their ratio, and the QP part alone.
+Usage: ``python benchmarks/bench_consistent.py [--poses 1000]``.
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ import argparse
 from timing import best_of
 
 import sescid
-from sescid.estimation.consistent import consistent_from_fit, identify_consistent
+from sescid import ConsistentOptions
+from sescid.estimation.consistent import consistent_from_fit
 
 
 def main() -> None:
@@ -24,7 +26,12 @@ def main() -> None:
     ls = sescid.identify(robot, sim.q, sim.cop)  # warm-up (compiled kernels, imports)
     consistent_from_fit(ls)
     t_ls = best_of(lambda: sescid.identify(robot, sim.q, sim.cop))
-    t_all = best_of(lambda: identify_consistent(robot, sim.q, sim.cop))
+    via_fit = ConsistentOptions(via="fit")
+    t_all = best_of(
+        lambda: sescid.identify(
+            robot, sim.q, sim.cop, method="consistent", consistent_options=via_fit
+        )
+    )
     t_qp = best_of(lambda: consistent_from_fit(ls))
     t_sym = best_of(lambda: consistent_from_fit(ls, symmetric=True, mass_floor=0.01))
     t_map = best_of(lambda: consistent_from_fit(ls, prior_std=0.05))

@@ -141,7 +141,7 @@ _MEMORY_CHILD = """
 import sys, tracemalloc, json
 import numpy as np
 import sescid
-from sescid.estimation import identify_stream
+from sescid.estimation import Measurements
 n, chunk = int(sys.argv[1]), int(sys.argv[2])
 robot = sescid.load_robot("op2")
 def hwm():  # peak RSS of this process image in MB (VmHWM resets at exec, ru_maxrss does not)
@@ -156,7 +156,7 @@ def chunks():
     for s in range(0, n, chunk):
         q = rng.uniform(-0.52, 0.52, (min(chunk, n - s), robot.nq))
         yield q, robot.cop(q) + rng.normal(0, 0.00493, (len(q), 2))
-fit = identify_stream(robot, chunks())
+fit = sescid.identify(robot, (Measurements(q=q, cop=c) for q, c in chunks()))
 peak_py = tracemalloc.get_traced_memory()[1] / 2**20
 peak = hwm()
 print(json.dumps({"rank": fit.rank, "n": fit.n_poses, "sigma_hat": fit.sigma_hat,
@@ -310,7 +310,7 @@ def main() -> None:
         f"(Pinocchio centerOfMass {pin_us:.2f} us; target <= 5 us)"
     )
 
-    print(f"memory: identify_stream on {args.poses} poses in chunks of 50000 …", flush=True)
+    print(f"memory: identify (streamed) on {args.poses} poses in chunks of 50000 …", flush=True)
     t = time.perf_counter()
     out = subprocess.run(
         [sys.executable, "-c", _MEMORY_CHILD, str(args.poses), "50000"],

@@ -18,11 +18,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import sescid
-from sescid.estimation import identify_ls
-from sescid.estimation.map import identify_map
-from sescid.estimation.online import OnlineEstimator
-from sescid.estimation.robust import huber
-from sescid.estimation.validation import perturbed_sesc, truth_error
+from sescid import ConsistentOptions, MapOptions
+from sescid.estimation import OnlineEstimator, perturbed_sesc, truth_error
 from sescid.simulation import PAPER_NOISE, simulate
 
 ONLINE_TAU = 5e-4  #: m, the online estimator's fixed prior scale
@@ -36,29 +33,23 @@ def methods(robot):
         est.update(q, cop)
         return est.fit()
 
-    out = {
-        "ls (least squares)": lambda q, c: identify_ls(robot, q, c),
-        "map, τ by evidence": lambda q, c: identify_map(robot, q, c),
-        "map, τ by 5-fold cv": lambda q, c: identify_map(robot, q, c, select="cv"),
-        "ls + huber (robust)": lambda q, c: huber(
-            lambda qq, cc, ss: identify_ls(robot, qq, cc, sigma=ss), q, c
-        ),
+    def fit(method="ls", **kw):
+        return lambda q, c: sescid.identify(robot, q, c, method=method, **kw)
+
+    return {
+        "ls (least squares)": fit(),
+        "map, τ by evidence": fit("map"),
+        "map, τ by 5-fold cv": fit("map", map_options=MapOptions(select="cv")),
+        "ls + huber (robust)": fit(robust=True),
         f"online, τ = {ONLINE_TAU * 1e3:g} mm, σ known": online,
+        "consistent (default: CAD prior by evidence)": fit("consistent"),
+        "consistent `--via fit` (masses ≥ 0, CoM in box)": fit(
+            "consistent", consistent_options=ConsistentOptions(via="fit")
+        ),
+        "consistent `--cad-std 0.05`": fit(
+            "consistent", consistent_options=ConsistentOptions(via="fit", prior_std=0.05)
+        ),
     }
-    try:
-        from sescid.estimation.consistent import identify_consistent
-    except ImportError:
-        return out
-    out["consistent (default: CAD prior by evidence)"] = lambda q, c: sescid.identify(
-        robot, q, c, method="consistent"
-    )
-    out["consistent `--via fit` (masses ≥ 0, CoM in box)"] = lambda q, c: identify_consistent(
-        robot, q, c
-    )
-    out["consistent `--cad-std 0.05`"] = lambda q, c: identify_consistent(
-        robot, q, c, prior_std=0.05
-    )
-    return out
 
 
 def main() -> None:

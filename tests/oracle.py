@@ -46,3 +46,34 @@ class PinOracle:
 
     def total_mass(self) -> float:
         return float(sum(inert.mass for inert in self.model.inertias))
+
+
+class PinStatics(PinOracle):
+    """Holding torques with one link held fixed, computed by Pinocchio (tests only).
+
+    The model keeps the URDF's own root on a free-flyer; the held link's frame is placed at the
+    world origin, level, and its 6-D contact wrench w balances the base rows of the generalized
+    gravity g(q): J_bᵀ w = g_b, so the joints hold τ = g_a − J_aᵀ w (theory.md, joint torques).
+    """
+
+    def __init__(self, urdf_path, support: str, joint_names: list[str], g0: float = 9.81):
+        super().__init__(urdf_path, support, joint_names)
+        self.model.gravity.linear = np.array([0.0, 0.0, -g0])
+
+    def torques(self, q: np.ndarray) -> np.ndarray:
+        """(n, nq) holding torques [N·m], columns in ``joint_names`` order."""
+        model, data = self.model, self.data
+        out = np.zeros((len(q), len(self.cols)))
+        for k, qk in enumerate(q):
+            qp = self.q_pin(qk)
+            pin.framesForwardKinematics(model, data, qp)
+            qp[:7] = pin.SE3ToXYZQUAT(data.oMf[self.frame].inverse())  # held frame = world
+            g = pin.computeGeneralizedGravity(model, data, qp)
+            pin.computeJointJacobians(model, data, qp)
+            pin.framesForwardKinematics(model, data, qp)
+            jac = pin.getFrameJacobian(model, data, self.frame, pin.LOCAL_WORLD_ALIGNED)
+            wrench = np.linalg.solve(jac[:, :6].T, g[:6])
+            tau = g[6:] - jac[:, 6:].T @ wrench
+            for jid in range(2, model.njoints):
+                out[k, self.cols[model.names[jid]]] = tau[model.joints[jid].idx_v - 6]
+        return out

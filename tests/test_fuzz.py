@@ -68,7 +68,7 @@ def seeds(tmp_path_factory):
     write_table(d / "d.csv", cols)
     write_table(d / "d.parquet", cols)
     fit = sescid.identify(robot, sim.q, sim.cop)
-    fit.save(d / "fit.json")
+    sescid.save_fit(fit, d / "fit.json")
     prof = robot.profile
     sensors = load_sensors(None, prof)
     pose = np.repeat(np.arange(3), 6)  # a raw log by hand: 3 poses × 6 samples, right foot

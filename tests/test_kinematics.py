@@ -82,7 +82,7 @@ def _one_joint_tree() -> kinematics.Tree:
         a0=np.zeros((2, 3, 3)), a1=np.zeros((2, 3, 3)), a2=np.zeros((2, 3, 3)),
         t=np.zeros((2, 3)), root_r=np.eye(3), root_o=np.zeros(3), nq=1,
         nz_ptr=np.zeros(3, dtype=np.int64), nz_k=np.zeros(0, dtype=np.int64),
-        nz_j=np.zeros(0, dtype=np.int64), nz_a=np.zeros((0, 3)),
+        nz_j=np.zeros(0, dtype=np.int64), nz_a=np.zeros((0, 3)), axis=np.eye(3)[[0, 2]],
     )  # fmt: skip
 
 

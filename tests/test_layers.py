@@ -31,6 +31,7 @@ LAYERS = {
     "session": 10,
     "study": 10,
     "io": 11,
+    "api": 12,
     "report": 12,
     "cli": 13,
     "__init__": 13,

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import io
 
+from fitting import identify_ls
+
 from sescid.base.progress import TerminalProgress
-from sescid.estimation import identify_ls
 from sescid.simulation import simulate
 
 

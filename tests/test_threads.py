@@ -30,16 +30,16 @@ def test_one_thread_inside_and_the_callers_setting_after():
 
 def test_identify_runs_on_one_blas_thread(op2, rng, monkeypatch):
     """``sescid.identify`` does its dense algebra inside the one-thread context."""
-    from sescid.estimation import least_squares
+    from sescid.estimation import solve
 
     seen = []
-    real = least_squares.solve
+    real = solve._estimate
 
     def spy(*args, **kwargs):
         seen.append(_blas_threads())
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(least_squares, "solve", spy)
+    monkeypatch.setattr(solve, "_estimate", spy)
     q = rng.uniform(-0.5, 0.5, (200, op2.nq))
     import sescid
 

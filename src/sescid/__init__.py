@@ -5,9 +5,9 @@ package costs nothing until one is used):
 
 - robots: ``load_robot``, ``Robot``;
 - data: ``simulate``, ``read_table``, ``write_table``;
-- estimation: ``identify`` (``method`` = "ls" | "map" | "consistent"), ``identify_ls``,
-  ``identify_map``, ``identify_consistent``, ``identify_stream``, ``to_consistent``,
-  ``OnlineEstimator``, ``MapOptions``, ``ConsistentOptions``, ``Fit``, ``load_fit``, ``save_fit``;
+- estimation: ``identify`` (any mix of CoP and joint-torque ``Measurements``; ``method`` =
+  "ls" | "map" | "consistent"; ``IdentifyOptions``, ``MapOptions``, ``ConsistentOptions``),
+  ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
 - outputs: ``export_model`` (``export_urdf``, ``export_mjcf``), ``write_report``;
@@ -29,14 +29,12 @@ _EXPORTS: dict[str, str] = {
     "read_table": "sescid.io",
     "write_table": "sescid.io",
     "Fit": "sescid.estimation",
+    "IdentifyOptions": "sescid.estimation",
+    "Measurements": "sescid.estimation",
     "MapOptions": "sescid.estimation",
     "ConsistentOptions": "sescid.estimation",
     "OnlineEstimator": "sescid.estimation",
-    "identify": "sescid.estimation",
-    "identify_ls": "sescid.estimation",
-    "identify_map": "sescid.estimation",
-    "identify_consistent": "sescid.estimation",
-    "identify_stream": "sescid.estimation",
+    "identify": "sescid.api",
     "to_consistent": "sescid.estimation",
     "load_fit": "sescid.estimation",
     "save_fit": "sescid.estimation",
@@ -62,6 +60,8 @@ __all__ = [
     "ConsistentOptions",
     "DataError",
     "Fit",
+    "IdentifyOptions",
+    "Measurements",
     "MapOptions",
     "MissingExtraError",
     "ModelError",
@@ -75,10 +75,6 @@ __all__ = [
     "export_urdf",
     "fsr",
     "identify",
-    "identify_consistent",
-    "identify_ls",
-    "identify_map",
-    "identify_stream",
     "load_fit",
     "load_robot",
     "load_sensors",
@@ -110,6 +106,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from sescid.api import identify
     from sescid.bench import run_experiment
     from sescid.errors import (
         DataError,
@@ -122,13 +119,10 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from sescid.estimation import (
         ConsistentOptions,
         Fit,
+        IdentifyOptions,
         MapOptions,
+        Measurements,
         OnlineEstimator,
-        identify,
-        identify_consistent,
-        identify_ls,
-        identify_map,
-        identify_stream,
         load_fit,
         save_fit,
         to_consistent,

@@ -134,6 +134,50 @@ class Robot:
         """Constant term (n, 2) of the tilted CoP: d_xy − d_z g_xy / g_z."""
         return self.d[:2] - self.d[2] * sesc.gravity_ratios(gravity, n)
 
+    def joint_columns(self, joints: list[str] | tuple[str, ...] | None = None) -> np.ndarray:
+        """(J,) q columns of the named joints (all joints when None); ModelError for a name
+        that is not one of ``joint_names``."""
+        if joints is None:
+            return np.arange(self.nq)
+        index = {name: k for k, name in enumerate(self.model.joint_names)}
+        missing = [j for j in joints if j not in index]
+        if missing:
+            raise ModelError(
+                f"{self.model_path.name}: no joint named {', '.join(map(repr, missing))} "
+                f"(joints: {', '.join(self.joint_names)})"
+            )
+        return np.array([index[j] for j in joints], dtype=np.int64)
+
+    def torque_regressor(
+        self,
+        q: ArrayLike,
+        joints=None,
+        gravity: ArrayLike | None = None,
+        g0: float = sesc.STANDARD_GRAVITY,
+    ) -> np.ndarray:
+        """Φ_τ (n, J, 3N) [m/s²]: holding torques τ = M · Φ_τ · vec(r) [N·m] of ``joints``
+        (names; None: all) with the support link fixed, gravity (n, 3) directions (None: level)
+        of magnitude g0 [m/s²]."""
+        return sesc.torque_regressor(self.tree, q, self.joint_columns(joints), gravity, g0)
+
+    def torques(
+        self,
+        q: ArrayLike,
+        r: np.ndarray | None = None,
+        *,
+        joints=None,
+        gravity: ArrayLike | None = None,
+        total_mass: float | None = None,
+        g0: float = sesc.STANDARD_GRAVITY,
+    ) -> np.ndarray:
+        """Holding torques (n, J) [N·m] of ``joints`` (None: all) with the support link fixed:
+        each balances the gravity moment of the bodies beyond its joint. ``r`` and
+        ``total_mass`` override the model's SESC vectors and mass; ``g0`` is |g| [m/s²]."""
+        rr = self._r if r is None else r
+        mass = self.total_mass if total_mass is None else float(total_mass)
+        cols = self.joint_columns(joints)
+        return sesc.torques(self.tree, q, rr, mass, cols, gravity, g0)
+
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
     def _geometry(self) -> tuple[list[Shape], list[str]]:

@@ -9,6 +9,20 @@ body i's frame, and ``M_ch`` the mass carried by the subtree of ``ch``. The CoP 
 static balance on a level floor is the (x, y) of the CoM; with gravity along g (support frame,
 not along the sole normal) it is where the gravity line through the CoM meets the sole plane,
 ``c_xy − c_z g_xy / g_z`` — still linear in r.
+
+Joint torques. With the support link held fixed, the torque an actuator applies to hold the pose
+balances the gravity moment of the bodies beyond its joint (away from the support). The bodies
+beyond body b's joint carry the first moment ``Σ_{i ∈ sub(b)} m_i (c_i − o_b) = M Σ_{i ∈ sub(b)}
+R_i r_i`` about the joint (the SESC vectors carry each subtree's mass times its joint offsets),
+so the generalized gravity force on joint column j is
+
+    τ_j = M Σ_{b: joint(b) = j} coef_b ((R_b a_b) × g)ᵀ Σ_{i ∈ sub(b)} R_i r_i            [N·m]
+
+with a_b the joint axis in body b's frame, ``coef_b`` the joint's sign (and mimic multiplier)
+and g the gravity vector (m/s²) in the support frame: linear in M·r, the same parameters as the
+CoP. The support body's own r never appears (its weight goes to the floor without crossing a
+joint), and a body's component along its own joint axis only in its sum with its parent's: the
+CoP's structural null space plus the support body's horizontal components.
 """
 
 from __future__ import annotations
@@ -25,8 +39,12 @@ from sescid.kinematics import (
     chain,
     com_one,
     cop_xy_compiled,
+    forward,
 )
 from sescid.model import RobotModel
+
+#: standard gravity, m/s² (the magnitude of g; its direction comes from the data or a level sole)
+STANDARD_GRAVITY = 9.80665
 
 
 def subtree_masses(model: RobotModel) -> np.ndarray:
@@ -106,3 +124,78 @@ def gravity_ratios(gravity, n: int) -> np.ndarray:
 def tilted_cop(com: np.ndarray, ratios: np.ndarray) -> np.ndarray:
     """CoP (n, 2) where the gravity line through CoM (n, 3) meets z = 0: c_xy − c_z g_xy/g_z."""
     return com[:, :2] - com[:, 2:3] * ratios
+
+
+def gravity_vectors(gravity: ArrayLike | None, n: int, g0: float = STANDARD_GRAVITY) -> np.ndarray:
+    """(n, 3) gravity vectors [m/s²] in the support frame: directions (n, 3) scaled to g0, or
+    a level support's (0, 0, −g0) when ``gravity`` is None."""
+    if gravity is None:
+        out = np.zeros((n, 3))
+        out[:, 2] = -g0
+        return out
+    g = np.asarray(gravity, dtype=float)
+    gravity_ratios(g, n)  # shape, finiteness, pointing down
+    return g * (g0 / np.linalg.norm(g, axis=1, keepdims=True))
+
+
+def subtree_matrix(tree: Tree) -> np.ndarray:
+    """(N, N) with [b, i] = 1 when body i is body b or beyond it (away from the support)."""
+    nb = tree.parent.shape[0]
+    sub = np.eye(nb)
+    for i in range(nb - 1, 0, -1):  # children come after their parents
+        sub[tree.parent[i]] += sub[i]
+    return sub
+
+
+def joint_bodies(tree: Tree, cols: np.ndarray) -> np.ndarray:
+    """(J, N) weights of each body's joint in the torque of q columns ``cols``: coef_b where body
+    b is driven by that column (several bodies for a mimic joint), else 0."""
+    w = np.zeros((len(cols), tree.parent.shape[0]))
+    for k, j in enumerate(cols):
+        hit = tree.jcol == j
+        w[k, hit] = tree.coef[hit]
+    return w
+
+
+def torque_regressor(
+    tree: Tree,
+    q: ArrayLike,
+    cols: ArrayLike,
+    gravity: ArrayLike | None = None,
+    g0: float = STANDARD_GRAVITY,
+) -> np.ndarray:
+    """Φ_τ (n, J, 3N) [m/s²] with τ[:, j] = M · Φ_τ[:, j] · vec(r) [N·m] for the q columns
+    ``cols`` (J,), under gravity (n, 3) directions in the support frame (None: level) of
+    magnitude g0 [m/s²]."""
+    q = as_poses(q, tree.nq)
+    n, nb = q.shape[0], tree.parent.shape[0]
+    cols = np.asarray(cols, dtype=np.int64).reshape(-1)
+    g = gravity_vectors(gravity, n, g0)
+    out = np.empty((n, cols.size, 3 * nb))
+    weight = joint_bodies(tree, cols)  # (J, N)
+    sub = subtree_matrix(tree)  # (N, N)
+    for s in range(0, n, CHAIN_BLOCK):
+        rot, _ = forward(tree, q[s : s + CHAIN_BLOCK])  # (m, N, 3, 3)
+        axes = np.einsum("mbij,bj->mbi", rot, tree.axis)  # joint axes, support frame
+        h = np.cross(axes, g[s : s + CHAIN_BLOCK, None, :])  # (m, N, 3)
+        lever = np.einsum("jb,bi,mbk->mjik", weight, sub, h)  # (m, J, N, 3)
+        block = np.einsum("mjik,mikl->mjil", lever, rot)  # hᵀ R_i
+        out[s : s + block.shape[0]] = block.reshape(block.shape[0], cols.size, 3 * nb)
+    return out
+
+
+def torques(
+    tree: Tree,
+    q: ArrayLike,
+    r: np.ndarray,
+    total_mass: float,
+    cols: ArrayLike | None = None,
+    gravity: ArrayLike | None = None,
+    g0: float = STANDARD_GRAVITY,
+) -> np.ndarray:
+    """Holding torques (n, J) [N·m] of the q columns ``cols`` (default: all) for SESC vectors
+    r (N, 3) [m] and total mass [kg], under gravity (n, 3) directions (None: level) of
+    magnitude g0 [m/s²]."""
+    cols = np.arange(tree.nq) if cols is None else np.asarray(cols, dtype=np.int64)
+    phi = torque_regressor(tree, q, cols, gravity, g0)
+    return total_mass * (phi @ np.asarray(r, dtype=float).reshape(-1))

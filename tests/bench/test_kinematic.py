@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_ls
 from op2_stance import stable_poses
 
 from sescid.bench import ExperimentConfig, ExtraMass, real_robot, run_experiment
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import identify_ls
 from sescid.io import Table, write_table
 from sescid.report import cop_offset_stats
 from sescid.robots import MX28, profile_for

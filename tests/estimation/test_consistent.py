@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from fitting import identify_consistent
 
 import sescid
 from sescid.errors import SescidError
@@ -13,7 +14,6 @@ from sescid.estimation.consistent import (
     body_boxes,
     consistent_from_fit,
     consistent_model,
-    identify_consistent,
     mirror_pairs,
     sesc_map,
 )

@@ -6,9 +6,9 @@ import dataclasses
 
 import numpy as np
 import pytest
+from fitting import identify_ls, identify_stream
 
 import sescid
-from sescid.estimation import identify_ls, identify_stream
 from sescid.sesc import sesc_vectors
 from sescid.simulation import random_poses, simulate
 
@@ -124,21 +124,25 @@ def test_weights_follow_the_given_standard_errors(op2):
 
 def test_too_few_poses_and_the_papers_38(op2):
     q = random_poses(op2, 20, 30, 0)
-    with pytest.raises(sescid.SescidError, match="at least 21 poses"):
+    with pytest.raises(sescid.SescidError, match="at least 22 poses are needed"):
         identify_ls(op2, q, op2.cop(q))
     q = random_poses(op2, 38, 30, 0)
     fit = identify_ls(op2, q, op2.cop(q) + np.random.default_rng(0).normal(0, 0.005, (38, 2)))
     assert fit.rank == 42 and fit.n_rows == 76 and np.isfinite(fit.sigma_hat)
-    q = random_poses(op2, 21, 30, 0)
-    fit = identify_ls(op2, q, op2.cop(q))
+    q = random_poses(op2, 21, 30, 0)  # 42 equations, 42 combinations: no degrees of freedom
+    with pytest.raises(sescid.SescidError, match="no degrees of freedom.*at least 22 poses"):
+        identify_ls(op2, q, op2.cop(q))
+    fit = identify_ls(op2, q, op2.cop(q), allow_exact=True)  # asked for: nothing is "exact"
     assert fit.rank == 42 and np.isnan(fit.sigma_hat) and "no residual" in fit.notes[0]
+    assert np.all(np.isnan(fit.cov)) and all(np.isnan(c.std) for c in fit.base)
+    assert np.all(np.isnan(fit.predict_std(q[:3])))
 
 
 def test_bad_cop_input(op2):
     q = random_poses(op2, 30, 30, 0)
     cop = op2.cop(q)
     cop[3, 1] = np.inf
-    with pytest.raises(sescid.SescidError, match="non-finite CoP at pose 3"):
+    with pytest.raises(sescid.SescidError, match="non-finite value at row 3"):
         identify_ls(op2, q, cop)
     with pytest.raises(sescid.SescidError, match="expected shape"):
         identify_ls(op2, q, cop[:, :1])

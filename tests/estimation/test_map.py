@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 import scipy.stats
 from click.testing import CliRunner
+from fitting import identify_ls, identify_map
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import accumulate, identify_ls, load_fit
-from sescid.estimation.map import identify_map, log_evidence
+from sescid.estimation import accumulate, load_fit
+from sescid.estimation.map import Prior, body_prior, log_evidence
 from sescid.estimation.validation import perturbed_sesc, truth_error
 from sescid.simulation import simulate
 
@@ -77,12 +78,19 @@ def test_log_evidence_equals_gaussian_marginal_density(robot):
     sim = simulate(robot, 30, 30.0, sigma, 4)
     ne = accumulate(robot, [(sim.q, sim.cop)])
     x0 = robot.sesc_vectors().reshape(-1)
-    got = log_evidence(ne, x0, np.full(x0.size, tau**-2), sigma)
+    got = log_evidence(ne, x0, Prior(x0.size, np.zeros(0)), tau, sigma)
     phi = robot.regressor(sim.q).reshape(60, -1)
     y = (sim.cop - robot.d[:2]).reshape(-1)
     cov = sigma**2 * np.eye(60) + tau**2 * phi @ phi.T
     want = scipy.stats.multivariate_normal(phi @ x0, cov).logpdf(y)
     assert got == pytest.approx(want, rel=1e-9)
+    # the per-body prior: vec(r) ~ N(x0, τ² Σ₀), Σ₀ = K D Kᵀ (masses and first moments)
+    body = body_prior(robot, x0.size, np.zeros(0))
+    tau_rel = 0.1
+    sigma0 = np.linalg.inv(body.x_precision)
+    cov = sigma**2 * np.eye(60) + tau_rel**2 * phi @ sigma0 @ phi.T
+    want = scipy.stats.multivariate_normal(phi @ x0, cov).logpdf(y)
+    assert log_evidence(ne, x0, body, tau_rel, sigma) == pytest.approx(want, rel=1e-7)
 
 
 def test_evidence_recovers_prior_scale_and_noise(robot):

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_ls, identify_map
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import identify_ls, load_fit
-from sescid.estimation.map import identify_map
+from sescid.estimation import load_fit
 from sescid.estimation.online import OnlineEstimator
 from sescid.estimation.validation import perturbed_sesc
 from sescid.simulation import simulate

@@ -5,12 +5,13 @@ import math
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_ls
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import identify_ls, load_fit
-from sescid.estimation.map import identify_map
-from sescid.estimation.robust import huber, joint_noise_mc
+from sescid.estimation import IdentifyOptions, Measurements, identify, load_fit
+from sescid.estimation.api import make_fitter
+from sescid.estimation.robust import joint_noise_mc
 from sescid.estimation.validation import truth_error
 from sescid.simulation import random_poses, simulate
 
@@ -27,12 +28,22 @@ def corrupted(robot):
 
 
 def _ls(robot):
-    return lambda q, c, s: identify_ls(robot, q, c, sigma=s)
+    """A (q, cop) → least-squares fit function."""
+    fitter = make_fitter(robot, "ls", IdentifyOptions())
+    return lambda q, c: fitter([Measurements(q=q, cop=c).checked(robot)])
+
+
+def _mfit(robot):
+    return make_fitter(robot, "ls", IdentifyOptions())
+
+
+def huber(robot, q, cop, sigma=None, **kw):
+    return identify(robot, q, cop, sigma=sigma, robust=True, **kw)
 
 
 def test_huber_names_the_corrupted_poses(robot, corrupted):
     sim, cop = corrupted
-    fit = huber(_ls(robot), sim.q, cop)
+    fit = huber(robot, sim.q, cop)
     low = {i for i, w in fit.robust.downweighted if w < 0.5}
     assert low == set(BAD.tolist())
 
@@ -41,7 +52,7 @@ def test_huber_recovers_the_clean_accuracy(robot, corrupted):
     sim, cop = corrupted
     fresh = simulate(robot, 3000, 30.0, 0.0, 50)
     e_ls = truth_error(identify_ls(robot, sim.q, cop), fresh.q, fresh.cop_true)
-    e_hub = truth_error(huber(_ls(robot), sim.q, cop), fresh.q, fresh.cop_true)
+    e_hub = truth_error(huber(robot, sim.q, cop), fresh.q, fresh.cop_true)
     e_clean = truth_error(identify_ls(robot, sim.q, sim.cop), fresh.q, fresh.cop_true)
     assert e_hub < 0.75 * e_ls
     assert e_hub < 1.15 * e_clean
@@ -49,21 +60,21 @@ def test_huber_recovers_the_clean_accuracy(robot, corrupted):
 
 def test_huber_noise_scale_in_metres(robot, corrupted):
     sim, cop = corrupted
-    fit = huber(_ls(robot), sim.q, cop)
+    fit = huber(robot, sim.q, cop)
     assert fit.sigma_hat == pytest.approx(SIGMA, rel=0.12)
     assert fit.robust.scale == pytest.approx(SIGMA, rel=0.12)
 
 
 def test_huber_on_clean_data_down_weights_about_5_percent(robot):
     sim = simulate(robot, 400, 30.0, SIGMA, 8)
-    fit = huber(_ls(robot), sim.q, sim.cop)
+    fit = huber(robot, sim.q, sim.cop)
     frac = len(fit.robust.downweighted) / 400
     assert 0.02 <= frac <= 0.09  # P(‖e‖ > 2.45σ) = 5 % for Gaussian noise
 
 
 def test_huber_wraps_map(robot, corrupted):
     sim, cop = corrupted
-    fit = huber(lambda q, c, s: identify_map(robot, q, c, sigma=s), sim.q, cop)
+    fit = huber(robot, sim.q, cop, method="map")
     low = {i for i, w in fit.robust.downweighted if w < 0.5}
     assert low == set(BAD.tolist()) and fit.method == "map" and fit.method_label == "map+huber"
 
@@ -76,13 +87,14 @@ def test_joint_noise_mc_matches_replicated_spread(robot):
     rng = np.random.default_rng(11)
     fitter = _ls(robot)
     preds = [
-        fitter(sim.q + rng.normal(0, dq, sim.q.shape), sim.cop, None).predict_cop(q_ref)
+        fitter(sim.q + rng.normal(0, dq, sim.q.shape), sim.cop).predict_cop(q_ref)
         for _ in range(30)
     ]
     spread = math.sqrt(np.mean(np.var(np.array(preds), axis=0, ddof=1)))
     q_meas = sim.q + rng.normal(0, dq, sim.q.shape)
-    fit = fitter(q_meas, sim.cop, None)
-    mc = joint_noise_mc(fitter, fit, q_meas, sim.cop, dq, draws=30, reference_poses=q_ref)
+    fit = fitter(q_meas, sim.cop)
+    data = Measurements(q=q_meas, cop=sim.cop).checked(robot)
+    mc = joint_noise_mc(_mfit(robot), fit, data, dq, draws=30, reference_poses=q_ref)
     assert mc.cop_std_joint == pytest.approx(spread, rel=0.2)
     assert 0 < mc.share_joint < 1
 
@@ -90,20 +102,21 @@ def test_joint_noise_mc_matches_replicated_spread(robot):
 def test_joint_noise_share_grows_with_the_angle_error(robot):
     sim = simulate(robot, 150, 30.0, SIGMA, 12)
     fitter = _ls(robot)
-    fit = fitter(sim.q, sim.cop, None)
-    small = joint_noise_mc(fitter, fit, sim.q, sim.cop, math.radians(0.2), draws=10)
-    large = joint_noise_mc(fitter, fit, sim.q, sim.cop, math.radians(2.0), draws=10)
+    fit = fitter(sim.q, sim.cop)
+    data = Measurements(q=sim.q, cop=sim.cop).checked(robot)
+    small = joint_noise_mc(_mfit(robot), fit, data, math.radians(0.2), draws=10)
+    large = joint_noise_mc(_mfit(robot), fit, data, math.radians(2.0), draws=10)
     assert small.share_joint < 0.1 < 0.5 < large.share_joint
     assert large.cop_std_joint == pytest.approx(10 * small.cop_std_joint, rel=0.35)
 
 
 def test_bad_inputs_raise(robot, corrupted):
     sim, cop = corrupted
-    with pytest.raises(SescidError, match="Huber threshold"):
-        huber(_ls(robot), sim.q, cop, k=0)
+    with pytest.raises(SescidError, match="huber_k"):
+        huber(robot, sim.q, cop, huber_k=0)
     fit = identify_ls(robot, sim.q, cop)
     with pytest.raises(SescidError, match="joint noise"):
-        joint_noise_mc(_ls(robot), fit, sim.q, cop, -1.0)
+        joint_noise_mc(_mfit(robot), fit, Measurements(q=sim.q, cop=cop), -1.0)
 
 
 def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path, write_dataset):
@@ -135,7 +148,7 @@ def test_huber_with_per_pose_errors_scale_near_one(robot):
     se = rng.uniform(0.002, 0.008, 200)
     cop = robot.cop(q) + rng.normal(0, 1, (200, 2)) * se[:, None]
     cop[BAD] += np.array([0.04, -0.03])
-    fit = huber(_ls(robot), q, cop, se)
+    fit = huber(robot, q, cop, se)
     assert fit.robust.scale == pytest.approx(1.0, abs=0.15)
     assert {i for i, w in fit.robust.downweighted if w < 0.5} == set(BAD.tolist())
     assert fit.weighted

@@ -3,15 +3,14 @@
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_ls, identify_map
 
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import identify_ls, load_fit
-from sescid.estimation.map import identify_map
+from sescid.estimation import identify, load_fit
 from sescid.estimation.validation import (
     com_interval,
     cop_interval,
-    cross_validate,
     folds,
     perturbed_sesc,
     quantile,
@@ -79,7 +78,7 @@ def test_quantile_is_student_t():
 def test_cross_validated_error_matches_noise_plus_model_error(robot):
     """CV RMSE² ≈ σ² + LS prediction variance σ²p/(2n_train − p − 1) (n_train = 160)."""
     sim = simulate(robot, 200, 30.0, SIGMA, 6)
-    cv = cross_validate(lambda q, c, s: identify_ls(robot, q, c, sigma=s), sim.q, sim.cop, k=5)
+    cv = identify(robot, sim.q, sim.cop, cv=5).cv
     p, m = 42, 2 * 160
     want = SIGMA * np.sqrt(1 + p / (m - p - 1))
     assert cv.rmse == pytest.approx(want, rel=0.08)

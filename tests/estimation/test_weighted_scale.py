@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import sescid
-from sescid.estimation import cop_interval, cross_validate, make_fitter
+from sescid.estimation import cop_interval
 
 SCALE = 3.0  # the given standard errors are 3× too small
 
@@ -44,6 +44,6 @@ def test_cv_noise_is_the_scale(op2, scaled_data):
     """Cross-validation of a weighted fit reports the scale ≈ 3 and an RMSE in units of the
     given errors (≈ 3 too), never metres."""
     q, cop, se = scaled_data
-    cv = cross_validate(make_fitter(op2, "ls"), q, cop, 5, se, 0)
+    cv = sescid.identify(op2, q, cop, sigma=se, cv=5, seed=0).cv
     assert abs(cv.noise - SCALE) < 0.3
     assert SCALE * 0.9 < cv.rmse < SCALE * 1.3

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_consistent
 from lxml import etree
 from oracle import PinOracle  # noqa: E402  (tests/ is on sys.path through its conftest)
 
 import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation.consistent import identify_consistent
 from sescid.io.export.urdf import export_urdf
 
 TOTAL = 2.97  # kg, a "weighed" mass 45 g above the URDF's
@@ -38,7 +38,7 @@ def exported(tmp_path_factory, op2):
     sim = sescid.simulate(op2, 500, noise=0.00493, seed=3)
     fit = identify_consistent(op2, sim.q, sim.cop, total_mass=TOTAL, symmetric=True)
     folder = tmp_path_factory.mktemp("export")
-    fit.save(folder / "fit.json")
+    sescid.save_fit(fit, folder / "fit.json")
     fit = sescid.load_fit(folder / "fit.json")
     assert export_urdf(fit, folder / "op2_identified.urdf") == []
     return fit, folder / "op2_identified.urdf"
@@ -238,10 +238,10 @@ def test_cli_export_errors_exit_2_without_output(exported, tmp_path, case):
     if case == "not a fit":
         fit_json.write_text("{}")
     elif case == "no folder":
-        exported[0].save(fit_json)
+        sescid.save_fit(exported[0], fit_json)
         out = tmp_path / "nowhere" / "out.urdf"
     elif case.endswith("on consistent"):  # consistent-step options on a fit that has masses
-        exported[0].save(fit_json)
+        sescid.save_fit(exported[0], fit_json)
         opts = ["--total-mass", "3"] if case.startswith("mass") else ["--mass-floor", "0.01"]
     result = CliRunner().invoke(cli, ["export", str(fit_json), "--out", str(out), *opts])
     assert result.exit_code == 2

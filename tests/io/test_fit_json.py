@@ -7,10 +7,10 @@ import os
 
 import numpy as np
 import pytest
+from fitting import identify_ls
 
 import sescid
 from sescid import io
-from sescid.estimation import identify_ls
 from sescid.simulation import simulate
 
 
@@ -18,9 +18,9 @@ def test_fit_round_trip(op2, tmp_path):
     sim = simulate(op2, 200, seed=1)
     fit = identify_ls(op2, sim.q, sim.cop)
     path = tmp_path / "fit.json"
-    fit.save(path)
+    sescid.save_fit(fit, path)
     data = json.loads(path.read_text())
-    assert data["format"] == "sescid-fit/2"
+    assert data["format"] == "sescid-fit/3"
     assert data["rank"] == 42 and data["n_poses"] == 200
     assert data["robot"]["source"] == "op2" and data["robot"]["support"] == "r_sole"
     assert data["sigma_hat"] == pytest.approx(fit.sigma_hat)
@@ -40,6 +40,9 @@ def test_load_fit_rejects_other_json(tmp_path):
         sescid.load_fit(path)
     path.write_text("{nope")
     with pytest.raises(sescid.SescidError, match="not a JSON file"):
+        sescid.load_fit(path)
+    path.write_text('{"format": "sescid-fit/9"}')
+    with pytest.raises(sescid.SescidError, match="format 'sescid-fit/9' is not one this sescid"):
         sescid.load_fit(path)
 
 

@@ -8,11 +8,11 @@ import struct
 
 import numpy as np
 import pytest
+from fitting import identify_ls
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sescid.base.columns import read_cop, read_poses
-from sescid.estimation import identify_ls
 from sescid.io import iter_table, read_table, tables, write_table
 from sescid.io.float_text import float_text, format_rows
 from sescid.simulation import simulate

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fitting import identify_ls, identify_stream
 
 from sescid.base.columns import read_cop, read_poses
 from sescid.errors import DataError
-from sescid.estimation import identify_chunks, identify_ls, identify_once
+from sescid.estimation import Measurements, identify
 from sescid.io import iter_table, read_table, tables, write_table
 from sescid.io.tables import read_ahead
 from sescid.simulation import simulate
@@ -74,7 +75,7 @@ def test_identify_chunks_equals_in_memory(op2, small_blocks, tmp_path):
     q = np.concatenate([c[0] for c in chunks])
     cop = np.concatenate([c[1] for c in chunks])
     ref = identify_ls(op2, q, cop)
-    fit = identify_chunks(op2, chunks)
+    fit = identify_stream(op2, chunks)
     np.testing.assert_array_equal(fit.r, ref.r)  # same blocks, same sums
     assert fit.mae == pytest.approx(ref.mae, rel=1e-12)
     assert fit.rms == pytest.approx(ref.rms, rel=1e-12)
@@ -90,9 +91,9 @@ def test_identify_once_equals_chunks_and_memory(op2, small_blocks, tmp_path):
     tables = list(iter_table(path))
     chunks = [(read_poses(t, op2.joint_names), read_cop(t)) for t in tables]
     truth = [np.column_stack([t.get("cop_x_true"), t.get("cop_y_true")]) for t in tables]
-    ref = identify_chunks(op2, chunks)
-    once = [(q, c, None, None, t) for (q, c), t in zip(chunks, truth, strict=True)]
-    fit = identify_once(op2, iter(once))
+    ref = identify_stream(op2, chunks)
+    once = (Measurements(q=q, cop=c, cop_true=t) for (q, c), t in zip(chunks, truth, strict=True))
+    fit = identify(op2, once)
     np.testing.assert_array_equal(fit.r, ref.r)
     assert fit.mae == ref.mae and fit.rms == ref.rms  # same chunks, same sums
     q = np.concatenate([c[0] for c in chunks])

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_consistent
 from mjcf_gen import mujoco_com, mujoco_geom_poses, random_mjcf
 
 from sescid.cli import cli
@@ -59,6 +60,60 @@ def test_random_tree_com_equals_mujoco(tmp_path, seed):
     q = rng.uniform(-2.5, 2.5, (25, robot.nq))
     ref = mujoco_com(path, support, robot.joint_names, q, seed)
     assert np.abs(robot.com(q) - ref).max() <= 1e-12
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_tree_frames_and_inertias_equal_mujoco(tmp_path, seed):
+    """Random MJCF trees re-rooted anywhere: every body and site frame in the support frame is
+    MuJoCo's (xpos/xmat, site_xpos/xmat), and every body's inertial (CoM, inertia in body
+    axes, ``inertia_parts``) MuJoCo's xipos/ximat·diag(body_inertia)·ximatᵀ."""
+    from mjcf_gen import _mujoco_states
+
+    from sescid.model import inertia_parts
+
+    xml, frames = random_mjcf(seed)
+    path = tmp_path / "r.xml"
+    path.write_text(xml)
+    rng = np.random.default_rng(50 + seed)
+    support = frames[rng.integers(len(frames))]
+    robot = _load(path, support)
+    q = rng.uniform(-2.5, 2.5, (5, robot.nq))
+    rot, org = robot.forward(q)
+    parts = inertia_parts(robot.model)
+    states = _mujoco_states(path, support, robot.joint_names, q, seed)
+    for k, (m, data, r_s, o_s, root) in enumerate(states):
+        bodies = [b for b in range(m.nbody) if m.body_rootid[b] == root]
+        sites = [s for s in range(m.nsite) if m.site_bodyid[s] in bodies]
+        checked = 0
+        for kind, ids, xpos, xmat in (
+            ("body", bodies, data.xpos, data.xmat),
+            ("site", sites, data.site_xpos, data.site_xmat),
+        ):
+            for i in ids:
+                name = getattr(m, kind)(i).name or f"{kind}{i}"
+                if name not in robot.model.link_frames:  # a site named like a body
+                    continue
+                r_lk, o_lk = robot.link_poses(q[k : k + 1], name)
+                np.testing.assert_allclose(r_lk[0], r_s.T @ xmat[i].reshape(3, 3), atol=1e-12)
+                np.testing.assert_allclose(o_lk[0], r_s.T @ (xpos[i] - o_s), atol=1e-12)
+                checked += 1
+        assert checked == len(bodies) + len(sites) - sum(
+            (m.site(s).name or f"site{s}") not in robot.model.link_frames for s in sites
+        )
+        for b in bodies:
+            if not m.body_mass[b] > 0:
+                continue
+            sb = robot.model.link_frames[m.body(b).name or f"body{b}"][0]
+            c_ref = r_s.T @ (data.xipos[b] - o_s)
+            i_ref = r_s.T @ data.ximat[b].reshape(3, 3)
+            i_ref = i_ref @ np.diag(m.body_inertia[b]) @ i_ref.T
+            hits = [
+                (rot[k, sb] @ c + org[k, sb], rot[k, sb] @ i_c @ rot[k, sb].T)
+                for _, c, i_c in parts[sb]
+                if np.allclose(rot[k, sb] @ c + org[k, sb], c_ref, atol=1e-12, rtol=0)
+            ]
+            assert hits, (seed, b)
+            np.testing.assert_allclose(hits[0][1], i_ref, atol=1e-14)
 
 
 _HAND = """<mujoco model="hand">
@@ -230,7 +285,7 @@ def test_export_round_trip_op2(op2_mjcf, tmp_path):
     _, _, r_true = _perturbed(robot, 4)
     rng = np.random.default_rng(5)
     q = rng.uniform(-1, 1, (400, robot.nq))
-    fit = consistent.identify_consistent(robot, q, robot.cop(q, r_true), box_margin=0.5)
+    fit = identify_consistent(robot, q, robot.cop(q, r_true), box_margin=0.5)
     out = tmp_path / "op2_fit.xml"
     assert export_model(fit, out) == []
     back = _load(out, "r_sole")
@@ -255,8 +310,9 @@ def test_export_random_trees(tmp_path, seed):
     robot = _load(path, support)
     masses, coms, r_true = _perturbed(robot, seed)
     q = np.random.default_rng(seed).uniform(-1, 1, (200, robot.nq))
-    fit = consistent.identify_consistent(robot, q, robot.cop(q, r_true), box_margin=0.5)
-    fit.inertials = dataclasses.replace(fit.inertials, masses=masses, coms=coms)  # the truth
+    fit = identify_consistent(robot, q, robot.cop(q, r_true), box_margin=0.5)
+    truth = dataclasses.replace(fit.inertials, masses=masses, coms=coms)
+    fit = dataclasses.replace(fit, inertials=truth)  # the truth
     out = tmp_path / "out.xml"
     export_mjcf(fit, out)
     back = _load(out, support)
@@ -270,10 +326,12 @@ def test_export_refuses_mass_between_hinges(tmp_path):
     path.write_text(_HAND)
     robot = _load(path, "base")
     q = np.random.default_rng(6).uniform(-1, 1, (50, robot.nq))
-    fit = consistent.identify_consistent(robot, q, robot.cop(q), box_margin=0.5)
+    fit = identify_consistent(robot, q, robot.cop(q), box_margin=0.5)
     masses, coms = fit.inertials.masses.copy(), fit.inertials.coms.copy()
     masses[robot.body_names.index("arm:a1")] = 0.1
-    fit.inertials = dataclasses.replace(fit.inertials, masses=masses, coms=coms)
+    fit = dataclasses.replace(
+        fit, inertials=dataclasses.replace(fit.inertials, masses=masses, coms=coms)
+    )
     with pytest.raises(ModelError, match="'arm:a1', a massless frame between two hinges"):
         export_mjcf(fit, tmp_path / "out.xml")
     assert not (tmp_path / "out.xml").exists()
@@ -294,9 +352,9 @@ def test_consistent_pins_frames_between_hinges(tmp_path):
         robot.model,
         bodies=[dataclasses.replace(b, frame_only=False) for b in robot.model.bodies],
     )
-    fit_free = consistent.identify_consistent(Robot(free, str(path)), q, cop, box_margin=0.5)
+    fit_free = identify_consistent(Robot(free, str(path)), q, cop, box_margin=0.5)
     assert fit_free.inertials.masses[frame] > 1e-3
-    fit = consistent.identify_consistent(robot, q, cop, box_margin=0.5)
+    fit = identify_consistent(robot, q, cop, box_margin=0.5)
     masses, coms = consistent.fit_inertials(fit)
     assert masses[frame] == 0.0 and np.all(coms[frame] == 0.0)
     assert not any("arm:a1" in c for c in fit.inertials.active_constraints)
@@ -306,7 +364,7 @@ def test_consistent_pins_frames_between_hinges(tmp_path):
     back = _load(out, "base")
     q2 = rng.uniform(-1.5, 1.5, (200, robot.nq))
     assert np.abs(back.cop(q2) - fit.predict_cop(q2)).max() <= 1e-9
-    fit_floor = consistent.identify_consistent(robot, q, cop, box_margin=0.5, mass_floor=0.2)
+    fit_floor = identify_consistent(robot, q, cop, box_margin=0.5, mass_floor=0.2)
     assert fit_floor.inertials.masses[frame] == 0.0  # a mass floor does not apply to it
 
 
@@ -421,13 +479,13 @@ def test_export_model_format(tmp_path, op2):
     path.write_text(_HAND)
     robot = _load(path, "base")
     q = np.random.default_rng(9).uniform(-1, 1, (60, robot.nq))
-    fit = consistent.identify_consistent(robot, q, robot.cop(q), box_margin=0.5)
+    fit = identify_consistent(robot, q, robot.cop(q), box_margin=0.5)
     with pytest.raises(OptionError, match="format: cannot write URDF from the MJCF"):
         export_model(fit, tmp_path / "out.urdf", "urdf")
     export_model(fit, tmp_path / "out.xml", "mjcf")
     assert _load(tmp_path / "out.xml", "base").total_mass == pytest.approx(robot.total_mass)
     q = np.random.default_rng(9).uniform(-0.3, 0.3, (60, op2.nq))
-    fit = consistent.identify_consistent(op2, q, op2.cop(q))
+    fit = identify_consistent(op2, q, op2.cop(q))
     with pytest.raises(OptionError, match="format: cannot write MJCF from the URDF"):
         export_model(fit, tmp_path / "op2.xml", "mjcf")
     export_model(fit, tmp_path / "op2.urdf")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from oracle import PinOracle
@@ -132,14 +134,31 @@ def _same(a, b) -> bool:
     return np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
 
 
-@pytest.mark.parametrize("which", ["op2", "icub"])
-def test_urdf_parser_matches_yourdfpy(op2, icub_path, which):
-    """The ElementTree parser reads every number statics and shapes use exactly as yourdfpy."""
+def _erd_talos():
+    import cmeel
+
+    base = Path(cmeel.__file__).resolve().parent.parent / "cmeel.prefix" / "share"
+    path = base / "example-robot-data" / "robots" / "talos_data" / "robots" / "talos_full_v2.urdf"
+    if not path.is_file():
+        pytest.skip("example-robot-data has no talos_full_v2.urdf")
+    return path
+
+
+@pytest.mark.parametrize("which", ["op2", "icub", "talos", "random0", "random1", "random2"])
+def test_urdf_parser_matches_yourdfpy(op2, icub_path, tmp_path, which):
+    """The one URDF parser reads every number statics, shapes, the bench and export use exactly
+    as yourdfpy (the test oracle) does: OP2, iCub, TALOS and random trees with mimic joints."""
     import yourdfpy
 
-    from sescid.model.urdf import load_urdf
+    from sescid.model import load_urdf
 
-    path = op2.model_path if which == "op2" else icub_path
+    if which.startswith("random"):
+        rng = np.random.default_rng(int(which[-1]))
+        text, _, mimics = random_urdf(rng, n_links=16, mimic=True)
+        path = tmp_path / "tree.urdf"
+        path.write_text(text)
+    else:
+        path = {"op2": op2.model_path, "icub": icub_path}.get(which) or _erd_talos()
     ref = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False).robot
     ours = load_urdf(path).robot
     assert ours.name == ref.name
@@ -149,6 +168,12 @@ def test_urdf_parser_matches_yourdfpy(op2, icub_path, which):
         assert (a.limit is None) == (b.limit is None) and (a.mimic is None) == (b.mimic is None)
         if a.limit is not None:
             assert (a.limit.lower, a.limit.upper) == (b.limit.lower, b.limit.upper)
+        if a.mimic is not None:
+            assert a.mimic.joint == b.mimic.joint, a.name
+            assert (a.mimic.multiplier or 1.0, a.mimic.offset or 0.0) == (
+                b.mimic.multiplier,
+                b.mimic.offset,
+            )
     for a, b in zip(ref.links, ours.links, strict=True):
         assert a.name == b.name and (a.inertial is None) == (b.inertial is None)
         if a.inertial is not None:
@@ -162,6 +187,13 @@ def test_urdf_parser_matches_yourdfpy(op2, icub_path, which):
                 assert (ga is None) == (gb is None)
             if ea.geometry.box is not None:
                 assert _same(ea.geometry.box.size, eb.geometry.box.size)
+            if ea.geometry.cylinder is not None:
+                cyl_a, cyl_b = ea.geometry.cylinder, eb.geometry.cylinder
+                assert (cyl_a.radius, cyl_a.length) == (cyl_b.radius, cyl_b.length)
+            if ea.geometry.sphere is not None:
+                assert ea.geometry.sphere.radius == eb.geometry.sphere.radius
             if ea.geometry.mesh is not None:
                 assert ea.geometry.mesh.filename == eb.geometry.mesh.filename
                 assert _same(ea.geometry.mesh.scale, eb.geometry.mesh.scale)
+    if which.startswith("random"):
+        assert mimics and {j.name for j in ours.joints if j.mimic is not None} == set(mimics)

@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from fitting import identify_ls
 
 from sescid import load_robot
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import identify_ls
 from sescid.io import read_poses, read_table
 from sescid.robots import MX28
 

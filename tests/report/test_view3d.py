@@ -9,10 +9,10 @@ import urllib.request
 import matplotlib.image
 import numpy as np
 import pytest
+from fitting import identify_ls
 from op2_stance import stable_poses
 from test_html import _browse, _chromium
 
-from sescid.estimation import identify_ls
 from sescid.report import write_report
 from sescid.session.loop import SessionStep
 

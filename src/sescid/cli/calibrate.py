@@ -18,6 +18,7 @@ from sescid.cli.common import (
     sensors_option,
 )
 from sescid.errors import OptionError
+from sescid.estimation import save_fit
 from sescid.io import read_table
 from sescid.sensors import (
     CalibrationOptions,
@@ -168,7 +169,7 @@ def calibrate(**opts):
             json.dump(doc, fh, indent=1)
             fh.write("\n")
         if fit_out:
-            cal.fit.save(outs.path(fit_out))
+            save_fit(cal.fit, outs.path(fit_out))
     click.echo(f"wrote {out} (gains, offsets of session {session})")
     if fit_out:
         click.echo(f"wrote {fit_out}")

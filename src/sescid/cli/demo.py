@@ -9,6 +9,7 @@ import numpy as np
 
 from sescid.base.files import OutputSet
 from sescid.cli.common import force_option, load, mm, robot_options, seed_option
+from sescid.estimation.fit_json import save_fit
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 
@@ -78,7 +79,7 @@ def _demo_files(robot, st, out: Path) -> None:
 
     fit = st.fit
     p = fit.rank
-    fit.save(out / "fit.json")
+    save_fit(fit, out / "fit.json")
     k = np.arange(min(26, len(st.sim.q)))
     predicted = {
         "manufacturer model": robot.cop(st.sim.q[k]),

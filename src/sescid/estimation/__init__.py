@@ -1,30 +1,26 @@
-"""Estimation: from poses and CoPs to SESC vectors, their uncertainty and physical masses.
+"""Estimation: from static poses and what was measured there (CoP, joint torques) to the SESC
+vectors, sensor offsets, their uncertainty, and physical masses.
 
-- ``identify`` (one entry, ``method`` = "ls" | "map" | "consistent", ``robust=True`` for Huber),
-  ``identify_ls`` / ``identify_map`` / ``identify_consistent``, ``identify_stream`` (chunks),
-  ``identify_chunks`` (a streamed file's chunks, with MAE),
-  ``to_consistent`` (masses/CoMs from an existing fit), ``OnlineEstimator`` (pose by pose);
-- ``Fit`` and its typed records; ``save_fit`` / ``load_fit``;
-- identifiability (the rank rule, ``min_poses``), validation (intervals, cross-validation,
-  error against a known truth), the joint-noise Monte Carlo.
+- ``identify`` — the one entry: any mix of measurement kinds (``Measurements``) and sources,
+  ``method`` = "ls" | "map" | "consistent", options in ``IdentifyOptions`` (robust, weights,
+  noise, total mass, cross-validation, joint-noise Monte Carlo, online);
+  ``to_consistent`` — masses/CoMs for an existing fit; ``OnlineEstimator`` — pose by pose;
+- ``Fit`` (frozen) and its typed records; ``save_fit`` / ``load_fit``;
+- identifiability (the rank rule, ``min_poses``), validation (intervals, error against a known
+  truth), checks at the data boundary; ``accumulate`` (CoP normal equations, for planning).
 """
 
 from __future__ import annotations
 
 from sescid.estimation.api import (
     ConsistentOptions,
+    IdentifyOptions,
     MapOptions,
     identify,
-    make_fitter,
     to_consistent,
 )
 from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
-from sescid.estimation.consistent import (
-    body_boxes,
-    consistent_from_fit,
-    fit_inertials,
-    identify_consistent,
-)
+from sescid.estimation.consistent import body_boxes, fit_inertials
 from sescid.estimation.fit import (
     METHODS,
     BodyInertials,
@@ -33,7 +29,9 @@ from sescid.estimation.fit import (
     CrossValidation,
     Fit,
     JointNoiseEffect,
+    KindFit,
     MapInfo,
+    NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
 )
@@ -44,64 +42,53 @@ from sescid.estimation.identifiability import (
     min_poses,
     structural_rank,
 )
-from sescid.estimation.least_squares import identify_chunks, identify_ls, identify_stream, solve
-from sescid.estimation.map import identify_map
+from sescid.estimation.measurements import KINDS, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
-from sescid.estimation.one_pass import identify_once
 from sescid.estimation.online import OnlineEstimator
-from sescid.estimation.robust import huber, joint_noise_mc
 from sescid.estimation.validation import (
     Interval,
     com_interval,
     cop_interval,
-    cross_validate,
     perturbed_sesc,
     truth_error,
 )
 
 __all__ = [
-    "check_total_mass",
-    "fit_warnings",
-    "outside_limits",
-    "identify_once",
-    "DEFAULT_RTOL",
-    "METHODS",
     "BodyInertials",
     "Combination",
     "ConsistentOptions",
     "CopOffset",
     "CrossValidation",
+    "DEFAULT_RTOL",
     "Fit",
+    "IdentifyOptions",
     "Interval",
     "JointNoiseEffect",
+    "KINDS",
+    "KindFit",
+    "METHODS",
     "MapInfo",
     "MapOptions",
+    "Measurements",
     "NormalEquations",
+    "NuisanceEstimate",
     "OnlineEstimator",
     "OnlineInfo",
     "RobustInfo",
     "accumulate",
     "body_boxes",
+    "check_total_mass",
     "com_interval",
-    "consistent_from_fit",
     "cop_interval",
-    "cross_validate",
     "fit_inertials",
-    "huber",
+    "fit_warnings",
     "identifiable_eigen",
     "identify",
-    "identify_consistent",
-    "identify_ls",
-    "identify_map",
-    "identify_stream",
-    "identify_chunks",
-    "joint_noise_mc",
     "load_fit",
-    "make_fitter",
     "min_poses",
+    "outside_limits",
     "perturbed_sesc",
     "save_fit",
-    "solve",
     "structural_rank",
     "to_consistent",
     "truth_error",

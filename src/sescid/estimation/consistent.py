@@ -58,8 +58,6 @@ import numpy as np
 from sescid.errors import SescidError, SolverError
 from sescid.estimation.checks import check_total_mass
 from sescid.estimation.fit import BodyInertials, Fit
-from sescid.estimation.identifiability import DEFAULT_RTOL
-from sescid.estimation.least_squares import identify_ls, residual_stats
 from sescid.model import body_hulls
 from sescid.robot import Robot
 from sescid.sesc import sesc_vectors
@@ -492,9 +490,12 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
     rms = math.sqrt(src.rms**2 + d_rss / max(src.n_rows, 1)) if math.isfinite(src.rms) else src.rms
     dof = src.n_rows - src.rank
     sigma_hat = math.sqrt(rms**2 * src.n_rows / dof) if dof > 0 and math.isfinite(rms) else math.nan
-    base = [dataclasses.replace(c) for c in src.base]
-    for c in base:
-        c.value = float(sum(coef * r[names.index(b), "xyz".index(a)] for b, a, coef in c.terms))
+    base = tuple(
+        dataclasses.replace(
+            c, value=float(sum(coef * r[names.index(b), "xyz".index(a)] for b, a, coef in c.terms))
+        )
+        for c in src.base
+    )
     inertials = BodyInertials(
         masses=np.asarray(masses, dtype=float),
         coms=np.asarray(coms, dtype=float),
@@ -521,47 +522,6 @@ def _make_fit(src: Fit, r, masses, coms, box_list, pairs, d_rss, info) -> Fit:
         sigma_hat=sigma_hat,
         mae=math.nan,
     )
-
-
-def identify_consistent(
-    robot: Robot,
-    q,
-    cop,
-    *,
-    sigma=None,
-    rtol: float | None = None,
-    total_mass: float | None = None,
-    mass_floor: float = 0.0,
-    symmetric: bool = False,
-    boxes: dict[str, tuple] | None = None,
-    box_margin: float | None = None,
-    com_scale: float = COM_SCALE,
-    fit_tol: float = FIT_TOL,
-    prior_std: float | None = None,
-    gravity=None,
-) -> Fit:
-    """Least squares on poses q (n, nq) [rad] and CoPs (n, 2) [m], then ``consistent_from_fit``.
-
-    The returned Fit's residual RMS/MAE are recomputed on the data (under ``gravity`` (n, 3)).
-    """
-    ls = identify_ls(
-        robot, q, cop, sigma=sigma, gravity=gravity, rtol=DEFAULT_RTOL if rtol is None else rtol
-    )
-    fit = consistent_from_fit(
-        ls,
-        total_mass=total_mass,
-        mass_floor=mass_floor,
-        symmetric=symmetric,
-        boxes=boxes,
-        box_margin=box_margin,
-        com_scale=com_scale,
-        fit_tol=fit_tol,
-        prior_std=prior_std,
-    )
-    residual_stats(fit, np.asarray(q, dtype=float), np.asarray(cop, dtype=float), gravity)
-    dof = fit.n_rows - fit.rank
-    fit.sigma_hat = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
-    return fit
 
 
 def fit_inertials(fit: Fit) -> tuple[np.ndarray, np.ndarray]:

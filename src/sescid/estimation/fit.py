@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -40,7 +40,7 @@ def _nan(x: float | None) -> float:
     return float("nan") if x is None else float(x)
 
 
-@dataclass
+@dataclass(frozen=True)
 class Combination:
     """A named linear combination of SESC components: Σ coef · r[body][axis] (m).
 
@@ -103,6 +103,10 @@ class MapInfo:
     effective_parameters: float
     cv_curve: list[list[float]] | None = None  #: [[τ/σ, held-out RMSE m], …] when chosen by CV
     at_lower_bound: bool = False  #: evidence largest at the smallest τ searched
+    #: directions of vec(r) the prior decided: unseen by the data, or where the data carry less
+    #: than half of the posterior information
+    prior_decided: int = 0
+    prior: str = "sesc"  #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
 
 
 @dataclass
@@ -162,6 +166,7 @@ class RobustInfo:
     iterations: int
     downweighted: list[tuple[int, float]]  #: (pose index, weight), lowest weight first
     weighted_input: bool  #: standard errors were given (scale is then dimensionless)
+    scales: dict[str, float] = field(default_factory=dict)  #: robust scale per kind
 
 
 @dataclass
@@ -173,6 +178,7 @@ class CrossValidation:
     rmse_folds: list[float]
     noise: float  #: pooled σ̂ of the training fits, in the same units as rmse
     model_rmse: float  #: √max(rmse² − σ̂², 0): the model's share of the held-out error
+    kind: str = "cop"  #: the measurement kind scored: "cop" (m) or "tau" (N·m)
 
 
 @dataclass
@@ -187,6 +193,42 @@ class JointNoiseEffect:
     share_joint: float  #: joint part of the prediction variance, var_j / (var_j + var_cop)
 
 
+@dataclass(frozen=True)
+class KindFit:
+    """How one measurement kind fitted: its rows, noise and residuals (in its own unit)."""
+
+    kind: str  #: "cop" or "tau"
+    n_rows: int
+    n_poses: int
+    sigma: float  #: noise standard deviation (m, N·m; a dimensionless scale when weighted)
+    sigma_by: str  #: "estimated", "given" or "not determined"
+    dof: float  #: this kind's share of the residual degrees of freedom
+    rms: float  #: residual RMS per row (nan when unknown)
+    mae: float  #: mean absolute residual per row (nan when unknown)
+    weighted: bool  #: rows weighted by the given standard errors
+    unit: str  #: "m" or "N·m"
+
+
+@dataclass(frozen=True)
+class NuisanceEstimate:
+    """A nuisance parameter's estimate (a sensor offset, a friction band): value and standard
+    error in ``unit``; both nan when the data do not determine it (``reason`` says why)."""
+
+    kind: str  #: "cop" or "tau"
+    what: str  #: "offset" or "friction"
+    name: str  #: the axis of a CoP offset or the joint of a torque sensor
+    unit: str
+    value: float
+    std: float
+    determined: bool
+    reason: str = ""
+
+    @property
+    def label(self) -> str:
+        """``tau.offset[knee]`` style name."""
+        return f"{self.kind}.{self.what}[{self.name}]"
+
+
 @dataclass
 class OnlineInfo:
     """Convergence history of the recursive estimator."""
@@ -198,9 +240,12 @@ class OnlineInfo:
     n_poses: list[int]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Fit:
-    """An identified model: SESC vectors, their uncertainty and what the data could determine."""
+    """An identified model: SESC vectors, their uncertainty and what the data could determine.
+
+    Frozen: a method that refines a fit (MAP, robust weights, consistent masses) makes a new one
+    (``dataclasses.replace``)."""
 
     robot: Robot
     r: np.ndarray  #: (N, 3) identified SESC vectors, m (undetermined directions from r_prior)
@@ -216,8 +261,8 @@ class Fit:
     mae: float  #: mean absolute residual per CoP component, m (nan when unknown)
     rtol: float
     method: str = "ls"  #: one of METHODS
-    base: list[Combination] = field(default_factory=list)
-    unidentifiable: list[Combination] = field(default_factory=list)
+    base: tuple[Combination, ...] = ()
+    unidentifiable: tuple[Combination, ...] = ()
     weighted: bool = False  #: fitted with per-pose CoP standard errors (σ̂ is then a scale)
     sigma_dof: float | None = None  #: dof of σ̂ (None: n_rows − rank; inf: σ was given)
     map: MapInfo | None = None
@@ -228,7 +273,12 @@ class Fit:
     cv: CrossValidation | None = None
     joint_noise: JointNoiseEffect | None = None
     truth_cop_rmse: float | None = None  #: m, vs the noise-free CoP (simulated data)
-    warnings: list[str] = field(default_factory=list)  #: data-quality warnings (stored, printed)
+    warnings: tuple[str, ...] = ()  #: data-quality warnings (stored, printed)
+    kinds: tuple[KindFit, ...] = ()  #: per measurement kind: rows, noise, residuals
+    nuisance: tuple[NuisanceEstimate, ...] = ()  #: sensor offsets, friction bands
+    total_mass: float = float("nan")  #: kg: the scale of torque rows (M·r); nan without torques
+    mass_given: bool = False  #: the total mass was weighed (else the model's)
+    gravity_accel: float = 9.80665  #: m/s², the magnitude of g behind torque rows
 
     # --- predictions ------------------------------------------------------------------
     def predict_cop(self, q: ArrayLike, gravity: ArrayLike | None = None) -> np.ndarray:
@@ -238,6 +288,33 @@ class Fit:
     def predict_com(self, q: ArrayLike) -> np.ndarray:
         """CoM (n, 3) in m; its z partly comes from the prior (see ``com_z_from_prior``)."""
         return self.robot.com(q, self.r)
+
+    def predict_torque(
+        self,
+        q: ArrayLike,
+        joints=None,
+        gravity: ArrayLike | None = None,
+        reading: bool = False,
+    ) -> np.ndarray:
+        """Holding torques (n, J) [N·m] of ``joints`` (names; None: all) with the support fixed,
+        for the fit's r and total mass; ``reading=True`` adds the estimated sensor offsets (what
+        the robot's torque sensors would report, friction aside)."""
+        mass = self.total_mass if math.isfinite(self.total_mass) else self.robot.total_mass
+        names = self.robot.joint_names if joints is None else list(joints)
+        tau = self.robot.torques(
+            q, self.r, joints=names, gravity=gravity, total_mass=mass, g0=self.gravity_accel
+        )
+        if reading:
+            off = {e.name: e.value for e in self.nuisance if e.kind == "tau" and e.what == "offset"}
+            tau = tau + np.array([off.get(j, 0.0) for j in names])
+        return tau
+
+    def kind(self, name: str) -> KindFit | None:
+        """The record of one measurement kind ("cop", "tau"), None when it had no rows."""
+        for k in self.kinds:
+            if k.kind == name:
+                return k
+        return None
 
     def predict_std(self, q: ArrayLike, rows: tuple[int, ...] = (0, 1, 2)) -> np.ndarray:
         """Standard error (n, len(rows)) in m of the predicted CoM components ``rows``.
@@ -330,9 +407,3 @@ class Fit:
         lines += [f"  note: {n}" for n in self.notes]
         lines += [f"  warning: {w}" for w in self.warnings]
         return "\n".join(lines)
-
-    def save(self, path: Any) -> None:
-        """Write the fit as JSON (format ``sescid-fit/2``, see ``sescid.estimation.fit_json``)."""
-        from sescid.estimation.fit_json import save_fit
-
-        save_fit(self, path)

@@ -1,4 +1,4 @@
-"""The fit file: a ``Fit`` as JSON (``"format": "sescid-fit/2"``), written atomically.
+"""The fit file: a ``Fit`` as JSON (``"format": "sescid-fit/3"``), written atomically.
 
 Keys: ``robot`` {``source`` (embedded name or model file path), ``name``, ``support``,
 ``joint_names``, ``body_names``, ``total_mass`` [kg]}, ``method`` ("ls", "map", "consistent"),
@@ -8,8 +8,12 @@ Keys: ``robot`` {``source`` (embedded name or model file path), ``name``, ``supp
 ``base_combinations`` and ``unidentifiable`` (lists of {terms [[body, axis, coef]], label, value,
 std, reason, kind}), ``notes`` (generated, for reading), ``warnings``, and one object per typed
 record that is present: ``map``, ``cop_offset``, ``inertials``, ``robust``, ``online``, ``cv``,
-``joint_noise``, ``truth_cop_rmse``. Lengths in m, masses in kg, angles in rad.
-Version 1 files (``sescid-fit/1``, method-specific results in a free ``extra`` object) are read.
+``joint_noise``, ``truth_cop_rmse``; ``kinds`` (per measurement kind: rows, noise, residuals, in
+its own unit), ``nuisance`` (sensor offsets, friction bands: value, std, determined, reason),
+``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²]. Lengths in
+m, masses in kg, angles in rad, torques in N·m; a quantity the data do not determine is ``null``.
+Versions 1 and 2 are read (version 1: method-specific results in a free ``extra`` object); a
+file of another version is refused with a message that says so.
 """
 
 from __future__ import annotations
@@ -31,14 +35,18 @@ from sescid.estimation.fit import (
     CrossValidation,
     Fit,
     JointNoiseEffect,
+    KindFit,
     MapInfo,
+    NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
 )
 from sescid.robot import load_robot
 
-FIT_FORMAT = "sescid-fit/2"
+FIT_FORMAT = "sescid-fit/3"
+FIT_FORMAT_V2 = "sescid-fit/2"
 FIT_FORMAT_V1 = "sescid-fit/1"
+FIT_FORMATS = (FIT_FORMAT_V1, FIT_FORMAT_V2, FIT_FORMAT)
 _RECORDS: dict[str, type] = {
     "map": MapInfo,
     "cop_offset": CopOffset,
@@ -116,14 +124,19 @@ def fit_to_json(fit: Fit) -> dict:
         "units": "m (r, r_std, sigma_hat, rms, mae), m^2 (cov), kg (masses)",
         "r": {b: fit.r[i].tolist() for i, b in enumerate(bodies)},
         "r_prior": {b: fit.r_prior[i].tolist() for i, b in enumerate(bodies)},
-        "r_std": {b: np.nan_to_num(fit.r_std[i]).tolist() for i, b in enumerate(bodies)},
-        "cov": np.nan_to_num(fit.cov).tolist(),
+        "r_std": {b: _plain(fit.r_std[i]) for i, b in enumerate(bodies)},
+        "cov": _plain(fit.cov),
         "basis": fit.basis.tolist(),
         "singular_values": fit.singular_values.tolist(),
         "base_combinations": [c.to_json() for c in fit.base],
         "unidentifiable": [c.to_json() for c in fit.unidentifiable],
         "notes": fit.notes,
         "warnings": list(fit.warnings),
+        "kinds": [_record_to_json(k) for k in fit.kinds],
+        "nuisance": [_record_to_json(e) for e in fit.nuisance],
+        "total_mass": _plain(fit.total_mass),
+        "mass_given": fit.mass_given,
+        "gravity_accel": fit.gravity_accel,
     }
     for key in _RECORDS:
         rec = getattr(fit, key)
@@ -207,19 +220,42 @@ def _v1_method(method: str) -> str:
     return {"least-squares": "ls"}.get(base, base)
 
 
-def _matrix(data: dict, key: str, shape: tuple[int, ...], path: Path) -> np.ndarray:
-    arr = np.array(data[key], dtype=float)
+def _matrix(
+    data: dict, key: str, shape: tuple[int, ...], path: Path, nullable: bool = False
+) -> np.ndarray:
+    """A numeric field of the given shape; ``nullable``: null entries are "not determined"
+    (nan), all or none of them (a covariance without degrees of freedom)."""
+    raw = data[key]
+    arr = np.array(raw, dtype=float) if raw is not None else np.full(shape, np.nan)
     if arr.shape != shape:
         raise DataError(f"{path}: field '{key}' has shape {arr.shape}, expected {shape}")
-    if not np.all(np.isfinite(arr)):
+    finite = np.isfinite(arr)
+    if not np.all(finite) and not (nullable and not np.any(np.isinf(arr))):
         raise DataError(f"{path}: field '{key}' has non-finite values")
     return arr
+
+
+def _read(path: Path) -> dict:
+    """The fit file's JSON; a one-line error for another format version of the fit file."""
+    try:
+        return read_json(path, FIT_FORMATS, "a sescid fit")
+    except DataError:
+        try:
+            fmt = json.loads(path.read_text()).get("format", "")
+        except (OSError, ValueError, AttributeError):
+            fmt = ""
+        if isinstance(fmt, str) and fmt.startswith("sescid-fit/"):
+            raise DataError(
+                f"{path}: fit file format {fmt!r} is not one this sescid reads "
+                f"({', '.join(FIT_FORMATS)}): written by another version of sescid"
+            ) from None
+        raise
 
 
 def load_fit(path: str | Path) -> Fit:
     """Read a fit written by ``Fit.save`` (versions 1 and 2); reloads its robot."""
     path = Path(path)
-    data = read_json(path, (FIT_FORMAT_V1, FIT_FORMAT), "a sescid fit")
+    data = _read(path)
     v1 = data["format"] == FIT_FORMAT_V1
     try:
         meta = data["robot"]
@@ -246,7 +282,21 @@ def load_fit(path: str | Path) -> Fit:
             fields["weighted"] = bool(data.get("weighted", False))
             dof = data.get("sigma_dof")
             fields["sigma_dof"] = math.inf if dof == "inf" else (None if dof is None else dof)
-            fields["warnings"] = [str(w) for w in data.get("warnings", [])]
+            fields["warnings"] = tuple(str(w) for w in data.get("warnings", []))
+            fields["kinds"] = tuple(
+                _record_from_json(KindFit, k, f"{path}: field 'kinds'")
+                for k in data.get("kinds", [])
+            )
+            fields["nuisance"] = tuple(
+                _record_from_json(NuisanceEstimate, e, f"{path}: field 'nuisance'")
+                for e in data.get("nuisance", [])
+            )
+            if data.get("total_mass") is not None:
+                fields["total_mass"] = float(data["total_mass"])
+            fields["mass_given"] = bool(data.get("mass_given", False))
+            fields["gravity_accel"] = float(
+                data.get("gravity_accel", fields.get("gravity_accel", 9.80665))
+            )
             for key, cls in _RECORDS.items():
                 if data.get(key) is not None:
                     fields[key] = _record_from_json(cls, data[key], f"{path}: field '{key}'")
@@ -256,7 +306,7 @@ def load_fit(path: str | Path) -> Fit:
             robot=robot,
             r=r,
             r_prior=r_prior,
-            cov=_matrix(data, "cov", (n, n), path),
+            cov=_matrix(data, "cov", (n, n), path, nullable=True),
             basis=_matrix(data, "basis", (n, rank), path) if rank else np.zeros((n, 0)),
             singular_values=_matrix(data, "singular_values", (n,), path),
             rank=rank,
@@ -267,8 +317,8 @@ def load_fit(path: str | Path) -> Fit:
             mae=nan if data["mae"] is None else float(data["mae"]),
             rtol=float(data["rtol"]),
             method=method,
-            base=[Combination.from_json(c) for c in data["base_combinations"]],
-            unidentifiable=[Combination.from_json(c) for c in data["unidentifiable"]],
+            base=tuple(Combination.from_json(c) for c in data["base_combinations"]),
+            unidentifiable=tuple(Combination.from_json(c) for c in data["unidentifiable"]),
             **fields,
         )
     except SescidError:

@@ -24,6 +24,7 @@ DEFAULT_RTOL = 1e-6
 
 #: kinds of unidentifiable direction (Combination.kind)
 SUPPORT_VERTICAL = "support-vertical"
+SUPPORT_HORIZONTAL = "support-horizontal"
 JOINT_AXIS = "joint-axis"
 NOT_EXCITED = "not-excited"
 
@@ -92,25 +93,46 @@ def combination_vector(robot: Robot, terms) -> np.ndarray:
     return g
 
 
-def structural_null_directions(robot: Robot) -> list[tuple[np.ndarray, str, str]]:
-    """Directions of vec(r) that no CoP can see, for any poses: (vector, kind, reason).
+def structural_null_directions(
+    robot: Robot, kinds: tuple[str, ...] = ("cop",)
+) -> list[tuple[np.ndarray, str, str]]:
+    """Directions of vec(r) that no data of these kinds can see, for any poses: (vector, kind,
+    reason).
 
-    - the support body never moves: its vertical component has no effect on the CoP;
+    - the support body never moves: its vertical component never shifts the CoP, and a torque
+      sees none of its components (its weight goes to the floor, or the fixture, without
+      crossing a joint): with torques alone its horizontal components are lost too;
     - a body's component along its own joint axis turns with the parent only, so just its sum
-      with the parent's matching component is seen.
+      with the parent's matching component is seen (by the CoP and by torques alike).
     """
     n = len(robot.body_names)
+    support = robot.body_names[0]
     out = []
-    root = np.zeros((n, 3))
-    root[0] = robot.tree.root_r.T @ np.array([0.0, 0.0, 1.0])
-    out.append(
-        (
-            root.reshape(-1),
-            SUPPORT_VERTICAL,
-            f"vertical component of the support body {robot.body_names[0]}: it never moves, "
-            "so it never shifts the CoP (it sets the CoM height offset only)",
-        )
-    )
+    frame = robot.tree.root_r.T  # support-frame axes in the support body's frame (columns)
+    cop = "cop" in kinds
+    for axis in (2, 0, 1) if not cop else (2,):
+        v = np.zeros((n, 3))
+        v[0] = frame @ np.eye(3)[axis]
+        if axis == 2 and cop:
+            kind = SUPPORT_VERTICAL
+            reason = (
+                f"vertical component of the support body {support}: it never moves, so it "
+                "never shifts the CoP (it sets the CoM height offset only)"
+            )
+        else:
+            kind = SUPPORT_VERTICAL if axis == 2 else SUPPORT_HORIZONTAL
+            reason = (
+                f"{'xyz'[axis]} component of the support body {support}: its own weight goes "
+                "to the floor (or the fixture) without crossing a joint, so no joint torque "
+                "sees it"
+                + (
+                    ""
+                    if axis == 2
+                    else " (a constant horizontal CoM shift, with the joint-axis parts of the "
+                    "bodies it carries); a CoP measurement (a floor sensor) sees it"
+                )
+            )
+        out.append((v.reshape(-1), kind, reason))
     for i, b in enumerate(robot.model.bodies):
         if b.parent < 0:
             continue
@@ -202,13 +224,15 @@ def base_combinations(sv, vecs, p, labels, r, cov) -> list[Combination]:
     return out
 
 
-def unidentifiable(robot: Robot, basis: np.ndarray, labels) -> list[Combination]:
+def unidentifiable(
+    robot: Robot, basis: np.ndarray, labels, kinds: tuple[str, ...] = ("cop",)
+) -> list[Combination]:
     """Name the null space: structural directions first, then what these poses left out."""
     n_par = basis.shape[0]
     proj = np.eye(n_par) - basis @ basis.T  # projector on the null space
     out = []
     found = np.zeros((n_par, 0))
-    for v, kind, reason in structural_null_directions(robot):
+    for v, kind, reason in structural_null_directions(robot, kinds):
         if np.linalg.norm(proj @ v) > 1 - 1e-6:  # v lies in the null space
             out.append(Combination(_sparse_terms(v, labels), reason=reason, kind=kind))
             found = np.column_stack([found, v])

@@ -1,48 +1,215 @@
-"""Least-squares identification of the SESC vectors from CoP measurements.
+"""Least-squares fits: a ``Fit`` from the pooled system's solution, and its residuals.
 
-Each pose gives two equations ``cop − d_xy = Φ_xy(q) · vec(r)``. The regressor is rank deficient
-(the OP2's has rank 42 of 63): the fit determines ``r`` only up to its null space. sescid solves
-the least-squares problem in the eigenbasis of the normal matrix ``A = ΦᵀΦ`` and fills the
-undetermined directions from the prior model (the model file's own SESC vectors ``r0``):
-
-    r̂ = r0 + V_p Λ_p⁻¹ V_pᵀ (Φᵀy − A r0)
-
-— the least-squares solution closest to ``r0``. CoP predictions do not depend on that choice;
-CoM height does (partly), and the fit says how much. Rank: see ``identifiability``.
-
-The normal equations are accumulated block by block, so a stream of chunks (``identify_stream``)
-gives the same answer as the in-memory path without storing Φ.
+``fit_from_solution`` turns a ``solve.Solution`` over θ = [vec(r); nuisance] into a Fit: the SESC
+part r with its covariance (nuisance marginalised: the x-block of the pseudo-inverse), the
+identifiable subspace of r (the range of the Schur complement A_xx − A_xn A_nn⁺ A_nx, equal to
+A's own when there is no nuisance), its named base combinations and the named directions no data
+of these kinds could see; the nuisance parameters (sensor offsets, friction bands) with their
+standard errors, or "not determined" with the reason; one ``KindFit`` per measurement kind.
+``with_residuals`` adds each kind's residual MAE and RMS (and the error against a simulation's
+noise-free CoP) from a second pass over the data.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from sescid.base.threads import one_blas_thread
-from sescid.errors import DataError
-from sescid.estimation.fit import Fit
+from sescid.estimation.fit import Fit, KindFit, NuisanceEstimate
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     base_combinations,
-    check_enough_poses,
-    check_rtol,
     eigen_descending,
     label_columns,
     rank_of,
     unidentifiable,
 )
-from sescid.estimation.normal_equations import (
-    ACCUMULATE_BLOCK,
-    NormalEquations,
-    accumulate,
-    check_cop,
-)
-from sescid.kinematics import as_poses
+from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.normal_equations import NormalEquations
+from sescid.estimation.solve import UNITS, Solution, solve_system
+from sescid.estimation.system import KindSums, System
 from sescid.robot import Robot
+
+#: a nuisance direction is determined when this much of it lies in the identifiable subspace
+DETERMINED = 1 - 1e-6
+
+
+def prior_theta(robot: Robot, system: System, r_prior: np.ndarray | None) -> np.ndarray:
+    """θ0 = [vec(r_prior); 0]: the model's SESC vectors (or ``r_prior``), no sensor errors."""
+    r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
+    return np.concatenate([r0.reshape(-1), np.zeros(len(system.nuisance))])
+
+
+def marginal_x(sol: Solution, n_x: int, rtol: float):
+    """(λ, V, p) of the information about vec(r) with the nuisance marginalised (the Schur
+    complement of A); A's own eigen-decomposition when there is no nuisance."""
+    if sol.ata.shape[0] == n_x:
+        return sol.lam, sol.vecs, sol.rank
+    a = sol.ata
+    axx, axn, ann = a[:n_x, :n_x], a[:n_x, n_x:], a[n_x:, n_x:]
+    schur = axx - axn @ np.linalg.pinv(ann, rcond=1e-12, hermitian=True) @ axn.T
+    lam, vecs = eigen_descending((schur + schur.T) / 2)
+    return lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+
+
+def nuisance_estimates(system: System, sol: Solution) -> tuple[NuisanceEstimate, ...]:
+    """Each nuisance parameter's value and standard error, or nan with the reason."""
+    out = []
+    n_x, basis = system.n_x, sol.basis
+    for j, par in enumerate(system.nuisance):
+        col = n_x + j
+        seen = float(np.linalg.norm(basis[col])) if basis.size else 0.0
+        determined = seen**2 > DETERMINED
+        reason = ""
+        if not determined:
+            reason = _confounded(system, sol, col)
+        std = math.sqrt(max(sol.cov[col, col], 0.0)) if determined else math.nan
+        out.append(
+            NuisanceEstimate(
+                kind=par.kind,
+                what=par.what,
+                name=par.name,
+                unit=par.unit,
+                value=float(sol.theta[col]) if determined else math.nan,
+                std=std,
+                determined=determined,
+                reason=reason,
+            )
+        )
+    return tuple(out)
+
+
+def _confounded(system: System, sol: Solution, col: int) -> str:
+    """Why a nuisance column is not determined: the other parameters it trades with."""
+    null = sol.vecs[:, sol.rank :]
+    if null.size == 0:
+        return "not excited by these data"
+    v = null @ (null.T[:, col])  # the null-space direction closest to this column
+    v /= np.linalg.norm(v) or 1.0
+    labels = [f"r[{b}].{a}" for b, a in _xlabels(system)] + system.labels()
+    big = [labels[i] for i in np.argsort(-np.abs(v)) if abs(v[i]) > 0.1 * abs(v[col])]
+    others = [name for name in big if name != labels[col]][:4]
+    if not others:
+        return "not excited by these data"
+    return "confounded with " + ", ".join(others) + " (the data cannot tell them apart)"
+
+
+def _xlabels(system: System):
+    n = system.n_x // 3
+    return [(f"body{i}", a) for i in range(n) for a in "xyz"]
+
+
+def fit_from_solution(
+    robot: Robot,
+    system: System,
+    sol: Solution,
+    *,
+    rtol: float = DEFAULT_RTOL,
+    method: str = "ls",
+) -> Fit:
+    """The Fit of a least-squares solution (module docstring); residual MAE/RMS are nan until
+    ``with_residuals``."""
+    n_x = system.n_x
+    lam, vecs, p = marginal_x(sol, n_x, rtol)
+    sv = np.sqrt(np.clip(lam, 0, None))
+    labels = label_columns(robot)
+    r = sol.theta[:n_x].reshape(-1, 3)
+    cov = sol.cov[:n_x, :n_x]
+    kinds = tuple(
+        KindFit(
+            kind=k,
+            n_rows=system.parts[k].ne.n_rows,
+            n_poses=system.parts[k].ne.n_poses,
+            sigma=sol.noise[k],
+            sigma_by=sol.noise_by[k],
+            dof=float(sol.dof[k]),
+            rms=_rms_from_sums(system.parts[k], sol),
+            mae=math.nan,
+            weighted=system.parts[k].weighted,
+            unit=UNITS[k],
+        )
+        for k in system.kinds
+    )
+    single = len(kinds) == 1
+    return Fit(
+        robot=robot,
+        r=r,
+        r_prior=sol.theta0[:n_x].reshape(-1, 3).copy(),
+        cov=cov,
+        basis=vecs[:, :p],
+        singular_values=sv,
+        rank=p,
+        n_poses=system.n_poses,
+        n_rows=sol.n_rows,
+        sigma_hat=sol.scale,
+        rms=kinds[0].rms if single else math.nan,
+        mae=math.nan,
+        rtol=rtol,
+        method=method,
+        base=tuple(base_combinations(sv, vecs, p, labels, r, cov)),
+        unidentifiable=tuple(unidentifiable(robot, vecs[:, :p], labels, system.kinds)),
+        weighted=(kinds[0].weighted if single else True),
+        sigma_dof=_sigma_dof(kinds, sol),
+        kinds=kinds,
+        nuisance=nuisance_estimates(system, sol),
+        total_mass=system.total_mass if TORQUE in system.kinds else math.nan,
+        mass_given=system.mass_given,
+        gravity_accel=system.gravity_accel,
+    )
+
+
+def _sigma_dof(kinds: tuple[KindFit, ...], sol: Solution) -> float | None:
+    """Degrees of freedom of σ̂: None (n − p) for one kind's estimated noise, inf for a given
+    one; several kinds (noises estimated together): n − p, which sets the intervals' t."""
+    if len(kinds) == 1:
+        return math.inf if kinds[0].sigma_by == "given" else None
+    return float(sol.n_rows - sol.rank)
+
+
+def _rms_from_sums(part: KindSums, sol: Solution) -> float:
+    """RMS residual per row from the kind's sums (exact); nan for weighted rows (their RMS in
+    physical units needs the data)."""
+    if part.weighted or part.ne.n_rows == 0:
+        return math.nan
+    return math.sqrt(sol.rss[part.kind] / part.ne.n_rows)
+
+
+def fit_least_squares(
+    robot: Robot,
+    system: System,
+    *,
+    rtol: float = DEFAULT_RTOL,
+    r_prior: np.ndarray | None = None,
+    noise: dict[str, float] | None = None,
+    allow_exact: bool = False,
+) -> Fit:
+    """Least-squares Fit of a pooled system (``solve.solve_system``, ``fit_from_solution``)."""
+    theta0 = prior_theta(robot, system, r_prior)
+    sol = solve_system(
+        system, theta0, rtol=rtol, noise=noise, allow_exact=allow_exact,
+        structural=structural_count(robot, system),
+    )  # fmt: skip
+    return fit_from_solution(robot, system, sol, rtol=rtol)
+
+
+def structural_count(robot: Robot, system: System) -> int:
+    """Combinations such data determine on generic poses: the CoP's reduced coordinates (its
+    2 intercepts dropped for torques alone) plus the nuisance columns."""
+    p = robot.reduction.g.shape[0]
+    if COP not in system.kinds:
+        p -= len(robot.reduction.rows)
+    return p + len(system.nuisance)
+
+
+def cop_system(robot: Robot, ne: NormalEquations, weighted: bool = False) -> System:
+    """A one-kind system from CoP normal equations over vec(r) (3N)."""
+    return System(
+        3 * len(robot.body_names), (), {COP: KindSums(COP, ne, weighted)}, robot.total_mass,
+        False, ne.n_poses,
+    )  # fmt: skip
 
 
 def solve(
@@ -51,175 +218,62 @@ def solve(
     *,
     rtol: float = DEFAULT_RTOL,
     r_prior: np.ndarray | None = None,
+    allow_exact: bool = True,
 ) -> Fit:
-    """Least-squares fit from accumulated normal equations (see the module docstring)."""
-    check_rtol(rtol)
-    if ne.n_poses == 0:
-        raise DataError("no poses to identify from")
-    r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
-    lam, vecs = eigen_descending(ne.ata)
-    sv = np.sqrt(np.clip(lam, 0, None))
-    p = rank_of(sv, rtol)
-    vp, lp = vecs[:, :p], lam[:p]
-    x0 = r0.reshape(-1)
-    x = x0 + vp @ ((vp.T @ (ne.atb - ne.ata @ x0)) / lp)
-    rss = max(ne.yty - 2 * x @ ne.atb + x @ ne.ata @ x, 0.0)
-    dof = ne.n_rows - p
-    sigma_hat = math.sqrt(rss / dof) if dof > 0 else float("nan")
-    cov = (vp / lp) @ vp.T * (sigma_hat**2 if dof > 0 else np.nan)
-    labels = label_columns(robot)
-    r = x.reshape(-1, 3)
-    return Fit(
-        robot=robot,
-        r=r,
-        r_prior=r0.copy(),
-        cov=cov,
-        basis=vp,
-        singular_values=sv,
-        rank=p,
-        n_poses=ne.n_poses,
-        n_rows=ne.n_rows,
-        sigma_hat=sigma_hat,
-        rms=math.sqrt(rss / ne.n_rows),
-        mae=float("nan"),
-        rtol=rtol,
-        method="ls",
-        base=base_combinations(sv, vecs, p, labels, r, np.nan_to_num(cov)),
-        unidentifiable=unidentifiable(robot, vp, labels),
+    """Least-squares Fit from CoP normal equations over vec(r) (no nuisance columns)."""
+    return fit_least_squares(
+        robot, cop_system(robot, ne), rtol=rtol, r_prior=r_prior, allow_exact=allow_exact
     )
 
 
-def residual_stats(fit: Fit, q: np.ndarray, cop: np.ndarray, gravity=None) -> None:
-    """Set ``fit.mae`` and ``fit.rms`` (m) from the data, net of any estimated CoP offset."""
-    resid = np.subtract(cop, fit.predict_cop(q, gravity))
-    resid -= fit.cop_bias
-    flat = resid.reshape(-1)
-    fit.mae = float(np.abs(resid, out=resid).mean()) if flat.size else float("nan")
-    fit.rms = math.sqrt(float(np.dot(flat, flat)) / flat.size) if flat.size else float("nan")
+def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
+    """Residuals per kind at validated data m: "cop" (n, 2) m net of a CoP offset, "tau"
+    (n, J) N·m net of the sensor offsets and friction bands."""
+    out = {}
+    if m.cop is not None:
+        out[COP] = m.cop - fit.predict_cop(m.q, m.gravity) - fit.cop_bias
+    if m.tau is not None and m.tau_joints:
+        pred = fit.predict_torque(m.q, m.tau_joints, m.gravity)
+        est = {(e.what, e.name): (e.value if e.determined else 0.0) for e in fit.nuisance
+               if e.kind == TORQUE}  # fmt: skip
+        off = np.array([est.get(("offset", j), 0.0) for j in m.tau_joints])
+        out[TORQUE] = m.tau - pred - off
+        if m.approach is not None:
+            fr = np.array([est.get(("friction", j), 0.0) for j in m.tau_joints])
+            out[TORQUE] -= m.approach[:, None] * fr
+    return out
 
 
-@one_blas_thread()
-def identify_ls(
-    robot: Robot,
-    q: ArrayLike,
-    cop: ArrayLike,
-    *,
-    sigma: ArrayLike | None = None,
-    rtol: float = DEFAULT_RTOL,
-    r_prior: np.ndarray | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    gravity: ArrayLike | None = None,
-) -> Fit:
-    """Least-squares SESC vectors from poses q (n, nq) [rad] and measured CoPs (n, 2) [m].
-
-    ``sigma``: optional per-pose CoP standard errors (n,) or (n, 2) [m] → weighted least squares.
-    ``r_prior``: SESC vectors that fill the undetermined directions (default: the model's).
-    ``gravity``: per-pose gravity directions (n, 3) in the support frame (None: along −z).
-    """
-    qq = as_poses(q, robot.nq)
-    cc = check_cop(cop, qq.shape[0])
-    check_enough_poses(robot, qq.shape[0])
-    ne = accumulate(robot, [(qq, cc, sigma, gravity)], progress=progress, validated=True)
-    fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
-    fit.weighted = sigma is not None
-    residual_stats(fit, qq, cc, gravity)
-    return fit
-
-
-@one_blas_thread()
-def identify_stream(
-    robot: Robot,
-    chunks: Iterable[tuple],
-    *,
-    rtol: float = DEFAULT_RTOL,
-    r_prior: np.ndarray | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> Fit:
-    """Same fit as ``identify`` from an iterable of chunks ``(q, cop[, sigma])``.
-
-    Φ is never stored: memory stays at one block whatever the number of poses. The residual
-    MAE needs a second pass over the data and is left as nan; the RMS is exact.
-    """
-    weighted = False
-
-    def seen():
-        nonlocal weighted
-        for chunk in chunks:
-            weighted = weighted or (len(chunk) > 2 and chunk[2] is not None)
-            yield chunk
-
-    ne = accumulate(robot, seen(), progress=progress)
-    check_enough_poses(robot, ne.n_poses)
-    fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
-    fit.weighted = weighted
-    return fit
-
-
-@one_blas_thread()
-def identify_chunks(
-    robot: Robot,
-    chunks: Sequence[tuple],
-    *,
-    rtol: float = DEFAULT_RTOL,
-    r_prior: np.ndarray | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> Fit:
-    """``identify_ls`` over chunks ``(q, cop[, sigma[, gravity]])`` of one data set, as a
-    streamed file gives them: the same fit, MAE and RMS (to rounding), the chunks never joined.
-
-    Two passes over the chunks (normal equations, then residuals), so they are a sequence.
-    """
-    checked = []
-    for c in chunks:
-        q = as_poses(c[0], robot.nq)
-        sigma = c[2] if len(c) > 2 else None
-        gravity = c[3] if len(c) > 3 else None
-        checked.append((q, check_cop(c[1], q.shape[0]), sigma, gravity))
-    total = sum(c[0].shape[0] for c in checked)
-    check_enough_poses(robot, total)
-    done = 0
-
-    def each():  # blocks of ACCUMULATE_BLOCK poses, as in memory: the same sums, bit for bit
-        nonlocal done
-        for c in _reblock(checked, ACCUMULATE_BLOCK):
-            yield c
-            done += c[0].shape[0]
-
-    report = None if progress is None else (lambda d, _n: progress(done + d, total))
-    ne = accumulate(robot, each(), progress=report)
-    fit = solve(robot, ne, rtol=rtol, r_prior=r_prior)
-    fit.weighted = any(c[2] is not None for c in checked)
-    abs_sum = sq_sum = 0.0
-    for q, cop, _sigma, gravity in checked:
-        resid = cop - fit.predict_cop(q, gravity) - fit.cop_bias
-        abs_sum += float(np.sum(np.abs(resid)))
-        sq_sum += float(np.sum(resid**2))
-    fit.mae = abs_sum / (2 * total)
-    fit.rms = math.sqrt(sq_sum / (2 * total))
-    return fit
-
-
-def _reblock(chunks: Sequence[tuple], size: int) -> Iterator[tuple]:
-    """The rows of consecutive chunks of arrays (or None) regrouped in blocks of ``size``."""
-    parts: list[tuple] = []
-    count = 0
-    for c in chunks:
-        start, n = 0, c[0].shape[0]
-        while start < n:
-            take = min(size - count, n - start)
-            parts.append(tuple(None if a is None else a[start : start + take] for a in c))
-            count, start = count + take, start + take
-            if count == size:
-                yield _cat(parts)
-                parts, count = [], 0
-    if parts:
-        yield _cat(parts)
-
-
-def _cat(parts: list[tuple]) -> tuple:
-    if len(parts) == 1:
-        return parts[0]
-    return tuple(
-        None if parts[0][i] is None else np.concatenate([p[i] for p in parts])
-        for i in range(len(parts[0]))
+def with_residuals(fit: Fit, data: Iterable[Measurements]) -> Fit:
+    """The fit with each kind's residual MAE and RMS (per row, in the kind's unit) and, for
+    simulated data with a noise-free CoP, the RMS error against it."""
+    abs_sum: dict[str, float] = {}
+    sq_sum: dict[str, float] = {}
+    count: dict[str, int] = {}
+    truth_sq, truth_n = 0.0, 0
+    for m in data:
+        for k, e in residuals(fit, m).items():
+            flat = e.reshape(-1)
+            abs_sum[k] = abs_sum.get(k, 0.0) + float(np.sum(np.abs(flat)))
+            sq_sum[k] = sq_sum.get(k, 0.0) + float(np.dot(flat, flat))
+            count[k] = count.get(k, 0) + flat.size
+        if m.cop_true is not None:
+            d = fit.predict_cop(m.q, m.gravity) - m.cop_true
+            truth_sq += float(np.sum(d * d))
+            truth_n += d.size
+    kinds = tuple(
+        dataclasses.replace(
+            kf,
+            mae=abs_sum[kf.kind] / count[kf.kind] if count.get(kf.kind) else math.nan,
+            rms=math.sqrt(sq_sum[kf.kind] / count[kf.kind]) if count.get(kf.kind) else math.nan,
+        )
+        for kf in fit.kinds
+    )
+    single = kinds[0] if len(kinds) == 1 else None
+    return dataclasses.replace(
+        fit,
+        kinds=kinds,
+        mae=single.mae if single else math.nan,
+        rms=single.rms if single else math.nan,
+        truth_cop_rmse=math.sqrt(truth_sq / truth_n) if truth_n else fit.truth_cop_rmse,
     )

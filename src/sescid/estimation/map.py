@@ -15,15 +15,24 @@ maximising the marginal likelihood (evidence) of the data,
 with ``z = y − Φ x0``, ``b = Φᵀz`` — computed from the accumulated normal equations only, so the
 same code serves streamed data and the online estimator (``sescid.online``).
 
-Optionally two constant CoP offsets (sensor bias ``b_x, b_y``, m) are estimated jointly
-(``bias=True``). For one support foot they are confounded with the support body's own x/y SESC
-components, whose effect on the CoP is constant too: least squares cannot separate them. The prior
-on the support body's r (scale τ) is what separates them here, so the bias is known to ± ≈ τ only
-— a bias is identifiable from the data alone only with data from a second support foot.
+Several measurement kinds (CoP and joint torques) enter as one system whose rows are scaled by
+each kind's noise as the least-squares fit estimated it (``solve``): σ is then a common scale on
+those noises (≈ 1), and the prior weighs against all kinds at once. Nuisance parameters (torque
+sensor offsets and friction bands; optionally two constant CoP offsets) get effectively flat
+priors (``system.Nuisance.prior_scale``). A CoP offset on one support foot is confounded with the
+support body's own x/y SESC components, whose effect on the CoP is constant too: least squares
+cannot separate them; the prior on the support body's r (scale τ) is what separates them here, so
+the offset is known to ± ≈ τ only — it is identifiable from the data alone only with data from a
+second support foot (or torques, which do not see the support body at all).
+
+A MAP fit says which directions its prior, not its data, decided: those the data do not see
+(``fit.unidentifiable``) and those where the prior outweighs the data (``MapInfo.prior_decided``:
+the data carry less than half of the posterior information along them).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -32,20 +41,28 @@ import numpy as np
 from sescid.errors import SescidError
 from sescid.estimation.fit import CopOffset, Fit, MapInfo
 from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
-from sescid.estimation.least_squares import residual_stats, solve
-from sescid.estimation.normal_equations import NormalEquations, accumulate, check_cop, row_weights
-from sescid.estimation.validation import folds as split
-from sescid.kinematics import as_poses
+from sescid.estimation.least_squares import (
+    fit_from_solution,
+    marginal_x,
+    nuisance_estimates,
+    prior_theta,
+)
+from sescid.estimation.normal_equations import NormalEquations
+from sescid.estimation.solve import Solution, solve_system, weighted_sums
+from sescid.estimation.system import System
 from sescid.robot import Robot
 
-#: prior standard deviation of a CoP offset when ``bias=True``: effectively flat, m
-BIAS_PRIOR_SCALE = 1.0
 #: search range of the prior scale τ and the noise σ for evidence maximisation, m
 TAU_RANGE = (1e-6, 1.0)
 #: search range of σ: m, or the dimensionless scale on given standard errors; its upper end is
 #: widened to ``SIGMA_HEADROOM`` × the RMS residual of the prior model (a weighted scale may be ≫ 1)
 SIGMA_RANGE = (1e-7, 1.0)
 SIGMA_HEADROOM = 10.0
+#: largest prior scale or noise accepted, m (1 m on a SESC component is already a flat prior)
+MAX_SCALE = 100.0
+#: a direction is "decided by the prior" when the data carry less than this share of its
+#: posterior information
+PRIOR_DECIDED = 0.5
 
 
 @dataclass
@@ -60,15 +77,57 @@ class Posterior:
     edf: float  #: effective number of parameters tr(A M⁻¹)
 
 
-def bias_columns(n: int) -> np.ndarray:
-    """(2n, 2) regressor columns of constant CoP offsets (b_x on x rows, b_y on y rows)."""
-    return np.tile(np.eye(2), (n, 1))
+@dataclass(frozen=True)
+class Prior:
+    """The prior precision over θ = [vec(r); nuisance] for a scale τ: on vec(r), 1/τ² I
+    ("sesc": every SESC component ±τ m) or Σ₀⁻¹/τ² ("bodies": each body's mass ±τ (relative)
+    and first moment ±τ·ℓ per unit mass, mapped to r; Σ₀ = K D Kᵀ), and 1/s² on each nuisance
+    parameter (effectively flat)."""
+
+    n_x: int
+    nuisance_scales: np.ndarray  #: (K,) prior std of each nuisance parameter
+    x_precision: np.ndarray | None = None  #: Σ₀⁻¹ (3N, 3N); None: the identity
+    x_logdet: float = 0.0  #: log det Σ₀⁻¹
+    kind: str = "sesc"
+
+    def matrix(self, tau: float) -> np.ndarray:
+        """(P, P) prior precision for scale τ."""
+        size = self.n_x + self.nuisance_scales.size
+        out = np.zeros((size, size))
+        if self.x_precision is None:
+            out[: self.n_x, : self.n_x] = np.eye(self.n_x) / tau**2
+        else:
+            out[: self.n_x, : self.n_x] = self.x_precision / tau**2
+        k = np.arange(self.n_x, size)
+        out[k, k] = 1.0 / self.nuisance_scales**2
+        return out
+
+    def logdet(self, tau: float) -> float:
+        """Log det of ``matrix(tau)``."""
+        x = self.x_logdet - 2 * self.n_x * math.log(tau)
+        return x - 2 * float(np.sum(np.log(self.nuisance_scales)))
 
 
-def _prior_precision(n_params: int, prior_scale: float, n_bias: int) -> np.ndarray:
-    d = np.full(n_params + n_bias, 1.0 / prior_scale**2)
-    d[n_params:] = 1.0 / BIAS_PRIOR_SCALE**2
-    return d
+#: the "bodies" prior: a body's first moment per unit relative mass std, m (τ = 0.1 → ±5 mm)
+BODY_COM_SCALE = 0.05
+
+
+def body_prior(robot: Robot, n_x: int, nuisance_scales: np.ndarray) -> Prior:
+    """The per-body prior (``Prior`` "bodies"): body masses m̄_j = m_j + M/(10 N) ± τ m̄_j and
+    first moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r)."""
+    from sescid.estimation.consistent import _ELL, sesc_map
+
+    k = sesc_map(robot)  # vec(r) = K [m/M, vec(h)/(M ℓ)]
+    masses = robot.masses
+    big_m = float(masses.sum())
+    m_bar = (masses + big_m / (10 * masses.size)) / big_m
+    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / _ELL) ** 2, 3)])
+    sigma0 = (k * d) @ k.T
+    sigma0 = (sigma0 + sigma0.T) / 2
+    lam, vecs = np.linalg.eigh(sigma0)
+    lam = np.maximum(lam, 1e-12 * lam.max())
+    precision = (vecs / lam) @ vecs.T
+    return Prior(n_x, nuisance_scales, precision, float(-np.sum(np.log(lam))), "bodies")
 
 
 def _terms(ne: NormalEquations, x0: np.ndarray):
@@ -77,34 +136,29 @@ def _terms(ne: NormalEquations, x0: np.ndarray):
     return b, max(ztz, 0.0)
 
 
-def log_evidence(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray, noise: float) -> float:
-    """Log p(y | σ, prior) for prior precisions ``prec`` (P,) [m⁻²] and noise σ [m]."""
+def log_evidence(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
+    """Log p(y | σ, prior) for the prior at scale τ and noise σ."""
     import scipy.linalg  # lazy: scipy's import is ~0.3 s of every command
 
     s2 = noise**2
     b, ztz = _terms(ne, x0)
     try:
-        cf = scipy.linalg.cho_factor(ne.ata + np.diag(s2 * prec), check_finite=False)
+        cf = scipy.linalg.cho_factor(ne.ata + s2 * prior.matrix(tau), check_finite=False)
     except np.linalg.LinAlgError:
         return -math.inf
     logdet = 2 * np.sum(np.log(np.diag(cf[0])))
     quad = (ztz - b @ scipy.linalg.cho_solve(cf, b, check_finite=False)) / s2
     m = ne.n_rows
-    return -0.5 * (
-        m * math.log(2 * math.pi * s2) + logdet - np.sum(np.log(s2 * prec)) + max(quad, 0.0)
-    )
+    prior_logdet = x0.size * math.log(s2) + prior.logdet(tau)
+    return -0.5 * (m * math.log(2 * math.pi * s2) + logdet - prior_logdet + max(quad, 0.0))
 
 
-def posterior(
-    ne: NormalEquations, x0: np.ndarray, prior_scale: float, noise: float, n_bias: int = 0
-) -> Posterior:
-    """Posterior mean and covariance for a prior N(x0, τ²I) (+ flat-ish bias) and noise σ."""
+def posterior(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
+    """Posterior mean and covariance for the prior at scale τ and noise σ."""
     import scipy.linalg
 
     p = ne.ata.shape[0]
-    prec = _prior_precision(p - n_bias, prior_scale, n_bias)
-    mat = ne.ata + np.diag(noise**2 * prec)
-    cf = scipy.linalg.cho_factor(mat, check_finite=False)
+    cf = scipy.linalg.cho_factor(ne.ata + noise**2 * prior.matrix(tau), check_finite=False)
     b, _ = _terms(ne, x0)
     x = x0 + scipy.linalg.cho_solve(cf, b, check_finite=False)
     minv = scipy.linalg.cho_solve(cf, np.eye(p), check_finite=False)
@@ -112,8 +166,8 @@ def posterior(
         x=x,
         cov=noise**2 * minv,
         noise=noise,
-        prior_scale=prior_scale,
-        log_evidence=log_evidence(ne, x0, prec, noise),
+        prior_scale=tau,
+        log_evidence=log_evidence(ne, x0, prior, tau, noise),
         edf=float(np.sum(minv * ne.ata)),
     )
 
@@ -121,23 +175,20 @@ def posterior(
 def maximise_evidence(
     ne: NormalEquations,
     x0: np.ndarray,
+    prior: Prior,
     *,
     prior_scale: float | None = None,
     noise: float | None = None,
-    n_bias: int = 0,
 ) -> tuple[float, float]:
-    """(τ, σ) in m maximising the evidence; a given value is held fixed.
+    """(τ, σ) maximising the evidence; a given value is held fixed.
 
     A grid over log τ (25 points in ``TAU_RANGE``) with σ optimised at each, then Brent
     refinement around the best grid point; σ alone is a bounded 1-D search.
     """
     import scipy.optimize
 
-    p = ne.ata.shape[0] - n_bias
-
     def neg(log_tau: float, log_sigma: float) -> float:
-        prec = _prior_precision(p, math.exp(log_tau), n_bias)
-        val = -log_evidence(ne, x0, prec, math.exp(log_sigma))
+        val = -log_evidence(ne, x0, prior, math.exp(log_tau), math.exp(log_sigma))
         return val if math.isfinite(val) else 1e300  # singular M: finite for Brent's steps
 
     s_lo, s_hi = (math.log(v) for v in sigma_range(ne, x0))
@@ -172,184 +223,165 @@ def sigma_range(ne: NormalEquations, x0: np.ndarray) -> tuple[float, float]:
     return SIGMA_RANGE[0], max(SIGMA_RANGE[1], SIGMA_HEADROOM * rms0)
 
 
-#: largest prior scale or noise accepted, m (1 m on a SESC component is already a flat prior)
-MAX_SCALE = 100.0
-
-
-def _check_positive(value, what: str) -> None:
+def check_scale(value, what: str) -> None:
+    """SescidError unless ``value`` is None or a positive number of metres ≤ ``MAX_SCALE``."""
     if value is not None and not (math.isfinite(value) and 0 < value <= MAX_SCALE):
         raise SescidError(
             f"{what} must be a positive number of metres ≤ {MAX_SCALE:g}, got {value}"
         )
 
 
-def identify_map(
-    robot: Robot,
-    q,
-    cop,
-    *,
-    sigma=None,
-    prior_scale: float | None = None,
-    noise: float | None = None,
-    r_prior: np.ndarray | None = None,
-    bias: bool = False,
-    rtol: float = DEFAULT_RTOL,
-    select: str = "evidence",
-    folds: int = 5,
-    seed: int = 0,
-    gravity=None,
-) -> Fit:
-    """MAP fit of the SESC vectors with a Gaussian prior centred on ``r_prior`` (default: CAD).
-
-    q (n, nq) rad, cop (n, 2) m, ``sigma`` optional per-pose CoP standard errors (m).
-    ``prior_scale`` τ and ``noise`` σ in metres; when τ is None it is chosen by ``select``:
-    ``"evidence"`` (marginal likelihood, jointly with σ when σ is None) or ``"cv"`` (the ratio
-    σ²/τ² minimising the ``folds``-fold cross-validated CoP error, then σ by maximum
-    likelihood at that ratio). With per-pose ``sigma``, σ is a dimensionless scale on them.
-    ``bias=True`` adds two constant CoP offsets (m), reported in ``fit.cop_offset`` and not
-    part of predictions. ``gravity``: per-pose gravity directions (n, 3), support frame.
-    """
-    _check_positive(prior_scale, "prior scale")
-    _check_positive(noise, "noise")
-    if select not in ("evidence", "cv"):
-        raise SescidError(f"prior scale selection must be 'evidence' or 'cv', got {select!r}")
-    q = as_poses(q, robot.nq)
-    cop = check_cop(cop, q.shape[0])
-    ne = accumulate(robot, [(q, cop, sigma, gravity)])
-    by_cv = select == "cv" and prior_scale is None
-    if by_cv:
-        if bias:
-            raise SescidError("choosing the prior scale by cross-validation does not support bias")
-        r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
-        ridge, curve = cv_ridge(robot, q, cop, sigma, r0.reshape(-1), folds, seed, gravity)
-        if noise is None:
-            noise = profiled_noise(ne, r0.reshape(-1), ridge)
-        prior_scale = noise / math.sqrt(ridge)
-    fit = fit_from_normal_equations(
-        robot,
-        ne,
-        prior_scale=prior_scale,
-        noise=noise,
-        r_prior=r_prior,
-        bias=bias,
-        rtol=rtol,
-        bias_data=(q, cop, sigma, gravity),
-    )
-    fit.weighted = sigma is not None
-    if by_cv and fit.map is not None:
-        fit.map.prior_scale_by = f"{folds}-fold cv"
-        fit.map.cv_curve = curve
-    residual_stats(fit, q, cop, gravity)
-    return fit
-
-
-def profiled_noise(ne: NormalEquations, x0: np.ndarray, ridge: float) -> float:
-    """Maximum-likelihood σ (m) for a fixed ratio ``ridge`` = σ²/τ²: √((zᵀz − bᵀM⁻¹b)/m)."""
+def profiled_noise(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray) -> float:
+    """Maximum-likelihood σ for a fixed ridge σ²·P, ``prec`` = σ²P (P, P): √((zᵀz − bᵀM⁻¹b)/m)."""
     import scipy.linalg
 
     b, ztz = _terms(ne, x0)
-    mat = ne.ata + ridge * np.eye(x0.size)
-    quad = b @ scipy.linalg.solve(mat, b, assume_a="pos")
+    quad = b @ scipy.linalg.solve(ne.ata + prec, b, assume_a="pos")
     return math.sqrt(max(ztz - quad, 0.0) / ne.n_rows) or SIGMA_RANGE[0]
 
 
-def cv_ridge(robot: Robot, q, cop, sigma, x0, k: int = 5, seed: int = 0, gravity=None):
-    """Ratio σ²/τ² minimising the k-fold held-out CoP error; also the curve [[τ/σ, rmse], …].
-
-    Fold normal equations make each candidate cost one Cholesky per fold: the held-out sum of
-    squares is ``yᵀy − 2xᵀΦᵀy + xᵀΦᵀΦx`` from the test fold's sums.
-    """
+def cv_ridge(parts: list[NormalEquations], x0: np.ndarray, unit: np.ndarray, n_poses: int):
+    """Ratio σ²/τ² minimising the held-out error of k folds (each fold's weighted sums in
+    ``parts``); also the curve [[τ/σ, rmse], …]. ``unit`` (P, P): the prior precision at τ = 1
+    (no nuisance part: flat). Each candidate costs one solve per fold."""
     import scipy.linalg
 
-    def sub(v, f):
-        return None if v is None else np.asarray(v)[f]
-
-    parts = [accumulate(robot, [(q[f], cop[f], sub(sigma, f), sub(gravity, f))]) for f in
-             split(q.shape[0], k, seed)]  # fmt: skip
     total_a = sum(p.ata for p in parts)
     total_b = sum(p.atb for p in parts)
     ratios = np.logspace(-4, 2, 31)  # τ/σ (τ = 100σ is practically no prior)
     curve = []
+    rows = sum(p.n_rows for p in parts)
     for t in ratios:
         sq = 0.0
         for p in parts:
             a, b = total_a - p.ata, total_b - p.atb
-            x = x0 + scipy.linalg.solve(a + np.eye(x0.size) / t**2, b - a @ x0, assume_a="pos")
+            x = x0 + scipy.linalg.solve(a + unit / t**2, b - a @ x0, assume_a="pos")
             sq += p.yty - 2 * x @ p.atb + x @ p.ata @ x
-        curve.append([float(t), math.sqrt(max(sq, 0.0) / (2 * q.shape[0]))])
+        curve.append([float(t), math.sqrt(max(sq, 0.0) / max(rows, 1))])
     best = min(range(len(curve)), key=lambda i: curve[i][1])
+    del n_poses
     return 1.0 / ratios[best] ** 2, curve
 
 
-def _with_bias(robot: Robot, q, cop, sigma, gravity=None) -> NormalEquations:
-    """Normal equations of [vec(r); b] from the data (bias columns appended)."""
-    n = q.shape[0]
-    if gravity is None:
-        phi_r, d = robot.regressor(q, (0, 1)), robot.d[:2]
-    else:
-        phi_r, d = robot.regressor_tilted(q, gravity), robot.d_tilted(gravity, n)
-    phi = np.hstack([phi_r.reshape(2 * n, -1), bias_columns(n)])
-    y = (cop - d).reshape(-1)
-    w = row_weights(sigma, n)
-    if w is not None:
-        phi, y = phi * np.sqrt(w)[:, None], y * np.sqrt(w)
-    return NormalEquations(phi.T @ phi, phi.T @ y, float(y @ y), 2 * n, n)
-
-
-def fit_from_normal_equations(
+def fit_map(
     robot: Robot,
-    ne: NormalEquations,
+    system: System,
     *,
     prior_scale: float | None = None,
     noise: float | None = None,
     r_prior: np.ndarray | None = None,
-    bias: bool = False,
     rtol: float = DEFAULT_RTOL,
-    bias_data: tuple | None = None,
+    cv_folds: list[System] | None = None,
+    kind_noise: dict[str, float] | None = None,
+    prior: str = "sesc",
 ) -> Fit:
-    """MAP ``Fit`` from accumulated normal equations (see ``identify_map``)."""
-    if ne.n_poses == 0:
+    """MAP ``Fit`` of a pooled system (module docstring). ``prior_scale`` τ [m] and ``noise`` σ
+    (the kinds' common noise scale; m for one unweighted CoP kind) are chosen by evidence when
+    None; ``cv_folds``: the systems of k folds of the data, to choose σ²/τ² by cross-validation
+    instead; ``kind_noise``: given noise of some kinds (the others from least squares);
+    ``prior``: "sesc" or "bodies" (``Prior``; τ is then relative)."""
+    check_scale(prior_scale, "prior scale")
+    check_scale(noise, "noise")
+    if system.n_poses == 0:
         raise SescidError("no poses to identify from")
-    r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
-    x0 = r0.reshape(-1)
-    base = solve(robot, ne, rtol=rtol, r_prior=r0)  # rank, basis, named combinations
-    n_par = x0.size
-    work, n_bias, x0w = ne, 0, x0
-    if bias:
-        if bias_data is None:
-            raise SescidError("a bias fit needs the data, not only normal equations")
-        work, n_bias = _with_bias(robot, *bias_data), 2
-        x0w = np.concatenate([x0, np.zeros(2)])
+    theta0 = prior_theta(robot, system, r_prior)
+    ls = solve_system(system, theta0, rtol=rtol, noise=kind_noise, allow_exact=True)
+    base = fit_from_solution(robot, system, ls, rtol=rtol)
+    ratios = _noise_ratios(system, ls)
+    ne = weighted_sums(system, ratios)
+    n_x = system.n_x
+    scales = np.array([n.prior_scale for n in system.nuisance], dtype=float)
+    if prior == "bodies":
+        pri = body_prior(robot, n_x, scales)
+    elif prior == "sesc":
+        pri = Prior(n_x, scales)
+    else:
+        raise SescidError(f"MAP prior must be 'sesc' or 'bodies', got {prior!r}")
+
     chosen = "given" if prior_scale is not None else "evidence"
-    tau, sig = maximise_evidence(work, x0w, prior_scale=prior_scale, noise=noise, n_bias=n_bias)
-    post = posterior(work, x0w, tau, sig, n_bias)
-    return _map_fit(base, post, n_par, n_bias, chosen, noise is not None)
+    curve = None
+    if cv_folds is not None and prior_scale is None:
+        folds = [weighted_sums(f.embedded(system.nuisance), ratios) for f in cv_folds]
+        unit = pri.matrix(1.0)
+        unit[n_x:, n_x:] = 1e-12 * np.eye(len(scales))  # the nuisance: flat
+        ridge, curve = cv_ridge(folds, theta0, unit, system.n_poses)
+        if noise is None:
+            noise = profiled_noise(ne, theta0, ridge * unit)
+        prior_scale = noise / math.sqrt(ridge)
+        chosen = f"{len(cv_folds)}-fold cv"
+    tau, sig = maximise_evidence(ne, theta0, pri, prior_scale=prior_scale, noise=noise)
+    post = posterior(ne, theta0, pri, tau, sig)
+    return _map_fit(base, system, post, ls, chosen, noise is not None, curve, pri)
 
 
-def _map_fit(base: Fit, post: Posterior, n_par: int, n_bias: int, chosen, noise_given) -> Fit:
-    fit = base
-    x, cov = post.x[:n_par], post.cov[:n_par, :n_par]
-    fit.r = x.reshape(-1, 3)
-    fit.cov = cov
-    fit.method = "map"
-    fit.sigma_hat = post.noise
-    for c in fit.base:
-        g = combination_vector(fit.robot, c.terms)
-        c.value = float(g @ x)
-        c.std = float(np.sqrt(max(g @ cov @ g, 0.0)))
-    fit.sigma_dof = math.inf if noise_given else max(fit.n_rows - post.edf, 1.0)
-    fit.map = MapInfo(
+def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) -> int:
+    """Directions of vec(r) the prior decided: unseen by the data, or where the data carry less
+    than ``PRIOR_DECIDED`` of the posterior information (generalised eigenvalues of the data's
+    marginal information against the prior's)."""
+    import scipy.linalg
+
+    lam, vecs, p = marginal_x(ls, n_x, rtol)
+    data = (vecs[:, :p] * lam[:p]) @ vecs[:, :p].T
+    pri = prior_info[:n_x, :n_x]
+    share = scipy.linalg.eigh(data, data + pri, eigvals_only=True)
+    return int(np.sum(share < PRIOR_DECIDED))
+
+
+def _noise_ratios(system: System, ls: Solution) -> dict[str, float]:
+    """Each kind's noise relative to the others, from least squares (1 for a single kind)."""
+    if len(system.kinds) == 1:
+        return {system.kinds[0]: 1.0}
+    return {k: (v if math.isfinite(v) and v > 0 else 1.0) for k, v in ls.noise.items()}
+
+
+def _map_fit(
+    base: Fit, system: System, post: Posterior, ls: Solution, chosen, noise_given, curve, pri
+) -> Fit:
+    n_x = system.n_x
+    x, cov = post.x[:n_x], post.cov[:n_x, :n_x]
+    robot = base.robot
+    combos = tuple(
+        dataclasses.replace(c, value=float(g @ x), std=float(np.sqrt(max(g @ cov @ g, 0.0))))
+        for c in base.base
+        for g in [combination_vector(robot, c.terms)]
+    )
+    decided = _prior_decided(ls, n_x, base.rtol, post.noise**2 * pri.matrix(post.prior_scale))
+    info = MapInfo(
         prior_scale=post.prior_scale,
         prior_scale_by=chosen,
         noise=post.noise,
         noise_by="given" if noise_given else "evidence",
         log_evidence=float(post.log_evidence),
         effective_parameters=post.edf,
+        cv_curve=curve,
         at_lower_bound=chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0],
+        prior_decided=decided,
+        prior=pri.kind,
     )
-    if n_bias:
-        fit.cop_offset = CopOffset(
-            value=np.asarray(post.x[n_par:], dtype=float).copy(),
-            std=np.sqrt(np.diag(post.cov)[n_par:]),
+    mapped = dataclasses.replace(
+        ls,
+        theta=post.x,
+        cov=post.cov,
+        rank=post.x.size,
+        vecs=np.eye(post.x.size),
+        lam=np.ones(post.x.size),
+    )  # every direction determined (by data or prior)
+    nuisance = nuisance_estimates(system, mapped)
+    offset = None
+    cop = [e for e in nuisance if e.kind == "cop"]
+    if cop:
+        offset = CopOffset(
+            value=np.array([e.value for e in cop]), std=np.array([e.std for e in cop])
         )
-    return fit
+    return dataclasses.replace(
+        base,
+        r=x.reshape(-1, 3),
+        cov=cov,
+        method="map",
+        sigma_hat=post.noise,
+        base=combos,
+        sigma_dof=math.inf if noise_given else max(base.n_rows - post.edf, 1.0),
+        map=info,
+        cop_offset=offset,
+        nuisance=nuisance,
+    )

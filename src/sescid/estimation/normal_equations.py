@@ -58,7 +58,7 @@ class NormalEquations:
         self.n_rows += phi_t.shape[1]
 
 
-def _add_columns(acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndarray | None) -> None:
+def add_columns(acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndarray | None) -> None:
     """Add a block given as columns x = Φᵀ (P, m) ≤ acc's padded size, targets y (m,) and
     square-root weights sw (m,) or None: compiled (one core) once the kernels are loaded,
     BLAS for the few small blocks before."""
@@ -74,7 +74,8 @@ def _add_columns(acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndar
     acc.n_rows += x.shape[1]
 
 
-def _upper_to_full(a: np.ndarray) -> np.ndarray:
+def upper_to_full(a: np.ndarray) -> np.ndarray:
+    """The symmetric matrix whose upper triangle ``a`` holds."""
     return np.triu(a) + np.triu(a, 1).T
 
 
@@ -104,24 +105,22 @@ def row_weights(sigma: ArrayLike | None, n: int) -> np.ndarray | None:
     return (1.0 / s**2).reshape(-1)
 
 
-def _add_tilted(robot, ne, q, cop, w, gravity, block, progress) -> None:
-    """Add the tilted x/y rows of poses under per-pose gravity (n, 3) to ``ne`` (full Φ)."""
+def add_cop_tilted(robot, ne: NormalEquations, q, cop, sw, gravity, progress=None) -> None:
+    """Add the tilted x/y rows of validated poses under per-pose gravity (n, 3) to ``ne`` (full
+    Φ); ``sw`` (n, 2) square-root weights or None."""
     g = np.asarray(gravity, dtype=float)
     d = robot.d_tilted(g, q.shape[0])
+    block = ACCUMULATE_BLOCK
     for s in range(0, q.shape[0], block):
         blk = slice(s, s + block)
         phi = robot.regressor_tilted(q[blk], g[blk])  # (m, 2, P)
         y = (cop[blk] - d[blk]).reshape(-1)
-        ne.add(
-            phi.reshape(-1, phi.shape[2]).T,
-            y,
-            None if w is None else w.reshape(-1, 2)[blk].reshape(-1),
-        )
+        ne.add(phi.reshape(-1, phi.shape[2]).T, y, None if sw is None else sw[blk].reshape(-1) ** 2)
         if progress is not None:
             progress(min(s + block, q.shape[0]), q.shape[0])
 
 
-def _add_chunk(robot, acc: NormalEquations, q, y, sw, ws: Workspace, progress) -> None:
+def add_cop_reduced(robot, acc: NormalEquations, q, y, sw, ws: Workspace, progress) -> None:
     """Add a validated chunk's reduced sums to ``acc``, block by block: each block's sums on
     their own, added in block order (the same bits on any number of threads)."""
     red = robot.reduction
@@ -135,9 +134,7 @@ def _add_chunk(robot, acc: NormalEquations, q, y, sw, ws: Workspace, progress) -
         yty = gram_reduced(robot.tree, red, q[blk], y[blk], sw_b, part.ata, part.atb)
         if yty is None:  # kernels not loaded yet, or huge angles: columns, then product
             x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
-            _add_columns(
-                part, x, y[blk].T.reshape(-1), None if sw_b is None else sw_b.T.reshape(-1)
-            )
+            add_columns(part, x, y[blk].T.reshape(-1), None if sw_b is None else sw_b.T.reshape(-1))
         else:
             part.yty, part.n_rows = yty, 2 * y[blk].shape[0]
         return part
@@ -191,14 +188,15 @@ def accumulate(
             cop = check_cop(cop, q.shape[0])
         w = row_weights(sigma, q.shape[0])
         if gravity is not None:
-            _add_tilted(robot, ne, q, cop, w, gravity, ws.block, progress)
+            sw_t = None if w is None else np.sqrt(w).reshape(-1, 2)
+            add_cop_tilted(robot, ne, q, cop, sw_t, gravity, progress)
             ne.n_poses += q.shape[0]
             continue
         y = cop - d_xy
         sw = None if w is None else np.sqrt(w).reshape(-1, 2)
-        _add_chunk(robot, acc, q, y, sw, ws, progress)
+        add_cop_reduced(robot, acc, q, y, sw, ws, progress)
         ne.n_poses += q.shape[0]
-    ne.ata += red.g.T @ _upper_to_full(acc.ata)[:p_red, :p_red] @ red.g
+    ne.ata += red.g.T @ upper_to_full(acc.ata)[:p_red, :p_red] @ red.g
     ne.atb += red.g.T @ acc.atb[:p_red]
     ne.yty += acc.yty
     ne.n_rows += acc.n_rows

@@ -15,6 +15,7 @@ finite and fell by less than ``tol`` (relative) over the last ``window`` poses.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -23,8 +24,8 @@ import numpy as np
 from sescid.errors import SescidError
 from sescid.estimation.fit import Fit, OnlineInfo
 from sescid.estimation.identifiability import DEFAULT_RTOL, identifiable_eigen
-from sescid.estimation.least_squares import solve
-from sescid.estimation.map import fit_from_normal_equations
+from sescid.estimation.least_squares import cop_system, fit_least_squares
+from sescid.estimation.map import fit_map
 from sescid.estimation.normal_equations import NormalEquations, accumulate
 from sescid.robot import Robot
 from sescid.simulation import random_poses
@@ -165,25 +166,27 @@ class OnlineEstimator:
         """The batch-equivalent Fit for the data seen so far (MAP with the prior, else LS)."""
         if self.ne.n_poses == 0:
             raise SescidError("no poses seen yet")
+        system = cop_system(self.robot, self.ne, weighted=self._weighted)
         if self.prior_scale is None:
-            fit = solve(self.robot, self.ne, rtol=self.rtol, r_prior=self.r_prior)
+            fit = fit_least_squares(
+                self.robot, system, rtol=self.rtol, r_prior=self.r_prior, allow_exact=True
+            )
         else:
-            fit = fit_from_normal_equations(
+            fit = fit_map(
                 self.robot,
-                self.ne,
+                system,
                 prior_scale=self.prior_scale,
                 noise=self.noise,
                 r_prior=self.r_prior,
                 rtol=self.rtol,
             )
-        if self._weighted:  # σ̂ is a scale on the given errors; the RMS in m needs the data
-            fit.rms = float("nan")
-            fit.weighted = True
-        fit.online = OnlineInfo(
-            window=self.window,
-            tol=self.tol,
-            converged_at=self.converged_at,
-            cop_std=[s.cop_std for s in self.history],
-            n_poses=[s.n_poses for s in self.history],
+        return dataclasses.replace(
+            fit,
+            online=OnlineInfo(
+                window=self.window,
+                tol=self.tol,
+                converged_at=self.converged_at,
+                cop_std=[s.cop_std for s in self.history],
+                n_poses=[s.n_poses for s in self.history],
+            ),
         )
-        return fit

@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sescid.estimation.fit import Fit
+if TYPE_CHECKING:  # pragma: no cover
+    from sescid.estimation.fit import Fit
 
 #: relative standard error of the tilt-determined CoM-height offset above which an LS fit warns
 TILT_REL_STD_WARN = 0.1

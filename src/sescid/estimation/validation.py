@@ -26,7 +26,7 @@ from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.sesc import sesc_vectors
 
-#: a fitting function: (q, cop, sigma[, gravity]) → Fit (arrays as in ``identify``)
+#: a fitting function: list of validated Measurements → Fit (``api.make_fitter``)
 Fitter = Callable[..., Fit]
 
 
@@ -138,36 +138,41 @@ def folds(n: int, k: int, seed: int = 0) -> list[np.ndarray]:
 
 
 def cross_validate(
-    fitter: Fitter, q, cop, k: int = 5, sigma=None, seed: int = 0, progress=None
+    fitter: Fitter, data, k: int = 5, seed: int = 0, progress=None
 ) -> CrossValidation:
-    """k-fold cross-validated CoP error of a fitting method (fitter(q, cop, sigma) -> Fit).
+    """k-fold cross-validated error of a fitting method (``fitter([Measurements]) -> Fit``) on
+    validated data: the CoP's when the data have one (m), else the torques' (N·m).
 
-    With per-pose standard errors ``sigma`` the held-out residuals are divided by them, so the
-    RMSE, the noise and the model part are all in units of the given errors (σ̂ is a scale).
+    With standard errors in the data and a weighted fit, the held-out residuals are divided by
+    them, so the RMSE, the noise and the model part are all in units of the given errors.
     ``progress(i, k)`` is called after each fold.
     """
-    q = np.asarray(q, dtype=float)
-    cop = np.asarray(cop, dtype=float)
-    n = q.shape[0]
-    sq, per_fold, noise2 = 0.0, [], []
+    from sescid.estimation.least_squares import residuals
+
+    n = data.n
+    kind = "cop" if data.cop is not None else "tau"
+    sq, count, per_fold, noise2 = 0.0, 0, [], []
     for i, test in enumerate(folds(n, k, seed)):
         train = np.setdiff1d(np.arange(n), test)
-        sig = None if sigma is None else np.asarray(sigma)[train]
-        fit = fitter(q[train], cop[train], sig)
-        err = cop[test] - fit.predict_cop(q[test]) - fit.cop_bias
-        if sigma is not None:
-            se = np.asarray(sigma, dtype=float)[test]
-            err = err / (se if se.ndim == 2 else se[:, None])
+        fit = fitter([data.take(train)])
+        held = data.take(test)
+        err = residuals(fit, held)[kind]
+        weighted = fit.kind(kind) is not None and fit.kind(kind).weighted  # type: ignore[union-attr]
+        se = held.cop_se if kind == "cop" else held.tau_se
+        if weighted and se is not None:
+            err = err / se
         sq += float(np.sum(err**2))
+        count += err.size
         per_fold.append(rms(err))
-        if math.isfinite(fit.sigma_hat):
-            noise2.append(fit.sigma_hat**2)
+        kf = fit.kind(kind)
+        if kf is not None and math.isfinite(kf.sigma):
+            noise2.append(kf.sigma**2)
         if progress:
             progress(i + 1, k)
-    total = math.sqrt(sq / (2 * n))
+    total = math.sqrt(sq / count)
     noise = math.sqrt(np.mean(noise2)) if noise2 else math.nan
     model = math.sqrt(max(total**2 - noise**2, 0.0)) if noise2 else math.nan
-    return CrossValidation(k, total, per_fold, noise, model)
+    return CrossValidation(k, total, per_fold, noise, model, kind=kind)
 
 
 def perturbed_sesc(

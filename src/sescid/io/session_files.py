@@ -18,6 +18,7 @@ import numpy as np
 
 from sescid.base.files import atomic_open, check_outputs, read_json
 from sescid.errors import SescidError
+from sescid.estimation.fit_json import save_fit
 from sescid.io.tables import write_table
 
 SESSION_FORMAT = "sescid-session/1"
@@ -75,7 +76,7 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
     write_table(paths["poses"], cols)
     write_table(paths["raw"], result.raw)
     write_table(paths["measured"], result.measured.columns(names))
-    result.fit.save(paths["fit"])
+    save_fit(result.fit, paths["fit"])
     doc = {
         "format": SESSION_FORMAT,
         "units": "m, rad",

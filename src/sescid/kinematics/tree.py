@@ -32,6 +32,7 @@ class Tree:
     nz_k: np.ndarray  #: row of each entry
     nz_j: np.ndarray  #: column of each entry
     nz_a: np.ndarray  #: (nnz, 3) coefficients a0, a1, a2 of each entry
+    axis: np.ndarray  #: (N, 3) unit joint axis of each body in its own frame (root: zeros)
 
     @cached_property
     def packed(self) -> tuple[np.ndarray, np.ndarray]:
@@ -84,6 +85,7 @@ class Tree:
             root_r=np.ascontiguousarray(model.root_rotation, dtype=float),
             root_o=np.ascontiguousarray(model.root_origin, dtype=float),
             nq=len(model.joint_names),
+            axis=np.array([b.axis for b in model.bodies], dtype=float).reshape(n, 3),
         )
 
 

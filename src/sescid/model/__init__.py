@@ -1,8 +1,10 @@
 """What the robot is: a model file (URDF, MJCF) turned into a tree of rigid bodies re-rooted at
 the support frame, with its collision/visual shapes.
 
-``load_model(path, support)`` reads either format; ``RobotModel``/``Body`` are the tree;
-``Shape`` the geometry.
+``load_model(path, support)`` reads either format: the file becomes a format-neutral ``Graph``
+(``urdf_parse`` → ``urdf_check`` → ``urdf``, or ``mjcf_compile`` → ``mjcf_joints`` → ``mjcf``),
+which ``reroot`` (the one walk) turns into the tree ``RobotModel``/``Body``; ``Shape`` is the
+geometry; ``inertia_parts`` the inertia tensors the file gives, per body. See docs/model.md.
 """
 
 from __future__ import annotations
@@ -12,8 +14,11 @@ from xml.etree import ElementTree
 
 from sescid.errors import ModelError
 from sescid.model.geometry import Shape, body_hulls, shape_hull
-from sescid.model.tree import Body, RobotModel, inv_transform, rot_axis
+from sescid.model.graph import Edge, Frame, Graph, LinkInertial
+from sescid.model.inertia import inertia_issue, inertia_parts
+from sescid.model.tree import Body, RobotModel, inv_transform, reroot, rot_axis
 from sescid.model.urdf import build_model as build_urdf_model
+from sescid.model.urdf_parse import load_urdf, parse_inertial
 
 
 def model_format(path: Path) -> str:
@@ -48,13 +53,22 @@ def load_model(path: str | Path, support: str) -> RobotModel:
 
 __all__ = [
     "Body",
+    "Edge",
+    "Frame",
+    "Graph",
+    "LinkInertial",
     "RobotModel",
     "Shape",
     "body_hulls",
     "build_urdf_model",
+    "inertia_issue",
+    "inertia_parts",
     "inv_transform",
     "load_model",
+    "load_urdf",
     "model_format",
+    "parse_inertial",
+    "reroot",
     "rot_axis",
     "shape_hull",
 ]

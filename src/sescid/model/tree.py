@@ -10,17 +10,25 @@ with constants ``C_b`` (3×3), ``t_b`` (m), a unit axis ``a_b``, a sign ``s_b = 
 joint is crossed against its URDF direction) and a mimic multiplier/offset ``k_b``, ``o_b``
 (1, 0 for an ordinary joint). The frame of a body is placed on the axis of the joint that links it
 to its parent, which is what makes the SESC form ``CoM = d + Σ B_i r_i`` hold.
+
+``reroot`` is the one walk that makes this tree from either file format's ``Graph``: depth-first
+from the support frame, edges in file order, with an explicit stack (no recursion limit). A fixed
+edge welds its far frame into the current body; a hinge starts a new body, crossed in its file
+direction (s = +1) or against it (s = −1, the parent side becomes the child).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from sescid.errors import ModelError
 from sescid.model.geometry import Shape
+from sescid.model.graph import Edge, Graph, LinkInertial
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,8 @@ class RobotModel:
     model_root: str = ""  #: the model file's own root link
     shapes: list[Shape] = field(default_factory=list)  #: collision/visual shapes, body frames
     notes: list[str] = field(default_factory=list)  #: what loading changed or ignored
+    #: model link (or MJCF body) name → its inertial as the file gives it (links with one)
+    inertials: dict[str, LinkInertial] = field(default_factory=dict)
 
 
 def rot_axis(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -77,3 +87,104 @@ def inv_transform(t: np.ndarray) -> np.ndarray:
     out[:3, :3] = t[:3, :3].T
     out[:3, 3] = -t[:3, :3].T @ t[:3, 3]
     return out
+
+
+@dataclass
+class _Row:
+    """A body under construction: its frames and the edge that reached it."""
+
+    links: list[str]
+    parent: int
+    edge: Edge | None
+    sign: float
+    axis: np.ndarray
+    rot: np.ndarray
+    trans: np.ndarray
+
+
+def _walk(graph: Graph, support: str) -> tuple[list[_Row], dict[str, tuple[int, np.ndarray]]]:
+    """Bodies (rows) and every frame's (body, 4×4 transform in the body frame), from the
+    support frame outwards (see the module doc)."""
+    adj: dict[str, list[Edge]] = {name: [] for name in graph.frames}
+    for e in graph.edges:
+        adj[e.parent].append(e)
+        adj[e.child].append(e)
+    frames: dict[str, tuple[int, np.ndarray]] = {support: (0, np.eye(4))}
+    rows = [_Row([support], -1, None, 1.0, np.array([0.0, 0.0, 1.0]), np.eye(3), np.zeros(3))]
+    stack: list[tuple[str, Edge | None, Iterator[Edge]]] = [(support, None, iter(adj[support]))]
+    while stack:
+        node, via, todo = stack[-1]
+        e = next(todo, None)
+        if e is None:
+            stack.pop()
+            continue
+        if e is via:
+            continue
+        b, x = frames[node]
+        down = e.parent == node
+        other = e.child if down else e.parent
+        if other in frames:
+            raise ModelError(f"{graph.source}: the joints form a loop through '{other}'")
+        if e.drive is None:  # fixed: the far frame joins this body
+            frames[other] = (b, x @ (e.origin if down else inv_transform(e.origin)))
+            rows[b].links.append(other)
+        else:  # a hinge starts a new body whose frame sits on the joint axis
+            if down:  # F_new = X · O · Rot(a, θ); the child frame is P in F_new
+                t = x @ e.origin
+                x_other, sign = np.eye(4) if e.after is None else e.after, 1.0
+            else:  # F_new = X · P⁻¹ · Rot(a, −θ); the parent frame is O⁻¹ in F_new
+                t = x if e.after is None else x @ inv_transform(e.after)
+                x_other, sign = inv_transform(e.origin), -1.0
+            assert e.axis is not None
+            rows.append(_Row([other], b, e, sign, e.axis, t[:3, :3].copy(), t[:3, 3].copy()))
+            frames[other] = (len(rows) - 1, x_other)
+        stack.append((other, e, iter(adj[other])))
+    if len(frames) < len(graph.frames):
+        lost = [n for n in graph.frames if n not in frames]
+        raise ModelError(
+            f"{graph.source}: {len(lost)} frame(s) not connected to the support "
+            f"'{support}' (e.g. '{lost[0]}')"
+        )
+    return rows, frames
+
+
+def _root_name(graph: Graph, links: list[str], support: str) -> str:
+    """The support body's name: its first frame that no fixed edge hangs from a parent."""
+    fixed_child = {e.child for e in graph.edges if e.drive is None}
+    return next((lk for lk in links if lk not in fixed_child), support)
+
+
+def reroot(graph: Graph, support: str) -> tuple[list[Body], dict[str, tuple[int, np.ndarray]]]:
+    """The body tree rooted at the frame ``support``, and every frame's (body index, 4×4
+    transform of the frame in the body frame); fixed edges merged (masses and CoMs summed)."""
+    rows, frames = _walk(graph, support)
+    bodies = []
+    for i, row in enumerate(rows):
+        mass, first = 0.0, np.zeros(3)
+        for lk in row.links:
+            inertial = graph.frames[lk].inertial
+            if inertial is not None and inertial.mass > 0:
+                x = frames[lk][1]
+                first += inertial.mass * (x[:3, :3] @ inertial.com + x[:3, 3])
+                mass += inertial.mass
+        e = row.edge
+        jcol, mult, off = (-1, 1.0, 0.0) if e is None or e.drive is None else e.drive
+        bodies.append(
+            Body(
+                name=_root_name(graph, row.links, support) if i == 0 else row.links[0],
+                links=tuple(row.links),
+                parent=row.parent,
+                joint=jcol,
+                joint_name="" if e is None else e.name,
+                sign=row.sign,
+                multiplier=mult,
+                offset=off,
+                axis=row.axis,
+                rot_const=row.rot,
+                trans_const=row.trans,
+                mass=mass,
+                com=first / mass if mass > 0 else np.zeros(3),
+                frame_only=i > 0 and all(graph.frames[lk].frame_only for lk in row.links),
+            )
+        )
+    return bodies, frames

@@ -16,7 +16,8 @@ import numpy as np
 
 from sescid.errors import DataError, OptionError
 from sescid.estimation.fit import Fit
-from sescid.estimation.map import TAU_RANGE, fit_from_normal_equations
+from sescid.estimation.least_squares import cop_system
+from sescid.estimation.map import TAU_RANGE, fit_map
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.robot import Robot
 from sescid.sensors.calibration.directions import Problem, parameters, unseen_directions
@@ -198,7 +199,9 @@ def _mass_fit(robot: Robot, pb: Problem, sol: _Solution, theta: np.ndarray, tau_
     atb = b + ata @ x0
     yty = ztz + 2 * x0 @ atb - x0 @ ata @ x0
     ne = NormalEquations(ata, atb, float(yty), int(aw.shape[0]), pb.rows.n_poses)
-    fit = fit_from_normal_equations(robot, ne, prior_scale=sol.tau, noise=1.0, rtol=pb.rtol)
+    fit = fit_map(
+        robot, cop_system(robot, ne, weighted=True), prior_scale=sol.tau, noise=1.0, rtol=pb.rtol
+    )
     cop_rows = pb.rows.moment
     info = fit.map
     if info is not None:
@@ -211,7 +214,6 @@ def _mass_fit(robot: Robot, pb: Problem, sol: _Solution, theta: np.ndarray, tau_
     cov[np.ix_(free[:p_x], free[:p_x])] = sol.minv[:nx, :nx]
     return dataclasses.replace(
         fit,
-        weighted=True,
         r=theta[:p_x].reshape(-1, 3),
         cov=cov,
         rms=float(np.sqrt(np.mean(sol.resid[cop_rows] ** 2))),

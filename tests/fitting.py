@@ -1,0 +1,43 @@
+"""Shorthands for tests: each method through the one public ``identify`` (CoP arrays)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sescid.estimation import ConsistentOptions, MapOptions, Measurements, identify
+
+
+def identify_ls(robot, q, cop, **kw):
+    """Least squares (``identify``'s default method)."""
+    return identify(robot, q, cop, **kw)
+
+
+def identify_map(
+    robot, q, cop, *, prior_scale=None, noise=None, bias=False, select="evidence", folds=5, **kw
+):
+    """MAP with a Gaussian CAD prior."""
+    opts = MapOptions(prior_scale=prior_scale, noise=noise, select=select, folds=folds, bias=bias)
+    return identify(robot, q, cop, method="map", map_options=opts, **kw)
+
+
+def identify_consistent(robot, q, cop, *, sigma=None, gravity=None, rtol=None, **ckw):
+    """Least squares, then masses that reproduce it closest to CAD (``via="fit"``)."""
+    opts = ConsistentOptions(via="fit", **ckw)
+    return identify(
+        robot, q, cop, method="consistent", consistent_options=opts, sigma=sigma,
+        gravity=gravity, rtol=rtol,
+    )  # fmt: skip
+
+
+def chunks_of(chunks):
+    """(q, cop[, sigma[, gravity]]) tuples → Measurements chunks of one data set."""
+    for c in chunks:
+        sigma = c[2] if len(c) > 2 else None
+        if sigma is not None and np.ndim(sigma) == 1:
+            sigma = np.repeat(np.asarray(sigma)[:, None], 2, axis=1)
+        yield Measurements(q=c[0], cop=c[1], cop_se=sigma, gravity=c[3] if len(c) > 3 else None)
+
+
+def identify_stream(robot, chunks, **kw):
+    """Least squares over chunks read once."""
+    return identify(robot, chunks_of(chunks), **kw)
