@@ -128,3 +128,19 @@ def test_an_external_force_balancing_a_body_cancels_its_torques(op2):
     bodies = list(op2.model.bodies)
     bodies[i] = dataclasses.replace(b, mass=0.0)
     np.testing.assert_allclose(with_push, holding_torques(op2, q, bodies), atol=1e-13)
+
+
+def test_the_bench_truth_is_linear_in_the_real_robots_sesc_vectors(op2):
+    """The contract with the estimation: the bench's true torques (from its bodies) are
+    ``M · Φ_τ(q) · vec(r_true)`` of ``sesc.torques`` for the real robot, tilted gravity too."""
+    from sescid.bench import ExperimentConfig, real_bodies, real_robot
+    from sescid.sesc import torques
+
+    cfg = ExperimentConfig()
+    bodies, _ = real_bodies(op2, cfg)
+    r_true, mass, _ = real_robot(op2, cfg)
+    q = _poses(op2, 5, 4)
+    g = np.random.default_rng(4).normal([0.0, 0.0, -1.0], 0.05, (5, 3))
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    ours = holding_torques(op2, q, bodies, g)
+    np.testing.assert_allclose(ours, torques(op2.tree, q, r_true, mass, gravity=g), atol=1e-12)
