@@ -12,8 +12,7 @@ import numpy as np
 
 import sescid
 from sescid.base.columns import Table
-from sescid.bench import ExperimentConfig
-from sescid.bench.kinematic import real_robot
+from sescid.bench import ExperimentConfig, real_robot
 from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 from sescid.estimation import identify
 from sescid.planning import candidates
@@ -31,24 +30,24 @@ def main(n: int = 60) -> None:
     r_true = real_robot(robot, ExperimentConfig())[0]
     weld = MujocoBenchConfig(weld_foot=True, min_settle=0.05, still_time=0.01, vel_tol=10.0)
     w = run_mujoco_experiment(robot, q[:20], sensors, samples=5, bench=weld).truth
-    err = np.abs(np.array(w["cop_ft"]) - robot.cop(np.array(w["q_actual"]), r_true)).max()
+    err = np.abs(w.physics.cop_ft - robot.cop(w.q_actual, r_true)).max()
     print(f"welded: F/T CoP − statics max {err:.1e} m")
 
     ex = run_mujoco_experiment(robot, q, sensors, samples=20, seed=0, bench=MujocoBenchConfig())
     t = ex.truth
-    pads, flat, grav = (np.array(t[k]) for k in ("cop_pads", "cop_true", "cop_gravity"))
+    pads, flat, grav = t.physics.cop_pads, t.cop_true, t.physics.cop_gravity
     df, dg = np.linalg.norm(pads - flat, axis=1), np.linalg.norm(pads - grav, axis=1)
     print(
         f"free ({len(pads)}/{n} stand): pads − flat statics RMS {rms(df) * 1e3:.3f} mm "
         f"(max {df.max() * 1e3:.3f}); pads − gravity-aware RMS {rms(dg) * 1e6:.2f} µm "
-        f"(max {dg.max() * 1e6:.2f}); tilt max {max(t['foot_tilt']) * 1e3:.1f} mrad"
+        f"(max {dg.max() * 1e6:.2f}); tilt max {max(t.physics.foot_tilt) * 1e3:.1f} mrad"
     )
     cols = {k: np.asarray(v, dtype=float) for k, v in ex.columns.items() if k != "pose"}
     table = Table(Path("raw"), cols, {"pose": [str(p) for p in ex.columns["pose"]]})
     log = read_raw(table, robot.joint_names, sensors, robot.profile.servo)
     res = measure(robot, log, sensors, 5)
-    keep = [t["pose"].index(p) for p in res.pose]
-    qa, g, pads = np.array(t["q_actual"])[keep], np.array(t["grav"])[keep], pads[keep]
+    keep = [t.pose.index(p) for p in res.pose]
+    qa, g, pads = t.q_actual[keep], t.grav[keep], pads[keep]
     com_true = robot.com(qa, r_true)
     for method in ("ls", "map"):
         for label, gg in (("flat", None), ("gravity", res.gravity)):

@@ -27,10 +27,9 @@ import numpy as np
 
 import sescid
 from sescid.planning import candidates, plan_poses
-from sescid.sensors import load_sensors
-from sescid.sensors.pads import measure, read_raw
-from sescid.session.adapters import MujocoAdapter
-from sescid.session.loop import SessionOptions, raw_table, run_session
+from sescid.sensors import load_sensors, measure, read_raw
+from sescid.session import MujocoAdapter, SessionOptions, run_session
+from sescid.session.loop import raw_table
 
 
 def measure_poses(robot, sensors, q, seed, samples):

@@ -29,8 +29,8 @@ from sescid.session.loop import SessionOptions, run_session
 EXAMPLES = Path(__file__).parents[2] / "examples"
 DUMMY = f"{EXAMPLES / 'op2_dummy_robot_session.py'}:DummyRobot"
 #: the small session the MuJoCo tests share (CLI options and the same as SessionOptions)
-SMALL = ["--budget", "28", "--samples", "6", "--candidates", "300", "--window", "3"]
-SMALL_OPT = SessionOptions(budget=28, samples=6, n_candidates=300, window=3)
+SMALL = ["--budget", "28", "--samples", "8", "--candidates", "300", "--window", "3"]
+SMALL_OPT = SessionOptions(budget=28, samples=8, n_candidates=300, window=3)
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +104,7 @@ def test_replay_reproduces_the_decisions_exactly(recorded, op2):
         read_table(out / "poses.csv"),
         op2.profile.servo,
     )
-    opt = SessionOptions(budget=28, samples=6, n_candidates=300, window=3, seed=1)
+    opt = SessionOptions(budget=28, samples=8, n_candidates=300, window=3, seed=1)
     with pytest.raises(DataError, match="replay diverged"):
         run_session(op2, bot2, sensors, opt)
 

@@ -1,34 +1,60 @@
 """Benches: a "real" robot that differs from its model (unmodelled masses, backlash, sensor
 errors) measured at planned poses, writing the raw log a real robot would.
 
-``kinematic`` is rigid statics (fast, exact truth); ``mujoco`` stands the robot on a compliant
-floor with position servos in MuJoCo (the ``mujoco`` extra); ``truth`` compares a fit with the
-truth a bench wrote.
+``real_robot`` is the real robot and its sensors' errors (``ExperimentConfig``,
+``TorqueConfig``); ``statics`` the joint torques that hold a pose; ``log`` the one raw-log
+writer every bench and session adapter uses; ``kinematic`` is rigid statics (fast, exact
+truth); ``mujoco`` stands the robot on a compliant floor with position servos in MuJoCo (the
+``mujoco`` extra); ``truth`` is the typed truth record and its file; ``compare`` compares a fit
+with that truth.
 """
 
 from __future__ import annotations
 
-from sescid.bench.kinematic import (
+from sescid.bench.compare import FRESH_POSES, FRESH_WITHIN_DEG, TruthComparison, compare_truth
+from sescid.bench.kinematic import Experiment, run_experiment
+from sescid.bench.log import RawLogWriter, Readings
+from sescid.bench.real_robot import (
     DEFAULT_EXTRA,
-    Experiment,
+    NO_POSE_MEASURED,
     ExperimentConfig,
     ExtraMass,
+    SensorErrors,
+    TorqueConfig,
+    approach_sides,
     check_limits,
-    load_truth,
+    draw_errors,
+    real_bodies,
     real_robot,
-    run_experiment,
 )
-from sescid.bench.truth import TruthComparison, compare_truth
+from sescid.bench.statics import ExternalForce, holding_torques
+from sescid.bench.truth import PhysicsTruth, PlacedMass, TorqueTruth, Truth, load_truth
 
 __all__ = [
     "DEFAULT_EXTRA",
+    "FRESH_POSES",
+    "FRESH_WITHIN_DEG",
+    "NO_POSE_MEASURED",
     "Experiment",
     "ExperimentConfig",
+    "ExternalForce",
     "ExtraMass",
+    "PhysicsTruth",
+    "PlacedMass",
+    "RawLogWriter",
+    "Readings",
+    "SensorErrors",
+    "TorqueConfig",
+    "TorqueTruth",
+    "Truth",
     "TruthComparison",
+    "approach_sides",
     "check_limits",
     "compare_truth",
+    "draw_errors",
+    "holding_torques",
     "load_truth",
+    "real_bodies",
     "real_robot",
     "run_experiment",
 ]

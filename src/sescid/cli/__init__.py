@@ -26,7 +26,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "poses": ("poses", "poses", "Plan stable, collision-free, informative bench poses."),
     "experiment": ("experiment", "experiment", "Virtual bench experiment: a raw sensor log."),
     "bag": ("bag", "bag", "Read a ROS bag into the raw foot-sensor log (mapping file)."),
-    "fsr": ("fsr", "fsr", "Reduce a raw foot-sensor log to one CoP per pose."),
+    "measure": ("fsr", "fsr", "Reduce a raw log to one measurement (CoP, torques) per pose."),
+    "fsr": ("fsr", "fsr", "The same as measure (its former name)."),
     "calibrate": (
         "calibrate",
         "calibrate",

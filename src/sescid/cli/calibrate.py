@@ -3,19 +3,35 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import click
 
-from sescid.base.files import atomic_open, check_outputs
-from sescid.cli.common import load, min_samples_option, mm, robot_options, sensors_option
+from sescid.base.files import OutputSet
+from sescid.cli.common import (
+    force_option,
+    load,
+    min_samples_option,
+    mm,
+    robot_options,
+    sensors_option,
+)
 from sescid.errors import OptionError
-from sescid.estimation.fit_json import save_fit
+from sescid.estimation import save_fit
 from sescid.io import read_table
-from sescid.sensors import load_sensors
-from sescid.sensors.calibration import GAIN_PRIOR, OFFSET_PRIOR, calibrate_sensors
-from sescid.sensors.pad_logs import calibrated_sensor_document, pad_session
-from sescid.sensors.pads import default_sensors_path
+from sescid.sensors import (
+    CalibrationOptions,
+    PadSessionOptions,
+    calibrate_sensors,
+    calibrated_sensor_document,
+    check_total_mass,
+    default_sensors_path,
+    load_sensors,
+    pad_session,
+)
+
+_CAL = CalibrationOptions()
 
 
 def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
@@ -28,6 +44,20 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
     return out
 
 
+def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
+    """SESSION=VALUE pairs as positive finite numbers (one-line error naming the option)."""
+    out = {}
+    for name, v in values.items():
+        try:
+            x = float(v)
+        except ValueError:
+            raise OptionError(what, f"{name}={v}: expected a number [{unit}]") from None
+        if not (math.isfinite(x) and x > 0):
+            raise OptionError(what, f"{name}={v}: must be a finite number > 0 [{unit}]")
+        out[name] = x
+    return out
+
+
 @click.command()
 @click.argument("raw", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @robot_options
@@ -35,7 +65,7 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
 @click.option(
     "--total-mass",
     type=float,
-    default=None,
+    default=_CAL.total_mass,
     help="Weighed mass of the robot [kg]: fixes the gains' scale (default: the model's, "
     "reported as unidentifiable).",
 )
@@ -58,12 +88,11 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
     multiple=True,
     help="SESSION=M: given noise of the session's moment rows, as CoP [m] (default: estimated).",
 )
-@click.option(
-    "--prior-scale", type=float, default=None, help="SESC prior τ [m] (default: evidence)."
-)
-@click.option("--gain-prior", type=float, default=GAIN_PRIOR, show_default=True,
+@click.option("--prior-scale", type=float, default=_CAL.prior_scale,
+              help="SESC prior τ [m] (default: evidence).")  # fmt: skip
+@click.option("--gain-prior", type=float, default=_CAL.gain_prior, show_default=True,
               help="Prior std of each gain (relative).")  # fmt: skip
-@click.option("--offset-prior", type=float, default=OFFSET_PRIOR, show_default=True,
+@click.option("--offset-prior", type=float, default=_CAL.offset_prior, show_default=True,
               help="Prior std of each offset [N]; the offset twist comes from it.")  # fmt: skip
 @min_samples_option
 @click.option(
@@ -75,7 +104,7 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
     "--out",
     required=True,
     type=click.Path(dir_okay=False),
-    help="Calibrated sensor file (sescid-fsr/2), for `sescid fsr --sensors`.",
+    help="Calibrated sensor file (sescid-fsr/2), for `sescid measure --sensors`.",
 )
 @click.option(
     "--fit",
@@ -84,42 +113,37 @@ def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
     type=click.Path(dir_okay=False),
     help="Also write the jointly estimated mass model (a MAP fit) for export/report.",
 )
-def calibrate(
-    raw,
-    robot_name,
-    support,
-    sensors_file,
-    total_mass,
-    sensor_sets,
-    noise_force,
-    noise_cop,
-    prior_scale,
-    gain_prior,
-    offset_prior,
-    min_samples,
-    offsets_from,
-    out,
-    fit_out,
-):
+@force_option
+def calibrate(**opts):
     """Estimate every foot pad's gain and offset together with the mass model from RAW logs.
 
-    Each RAW log (the table `sescid fsr` reads, with the pad forces of both feet) is one
+    Each RAW log (the table `sescid measure` reads, with the pad forces of both feet) is one
     session with its own offsets and noise levels; sessions on each foot in turn (or in double
     support) determine the gains, the weighed mass their scale. Prints each gain and offset
     with its standard error, each session's share, and the directions the sessions leave
     undetermined; writes the layout with the gains and one session's offsets.
     """
-    robot = load(robot_name, support)
-    check_outputs([out, fit_out], list(raw) + [sensors_file])
-    config = load_sensors(sensors_file, robot.profile)
-    source = sensors_file or default_sensors_path(robot.profile)
+    raw, out, fit_out = opts["raw"], opts["out"], opts["fit_out"]
+    outs = OutputSet([out, fit_out], [*raw, opts["sensors_file"]], force=opts["force"])
+    robot = load(opts["robot_name"], opts["support"])
+    options = CalibrationOptions(
+        total_mass=opts["total_mass"],
+        prior_scale=opts["prior_scale"],
+        gain_prior=opts["gain_prior"],
+        offset_prior=opts["offset_prior"],
+    )
+    options.check()
+    if options.total_mass is not None:
+        check_total_mass(robot, options.total_mass, "--total-mass")
+    config = load_sensors(opts["sensors_file"], robot.profile)
+    source = opts["sensors_file"] or default_sensors_path(robot.profile)
     names = [Path(p).stem for p in raw]
     if len(set(names)) != len(names):
-        raise OptionError("raw", f"session files must have different names, got {names}")
-    sets = _pairs(sensor_sets, "sensor_set")
-    nf = {k: float(v) for k, v in _pairs(noise_force, "noise_force").items()}
-    nc = {k: float(v) for k, v in _pairs(noise_cop, "noise_cop").items()}
-    for what, d in (("sensor_set", sets), ("noise_force", nf), ("noise_cop", nc)):
+        raise OptionError("RAW", f"session files must have different names, got {names}")
+    sets = _pairs(opts["sensor_sets"], "--sensor-set")
+    nf = _positive(_pairs(opts["noise_force"], "--noise-force"), "--noise-force", "N")
+    nc = _positive(_pairs(opts["noise_cop"], "--noise-cop"), "--noise-cop", "m")
+    for what, d in (("--sensor-set", sets), ("--noise-force", nf), ("--noise-cop", nc)):
         unknown = [k for k in d if k not in names]
         if unknown:
             raise OptionError(what, f"no session '{unknown[0]}' (sessions: {', '.join(names)})")
@@ -129,29 +153,23 @@ def calibrate(
             read_table(path),
             config,
             name,
-            sensors=sets.get(name, "default"),
-            min_samples=min_samples,
-            noise_force=nf.get(name),
-            noise_cop=nc.get(name),
+            PadSessionOptions(
+                sets.get(name, "default"), opts["min_samples"], nf.get(name), nc.get(name)
+            ),
         )
         for path, name in zip(raw, names, strict=True)
     ]
-    cal = calibrate_sensors(
-        robot,
-        sessions,
-        total_mass=total_mass,
-        prior_scale=prior_scale,
-        gain_prior=gain_prior,
-        offset_prior=offset_prior,
-    )
+    cal = calibrate_sensors(robot, sessions, options)
     click.echo(cal.summary())
     click.echo(f"mass model: CoP residual RMS {mm(cal.fit.rms)}, rank {cal.fit.rank}")
-    session = offsets_from or names[-1]
+    session = opts["offsets_from"] or names[-1]
     doc = calibrated_sensor_document(source, cal, session, sets.get(session, "default"))
-    with atomic_open(out, "w") as fh:
-        json.dump(doc, fh, indent=1)
-        fh.write("\n")
+    with outs:
+        with open(outs.path(out), "w") as fh:
+            json.dump(doc, fh, indent=1)
+            fh.write("\n")
+        if fit_out:
+            save_fit(cal.fit, outs.path(fit_out))
     click.echo(f"wrote {out} (gains, offsets of session {session})")
     if fit_out:
-        save_fit(cal.fit, fit_out)
         click.echo(f"wrote {fit_out}")

@@ -3,12 +3,18 @@ raw log."""
 
 from __future__ import annotations
 
-import json
+from typing import Any
 
 import click
 
 from sescid.base.files import OutputSet
-from sescid.bench import ExperimentConfig, run_experiment
+from sescid.bench import (
+    NO_POSE_MEASURED,
+    ExperimentConfig,
+    TorqueConfig,
+    check_limits,
+    run_experiment,
+)
 from sescid.cli.common import (
     force_option,
     load,
@@ -16,11 +22,73 @@ from sescid.cli.common import (
     seed_option,
     sensors_option,
 )
-from sescid.errors import DataError, MissingExtraError, OptionError, SescidError
+from sescid.errors import DataError, OptionError
 from sescid.io import read_poses, read_table, write_table
-from sescid.sensors import load_sensors, pose_list_ids
+from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
 _EXP = ExperimentConfig()
+_TAU = TorqueConfig()
+
+
+def torque_options(f: Any) -> Any:
+    """The joint torque sensors of a bench's real robot (experiment, session)."""
+    for opt in reversed(
+        [
+            click.option(
+                "--torques",
+                default="none",
+                show_default=True,
+                help="Joints with a torque sensor: all, none, or a comma-separated list; they "
+                "log tau_<joint> [N·m] and the pose's approach side.",
+            ),
+            click.option("--torque-noise", default=_TAU.noise, show_default=True,
+                         type=click.FloatRange(min=0), help="Torque noise per sample [N·m]."),
+            click.option("--torque-offset", default=_TAU.offset, show_default=True,
+                         type=click.FloatRange(min=0),
+                         help="Std of the per-joint torque offsets [N·m]."),
+            click.option("--torque-gain", default=_TAU.gain, show_default=True,
+                         type=click.FloatRange(min=0),
+                         help="Std of the per-joint torque gain errors (relative)."),
+            click.option("--friction", nargs=2, type=click.FloatRange(min=0),
+                         default=_TAU.friction, show_default=True, metavar="LO HI",
+                         help="Static-friction band half-width f_j ~ U(LO, HI) per joint [N·m]: "
+                         "a held pose reads τ ± f_j on the side it came from."),
+            click.option("--approach", type=click.Choice(["random", "up", "down", "alternate"]),
+                         default=_TAU.approach, show_default=True,
+                         help="Side each pose is approached from (the approach column)."),
+        ]
+    ):  # fmt: skip
+        f = opt(f)
+    return f
+
+
+def torque_config(opts: dict) -> TorqueConfig:
+    """The typed torque options from the flags of ``torque_options``."""
+    spec = opts["torques"].strip()
+    joints: tuple[str, ...] | str
+    if spec == "all":
+        joints = "all"
+    elif spec in ("", "none"):
+        joints = ()
+    else:
+        joints = tuple(j.strip() for j in spec.split(",") if j.strip())
+    return TorqueConfig(
+        joints=joints,
+        noise=opts["torque_noise"],
+        offset=opts["torque_offset"],
+        gain=opts["torque_gain"],
+        friction=tuple(opts["friction"]),
+        approach=opts["approach"],
+    )
+
+
+def bench_sensors(sensors_file, profile, torques: TorqueConfig):
+    """The foot-sensor layout, or None for a robot with torque sensors and no layout."""
+    if sensors_file is None and profile.sensors_file is None and torques.joints:
+        return None
+    if sensors_file is None:
+        default_sensors_path(profile)  # the one-line error naming the robot
+    return load_sensors(sensors_file, profile)
 
 
 @click.command()
@@ -45,27 +113,17 @@ _EXP = ExperimentConfig()
     "--truth",
     default=None,
     type=click.Path(dir_okay=False),
-    help="Also write the truth (true SESC vectors, actual poses, true CoPs) as JSON.",
+    help="Also write the truth (true SESC vectors, actual poses, true CoPs and torques) as JSON.",
 )
 @sensors_option
-@click.option(
-    "--extra-mass",
-    default=_EXP.extra_mass_fraction,
-    show_default=True,
-    help="Unmodelled mass as a fraction of the model's mass.",
-)
-@click.option(
-    "--backlash-deg",
-    default=_EXP.backlash_deg,
-    show_default=True,
-    help="Joint play ±b [degrees].",
-)
-@click.option(
-    "--fsr-noise", default=_EXP.fsr_noise, show_default=True, help="Per-sensor noise std [N]."
-)
-@click.option(
-    "--fsr-bias", default=_EXP.fsr_bias, show_default=True, help="Per-sensor bias std [N]."
-)
+@click.option("--extra-mass", default=_EXP.extra_mass_fraction, show_default=True,
+              help="Unmodelled mass as a fraction of the model's mass.")  # fmt: skip
+@click.option("--backlash-deg", default=_EXP.backlash_deg, show_default=True,
+              help="Joint play ±b [degrees].")  # fmt: skip
+@click.option("--fsr-noise", default=_EXP.fsr_noise, show_default=True,
+              help="Per-sensor noise std [N].")  # fmt: skip
+@click.option("--fsr-bias", default=_EXP.fsr_bias, show_default=True,
+              help="Per-sensor bias std [N].")  # fmt: skip
 @click.option(
     "--fsr-gain",
     default=_EXP.fsr_gain,
@@ -75,8 +133,8 @@ _EXP = ExperimentConfig()
 @click.option(
     "--double-support",
     is_flag=True,
-    help="Both feet on the floor where the pose puts them there (plan with poses "
-    "--double-support); the load splits over all their pads.",
+    help="Both feet on the floor where the pose puts them there; the load splits over all "
+    "their pads.",
 )
 @click.option(
     "--registers",
@@ -86,12 +144,21 @@ _EXP = ExperimentConfig()
     help="Log the four forces, the centroid registers, or both.",
 )
 @click.option(
+    "--mount",
+    type=click.Choice(["stand", "gantry"]),
+    default=_EXP.mount,
+    show_default=True,
+    help="stand: on the support foot; gantry: the support link (--support pelvis) held level "
+    "in a fixture, the robot hanging free (no balance; the feet carry nothing).",
+)
+@torque_options
+@click.option(
     "--engine",
     type=click.Choice(["kinematic", "mujoco"]),
     default="kinematic",
     show_default=True,
-    help="kinematic: CoP at the CoM's ground projection; mujoco: a physics bench (the robot "
-    "stands on its support foot, servos hold each pose; logs grav_x/y/z too).",
+    help="kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "
+    "bench (servos hold each pose on a compliant floor; logs grav_x/y/z and the IMU too).",
 )
 @click.option(
     "--weld-foot",
@@ -106,56 +173,53 @@ _EXP = ExperimentConfig()
 )
 @click.option(
     "--tilt-deg",
-    default=0.0,
+    default=_EXP.tilt_deg,
     show_default=True,
     type=click.FloatRange(0, 30),
     help="kinematic: the support stands tilted by a random roll and pitch of this standard "
     "deviation per pose [degrees]; the log gets grav_x, grav_y, grav_z.",
 )
 @force_option
-def experiment(
-    robot_name,
-    support,
-    poses_file,
-    samples,
-    seed,
-    out,
-    truth,
-    sensors_file,
-    extra_mass,
-    backlash_deg,
-    fsr_noise,
-    fsr_bias,
-    fsr_gain,
-    double_support,
-    registers,
-    engine,
-    weld_foot,
-    kp,
-    tilt_deg,
-    force,
-):
-    """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs)
-    stands in each pose of the list; writes the raw sensor log that `sescid fsr` reads."""
-    outs = OutputSet([out, truth], [poses_file, sensors_file, robot_name], force=force)
-    robot = load(robot_name, support)
-    sensors = load_sensors(sensors_file, robot.profile)
-    table = read_table(poses_file)
+def experiment(**opts):
+    """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs,
+    optional joint torque sensors) stands (or hangs) in each pose of the list; writes the raw
+    sensor log that `sescid measure` reads."""
+    out, truth = opts["out"], opts["truth"]
+    outs = OutputSet(
+        [out, truth], [opts["poses_file"], opts["sensors_file"], opts["robot_name"]],
+        force=opts["force"],
+    )  # fmt: skip
+    robot = load(opts["robot_name"], opts["support"])
+    torques = torque_config(opts)
+    sensors = bench_sensors(opts["sensors_file"], robot.profile, torques)
+    table = read_table(opts["poses_file"])
     q = read_poses(table, robot.joint_names, robot.profile.servo)
-    ids = pose_list_ids(table)
+    check_limits(robot, q, str(opts["poses_file"]))
     cfg = ExperimentConfig(
-        extra_mass_fraction=extra_mass,
-        backlash_deg=backlash_deg,
-        fsr_noise=fsr_noise,
-        fsr_bias=fsr_bias,
-        fsr_gain=fsr_gain,
-        double_support=double_support,
-        registers=registers,
-        tilt_deg=tilt_deg,
+        extra_mass_fraction=opts["extra_mass"],
+        backlash_deg=opts["backlash_deg"],
+        fsr_noise=opts["fsr_noise"],
+        fsr_bias=opts["fsr_bias"],
+        fsr_gain=opts["fsr_gain"],
+        double_support=opts["double_support"],
+        registers=opts["registers"],
+        tilt_deg=opts["tilt_deg"],
+        torque=torques,
+        mount=opts["mount"],
     )
-    if engine == "kinematic" and (weld_foot or kp is not None):
+    ex = _run(robot, q, sensors, cfg, opts, pose_list_ids(table))
+    with outs:
+        write_table(outs.path(out), ex.columns)
+        if truth:
+            ex.truth.save(outs.path(truth))
+    _report(ex, len(q), opts)
+
+
+def _run(robot, q, sensors, cfg, opts, ids):
+    engine, weld, kp = opts["engine"], opts["weld_foot"], opts["kp"]
+    if engine == "kinematic" and (weld or kp is not None):
         raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
-    if engine == "mujoco" and tilt_deg > 0:
+    if engine == "mujoco" and opts["tilt_deg"] > 0:
         raise OptionError(
             "tilt_deg", "--tilt-deg is for --engine kinematic (the MuJoCo foot tilts by itself)"
         )
@@ -163,28 +227,29 @@ def experiment(
         if engine == "mujoco":
             from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 
-            bench = MujocoBenchConfig(kp=kp, weld_foot=weld_foot, double_support=double_support)
-            ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench, pose_ids=ids)
-        else:
-            ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
-    except (MissingExtraError, OptionError):
+            bench = MujocoBenchConfig(kp=kp, weld_foot=weld, double_support=cfg.double_support)
+            ex = run_mujoco_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, bench)
+            return ex.relabel(ids)
+        return run_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, pose_ids=ids)
+    except DataError as exc:
+        if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
+            raise DataError(f"{opts['poses_file']}: {exc}") from None
         raise
-    except SescidError as exc:
-        raise DataError(f"{poses_file}: {exc}") from None
-    with outs:
-        write_table(outs.path(out), ex.columns)
-        if truth:
-            with open(outs.path(truth), "w") as fh:
-                json.dump(ex.truth, fh, indent=1)
-                fh.write("\n")
+
+
+def _report(ex, n: int, opts) -> None:
     t = ex.truth
-    n_logged = len(q) - len(ex.skipped)
+    tau = "" if t.torque is None else f", torques on {len(t.torque.joints)} joints"
     click.echo(
-        f"wrote {out}: {n_logged} poses × {samples} samples; real robot {t['true_mass_kg']:.4f} kg "
-        f"(model {t['model_mass_kg']:.4f} kg), backlash ±{backlash_deg:g}°, "
-        f"FSR noise {fsr_noise:g} N, bias {fsr_bias:g} N, gain error {fsr_gain:g}"
+        f"wrote {opts['out']}: {n - len(ex.skipped)} poses × {opts['samples']} samples "
+        f"({t.mount}); real robot {t.true_mass:.4f} kg (model {t.model_mass:.4f} kg), "
+        f"backlash ±{opts['backlash_deg']:g}°, FSR noise {opts['fsr_noise']:g} N, "
+        f"bias {opts['fsr_bias']:g} N, gain error {opts['fsr_gain']:g}{tau}"
     )
     for pose, why in ex.skipped:
         click.echo(f"  pose {pose} skipped: {why}", err=True)
-    if truth:
-        click.echo(f"wrote {truth} (the truth: true SESC vectors, actual poses, true CoPs)")
+    if opts["truth"]:
+        click.echo(
+            f"wrote {opts['truth']} (the truth: true SESC vectors, actual poses, true CoPs"
+            + (" and torques)" if t.torque is not None else ")")
+        )

@@ -1,4 +1,4 @@
-"""``sescid fsr``: a raw foot-sensor log reduced to one CoP per pose."""
+"""``sescid measure`` (alias ``fsr``): a raw log reduced to one measurement per pose."""
 
 from __future__ import annotations
 
@@ -16,9 +16,15 @@ from sescid.cli.common import (
     sensors_option,
 )
 from sescid.io import read_table, write_table
+from sescid.sensors import REASONS, load_sensors
 from sescid.sensors import fsr as run_fsr
-from sescid.sensors import load_sensors
-from sescid.sensors.pads import REASONS
+
+
+def _sensors(sensors_file, profile):
+    """The given sensor file, else the profile's, else None (a log without foot sensors)."""
+    if sensors_file is None and profile.sensors_file is None:
+        return None
+    return load_sensors(sensors_file, profile)
 
 
 @click.command()
@@ -37,14 +43,17 @@ from sescid.sensors.pads import REASONS
 @imu_link_option
 @force_option
 def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, imu_link, force):
-    """Reduce a raw foot-sensor log to one CoP per pose (support frame, m) with its error.
+    """Reduce a raw log to one measurement per pose: the CoP (support frame, m) from the foot
+    sensors and the joint torques, each with its standard error.
 
-    Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m),
-    n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are logged.
+    Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m) when
+    foot sensors are logged, tau_<joint> and tau_se_<joint> (N·m) and approach when torques are,
+    n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are
+    logged. A log with torques and no foot sensors needs no sensor file.
     """
     outs = OutputSet([out], [raw, poses_file, sensors_file, robot_name], force=force)
     robot = load(robot_name, support)
-    config = load_sensors(sensors_file, robot.profile)
+    config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
     res, unmeasured = run_fsr(robot, read_table(raw), config, min_samples, pose_list, imu_link)
     with outs:
@@ -61,8 +70,15 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
             f"(model {robot.total_mass:.4f} kg); mean CoP standard error "
             f"x {mm(float(np.mean(res.cop_se[:, 0])))}, y {mm(float(np.mean(res.cop_se[:, 1])))}"
         )
+    if res.tau is not None and res.tau_se is not None:
+        side = "" if res.approach is None else ", approach side per pose"
+        click.echo(
+            f"  torques of {len(res.tau_joints)} joints: mean standard error "
+            f"{float(np.mean(res.tau_se)):.4g} N·m{side}"
+        )
     for pose, reason in res.dropped:
-        click.echo(f"  pose {pose} has no CoP: {reason}", err=True)
+        what = "CoP" if res.cop is not None else "measurement"
+        click.echo(f"  pose {pose} has no {what}: {reason}", err=True)
     if unmeasured:
         more = f" (and {len(unmeasured) - 5} more)" if len(unmeasured) > 5 else ""
         click.echo(

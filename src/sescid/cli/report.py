@@ -28,7 +28,7 @@ def report(fit_file, measured, out_dir, imu_link, force):
 
     With grav_x/y/z (or IMU) columns the predicted CoPs are projected along that gravity.
     """
-    from sescid.sensors.imu import table_gravity
+    from sescid.sensors import table_gravity
 
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from pathlib import Path
@@ -9,8 +10,12 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.cli.common import load, mm, robot_options, seed_option, sensors_option
+from sescid.cli.common import force_option, load, mm, robot_options, sensors_option
+from sescid.cli.experiment import torque_config, torque_options
 from sescid.errors import OptionError
+from sescid.session import SessionOptions
+
+_OPT = SessionOptions()
 
 
 class _Printer:
@@ -73,8 +78,9 @@ class _Both:
     "--adapter",
     default="mujoco",
     show_default=True,
-    help="mujoco (the physics bench), replay (a recorded session: --replay), or "
-    "python:MODULE:CLASS / python:FILE.py:CLASS (your robot, constructed as CLASS(robot)).",
+    help="mujoco (the physics bench), kinematic (rigid statics), replay (a recorded session: "
+    "--replay), or python:MODULE:CLASS / python:FILE.py:CLASS (your robot, constructed as "
+    "CLASS(robot)).",
 )
 @click.option(
     "--replay",
@@ -83,58 +89,50 @@ class _Both:
     type=click.Path(exists=True),
     help="replay: a session folder (raw.csv + poses.csv) or a raw log file.",
 )
-@click.option("--out-dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
 @click.option(
-    "--budget",
-    default=60,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Poses commanded at most (failed ones count).",
+    "--out-dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder; each pose is journaled there as it is measured, and running again "
+    "with the same folder and options resumes an interrupted session.",
 )
-@click.option(
-    "--samples",
-    default=100,
-    show_default=True,
-    type=click.IntRange(min=2),
-    help="Samples read per pose.",
-)
+@click.option("--budget", default=_OPT.budget, show_default=True, type=click.IntRange(min=1),
+              help="Poses commanded at most (failed ones count).")  # fmt: skip
+@click.option("--samples", default=_OPT.samples, show_default=True, type=click.IntRange(min=2),
+              help="Samples read per pose.")  # fmt: skip
 @click.option(
     "--candidates",
     "n_candidates",
-    default=5000,
+    default=_OPT.n_candidates,
     show_default=True,
     type=click.IntRange(min=1),
     help="Stable, collision-free candidate poses.",
 )
-@seed_option
+@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0))
 @click.option(
     "--near",
-    default=0.8,
+    default=_OPT.near,
     show_default=True,
     type=click.FloatRange(0, 1, min_open=True),
     help="Take the nearest candidate whose information gain is ≥ NEAR × the best.",
 )
-@click.option(
-    "--window",
-    default=10,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Convergence: poses looked back.",
-)
+@click.option("--window", default=_OPT.window, show_default=True, type=click.IntRange(min=1),
+              help="Convergence: poses looked back.")  # fmt: skip
 @click.option(
     "--tol",
-    default=0.05,
+    default=_OPT.tol,
     show_default=True,
     type=click.FloatRange(0, 1, min_open=True, max_open=True),
-    help="Convergence: the predicted CoP std fell by less than this over the window.",
+    help="Convergence: the predicted CoP std fell by less than this (relative) over the window.",
 )
 @click.option(
     "--target-std",
-    default=None,
+    default=_OPT.target_std,
     type=click.FloatRange(min=0, min_open=True),
     help="Also stop when the predicted CoP std reaches this [m].",
 )
 @sensors_option
+@torque_options
 @click.option("--no-view", is_flag=True, help="No live 3-D view (the session runs the same).")
 @click.option(
     "--view-port",
@@ -150,40 +148,67 @@ class _Both:
     type=click.FloatRange(0, 3600),
     help="Live view: keep serving this many seconds after the session ends [s].",
 )
-def session(
-    robot_name,
-    support,
-    adapter,
-    replay_path,
-    out_dir,
-    budget,
-    samples,
-    n_candidates,
-    seed,
-    near,
-    window,
-    tol,
-    target_std,
-    sensors_file,
-    no_view,
-    view_port,
-    view_linger,
-):
+@force_option
+def session(**opts):
     """Guided identification: plan the next-best pose, command it, measure, update the estimate;
     stop when the predicted CoP error has converged or the budget is spent.
 
     Writes OUT_DIR/poses.csv, raw.csv, measured.csv, fit.json (as the step-by-step path) and
-    session.json (the decisions). Progress is printed per pose; the live view (viser, the
-    'view' extra) serves http://127.0.0.1:PORT while the session runs.
+    session.json (the decisions); OUT_DIR/journal.jsonl keeps every pose as it is measured
+    (an interrupted session resumes when run again with the same folder and options; --force
+    starts over). Progress is printed per pose; the live view (viser, the 'view' extra) serves
+    http://127.0.0.1:PORT while the session runs.
     """
     from sescid.base.progress import TerminalProgress
-    from sescid.io import read_table
-    from sescid.io.session_files import check_session_outputs, read_session_reasons, write_session
-    from sescid.sensors import load_sensors
-    from sescid.session.adapters import MujocoAdapter, ReplayAdapter, load_adapter_class
-    from sescid.session.loop import SessionOptions, run_session
+    from sescid.session import Journal, check_options, run_session
 
-    inputs = [robot_name, sensors_file]
+    robot = load(opts["robot_name"], opts["support"])
+    out_dir = opts["out_dir"]
+    opt = SessionOptions(
+        budget=opts["budget"],
+        samples=opts["samples"],
+        n_candidates=max(opts["n_candidates"], opts["budget"]),
+        seed=opts["seed"],
+        near=opts["near"],
+        window=opts["window"],
+        tol=opts["tol"],
+        target_std=opts["target_std"],
+    )
+    check_options(robot, opt)
+    bot, sensors, header = _adapter(robot, opts, opt)
+    journal = Journal.open(out_dir, header, restart=opts["force"])
+    if journal.finished:
+        click.echo(f"{journal.path}: the session finished ({journal.finished}); replaying it")
+    elif journal.entries:
+        click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
+    view = None
+    if not opts["no_view"]:
+        from sescid.report.live import LiveView
+
+        view = LiveView(robot, port=opts["view_port"])
+        click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
+    try:
+        res = run_session(
+            robot, bot, sensors, opt, _Both(_Printer(opt.budget), view),
+            TerminalProgress("candidates"), journal,
+        )  # fmt: skip
+    except BaseException:
+        if view is not None:
+            view.close()
+        raise
+    _write(res, robot, out_dir, view, opts)
+    journal.finish(res.stop_reason)
+
+
+def _adapter(robot, opts, opt):
+    """The robot adapter, the sensor layout and the journal header; the outputs checked."""
+    from sescid.base.files import check_outputs
+    from sescid.io import SESSION_FILES, read_session_reasons, read_table
+    from sescid.sensors import load_sensors
+    from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
+
+    adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
+    inputs = [opts["robot_name"], opts["sensors_file"]]
     raw_file = poses_file = None
     if adapter == "replay":
         if replay_path is None:
@@ -194,45 +219,45 @@ def session(
         inputs += [raw_file, poses_file]
     elif replay_path is not None:
         raise OptionError("adapter", "--replay needs --adapter replay")
-    check_session_outputs(out_dir, inputs)
-    robot = load(robot_name, support)
-    sensors = load_sensors(sensors_file, robot.profile)
-    if adapter == "mujoco":
-        bot = MujocoAdapter(robot, sensors, seed=seed)
+    if Path(out_dir).exists() and not Path(out_dir).is_dir():
+        raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
+    outputs = [Path(out_dir) / name for name in SESSION_FILES]
+    check_outputs(outputs, inputs, force=opts["force"], folders=[out_dir])
+    sensors = load_sensors(opts["sensors_file"], robot.profile)
+    torques = torque_config(opts)
+    if adapter in ("mujoco", "kinematic"):
+        from sescid.bench import ExperimentConfig
+
+        cfg = ExperimentConfig(torque=torques)
+        cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
+        bot = cls(robot, sensors, cfg, seed=opt.seed)
     elif adapter == "replay":
         poses = read_table(poses_file) if poses_file is not None else None
-        reasons = read_session_reasons(Path(replay_path)) if Path(replay_path).is_dir() else {}
+        rp = Path(replay_path)
+        reasons = read_session_reasons(rp) if rp.is_dir() else {}
         bot = ReplayAdapter(
             read_table(raw_file), robot.joint_names, poses, robot.profile.servo, reasons
         )
     elif adapter.startswith("python:"):
         bot = load_adapter_class(adapter[len("python:") :])(robot)
     else:
-        raise OptionError("adapter", f"'{adapter}': mujoco, replay or python:MODULE:CLASS")
-    opt = SessionOptions(
-        budget=budget,
-        samples=samples,
-        n_candidates=max(n_candidates, budget),
-        seed=seed,
-        near=near,
-        window=window,
-        tol=tol,
-        target_std=target_std,
-    )
-    view = None
-    if not no_view:
-        from sescid.report.live import LiveView
-
-        view = LiveView(robot, port=view_port)
-        click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
-    try:
-        res = run_session(
-            robot, bot, sensors, opt, _Both(_Printer(budget), view), TerminalProgress("candidates")
+        raise OptionError(
+            "adapter", f"'{adapter}': mujoco, kinematic, replay or python:MODULE:CLASS"
         )
-    except BaseException:
-        if view is not None:
-            view.close()
-        raise
+    header = {
+        "robot": robot.source,
+        "support": robot.support,
+        "adapter": adapter if adapter != "replay" else f"replay:{Path(replay_path).resolve()}",
+        "sensors": sensors.source,
+        "torques": opts["torques"],
+        "options": dataclasses.asdict(opt),
+    }
+    return bot, sensors, header
+
+
+def _write(res, robot, out_dir, view, opts) -> None:
+    from sescid.io import write_session
+
     written = write_session(res, robot, out_dir)
     click.echo(
         f"stopped: {res.stop_reason}; {res.n_measured} of {len(res.steps)} commanded poses "
@@ -244,6 +269,7 @@ def session(
         click.echo(f"  {len(res.rejected)} planned poses were unsafe and never commanded")
     click.echo(f"wrote {', '.join(str(p) for p in written.values())}")
     if view is not None:
-        if view_linger > 0:
-            click.echo(f"live view stays up {view_linger:g} s at {view.url}")
-        view.close(linger=view_linger)
+        linger = opts["view_linger"]
+        if linger > 0:
+            click.echo(f"live view stays up {linger:g} s at {view.url}")
+        view.close(linger=linger)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from sescid.bench import FRESH_POSES, FRESH_WITHIN_DEG
 from sescid.cli.common import mm, seed_option
 
 
@@ -11,18 +12,19 @@ from sescid.cli.common import mm, seed_option
 @click.argument("fit_file", type=click.Path(dir_okay=False))
 @click.argument("truth_file", type=click.Path(dir_okay=False))
 @click.option(
-    "--fresh", default=2000, show_default=True, type=click.IntRange(1, 10_000_000),
+    "--fresh", default=FRESH_POSES, show_default=True, type=click.IntRange(1, 10_000_000),
     help="Fresh poses near the actual ones.",
 )  # fmt: skip
 @click.option(
-    "--within-deg", default=5.0, show_default=True, type=click.FloatRange(0, 180, min_open=True),
+    "--within-deg", default=FRESH_WITHIN_DEG, show_default=True,
+    type=click.FloatRange(0, 180, min_open=True),
     help="Fresh poses uniform within ±this of the actual ones [degrees].",
 )  # fmt: skip
 @seed_option
 def truth(fit_file, truth_file, fresh, within_deg, seed):
     """Compare a fit with the truth of `sescid experiment --truth`: RMS CoP error of the
     identified and the manufacturer model at the actual poses and at fresh poses near them."""
-    from sescid.bench.truth import compare_truth
+    from sescid.bench import compare_truth
     from sescid.estimation import load_fit
 
     c = compare_truth(load_fit(fit_file), truth_file, fresh, within_deg, seed)

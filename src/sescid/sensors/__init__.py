@@ -1,22 +1,31 @@
 """Sensors: raw samples of what a robot measures → one measurement per pose.
 
-Foot pads (FSR boards: ``pads``), ankle force/torque sensors and force plates (``wrench``), the
-IMU's gravity direction (``imu``), and the calibration of pad gains and offsets together with the
-mass model (``calibration``, its raw-log sessions and sensor file in ``pad_logs``).
+Foot pads (the sensor layout and file: ``pads``; per-sample foot CoPs: ``feet``), ankle
+force/torque sensors and force plates (``wrench``), joint torques (``torque``), the IMU's
+gravity direction (``imu``); a raw log read into SI arrays (``raw``) and reduced per pose
+(``reduce``: ``sescid measure``, alias ``fsr``) with per-pose statistics (``stats``); the
+calibration of pad gains and offsets together with the mass model (``calibration``); physical
+plausibility of user-given numbers (``checks``).
 """
 
 from __future__ import annotations
 
 from sescid.sensors.calibration import (
+    CalibrationOptions,
     KnownSensors,
     PadFoot,
     PadSession,
+    PadSessionOptions,
     SensorCalibration,
     SensorDirection,
     SensorParameter,
     SessionContribution,
     calibrate_sensors,
+    calibrated_sensor_document,
+    pad_session,
 )
+from sescid.sensors.checks import check_total_mass
+from sescid.sensors.feet import REASONS
 from sescid.sensors.imu import (
     IMU_COLUMNS,
     gravity_from_imu,
@@ -24,18 +33,16 @@ from sescid.sensors.imu import (
     read_imu,
     table_gravity,
 )
-from sescid.sensors.pad_logs import calibrated_sensor_document, pad_session, table_from_columns
 from sescid.sensors.pads import (
-    REASONS,
-    Measured,
-    RawLog,
+    Foot,
     SensorConfig,
-    fsr,
+    check_sensors,
+    default_sensors_path,
     load_sensors,
-    measure,
-    pose_list_ids,
-    read_raw,
 )
+from sescid.sensors.raw import RawLog, read_raw, table_from_columns
+from sescid.sensors.reduce import Measured, fsr, measure, pose_list_ids, read_log
+from sescid.sensors.torque import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.wrench import (
     Plate,
     cop_from_force_plate,
@@ -47,12 +54,18 @@ from sescid.sensors.wrench import (
 )
 
 __all__ = [
+    "APPROACH_COLUMN",
     "IMU_COLUMNS",
     "REASONS",
+    "TAU_PREFIX",
+    "TAU_SE_PREFIX",
+    "CalibrationOptions",
+    "Foot",
     "KnownSensors",
     "Measured",
     "PadFoot",
     "PadSession",
+    "PadSessionOptions",
     "Plate",
     "RawLog",
     "SensorCalibration",
@@ -62,9 +75,12 @@ __all__ = [
     "SessionContribution",
     "calibrate_sensors",
     "calibrated_sensor_document",
+    "check_sensors",
+    "check_total_mass",
     "cop_from_force_plate",
     "cop_from_plate",
     "cop_from_wrench",
+    "default_sensors_path",
     "fsr",
     "gravity_from_imu",
     "gravity_in_link",
@@ -75,6 +91,7 @@ __all__ = [
     "plate_to_sole",
     "pose_list_ids",
     "read_imu",
+    "read_log",
     "read_raw",
     "rpy_matrix",
     "table_from_columns",

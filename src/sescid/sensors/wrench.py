@@ -68,7 +68,6 @@ def cop_from_wrench(
     sensor_pos,
     foot_mass: float = 0.0,
     foot_com=None,
-    gravity: float = G,
     min_force: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """CoP in the sole plane from a force/torque sensor between the leg and the foot.
@@ -114,7 +113,7 @@ def cop_from_wrench(
         if foot_com is None:
             raise OptionError("foot_com", "a foot_mass needs its foot_com (sole frame, m)")
         c = np.asarray(foot_com, dtype=float)
-        w = foot_mass * gravity
+        w = foot_mass * G
         m = m + w * np.stack([c[..., 1], -c[..., 0], np.zeros_like(c[..., 0])], axis=-1)
         fz = fz + w
     return _finish(-m[..., 1], m[..., 0], fz, min_force)

@@ -1,21 +1,28 @@
 """The guided session: next-best pose, command the robot, measure, update, stop when converged.
 
-``loop`` runs it (``run_session``); ``adapters`` is the small protocol a session drives and the
-robots it ships with (MuJoCo bench, replay of a recorded log, a user's Python class).
+``loop`` runs it (``run_session``) with its records (``records``: options, steps, result,
+observer); ``journal`` writes every pose to disk as it is done and resumes an interrupted
+session; ``adapters`` is the small protocol a session drives, the replay of a recorded log and a
+user's Python class; ``bench_adapters`` the benches as robots (rigid statics, MuJoCo).
 """
 
 from __future__ import annotations
 
-from sescid.session.adapters import MujocoAdapter, ReplayAdapter, RobotAdapter, load_adapter_class
-from sescid.session.loop import (
+from sescid.session.adapters import ReplayAdapter, RobotAdapter, load_adapter_class
+from sescid.session.bench_adapters import KinematicAdapter, MujocoAdapter
+from sescid.session.journal import JOURNAL_NAME, Journal
+from sescid.session.loop import check_options, run_session
+from sescid.session.records import (
     SessionObserver,
     SessionOptions,
     SessionResult,
     SessionStep,
-    run_session,
 )
 
 __all__ = [
+    "JOURNAL_NAME",
+    "Journal",
+    "KinematicAdapter",
     "MujocoAdapter",
     "ReplayAdapter",
     "RobotAdapter",
@@ -23,6 +30,7 @@ __all__ = [
     "SessionOptions",
     "SessionResult",
     "SessionStep",
+    "check_options",
     "load_adapter_class",
     "run_session",
 ]

@@ -9,9 +9,10 @@ A session talks to a robot through four calls (``RobotAdapter``):
     block until the robot is still; ``""`` when it settled, else why the pose failed
     ("toppled …", "did not settle …"): the session skips the pose and logs the reason.
 ``read(n) -> dict[str, ndarray]``
-    ``n`` samples of the raw-log columns of ``sescid fsr`` (joint read-backs as ``<joint>``,
+    ``n`` samples of the raw-log columns of ``sescid measure`` (joint read-backs as ``<joint>``,
     ``<joint>_deg`` or ``<joint>_ticks``; foot forces ``r_fsr1..4``/``l_fsr1..4``, centroid
-    registers or a logged CoP per foot; optional ``grav_x/y/z``), each of length ``n``, without
+    registers or a logged CoP per foot; optional ``grav_x/y/z``, ``tau_<joint>``, ``approach``),
+    each of length ``n``, without
     the ``pose`` and ``sample`` columns (the session adds them). Every call returns the same
     column names.
 ``stop()``
@@ -19,10 +20,10 @@ A session talks to a robot through four calls (``RobotAdapter``):
 
 The session checks joint limits and static stability of the model before every ``move``.
 
-Adapters here: ``MujocoAdapter`` (the physics bench, one MjModel/MjData kept across poses),
-``ReplayAdapter`` (a recorded raw log: replays a session's measurements, so the session makes
-the same decisions), and ``load_adapter_class`` for a user's class (``module:Class`` or
-``path/to/file.py:Class``, constructed as ``Class(robot)``).
+Adapters: ``ReplayAdapter`` (a recorded raw log: replays a session's measurements, so the
+session makes the same decisions) and ``load_adapter_class`` for a user's class
+(``module:Class`` or ``path/to/file.py:Class``, constructed as ``Class(robot)``) here; the
+benches as robots (``KinematicAdapter``, ``MujocoAdapter``) in ``session.bench_adapters``.
 """
 
 from __future__ import annotations
@@ -31,17 +32,18 @@ import importlib
 import importlib.util
 import math
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from sescid.base.columns import Table, pose_ids, read_poses
-from sescid.bench.kinematic import ExperimentConfig, real_robot
+from sescid.base.columns import Table, pose_ids, read_joint_columns, read_poses
 from sescid.errors import DataError, OptionError
-from sescid.sensors.pads import SensorConfig
 
 #: rad, a replayed command must equal the recorded one to this
 REPLAY_TOL = 1e-9
+#: rad, without the recorded pose list a recorded pose matches a command when its mean
+#: read-backs lie this close to it in every joint (joint play, servo sag, ticks)
+REPLAY_MATCH = math.radians(3.0)
 
 
 @runtime_checkable
@@ -61,103 +63,16 @@ class RobotAdapter(Protocol):
         """Release the robot (end of session)."""
 
 
-class MujocoAdapter:
-    """The MuJoCo physics bench as a robot: the "real" OP2 of ``ExperimentConfig`` in MuJoCo.
-
-    ``move`` sets the servo targets (the command plus the pose's backlash offset δ ~ U(−b, b));
-    ``wait_settled`` starts at rest at the targets and simulates until still
-    (``mujoco_bench._Bench.run``: toppled, floor contact and not settled are failures); ``read``
-    logs samples as ``run_mujoco_experiment`` does (read-back ticks missing the unseen part of
-    δ, pad forces in mN with bias and noise, gravity direction). ``truth`` keeps per measured
-    pose the actual angles and the true CoP ``robot.cop(q_actual, r_true)``.
-    """
-
-    def __init__(
-        self,
-        robot,
-        sensors: SensorConfig,
-        config: ExperimentConfig | None = None,
-        bench=None,
-        seed: int | None = 0,
-    ):
-        from sescid.bench.mujoco import MujocoBenchConfig, _Bench
-
-        self.robot = robot
-        self.sensors = sensors
-        self.config = config or ExperimentConfig()
-        self.bench = bench or MujocoBenchConfig()
-        if self.bench.weld_foot:
-            raise OptionError("weld_foot", "a session stands the robot on its foot (no weld)")
-        self.sim = _Bench(robot, sensors, self.config, self.bench)
-        self.rng = np.random.default_rng(seed)
-        self.bias = {
-            f.name: self.rng.normal(0.0, self.config.fsr_bias, size=4) for f in sensors.feet
-        }
-        self.r_true, self.mass_true, _ = real_robot(robot, self.config)
-        self.truth: dict[str, dict[str, Any]] = {}
-        self._pose = ""
-        self._delta = np.zeros(robot.nq)
-        self._target = np.zeros(robot.nq)
-        self._settled = False
-
-    def move(self, pose: str, q: np.ndarray) -> None:
-        """See ``RobotAdapter.move``."""
-        b = math.radians(self.config.backlash_deg)
-        self._pose = pose
-        self._delta = self.rng.uniform(-b, b, size=self.robot.nq)
-        self._target = np.asarray(q, dtype=float) + self._delta
-        self._settled = False
-
-    def wait_settled(self) -> str:
-        """See ``RobotAdapter.wait_settled``."""
-        res, why = self.sim.run(self._target)
-        self._settled = res is not None
-        if res is not None:
-            self.truth[self._pose] = {
-                "q_actual": res.q,
-                "cop_true": self.robot.cop(res.q[None], self.r_true)[0],
-                "com_world": res.com,
-            }
-        return why
-
-    def read(self, n: int) -> dict[str, np.ndarray]:
-        """See ``RobotAdapter.read``."""
-        if not self._settled:
-            raise DataError(f"pose {self._pose}: read before the robot settled")
-        cfg, robot, rng = self.config, self.robot, self.rng
-        reads = [self.sim.sample() for _ in range(n)]
-        cols: dict[str, np.ndarray] = {}
-        q = np.array([r.q for r in reads]) - (1.0 - cfg.readback_seen) * self._delta
-        servo = robot.profile.servo
-        if servo is not None:
-            exact = q * (servo.ticks_per_turn / (2 * math.pi)) + servo.zero_tick
-            ticks = exact + rng.normal(0.0, cfg.readback_jitter_ticks, size=q.shape)
-            ticks = np.clip(np.round(ticks), 0, servo.max_tick)
-            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(robot.joint_names)}
-        else:
-            cols |= {j: q[:, k] for k, j in enumerate(robot.joint_names)}
-        s = self.sensors
-        for f in s.feet:
-            true = np.array([r.pads[f.name] for r in reads])
-            noisy = true + self.bias[f.name] + rng.normal(0.0, cfg.fsr_noise, size=true.shape)
-            counts = np.clip(np.round(noisy / s.force_unit), 0, s.saturation)
-            counts = np.where(true > 0, counts, 0.0)  # an unloaded FSR conducts nothing
-            cols |= {f"{f.columns}{k + 1}": counts[:, k] for k in range(4)}
-        g = -np.array([r.rot[2] for r in reads])  # gravity direction in the sole frame
-        cols |= {f"grav_{a}": g[:, i] for i, a in enumerate("xyz")}
-        return cols
-
-    def stop(self) -> None:
-        """See ``RobotAdapter.stop``."""
-        self._settled = False
-
-
 class ReplayAdapter:
-    """Replays a recorded raw log: each pose id gets its recorded samples.
+    """Replays a recorded raw log: each commanded pose gets the samples recorded for it.
 
-    ``poses`` (the recorded session's pose list, optional) makes every command checked against
-    the recorded one: a session that would command something else raises ``DataError`` (its
-    decisions diverged). A pose id absent from the log is reported as failed, with the recorded
+    With ``poses`` (the recorded session's pose list) every command is checked against the
+    recorded one: a session that would command something else raises ``DataError`` (its
+    decisions diverged). Without it, a recorded pose serves a command only when its mean
+    read-backs lie within ``REPLAY_MATCH`` of the command in every joint — the pose with the
+    command's id, else the nearest recorded pose by joint values; a pose id recorded at other
+    joint values is refused (an experiment log is not a session's recording: its poses are
+    unrelated). A command no recorded pose matches is reported as failed, with the recorded
     reason when ``reasons`` (pose → why, from the session's ``session.json``) has it.
     """
 
@@ -177,49 +92,72 @@ class ReplayAdapter:
         skip = {"pose", "sample"}
         self.columns = {k: v for k, v in raw.columns.items() if k not in skip}
         self.text = {k: np.asarray(v) for k, v in raw.text.items() if k not in skip}
+        q, _ = read_joint_columns(raw, joint_names, servo)
+        with np.errstate(invalid="ignore"):
+            self.readback = {p: np.nanmean(q[r], axis=0) for p, r in self.rows.items()}
         self.commanded: dict[str, np.ndarray] = {}
         if poses is not None:
-            q = read_poses(poses, joint_names, servo)
-            pids = pose_ids(poses) if "pose" in poses.names() else np.arange(len(q)).astype(str)
-            self.commanded = {str(p): q[i] for i, p in enumerate(pids)}
+            qc = read_poses(poses, joint_names, servo)
+            pids = pose_ids(poses) if "pose" in poses.names() else np.arange(len(qc)).astype(str)
+            self.commanded = {str(p): qc[i] for i, p in enumerate(pids)}
         self.reasons = dict(reasons or {})  #: pose → why it failed when recorded
         self._pose = ""
+        self._served = ""  #: the recorded pose that serves the current command
 
     def move(self, pose: str, q: np.ndarray) -> None:
         """See ``RobotAdapter.move``."""
+        q = np.asarray(q, dtype=float)
+        self._pose = pose
         rec = self.commanded.get(pose)
         if rec is not None:
-            dev = float(np.max(np.abs(rec - np.asarray(q, dtype=float))))
+            dev = float(np.max(np.abs(rec - q)))
             if dev > REPLAY_TOL:
                 raise DataError(
                     f"{self.path}: replay diverged at pose {pose}: the session commands a pose "
                     f"that differs from the recorded one by up to {math.degrees(dev):.3g}° "
                     "(different options or robot?)"
                 )
-        elif self.commanded:
+            self._served = pose if pose in self.rows else ""
+            return
+        if self.commanded:
             raise DataError(f"{self.path}: replay diverged: pose {pose} was never recorded")
-        self._pose = pose
+        self._served = self._match(pose, q)
+
+    def _match(self, pose: str, q: np.ndarray) -> str:
+        """The recorded pose whose read-backs match the command (module rule), or ''."""
+        dev = {p: float(np.max(np.abs(r - q))) for p, r in self.readback.items()}
+        if pose in dev:
+            if not dev[pose] <= REPLAY_MATCH:
+                raise DataError(
+                    f"{self.path}: pose {pose} was recorded at joint values up to "
+                    f"{math.degrees(dev[pose]):.1f}° from the session's command: this log is "
+                    "not this session's recording (replay a session folder with its poses.csv)"
+                )
+            return pose
+        near = [p for p, d in dev.items() if d <= REPLAY_MATCH]
+        return min(near, key=lambda p: dev[p]) if near else ""
 
     def wait_settled(self) -> str:
         """See ``RobotAdapter.wait_settled``."""
-        if self._pose not in self.rows:
+        if not self._served:
             return self.reasons.get(self._pose, "not in the recorded log (it failed when recorded)")
         return ""
 
     def read(self, n: int) -> dict[str, np.ndarray]:
         """See ``RobotAdapter.read``."""
-        rows = self.rows[self._pose]
+        rows = self.rows[self._served]
         out: dict[str, np.ndarray] = {k: v[rows] for k, v in self.columns.items()}
         out |= {k: v[rows] for k, v in self.text.items()}
         return out
 
     def stop(self) -> None:
         """See ``RobotAdapter.stop``."""
-        self._pose = ""
+        self._pose = self._served = ""
 
 
 def load_adapter_class(spec: str) -> type:
-    """The class named by ``module:Class`` or ``path/to/file.py:Class``."""
+    """The class named by ``module:Class`` or ``path/to/file.py:Class``; one-line errors for a
+    missing file or class and for a module that does not import (syntax errors included)."""
     where, sep, name = spec.rpartition(":")
     if not sep or not where or not name:
         raise OptionError("adapter", f"'{spec}': expected module:Class or file.py:Class")
@@ -234,8 +172,16 @@ def load_adapter_class(spec: str) -> type:
             mod_spec.loader.exec_module(module)
         else:
             module = importlib.import_module(where)
-    except ImportError as exc:
-        raise OptionError("adapter", f"cannot import '{where}': {exc}") from None
+    except SyntaxError as exc:
+        raise OptionError(
+            "adapter", f"{exc.filename or where}, line {exc.lineno}: {exc.msg} (SyntaxError)"
+        ) from None
+    except OptionError:
+        raise
+    except Exception as exc:  # the user's module failed at import: one line naming it
+        raise OptionError(
+            "adapter", f"cannot import '{where}': {exc.__class__.__name__}: {exc}"
+        ) from None
     cls = getattr(module, name, None)
     if not isinstance(cls, type):
         raise OptionError("adapter", f"'{where}' has no class '{name}'")

@@ -3,7 +3,7 @@
 ``pad_session`` reduces a raw log (the table ``sescid fsr`` reads, with the four pad forces of
 each foot) to per-pose mean pad readings in N, the mean joint read-backs, which feet carry
 load and the mean gravity direction: the input of
-``estimation.sensor_calibration.calibrate_sensors``. Samples with a missing or saturated value
+``calibrate_sensors``. Samples with a missing or saturated value
 are dropped; a loaded pad that reads 0 in some samples (censored at the floor, its mean
 biased) takes the median of its samples, and poses where that happens in 40 % of the samples
 or more are dropped; a foot is loaded at a pose
@@ -15,6 +15,7 @@ session's offsets, which ``load_sensors`` reads and ``fsr`` applies.
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,59 +23,49 @@ import numpy as np
 from sescid.base.columns import Table
 from sescid.base.files import read_json
 from sescid.errors import DataError
-from sescid.sensors.calibration import PadFoot, PadSession, SensorCalibration
-from sescid.sensors.pads import FSR_FORMAT, FSR_FORMAT_2, SensorConfig, read_raw
+from sescid.sensors.calibration.model import PadFoot, PadSession, SensorCalibration
+from sescid.sensors.pads import FSR_FORMAT, FSR_FORMAT_2, SensorConfig, check_sensors
+from sescid.sensors.raw import read_raw
+from sescid.sensors.stats import PoseGroups
 
 #: a pose is dropped when this share of its samples has a loaded pad reading 0 (censored);
 #: below it, such a pad's reading is the median of its samples (unbiased by the floor)
 FLOOR_SHARE = 0.4
 
 
-def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>") -> Table:
-    """A ``Table`` of in-memory columns (e.g. ``Experiment.columns``); text columns as strings."""
-    num, text = {}, {}
-    for k, v in columns.items():
-        arr = np.asarray(v)
-        if arr.dtype.kind in "biuf":
-            num[k] = arr.astype(float)
-        else:
-            text[k] = [str(x) for x in arr]
-    return Table(Path(name), num, text)
+@dataclass(frozen=True)
+class PadSessionOptions:
+    """How a raw log becomes a calibration session."""
+
+    sensors: str = "default"  #: sensor set: sessions with the same label share the gains
+    min_samples: int = 5  #: complete samples a pose needs
+    noise_force: float | None = None  #: N, σ of the force rows (None: estimated)
+    noise_cop: float | None = None  #: m, σ of the moment rows (None: estimated)
 
 
 def pad_session(
-    robot,
-    table: Table,
-    config: SensorConfig,
-    name: str,
-    *,
-    sensors: str = "default",
-    min_samples: int = 5,
-    noise_force: float | None = None,
-    noise_cop: float | None = None,
+    robot, table: Table, config: SensorConfig, name: str, options: PadSessionOptions | None = None
 ) -> PadSession:
     """Per-pose mean pad readings (N), read-backs and loaded feet of a raw log (module doc)."""
+    opt = options or PadSessionOptions()
+    check_sensors(robot, config)
     log = read_raw(table, robot.joint_names, config, robot.profile.servo)
-    if log.centroid or log.cop:
+    if log.centroid or log.cop or not log.forces:
         raise DataError(
             f"{table.path}: calibration needs the four pad forces of each foot "
             "(<prefix>1..4), not centroid registers or a logged CoP"
         )
-    ids, first, g = np.unique(log.pose, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    ids, g = ids[order], rank[g]
-    k = len(ids)
+    groups = PoseGroups.of(log.pose)
+    g, k = groups.g, groups.k
     feet = [f for f in config.feet if f.name in log.forces]
     ok = np.all(np.isfinite(log.q), axis=1)
     for f in feet:
         arr = log.forces[f.name]
         ok &= np.all(np.isfinite(arr), axis=1) & np.all(arr < config.saturation, axis=1)
     count = np.bincount(g[ok], minlength=k)
-    keep = count >= min_samples
+    keep = count >= opt.min_samples
     if not keep.any():
-        raise DataError(f"{table.path}: no pose has {min_samples} complete samples")
+        raise DataError(f"{table.path}: no pose has {opt.min_samples} complete samples")
 
     def mean(values: np.ndarray) -> np.ndarray:
         cols = [np.bincount(g[ok], values[ok, j], minlength=k) for j in range(values.shape[1])]
@@ -112,9 +103,9 @@ def pad_session(
         q=q,
         feet=tuple(out),
         gravity=grav,
-        sensors=sensors,
-        noise_force=noise_force,
-        noise_cop=noise_cop,
+        sensors=opt.sensors,
+        noise_force=opt.noise_force,
+        noise_cop=opt.noise_cop,
     )
 
 

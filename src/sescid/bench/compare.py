@@ -1,0 +1,79 @@
+"""How close a fit comes to the virtual experiment's truth (``sescid experiment --truth``).
+
+The truth file holds the "real" robot's SESC vectors, the poses it actually took (joint play
+included) and its true CoPs. ``compare_truth`` gives the RMS CoP error of the identified and of
+the manufacturer model at those actual poses, and on fresh poses near them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sescid.bench.truth import Truth
+from sescid.errors import DataError
+from sescid.estimation import Fit
+
+
+@dataclass(frozen=True)
+class TruthComparison:
+    """RMS CoP errors (m) against the true robot, per model."""
+
+    n_poses: int
+    rms_identified: float  #: at the poses actually taken
+    rms_manufacturer: float
+    n_fresh: int
+    within_deg: float
+    fresh_identified: float  #: fresh poses uniform within ±within_deg of the actual ones
+    fresh_manufacturer: float
+    true_mass_kg: float
+    model_mass_kg: float
+
+
+def _rms(d: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.asarray(d) ** 2)))
+
+
+#: fresh poses and their spread around the actual ones [degrees]
+FRESH_POSES = 2000
+FRESH_WITHIN_DEG = 5.0
+
+
+def compare_truth(
+    fit: Fit,
+    truth_path: str | Path,
+    n_fresh: int = FRESH_POSES,
+    within_deg: float = FRESH_WITHIN_DEG,
+    seed: int = 0,
+) -> TruthComparison:
+    """Compare ``fit`` with the truth file at the actual poses and ``n_fresh`` fresh poses."""
+    robot = fit.robot
+    t = Truth.load(truth_path)
+    if list(t.joint_names) != robot.joint_names or list(t.body_names) != robot.body_names:
+        raise DataError(f"{truth_path}: the truth is of another robot than the fit's")
+    if t.cop_true is None:
+        raise DataError(f"{truth_path}: a {t.mount} run has no CoP truth to compare with")
+    r_true, true_mass, model_mass = t.r_true, t.true_mass, t.model_mass
+    q, cop = t.q_actual, t.cop_true
+    if q.shape != (len(cop), robot.nq) or not np.all(np.isfinite(q)):
+        raise DataError(f"{truth_path}: q_actual and cop_true do not match")
+    if not (n_fresh >= 1 and 0 < within_deg <= 180):
+        raise DataError("fresh poses: need n ≥ 1 and 0 < within_deg ≤ 180")
+    rng = np.random.default_rng(seed)
+    base = q[rng.integers(0, len(q), n_fresh)]
+    fresh = base + rng.uniform(-1, 1, base.shape) * math.radians(within_deg)
+    cop_fresh = robot.cop(fresh, r_true)
+    return TruthComparison(
+        n_poses=len(q),
+        rms_identified=_rms(fit.predict_cop(q) - cop),
+        rms_manufacturer=_rms(robot.cop(q, fit.r_prior) - cop),
+        n_fresh=n_fresh,
+        within_deg=within_deg,
+        fresh_identified=_rms(fit.predict_cop(fresh) - cop_fresh),
+        fresh_manufacturer=_rms(robot.cop(fresh, fit.r_prior) - cop_fresh),
+        true_mass_kg=true_mass,
+        model_mass_kg=model_mass,
+    )

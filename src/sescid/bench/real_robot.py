@@ -1,0 +1,282 @@
+"""The "real" robot of a bench: the model plus what its CAD lacks, and its sensors' errors.
+
+The real robot carries **unmodelled mass** (screws, cables, boards: by default 7 % of the
+model's mass spread over several bodies at offsets of a few centimetres), its joints have
+**backlash** (each pose's actual angle differs from the commanded one by δ ~ U(−b, b), b = 1° by
+default), its foot pads have a **bias** and a **gain error** per pad and **noise**, and its joint
+torque sensors (``TorqueConfig``; none by default) read
+
+    τ_measured = gain_j · τ_j + offset_j + approach · f_j + noise,
+
+with a per-joint offset, an optional gain error, a static-friction band ±f_j (a held pose sits
+at the edge of the band on the side it was approached from: ``approach`` +1 from below, −1 from
+above, per pose) and noise per sample. ``draw_errors`` draws the sensor errors once per bench
+run, each kind from its own random stream, so enabling one leaves every other draw unchanged.
+
+``mount``: ``"stand"`` (on the support foot, which must carry the sensor board; poses that
+would tip are not measured) or ``"gantry"`` (the support link, e.g. the pelvis, is held level in
+a fixture: no balance, the robot hangs free, the feet carry no load).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sescid.errors import DataError
+from sescid.sensors.pads import SensorConfig
+from sescid.sesc import sesc_vectors
+
+#: random streams (seed, k) of the sensor errors and the approach sides
+PAD_GAIN_STREAM = 11
+TORQUE_STREAM = 13
+APPROACH_STREAM = 17
+MOUNTS = ("stand", "gantry")
+#: the start of the error a bench raises when every pose fails (a caller may name its file)
+NO_POSE_MEASURED = "no pose can be measured"
+APPROACHES = ("random", "up", "down", "alternate")
+
+
+@dataclass(frozen=True)
+class ExtraMass:
+    """Unmodelled mass on one body: its share of the extra total and its offset (m, body frame)."""
+
+    body: str
+    share: float
+    offset: tuple[float, float, float]
+
+
+#: where a real OP2 carries mass its CAD model lacks (shares sum to 1)
+DEFAULT_EXTRA = (
+    ExtraMass("MP_BODY", 0.45, (-0.090, -0.040, 0.020)),  # cable bundle, sub-board at the back
+    ExtraMass("MP_HEAD", 0.10, (-0.030, 0.000, 0.040)),  # camera cable, screws
+    ExtraMass("MP_THIGH2_R", 0.08, (-0.030, -0.020, -0.030)),  # screws, cable loom
+    ExtraMass("MP_THIGH2_L", 0.08, (-0.030, 0.020, -0.030)),
+    ExtraMass("MP_ANKLE2_L", 0.12, (0.000, 0.010, -0.025)),  # the lifted foot's FSR board
+    ExtraMass("MP_ANKLE2_R", 0.07, (0.000, -0.010, -0.025)),  # the support foot's FSR board
+    ExtraMass("MP_ARM_HIGH_R", 0.05, (-0.015, -0.020, -0.030)),
+    ExtraMass("MP_ARM_LOW_L", 0.05, (0.040, 0.010, 0.000)),
+)
+
+
+@dataclass(frozen=True)
+class TorqueConfig:
+    """Joint torque sensors of the real robot (N·m); ``joints`` () logs no torque."""
+
+    joints: tuple[str, ...] | str = ()  #: measured joints, "all", or () for none
+    noise: float = 0.05  #: N·m, per sample (std)
+    offset: float = 0.05  #: N·m, std of the per-joint constant offsets
+    gain: float = 0.0  #: relative std of the per-joint gain errors
+    friction: tuple[float, float] = (0.0, 0.0)  #: N·m, f_j ~ U(lo, hi) per joint
+    approach: str = "random"  #: per pose: "random", "up" (+1), "down" (−1) or "alternate"
+
+    def resolve(self, joint_names: list[str]) -> list[str]:
+        """The measured joints in model order; DataError for a name the model lacks."""
+        if self.joints == "all":
+            return list(joint_names)
+        if isinstance(self.joints, str):
+            raise DataError(f"torque joints: expected 'all' or joint names, got {self.joints!r}")
+        unknown = [j for j in self.joints if j not in joint_names]
+        if unknown:
+            raise DataError(f"torque joints: no joint '{unknown[0]}' in the model")
+        return [j for j in joint_names if j in self.joints]
+
+    def check(self) -> None:
+        """DataError for a setting outside its range."""
+        lo, hi = self.friction
+        values = (("torque noise", self.noise), ("torque offset", self.offset),
+                  ("torque gain error", self.gain), ("friction", lo), ("friction", hi))  # fmt: skip
+        for name, v in values:
+            if not (v >= 0 and math.isfinite(v)):
+                raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
+        if lo > hi:
+            raise DataError(f"friction band: lower {lo:g} above upper {hi:g} N·m")
+        if self.approach not in APPROACHES:
+            raise DataError(f"approach must be one of {', '.join(APPROACHES)}, got {self.approach}")
+
+
+@dataclass
+class ExperimentConfig:
+    """How the virtual real robot differs from the model (SI units, angles in degrees)."""
+
+    extra_mass_fraction: float = 0.07  #: unmodelled mass / model mass
+    #: where the unmodelled mass sits (None: ``DEFAULT_EXTRA`` on a robot with those bodies,
+    #: else ``generic_extra``)
+    extra: tuple[ExtraMass, ...] | None = None
+    backlash_deg: float = 1.0  #: actual − commanded angle ~ U(−b, b) per pose and joint
+    readback_seen: float = 0.5  #: part of that offset the joint encoder reports
+    readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
+    fsr_noise: float = 1.5  #: N, per sensor and sample (std)
+    fsr_bias: float = 0.1  #: N, per-sensor constant bias (std over sensors)
+    #: relative std of per-pad gain errors: a pad reads F / g + bias, g ~ N(1, fsr_gain²)
+    fsr_gain: float = 0.0
+    #: kinematic bench: feet whose sole the model puts on the floor share the load (two-foot
+    #: poses); the split over all their pads is the elastic one (least squares, as a rigid
+    #: body on equal springs): statics fixes only the total force and its moments
+    double_support: bool = False
+    registers: str = "forces"  #: "forces", "centroid" or "both"
+    #: kinematic bench: the support stands tilted by a random roll and pitch ~ N(0, tilt_deg²)
+    #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
+    tilt_deg: float = 0.0
+    torque: TorqueConfig = field(default_factory=TorqueConfig)  #: joint torque sensors
+    mount: str = "stand"  #: "stand" on the support foot or "gantry" (support held in a fixture)
+
+    def check(self) -> None:
+        """DataError for a setting outside its range (the one check both benches use)."""
+        if self.registers not in ("forces", "centroid", "both"):
+            raise DataError(f"registers must be forces, centroid or both, got {self.registers}")
+        if self.mount not in MOUNTS:
+            raise DataError(f"mount must be stand or gantry, got {self.mount}")
+        if self.mount == "gantry" and self.double_support:
+            raise DataError("a robot held in a gantry stands on no foot: no double support")
+        for name, v in (
+            ("backlash", self.backlash_deg),
+            ("FSR noise", self.fsr_noise),
+            ("FSR bias", self.fsr_bias),
+            ("FSR gain error", self.fsr_gain),
+            ("read-back jitter", self.readback_jitter_ticks),
+            ("support tilt", self.tilt_deg),
+        ):
+            if not (v >= 0 and math.isfinite(v)):
+                raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
+        self.torque.check()
+
+
+def generic_extra(robot, n: int = 4) -> tuple[ExtraMass, ...]:
+    """Unmodelled mass on the ``n`` heaviest bodies in proportion to their masses, 2 cm behind
+    and 1 cm beside their frames' origins (cables and boards of a robot without a known list)."""
+    order = np.argsort(-robot.masses, kind="stable")[:n]
+    m = robot.masses[order]
+    shares = m / m.sum() if m.sum() > 0 else np.full(len(order), 1.0 / len(order))
+    return tuple(
+        ExtraMass(robot.body_names[i], float(s), (-0.02, 0.01, 0.0))
+        for i, s in zip(order, shares, strict=True)
+    )
+
+
+def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
+    """The unmodelled masses of ``config`` on ``robot`` (``ExperimentConfig.extra``)."""
+    if config.extra is not None:
+        return config.extra
+    if all(e.body in robot.body_names for e in DEFAULT_EXTRA):
+        return DEFAULT_EXTRA
+    return generic_extra(robot)
+
+
+def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
+    """The real robot's bodies (the model's plus the unmodelled masses) and the masses placed."""
+    if not (0 <= config.extra_mass_fraction < 1):
+        raise DataError(f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}")
+    extra = extra_masses(robot, config)
+    shares = sum(e.share for e in extra)
+    if extra and not math.isclose(shares, 1.0, abs_tol=1e-9):
+        raise DataError(f"extra-mass shares must sum to 1, got {shares:g}")
+    names = robot.body_names
+    extra_total = config.extra_mass_fraction * robot.total_mass
+    bodies = list(robot.model.bodies)
+    placed = []
+    for e in extra:
+        if e.body not in names:
+            raise DataError(f"extra mass on unknown body '{e.body}' (bodies: {', '.join(names)})")
+        i = names.index(e.body)
+        b = bodies[i]
+        me = e.share * extra_total
+        off = np.asarray(e.offset, dtype=float)
+        m = b.mass + me
+        com = (b.mass * b.com + me * off) / m if m > 0 else b.com
+        bodies[i] = dataclasses.replace(b, mass=m, com=com)
+        placed.append({"body": e.body, "mass_kg": me, "offset_m": off.tolist()})
+    return bodies, placed
+
+
+def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
+    """True SESC vectors (N, 3) [m] and mass [kg] of the model plus the unmodelled masses."""
+    bodies, placed = real_bodies(robot, config)
+    model = dataclasses.replace(robot.model, bodies=bodies)
+    return sesc_vectors(model), float(sum(b.mass for b in bodies)), placed
+
+
+def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
+    """Error naming the first pose/joint outside the robot's joint limits."""
+    lim = robot.joint_limits
+    bad = np.argwhere((q < lim[:, 0]) | (q > lim[:, 1]))
+    if bad.size:
+        i, j = bad[0]
+        lo, hi = np.degrees(lim[j])
+        raise DataError(
+            f"{where}: pose {i}, joint '{robot.joint_names[j]}': {math.degrees(q[i, j]):.2f}° is "
+            f"outside the joint limits [{lo:.1f}°, {hi:.1f}°] ({len(bad)} values out of limits)"
+        )
+
+
+@dataclass(frozen=True)
+class SensorErrors:
+    """The sensor errors of one bench run (drawn once; ``draw_errors``)."""
+
+    pad_bias: dict[str, np.ndarray]  #: foot → (4,) N
+    pad_gain: dict[str, np.ndarray]  #: foot → (4,) relative
+    tau_joints: tuple[str, ...] = ()  #: joints with a torque sensor, model order
+    tau_index: np.ndarray = field(
+        default_factory=lambda: np.zeros(0, dtype=int)
+    )  #: their q columns
+    tau_offset: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (k,) N·m
+    tau_gain: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (k,)
+    tau_friction: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (k,) N·m
+
+
+def pad_gains(sensors: SensorConfig | None, config: ExperimentConfig, seed: int | None) -> dict:
+    """Per-pad gains g ~ N(1, fsr_gain²) of each foot (a pad reads F / g + bias).
+
+    Drawn from their own random stream (seed, 11); all ones when ``fsr_gain`` is 0.
+    """
+    feet = sensors.feet if sensors is not None else ()
+    if config.fsr_gain == 0:
+        return {f.name: np.ones(4) for f in feet}
+    rng = np.random.default_rng(None if seed is None else (seed, PAD_GAIN_STREAM))
+    out = {}
+    for f in feet:
+        g = 1.0 + rng.normal(0.0, config.fsr_gain, size=4)
+        if np.any(g <= 0.1):
+            raise DataError(f"FSR gain error {config.fsr_gain} gives a gain ≤ 0.1; use less")
+        out[f.name] = g
+    return out
+
+
+def draw_errors(robot, sensors, config: ExperimentConfig, seed, rng) -> SensorErrors:
+    """The run's sensor errors: pad biases from ``rng`` (the bench's stream, in foot order),
+    pad gains and torque errors from their own streams of ``seed``."""
+    feet = sensors.feet if sensors is not None else ()
+    bias = {f.name: rng.normal(0.0, config.fsr_bias, size=4) for f in feet}
+    gain = pad_gains(sensors, config, seed)
+    tc = config.torque
+    joints = tc.resolve(robot.joint_names)
+    if not joints:
+        return SensorErrors(bias, gain)
+    k = len(joints)
+    trng = np.random.default_rng(None if seed is None else (seed, TORQUE_STREAM))
+    offset = trng.normal(0.0, tc.offset, size=k)
+    tgain = 1.0 + trng.normal(0.0, tc.gain, size=k)
+    if np.any(tgain <= 0.1):
+        raise DataError(f"torque gain error {tc.gain} gives a gain ≤ 0.1; use less")
+    friction = trng.uniform(tc.friction[0], tc.friction[1], size=k)
+    index = np.array([robot.joint_names.index(j) for j in joints], dtype=int)
+    return SensorErrors(bias, gain, tuple(joints), index, offset, tgain, friction)
+
+
+def approach_sides(config: ExperimentConfig, n: int, seed: int | None, start: int = 0):
+    """(n,) ±1: the side each pose is approached from (``TorqueConfig.approach``).
+
+    ``start`` is the index of the first pose (a session draws one pose at a time).
+    """
+    mode = config.torque.approach
+    if mode == "up":
+        return np.ones(n)
+    if mode == "down":
+        return -np.ones(n)
+    if mode == "alternate":
+        return np.where((np.arange(start, start + n) % 2) == 0, 1.0, -1.0)
+    rng = np.random.default_rng(None if seed is None else (seed, APPROACH_STREAM, start))
+    return rng.choice([-1.0, 1.0], size=n)

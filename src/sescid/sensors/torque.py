@@ -1,0 +1,110 @@
+"""Joint torques in a raw log: ``tau_<joint>`` samples and the ``approach`` side of each pose.
+
+Columns (the data contract): ``tau_<joint>`` [N·m], the torque the actuator applies to hold the
+pose, about the joint's axis with the model's sign, for any subset of the model's joints (named
+as in the model file); ``approach`` (+1 / −1 per pose: the joints last moved in the positive /
+negative direction before the pose was held, i.e. it was reached from below / above). A raw log
+has many samples per pose; the reduction (``sensors.reduce``) averages them into ``tau_<joint>``
+and ``tau_se_<joint>`` per pose and carries ``approach``.
+
+Plausibility: a holding torque cannot exceed the whole robot's weight acting at
+``TORQUE_REACH_M`` from the joint; a larger value is not in N·m (N·mm?) and is refused with the
+row and column named.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sescid.base.columns import Table, column_with_missing
+from sescid.errors import DataError
+
+TAU_PREFIX = "tau_"
+TAU_SE_PREFIX = "tau_se_"
+APPROACH_COLUMN = "approach"
+#: m, a lever no humanoid's gravity torque exceeds (the whole weight this far from a joint)
+TORQUE_REACH_M = 2.0
+#: N·m, smallest robust scale of a torque in the outlier rule
+TORQUE_OUTLIER_FLOOR = 1e-3
+#: N·m, smallest standard error of a pose's mean torque (identical samples: a resolution)
+TORQUE_SE_FLOOR = 1e-6
+
+
+def torque_joints(names: list[str] | set[str], joint_names: list[str], where: str) -> list[str]:
+    """Joints (model order) that have a ``tau_<joint>`` column; an error for one of no joint."""
+    have = set(names)
+    joints = [j for j in joint_names if TAU_PREFIX + j in have]
+    known = {TAU_PREFIX + j for j in joint_names}
+    for c in sorted(have):
+        if c.startswith(TAU_PREFIX) and not c.startswith(TAU_SE_PREFIX) and c not in known:
+            raise DataError(
+                f"{where}: column '{c}': no joint '{c[len(TAU_PREFIX) :]}' in the model "
+                "(torque columns are tau_<joint>, named as in the model file)"
+            )
+    return joints
+
+
+def read_torques(table: Table, joint_names: list[str]) -> tuple[list[str], np.ndarray | None]:
+    """The measured joints and their torque samples (m, k) [N·m] (NaN where missing)."""
+    joints = torque_joints(table.names(), joint_names, str(table.path))
+    if not joints:
+        return [], None
+    tau = np.column_stack([column_with_missing(table, TAU_PREFIX + j) for j in joints])
+    bad = np.argwhere(np.isinf(tau))
+    if bad.size:
+        i, k = bad[0]
+        raise DataError(
+            f"{table.path}: row {table.row(i)}, column '{TAU_PREFIX}{joints[k]}': "
+            f"{tau[i, k]} is not a torque"
+        )
+    return joints, tau
+
+
+def read_approach(table: Table) -> np.ndarray | None:
+    """The ``approach`` column (m,) of ±1 (NaN where missing), or None when absent."""
+    if APPROACH_COLUMN not in table.names():
+        return None
+    a = column_with_missing(table, APPROACH_COLUMN)
+    bad = np.flatnonzero(~np.isnan(a) & (np.abs(a) != 1))
+    if bad.size:
+        raise DataError(
+            f"{table.path}: row {table.row(bad[0])}, column '{APPROACH_COLUMN}': {a[bad[0]]:g} "
+            "is not +1 (reached from below) or -1 (from above)"
+        )
+    return a
+
+
+def check_torque_scale(log, mass: float) -> None:
+    """DataError naming the row and column of a torque of the raw log ``log`` beyond
+    ``mass``·g·TORQUE_REACH_M."""
+    limit = mass * 9.80665 * TORQUE_REACH_M
+    with np.errstate(invalid="ignore"):
+        bad = np.argwhere(np.abs(log.tau) > limit)
+    if bad.size:
+        i, k = bad[0]
+        raise DataError(
+            f"{log.path}: row {i + log.first_row}, column '{TAU_PREFIX}{log.tau_joints[k]}': "
+            f"{log.tau[i, k]:g} N·m is "
+            f"more than the robot's weight at {TORQUE_REACH_M:g} m ({limit:.3g} N·m): not a "
+            "torque in N·m"
+        )
+
+
+def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path, first_row: int = 2):
+    """(k,) the approach side of each pose; DataError when a pose's samples disagree."""
+    out = np.full(k, np.nan)
+    ok = ~np.isnan(approach)
+    lo = np.full(k, np.inf)
+    hi = np.full(k, -np.inf)
+    np.minimum.at(lo, g[ok], approach[ok])
+    np.maximum.at(hi, g[ok], approach[ok])
+    mixed = np.flatnonzero(lo < hi)
+    if mixed.size:
+        row = int(np.flatnonzero(g == mixed[0])[0]) + first_row
+        raise DataError(
+            f"{path}: column '{APPROACH_COLUMN}': the samples of one pose (from row {row}) give "
+            "both +1 and -1 (one approach side per pose id)"
+        )
+    has = np.isfinite(lo)
+    out[has] = lo[has]
+    return out

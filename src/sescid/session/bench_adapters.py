@@ -1,0 +1,164 @@
+"""The benches as robots a session drives: rigid statics (``KinematicAdapter``) and MuJoCo
+(``MujocoAdapter``), both logging through the benches' one raw-log writer (``bench.log``).
+
+Per commanded pose (``move``): the servo targets are the command plus the pose's backlash
+δ ~ U(−b, b) of ``ExperimentConfig``; with torque sensors the pose is approached from one side
+(``TorqueConfig.approach``). ``wait_settled``: MuJoCo simulates until still (toppled, floor
+contact and not settled are failures, ``bench.mujoco.Simulation``); rigid statics fails a pose
+whose true CoP leaves the support foot's pads. ``read(n)``: ``n`` samples of the same columns
+``sescid experiment`` writes (read-backs missing the unseen part of δ, pad forces with bias,
+gain error and noise, gravity, joint torques). ``truth`` keeps per measured pose the actual
+angles, the true CoP ``robot.cop(q_actual, r_true)`` and, with torque sensors, the true
+holding torques.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sescid.bench.log import RawLogWriter, Readings
+from sescid.bench.real_robot import (
+    ExperimentConfig,
+    approach_sides,
+    draw_errors,
+    real_bodies,
+    real_robot,
+)
+from sescid.bench.statics import holding_torques
+from sescid.errors import DataError, OptionError
+from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
+
+if TYPE_CHECKING:
+    from sescid.bench.mujoco import PoseResult
+
+G = 9.80665  #: m/s², standard gravity
+
+
+class _BenchAdapter:
+    """What both bench adapters share: the real robot, its errors, the writer, one pose."""
+
+    def __init__(self, robot, sensors: SensorConfig | None, config, seed: int | None, imu=0.0):
+        self.robot = robot
+        self.sensors = sensors
+        self.config = config or ExperimentConfig()
+        self.config.check()
+        if sensors is not None:
+            check_sensors(robot, sensors)
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        self.errors = draw_errors(robot, sensors, self.config, seed, self.rng)
+        self.writer = RawLogWriter(robot, sensors, self.config, self.errors, imu)
+        self.r_true, self.mass_true, _ = real_robot(robot, self.config)
+        self.truth: dict[str, dict[str, Any]] = {}
+        self._pose = ""
+        self._count = 0
+        self._delta = np.zeros(robot.nq)
+        self._target = np.zeros(robot.nq)
+        self._approach: float | None = None
+        self._settled = False
+
+    def move(self, pose: str, q: np.ndarray) -> None:
+        """See ``RobotAdapter.move``."""
+        b = math.radians(self.config.backlash_deg)
+        self._pose = pose
+        self._delta = self.rng.uniform(-b, b, size=self.robot.nq)
+        self._target = np.asarray(q, dtype=float) + self._delta
+        self._approach = None
+        if self.errors.tau_joints:
+            self._approach = float(approach_sides(self.config, 1, self.seed, self._count)[0])
+        self._count += 1
+        self._settled = False
+
+    def _unseen(self) -> np.ndarray:
+        return (1.0 - self.config.readback_seen) * self._delta
+
+    def stop(self) -> None:
+        """See ``RobotAdapter.stop``."""
+        self._settled = False
+
+
+class KinematicAdapter(_BenchAdapter):
+    """The kinematic bench as a robot: rigid statics of the real robot on its support foot."""
+
+    def __init__(self, robot, sensors: SensorConfig, config=None, seed: int | None = 0):
+        super().__init__(robot, sensors, config, seed)
+        foot = next((f for f in sensors.feet if f.sole_frame == robot.support), None)
+        if foot is None:
+            raise DataError(f"no foot sensor board sits on the support link '{robot.support}'")
+        self.foot = foot
+        self.bodies, _ = real_bodies(robot, self.config)
+        self._pads = np.zeros(4)
+        self._tau = np.zeros(robot.nq)
+
+    def wait_settled(self) -> str:
+        """See ``RobotAdapter.wait_settled``: a pose whose CoP leaves the pads tips over."""
+        q = self._target[None]
+        cop = self.robot.cop(q, self.r_true)
+        uv = self.foot.board_coordinates(cop)
+        if np.any((uv < 0) | (uv > 1)):
+            return (
+                f"toppled: the CoP ({cop[0, 0] * 1e3:.1f}, {cop[0, 1] * 1e3:.1f}) mm left the pads"
+            )
+        self._pads = self.mass_true * G * bilinear_weights(uv[:, 0], uv[:, 1])[0]
+        self._tau = holding_torques(self.robot, q, self.bodies)[0]
+        self.truth[self._pose] = {"q_actual": self._target, "cop_true": cop[0], "tau": self._tau}
+        self._settled = True
+        return ""
+
+    def read(self, n: int) -> dict[str, np.ndarray]:
+        """See ``RobotAdapter.read``."""
+        if not self._settled:
+            raise DataError(f"pose {self._pose}: read before the robot settled")
+        assert self.sensors is not None
+        pads = {f.name: np.zeros((n, 4)) for f in self.sensors.feet}
+        pads[self.foot.name] = np.tile(self._pads, (n, 1))
+        r = Readings(
+            q=np.tile(self._target - self._unseen(), (n, 1)),
+            pads=pads,
+            tau=np.tile(self._tau, (n, 1)),
+            approach=None if self._approach is None else np.full(n, self._approach),
+        )
+        return self.writer.columns(r, self.rng)
+
+
+class MujocoAdapter(_BenchAdapter):
+    """The MuJoCo physics bench as a robot: the "real" robot of ``ExperimentConfig`` in
+    MuJoCo, one MjModel/MjData kept across poses."""
+
+    def __init__(self, robot, sensors: SensorConfig, config=None, bench=None, seed: int | None = 0):
+        from sescid.bench.mujoco import MujocoBenchConfig, Simulation  # the mujoco extra
+
+        bench = bench or MujocoBenchConfig()
+        if bench.weld_foot:
+            raise OptionError("weld_foot", "a session stands the robot on its foot (no weld)")
+        super().__init__(robot, sensors, config, seed, bench.imu_noise)
+        self.bench = bench
+        self.sim = Simulation(robot, sensors, self.config, bench)
+        self._res: PoseResult | None = None
+
+    def wait_settled(self) -> str:
+        """See ``RobotAdapter.wait_settled``."""
+        res, why = self.sim.run(self._target)
+        self._res = res
+        self._settled = res is not None
+        if res is not None:
+            self.truth[self._pose] = {
+                "q_actual": res.q,
+                "cop_true": self.robot.cop(res.q[None], self.r_true)[0],
+                "com_world": res.com,
+                "tau": res.tau,
+            }
+        return why
+
+    def read(self, n: int) -> dict[str, np.ndarray]:
+        """See ``RobotAdapter.read``."""
+        from sescid.bench.mujoco import pose_readings
+
+        if not self._settled or self._res is None:
+            raise DataError(f"pose {self._pose}: read before the robot settled")
+        reads = [self.sim.sample() for _ in range(n)]
+        r = pose_readings(self.sim, self._res, reads, self._unseen(), self._approach)
+        return self.writer.columns(r, self.rng)

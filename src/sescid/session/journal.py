@@ -1,0 +1,206 @@
+"""A session's journal: every commanded pose written to disk as it is done, so nothing is lost.
+
+``OUT_DIR/journal.jsonl`` holds one JSON object per line: a header (format, robot, support,
+the session's options and the adapter), then one record per commanded pose (its decision, its
+status and reason and, when measured, the raw samples the adapter returned), flushed and synced
+before the next pose is commanded; a last line marks the end. The folder is checked writable
+before the first pose (``Journal.open`` writes the header there).
+
+Resume: running a session again with the same output folder and the same options replays the
+journaled poses (the decisions depend only on the options and the measurements, so they come
+out the same) and continues with the robot from the first pose not journaled; a finished
+session (its outputs written: ``finish``) replays to the same end without moving the robot. A
+journal of other settings is refused in one line saying what to do.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sescid.errors import DataError
+
+JOURNAL_FORMAT = "sescid-session-journal/1"
+JOURNAL_NAME = "journal.jsonl"
+
+
+def _plain(v: Any) -> Any:
+    """JSON-able copy of options / columns (arrays as lists, non-finite floats as None)."""
+    if isinstance(v, np.ndarray):
+        return _plain(v.tolist())
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_plain(x) for x in v]
+    if isinstance(v, float | np.floating):
+        return float(v) if math.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+@dataclass(frozen=True)
+class JournalEntry:
+    """One journaled pose: what was commanded and what the robot returned."""
+
+    pose: str
+    q: np.ndarray  #: (nq,) commanded, rad
+    why: str  #: "" when it settled, else why it failed
+    columns: dict[str, np.ndarray] | None  #: the adapter's samples (None: not read)
+
+
+@dataclass
+class Journal:
+    """The append-only journal of one output folder."""
+
+    path: Path
+    header: dict
+    entries: list[JournalEntry] = field(default_factory=list)
+    finished: str = ""  #: the stop reason of a finished session ("" while open)
+
+    @classmethod
+    def open(cls, out_dir: str | Path, header: dict, *, restart: bool = False) -> Journal:
+        """The folder's journal: resumed when it holds this session's poses (same header), a
+        new one otherwise; DataError when the folder is not writable or holds another session
+        (``restart`` discards it instead)."""
+        folder = Path(out_dir)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise DataError(f"{folder}: cannot create the output folder ({exc.strerror})") from None
+        path = folder / JOURNAL_NAME
+        head = _plain(header) | {"format": JOURNAL_FORMAT}
+        if path.exists() and not restart:
+            old = cls._read(path)
+            if old.entries or old.finished:  # else nothing was measured: start afresh
+                if old.header != head:
+                    diff = sorted(k for k in head if old.header.get(k) != head.get(k))
+                    raise DataError(
+                        f"{path}: the folder holds a session with other settings "
+                        f"({', '.join(diff)}): run with the same ones to resume it, or choose "
+                        "another --out-dir (--force starts over)"
+                    )
+                return old
+        journal = cls(path, head)
+        try:
+            with open(path, "w") as fh:
+                fh.write(json.dumps(head) + "\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            raise DataError(f"{path}: cannot write the session journal ({exc.strerror})") from None
+        return journal
+
+    @classmethod
+    def _read(cls, path: Path) -> Journal:
+        lines = path.read_text().splitlines()
+        try:
+            head = json.loads(lines[0])
+        except (IndexError, json.JSONDecodeError):
+            raise DataError(f"{path}: not a session journal (--force starts over)") from None
+        if not isinstance(head, dict) or head.get("format") != JOURNAL_FORMAT:
+            raise DataError(f"{path}: not a session journal (--force starts over)")
+        journal = cls(path, head)
+        for i, line in enumerate(lines[1:], start=2):
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                if i == len(lines):  # a line cut by a crash: the pose is measured again
+                    break
+                raise DataError(f"{path}: line {i} is not JSON (--force starts over)") from None
+            if "end" in rec:
+                journal.finished = str(rec["end"])
+                continue
+            cols = rec.get("columns")
+            journal.entries.append(
+                JournalEntry(
+                    str(rec["pose"]),
+                    np.asarray(rec["q"], dtype=float),
+                    str(rec.get("why", "")),
+                    None if cols is None else {k: _column(v) for k, v in cols.items()},
+                )
+            )
+        return journal
+
+    def append(self, entry: JournalEntry) -> None:
+        """Write one pose's record (synced to disk before the session goes on)."""
+        rec = {"pose": entry.pose, "q": _plain(entry.q), "why": entry.why}
+        if entry.columns is not None:
+            rec["columns"] = _plain(entry.columns)
+        self._write(rec)
+        self.entries.append(entry)
+
+    def finish(self, stop_reason: str) -> None:
+        """Mark the session finished (call it once its outputs are written)."""
+        self._write({"end": stop_reason})
+        self.finished = stop_reason
+
+    def _write(self, rec: dict) -> None:
+        try:
+            with open(self.path, "a") as fh:
+                fh.write(json.dumps(rec) + "\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            raise DataError(
+                f"{self.path}: cannot write the session journal ({exc.strerror})"
+            ) from None
+
+
+def _column(v: list) -> np.ndarray:
+    arr = np.array([np.nan if x is None else x for x in v])
+    return arr.astype(float) if arr.dtype == object else arr
+
+
+class ResumingAdapter:
+    """Serves the journaled poses, in order, then hands over to the live robot adapter."""
+
+    def __init__(self, journal: Journal, live):
+        self.journal = journal
+        self.live = live
+        self.resumed = len(journal.entries)  #: poses the journal held at the start
+        self.done = 0  #: journaled poses served
+        self._entry: JournalEntry | None = None
+
+    @property
+    def replaying(self) -> bool:
+        """True while the current pose comes from the journal."""
+        return self._entry is not None
+
+    def move(self, pose: str, q: np.ndarray) -> None:
+        """The journaled pose (checked to be this command), else the live robot's move."""
+        if self.done < self.resumed:
+            e = self.journal.entries[self.done]
+            if e.pose != pose or np.max(np.abs(e.q - np.asarray(q, dtype=float))) > 1e-9:
+                raise DataError(
+                    f"{self.journal.path}: resuming diverged at pose {pose} (the journal "
+                    f"commanded pose {e.pose} there): another robot model or sensor file? "
+                    "(--force starts over)"
+                )
+            self._entry = e
+            self.done += 1
+            return
+        self._entry = None
+        self.live.move(pose, q)
+
+    def wait_settled(self) -> str:
+        """See ``RobotAdapter.wait_settled``."""
+        return self._entry.why if self._entry is not None else self.live.wait_settled()
+
+    def read(self, n: int) -> dict[str, np.ndarray]:
+        """See ``RobotAdapter.read``."""
+        if self._entry is not None:
+            if self._entry.columns is None:
+                raise DataError(f"{self.journal.path}: pose {self._entry.pose} has no samples")
+            return self._entry.columns
+        return self.live.read(n)
+
+    def stop(self) -> None:
+        """See ``RobotAdapter.stop``."""
+        self.live.stop()

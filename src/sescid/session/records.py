@@ -1,0 +1,97 @@
+"""What a guided session is given and gives: options, one record per pose, the result, the
+observer hooks (a terminal printer, the live view)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sescid.estimation.fit import Fit
+from sescid.planning import Candidates
+from sescid.sensors import Measured
+
+#: m, prior scale of a body's SESC components, for the per-body uncertainty shown (0..1 scale)
+BODY_PRIOR_SCALE = 0.005
+
+
+@dataclass(frozen=True)
+class SessionOptions:
+    """How a guided session plans, measures and stops (SI units, radians)."""
+
+    budget: int = 60  #: poses commanded at most (failed ones count)
+    samples: int = 100  #: samples read per pose
+    min_samples: int = 5  #: usable samples a pose needs (as ``sescid fsr``)
+    n_candidates: int = 5000  #: stable, collision-free candidate poses to choose from
+    seed: int = 0  #: candidate sampling
+    near: float = 0.8  #: take the nearest candidate whose gain is ≥ near × the best gain
+    window: int = 10  #: convergence: measured poses looked back
+    tol: float = 0.10  #: convergence: relative fall of the predicted CoP std over the window
+    min_measured: int | None = None  #: at least this many measured poses (None: the rank's min)
+    target_std: float | None = None  #: m, also stop when the predicted CoP std reaches this
+    limits: np.ndarray | None = None  #: (nq, 2) sampling limits, rad (None: the robot's)
+    half_extents: np.ndarray | None = None  #: (2,) CoP stability box, m (None: the profile's)
+
+
+@dataclass
+class SessionStep:
+    """One commanded pose: the decision, and what was measured (or why not)."""
+
+    pose: str  #: id, "0", "1", … in command order
+    candidate: int  #: index in the candidate pool
+    q: np.ndarray  #: (nq,) commanded, rad
+    gain: float  #: log det rise expected from this pose
+    distance: float  #: rad, joint-space distance from the previous pose
+    status: str  #: "measured" or "skipped"
+    reason: str = ""  #: why skipped
+    q_measured: np.ndarray | None = None  #: (nq,) mean read-backs, rad
+    cop: np.ndarray | None = None  #: (2,) measured CoP, m
+    cop_se: np.ndarray | None = None  #: (2,) its standard error, m
+    cop_predicted: np.ndarray | None = None  #: (2,) predicted before this pose was added, m
+    cop_std: float = math.inf  #: predicted RMS CoP std after this pose, m
+    rank: int = 0
+    converged: bool = False
+    body_std: np.ndarray | None = None  #: (N,) per-body SESC std after this pose, m
+
+
+@dataclass
+class SessionResult:
+    """What a session did and found; ``raw`` and ``poses`` are the files' columns."""
+
+    steps: list[SessionStep]
+    stop_reason: str
+    fit: Fit
+    measured: Measured
+    raw: dict[str, np.ndarray]  #: the raw log (pose, sample, the adapter's columns)
+    poses: np.ndarray  #: (k, nq) commanded poses, rad, in command order
+    pose_ids: np.ndarray  #: (k,) their ids
+    candidates: Candidates
+    options: SessionOptions
+    body_names: list[str] = field(default_factory=list)
+    #: (candidate, why) chosen but found unsafe before commanding (not counted in the budget)
+    rejected: list[tuple[int, str]] = field(default_factory=list)
+
+    @property
+    def n_measured(self) -> int:
+        """Poses measured (not skipped)."""
+        return sum(s.status == "measured" for s in self.steps)
+
+    @property
+    def cop_std(self) -> float:
+        """Predicted RMS CoP std at the end, m."""
+        done = [s.cop_std for s in self.steps if s.status == "measured"]
+        return done[-1] if done else math.inf
+
+
+class SessionObserver:
+    """Hooks a session calls (all optional to override): a terminal printer, a live view."""
+
+    def planned(self, step_no: int, pose: str, q: np.ndarray, q_current: np.ndarray) -> None:
+        """The next pose was chosen (before it is commanded)."""
+
+    def finished_pose(self, step: SessionStep, steps: list[SessionStep]) -> None:
+        """A pose was measured or skipped."""
+
+    def stopped(self, result: SessionResult) -> None:
+        """The session ended."""
