@@ -96,13 +96,13 @@ SCRIPT = textwrap.dedent(
     extra("mjcf", lambda: sescid.load_robot(tmp / "m.xml", support="a"))
     extra("bag", lambda: read_bag(tmp, mp, ["a"]))
     from sescid.base.files import read_document
-    from sescid.bench import mujoco as bench_mujoco
+    from sescid.bench.mujoco.spec import mujoco_module as bench_mujoco_module
     from sescid.model import meshes
     from sescid.report import live
     extra("yaml", lambda: read_document(tmp / "map.yaml"))
     extra("meshes", lambda: meshes._hull_vertices(str(tmp / "x.stl")))
     extra("view", lambda: live._viser())
-    extra("bench", lambda: bench_mujoco._mujoco())
+    extra("bench", lambda: bench_mujoco_module())
 
     from click.testing import CliRunner
     from sescid.cli import cli

@@ -81,7 +81,7 @@ def _sensor_file(tmp_path, change) -> Path:
 def test_saturation_infinity_is_one_line(tmp_path):
     path = _sensor_file(tmp_path, lambda d: d.update(saturation_count="Infinity_"))
     path.write_text(path.read_text().replace('"Infinity"', "Infinity"))
-    with pytest.raises(SescidError, match=r"s.json: saturation_count: expected a finite number"):
+    with pytest.raises(SescidError, match=r"s.json: saturation_count: .*finite number"):
         load_sensors(path)
 
 
