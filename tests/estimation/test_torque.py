@@ -399,3 +399,33 @@ def test_cli_simulates_and_identifies_torques_alone(op2, tmp_path):
     assert len(friction) == 20
     assert all(abs(e.value - 0.15) < 4 * e.std for e in friction)
     assert fit.kind("tau").sigma == pytest.approx(0.05, rel=0.1)
+
+
+def test_torque_gains_ratios_from_the_data(op2):
+    """Readings (1 + γ_j)(τ_j + o_j): Gauss–Newton recovers the gains' ratios from precise
+    data (3 mN·m) (their common part is a different scale of M·r: the prior's), and within
+    their standard errors from noisy data."""
+    rng = np.random.default_rng(50)
+    q = random_poses(op2, 200, 30, 51)
+    gains = rng.normal(0, 0.05, op2.nq)
+    off = rng.normal(0, 0.1, op2.nq)
+    exact = (1 + gains) * (_tau(op2, q) + off) + 3e-3 * rng.normal(size=(200, op2.nq))
+    joints = tuple(op2.joint_names)
+    fit = identify(op2, Measurements(q=q, tau=exact, tau_joints=joints), tau_gains=True,
+                   total_mass=op2.total_mass, gravity_accel=G0)  # fmt: skip
+    est = np.array([e.value for e in fit.nuisance if e.what == "gain"])
+    shift = np.log1p(est) - np.log1p(gains)
+    moving = _tau(op2, q).std(axis=0) > 0.1  # a nearly constant torque's gain is its offset's
+    assert moving.sum() >= 8 and np.ptp(shift[moving]) < 3e-3
+    assert all("ratios" in e.reason for e in fit.nuisance if e.what == "gain")
+    noisy = (1 + gains) * (_tau(op2, q) + off) + rng.normal(0, 0.03, (200, op2.nq))
+    fit = identify(op2, Measurements(q=q, tau=noisy, tau_joints=joints), tau_gains=True,
+                   total_mass=op2.total_mass, gravity_accel=G0)  # fmt: skip
+    est = np.array([e.value for e in fit.nuisance if e.what == "gain"])
+    std = np.array([e.std for e in fit.nuisance if e.what == "gain"])
+    z = (np.log1p(est) - np.log1p(gains) - np.mean(np.log1p(est) - np.log1p(gains))) / std
+    assert np.sqrt(np.mean(z**2)) < 2.0
+    qf = random_poses(op2, 100, 30, 52)
+    reading = fit.predict_torque(qf, reading=True)
+    truth = (1 + gains) * (_tau(op2, qf) + off)
+    assert np.sqrt(np.mean((reading - truth) ** 2)) < 0.03

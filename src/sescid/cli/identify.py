@@ -61,6 +61,8 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         tau_noise=opts["tau_noise"],
         total_mass=total_mass,
         gravity_accel=opts["gravity_accel"],
+        tau_gains=opts["tau_gains"],
+        gain_prior=opts["gain_prior"],
         allow_exact=opts["allow_exact"],
         robust=robust,
         seed=opts["seed"],
@@ -117,6 +119,19 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     type=float,
     default=DEFAULTS.tau_noise,
     help="Known joint-torque noise standard deviation [N·m] (default: estimated).",
+)
+@click.option(
+    "--tau-gains",
+    is_flag=True,
+    default=DEFAULTS.tau_gains,
+    help="Also estimate a gain error per torque sensor (only their ratios come from the data).",
+)
+@click.option(
+    "--gain-prior",
+    type=float,
+    default=DEFAULTS.gain_prior,
+    show_default=True,
+    help="Prior std of each torque gain error (relative), with --tau-gains.",
 )
 @click.option(
     "--gravity-accel",
@@ -283,10 +298,17 @@ def _echo_sensors(fit: Fit) -> None:
     if not rows:
         return
     has_f = any("friction" in r for r in rows.values())
-    click.echo("torque sensors [N·m]: joint  offset" + ("  friction" if has_f else ""))
+    has_g = any("gain" in r for r in rows.values())
+    click.echo(
+        "torque sensors [N·m]: joint  offset"
+        + ("  friction" if has_f else "")
+        + ("  gain [1]" if has_g else "")
+    )
     for joint, r in rows.items():
         click.echo(
-            f"  {joint}  {r.get('offset', '—')}" + (f"  {r.get('friction', '—')}" if has_f else "")
+            f"  {joint}  {r.get('offset', '—')}"
+            + (f"  {r.get('friction', '—')}" if has_f else "")
+            + (f"  {r.get('gain', '—')}" if has_g else "")
         )
     lost = [e for e in fit.nuisance if e.kind == "tau" and not e.determined]
     for e in lost[:4]:

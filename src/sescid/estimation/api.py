@@ -120,7 +120,8 @@ class IdentifyOptions:
     (``fit.joint_noise``); ``online_step``: fit recursively, this many poses per update
     (``fit.online`` keeps the convergence history; ls, or map with prior scale and noise);
     ``r_prior`` (N, 3) [m]: SESC vectors that fill what the data do not determine and centre
-    the MAP prior (None: the model's).
+    the MAP prior (None: the model's); ``tau_gains``: also a gain error per torque sensor, with
+    a prior N(0, ``gain_prior``²) (relative gains only without a weighed total mass).
     """
 
     rtol: float = DEFAULT_RTOL
@@ -138,6 +139,8 @@ class IdentifyOptions:
     mc_draws: int = 30
     online_step: int | None = None
     r_prior: np.ndarray | None = None
+    tau_gains: bool = False
+    gain_prior: float = 0.1
     map: MapOptions = field(default_factory=MapOptions)
     consistent: ConsistentOptions = field(default_factory=ConsistentOptions)
 
@@ -172,6 +175,10 @@ class IdentifyOptions:
             )
         if self.online_step is not None:
             self._check_online(method)
+        if not (math.isfinite(self.gain_prior) and 0 < self.gain_prior <= 1):
+            raise OptionError(
+                "gain_prior", f"must be a relative std in (0, 1], got {self.gain_prior}"
+            )
         if method != "map" and self.map != MapOptions():
             raise OptionError("map_options", f"apply to method 'map' only, not {method!r}")
         if method != "consistent" and self.consistent != ConsistentOptions():
@@ -367,6 +374,7 @@ def identify(
             or opts.cv is not None
             or opts.joint_noise is not None
             or opts.online_step is not None
+            or opts.tau_gains
         )
         memory = in_memory(robot, sources) if needs_memory else None
         if robust == "auto":
@@ -374,6 +382,9 @@ def identify(
         if opts.online_step is not None:
             assert memory is not None
             fit = _online(robot, method, opts, memory)
+        elif opts.tau_gains:
+            assert memory is not None
+            fit = _with_gains(robot, method, opts, memory, bool(robust))
         elif robust:
             from sescid.estimation.robust import huber
 
@@ -422,6 +433,32 @@ def _extras(robot, method, opts: IdentifyOptions, fit: Fit, memory) -> Fit:
             fitter, fit, memory[0], opts.joint_noise, draws=opts.mc_draws, seed=opts.seed
         )
     return dataclasses.replace(fit, **changes)
+
+
+def _with_gains(robot, method, opts: IdentifyOptions, memory, robust: bool) -> Fit:
+    """The fit with a gain per torque sensor (``gains.with_gains``, Gauss–Newton)."""
+    from sescid.estimation.gains import with_gains
+
+    if not any(m.tau is not None for m in memory):
+        raise OptionError("tau_gains", "torque gains need torque data (tau_<joint> columns)")
+    if robust or method == "consistent":
+        raise OptionError("tau_gains", "torque gains go with ls or map, not robust or consistent")
+    plain = dataclasses.replace(opts, robust=False, tau_gains=False)
+    start = _fit(robot, method, plain, [_Held(robot, m) for m in memory], memory)
+
+    def solve(system: System) -> Fit:
+        if method == "ls":
+            return fit_least_squares(
+                robot, system, rtol=opts.rtol, noise=opts.noise(), r_prior=opts.r_prior,
+                allow_exact=opts.allow_exact,
+            )  # fmt: skip
+        return fit_map(
+            robot, system, prior_scale=opts.map.prior_scale, noise=opts.map.noise,
+            rtol=opts.rtol, kind_noise=opts.noise(), r_prior=opts.r_prior, prior=opts.map.prior,
+        )  # fmt: skip
+
+    fit = with_gains(solve, robot, memory, plain, start)
+    return with_residuals(fit, memory)
 
 
 def _online(robot, method, opts: IdentifyOptions, memory: list[Measurements]) -> Fit:

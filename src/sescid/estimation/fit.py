@@ -298,15 +298,17 @@ class Fit:
     ) -> np.ndarray:
         """Holding torques (n, J) [N·m] of ``joints`` (names; None: all) with the support fixed,
         for the fit's r and total mass; ``reading=True`` adds the estimated sensor offsets (what
-        the robot's torque sensors would report, friction aside)."""
+        the robot's torque sensors would report, friction aside) and their gains."""
         mass = self.total_mass if math.isfinite(self.total_mass) else self.robot.total_mass
         names = self.robot.joint_names if joints is None else list(joints)
         tau = self.robot.torques(
             q, self.r, joints=names, gravity=gravity, total_mass=mass, g0=self.gravity_accel
         )
         if reading:
-            off = {e.name: e.value for e in self.nuisance if e.kind == "tau" and e.what == "offset"}
-            tau = tau + np.array([off.get(j, 0.0) for j in names])
+            est = {(e.what, e.name): e.value for e in self.nuisance if e.kind == "tau"}
+            off = np.array([est.get(("offset", j), 0.0) for j in names])
+            gain = np.array([est.get(("gain", j), 0.0) for j in names])
+            tau = (tau + off) * (1.0 + gain)
         return tau
 
     def kind(self, name: str) -> KindFit | None:

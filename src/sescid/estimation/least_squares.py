@@ -237,10 +237,12 @@ def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
         est = {(e.what, e.name): (e.value if e.determined else 0.0) for e in fit.nuisance
                if e.kind == TORQUE}  # fmt: skip
         off = np.array([est.get(("offset", j), 0.0) for j in m.tau_joints])
-        out[TORQUE] = m.tau - pred - off
+        reading = pred + off
         if m.approach is not None:
             fr = np.array([est.get(("friction", j), 0.0) for j in m.tau_joints])
-            out[TORQUE] -= m.approach[:, None] * fr
+            reading = reading + m.approach[:, None] * fr
+        gain = np.array([est.get(("gain", j), 0.0) for j in m.tau_joints])
+        out[TORQUE] = m.tau - reading * (1.0 + gain)
     return out
 
 
