@@ -10,8 +10,8 @@ from fitting import identify_ls
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import IdentifyOptions, Measurements, identify, load_fit
-from sescid.estimation.api import make_fitter
 from sescid.estimation.robust import joint_noise_mc
+from sescid.estimation.runs import make_fitter
 from sescid.estimation.validation import truth_error
 from sescid.simulation import random_poses, simulate
 

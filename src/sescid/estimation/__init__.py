@@ -12,13 +12,7 @@ vectors, sensor offsets, their uncertainty, and physical masses.
 
 from __future__ import annotations
 
-from sescid.estimation.api import (
-    ConsistentOptions,
-    IdentifyOptions,
-    MapOptions,
-    identify,
-    to_consistent,
-)
+from sescid.estimation.api import identify, to_consistent
 from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
 from sescid.estimation.consistent import body_boxes, fit_inertials
 from sescid.estimation.fit import (
@@ -45,6 +39,7 @@ from sescid.estimation.identifiability import (
 from sescid.estimation.measurements import KINDS, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
 from sescid.estimation.online import OnlineEstimator
+from sescid.estimation.options import ConsistentOptions, IdentifyOptions, MapOptions
 from sescid.estimation.validation import (
     Interval,
     com_interval,

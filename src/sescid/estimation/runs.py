@@ -1,0 +1,203 @@
+"""How ``identify`` runs a method over its sources: the system accumulated once, least squares or
+MAP, the consistent step, residuals on a second pass; and the variants that revisit the data in
+memory (robust reweighting, torque gains, the recursive estimator, cross-validation and the
+joint-noise Monte Carlo)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any
+
+from sescid.errors import OptionError
+from sescid.estimation.checks import check_total_mass, fit_warnings
+from sescid.estimation.consistent import consistent_from_fit
+from sescid.estimation.fit import Fit
+from sescid.estimation.least_squares import fit_least_squares, with_residuals
+from sescid.estimation.map import fit_map
+from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.options import IdentifyOptions
+from sescid.estimation.sources import StreamSource
+from sescid.estimation.system import System, accumulate_sources
+from sescid.estimation.validation import folds as split_folds
+from sescid.robot import Robot
+
+#: a (list of) Measurements → Fit function: one method with fixed options (cv, Monte Carlo)
+Fitter = Callable[[list[Measurements]], Fit]
+
+
+def make_fitter(robot: Robot, method: str, options: IdentifyOptions) -> Fitter:
+    """The function data → Fit that ``identify`` runs for ``method`` (robust excluded)."""
+    options.check(method)
+
+    def fitter(data: list[Measurements]) -> Fit:
+        return run_method(robot, method, options, [HeldSource(robot, m) for m in data], data)
+
+    return fitter
+
+
+class HeldSource:
+    """Validated measurements as a source (no second validation)."""
+
+    def __init__(self, robot: Robot, m: Measurements):
+        self.data, self.name = m, m.source
+
+    def chunks(self):
+        """The data, as one chunk."""
+        yield self.data
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+def run_method(
+    robot, method, options, sources, memory: list[Measurements] | None, progress=None
+) -> Fit:
+    """One method over sources (the system accumulated once), residuals on a second pass;
+    ``progress(done, total)`` while accumulating (total None for data read once)."""
+    check_total_mass(robot, options.total_mass)
+    total = None
+    if all(not isinstance(s, StreamSource) for s in sources):
+        total = sum(m.n for s in sources for m in s.chunks())
+    report = None if progress is None else (lambda d: progress(d, total))
+    system = accumulate_sources(robot, [s.chunks() for s in sources], options.rows(), report)
+    if options.map.bias and COP not in system.kinds:
+        raise OptionError("bias", "a CoP offset needs CoP data (cop_x, cop_y)")
+    if method == "ls" or method == "consistent":
+        fit = fit_least_squares(
+            robot, system, rtol=options.rtol, noise=options.noise(), r_prior=options.r_prior,
+            allow_exact=options.allow_exact,
+        )  # fmt: skip
+    else:
+        m = options.map
+        cv = None
+        if m.select == "cv" and m.prior_scale is None:
+            if m.bias:
+                raise OptionError("bias", "choosing the prior scale by cv does not fit a bias")
+            if memory is None:
+                raise OptionError("select", "cross-validation needs the data in memory")
+            cv = fold_systems(robot, memory, m.folds, options)
+        elif m.select not in ("evidence", "cv"):
+            raise OptionError("select", f"must be 'evidence' or 'cv', got {m.select!r}")
+        fit = fit_map(
+            robot, system, prior_scale=m.prior_scale, noise=m.noise, rtol=options.rtol,
+            cv_folds=cv, kind_noise=options.noise(), r_prior=options.r_prior, prior=m.prior,
+        )  # fmt: skip
+    fit = with_residuals(fit, (c for s in sources for c in s.chunks()))
+    if method == "consistent":
+        copts = options.consistent
+        if copts.total_mass is None and options.total_mass is not None:
+            copts = dataclasses.replace(copts, total_mass=options.total_mass)
+        src, kw = copts.resolved(fit)
+        fit = with_residuals(consistent_from_fit(src, **kw), (c for s in sources for c in
+                                                              s.chunks()))  # fmt: skip
+        dof = fit.n_rows - fit.rank
+        if len(fit.kinds) == 1 and not fit.kinds[0].weighted:
+            sig = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
+            fit = dataclasses.replace(fit, sigma_hat=sig)
+    return fit
+
+
+def fold_systems(robot, memory: list[Measurements], k: int, options) -> list[System]:
+    """The systems of k folds of the poses (pooled sources split alike)."""
+    if len(memory) != 1:
+        raise OptionError("select", "cross-validation takes one data set, not pooled ones")
+    m = memory[0]
+    out = []
+    for f in split_folds(m.n, k, options.seed):
+        part = m.take(f)
+        out.append(accumulate_sources(robot, [[part]], options.rows()))
+    return out
+
+
+def with_extras(robot, method, opts: IdentifyOptions, fit: Fit, memory) -> Fit:
+    """Cross-validation and the joint-noise Monte Carlo of the fitted method."""
+    if opts.cv is None and opts.joint_noise is None:
+        return fit
+    if memory is None or len(memory) != 1:
+        raise OptionError("cv", "cross-validation and the Monte Carlo take one data set")
+    from sescid.estimation.robust import huber, joint_noise_mc
+    from sescid.estimation.validation import cross_validate
+
+    plain = dataclasses.replace(opts, robust=False, cv=None, joint_noise=None)
+
+    def fitter(data: list[Measurements]) -> Fit:
+        if opts.robust is not True:
+            return run_method(robot, method, plain, [HeldSource(robot, m) for m in data], data)
+
+        def run(d: list[Measurements], weighted: bool) -> Fit:
+            o = dataclasses.replace(plain, weighted=weighted)
+            return run_method(robot, method, o, [HeldSource(robot, m) for m in d], d)
+
+        return huber(run, data, weighted=opts.weighted, k=opts.huber_k)
+
+    changes: dict[str, Any] = {}
+    if opts.cv is not None:
+        changes["cv"] = cross_validate(fitter, memory[0], opts.cv, opts.seed)
+    if opts.joint_noise is not None:
+        changes["joint_noise"] = joint_noise_mc(
+            fitter, fit, memory[0], opts.joint_noise, draws=opts.mc_draws, seed=opts.seed
+        )
+    return dataclasses.replace(fit, **changes)
+
+
+def fit_with_gains(robot, method, opts: IdentifyOptions, memory, robust: bool) -> Fit:
+    """The fit with a gain per torque sensor (``gains.with_gains``, Gauss–Newton)."""
+    from sescid.estimation.gains import with_gains
+
+    if not any(m.tau is not None for m in memory):
+        raise OptionError("tau_gains", "torque gains need torque data (tau_<joint> columns)")
+    if robust or method == "consistent":
+        raise OptionError("tau_gains", "torque gains go with ls or map, not robust or consistent")
+    plain = dataclasses.replace(opts, robust=False, tau_gains=False)
+    start = run_method(robot, method, plain, [HeldSource(robot, m) for m in memory], memory)
+
+    def solve(system: System) -> Fit:
+        if method == "ls":
+            return fit_least_squares(
+                robot, system, rtol=opts.rtol, noise=opts.noise(), r_prior=opts.r_prior,
+                allow_exact=opts.allow_exact,
+            )  # fmt: skip
+        return fit_map(
+            robot, system, prior_scale=opts.map.prior_scale, noise=opts.map.noise,
+            rtol=opts.rtol, kind_noise=opts.noise(), r_prior=opts.r_prior, prior=opts.map.prior,
+        )  # fmt: skip
+
+    fit = with_gains(solve, robot, memory, plain, start)
+    return with_residuals(fit, memory)
+
+
+def fit_online(robot, method, opts: IdentifyOptions, memory: list[Measurements]) -> Fit:
+    """The recursive estimator over the poses in order, ``online_step`` per update."""
+    from sescid.estimation.online import OnlineEstimator
+
+    if len(memory) != 1 or memory[0].kinds != (COP,):
+        raise OptionError("online", "the recursive fit takes one CoP data set")
+    m = memory[0]
+    if m.gravity is not None:
+        raise OptionError("online", "the recursive fit does not use gravity columns")
+    prior = opts.map.prior_scale if method == "map" else None
+    noise = opts.map.noise if method == "map" else None
+    est = OnlineEstimator(
+        robot, prior_scale=prior, noise=noise, rtol=opts.rtol, r_prior=opts.r_prior
+    )
+    step = opts.online_step or 1
+    for s in range(0, m.n, step):
+        part = m.take(slice(s, s + step))
+        est.update(part.q, part.cop, part.cop_se if opts.weighted else None)
+    return with_residuals(est.fit(), [m])
+
+
+def warnings_of(fit: Fit, opts: IdentifyOptions) -> tuple[str, ...]:
+    """The fit's data-quality warnings, and one for torques scaled by the model's mass."""
+    out = list(fit.warnings)
+    out += [w for w in fit_warnings(fit) if w not in out]
+    if fit.kind(TORQUE) is not None and not fit.mass_given:
+        out.append(
+            f"torques measure M·r: the total mass was not given, so the model's "
+            f"{fit.robot.total_mass:.4g} kg sets the scale of the CoM (weigh the robot: "
+            "total_mass / --total-mass)"
+        )
+    del opts
+    return tuple(out)
