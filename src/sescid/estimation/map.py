@@ -115,13 +115,13 @@ BODY_COM_SCALE = 0.05
 def body_prior(robot: Robot, n_x: int, nuisance_scales: np.ndarray) -> Prior:
     """The per-body prior (``Prior`` "bodies"): body masses m̄_j = m_j + M/(10 N) ± τ m̄_j and
     first moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r)."""
-    from sescid.estimation.consistent import _ELL, sesc_map
+    from sescid.estimation.consistent import H_UNIT, sesc_map
 
     k = sesc_map(robot)  # vec(r) = K [m/M, vec(h)/(M ℓ)]
     masses = robot.masses
     big_m = float(masses.sum())
     m_bar = (masses + big_m / (10 * masses.size)) / big_m
-    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / _ELL) ** 2, 3)])
+    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / H_UNIT) ** 2, 3)])
     sigma0 = (k * d) @ k.T
     sigma0 = (sigma0 + sigma0.T) / 2
     lam, vecs = np.linalg.eigh(sigma0)

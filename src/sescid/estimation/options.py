@@ -11,7 +11,7 @@ import numpy as np
 
 from sescid.errors import OptionError
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
-from sescid.estimation.consistent_prior import evidence_prior_std, least_squares_view
+from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
 from sescid.estimation.fit import METHODS, Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.measurements import COP, TORQUE

@@ -27,7 +27,8 @@ import math
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.consistent import _ELL, COM_SCALE, model_coms, sesc_map
+from sescid.estimation.consistent.qp import COM_SCALE, H_UNIT, sesc_map
+from sescid.estimation.consistent.record import model_coms
 from sescid.estimation.fit import Fit
 
 #: search range of the relative CAD prior std
@@ -74,7 +75,7 @@ def evidence_prior_std(
     nb = len(m_cad)
     m_bar = np.maximum(m_cad, big_m / (10 * nb)) / big_m
     x_cad = np.concatenate([m_cad / big_m, (m_cad[:, None] * model_coms(robot)).ravel()])
-    x_cad[nb:] /= big_m * _ELL
+    x_cad[nb:] /= big_m * H_UNIT
     p = ls.rank
     vp, sv = ls.basis[:, :p], ls.singular_values[:p]
     kmat = sesc_map(robot)
@@ -82,7 +83,7 @@ def evidence_prior_std(
     b = sv[:, None] * (vp.T @ kmat)
     # prior std of x: masses τ m̄ (relative), first moments m̄ σ_c / ℓ (σ_c the CoM std, m)
     bm = b[:, :nb] * m_bar
-    bh = b[:, nb:] * np.repeat(m_bar / _ELL, 3)
+    bh = b[:, nb:] * np.repeat(m_bar / H_UNIT, 3)
     gm, gh = bm @ bm.T, bh @ bh.T
     s2 = ls.sigma_hat**2
     if not (math.isfinite(s2) and s2 > 0):
