@@ -116,7 +116,7 @@ def one_seed(seed: int, args) -> dict[str, float]:
         out["torques, least squares"] = com_error(robot, ls.r, r_true, fresh)
         ref = lstsq_reference(robot, tau, mass, friction=False)
         out["independent lstsq, same rows"] = com_error(robot, ref, r_true, fresh)
-        tmap = identify(robot, tau, method="map", **opts)
+        tmap = identify(robot, tau, method="map", map_options=MapOptions(prior="sesc"), **opts)
         out["torques, MAP"] = com_error(robot, tmap.r, r_true, fresh)
         body = identify(robot, tau, method="map", map_options=MapOptions(prior="bodies"), **opts)
         out["torques, MAP (per-body prior)"] = com_error(robot, body.r, r_true, fresh)
@@ -155,7 +155,9 @@ def one_seed(seed: int, args) -> dict[str, float]:
         gantry_poses(folder, held, seed)
         held, data, truth = bench(folder, seed, args, ["--mount", "gantry"], support=torso)
         gfit = identify(held, data.without("cop"), method="map", total_mass=truth.true_mass,
-                        robust=False)  # fmt: skip
+                        robust=False, map_options=MapOptions(prior="sesc"))  # fmt: skip
+        gbody = identify(held, data.without("cop"), method="map", total_mass=truth.true_mass,
+                         robust=False, map_options=MapOptions(prior="bodies"))  # fmt: skip
         rng = np.random.default_rng(2000 + seed)
         lim = np.clip(held.joint_limits, -np.pi / 4, np.pi / 4)
         qg = rng.uniform(lim[:, 0], lim[:, 1], (1000, held.nq))
@@ -179,6 +181,7 @@ def one_seed(seed: int, args) -> dict[str, float]:
             )
         )
         out["gantry: MAP, CoM"] = com_error(held, gfit.r, truth.r_true, qg)
+        out["gantry: MAP (per-body prior), CoM"] = com_error(held, gbody.r, truth.r_true, qg)
         out["gantry: CAD, CoM"] = com_error(held, held.sesc_vectors(), truth.r_true, qg)
     return out  # fmt: skip
 

@@ -34,7 +34,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
                 ("--bias", opts["bias"]),
                 ("--prior-scale", opts["prior_scale"] is not None),
                 ("--prior-select cv", opts["prior_select"] == "cv"),
-                ("--prior bodies", opts["prior"] == "bodies"),
+                ("--prior", opts["prior"] != "auto"),
             )
             if on
         ]
@@ -155,11 +155,12 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
 )
 @click.option(
     "--prior",
-    type=click.Choice(["sesc", "bodies"]),
+    type=click.Choice(["auto", "sesc", "bodies"]),
     default=MAP_DEFAULTS.prior,
     show_default=True,
-    help="map: the CAD prior's shape: each SESC component ±τ m, or each body's mass ±τ and "
-    "first moment ±τ·5 cm per unit mass (τ relative).",
+    help="map: the CAD prior's shape: each SESC component ±τ m (sesc), or each body's mass ±τ "
+    "and first moment ±τ·5 cm per unit mass (bodies, τ relative); auto: bodies for data with "
+    "torques, sesc for the CoP alone.",
 )
 @click.option(
     "--prior-select",

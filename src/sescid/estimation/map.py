@@ -47,6 +47,7 @@ from sescid.estimation.least_squares import (
     nuisance_estimates,
     prior_theta,
 )
+from sescid.estimation.measurements import TORQUE
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.solve import Solution, solve_system, weighted_sums
 from sescid.estimation.system import System
@@ -273,13 +274,14 @@ def fit_map(
     rtol: float = DEFAULT_RTOL,
     cv_folds: list[System] | None = None,
     kind_noise: dict[str, float] | None = None,
-    prior: str = "sesc",
+    prior: str = "auto",
 ) -> Fit:
     """MAP ``Fit`` of a pooled system (module docstring). ``prior_scale`` τ [m] and ``noise`` σ
     (the kinds' common noise scale; m for one unweighted CoP kind) are chosen by evidence when
     None; ``cv_folds``: the systems of k folds of the data, to choose σ²/τ² by cross-validation
     instead; ``kind_noise``: given noise of some kinds (the others from least squares);
-    ``prior``: "sesc" or "bodies" (``Prior``; τ is then relative)."""
+    ``prior``: "sesc", "bodies" (``Prior``; τ is then relative) or "auto" ("bodies" with
+    torque rows, else "sesc")."""
     check_scale(prior_scale, "prior scale")
     check_scale(noise, "noise")
     if system.n_poses == 0:
@@ -291,6 +293,8 @@ def fit_map(
     ne = weighted_sums(system, ratios)
     n_x = system.n_x
     scales = np.array([n.prior_scale for n in system.nuisance], dtype=float)
+    if prior == "auto":
+        prior = "bodies" if TORQUE in system.kinds else "sesc"
     if prior == "bodies":
         pri = body_prior(robot, n_x, scales)
     elif prior == "sesc":

@@ -24,15 +24,17 @@ from sescid.sesc import STANDARD_GRAVITY
 class MapOptions:
     """MAP parameters: prior scale τ and noise σ (m; None = chosen by the data), how τ is
     chosen ("evidence" or "cv" with ``folds``), whether a constant CoP offset is fitted, and the
-    prior's shape: "sesc" (each SESC component ±τ m) or "bodies" (each body's mass ±τ and first
-    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction)."""
+    prior's shape: "sesc" (each SESC component ±τ m), "bodies" (each body's mass ±τ and first
+    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction) or "auto" ("bodies"
+    for data with joint torques, whose many rows it suits — measured by tools/torque_study.py —
+    "sesc" for the CoP alone)."""
 
     prior_scale: float | None = None
     noise: float | None = None
     select: str = "evidence"
     folds: int = 5
     bias: bool = False
-    prior: str = "sesc"
+    prior: str = "auto"
 
 
 @dataclass(frozen=True)
