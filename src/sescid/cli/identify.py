@@ -62,6 +62,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         total_mass=total_mass,
         gravity_accel=opts["gravity_accel"],
         tau_gains=opts["tau_gains"],
+        kinds=None if opts["kinds"] == "all" else (opts["kinds"],),
         gain_prior=opts["gain_prior"],
         allow_exact=opts["allow_exact"],
         robust=robust,
@@ -95,6 +96,14 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     show_default=True,
     help="ls: least squares (undetermined directions from the model file); map: Gaussian CAD "
     "prior; consistent: body masses and CoMs (see --total-mass …).",
+)
+@click.option(
+    "--kinds",
+    type=click.Choice(["all", "cop", "tau"]),
+    default="all",
+    show_default=True,
+    help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
+    "torques only.",
 )
 @click.option(
     "--weighted",

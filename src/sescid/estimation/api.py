@@ -96,7 +96,7 @@ def identify(
         changes["weighted"] = True
     opts = dataclasses.replace(opts, **changes)
     opts.check(method)
-    sources = as_sources(robot, _normalise(data, cop, sigma, gravity))
+    sources = as_sources(robot, _normalise(data, cop, sigma, gravity), opts.kinds)
     try:
         robust = opts.robust
         needs_memory = (

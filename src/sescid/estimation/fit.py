@@ -107,6 +107,8 @@ class MapInfo:
     #: than half of the posterior information
     prior_decided: int = 0
     prior: str = "sesc"  #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
+    #: "bodies": the first moments' prior std per unit mass, m (τ times the prior's CoM scale)
+    prior_com_std: float | None = None
 
 
 @dataclass

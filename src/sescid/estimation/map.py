@@ -361,6 +361,7 @@ def _map_fit(
         at_lower_bound=chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0],
         prior_decided=decided,
         prior=pri.kind,
+        prior_com_std=post.prior_scale * BODY_COM_SCALE if pri.kind == "bodies" else None,
     )
     mapped = dataclasses.replace(
         ls,

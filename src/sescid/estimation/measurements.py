@@ -137,6 +137,22 @@ class Measurements:
             taken[f] = None if a is None else a[rows]
         return dataclasses.replace(self, **taken)
 
+    def only(self, kinds: tuple[str, ...] | None) -> Measurements:
+        """The same poses with only the measurement ``kinds`` kept (None: all); DataError when
+        none of them is in the data."""
+        if kinds is None:
+            return self
+        out = self
+        for k in KINDS:
+            if k not in kinds and k in out.kinds:
+                out = out.without(k)
+        if not out.kinds:
+            raise DataError(
+                f"{self.source}: no {' or '.join(kinds)} data (it has: "
+                f"{', '.join(self.kinds) or 'nothing'})"
+            )
+        return out
+
     def without(self, kind: str) -> Measurements:
         """The same poses with one kind of measurement dropped."""
         if kind == COP:

@@ -57,10 +57,20 @@ def fit_notes(fit: Fit) -> list[str]:
         )
     if fit.map is not None:
         m = fit.map
+        if m.prior == "bodies":
+            shape = (
+                f"a per-body CAD prior (masses ±{100 * m.prior_scale:.3g} %, first moments "
+                f"±{(m.prior_com_std or math.nan) * 1e3:.3g} mm per unit mass; "
+                f"{m.prior_scale_by})"
+            )
+        else:
+            shape = (
+                f"a Gaussian prior N(CAD, ({m.prior_scale * 1e3:.3g} mm)²) on each SESC "
+                f"component ({m.prior_scale_by})"
+            )
         notes.append(
-            f"MAP with a Gaussian prior N(CAD, ({m.prior_scale * 1e3:.3g} mm)²) on each SESC "
-            f"component ({m.prior_scale_by}); {len(fit.unidentifiable)} directions the data "
-            "cannot see keep the prior's value and uncertainty (included in cov)"
+            f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
+            "the prior's value and uncertainty (included in cov)"
         )
         if m.at_lower_bound:
             notes.append(

@@ -106,7 +106,8 @@ class IdentifyOptions:
     (``fit.online`` keeps the convergence history; ls, or map with prior scale and noise);
     ``r_prior`` (N, 3) [m]: SESC vectors that fill what the data do not determine and centre
     the MAP prior (None: the model's); ``tau_gains``: also a gain error per torque sensor, with
-    a prior N(0, ``gain_prior``²) (relative gains only without a weighed total mass).
+    a prior N(0, ``gain_prior``²) (only their ratios come from the data); ``kinds``: use only
+    these measurement kinds of the data ("cop", "tau"; None: all it has).
     """
 
     rtol: float = DEFAULT_RTOL
@@ -126,6 +127,7 @@ class IdentifyOptions:
     r_prior: np.ndarray | None = None
     tau_gains: bool = False
     gain_prior: float = 0.1
+    kinds: tuple[str, ...] | None = None
     map: MapOptions = field(default_factory=MapOptions)
     consistent: ConsistentOptions = field(default_factory=ConsistentOptions)
 
@@ -160,6 +162,8 @@ class IdentifyOptions:
             )
         if self.online_step is not None:
             self._check_online(method)
+        if self.kinds is not None and (not self.kinds or set(self.kinds) - {COP, TORQUE}):
+            raise OptionError("kinds", f"must name cop and/or tau, got {self.kinds!r}")
         if not (math.isfinite(self.gain_prior) and 0 < self.gain_prior <= 1):
             raise OptionError(
                 "gain_prior", f"must be a relative std in (0, 1], got {self.gain_prior}"

@@ -93,22 +93,26 @@ class StreamSource:
 Source = MemorySource | StreamSource
 
 
-def as_sources(robot: Robot, data: Any) -> list[Source]:
+def as_sources(robot: Robot, data: Any, kinds: tuple[str, ...] | None = None) -> list[Source]:
     """The sources of ``data``: a ``Measurements``; a list or tuple of them (pooled data sets);
     an iterable of ``Measurements`` chunks of one data set (read once); or a list of such
-    iterables (pooled data sets read once, e.g. files)."""
+    iterables (pooled data sets read once, e.g. files). ``kinds``: keep only these measurement
+    kinds of the data (None: all)."""
     if isinstance(data, Measurements):
-        return [MemorySource(robot, data)]
+        return [MemorySource(robot, data.only(kinds))]
     if isinstance(data, list | tuple) and data and all(isinstance(d, Measurements) for d in data):
-        return [MemorySource(robot, d) for d in data]
+        return [MemorySource(robot, d.only(kinds)) for d in data]
     if isinstance(data, list) and data and all(_stream(d) for d in data):
-        return [StreamSource(robot, d, f"source {i + 1}") for i, d in enumerate(data)]
+        return [
+            StreamSource(robot, (c.only(kinds) for c in d), f"source {i + 1}")
+            for i, d in enumerate(data)
+        ]
     if isinstance(data, np.ndarray) or not isinstance(data, Iterable):
         raise DataError(
             "identify: data must be Measurements, a list of them, or chunks of one data set "
             "(or joint angles q with cop=…)"
         )
-    return [StreamSource(robot, data)]
+    return [StreamSource(robot, (c.only(kinds) for c in data))]
 
 
 def _stream(d: Any) -> bool:
