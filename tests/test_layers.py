@@ -147,3 +147,12 @@ def test_help_needs_no_numerics():
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "[]"
+
+
+def test_the_layout_page_is_current():
+    """docs/layout.md lists every module as it is (python tools/layout_doc.py rewrites it)."""
+    res = subprocess.run(
+        [sys.executable, str(SRC.parents[1] / "tools" / "layout_doc.py"), "--check"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stdout

@@ -1,4 +1,5 @@
-"""The README's walk-through figures are those of a verbatim run (tools/readme_numbers.py)."""
+"""The walk-through's figures (docs/walkthrough.md) are those of a verbatim run
+(tools/readme_numbers.py)."""
 
 from __future__ import annotations
 
@@ -20,14 +21,14 @@ def test_readme_quotes_a_verbatim_run():
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "walkthrough.md").read_text()
     section = readme[readme.index("## On a real OP2") : readme.index("## Pose planning")]
     for line in mod.COMMANDS:
         assert line.replace(" --truth", "\n    --truth") in section or line in section, line
     figures = mod.walk_through()
     figures.pop("seconds")
     missing = {k: v for k, v in figures.items() if v not in section}
-    assert not missing, f"README quotes other figures than a run gives: {missing}"
+    assert not missing, f"docs/walkthrough.md quotes other figures than a run gives: {missing}"
 
 
 @pytest.mark.slow
@@ -40,7 +41,7 @@ def test_readme_quotes_the_physics_bench_run():
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "walkthrough.md").read_text()
     section = readme[readme.index("## On a real OP2") : readme.index("## Pose planning")]
     m = mod.walk_through("mujoco")
     quoted = [
@@ -60,5 +61,5 @@ def test_readme_quotes_the_physics_bench_run():
         "servo sag max",
     ]
     missing = {k: m[k] for k in quoted if m[k] not in section}
-    assert not missing, f"README quotes other figures than a run gives: {missing}"
+    assert not missing, f"docs/walkthrough.md quotes other figures than a run gives: {missing}"
     assert f"{m['skipped']} of the 38 poses topple" in section

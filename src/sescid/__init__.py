@@ -1,4 +1,4 @@
-"""sescid: identify a humanoid robot's mass distribution from centre-of-pressure measurements.
+"""sescid: identify a humanoid robot's mass distribution from its CoP and its joint torques.
 
 The user surface, importable as ``import sescid`` (names load on first use, so importing the
 package costs nothing until one is used):
