@@ -19,6 +19,22 @@ from sescid.errors import OptionError
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot
 
+__all__ = [
+    "MAX_STABLE_DRAWS",
+    "MEMORY_FACTOR",
+    "PAPER_MAE",
+    "PAPER_NOISE",
+    "PAPER_POSES",
+    "PAPER_RANGE_DEG",
+    "SimData",
+    "TorqueData",
+    "TorqueNoise",
+    "check_count",
+    "random_poses",
+    "simulate",
+    "simulate_torques",
+]
+
 #: the paper's §3 settings
 PAPER_POSES = 1000
 PAPER_RANGE_DEG = 30.0

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import (
     force_option,
     load,

@@ -7,9 +7,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import force_option, load, mm, robot_options, seed_option
-from sescid.estimation.fit_json import save_fit
+from sescid.estimation import save_fit
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 

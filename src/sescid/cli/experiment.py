@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
     ExperimentConfig,
@@ -225,7 +225,7 @@ def _run(robot, q, sensors, cfg, opts, ids):
         )
     try:
         if engine == "mujoco":
-            from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
+            from sescid.bench import MujocoBenchConfig, run_mujoco_experiment
 
             bench = MujocoBenchConfig(kp=kp, weld_foot=weld, double_support=cfg.double_support)
             ex = run_mujoco_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, bench)

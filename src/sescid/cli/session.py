@@ -159,7 +159,7 @@ def session(**opts):
     starts over). Progress is printed per pose; the live view (viser, the 'view' extra) serves
     http://127.0.0.1:PORT while the session runs.
     """
-    from sescid.base.progress import TerminalProgress
+    from sescid.base import TerminalProgress
     from sescid.session import Journal, check_options, run_session
 
     robot = load(opts["robot_name"], opts["support"])
@@ -183,7 +183,7 @@ def session(**opts):
         click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
     view = None
     if not opts["no_view"]:
-        from sescid.report.live import LiveView
+        from sescid.report import LiveView
 
         view = LiveView(robot, port=opts["view_port"])
         click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
@@ -202,7 +202,7 @@ def session(**opts):
 
 def _adapter(robot, opts, opt):
     """The robot adapter, the sensor layout and the journal header; the outputs checked."""
-    from sescid.base.files import check_outputs
+    from sescid.base import check_outputs
     from sescid.io import SESSION_FILES, read_session_reasons, read_table
     from sescid.sensors import load_sensors
     from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
