@@ -164,16 +164,7 @@ def session(**opts):
 
     robot = load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
-    opt = SessionOptions(
-        budget=opts["budget"],
-        samples=opts["samples"],
-        n_candidates=max(opts["n_candidates"], opts["budget"]),
-        seed=opts["seed"],
-        near=opts["near"],
-        window=opts["window"],
-        tol=opts["tol"],
-        target_std=opts["target_std"],
-    )
+    opt = session_options(opts)
     check_options(robot, opt)
     bot, sensors, header = _adapter(robot, opts, opt)
     journal = Journal.open(out_dir, header, restart=opts["force"])
@@ -198,6 +189,20 @@ def session(**opts):
         raise
     _write(res, robot, out_dir, view, opts)
     journal.finish(res.stop_reason)
+
+
+def session_options(opts: dict) -> SessionOptions:
+    """The session's typed options from the flags (at least one candidate per commanded pose)."""
+    return SessionOptions(
+        budget=opts["budget"],
+        samples=opts["samples"],
+        n_candidates=max(opts["n_candidates"], opts["budget"]),
+        seed=opts["seed"],
+        near=opts["near"],
+        window=opts["window"],
+        tol=opts["tol"],
+        target_std=opts["target_std"],
+    )
 
 
 def _adapter(robot, opts, opt):
