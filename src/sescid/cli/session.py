@@ -10,7 +10,14 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.cli.common import force_option, load, mm, robot_options, sensors_option
+from sescid.cli.common import (
+    SEED_HELP,
+    force_option,
+    load,
+    mm,
+    robot_options,
+    sensors_option,
+)
 from sescid.cli.experiment import torque_config, torque_options
 from sescid.errors import OptionError
 from sescid.session import SessionOptions
@@ -108,7 +115,8 @@ class _Both:
     type=click.IntRange(min=1),
     help="Stable, collision-free candidate poses.",
 )
-@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0))
+@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0),
+              help=SEED_HELP)  # fmt: skip
 @click.option(
     "--near",
     default=_OPT.near,
