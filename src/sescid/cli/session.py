@@ -216,47 +216,17 @@ def session_options(opts: dict) -> SessionOptions:
 def _adapter(robot, opts, opt):
     """The robot adapter, the sensor layout and the journal header; the outputs checked."""
     from sescid.base import check_outputs
-    from sescid.io import SESSION_FILES, read_session_reasons, read_table
+    from sescid.io import SESSION_FILES
     from sescid.sensors import load_sensors
-    from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
 
     adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
-    inputs = [opts["robot_name"], opts["sensors_file"]]
-    raw_file = poses_file = None
-    if adapter == "replay":
-        if replay_path is None:
-            raise OptionError("adapter", "--adapter replay needs --replay FOLDER_OR_RAW_LOG")
-        rp = Path(replay_path)
-        raw_file = rp / "raw.csv" if rp.is_dir() else rp
-        poses_file = rp / "poses.csv" if rp.is_dir() and (rp / "poses.csv").exists() else None
-        inputs += [raw_file, poses_file]
-    elif replay_path is not None:
-        raise OptionError("adapter", "--replay needs --adapter replay")
+    inputs = [opts["robot_name"], opts["sensors_file"], *_replay_files(adapter, replay_path)]
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
     outputs = [Path(out_dir) / name for name in SESSION_FILES]
     check_outputs(outputs, inputs, force=opts["force"], folders=[out_dir])
     sensors = load_sensors(opts["sensors_file"], robot.profile)
-    torques = torque_config(opts)
-    if adapter in ("mujoco", "kinematic"):
-        from sescid.bench import ExperimentConfig
-
-        cfg = ExperimentConfig(torque=torques)
-        cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
-        bot = cls(robot, sensors, cfg, seed=opt.seed)
-    elif adapter == "replay":
-        poses = read_table(poses_file) if poses_file is not None else None
-        rp = Path(replay_path)
-        reasons = read_session_reasons(rp) if rp.is_dir() else {}
-        bot = ReplayAdapter(
-            read_table(raw_file), robot.joint_names, poses, robot.profile.servo, reasons
-        )
-    elif adapter.startswith("python:"):
-        bot = load_adapter_class(adapter[len("python:") :])(robot)
-    else:
-        raise OptionError(
-            "adapter", f"'{adapter}': mujoco, kinematic, replay or python:MODULE:CLASS"
-        )
+    bot = _bot(robot, opts, sensors, opt.seed)
     header = {
         "robot": robot.source,
         "support": robot.support,
@@ -266,6 +236,47 @@ def _adapter(robot, opts, opt):
         "options": dataclasses.asdict(opt),
     }
     return bot, sensors, header
+
+
+def _replay_files(adapter: str, replay_path: str | None) -> tuple[Path | None, Path | None]:
+    """The replayed raw log and its pose list (a session folder's raw.csv and poses.csv, or
+    the raw log given); (None, None) for another adapter."""
+    if adapter != "replay":
+        if replay_path is not None:
+            raise OptionError("adapter", "--replay needs --adapter replay")
+        return None, None
+    if replay_path is None:
+        raise OptionError("adapter", "--adapter replay needs --replay FOLDER_OR_RAW_LOG")
+    rp = Path(replay_path)
+    if not rp.is_dir():
+        return rp, None
+    return rp / "raw.csv", rp / "poses.csv" if (rp / "poses.csv").exists() else None
+
+
+def _bot(robot, opts, sensors, seed: int):
+    """The robot the session commands: a bench, a recorded session, or the user's class."""
+    from sescid.io import read_session_reasons, read_table
+    from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
+
+    adapter = opts["adapter"]
+    if adapter in ("mujoco", "kinematic"):
+        from sescid.bench import ExperimentConfig
+
+        cfg = ExperimentConfig(torque=torque_config(opts))
+        cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
+        return cls(robot, sensors, cfg, seed=seed)
+    if adapter == "replay":
+        raw_file, poses_file = _replay_files(adapter, opts["replay_path"])
+        assert raw_file is not None
+        poses = read_table(poses_file) if poses_file is not None else None
+        rp = Path(opts["replay_path"])
+        reasons = read_session_reasons(rp) if rp.is_dir() else {}
+        return ReplayAdapter(
+            read_table(raw_file), robot.joint_names, poses, robot.profile.servo, reasons
+        )
+    if adapter.startswith("python:"):
+        return load_adapter_class(adapter[len("python:") :])(robot)
+    raise OptionError("adapter", f"'{adapter}': mujoco, kinematic, replay or python:MODULE:CLASS")
 
 
 def _write(res, robot, out_dir, view, opts) -> None:
