@@ -55,8 +55,12 @@ def _modules() -> list[tuple[str, Path]]:
 
 def _imports(name: str, path: Path) -> list[tuple[int, str]]:
     """(line, absolute module) of every sescid import in a file, function-level ones included."""
-    tree = ast.parse(path.read_text())
-    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    return _imports_of_tree(name, ast.parse(path.read_text()), path.name == "__init__.py")
+
+
+def _imports_of_tree(name: str, tree: ast.AST, is_init: bool) -> list[tuple[int, str]]:
+    """(line, absolute module) of every sescid import in module ``name`` parsed as ``tree``."""
+    package = name if is_init else name.rsplit(".", 1)[0]
     found = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -147,6 +151,150 @@ def test_help_needs_no_numerics():
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "[]"
+
+
+def _cli_imports() -> list[tuple[str, int, str, str]]:
+    """(cli module, line, imported-from module, name) of every sescid import in the CLI."""
+    out = []
+    for name, path in _modules():
+        if not name.startswith("sescid.cli"):
+            continue
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("sescid"):
+                for alias in node.names:
+                    out.append((name, node.lineno, node.module, alias.name))
+            elif isinstance(node, ast.Import):  # `import sescid.x`: a whole module, never public
+                for alias in node.names:
+                    if alias.name.startswith("sescid"):
+                        out.append((name, node.lineno, alias.name, "*"))
+    return out
+
+
+#: imports of CLI modules that other helpers own, to be fixed there (module, from, name)
+_PENDING = {
+    ("sescid.cli.poses", "sescid.base.files", "OutputSet"),
+    ("sescid.cli.poses", "sescid.base.progress", "TerminalProgress"),
+    ("sescid.cli.poses", "sescid.planning.ground", "ground_checks"),
+    ("sescid.cli.report", "sescid.base.files", "OutputSet"),
+    ("sescid.cli.report", "sescid.base.progress", "TerminalProgress"),
+}
+
+
+def _private_cli_imports() -> list[str]:
+    """``cli_module:line from module import name`` for each CLI import that is not public."""
+    bad = []
+    for cli_mod, line, module, name in _cli_imports():
+        if module.startswith("sescid.cli") or (cli_mod, module, name) in _PENDING:
+            continue
+        mod = importlib.import_module(module)
+        top = module.count(".") == 1  # sescid.<package or module>, never a sub-module
+        if not top or name not in getattr(mod, "__all__", ()):
+            bad.append(f"{cli_mod}:{line} from {module} import {name}")
+    return bad
+
+
+def test_the_cli_imports_only_public_names():
+    """The command line imports only names a package (or top-level module) of sescid lists in
+    __all__, and CLI modules from each other (the shell is the CLI's own)."""
+    bad = _private_cli_imports()
+    assert not bad, "\n".join(bad)
+
+
+def test_public_name_check_catches_a_sub_module_import(monkeypatch):
+    """A sub-module import, even of a name its package exports, is refused (the rule can fail)."""
+    extra = [
+        ("sescid.cli.x", 1, "sescid.estimation.fit_json", "save_fit"),
+        ("sescid.cli.x", 2, "sescid.bench.mujoco", "MujocoBenchConfig"),
+        ("sescid.cli.x", 3, "sescid.estimation", "fit_json"),
+        ("sescid.cli.x", 4, "sescid.io", "*"),
+        ("sescid.cli.x", 5, "sescid.estimation", "save_fit"),
+    ]
+    monkeypatch.setitem(globals(), "_cli_imports", lambda: extra)
+    assert [b.split(" ", 1)[0] for b in _private_cli_imports()] == [
+        "sescid.cli.x:1",
+        "sescid.cli.x:2",
+        "sescid.cli.x:3",
+        "sescid.cli.x:4",
+    ]
+
+
+def _runtime_imports(name: str, path: Path) -> set[str]:
+    """The sescid modules a file imports at run time (``if TYPE_CHECKING:`` blocks aside)."""
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            node.body = []
+    return {mod for _, mod in _imports_of_tree(name, tree, path.name == "__init__.py")}
+
+
+def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """Every cycle a depth-first walk of the import graph meets (module → imported modules)."""
+    seen: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(v: str) -> None:
+        seen[v] = 1
+        stack.append(v)
+        for w in sorted(edges.get(v, ())):
+            if seen.get(w) == 1:
+                cycles.append(stack[stack.index(w) :] + [w])
+            elif w not in seen:
+                visit(w)
+        stack.pop()
+        seen[v] = 2
+
+    for v in sorted(edges):
+        if v not in seen:
+            visit(v)
+    return cycles
+
+
+def _import_graph() -> dict[str, set[str]]:
+    """Module → the sescid modules it imports at run time (function-level imports included).
+
+    An import resolves to the longest known module (``from sescid.io import x`` → ``sescid.io``,
+    the package's ``__init__``). A package's ``__init__`` re-exporting its own modules, and a
+    module importing its own package, are not edges (re-exports are not cycles).
+    """
+    graph = {name: _runtime_imports(name, path) for name, path in _modules()}
+    known = set(graph)
+
+    def resolve(mod: str) -> str | None:
+        while mod and mod not in known:
+            mod = mod.rsplit(".", 1)[0] if "." in mod else ""
+        return mod or None
+
+    edges = {m: {r for d in deps if (r := resolve(d)) and r != m} for m, deps in graph.items()}
+    return {
+        m: {d for d in ds if not d.startswith(m + ".") and not m.startswith(d + ".")}
+        for m, ds in edges.items()
+    }
+
+
+def test_no_import_cycle():
+    """No two modules import each other, directly or through others (function-level imports
+    included, type-checking imports aside)."""
+    cycles = _cycles(_import_graph())
+    assert not cycles, cycles[:3]
+
+
+def test_cycle_check_finds_a_cycle_through_three_modules():
+    """The walk reports a → b → c → a and nothing for a chain (so the rule can fail)."""
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == [["a", "b", "c", "a"]]
+    assert _cycles({"a": {"b", "c"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_type_checking_imports_are_not_edges(tmp_path):
+    """An import under ``if TYPE_CHECKING:`` is no run-time edge; a function-level one is."""
+    src = tmp_path / "m.py"
+    src.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n    from sescid.robot import Robot\n"
+        "def f():\n    from ..sesc import cop\n"
+    )
+    assert _runtime_imports("sescid.model.m", src) == {"sescid.sesc"}
 
 
 def test_the_layout_page_is_current():

@@ -108,7 +108,9 @@ def test_demo_runs_without_numba_and_prints_the_readme_numbers(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "numba imported: False" in out.stdout
     readme = (ROOT / "README.md").read_text()
-    table = readme[readme.index("## The paper's §3 study") : readme.index("## A short walk-through")]
+    table = readme[
+        readme.index("## The paper's §3 study") : readme.index("## A short walk-through")
+    ]
     for printed, quoted in [
         ("regressor rank p = 42 of 63", "| regressor rank | 42 of 63 |"),
         ("MAE estimated vs measured CoP: 3.853 mm", "| 3.853 mm |"),

@@ -19,6 +19,8 @@ from sescid.estimation import identify as _identify
 from sescid.io.measurements import ReadReport, read_measurements
 from sescid.robot import Robot
 
+__all__ = ["identify"]
+
 
 def _is_path(x: Any) -> bool:
     return isinstance(x, str | Path)

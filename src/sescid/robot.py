@@ -19,6 +19,8 @@ from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
+__all__ = ["Robot", "load_robot"]
+
 
 class Robot:
     """A kinematic tree of rigid bodies rooted at a support frame (e.g. a sole).

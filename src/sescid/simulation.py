@@ -19,6 +19,22 @@ from sescid.errors import OptionError
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot
 
+__all__ = [
+    "MAX_STABLE_DRAWS",
+    "MEMORY_FACTOR",
+    "PAPER_MAE",
+    "PAPER_NOISE",
+    "PAPER_POSES",
+    "PAPER_RANGE_DEG",
+    "SimData",
+    "TorqueData",
+    "TorqueNoise",
+    "check_count",
+    "random_poses",
+    "simulate",
+    "simulate_torques",
+]
+
 #: the paper's §3 settings
 PAPER_POSES = 1000
 PAPER_RANGE_DEG = 30.0
@@ -143,7 +159,7 @@ def simulate(
     range_deg: float = PAPER_RANGE_DEG,
     noise: float = PAPER_NOISE,
     seed: int | None = 0,
-    clip: bool = False,
+    clip: bool | None = None,
     r_true: np.ndarray | None = None,
     stable: bool = False,
     tilt: float = 0.0,
@@ -151,6 +167,8 @@ def simulate(
 ) -> SimData:
     """Random poses and their CoP = CoM projection + N(0, noise²) per axis.
 
+    ``clip``: clip the poses to the joint limits (None: clip, unless the robot's profile carries
+    the paper's convention — the OP2's ±30° study is unclipped).
     ``r_true``: SESC vectors of the "true" robot (default: the model's own). ``stable``: keep
     only poses whose noise-free CoP lies inside the support sole (``Robot.sole``), drawing
     until there are ``n``. ``tilt`` (rad): the support is tilted per pose by a random roll and
@@ -162,6 +180,8 @@ def simulate(
         raise OptionError("noise", f"must be a finite standard deviation ≥ 0 m, got {noise}")
     if not (0 <= tilt <= math.radians(30)):
         raise OptionError("tilt", f"must be a standard deviation in [0, 30°], got {tilt} rad")
+    if clip is None:  # clip, unless the profile carries the paper's unclipped ±30° convention
+        clip = robot.profile.paper_limits_file is None
     rng = np.random.default_rng(seed)
     if not stable:
         q = random_poses(robot, n, range_deg, rng, clip)

@@ -17,6 +17,8 @@ from sescid.estimation import Fit, identify
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, SimData, simulate
 
+__all__ = ["PaperStudy", "paper_study"]
+
 
 @dataclass
 class PaperStudy:

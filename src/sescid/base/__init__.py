@@ -17,8 +17,10 @@ _EXPORTS = {
     "TerminalProgress": "progress",
     "atomic_open": "files",
     "atomic_path": "files",
+    "check_outputs": "files",
     "one_blas_thread": "threads",
     "ordered_map": "threads",
+    "pin_process": "threads",
     "read_json": "files",
     "usable_cores": "threads",
 }

@@ -34,6 +34,7 @@ __all__ = [
     "DEFAULT_EXTRA",
     "FRESH_POSES",
     "FRESH_WITHIN_DEG",
+    "MujocoBenchConfig",
     "NO_POSE_MEASURED",
     "Experiment",
     "ExperimentConfig",
@@ -57,4 +58,17 @@ __all__ = [
     "real_bodies",
     "real_robot",
     "run_experiment",
+    "run_mujoco_experiment",
 ]
+
+
+#: names of the physics bench (``mujoco``), imported on first use
+_MUJOCO = {"MujocoBenchConfig", "run_mujoco_experiment"}
+
+
+def __getattr__(name: str):
+    if name in _MUJOCO:
+        from sescid.bench import mujoco
+
+        return getattr(mujoco, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -68,7 +68,7 @@ def cli() -> None:
 
 def main() -> None:
     """Entry point of the ``sescid`` script (one BLAS thread: see ``sescid.base.threads``)."""
-    from sescid.base.threads import pin_process
+    from sescid.base import pin_process
 
     pin_process()
     cli(prog_name="sescid")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import (
     force_option,
     load,
@@ -32,6 +32,36 @@ from sescid.sensors import (
 )
 
 _CAL = CalibrationOptions()
+
+
+def calibration_options(opts: dict) -> CalibrationOptions:
+    """The calibration's typed options from the flags."""
+    return CalibrationOptions(
+        total_mass=opts["total_mass"],
+        prior_scale=opts["prior_scale"],
+        gain_prior=opts["gain_prior"],
+        offset_prior=opts["offset_prior"],
+    )
+
+
+def session_options(raw: tuple[str, ...], opts: dict) -> dict[str, PadSessionOptions]:
+    """Each session's options (its name is its file's stem) from the SESSION=VALUE flags."""
+    names = [Path(p).stem for p in raw]
+    if len(set(names)) != len(names):
+        raise OptionError("RAW", f"session files must have different names, got {names}")
+    sets = _pairs(opts["sensor_sets"], "--sensor-set")
+    nf = _positive(_pairs(opts["noise_force"], "--noise-force"), "--noise-force", "N")
+    nc = _positive(_pairs(opts["noise_cop"], "--noise-cop"), "--noise-cop", "m")
+    for what, d in (("--sensor-set", sets), ("--noise-force", nf), ("--noise-cop", nc)):
+        unknown = [k for k in d if k not in names]
+        if unknown:
+            raise OptionError(what, f"no session '{unknown[0]}' (sessions: {', '.join(names)})")
+    return {
+        name: PadSessionOptions(
+            sets.get(name, "default"), opts["min_samples"], nf.get(name), nc.get(name)
+        )
+        for name in names
+    }
 
 
 def _pairs(values: tuple[str, ...], what: str) -> dict[str, str]:
@@ -126,44 +156,23 @@ def calibrate(**opts):
     raw, out, fit_out = opts["raw"], opts["out"], opts["fit_out"]
     outs = OutputSet([out, fit_out], [*raw, opts["sensors_file"]], force=opts["force"])
     robot = load(opts["robot_name"], opts["support"])
-    options = CalibrationOptions(
-        total_mass=opts["total_mass"],
-        prior_scale=opts["prior_scale"],
-        gain_prior=opts["gain_prior"],
-        offset_prior=opts["offset_prior"],
-    )
+    options = calibration_options(opts)
     options.check()
     if options.total_mass is not None:
         check_total_mass(robot, options.total_mass, "--total-mass")
     config = load_sensors(opts["sensors_file"], robot.profile)
     source = opts["sensors_file"] or default_sensors_path(robot.profile)
-    names = [Path(p).stem for p in raw]
-    if len(set(names)) != len(names):
-        raise OptionError("RAW", f"session files must have different names, got {names}")
-    sets = _pairs(opts["sensor_sets"], "--sensor-set")
-    nf = _positive(_pairs(opts["noise_force"], "--noise-force"), "--noise-force", "N")
-    nc = _positive(_pairs(opts["noise_cop"], "--noise-cop"), "--noise-cop", "m")
-    for what, d in (("--sensor-set", sets), ("--noise-force", nf), ("--noise-cop", nc)):
-        unknown = [k for k in d if k not in names]
-        if unknown:
-            raise OptionError(what, f"no session '{unknown[0]}' (sessions: {', '.join(names)})")
+    per_session = session_options(raw, opts)
     sessions = [
-        pad_session(
-            robot,
-            read_table(path),
-            config,
-            name,
-            PadSessionOptions(
-                sets.get(name, "default"), opts["min_samples"], nf.get(name), nc.get(name)
-            ),
-        )
-        for path, name in zip(raw, names, strict=True)
+        pad_session(robot, read_table(path), config, name, o)
+        for path, (name, o) in zip(raw, per_session.items(), strict=True)
     ]
     cal = calibrate_sensors(robot, sessions, options)
     click.echo(cal.summary())
     click.echo(f"mass model: CoP residual RMS {mm(cal.fit.rms)}, rank {cal.fit.rank}")
-    session = opts["offsets_from"] or names[-1]
-    doc = calibrated_sensor_document(source, cal, session, sets.get(session, "default"))
+    session = opts["offsets_from"] or list(per_session)[-1]
+    sensor_set = per_session[session].sensors if session in per_session else "default"
+    doc = calibrated_sensor_document(source, cal, session, sensor_set)
     with outs:
         with open(outs.path(out), "w") as fh:
             json.dump(doc, fh, indent=1)

@@ -73,9 +73,15 @@ def robot_options(f: Any) -> Any:
     return f
 
 
+#: help of every --seed
+SEED_HELP = "Random seed: the same seed gives the same numbers."
+
+
 def seed_option(f: Any) -> Any:
     """--seed: a non-negative integer."""
-    return click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))(f)
+    return click.option(
+        "--seed", default=0, show_default=True, type=click.IntRange(min=0), help=SEED_HELP
+    )(f)
 
 
 def imu_link_option(f: Any) -> Any:

@@ -7,18 +7,31 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import force_option, load, mm, robot_options, seed_option
-from sescid.estimation.fit_json import save_fit
+from sescid.estimation import save_fit
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 
 @click.command()
 @robot_options
-@click.option("--out-dir", default="demo_out", show_default=True, type=click.Path(file_okay=False))
-@click.option("--poses", default=PAPER_POSES, show_default=True)
-@click.option("--range-deg", default=PAPER_RANGE_DEG, show_default=True, help="[degrees]")
-@click.option("--noise", default=PAPER_NOISE, show_default=True, help="[m]")
+@click.option(
+    "--out-dir",
+    default="demo_out",
+    show_default=True,
+    type=click.Path(file_okay=False),
+    help="Folder for fit.json, the two figures and summary.csv.",
+)
+@click.option("--poses", default=PAPER_POSES, show_default=True, help="Number of poses.")
+@click.option(
+    "--range-deg",
+    default=PAPER_RANGE_DEG,
+    show_default=True,
+    help="Joints uniform in ±range [degrees].",
+)
+@click.option(
+    "--noise", default=PAPER_NOISE, show_default=True, help="CoP noise standard deviation [m]."
+)
 @seed_option
 @force_option
 def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):

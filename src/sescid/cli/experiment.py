@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
     ExperimentConfig,
@@ -190,12 +190,34 @@ def experiment(**opts):
         force=opts["force"],
     )  # fmt: skip
     robot = load(opts["robot_name"], opts["support"])
-    torques = torque_config(opts)
-    sensors = bench_sensors(opts["sensors_file"], robot.profile, torques)
+    cfg = experiment_config(opts)
+    bench = mujoco_bench(opts, cfg)
+    sensors = bench_sensors(opts["sensors_file"], robot.profile, cfg.torque)
     table = read_table(opts["poses_file"])
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     check_limits(robot, q, str(opts["poses_file"]))
-    cfg = ExperimentConfig(
+    ids, samples, seed = pose_list_ids(table), opts["samples"], opts["seed"]
+    try:
+        if bench is not None:
+            from sescid.bench import run_mujoco_experiment
+
+            ex = run_mujoco_experiment(robot, q, sensors, samples, seed, cfg, bench).relabel(ids)
+        else:
+            ex = run_experiment(robot, q, sensors, samples, seed, cfg, pose_ids=ids)
+    except DataError as exc:
+        if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
+            raise DataError(f"{opts['poses_file']}: {exc}") from None
+        raise
+    with outs:
+        write_table(outs.path(out), ex.columns)
+        if truth:
+            ex.truth.save(outs.path(truth))
+    _report(ex, len(q), opts)
+
+
+def experiment_config(opts: dict) -> ExperimentConfig:
+    """The real robot and its sensors' errors from the flags."""
+    return ExperimentConfig(
         extra_mass_fraction=opts["extra_mass"],
         backlash_deg=opts["backlash_deg"],
         fsr_noise=opts["fsr_noise"],
@@ -204,37 +226,26 @@ def experiment(**opts):
         double_support=opts["double_support"],
         registers=opts["registers"],
         tilt_deg=opts["tilt_deg"],
-        torque=torques,
+        torque=torque_config(opts),
         mount=opts["mount"],
     )
-    ex = _run(robot, q, sensors, cfg, opts, pose_list_ids(table))
-    with outs:
-        write_table(outs.path(out), ex.columns)
-        if truth:
-            ex.truth.save(outs.path(truth))
-    _report(ex, len(q), opts)
 
 
-def _run(robot, q, sensors, cfg, opts, ids):
+def mujoco_bench(opts: dict, cfg: ExperimentConfig):
+    """The physics bench's settings for ``--engine mujoco``, None for the kinematic bench;
+    OptionError for a flag of the other engine."""
     engine, weld, kp = opts["engine"], opts["weld_foot"], opts["kp"]
-    if engine == "kinematic" and (weld or kp is not None):
-        raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
-    if engine == "mujoco" and opts["tilt_deg"] > 0:
+    if engine == "kinematic":
+        if weld or kp is not None:
+            raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
+        return None
+    if opts["tilt_deg"] > 0:
         raise OptionError(
             "tilt_deg", "--tilt-deg is for --engine kinematic (the MuJoCo foot tilts by itself)"
         )
-    try:
-        if engine == "mujoco":
-            from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
+    from sescid.bench import MujocoBenchConfig
 
-            bench = MujocoBenchConfig(kp=kp, weld_foot=weld, double_support=cfg.double_support)
-            ex = run_mujoco_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, bench)
-            return ex.relabel(ids)
-        return run_experiment(robot, q, sensors, opts["samples"], opts["seed"], cfg, pose_ids=ids)
-    except DataError as exc:
-        if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
-            raise DataError(f"{opts['poses_file']}: {exc}") from None
-        raise
+    return MujocoBenchConfig(kp=kp, weld_foot=weld, double_support=cfg.double_support)
 
 
 def _report(ex, n: int, opts) -> None:

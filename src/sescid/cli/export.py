@@ -56,7 +56,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
-    from sescid.estimation.cad_check import cad_violations
+    from sescid.estimation import cad_violations
 
     assert fit.inertials is not None
     for line in cad_violations(fit.inertials, fit.robot.body_names):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import (
     force_option,
     imu_link_option,

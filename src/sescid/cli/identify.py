@@ -12,14 +12,12 @@ import math
 import click
 
 from sescid.api import identify as run_identify
-from sescid.base.files import OutputSet
-from sescid.base.progress import TerminalProgress
+from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import force_option, imu_link_option, load, mm, robot_options, seed_option
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
-from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions
-from sescid.estimation.fit_json import save_fit
-from sescid.io.measurements import rows_estimate
+from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions, save_fit
+from sescid.io import rows_estimate
 
 DEFAULTS = IdentifyOptions()
 MAP_DEFAULTS = MapOptions()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import force_option, imu_link_option
 from sescid.estimation import (
     com_interval,
@@ -39,7 +39,7 @@ def predict(fit_file, poses, out, level, imu_link, force):
     uncertainty through g_xy/g_z.
     """
     from sescid.estimation import cop_interval
-    from sescid.sensors.imu import table_gravity
+    from sescid.sensors import table_gravity
 
     outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)

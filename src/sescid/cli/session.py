@@ -10,7 +10,14 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.cli.common import force_option, load, mm, robot_options, sensors_option
+from sescid.cli.common import (
+    SEED_HELP,
+    force_option,
+    load,
+    mm,
+    robot_options,
+    sensors_option,
+)
 from sescid.cli.experiment import torque_config, torque_options
 from sescid.errors import OptionError
 from sescid.session import SessionOptions
@@ -108,7 +115,8 @@ class _Both:
     type=click.IntRange(min=1),
     help="Stable, collision-free candidate poses.",
 )
-@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0))
+@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0),
+              help=SEED_HELP)  # fmt: skip
 @click.option(
     "--near",
     default=_OPT.near,
@@ -159,21 +167,12 @@ def session(**opts):
     starts over). Progress is printed per pose; the live view (viser, the 'view' extra) serves
     http://127.0.0.1:PORT while the session runs.
     """
-    from sescid.base.progress import TerminalProgress
+    from sescid.base import TerminalProgress
     from sescid.session import Journal, check_options, run_session
 
     robot = load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
-    opt = SessionOptions(
-        budget=opts["budget"],
-        samples=opts["samples"],
-        n_candidates=max(opts["n_candidates"], opts["budget"]),
-        seed=opts["seed"],
-        near=opts["near"],
-        window=opts["window"],
-        tol=opts["tol"],
-        target_std=opts["target_std"],
-    )
+    opt = session_options(opts)
     check_options(robot, opt)
     bot, sensors, header = _adapter(robot, opts, opt)
     journal = Journal.open(out_dir, header, restart=opts["force"])
@@ -183,7 +182,7 @@ def session(**opts):
         click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
     view = None
     if not opts["no_view"]:
-        from sescid.report.live import LiveView
+        from sescid.report import LiveView
 
         view = LiveView(robot, port=opts["view_port"])
         click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
@@ -200,50 +199,34 @@ def session(**opts):
     journal.finish(res.stop_reason)
 
 
+def session_options(opts: dict) -> SessionOptions:
+    """The session's typed options from the flags (at least one candidate per commanded pose)."""
+    return SessionOptions(
+        budget=opts["budget"],
+        samples=opts["samples"],
+        n_candidates=max(opts["n_candidates"], opts["budget"]),
+        seed=opts["seed"],
+        near=opts["near"],
+        window=opts["window"],
+        tol=opts["tol"],
+        target_std=opts["target_std"],
+    )
+
+
 def _adapter(robot, opts, opt):
     """The robot adapter, the sensor layout and the journal header; the outputs checked."""
-    from sescid.base.files import check_outputs
-    from sescid.io import SESSION_FILES, read_session_reasons, read_table
+    from sescid.base import check_outputs
+    from sescid.io import SESSION_FILES
     from sescid.sensors import load_sensors
-    from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
 
     adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
-    inputs = [opts["robot_name"], opts["sensors_file"]]
-    raw_file = poses_file = None
-    if adapter == "replay":
-        if replay_path is None:
-            raise OptionError("adapter", "--adapter replay needs --replay FOLDER_OR_RAW_LOG")
-        rp = Path(replay_path)
-        raw_file = rp / "raw.csv" if rp.is_dir() else rp
-        poses_file = rp / "poses.csv" if rp.is_dir() and (rp / "poses.csv").exists() else None
-        inputs += [raw_file, poses_file]
-    elif replay_path is not None:
-        raise OptionError("adapter", "--replay needs --adapter replay")
+    inputs = [opts["robot_name"], opts["sensors_file"], *_replay_files(adapter, replay_path)]
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
     outputs = [Path(out_dir) / name for name in SESSION_FILES]
     check_outputs(outputs, inputs, force=opts["force"], folders=[out_dir])
     sensors = load_sensors(opts["sensors_file"], robot.profile)
-    torques = torque_config(opts)
-    if adapter in ("mujoco", "kinematic"):
-        from sescid.bench import ExperimentConfig
-
-        cfg = ExperimentConfig(torque=torques)
-        cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
-        bot = cls(robot, sensors, cfg, seed=opt.seed)
-    elif adapter == "replay":
-        poses = read_table(poses_file) if poses_file is not None else None
-        rp = Path(replay_path)
-        reasons = read_session_reasons(rp) if rp.is_dir() else {}
-        bot = ReplayAdapter(
-            read_table(raw_file), robot.joint_names, poses, robot.profile.servo, reasons
-        )
-    elif adapter.startswith("python:"):
-        bot = load_adapter_class(adapter[len("python:") :])(robot)
-    else:
-        raise OptionError(
-            "adapter", f"'{adapter}': mujoco, kinematic, replay or python:MODULE:CLASS"
-        )
+    bot = _bot(robot, opts, sensors, opt.seed)
     header = {
         "robot": robot.source,
         "support": robot.support,
@@ -253,6 +236,47 @@ def _adapter(robot, opts, opt):
         "options": dataclasses.asdict(opt),
     }
     return bot, sensors, header
+
+
+def _replay_files(adapter: str, replay_path: str | None) -> tuple[Path | None, Path | None]:
+    """The replayed raw log and its pose list (a session folder's raw.csv and poses.csv, or
+    the raw log given); (None, None) for another adapter."""
+    if adapter != "replay":
+        if replay_path is not None:
+            raise OptionError("adapter", "--replay needs --adapter replay")
+        return None, None
+    if replay_path is None:
+        raise OptionError("adapter", "--adapter replay needs --replay FOLDER_OR_RAW_LOG")
+    rp = Path(replay_path)
+    if not rp.is_dir():
+        return rp, None
+    return rp / "raw.csv", rp / "poses.csv" if (rp / "poses.csv").exists() else None
+
+
+def _bot(robot, opts, sensors, seed: int):
+    """The robot the session commands: a bench, a recorded session, or the user's class."""
+    from sescid.io import read_session_reasons, read_table
+    from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
+
+    adapter = opts["adapter"]
+    if adapter in ("mujoco", "kinematic"):
+        from sescid.bench import ExperimentConfig
+
+        cfg = ExperimentConfig(torque=torque_config(opts))
+        cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
+        return cls(robot, sensors, cfg, seed=seed)
+    if adapter == "replay":
+        raw_file, poses_file = _replay_files(adapter, opts["replay_path"])
+        assert raw_file is not None
+        poses = read_table(poses_file) if poses_file is not None else None
+        rp = Path(opts["replay_path"])
+        reasons = read_session_reasons(rp) if rp.is_dir() else {}
+        return ReplayAdapter(
+            read_table(raw_file), robot.joint_names, poses, robot.profile.servo, reasons
+        )
+    if adapter.startswith("python:"):
+        return load_adapter_class(adapter[len("python:") :])(robot)
+    raise OptionError("adapter", f"'{adapter}': mujoco, kinematic, replay or python:MODULE:CLASS")
 
 
 def _write(res, robot, out_dir, view, opts) -> None:

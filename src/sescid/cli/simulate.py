@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base.files import OutputSet
+from sescid.base import OutputSet
 from sescid.cli.common import force_option, load, robot_options, seed_option
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
@@ -85,28 +85,12 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
 
     outs = OutputSet([out], [robot_name], force=force)
     robot = load(robot_name, support)
-    if clip is None:
-        clip = robot.profile.paper_limits_file is None
     measure = kinds["measure"]
-    torque = None
-    if measure != "cop":
-        torque = TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
     sim = run_simulate(
         robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
-        torques=torque,
+        torques=torque_noise(kinds),
     )  # fmt: skip
-    cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
-    if measure != "tau":
-        cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
-        cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
-    if sim.torques is not None:
-        t = sim.torques
-        cols |= {f"tau_{j}": t.tau[:, k] for k, j in enumerate(t.joints)}
-        cols |= {f"true_tau_{j}": t.tau_true[:, k] for k, j in enumerate(t.joints)}
-        if t.approach is not None:
-            cols["approach"] = t.approach
-    if sim.gravity is not None:
-        cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
+    cols = _columns(robot.joint_names, sim, measure)
     with outs:
         write_table(outs.path(out), cols)
     what = {
@@ -115,6 +99,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         "both": f"CoP noise {noise} m, torque noise {kinds['tau_noise']} N·m",
     }[measure]
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, {what}")
+    if clip is None:
+        clip = robot.profile.paper_limits_file is None  # as simulate() resolved it
     if clip:
         click.echo(f"  clipped to the joint limits: {sim.n_clipped} of {poses} poses")
     else:
@@ -126,3 +112,27 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
             f"  --stable: {sim.n_drawn - poses} of {sim.n_drawn} draws rejected "
             f"(CoP outside the sole {robot.sole.size[0]:.3f} x {robot.sole.size[1]:.3f} m)"
         )
+
+
+def torque_noise(kinds: dict) -> TorqueNoise | None:
+    """The torque sensors' errors from the flags (None when only the CoP is measured)."""
+    if kinds["measure"] == "cop":
+        return None
+    return TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
+
+
+def _columns(joint_names: list[str], sim, measure: str) -> dict[str, np.ndarray]:
+    """The written table: joints (rad), what is measured (noisy and true), gravity."""
+    cols = {name: sim.q[:, j] for j, name in enumerate(joint_names)}
+    if measure != "tau":
+        cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
+        cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
+    if sim.torques is not None:
+        t = sim.torques
+        cols |= {f"tau_{j}": t.tau[:, k] for k, j in enumerate(t.joints)}
+        cols |= {f"true_tau_{j}": t.tau_true[:, k] for k, j in enumerate(t.joints)}
+        if t.approach is not None:
+            cols["approach"] = t.approach
+    if sim.gravity is not None:
+        cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
+    return cols

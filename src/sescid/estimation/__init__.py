@@ -13,6 +13,7 @@ vectors, sensor offsets, their uncertainty, and physical masses.
 from __future__ import annotations
 
 from sescid.estimation.api import identify, to_consistent
+from sescid.estimation.cad_check import cad_violations
 from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
 from sescid.estimation.consistent import body_boxes, fit_inertials
 from sescid.estimation.fit import (
@@ -72,6 +73,7 @@ __all__ = [
     "RobustInfo",
     "accumulate",
     "body_boxes",
+    "cad_violations",
     "check_total_mass",
     "com_interval",
     "cop_interval",

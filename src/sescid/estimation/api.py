@@ -21,7 +21,7 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import DataError, OptionError
 from sescid.estimation.consistent import consistent_from_fit
 from sescid.estimation.fit import Fit
-from sescid.estimation.measurements import Measurements
+from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.options import ConsistentOptions, IdentifyOptions
 from sescid.estimation.runs import (
     HeldSource,
@@ -33,6 +33,24 @@ from sescid.estimation.runs import (
 )
 from sescid.estimation.sources import as_sources, in_memory
 from sescid.robot import Robot
+
+
+def _unsided(fit: Fit) -> bool:
+    """A fit of joint torques without approach sides (no friction columns): their static
+    friction acts as bounded errors, for the robust loss of ``robust="auto"``."""
+    has_tau = fit.kind(TORQUE) is not None
+    return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
+
+
+def _huber(robot, method, opts, memory: list[Measurements]) -> Fit:
+    """Huber IRLS around ``method`` on data in memory."""
+    from sescid.estimation.robust import huber
+
+    def run(data: list[Measurements], weighted: bool) -> Fit:
+        o = dataclasses.replace(opts, robust=False, weighted=weighted)
+        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data)
+
+    return huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
 
 
 def _normalise(data, cop, sigma, gravity) -> Any:
@@ -100,7 +118,7 @@ def identify(
     try:
         robust = opts.robust
         needs_memory = (
-            robust is not False
+            robust is True
             or (method == "map" and opts.map.select == "cv")
             or opts.cv is not None
             or opts.joint_noise is not None
@@ -108,26 +126,22 @@ def identify(
             or opts.tau_gains
         )
         memory = in_memory(robot, sources) if needs_memory else None
-        if robust == "auto":
-            robust = any(m.tau is not None and m.approach is None for m in memory or [])
+        if robust == "auto" and memory is not None:
+            robust = any(m.tau is not None and m.approach is None for m in memory)
         if opts.online_step is not None:
             assert memory is not None
             fit = fit_online(robot, method, opts, memory)
         elif opts.tau_gains:
             assert memory is not None
-            fit = fit_with_gains(robot, method, opts, memory, bool(robust))
-        elif robust:
-            from sescid.estimation.robust import huber
-
+            fit = fit_with_gains(robot, method, opts, memory, opts.robust is True)
+        elif robust is True:
             assert memory is not None
-
-            def run(data: list[Measurements], weighted: bool) -> Fit:
-                o = dataclasses.replace(opts, robust=False, weighted=weighted)
-                return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data)
-
-            fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+            fit = _huber(robot, method, opts, memory)
         else:
             fit = run_method(robot, method, opts, sources, memory, progress)
+            if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
+                memory = in_memory(robot, sources)
+                fit = _huber(robot, method, opts, memory)
         fit = with_extras(robot, method, opts, fit, memory)
     finally:
         for s in sources:

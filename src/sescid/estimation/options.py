@@ -117,7 +117,7 @@ class IdentifyOptions:
     total_mass: float | None = None
     gravity_accel: float = STANDARD_GRAVITY
     allow_exact: bool = False
-    robust: bool | str = False
+    robust: bool | str = "auto"
     huber_k: float = HUBER_K
     seed: int = 0
     cv: int | None = None

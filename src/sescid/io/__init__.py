@@ -23,6 +23,7 @@ from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
+from sescid.io.measurements import rows_estimate
 from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
 from sescid.io.tables import iter_table, read_table, write_table
 
@@ -55,6 +56,7 @@ __all__ = [
     "read_json",
     "read_poses",
     "read_session_reasons",
+    "rows_estimate",
     "read_table",
     "iter_table",
     "save_fit",

@@ -28,6 +28,7 @@ from sescid.planning.doptimal import (
     random_cop_error,
     select_d_optimal,
 )
+from sescid.planning.ground import GroundChecks, ground_checks
 from sescid.planning.limits import (
     PaperConvention,
     load_paper_convention,
@@ -51,6 +52,7 @@ __all__ = [
     "FALLBACK_COP_BOX",
     "Candidates",
     "Capsules",
+    "GroundChecks",
     "PaperConvention",
     "PosePlan",
     "Selection",
@@ -63,6 +65,7 @@ __all__ = [
     "design_curve",
     "expected_cop_error",
     "first_contact",
+    "ground_checks",
     "free_sole",
     "ground_clear_mask",
     "identifiable_basis",

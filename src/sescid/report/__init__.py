@@ -21,6 +21,7 @@ from sescid.report.parallel import can_fork, run_figures
 from sescid.report.view3d import scene_data, view3d_html
 
 __all__ = [
+    "LiveView",
     "body_labels",
     "can_fork",
     "cop_offset_stats",
@@ -36,3 +37,11 @@ __all__ = [
     "view3d_html",
     "write_report",
 ]
+
+
+def __getattr__(name: str):
+    if name == "LiveView":  # the live view (viser, the ``view`` extra): imported on first use
+        from sescid.report.live import LiveView
+
+        return LiveView
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
