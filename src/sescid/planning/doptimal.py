@@ -19,7 +19,13 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import SescidError
 from sescid.estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
 from sescid.kinematics import CHAIN_BLOCK, Workspace, as_poses, reduced_columns
-from sescid.planning.doptimal_kernels import project_columns, rank2, sandwich
+from sescid.planning.doptimal_kernels import (
+    TIE_LOGDET,
+    first_best,
+    project_columns,
+    rank2,
+    sandwich,
+)
 from sescid.robot import Robot
 
 
@@ -101,10 +107,10 @@ class _Design:
         self.chosen = np.zeros(len(a), dtype=bool)
 
     def best(self) -> int:
-        """The unchosen candidate of largest log det(I + S_i)."""
+        """The unchosen candidate of largest log det(I + S_i) (near-ties: the lowest index)."""
         gain = _logdet2(self.s)
         gain[self.chosen] = -np.inf
-        return int(np.nanargmax(gain))
+        return first_best(gain)
 
     def add(self, i: int) -> int:
         """Add candidate i; returns the unchosen candidate of largest gain afterwards (−1: none)."""
@@ -115,7 +121,7 @@ class _Design:
         self.minv = self.minv - u @ g_inv @ u.T
         return best
 
-    def try_exchange(self, i_out: int, tol: float = 1e-10) -> int | None:
+    def try_exchange(self, i_out: int, tol: float = TIE_LOGDET) -> int | None:
         """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None."""
         h_inv, det_h = _inv2(self.s[i_out], -1.0)
         if not det_h > 0:
@@ -180,7 +186,7 @@ def select_d_optimal(
         s_all = sandwich(a, minv)
         score = np.nan_to_num(_logdet2(s_all), nan=-np.inf)
         score[order] = -np.inf
-        top = np.argpartition(-score, n_short - 1)[:n_short] if n_short > 0 else np.zeros(0, int)
+        top = np.lexsort((np.arange(n), -score))[:n_short]  # ties: the lower index
         idx = np.concatenate([np.asarray(order), top])
         sub = _Design(a[idx], minv, s_all[idx])
         sub.chosen[:k] = True

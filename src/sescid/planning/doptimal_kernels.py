@@ -1,30 +1,39 @@
 """Compiled kernels of the D-optimal search (``doptimal``): one pass over the candidates per
 greedy step or exchange trial, single-threaded (no BLAS threads spinning on a busy machine).
 
-Each candidate's S_j = A_j M⁻¹ A_jᵀ (2 × 2, symmetric) is stored as (s00, s01, s11). They live in
-one module because a lazily compiled kernel calls other kernels through its own module's globals
-(``kinematics.lazy_njit``).
+Each candidate's S_j = A_j M⁻¹ A_jᵀ (2 × 2, symmetric) is stored as (s00, s01, s11). No
+``fastmath``: every sum runs in the written order, so the bits do not depend on the CPU (no
+fused multiply-add, no reassociation); the argmax breaks near-ties deterministically
+(``TIE_LOGDET``). They live in one module because a lazily compiled kernel calls other
+kernels through its own module's globals (``kinematics.lazy_njit``).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from sescid.kinematics import lazy_njit
 
+#: log det rises within this of the best are ties, won by the lowest candidate index: a choice
+#: that rounding at the last bit cannot flip (the first greedy step is an exact tie on any robot:
+#: every pose's x/y regressor rows have the same Gram matrix, Φ Φᵀ = N I)
+TIE_LOGDET = 1e-9
 
-@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
-def _rank2(a, ut, g, sign, s_in, s_out, chosen):  # pragma: no cover - compiled
+
+@lazy_njit(cache=True, nogil=True)
+def _rank2(a, ut, g, sign, s_in, s_out, chosen, tie):  # pragma: no cover - compiled
     """s_out[j] = s_in[j] + sign · W_j g W_jᵀ with W_j = A_j U (2 × 2), for every candidate j.
 
     ``a`` (n, 2, p), ``ut`` = Uᵀ (2, p), ``g`` (2, 2) symmetric, ``s_in``/``s_out`` (n, 3) (may be
-    the same array). Returns the unchosen j of largest det(I + s_out[j]) > 0, or −1.
+    the same array). Returns the lowest unchosen j whose det(I + s_out[j]) > 0 is within the
+    factor exp(−``tie``) of the largest, or −1.
     """
     n, _, p = a.shape
     g00 = g[0, 0]
     g01 = g[0, 1]
     g11 = g[1, 1]
-    best = -1
     best_det = 0.0
     for j in range(n):
         w00 = 0.0
@@ -52,14 +61,26 @@ def _rank2(a, ut, g, sign, s_in, s_out, chosen):  # pragma: no cover - compiled
             det = (1.0 + s00) * (1.0 + s11) - s01 * s01
             if det > best_det:
                 best_det = det
-                best = j
-    return best
+    return _first_within(s_out, chosen, best_det * math.exp(-tie))
 
 
-@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+@lazy_njit(cache=True, nogil=True)
+def _first_within(s, chosen, floor):  # pragma: no cover - compiled
+    """The lowest unchosen j with det(I + S_j) ≥ ``floor`` > 0, or −1."""
+    if not floor > 0.0:
+        return -1
+    for j in range(s.shape[0]):
+        if not chosen[j]:
+            det = (1.0 + s[j, 0]) * (1.0 + s[j, 2]) - s[j, 1] * s[j, 1]
+            if det >= floor:
+                return j
+    return -1
+
+
+@lazy_njit(cache=True, nogil=True)
 def _sandwich(a, kt, s):  # pragma: no cover - compiled
     """s[j] = (s00, s01, s11) of A_j M⁻¹ A_jᵀ = |K A_jᵀ|² with M⁻¹ = KᵀK, ``kt`` = Kᵀ (p, p)
-    lower triangular: y = K a accumulated column by column (contiguous, vectorised)."""
+    lower triangular: y = K a accumulated column by column."""
     n, _, p = a.shape
     y0 = np.empty(p)
     y1 = np.empty(p)
@@ -151,5 +172,17 @@ def rank2(
     s_out: np.ndarray,
     chosen: np.ndarray,
 ) -> int:
-    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ into ``s_out``; the best unchosen j."""
-    return int(_rank2(a, np.ascontiguousarray(u.T), g, float(sign), s_in, s_out, chosen))
+    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ into ``s_out``; the best unchosen j
+    (near-ties: the lowest index, ``TIE_LOGDET``)."""
+    ut = np.ascontiguousarray(u.T)
+    return int(_rank2(a, ut, g, float(sign), s_in, s_out, chosen, TIE_LOGDET))
+
+
+def first_best(gain: np.ndarray) -> int:
+    """Index of the largest finite ``gain`` (log det rises), near-ties (``TIE_LOGDET``) won by
+    the lowest index; −1 when none is finite."""
+    ok = np.isfinite(gain)
+    if not ok.any():
+        return -1
+    best = float(gain[ok].max())
+    return int(np.flatnonzero(ok & (gain >= best - TIE_LOGDET))[0])

@@ -12,6 +12,7 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import min_poses, structural_rank
 from sescid.planning.candidates import Candidates, candidates
+from sescid.planning.com import level_cop
 from sescid.planning.doptimal import (
     Selection,
     expected_cop_error,
@@ -33,7 +34,7 @@ class PosePlan:
     """K chosen poses in visiting order, with what the choice is expected to achieve."""
 
     q: np.ndarray  #: (K, nq) rad, ordered
-    cop: np.ndarray  #: (K, 2) model CoP, m
+    cop: np.ndarray  #: (K, 2) model CoP on a level floor, m (CPU-independent bits)
     method: str  #: "d-optimal" or "random"
     expected_error: float  #: m, expected noise-free CoP error of least squares on these poses
     random_error: float  #: m, the same for K random candidates (median over draws)
@@ -105,7 +106,7 @@ def plan_poses(
     rand = random_cop_error(a_pool, count, c_test, sigma, random_draws, rng)
     return PosePlan(
         q=q_sel[perm],
-        cop=cand.cop[:n_candidates][sel.index][perm],
+        cop=level_cop(robot, q_sel[perm]),
         method=select,
         expected_error=expected_cop_error(a_pool[sel.index], c_test, sigma),
         random_error=float(np.median(rand)),
