@@ -7,7 +7,8 @@ arms. Every limb carries visual capsules (contype = conaffinity = 0); only the f
 collision boxes. Sites: ``<right>_sole`` at the centre of the right foot's bottom face (z up),
 ``<right>_heel`` at the back of the right foot with its z axis pointing backwards (not level),
 and ``<left>_sole``. ``foot`` sets the foot box, ``torso_forward`` moves the torso's CoM
-forward (m): a tiny foot or a far-forward torso makes uniform draws almost never stable.
+forward (m), ``hip`` and ``roll`` set the hips' spacing and the roll joints' range: wide hips
+with little roll (or a tiny foot) make uniform draws almost never stable.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ class HumanoidSpec:
     torso_forward: float = 0.0  #: m, torso CoM ahead of the waist axis
     torso_mass: float = 12.0  #: kg
     arm_mass: float = 1.5  #: kg per arm segment
+    hip: float = 0.09  #: m, each hip joint beside the pelvis centre
+    roll: float = 0.4  #: rad, ankle roll range ± (hip roll: this inward, 1.5 × outward)
 
 
 def _f(*v: float) -> str:
@@ -62,12 +65,19 @@ def _leg(side: str, y: float, spec: HumanoidSpec) -> str:
         f'<site name="{side}_heel" pos="{_f(0.03 - fl / 2, 0, -ANKLE + fh / 2)}" '
         'zaxis="-1 0 0"/>'
     )
+    ankle_roll = _joint(f"{side}_ankle_roll", "1 0 0", -spec.roll, spec.roll)
     return f"""
       <body name="{side}_hip" pos="0 {y:g} -0.05">
         {_inertial(1.0)}{_joint(f"{side}_hip_yaw", "0 0 1", -0.5, 0.5)}
         <body name="{side}_hip2">
-          {_inertial(1.0)}{_joint(f"{side}_hip_roll", "1 0 0", -0.4 if s > 0 else -0.6,
-                                  0.6 if s > 0 else 0.4)}
+          {_inertial(1.0)}{
+        _joint(
+            f"{side}_hip_roll",
+            "1 0 0",
+            -spec.roll if s > 0 else -1.5 * spec.roll,
+            1.5 * spec.roll if s > 0 else spec.roll,
+        )
+    }
           <body name="{side}_thigh">
             {_inertial(3.0, (0, 0, -THIGH / 2))}{_joint(f"{side}_hip_pitch", "0 1 0", -1.6, 0.6)}
             {_vis((0, 0, -0.05), (0, 0, -THIGH + 0.05), 0.05)}
@@ -77,7 +87,7 @@ def _leg(side: str, y: float, spec: HumanoidSpec) -> str:
               <body name="{side}_ankle" pos="0 0 {-SHANK:g}">
                 {_inertial(0.5)}{_joint(f"{side}_ankle_pitch", "0 1 0", -0.8, 0.8)}
                 <body name="{side}_foot">
-                  {_inertial(1.0, (0.03, 0, -0.04))}{_joint(f"{side}_ankle_roll", "1 0 0", -0.4, 0.4)}
+                  {_inertial(1.0, (0.03, 0, -0.04))}{ankle_roll}
                   {foot}{sites}
                 </body>
               </body>
@@ -94,8 +104,9 @@ def _arm(side: str, y: float, spec: HumanoidSpec) -> str:
         <body name="{side}_shoulder" pos="0 {y:g} 0.35">
           {_inertial(0.5)}{_joint(f"{side}_sh_pitch", "0 1 0", -2.5, 1.0)}
           <body name="{side}_upperarm">
-            {_inertial(m, (0, 0, -0.12))}{_joint(f"{side}_sh_roll", "1 0 0",
-                                                min(-0.2 * s, 1.4 * s), max(-0.2 * s, 1.4 * s))}
+            {_inertial(m, (0, 0, -0.12))}{
+        _joint(f"{side}_sh_roll", "1 0 0", min(-0.2 * s, 1.4 * s), max(-0.2 * s, 1.4 * s))
+    }
             {_vis((0, 0, -0.03), (0, 0, -0.22), 0.035)}
             <body name="{side}_forearm" pos="0 0 -0.25">
               {_inertial(m * 0.8, (0, 0, -0.12))}{_joint(f"{side}_elbow", "0 1 0", -2.0, 0.0)}
@@ -108,7 +119,7 @@ def _arm(side: str, y: float, spec: HumanoidSpec) -> str:
 def humanoid_mjcf(spec: HumanoidSpec | None = None) -> str:
     """MJCF text of the humanoid (see the module docstring)."""
     spec = spec or HumanoidSpec()
-    hip = 0.09
+    hip = spec.hip
     z0 = THIGH + SHANK + ANKLE + 0.05
     return f"""<mujoco model="synthetic_humanoid">
   <compiler angle="radian"/>

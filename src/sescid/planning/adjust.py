@@ -25,12 +25,13 @@ from sescid.planning.collision import Capsules
 from sescid.planning.com import com_state
 from sescid.robot import Robot
 
-SEARCH_STEPS = 5  #: Gauss–Newton steps
+SEARCH_STEPS = 3  #: Gauss–Newton steps
 ADJUST_STEPS = 3  #: steps of ``adjust_support_leg``
 _DAMP = 1e-8  #: m², damping of the 2×2 normal matrix
 _MAX_STEP = 0.5  #: rad, largest change of a joint per step
 NEAR_STEP = 0.15  #: standard deviation of a step from an accepted pose, fraction of the range
 UNIFORM_SHARE = 0.25  #: share of each chunk drawn uniformly within the limits
+_BLOCK = 8192  #: draws per forward-kinematics block
 
 
 def draw(
@@ -161,8 +162,11 @@ def adjusted_draws(
     """``n`` draws (``draw``) less those already in self-collision, moved toward a stable CoP
     by every joint (``move_com``); every check is made again on the result."""
     q = draw(limits, n, rng, accepted)
-    rot, org = robot.forward(q)
-    q = q[collision_free_mask_broad(cap, rot, org)]
+    keep = np.zeros(len(q), dtype=bool)
+    for s in range(0, len(q), _BLOCK):  # blocks: forward kinematics of many poses is memory-bound
+        rot, org = robot.forward(q[s : s + _BLOCK])
+        keep[s : s + _BLOCK] = collision_free_mask_broad(cap, rot, org)
+    q = q[keep]
     return move_com(robot, q, limits, _targets(rng, len(q), half_extents, centre))
 
 

@@ -35,7 +35,9 @@ from sescid.robot import Robot
 
 SWITCH_AFTER = 400_000  #: uniform draws before the adjusted draws may take over
 SWITCH_RATE = 1e-4  #: accepted share of uniform draws below which they do
-GIVE_UP = 2_000_000  #: adjusted draws without one accepted pose: the robot cannot stand
+#: adjusted draws without one CoP in the box: the robot cannot put its CoM over the foot
+GIVE_UP_BOX = 30_000
+GIVE_UP = 200_000  #: adjusted draws without one accepted pose: something else stops them all
 
 
 @dataclass
@@ -171,11 +173,12 @@ def candidates(
             drawn += size
             if progress is not None:
                 progress(int(min(run.counts[4], n)), n)
-            if not run.counts[4] and drawn >= GIVE_UP:
+            if not run.counts[4] and drawn >= (GIVE_UP if run.counts[1] else GIVE_UP_BOX):
                 raise SescidError(_nothing(run))
             left = n - run.counts[4]
-            rate = run.counts[4] / drawn if run.counts[4] else 1e-3
-            size = int(min(100_000, max(1_000, 1.2 * left / rate)))
+            rate = run.counts[4] / drawn if run.counts[4] else 0.0
+            want = 1.2 * left / rate if rate else 5_000  # at most 4× the last: rates climb
+            size = int(min(100_000, 4 * size, max(1_000, want)))
     c = run.counts
     return Candidates(
         q=np.concatenate(run.qs)[:n],
