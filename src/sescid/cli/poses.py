@@ -19,6 +19,7 @@ from sescid.estimation import min_poses
 from sescid.io import write_table
 from sescid.planning import (
     DEFAULT_CLEARANCE,
+    PlanOptions,
     cop_half_extents,
     design_curve,
     free_sole,
@@ -124,6 +125,21 @@ def _sole_notes(robot, capsules) -> list[str]:
     is_flag=True,
     help="Add <joint>_paper_deg columns (the paper's Table 2 angle convention; op2).",
 )
+@click.option(
+    "--rigid",
+    is_flag=True,
+    help="Stability: the CoP box only, no compliant-robot margin (servo sag, sole tilt, "
+    "backlash from the robot profile).",
+)
+@click.option(
+    "--check",
+    "check",
+    type=click.Choice(["none", "mujoco"]),
+    default="none",
+    show_default=True,
+    help="mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
+    "the next best until all do; needs the mujoco extra).",
+)
 @force_option
 def poses(
     robot_name,
@@ -143,6 +159,8 @@ def poses(
     noise,
     figure,
     paper_convention: bool,
+    rigid: bool,
+    check: str,
     force: bool,
 ):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
@@ -167,22 +185,27 @@ def poses(
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
     half = cop_half_extents(robot, cop_box, margin, sole_size)
     limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
-    plan = plan_poses(
-        robot,
-        count,
-        select,
-        seed,
+    pose_check = None
+    if check == "mujoco":
+        from sescid.bench.standing import standing_check
+
+        pose_check = standing_check(robot)
+    opt = PlanOptions(
         n_candidates=n_candidates,
         n_test=test_poses,
         sigma=noise,
         limits=limits,
         half_extents=half,
         clearance=clearance,
-        progress=TerminalProgress("candidates"),
+        rigid=rigid,
+        check=pose_check,
+        check_name="MuJoCo bench",
     )
+    plan = plan_poses(robot, count, select, seed, opt, progress=TerminalProgress("candidates"))
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
     notes += _sole_notes(robot, capsules)
+    notes += plan.notes
     cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
     names = robot.joint_names
     cols |= {j: plan.q[:, k] for k, j in enumerate(names)}

@@ -74,7 +74,7 @@ class PosePlan:
     c_test: np.ndarray = field(repr=False)  #: (p, p)
     #: joints the model leaves unlimited, sampled within ±``unlimited_range``
     unlimited: list[str] = field(default_factory=list)
-    unlimited_range: float = UNLIMITED_RANGE  #: rad
+    unlimited_range: float = UNLIMITED_RANGE  #: rad (the default, or what ``limits`` gave)
     compliance: Compliance | None = None  #: the compliant-stability model (None: rigid)
     n_checked: int = 0  #: poses the physics check ran
     n_check_failed: int = 0  #: of which did not stand (replaced)
@@ -163,11 +163,14 @@ def plan_poses(
         raise SescidError(f"cannot choose {count} poses from {opt.n_candidates} candidates")
     robot.check_support_level()
     model = None if opt.rigid else compliance(robot)
+    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
+    free = unlimited_joints(robot)
+    free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
     cand = candidates(
         robot,
         opt.n_candidates + opt.n_test,
         seed,
-        limits=sampling_limits(robot) if opt.limits is None else opt.limits,
+        limits=lim,
         half_extents=opt.half_extents,
         clearance=opt.clearance,
         progress=progress,
@@ -199,24 +202,28 @@ def plan_poses(
         basis=basis,
         a_pool=a_pool,
         c_test=c_test,
-        unlimited=unlimited_joints(robot) if opt.limits is None else [],
+        unlimited=free,
+        unlimited_range=free_range if free else UNLIMITED_RANGE,
         compliance=model,
         n_checked=n_checked,
         n_check_failed=n_failed,
-        notes=_notes(robot, opt, model, n_checked, n_failed),
+        notes=_notes(free, free_range, opt, model, (n_checked, n_failed)),
     )
 
 
 def _notes(
-    robot: Robot, opt: PlanOptions, model: Compliance | None, n_checked: int, n_failed: int
+    free: list[str],
+    free_range: float,
+    opt: PlanOptions,
+    model: Compliance | None,
+    checked: tuple[int, int],
 ) -> list[str]:
     """What the plan assumed and checked, one line each."""
     out = []
-    free = unlimited_joints(robot) if opt.limits is None else []
     if free:
         out.append(
             f"{len(free)} joint(s) without limits sampled within "
-            f"±{math.degrees(UNLIMITED_RANGE):g}°: {', '.join(free[:6])}"
+            f"±{math.degrees(free_range):.4g}°: {', '.join(free[:6])}"
             + (" …" if len(free) > 6 else "")
         )
     if model is None:
@@ -225,8 +232,8 @@ def _notes(
         out.append(f"compliant-robot margin: {model.source}")
     if opt.check is not None:
         out.append(
-            f"{opt.check_name or 'physics'} check: {n_checked} poses simulated, {n_failed} did "
-            "not stand and were replaced"
+            f"{opt.check_name or 'physics'} check: {checked[0]} poses simulated, {checked[1]} "
+            "did not stand and were replaced"
         )
     return out
 
