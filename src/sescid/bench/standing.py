@@ -17,6 +17,7 @@ frame: the bench centres its pads on that plane). Servos: the profile's gains, e
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -67,11 +68,11 @@ def _bench(robot: Robot):
     """The bench settings: the profile's servo gains, else scaled from the compliant model."""
     from sescid.bench.mujoco import MujocoBenchConfig
 
-    still = {"vel_tol": STILL_VEL, "min_settle": MIN_SETTLE}
+    bench = MujocoBenchConfig(vel_tol=STILL_VEL, min_settle=MIN_SETTLE)
     if robot.profile.servo_gains is not None:
-        return MujocoBenchConfig(**still)
+        return bench
     kp = compliance(robot).kp
-    return MujocoBenchConfig(kp=kp, kv=GENERIC_KV * kp, armature=GENERIC_ARMATURE * kp, **still)
+    return dataclasses.replace(bench, kp=kp, kv=GENERIC_KV * kp, armature=GENERIC_ARMATURE * kp)
 
 
 def stands(robot: Robot, q: np.ndarray) -> Standing:

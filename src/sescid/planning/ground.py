@@ -4,9 +4,10 @@ clearance.
 Every body but the support body is checked, on the best geometry it has: its collision shapes;
 its visual shapes where it has no collision shape (a model whose collision geometry is only
 the feet, as MuJoCo Playground models are); its origin as a last resort (no geometry, or only
-mesh files that could not be read). Primitive shapes are checked through capsules that cover
-them (``collision.shape_capsules``); meshes through their exact hull vertices, where their
-covering capsules dip below the floor. The floor is ``Robot.floor`` (z = 0 of a sole frame, or
+mesh files that could not be read). Each shape's lowest point is exact: a sphere or capsule is
+its segment less its radius, a cylinder its end discs' lowest rim points, a box its corners, a
+mesh its hull vertices (checked only in the poses where the capsules that cover it dip below
+the floor, ``collision.mesh_capsules``). The floor is ``Robot.floor`` (z = 0 of a sole frame, or
 the plane under a foot frame derived from the foot's geometry). A body other than the free foot
 that already reaches below the floor at the zero pose (a conservative covering of an ankle link)
 is not checked, with a note — as self-collision skips pairs that touch at the zero pose.
@@ -19,19 +20,53 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.model.geometry import MESH
+from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from sescid.model.sole import profile_sole
-from sescid.planning.collision import Capsules, shape_capsules
+from sescid.planning.collision import Capsules, mesh_capsules
 from sescid.robot import Robot
 
 _TOUCH = 1e-6  #: m, below the floor at the zero pose by more than this counts as touching
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+
+
+@dataclass
+class Segments:
+    """Segments p0–p1 in body frames with a radius: capsules and spheres (round: the lowest
+    point is the lower end less the radius), cylinders (flat: less r·√(1 − a_z²)), points."""
+
+    body: np.ndarray  #: (S,)
+    p0: np.ndarray  #: (S, 3) m
+    p1: np.ndarray  #: (S, 3) m
+    radius: np.ndarray  #: (S,) m
+    flat: np.ndarray  #: (S,) bool: a cylinder (flat ends)
+
+    def lowest(self, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
+        """(n, S) lowest z [m] of each segment in poses with body ``rot``, ``org``."""
+        b = self.body
+        zrow = rot[:, b, 2, :]  # (n, S, 3): only heights are needed
+        z0 = org[:, b, 2] + np.einsum("nsj,sj->ns", zrow, self.p0)
+        z1 = org[:, b, 2] + np.einsum("nsj,sj->ns", zrow, self.p1)
+        length = np.linalg.norm(self.p1 - self.p0, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            az = np.where(length > 0, (z1 - z0) / length, 0.0)
+        down = np.where(self.flat, self.radius * np.sqrt(np.clip(1.0 - az * az, 0.0, 1.0)),
+                        self.radius)  # fmt: skip
+        return np.minimum(z0, z1) - down
+
+    def subset(self, keep: np.ndarray) -> Segments:
+        """The segments where ``keep``."""
+        return Segments(self.body[keep], self.p0[keep], self.p1[keep], self.radius[keep],
+                        self.flat[keep])  # fmt: skip
 
 
 @dataclass
 class GroundChecks:
-    """What ``ground_clear`` checks on a robot: covering capsules and mesh vertices per body."""
+    """What ``ground_clear`` checks on a robot."""
 
-    capsules: Capsules  #: covering capsules (and radius-0 points at origins) of the checked bodies
+    segments: Segments  #: spheres, capsules, cylinders, origins
+    corner_body: np.ndarray  #: (B,) body of each box corner
+    corners: np.ndarray  #: (B, 3) box corners, body frames, m
+    mesh_cover: Capsules  #: capsules covering each checked mesh (a pre-check)
     vert_body: np.ndarray  #: (V,) body index of each checked mesh vertex
     vertices: np.ndarray  #: (V, 3) checked mesh hull vertices, body frames, m
     source: dict[str, str] = field(default_factory=dict)  #: body → collision/visual/origin
@@ -49,10 +84,56 @@ def _body_shapes(robot: Robot, b: int) -> tuple[list, str]:
     return [], "origin"
 
 
-def ground_checks(robot: Robot, cap: Capsules | None = None) -> GroundChecks:
-    """The capsules, points and mesh vertices that ``ground_clear`` checks, with notes.
+def _build(shapes: list, origins: list[int]) -> GroundChecks:
+    """The exact lowest-point representation of ``shapes`` and of the bodies in ``origins``."""
+    sb, p0, p1, rad, flat = [], [], [], [], []
+    cb, cv, vb, vv, mb, m0, m1, mr = [], [], [], [], [], [], [], []
+    for s in shapes:
+        r, t = s.pose[:3, :3], s.pose[:3, 3]
+        if s.kind in (SPHERE, CAPSULE, CYLINDER):
+            half = 0.0 if s.kind == SPHERE else float(s.size[1]) / 2
+            sb.append(s.body)
+            p0.append(t - half * r[:, 2])
+            p1.append(t + half * r[:, 2])
+            rad.append(float(s.size[0]))
+            flat.append(s.kind == CYLINDER)
+        elif s.kind == BOX:
+            cb += [s.body] * 8
+            cv.append((_CORNERS * (0.5 * s.size)) @ r.T + t)
+        elif s.kind == MESH and s.vertices is not None:
+            vb.append(np.full(len(s.vertices), s.body))
+            vv.append(s.vertices)
+            e0, e1, rr = mesh_capsules((s.vertices - t) @ r)
+            mb += [s.body] * len(e0)
+            m0.append(e0 @ r.T + t)
+            m1.append(e1 @ r.T + t)
+            mr += [rr] * len(e0)
+    for b in origins:
+        sb.append(b)
+        p0.append(np.zeros(3))
+        p1.append(np.zeros(3))
+        rad.append(0.0)
+        flat.append(False)
+    seg = Segments(
+        np.array(sb, dtype=np.int64),
+        np.array(p0).reshape(-1, 3),
+        np.array(p1).reshape(-1, 3),
+        np.array(rad),
+        np.array(flat, dtype=bool),
+    )
 
-    ``cap`` (the self-collision capsules) only keeps the result for the next call."""
+    def stack(parts, width=3):
+        return np.vstack(parts) if parts else np.zeros((0, width))
+
+    cover = Capsules(np.array(mb, dtype=np.int64), stack(m0), stack(m1), np.array(mr), [],
+                     np.zeros((0, 2), dtype=np.int64))  # fmt: skip
+    vert_body = np.concatenate(vb).astype(np.int64) if vb else np.zeros(0, dtype=np.int64)
+    return GroundChecks(seg, np.array(cb, dtype=np.int64), stack(cv), cover, vert_body, stack(vv))
+
+
+def ground_checks(robot: Robot, cap: Capsules | None = None) -> GroundChecks:
+    """What ``ground_clear`` checks, with notes; ``cap`` (the self-collision capsules) only
+    keeps the result for the next call."""
     cached = getattr(cap, "_ground", None)
     if cached is not None and cached[0] is robot:
         return cached[1]
@@ -64,43 +145,31 @@ def ground_checks(robot: Robot, cap: Capsules | None = None) -> GroundChecks:
         source[names[b]] = role
         if role == "origin":
             origins.append(b)
-    caps = shape_capsules(shapes)[0]
-    n0 = len(origins)
-    caps.body = np.concatenate([caps.body, np.array(origins, dtype=np.int64)])
-    caps.p0 = np.vstack([caps.p0, np.zeros((n0, 3))])
-    caps.p1 = np.vstack([caps.p1, np.zeros((n0, 3))])
-    caps.radius = np.concatenate([caps.radius, np.zeros(n0)])
-    caps.from_mesh = np.concatenate([caps.from_mesh, np.zeros(n0, dtype=bool)])
-    caps.link += [names[b] for b in origins]
-    meshes = [s for s in shapes if s.kind == MESH]
-    parts = [np.full(len(s.vertices), s.body) for s in meshes if s.vertices is not None]
-    vert_body = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-    verts = np.vstack([s.vertices for s in meshes] or [np.zeros((0, 3))])
-    vert_body = vert_body.astype(np.int64)
-    exempt = _exempt(robot, caps, vert_body, verts)
-    keep = ~np.isin(caps.body, list(exempt))
-    for k in ("body", "p0", "p1", "radius", "from_mesh"):
-        setattr(caps, k, getattr(caps, k)[keep])
-    caps.link = [n for n, k in zip(caps.link, keep, strict=True) if k]
-    vkeep = ~np.isin(vert_body, list(exempt))
-    gone = sorted(names[b] for b in exempt)
-    out = GroundChecks(caps, vert_body[vkeep], verts[vkeep], source, gone)
-    out.notes = _notes(robot, out)
+    g = _build(shapes, origins)
+    exempt = _exempt(robot, g)
+    if exempt:
+        out = list(exempt)
+        g.segments = g.segments.subset(~np.isin(g.segments.body, out))
+        keep = ~np.isin(g.corner_body, out)
+        g.corner_body, g.corners = g.corner_body[keep], g.corners[keep]
+        keep = ~np.isin(g.vert_body, out)
+        g.vert_body, g.vertices = g.vert_body[keep], g.vertices[keep]
+    g.source, g.exempt = source, sorted(names[b] for b in exempt)
+    g.notes = _notes(robot, g)
     if cap is not None:
-        cap._ground = (robot, out)  # type: ignore[attr-defined]
-    return out
+        cap._ground = (robot, g)  # type: ignore[attr-defined]
+    return g
 
 
-def _exempt(robot: Robot, caps: Capsules, vert_body: np.ndarray, verts: np.ndarray) -> set[int]:
+def _exempt(robot: Robot, g: GroundChecks) -> set[int]:
     """Bodies other than the free foot that reach below the floor at the zero pose."""
     rot, org = robot.forward(np.zeros((1, robot.nq)))
-    floor = robot.floor
-    w0, w1 = caps.world(rot, org)
-    low = np.minimum(w0[0, :, 2], w1[0, :, 2]) - caps.radius
-    out = {int(b) for b in caps.body[low < floor - _TOUCH]}
-    if len(verts):
-        z = org[0, vert_body, 2] + np.einsum("vj,vj->v", rot[0, vert_body, 2, :], verts)
-        out |= {int(b) for b in vert_body[z < floor - _TOUCH]}
+    below = robot.floor - _TOUCH
+    out = {int(b) for b in g.segments.body[g.segments.lowest(rot, org)[0] < below]}
+    for body, pts in ((g.corner_body, g.corners), (g.vert_body, g.vertices)):
+        if len(pts):
+            z = org[0, body, 2] + np.einsum("vj,vj->v", rot[0, body, 2, :], pts)
+            out |= {int(b) for b in body[z < below]}
     free = robot.free_sole
     out.discard(-1 if free is None else free.body)
     return out
@@ -145,18 +214,16 @@ def free_sole_corners(
 
 
 def lowest_heights(robot: Robot, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
-    """(n,) the lowest checked point [m] (support-frame z) over every checked body, per pose."""
+    """(n,) the lowest checked point [m] (support-frame z) over every checked body, per pose
+    (every mesh vertex, no pre-check)."""
     g = ground_checks(robot)
     low = np.full(rot.shape[0], np.inf)
-    c = g.capsules
-    if len(c.body):
-        zrow = rot[:, c.body, 2, :]
-        z0 = org[:, c.body, 2] + np.einsum("ncj,cj->nc", zrow, c.p0)
-        z1 = org[:, c.body, 2] + np.einsum("ncj,cj->nc", zrow, c.p1)
-        low = np.minimum(low, (np.minimum(z0, z1) - c.radius).min(axis=1, initial=np.inf))
-    if len(g.vertices):
-        z = org[:, g.vert_body, 2] + np.einsum("nvj,vj->nv", rot[:, g.vert_body, 2, :], g.vertices)
-        low = np.minimum(low, z.min(axis=1))
+    if len(g.segments.body):
+        low = np.minimum(low, g.segments.lowest(rot, org).min(axis=1))
+    for body, pts in ((g.corner_body, g.corners), (g.vert_body, g.vertices)):
+        if len(pts):
+            z = org[:, body, 2] + np.einsum("nvj,vj->nv", rot[:, body, 2, :], pts)
+            low = np.minimum(low, z.min(axis=1))
     return low
 
 
@@ -173,22 +240,19 @@ def ground_clear(
     g = ground_checks(robot, cap)
     floor = robot.floor
     ok = np.ones(rot.shape[0], dtype=bool)
-    c = g.capsules
-    assert c.from_mesh is not None
-    prim = ~c.from_mesh
-    if prim.any():
-        b = c.body[prim]
-        zrow = rot[:, b, 2, :]  # (n, C, 3): only heights are needed
-        z0 = org[:, b, 2] + np.einsum("ncj,cj->nc", zrow, c.p0[prim])
-        z1 = org[:, b, 2] + np.einsum("ncj,cj->nc", zrow, c.p1[prim])
-        ok &= np.all(np.minimum(z0, z1) - c.radius[prim] > floor, axis=1)
+    if len(g.segments.body):
+        ok &= np.all(g.segments.lowest(rot, org) > floor, axis=1)
+    if len(g.corners):
+        b = g.corner_body
+        z = org[:, b, 2] + np.einsum("ncj,cj->nc", rot[:, b, 2, :], g.corners)
+        ok &= np.all(z > floor, axis=1)
+    c = g.mesh_cover
     for b in np.unique(g.vert_body):
         idx = np.flatnonzero(ok)
-        mc = np.flatnonzero(c.from_mesh & (c.body == b))
-        if len(mc):  # the body's mesh capsules cover its hull: exact check only where they dip
-            zrow = rot[idx, b, 2, :]
-            low = np.minimum(zrow @ c.p0[mc].T, zrow @ c.p1[mc].T) - c.radius[mc]
-            idx = idx[(org[idx, b, 2] + low.min(axis=1)) <= floor]
+        mc = np.flatnonzero(c.body == b)  # the capsules cover the hull: exact where they dip
+        zrow = rot[idx, b, 2, :]
+        low = np.minimum(zrow @ c.p0[mc].T, zrow @ c.p1[mc].T) - c.radius[mc]
+        idx = idx[(org[idx, b, 2] + low.min(axis=1)) <= floor]
         v = g.vertices[g.vert_body == b]
         z = org[idx, b, 2:3] + rot[idx, b, 2, :] @ v.T
         ok[idx] = z.min(axis=1) > floor
