@@ -31,7 +31,7 @@ from sescid.robot import Robot
 
 GENERIC_KV = 1.0 / 320.0  #: s, servo damping / stiffness without profile gains (the OP2's)
 GENERIC_ARMATURE = 3.4e-3 / 320.0  #: s², armature / stiffness without profile gains (the OP2's)
-_SOLE_PLANE = 1e-4  #: m, the derived sole must lie this close to the support frame's z = 0
+_SOLE_PLANE = 0.002  #: m, the derived sole must lie this close to the support frame's z = 0
 STILL_VEL = 2e-4  #: rad/s, m/s: the check's velocity tolerance (the bench's default: 2e-5)
 MIN_SETTLE = 1.0  #: s, simulated at least
 
