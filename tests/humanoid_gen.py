@@ -146,3 +146,12 @@ def humanoid_mjcf(spec: HumanoidSpec | None = None) -> str:
   </worldbody>
 </mujoco>
 """
+
+
+#: uniform draws (almost) never stable: an 80 × 40 mm foot, wide hips with little roll, a 35 kg
+#: torso 0.3 m ahead of the waist
+H1_STYLE = HumanoidSpec(
+    foot=(0.08, 0.04, 0.02), torso_forward=0.3, torso_mass=35.0, hip=0.15, roll=0.3
+)
+#: cannot stand on one foot: wide hips and almost no hip or ankle roll
+STUCK = HumanoidSpec(hip=0.25, roll=0.02)

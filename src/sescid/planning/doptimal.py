@@ -25,6 +25,7 @@ from sescid.planning.doptimal_kernels import (
     project_columns,
     rank2,
     sandwich,
+    swap_best,
 )
 from sescid.robot import Robot
 
@@ -103,7 +104,6 @@ class _Design:
         self.a = np.ascontiguousarray(a)
         self.minv = minv
         self.s = sandwich(self.a, minv) if s is None else s
-        self._buf = np.empty_like(self.s)
         self.chosen = np.zeros(len(a), dtype=bool)
 
     def best(self) -> int:
@@ -121,23 +121,26 @@ class _Design:
         self.minv = self.minv - u @ g_inv @ u.T
         return best
 
-    def try_exchange(self, i_out: int, tol: float = TIE_LOGDET) -> int | None:
-        """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None."""
-        h_inv, det_h = _inv2(self.s[i_out], -1.0)
-        if not det_h > 0:
-            return None
-        u = self.minv @ self.a[i_out].T
-        # S_j once i_out is removed, into the spare buffer; i_out itself stays excluded
-        j = rank2(self.a, u, h_inv, 1.0, self.s, self._buf, self.chosen)
-        if j < 0:
-            return None
-        gain = _logdet2(self._buf[j : j + 1])[0] + math.log(det_h)
-        if not gain > tol:
-            return None
+    def remove(self, i: int) -> None:
+        """Remove chosen candidate i (the design without it must be non-singular)."""
+        u = self.minv @ self.a[i].T
+        h_inv = _inv2(self.s[i], -1.0)[0]
+        self.chosen[i] = False
+        rank2(self.a, u, h_inv, 1.0, self.s, self.s, self.chosen)
         self.minv = self.minv + u @ h_inv @ u.T
-        self.s, self._buf = self._buf, self.s
-        self.chosen[i_out] = False
+
+    def try_exchange(self, i_out: int, tol: float = TIE_LOGDET) -> int | None:
+        """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None.
+
+        The swap's gain is exact (``swap_best``, a 4 × 4 determinant in 2 × 2 blocks) and the
+        swap adds before it removes, so no step forms the design without ``i_out`` — singular
+        when the design is saturated (K poses, 2K = p rows)."""
+        u = self.minv @ self.a[i_out].T
+        j, ratio = swap_best(self.a, u, self.s, self.s[i_out], self.chosen)
+        if j < 0 or not math.log(ratio) > tol:
+            return None
         self.add(j)
+        self.remove(i_out)
         return j
 
 

@@ -78,6 +78,57 @@ def _first_within(s, chosen, floor):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True, nogil=True)
+def _swap(a, ut, s, s_out, chosen, tie):  # pragma: no cover - compiled
+    """Best candidate to swap in for the chosen one whose A_o M⁻¹ A_oᵀ is ``s_out`` (3,), with
+    ``ut`` = (M⁻¹ A_oᵀ)ᵀ (2, p): for each unchosen j, X = A_j M⁻¹ A_oᵀ and the exact ratio
+    det(M − A_oᵀA_o + A_jᵀA_j) / det M = det(I + S_j) · det(I − S_o + Xᵀ (I + S_j)⁻¹ X),
+    which never forms the (possibly singular) design without o. Returns (j, ratio): the lowest j
+    whose ratio is within the factor exp(−``tie``) of the largest; (−1, 0) when none is > 0."""
+    n, _, p = a.shape
+    best = 0.0
+    for sweep in range(2):
+        floor = best * math.exp(-tie)
+        for j in range(n):
+            if chosen[j]:
+                continue
+            x00 = 0.0
+            x01 = 0.0
+            x10 = 0.0
+            x11 = 0.0
+            for t in range(p):
+                a0 = a[j, 0, t]
+                a1 = a[j, 1, t]
+                x00 += a0 * ut[0, t]
+                x01 += a0 * ut[1, t]
+                x10 += a1 * ut[0, t]
+                x11 += a1 * ut[1, t]
+            p00 = 1.0 + s[j, 0]
+            p01 = s[j, 1]
+            p11 = 1.0 + s[j, 2]
+            det_p = p00 * p11 - p01 * p01
+            if not det_p > 0.0:
+                continue
+            # Y = Xᵀ P⁻¹ X, P⁻¹ = [[p11, −p01], [−p01, p00]] / det_p
+            k00 = (p11 * x00 - p01 * x10) / det_p
+            k01 = (p11 * x01 - p01 * x11) / det_p
+            k10 = (p00 * x10 - p01 * x00) / det_p
+            k11 = (p00 * x11 - p01 * x01) / det_p
+            y00 = x00 * k00 + x10 * k10
+            y01 = x00 * k01 + x10 * k11
+            y11 = x01 * k01 + x11 * k11
+            q00 = 1.0 - s_out[0] + y00
+            q01 = -s_out[1] + y01
+            q11 = 1.0 - s_out[2] + y11
+            ratio = det_p * (q00 * q11 - q01 * q01)
+            if sweep == 0:
+                if ratio > best:
+                    best = ratio
+            elif ratio >= floor and ratio > 0.0:
+                return j, ratio
+    return -1, 0.0
+
+
+@lazy_njit(cache=True, nogil=True)
 def _sandwich(a, kt, s):  # pragma: no cover - compiled
     """s[j] = (s00, s01, s11) of A_j M⁻¹ A_jᵀ = |K A_jᵀ|² with M⁻¹ = KᵀK, ``kt`` = Kᵀ (p, p)
     lower triangular: y = K a accumulated column by column."""
@@ -176,6 +227,16 @@ def rank2(
     (near-ties: the lowest index, ``TIE_LOGDET``)."""
     ut = np.ascontiguousarray(u.T)
     return int(_rank2(a, ut, g, float(sign), s_in, s_out, chosen, TIE_LOGDET))
+
+
+def swap_best(
+    a: np.ndarray, u: np.ndarray, s: np.ndarray, s_out: np.ndarray, chosen: np.ndarray
+) -> tuple[int, float]:
+    """``_swap`` with U = M⁻¹ A_oᵀ (p, 2): the best candidate j to swap in for the chosen o and
+    det(M')/det(M) (near-ties: the lowest index, ``TIE_LOGDET``)."""
+    j, ratio = _swap(a, np.ascontiguousarray(u.T), s, np.ascontiguousarray(s_out), chosen,
+                     TIE_LOGDET)  # fmt: skip
+    return int(j), float(ratio)
 
 
 def first_best(gain: np.ndarray) -> int:
