@@ -67,7 +67,8 @@ def _sole_notes(robot, capsules) -> list[str]:
     default=None,
     type=click.IntRange(min=1, max=10_000_000),
     help="Stable, collision-free candidate poses to choose from "
-    "[default: 20000 for uniform draws (op2), 5000 with the adjusted sampler].",
+    "[default, d-optimal: 20000 for uniform draws (op2), 5000 with the adjusted sampler; "
+    "random: --count (a random subset of random candidates is random)].",
 )
 @click.option(
     "--test-poses",
@@ -173,6 +174,8 @@ def poses(
     robot = load(robot_name, support)
     if n_candidates is None:
         n_candidates = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
+        if select == "random":
+            n_candidates = count
     need = min_poses(robot)
     if count < need:
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")

@@ -1,7 +1,7 @@
 """Candidate draws that do not depend on how rarely a uniform draw is stable: draw joints, then
 move the CoM over the support foot by a few steps of the CoM Jacobian.
 
-Draws (``draw``) mix uniform poses within the limits with poses near already accepted ones
+Draws (``draw``, ``Search``) mix uniform poses within the limits with poses near accepted ones
 (Gaussian steps of ``NEAR_STEP`` of each joint's range; before any is accepted, uniform within
 ``NEAR_STEP`` of the range around the zero pose): on a 32-joint humanoid almost no uniform draw is
 free of self-collision, a nearby one often is. Draws already in self-collision are dropped;
@@ -18,9 +18,11 @@ ahead); ``closest_box`` says how near a robot that cannot stand on one foot came
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from sescid.planning.broadphase import collision_free_mask_broad
+from sescid.planning.broadphase import collision_free_poses
 from sescid.planning.collision import Capsules
 from sescid.planning.com import com_state
 from sescid.robot import Robot
@@ -31,7 +33,6 @@ _DAMP = 1e-8  #: m², damping of the 2×2 normal matrix
 _MAX_STEP = 0.5  #: rad, largest change of a joint per step
 NEAR_STEP = 0.15  #: standard deviation of a step from an accepted pose, fraction of the range
 UNIFORM_SHARE = 0.25  #: share of each chunk drawn uniformly within the limits
-_BLOCK = 8192  #: draws per forward-kinematics block
 
 
 def draw(
@@ -149,25 +150,23 @@ def adjust_support_leg(
     return move_com(robot, q, limits, target, cols, steps)
 
 
-def adjusted_draws(
-    robot: Robot,
-    cap: Capsules,
-    limits: np.ndarray,
-    n: int,
-    rng: np.random.Generator,
-    accepted: np.ndarray | None,
-    half_extents: np.ndarray,
-    centre: np.ndarray,
-) -> np.ndarray:
-    """``n`` draws (``draw``) less those already in self-collision, moved toward a stable CoP
-    by every joint (``move_com``); every check is made again on the result."""
-    q = draw(limits, n, rng, accepted)
-    keep = np.zeros(len(q), dtype=bool)
-    for s in range(0, len(q), _BLOCK):  # blocks: forward kinematics of many poses is memory-bound
-        rot, org = robot.forward(q[s : s + _BLOCK])
-        keep[s : s + _BLOCK] = collision_free_mask_broad(cap, rot, org)
-    q = q[keep]
-    return move_com(robot, q, limits, _targets(rng, len(q), half_extents, centre))
+@dataclass
+class Search:
+    """Adjusted draws for one robot and stability box: ``draws`` gives each chunk."""
+
+    robot: Robot
+    cap: Capsules
+    limits: np.ndarray  #: (nq, 2) rad
+    half_extents: np.ndarray  #: (2,) m
+    centre: np.ndarray  #: (2,) m
+
+    def draws(self, n: int, rng: np.random.Generator, accepted: np.ndarray | None) -> np.ndarray:
+        """``n`` draws (``draw``) less those already in self-collision, moved toward a stable
+        CoP by every joint (``move_com``); every check is made again on the result."""
+        q = draw(self.limits, n, rng, accepted)
+        q = q[collision_free_poses(self.robot, self.cap, q)]
+        target = _targets(rng, len(q), self.half_extents, self.centre)
+        return move_com(self.robot, q, self.limits, target)
 
 
 def closest_box(robot: Robot, q: np.ndarray, half_extents, centre) -> float:

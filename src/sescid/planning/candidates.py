@@ -144,7 +144,7 @@ def candidates(
     "uniform" hands over to the adjusted draws when too few are accepted (module docstring).
     SescidError when no pose passes, saying which check stops them.
     """
-    from sescid.planning.adjust import adjusted_draws, closest_box
+    from sescid.planning.adjust import Search, closest_box
 
     only = sampler is not None
     sampler = sampler or robot.profile.pose_sampler
@@ -164,9 +164,10 @@ def candidates(
             used = "uniform+adjusted" if run.counts[4] else "adjusted"
     if run.counts[4] < n:
         drawn, size = 0, 1_000
+        search = Search(robot, run.cap, lim, half, run.centre)
         while run.counts[4] < n:
             pool = np.concatenate(run.qs) if run.qs else None
-            q = adjusted_draws(robot, run.cap, lim, size, rng, pool, half, run.centre)
+            q = search.draws(size, rng, pool)
             ok, cop = stable_subset(robot, q, half, run.centre)
             run.closest = min(run.closest, closest_box(robot, q, half, run.centre))
             run.keep(q, ok, cop, size)
@@ -177,7 +178,7 @@ def candidates(
                 raise SescidError(_nothing(run))
             left = n - run.counts[4]
             rate = run.counts[4] / drawn if run.counts[4] else 0.0
-            want = 1.2 * left / rate if rate else 5_000  # at most 4× the last: rates climb
+            want = 1.05 * left / rate + 500 if rate else 5_000  # ≤ 4× the last: rates climb
             size = int(min(100_000, 4 * size, max(1_000, want)))
     c = run.counts
     return Candidates(

@@ -3,7 +3,7 @@
 One compiled pass (``_order``): Euclidean joint-space distances [rad] between the start and the
 poses, a nearest-neighbour path from the start, then 2-opt sweeps (each pair of path edges in
 turn; an improving reversal is applied at once) until a sweep improves nothing or the sweeps
-reach a work budget (``TWO_OPT_WORK`` pair evaluations: all of them for tens of poses, five
+reach a work budget (``TWO_OPT_WORK`` pair evaluations: all of them for hundreds of poses, two
 sweeps for 2000, which give most of the gain). No
 ``fastmath``, ties to the lower index: the same order on every CPU. Above ``TWO_OPT_MAX`` poses
 the distance matrix would not fit comfortably in memory, and the order is nearest neighbour only.
@@ -17,7 +17,7 @@ from sescid.kinematics import lazy_njit
 
 TWO_OPT_MAX = 4000  #: poses; beyond this the path is nearest neighbour only
 TWO_OPT_SWEEPS = 200  #: at most this many 2-opt sweeps
-TWO_OPT_WORK = 20_000_000  #: at most this many pair evaluations over all sweeps
+TWO_OPT_WORK = 8_000_000  #: at most this many pair evaluations over all sweeps
 _GAIN = 1e-12  #: rad, a reversal must shorten the path by more than this
 
 
