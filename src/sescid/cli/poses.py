@@ -21,6 +21,7 @@ from sescid.planning import (
     DEFAULT_CLEARANCE,
     PlanOptions,
     cop_half_extents,
+    default_candidates,
     design_curve,
     free_sole,
     plan_poses,
@@ -173,9 +174,7 @@ def poses(
     outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
     if n_candidates is None:
-        n_candidates = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
-        if select == "random":
-            n_candidates = count
+        n_candidates = default_candidates(robot, select, count)
     need = min_poses(robot)
     if count < need:
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")

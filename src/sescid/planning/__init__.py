@@ -42,7 +42,14 @@ from sescid.planning.limits import (
     unlimited_joints,
 )
 from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.plan import PlanOptions, PoseCheck, PosePlan, design_curve, plan_poses
+from sescid.planning.plan import (
+    PlanOptions,
+    PoseCheck,
+    PosePlan,
+    default_candidates,
+    design_curve,
+    plan_poses,
+)
 from sescid.planning.stability import (
     DEFAULT_CLEARANCE,
     FALLBACK_COP_BOX,
@@ -74,6 +81,7 @@ __all__ = [
     "compliance",
     "compliant_margin",
     "cop_half_extents",
+    "default_candidates",
     "design_curve",
     "dynamic_cop",
     "expected_cop_error",

@@ -40,7 +40,8 @@ PoseCheck = Callable[[np.ndarray], np.ndarray]
 class PlanOptions:
     """How ``plan_poses`` samples, checks and scores (SI units, radians)."""
 
-    n_candidates: int = 20_000  #: stable, collision-free candidates to choose from
+    #: stable, collision-free candidates to choose from; None: ``default_candidates``
+    n_candidates: int | None = None
     n_test: int = 2_000  #: further candidates on which the expected error is computed
     sigma: float = PAPER_NOISE  #: m, CoP noise assumed for the expected error
     limits: np.ndarray | None = None  #: (nq, 2) rad; None: ``sampling_limits(robot)``
@@ -79,6 +80,15 @@ class PosePlan:
     n_checked: int = 0  #: poses the physics check ran
     n_check_failed: int = 0  #: of which did not stand (replaced)
     notes: list[str] = field(default_factory=list)
+
+
+def default_candidates(robot: Robot, select: str, count: int) -> int:
+    """The pool a choice draws from by default: D-optimal, 20 000 candidates when the profile asks
+    for uniform draws (the OP2), 5 000 for the CoM-Jacobian search (dearer per candidate); random,
+    ``count`` (a random subset of random candidates is random)."""
+    if select == "random":
+        return count
+    return 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
 
 
 def _options(options: PlanOptions | None, overrides: dict) -> PlanOptions:
@@ -152,6 +162,9 @@ def plan_poses(
     opt = _options(options, overrides)
     if select not in ("d-optimal", "random"):
         raise SescidError(f"unknown selection '{select}' (d-optimal or random)")
+    if opt.n_candidates is None:
+        opt = dataclasses.replace(opt, n_candidates=default_candidates(robot, select, count))
+    assert opt.n_candidates is not None
     need = min_poses(robot)
     if count < need:
         raise OptionError(
