@@ -2,13 +2,14 @@
 move the CoM over the support foot by a few steps of the CoM Jacobian.
 
 Draws (``draw``, ``Search``) mix uniform poses within the limits with poses near accepted ones
-(Gaussian steps of ``NEAR_STEP`` of each joint's range; before any is accepted, uniform within
-``NEAR_STEP`` of the range around the zero pose): on a 32-joint humanoid almost no uniform draw is
-free of self-collision, a nearby one often is. Draws already in self-collision are dropped;
-the others get ``SEARCH_STEPS`` damped Gauss–Newton steps that move the model CoP toward a
-target drawn in the central half of the stability box (``move_com``): all joints move, each in
-proportion to its range (the minimum-norm step in range-scaled coordinates), joints at a limit
-that the step pushes further drop out, and the result is clipped to the limits. Every check
+(Gaussian steps of ``NEAR_STEP`` of the range on a random ``NEAR_JOINTS`` of the joints; before
+any is accepted, uniform within ``NEAR_STEP`` of the range around the zero pose): on a 32-joint
+humanoid almost no uniform draw is free of self-collision, a nearby one often is. Draws already
+in self-collision are dropped; the others get ``SEARCH_STEPS`` damped Gauss–Newton steps that
+move the model CoP toward a target drawn in the central half of the stability box
+(``move_com``): all joints move, each in proportion to its range (the minimum-norm step in
+range-scaled coordinates), joints at a limit that the step pushes further drop out, and the
+result is clipped to the limits. Every check
 (stability, compliant stability, floor, self-collision) is then made again. This finds the
 stable poses of a robot whose uniform draws almost never are (a small foot, a heavy torso far
 ahead); ``closest_box`` says how near a robot that cannot stand on one foot came.
@@ -31,7 +32,8 @@ SEARCH_STEPS = 3  #: Gauss–Newton steps
 ADJUST_STEPS = 3  #: steps of ``adjust_support_leg``
 _DAMP = 1e-8  #: m², damping of the 2×2 normal matrix
 _MAX_STEP = 0.5  #: rad, largest change of a joint per step
-NEAR_STEP = 0.15  #: standard deviation of a step from an accepted pose, fraction of the range
+NEAR_STEP = 0.25  #: standard deviation of a step from an accepted pose, fraction of the range
+NEAR_JOINTS = 0.3  #: share of the joints a step from an accepted pose moves (each by chance)
 UNIFORM_SHARE = 0.25  #: share of each chunk drawn uniformly within the limits
 
 
@@ -47,7 +49,9 @@ def draw(
     m = n - n_uni
     if accepted is not None and len(accepted):
         base = accepted[rng.integers(0, len(accepted), m)]
-        q[n_uni:] = base + NEAR_STEP * width * rng.standard_normal(base.shape)
+        step = NEAR_STEP * width * rng.standard_normal(base.shape)
+        step *= rng.random(base.shape) < NEAR_JOINTS
+        q[n_uni:] = base + step
     else:
         zero = np.clip(0.0, lo, hi)
         q[n_uni:] = zero + NEAR_STEP * width * rng.uniform(-1, 1, (m, len(lo)))
