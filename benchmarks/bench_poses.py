@@ -122,7 +122,8 @@ def search_cost(n: int) -> None:
                 )
             except SescidError as exc:
                 out.append(f"{sampler}: {str(exc).split(':')[0]}")
-        print(f"   {name:19s} " + "\n   " + " " * 20 + ("\n   " + " " * 20).join(out))
+        for line in out:
+            print(f"   {name:19s} {line}")
 
 
 def naive_greedy(a: np.ndarray, k: int) -> np.ndarray:
