@@ -1,28 +1,129 @@
-"""Benchmark: choose 38 D-optimal poses for the OP2 from 1e5 stable, collision-free candidates.
+"""Benchmark: pose planning — the user's commands against their targets, the planner's search
+per robot, and the OP2's D-optimal choice from 10⁵ candidates against a naive greedy.
 
-Prints the time to generate the candidates, to project their regressor on the identifiable
-subspace, and to select (greedy + exchange with rank-2 Woodbury updates), each the best of
-``--repeat`` runs with its CPU time and the load average, against references measured in the
-same run: for the candidates, the stability test of 10⁶ uniform draws by ``robot.cop`` on every
-draw vs the screened path; for the selection, a naive greedy that recomputes
-``log det(M + AᵢᵀAᵢ)`` from scratch for every candidate at every step (batched LAPACK), timed on
-``--naive-subset`` candidates and scaled by n / subset (its cost per step is linear in the pool;
-greedy only, no exchange). Also prints the expected CoP error of the chosen set vs 38 random
-candidates. Usage: ``python benchmarks/bench_poses.py [--candidates 100000]``.
+1. ``sescid poses`` as a user runs it (fresh processes, best wall of ``--repeat``, with the
+   child's CPU time): the minimum D-optimal set for TALOS (example-robot-data
+   ``talos_full_v2.urdf``, 32 joints, support ``right_sole_link``; target ≤ 2 s) and
+   ``--count 2000 --select random`` on the OP2 (target ≤ 2 s); the reference in the same run is
+   ``python -c "import numpy"`` (the floor of any command).
+2. The planner's search per robot: uniform draws and the CoM-Jacobian search side by side —
+   share accepted, draws and CPU seconds per 1000 accepted candidates (compliant stability,
+   floor and self-collision included): OP2, TALOS, iCub, and a synthetic humanoid with a small
+   foot and a heavy torso far ahead (``tests/humanoid_gen.py``, uniform draws almost never pass).
+3. OP2: 38 D-optimal poses from 10⁵ candidates; the rank-2 greedy against a naive greedy that
+   recomputes every log det (timed on ``--naive-subset`` candidates, scaled).
+
+Usage: ``python benchmarks/bench_poses.py [--repeat 3] [--skip-op2-pool]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import os
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
 import sescid
 from sescid import planning as design
-from sescid.planning.stability import stable_subset
+from sescid.errors import SescidError
 from sescid.simulation import PAPER_NOISE
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
+
+TARGET = 2.0  #: s, both commands (issue "speed that holds on any machine")
+
+
+def erd(rel: str) -> Path:
+    dist = importlib.metadata.distribution("example-robot-data")
+    return Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")) / rel
+
+
+def run_timed(args: list[str], repeat: int) -> tuple[float, float]:
+    """(best wall, its CPU) of ``repeat`` fresh processes running ``args``."""
+    best = (np.inf, np.inf)
+    for _ in range(repeat):
+        t = time.perf_counter()
+        before = os.times()
+        subprocess.run(args, check=True, capture_output=True)
+        after = os.times()
+        wall = time.perf_counter() - t
+        cpu = (after.children_user - before.children_user) + (
+            after.children_system - before.children_system
+        )
+        if wall < best[0]:
+            best = (wall, cpu)
+    return best
+
+
+def commands(repeat: int, tmp: Path) -> None:
+    exe = str(Path(sys.executable).parent / "sescid")
+    talos = erd("talos_data/robots/talos_full_v2.urdf")
+    robot = sescid.load_robot(talos, "right_sole_link")
+    from sescid.estimation import min_poses
+
+    need = min_poses(robot)
+    ref = run_timed([sys.executable, "-c", "import numpy"], repeat)
+    rows = [
+        (
+            f"TALOS ({robot.nq} joints, right_sole_link): minimum D-optimal set ({need} poses)",
+            [exe, "poses", "--robot", str(talos), "--support", "right_sole_link", "--count",
+             str(need), "--seed", "0", "--out", str(tmp / "talos.csv"), "--force"],
+        ),
+        (
+            "OP2: --count 2000 --select random",
+            [exe, "poses", "--count", "2000", "--select", "random", "--seed", "0", "--out",
+             str(tmp / "op2.csv"), "--force"],
+        ),
+    ]  # fmt: skip
+    subprocess.run(rows[0][1], check=True, capture_output=True)  # warm the kernel caches
+    print(f"1. sescid poses (best wall of {repeat} fresh processes, CPU of that run)")
+    print(f"   reference: python -c 'import numpy'            {ref[0]:6.2f} s (CPU {ref[1]:.2f})")
+    for label, args in rows:
+        wall, cpu = run_timed(args, repeat)
+        ok = "met" if wall <= TARGET else "NOT met"
+        print(f"   {label:52s} {wall:6.2f} s (CPU {cpu:.2f} s; target ≤ {TARGET:g} s: {ok})")
+
+
+def search_cost(n: int) -> None:
+    from humanoid_gen import H1_STYLE, humanoid_mjcf
+
+    tmp = Path(tempfile.mkdtemp())
+    (tmp / "h1_style.xml").write_text(humanoid_mjcf(H1_STYLE))
+    robots = [
+        ("OP2", sescid.load_robot("op2")),
+        ("TALOS", sescid.load_robot(erd("talos_data/robots/talos_full_v2.urdf"),
+                                    "right_sole_link")),
+        ("iCub", sescid.load_robot(erd("icub_description/robots/icub.urdf"), "r_sole")),
+        ("synthetic H1-style", sescid.load_robot(tmp / "h1_style.xml", "legA_sole")),
+    ]  # fmt: skip
+    print(
+        f"2. the planner's search: {n} accepted candidates per robot (compliant stability, floor,"
+    )
+    print("   self-collision); uniform draws give up after 10⁶ without enough")
+    for name, robot in robots:
+        model = design.compliance(robot)
+        design.candidates(robot, 20, 0, compliance=model)  # warm
+        out = []
+        for sampler in ("uniform", "adjusted"):
+            t = time.process_time()
+            try:
+                c = design.candidates(robot, n, 1, sampler=sampler, compliance=model,
+                                      max_sampled=10**6)  # fmt: skip
+                cpu = time.process_time() - t
+                out.append(
+                    f"{sampler}: {c.acceptance:.2%} accepted, {c.n_sampled / n:7.1f} draws and "
+                    f"{cpu / n * 1000:5.2f} s CPU per 1000"
+                )
+            except SescidError as exc:
+                out.append(f"{sampler}: {str(exc).split(':')[0]}")
+        for line in out:
+            print(f"   {name:19s} {line}")
 
 
 def naive_greedy(a: np.ndarray, k: int) -> np.ndarray:
@@ -41,23 +142,14 @@ def naive_greedy(a: np.ndarray, k: int) -> np.ndarray:
     return np.array(chosen)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--candidates", type=int, default=100_000)
-    parser.add_argument("--count", type=int, default=38)
-    parser.add_argument("--naive-subset", type=int, default=1_000)
-    parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args()
+def op2_pool(repeat: int, n: int = 100_000, k: int = 38, subset: int = 1_000) -> None:
     robot = sescid.load_robot("op2")
-    n, k, n_test = args.candidates, args.count, 2_000
-    warm = design.candidates(robot, 300, seed=99).q  # warm-up: compiled kernels
-    design.projected_regressor(robot, warm, design.identifiable_basis(robot, warm))
-    design.select_d_optimal(np.random.default_rng(0).normal(size=(200, 2, 42)), 25)
+    n_test = 2_000
+    model = design.compliance(robot)
 
     def timed(f):
-        """(result, best wall s, its CPU s) over ``--repeat`` runs."""
         best = (None, np.inf, np.inf)
-        for _ in range(args.repeat):
+        for _ in range(repeat):
             w, c = time.perf_counter(), time.process_time()
             r = f()
             w, c = time.perf_counter() - w, time.process_time() - c
@@ -65,67 +157,45 @@ def main() -> None:
                 best = (r, w, c)
         return best
 
-    cand, t_cand, c_cand = timed(lambda: design.candidates(robot, n + n_test, seed=0))
-
-    def project():
-        basis = design.identifiable_basis(robot, cand.q[:n])
-        a = design.projected_regressor(robot, cand.q[:n], basis)
-        c = design.per_row_information(design.projected_regressor(robot, cand.q[n:], basis))
-        return basis, a, c
-
-    (basis, a, c), t_proj, c_proj = timed(project)
+    cand, t_cand, c_cand = timed(
+        lambda: design.candidates(robot, n + n_test, seed=0, compliance=model)
+    )
+    q, q_test = cand.q[:n], cand.q[n:]
+    basis = design.identifiable_basis(robot, q)
+    a = design.projected_regressor(robot, q, basis)
+    c = design.per_row_information(design.projected_regressor(robot, q_test, basis))
     sel, t_sel, c_sel = timed(lambda: design.select_d_optimal(a, k, seed=0))
     greedy, t_greedy, _ = timed(lambda: design.select_d_optimal(a, k, seed=0, max_passes=0))
-
-    # reference for the candidates: the stability test of the same 10⁶ draws, robot.cop on all
-    lim = design.sampling_limits(robot)
-    half, centre = design.cop_half_extents(robot), robot.sole_centre
-    q_ref = lim[:, 0] + (lim[:, 1] - lim[:, 0]) * np.random.default_rng(1).random((10**6, 20))
     t = time.perf_counter()
-    plain = design.stable_mask(robot, q_ref, half, centre)[0]
-    t_plain = time.perf_counter() - t
-    t = time.perf_counter()
-    fast = stable_subset(robot, q_ref, half, centre)[0]
-    t_fast = time.perf_counter() - t
-    assert np.array_equal(plain, fast)
+    naive_greedy(a[:subset], k)
+    t_naive = (time.perf_counter() - t) * n / subset
+    err = design.expected_cop_error(a[sel.index], c, PAPER_NOISE)
+    rand = np.median(design.random_cop_error(a, k, c, PAPER_NOISE, draws=50, seed=0))
+    print(f"3. OP2: {k} poses from {n} candidates (p = {basis.shape[1]}), best of {repeat}")
+    print(f"   candidates: {cand.summary()}")
+    print(f"   generate candidates          {t_cand:7.2f} s (CPU {c_cand:.2f} s)")
+    print(f"   D-optimal greedy + exchange  {t_sel:7.2f} s (CPU {c_sel:.2f} s; "
+          f"{sel.exchanges} exchanges in {sel.passes} passes)")  # fmt: skip
+    print(f"   greedy only {t_greedy:.2f} s; naive greedy {t_naive:.2f} s (on {subset}, scaled): "
+          f"×{t_naive / t_greedy:.0f}")  # fmt: skip
+    print(f"   expected CoP error (σ = {PAPER_NOISE * 1e3:g} mm): D-optimal {err * 1e3:.2f} mm, "
+          f"{k} random {rand * 1e3:.2f} mm (median of 50)")  # fmt: skip
 
-    m = min(args.naive_subset, n)
-    t = time.perf_counter()
-    ref = naive_greedy(a[:m], k)
-    t_naive = (time.perf_counter() - t) * n / m
-    fast_sub = design.select_d_optimal(a[:m], k, seed=0, max_passes=0)
-    ld_ref = np.linalg.slogdet(design.information(a[ref]))[1]
 
-    sigma = PAPER_NOISE
-    err = design.expected_cop_error(a[sel.index], c, sigma)
-    rand = np.median(design.random_cop_error(a, k, c, sigma, draws=50, seed=0))
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--search-candidates", type=int, default=1000)
+    ap.add_argument("--skip-op2-pool", action="store_true")
+    args = ap.parse_args()
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    print(f"OP2: {k} poses from {n} candidates (identifiable subspace p = {basis.shape[1]})")
-    print(f"  load average {load}; best wall of {args.repeat} runs, with its CPU time")
-    print(f"  candidates: {cand.summary()}")
-    print(f"  generate candidates            {t_cand:8.2f} s  (CPU {c_cand:.2f} s; target ≤ 4 s)")
-    print(
-        f"    reference: stability of 10⁶ uniform draws, robot.cop on each {t_plain:6.2f} s, "
-        f"screened {t_fast:.2f} s (same mask)"
-    )
-    print(f"  regressor + projection         {t_proj:8.2f} s  (CPU {c_proj:.2f} s)")
-    print(
-        f"  D-optimal greedy + exchange    {t_sel:8.2f} s  (CPU {c_sel:.2f} s; "
-        f"{sel.exchanges} exchanges in {sel.passes} passes)"
-    )
-    print(f"  after the candidates exist     {t_proj + t_sel:8.2f} s  (target ≤ 1 s)")
-    print(f"  D-optimal greedy only          {t_greedy:8.2f} s")
-    print(f"  naive greedy (from scratch)    {t_naive:8.2f} s  (timed on {m}, ×{n / m:g})")
-    print(f"  speed-up of the rank-2 greedy vs naive: ×{t_naive / t_greedy:.0f}")
-    print(
-        f"  check on the {m}-subset: log det naive {ld_ref:.4f}, rank-2 greedy "
-        f"{fast_sub.logdet:.4f} (paths split at near-ties of the first steps)"
-    )
-    print(
-        f"  expected CoP error (σ = {sigma * 1e3:g} mm): D-optimal {err * 1e3:.2f} mm "
-        f"(greedy only {design.expected_cop_error(a[greedy.index], c, sigma) * 1e3:.2f} mm), "
-        f"{k} random {rand * 1e3:.2f} mm (median of 50)"
-    )
+    print(f"load average {load}; numpy {np.__version__}, sescid {sescid.__version__}")
+    with tempfile.TemporaryDirectory() as d:
+        commands(args.repeat, Path(d))
+    search_cost(args.search_candidates)
+    if not args.skip_op2_pool:
+        op2_pool(args.repeat)
+    print(f"load average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
 
 
 if __name__ == "__main__":

@@ -173,9 +173,6 @@ def _cli_imports() -> list[tuple[str, int, str, str]]:
 
 #: imports of CLI modules that other helpers own, to be fixed there (module, from, name)
 _PENDING = {
-    ("sescid.cli.poses", "sescid.base.files", "OutputSet"),
-    ("sescid.cli.poses", "sescid.base.progress", "TerminalProgress"),
-    ("sescid.cli.poses", "sescid.planning.ground", "ground_checks"),
     ("sescid.cli.report", "sescid.base.files", "OutputSet"),
     ("sescid.cli.report", "sescid.base.progress", "TerminalProgress"),
 }

@@ -7,6 +7,7 @@ that uses a robot.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
 
@@ -215,22 +216,52 @@ class Robot:
 
     @cached_property
     def free_sole(self) -> Sole | None:
-        """The other foot's sole: the profile's free sole, else the mirror-named link's foot
-        (``r_*``/``l_*``, ``right``/``left``, …) derived from its geometry; None if unknown."""
-        from sescid.model.sole import derive_sole, mirror_link, profile_sole
+        """The other foot's sole: the profile's free sole, else the foot found from the tree and
+        the geometry (``model.sole.free_foot``), derived from its geometry; None if unknown."""
+        from sescid.model.sole import derive_sole, free_foot, point_sole, profile_sole
 
         link = self.profile.free_sole.get(self.support)
-        if link is None:
-            link = mirror_link(self.support, self.model.link_frames)
-        if link is None or link not in self.model.link_frames:
-            return None
-        b, x = self.model.link_frames[link]
-        size = self.profile.sole_size
-        if size is not None and link in self.profile.free_sole.values():
-            return profile_sole(link, b, x, size, f"free sole {link} (profile)")
         rot, org = self.forward(np.zeros((1, self.nq)))
-        frame_z = float(org[0, b, 2] + rot[0, b, 2] @ x[:3, 3])
-        return derive_sole(link, b, self.shapes, rot[0, b], org[0, b], frame_z)
+        if link is not None and link in self.model.link_frames:
+            b, x = self.model.link_frames[link]
+            size = self.profile.sole_size
+            if size is not None:
+                return profile_sole(link, b, x, size, f"free sole {link} (profile)")
+            frame_z = float(org[0, b, 2] + rot[0, b, 2] @ x[:3, 3])
+            return derive_sole(link, b, self.shapes, rot[0, b], org[0, b], frame_z)
+        parents = [bd.parent for bd in self.model.bodies]
+        b, how = free_foot(parents, self.masses, self.shapes, (rot[0], org[0]), self.floor)
+        if b is None:
+            return None
+        name = self.body_names[b]
+        sole = derive_sole(name, b, self.shapes, rot[0, b], org[0, b])
+        if sole is None:
+            return point_sole(name, b, np.zeros(3), f"free foot '{name}' ({how}): its origin")
+        return replace(sole, note=f"free foot '{name}' ({how}); {sole.note}")
+
+    def check_support_level(self) -> None:
+        """ModelError unless the support frame's z is along the normal of the support foot's
+        sole (``model.sole.level_check``) and the zero-pose CoM lies above that sole."""
+        from sescid.model.sole import LEVEL_SHARE, level_check
+
+        b, x = self.model.link_frames[self.support]
+        frames = {n: f for n, (bb, f) in self.model.link_frames.items() if bb == b}
+        chk = level_check(self.shapes, b, x, frames)
+        above = float(self.com(np.zeros(self.nq))[0, 2]) > self.floor
+        if chk.level and above:
+            return
+        good = [f for f in chk.frames if f != self.support]
+        fix = f"one of: {', '.join(good[:4])}" if good else "none on that body is: add a sole frame"
+        why = (
+            f"the foot's lowest face under its z axis covers {chk.share:.0%} of its sole "
+            f"(level: at least {LEVEL_SHARE:.0%}); the sole's normal is along its {chk.up} axis"
+            if not chk.level
+            else "the robot's centre of mass lies below the sole at the zero pose"
+        )
+        raise ModelError(
+            f"{self.model_path.name}: support frame '{self.support}' is not level ({why}): "
+            f"give --support a sole frame, z along the sole's normal pointing up ({fix})"
+        )
 
     @property
     def floor(self) -> float:

@@ -100,7 +100,7 @@ SCRIPT = textwrap.dedent(
     from sescid.model import meshes
     from sescid.report import live
     extra("yaml", lambda: read_document(tmp / "map.yaml"))
-    extra("meshes", lambda: meshes._hull_vertices(str(tmp / "x.stl")))
+    extra("meshes", lambda: meshes._hull_vertices(str(tmp / "x.obj")))  # STL: numpy alone
     extra("view", lambda: live._viser())
     extra("bench", lambda: bench_mujoco_module())
 

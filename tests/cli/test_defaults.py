@@ -28,7 +28,7 @@ from sescid.bench import (
 from sescid.cli import COMMANDS, cli
 from sescid.estimation import ConsistentOptions, IdentifyOptions, MapOptions
 from sescid.io import export_model
-from sescid.planning import cop_half_extents, plan_poses, sampling_limits
+from sescid.planning import PlanOptions, cop_half_extents, plan_poses, sampling_limits
 from sescid.report import LiveView
 from sescid.robot import load_robot
 from sescid.sensors import CalibrationOptions, PadSessionOptions, fsr, load_sensors, table_gravity
@@ -38,6 +38,7 @@ from sescid.study import paper_study
 
 #: options with no API counterpart, and why
 CLI_ONLY = {
+    "check": "poses: a physics bench to check the chosen poses on (PlanOptions.check takes the check itself)",
     "out": "the output file",
     "out_dir": "the output folder",
     "truth": "experiment: a second output file",
@@ -63,10 +64,7 @@ CLI_ONLY = {
 
 #: defaults that differ from the API's today, and why (an entry must go when its drift is
 #: fixed: the test fails on a stale entry)
-KNOWN_DRIFT = {
-    ("poses", "n_candidates"): "the CLI takes 5000 for the adjusted sampler, 20000 for uniform "
-    "draws; plan_poses(n_candidates=20000) (cli/poses.py is the planning helper's)",
-}
+KNOWN_DRIFT = {}
 
 
 class _Read(dict):
@@ -166,11 +164,12 @@ def _demo(d) -> list:
 
 def _poses(d) -> list:
     pairs = [("count", "count"), ("select", "select"), ("seed", "seed")]
-    pairs += [("n_candidates", "n_candidates"), ("test_poses", "n_test")]
-    pairs += [("clearance", "clearance"), ("noise", "sigma")]
+    fields = [("n_candidates", "n_candidates"), ("test_poses", "n_test")]
+    fields += [("clearance", "clearance"), ("noise", "sigma"), ("rigid", "rigid")]
     return [
         *_robot(d),
         *[(n, d[n], _arg(plan_poses, a)) for n, a in pairs],
+        *[(n, d[n], _field(PlanOptions, a)) for n, a in fields],
         ("urdf_limits", not d["urdf_limits"], _arg(sampling_limits, "paper")),
         ("range_deg", d["range_deg"], _arg(sampling_limits, "range_deg")),
         *[(n, d[n], _arg(cop_half_extents, n)) for n in ("cop_box", "margin", "sole_size")],

@@ -59,6 +59,8 @@ __all__ = [
     "real_robot",
     "run_experiment",
     "run_mujoco_experiment",
+    "standing_check",
+    "stands",
 ]
 
 
@@ -66,9 +68,18 @@ __all__ = [
 _MUJOCO = {"MujocoBenchConfig", "run_mujoco_experiment"}
 
 
+#: names of the standing check (``standing``: the physics bench, imported on first use)
+_STANDING = {"standing_check", "stands"}
+
+
 def __getattr__(name: str):
+    """The physics bench's names, imported on first use (the ``mujoco`` extra)."""
     if name in _MUJOCO:
         from sescid.bench import mujoco
 
         return getattr(mujoco, name)
+    if name in _STANDING:
+        from sescid.bench import standing
+
+        return getattr(standing, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

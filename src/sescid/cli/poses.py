@@ -5,8 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base.files import OutputSet
-from sescid.base.progress import TerminalProgress
+from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     load,
@@ -19,7 +18,9 @@ from sescid.estimation import min_poses
 from sescid.io import write_table
 from sescid.planning import (
     DEFAULT_CLEARANCE,
+    PlanOptions,
     cop_half_extents,
+    default_candidates,
     design_curve,
     free_sole,
     plan_poses,
@@ -32,7 +33,7 @@ from sescid.simulation import PAPER_NOISE
 
 def _sole_notes(robot, capsules) -> list[str]:
     """Where the soles came from and what the floor check left out (any robot)."""
-    from sescid.planning.ground import ground_checks
+    from sescid.planning import ground_checks
 
     out = [s.note for s in (robot.sole, robot.free_sole) if s is not None and s.derived]
     if robot.sole is None:
@@ -66,7 +67,8 @@ def _sole_notes(robot, capsules) -> list[str]:
     default=None,
     type=click.IntRange(min=1, max=10_000_000),
     help="Stable, collision-free candidate poses to choose from "
-    "[default: 20000 for uniform draws (op2), 5000 with the adjusted sampler].",
+    "[default, d-optimal: 20000 for uniform draws (op2), 5000 with the adjusted sampler; "
+    "random: --count (a random subset of random candidates is random)].",
 )
 @click.option(
     "--test-poses",
@@ -124,6 +126,21 @@ def _sole_notes(robot, capsules) -> list[str]:
     is_flag=True,
     help="Add <joint>_paper_deg columns (the paper's Table 2 angle convention; op2).",
 )
+@click.option(
+    "--rigid",
+    is_flag=True,
+    help="Stability: the CoP box only, no compliant-robot margin (servo sag, sole tilt, "
+    "backlash from the robot profile).",
+)
+@click.option(
+    "--check",
+    "check",
+    type=click.Choice(["none", "mujoco"]),
+    default="none",
+    show_default=True,
+    help="mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
+    "the next best until all do; needs the mujoco extra).",
+)
 @force_option
 def poses(
     robot_name,
@@ -143,6 +160,8 @@ def poses(
     noise,
     figure,
     paper_convention: bool,
+    rigid: bool,
+    check: str,
     force: bool,
 ):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
@@ -154,7 +173,7 @@ def poses(
     outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
     if n_candidates is None:
-        n_candidates = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
+        n_candidates = default_candidates(robot, select, count)
     need = min_poses(robot)
     if count < need:
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
@@ -167,22 +186,27 @@ def poses(
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
     half = cop_half_extents(robot, cop_box, margin, sole_size)
     limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
-    plan = plan_poses(
-        robot,
-        count,
-        select,
-        seed,
+    pose_check = None
+    if check == "mujoco":
+        from sescid.bench import standing_check
+
+        pose_check = standing_check(robot)
+    opt = PlanOptions(
         n_candidates=n_candidates,
         n_test=test_poses,
         sigma=noise,
         limits=limits,
         half_extents=half,
         clearance=clearance,
-        progress=TerminalProgress("candidates"),
+        rigid=rigid,
+        check=pose_check,
+        check_name="MuJoCo bench",
     )
+    plan = plan_poses(robot, count, select, seed, opt, progress=TerminalProgress("candidates"))
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
     notes += _sole_notes(robot, capsules)
+    notes += plan.notes
     cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
     names = robot.joint_names
     cols |= {j: plan.q[:, k] for k, j in enumerate(names)}

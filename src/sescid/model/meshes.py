@@ -1,9 +1,12 @@
 """Mesh files of a URDF's shapes: resolve ``package://``, ``file://`` and relative paths, load
-the vertices (convex hull, in the body frame) on demand with trimesh (Collada files turned to
-Z up from their ``<up_axis>``, as Assimp does).
+the vertices (in the body frame) on demand: STL files (binary or ASCII) with numpy, their
+distinct vertices; other formats with trimesh, their convex hull's vertices (Collada files turned
+to Z up from their ``<up_axis>``, as Assimp does). Either set has the hull's vertices, so the
+lowest point in any direction is exact.
 
 Loading is lazy (``with_mesh_vertices`` is called by the robot when a consumer needs geometry:
-the sole, ground clearance, self-collision); a mesh that cannot be found or read keeps
+the sole, ground clearance, self-collision); a visual mesh is loaded only on a body without
+collision shapes (nothing else uses it). A mesh that cannot be found or read keeps
 ``vertices=None`` and is named in the returned notes. MJCF shapes carry MuJoCo's compiled
 vertices already and pass through unchanged.
 """
@@ -45,9 +48,35 @@ def resolve_mesh(filename: str, model_path: Path) -> Path | None:
     return p if p.is_file() else None
 
 
+def _stl_vertices(path: str) -> np.ndarray | None:
+    """(k, 3) distinct vertices of an STL file (binary or ASCII), None if it is neither."""
+    data = Path(path).read_bytes()
+    if len(data) >= 84:
+        n = int(np.frombuffer(data, "<u4", 1, 80)[0])
+        if len(data) == 84 + 50 * n:
+            rec = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+            return np.frombuffer(data, rec, n, 84)["v"].reshape(-1, 3).astype(np.float64)
+    text = data.decode("ascii", errors="replace")
+    if not text.lstrip().startswith("solid"):
+        return None
+    nums = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", text)
+    try:
+        return np.array(nums, dtype=np.float64).reshape(-1, 3)
+    except ValueError:
+        return None
+
+
 @lru_cache(maxsize=512)
 def _hull_vertices(path: str) -> np.ndarray | None:
-    """(k, 3) convex-hull vertices of a mesh file in its own frame (None if unreadable)."""
+    """(k, 3) vertices of a mesh file in its own frame, at least its convex hull's (None if
+    unreadable): an STL's distinct vertices, else trimesh's convex hull."""
+    if path.lower().endswith(".stl"):
+        try:
+            verts = _stl_vertices(path)
+        except OSError:
+            return None
+        if verts is not None and len(verts) and np.all(np.isfinite(verts)):
+            return np.unique(verts, axis=0)
     try:
         import trimesh  # lazy: only needed for mesh geometry
     except ImportError:  # pragma: no cover - depends on the environment
@@ -86,34 +115,37 @@ def _collada_up(path: str) -> np.ndarray:
 
 
 def with_mesh_vertices(shapes: list[Shape], model_path: Path) -> tuple[list[Shape], list[str]]:
-    """``shapes`` with each mesh's hull vertices (body frame, scaled) loaded where its file
-    resolves; notes name the meshes that could not be found or read."""
-    out: list[Shape] = []
+    """``shapes`` with each mesh's vertices (body frame, scaled) loaded where its file resolves
+    (visual meshes only on bodies without a usable collision shape); notes name the meshes that
+    could not be found or read."""
+    out = list(shapes)
     missing: list[str] = []
     unreadable: list[str] = []
-    for s in shapes:
-        if s.kind != MESH or s.vertices is not None:
-            out.append(s)
-            continue
-        path = resolve_mesh(s.mesh, model_path)
-        verts = None if path is None else _hull_vertices(str(path))
-        if verts is None:
-            (missing if path is None else unreadable).append(f"{s.link} ({s.role}: {s.mesh})")
-            out.append(s)
-            continue
-        v = verts * s.scale
-        out.append(replace(s, vertices=v @ s.pose[:3, :3].T + s.pose[:3, 3]))
+    for role in ("collision", "visual"):
+        solid = {s.body for s in out if s.role == "collision" and _usable(s)}
+        for k, s in enumerate(out):
+            if s.role != role or s.kind != MESH or s.vertices is not None:
+                continue
+            if role == "visual" and s.body in solid:
+                continue
+            path = resolve_mesh(s.mesh, model_path)
+            verts = None if path is None else _hull_vertices(str(path))
+            if verts is None:
+                (missing if path is None else unreadable).append(f"{s.link} ({role}: {s.mesh})")
+                continue
+            v = verts * s.scale
+            out[k] = replace(s, vertices=v @ s.pose[:3, :3].T + s.pose[:3, 3])
     notes = []
-    if missing:
-        notes.append(
-            f"{len(missing)} mesh file(s) not found, their shapes ignored: "
-            + ", ".join(missing[:3])
-            + (" …" if len(missing) > 3 else "")
-        )
-    if unreadable:
-        notes.append(
-            f"{len(unreadable)} mesh file(s) unreadable, their shapes ignored: "
-            + ", ".join(unreadable[:3])
-            + (" …" if len(unreadable) > 3 else "")
-        )
+    for what, names in (("not found", missing), ("unreadable", unreadable)):
+        if names:
+            notes.append(
+                f"{len(names)} mesh file(s) {what}, their shapes ignored: "
+                + ", ".join(names[:3])
+                + (" …" if len(names) > 3 else "")
+            )
     return out, notes
+
+
+def _usable(s: Shape) -> bool:
+    """A primitive, or a mesh whose vertices are loaded."""
+    return s.kind != MESH or s.vertices is not None

@@ -1,20 +1,26 @@
 """Soles for any robot: the floor plane and the sole rectangle of a foot, from a profile or
-derived from the foot's lowest collision geometry.
+derived from the foot's lowest geometry; whether the support frame is level; which body is the
+other (free) foot.
 
-The support frame's z axis is taken as vertical. A foot's sole is derived from its body's
-collision shapes (visual ones when it has none) at the zero pose, in the support frame's
-orientation: the lowest points of every box (corners), cylinder (rim), sphere and capsule
-(bottom points) and mesh (hull vertices) are collected, the floor is the lowest of them, and the
-rectangle is the x/y extent of the points within ``CONTACT_TOL`` of it. A foot whose frame is a
-sole (its geometry at or above z = 0) keeps z = 0 as the floor; a foot frame above the geometry
-(G1 stands on its ankle frame) gets the derived floor below it.
+The support frame's z axis is taken as vertical once ``level_check`` has found it along the
+normal of the support foot's sole. A foot's sole is derived from its body's collision shapes
+(visual ones when it has none) at the zero pose, in the support frame's orientation: the lowest
+points of every box (corners), cylinder (rim), sphere and capsule (bottom points) and mesh
+(hull vertices) are collected, the floor is the lowest of them, and the rectangle is the x/y
+extent of the points within ``CONTACT_TOL`` of it. A foot whose frame is a sole (its geometry at
+or above z = 0) keeps z = 0 as the floor; a foot frame above the geometry (G1 stands on its
+ankle frame) gets the derived floor below it.
+
+The free foot (``free_foot``) is found from the tree and the geometry, not from names: of the
+bodies off the supporting leg, the one whose geometry reaches lowest at the zero pose, when that
+is within ``FREE_FOOT_SHARE`` of the robot's height of the floor (a humanoid's other foot
+stands beside the support foot at the zero pose; hands and knees are far higher).
 """
 
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,23 +28,13 @@ from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
 
 CONTACT_TOL = 0.003  #: m, points this close to the lowest one touch the floor
 MIN_SOLE = 0.01  #: m, a derived side shorter than this is widened to the foot's x/y extent
-
-_SIDES = [
-    (r"^(.*)_R$", r"\1_L"),
-    (r"^(.*)_r$", r"\1_l"),
-    (r"^r_(.*)$", r"l_\1"),
-    (r"^R_(.*)$", r"L_\1"),
-    (r"^R([A-Z].*)$", r"L\1"),
-    (r"^(.*)right(.*)$", r"\1left\2"),
-    (r"^(.*)Right(.*)$", r"\1Left\2"),
-    (r"^(.*)_L$", r"\1_R"),
-    (r"^(.*)_l$", r"\1_r"),
-    (r"^l_(.*)$", r"r_\1"),
-    (r"^L_(.*)$", r"R_\1"),
-    (r"^L([A-Z].*)$", r"R\1"),
-    (r"^(.*)left(.*)$", r"\1right\2"),
-    (r"^(.*)Left(.*)$", r"\1Right\2"),
-]
+#: a support frame is level when the foot's lowest face under its −z covers at least this share
+#: of the foot's largest flat face (a heel frame with a horizontal z sees the heel's end face)
+LEVEL_SHARE = 0.5
+#: the free foot's lowest point lies within this share of the robot's height of the floor
+FREE_FOOT_SHARE = 0.1
+#: the supporting leg goes on past side branches lighter than this share of the robot's mass
+LEG_SIDE_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -59,22 +55,15 @@ class Sole:
     note: str  #: one line saying where it came from
 
 
-def mirror_link(name: str, names) -> str | None:
-    """The other side's link (``r_sole`` → ``l_sole``, ``right_…`` → ``left_…``, and back)."""
-    pool = set(names)
-    for pat, rep in _SIDES:
-        other = re.sub(pat, rep, name) if re.match(pat, name) else name
-        if other != name and other in pool:
-            return other
-    return None
-
-
-def lowest_points(shape: Shape, rot: np.ndarray, org: np.ndarray) -> np.ndarray | None:
-    """(k, 3) candidate floor-contact points [m] of a shape in the reference frame in which
-    its body has rotation ``rot`` and origin ``org`` (z up); None for an unloaded mesh."""
+def lowest_points(
+    shape: Shape, rot: np.ndarray, org: np.ndarray, down: np.ndarray | None = None
+) -> np.ndarray | None:
+    """(k, 3) candidate contact points [m] of a shape in the reference frame in which its body
+    has rotation ``rot`` and origin ``org``: every point that can be the shape's extreme along
+    ``down`` (unit, default −z); None for an unloaded mesh."""
     t_rot = rot @ shape.pose[:3, :3]
     t_org = org + rot @ shape.pose[:3, 3]
-    down = np.array([0.0, 0.0, 1.0])
+    d = np.array([0.0, 0.0, -1.0]) if down is None else np.asarray(down, dtype=float)
     if shape.kind == BOX:
         h = 0.5 * shape.size
         loc = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * h
@@ -87,12 +76,30 @@ def lowest_points(shape: Shape, rot: np.ndarray, org: np.ndarray) -> np.ndarray 
         rad = float(shape.size[0])
         half = 0.0 if shape.kind == SPHERE else float(shape.size[1]) / 2
         ends = np.array([[0, 0, -half], [0, 0, half]]) @ t_rot.T + t_org
-        return ends - rad * down
+        return ends + rad * d
     elif shape.kind == MESH and shape.vertices is not None:
         return shape.vertices @ rot.T + org
     else:
         return None
     return loc @ t_rot.T + t_org
+
+
+def body_points(
+    shapes: list[Shape], body: int, rot: np.ndarray, org: np.ndarray, down=None
+) -> tuple[np.ndarray | None, str]:
+    """(points (k, 3) or None, role): ``lowest_points`` of a body's collision shapes, else its
+    visual shapes ("collision"/"visual"); (None, "none") without either."""
+    for role in ("collision", "visual"):
+        pts = [
+            p
+            for s in shapes
+            if s.body == body and s.role == role
+            for p in [lowest_points(s, rot, org, down)]
+            if p is not None
+        ]
+        if pts:
+            return np.vstack(pts), role
+    return None, "none"
 
 
 def derive_sole(
@@ -109,19 +116,9 @@ def derive_sole(
     (the support frame). ``frame_floor``: the floor height of a sole frame (z = 0 of the
     support frame); the floor is the lower of it and the geometry's lowest point.
     """
-    for role in ("collision", "visual"):
-        pts = [
-            p
-            for s in shapes
-            if s.body == body and s.role == role
-            for p in [lowest_points(s, rot, org)]
-            if p is not None
-        ]
-        if pts:
-            break
-    else:
+    allp, role = body_points(shapes, body, rot, org)
+    if allp is None:
         return None
-    allp = np.vstack(pts)
     low = float(allp[:, 2].min())
     touch = allp[allp[:, 2] < low + CONTACT_TOL]
     lo, hi = touch[:, :2].min(axis=0), touch[:, :2].max(axis=0)
@@ -152,6 +149,12 @@ def derive_sole(
     )
 
 
+def point_sole(link: str, body: int, point: np.ndarray, note: str) -> Sole:
+    """A sole shrunk to one point (body frame, m): a foot without geometry."""
+    p = np.asarray(point, dtype=float)
+    return Sole(link, body, p.copy(), np.tile(p, (4, 1)), (0.0, 0.0), True, note)
+
+
 def profile_sole(
     link: str, body: int, frame: np.ndarray, size: tuple[float, float], note: str
 ) -> Sole:
@@ -166,4 +169,132 @@ def profile_sole(
         size=(float(size[0]), float(size[1])),
         derived=False,
         note=note,
+    )
+
+
+# --- is the support frame level? ----------------------------------------------------------
+@dataclass(frozen=True)
+class LevelCheck:
+    """Whether a frame's z is along the normal of its foot's sole (the foot's largest flat face)."""
+
+    level: bool  #: True when level, or when it cannot be told (``share`` nan)
+    share: float  #: footprint under −z / the largest footprint (nan: no flat face to compare)
+    frames: list[str] = field(default_factory=list)  #: frames on the foot's body that are level
+    up: str = "+z"  #: the checked frame's axis nearest the sole's normal (pointing up)
+
+
+def footprint(shapes: list[Shape], body: int, rot: np.ndarray) -> float:
+    """Area [m²] of the bounding rectangle (in the x/y axes of ``rot``) of a body's points within
+    ``CONTACT_TOL`` of its lowest along −z of the frame whose rotation in the body is ``rot``."""
+    r = np.asarray(rot, dtype=float).T  # body → frame
+    pts, _ = body_points(shapes, body, r, np.zeros(3))
+    if pts is None:
+        return 0.0
+    touch = pts[pts[:, 2] < pts[:, 2].min() + CONTACT_TOL]
+    ext = touch[:, :2].max(axis=0) - touch[:, :2].min(axis=0)
+    return float(ext[0] * ext[1])
+
+
+_UP = ("+z", "-z", "+x", "-x", "+y", "-y")  #: the axis of ``rot`` pointing up in each turn
+
+
+def _turns(rot: np.ndarray) -> list[np.ndarray]:
+    """The six frames whose −z is along −z, +z, −x, +x, −y, +y of ``rot`` (right-handed)."""
+    x, y, z = rot[:, 0], rot[:, 1], rot[:, 2]
+    return [np.column_stack(c) for c in ((x, y, z), (x, -y, -z), (y, z, x), (z, y, -x),
+                                         (z, x, y), (x, z, -y))]  # fmt: skip
+
+
+def level_check(
+    shapes: list[Shape], body: int, frame: np.ndarray, frames: dict[str, np.ndarray]
+) -> LevelCheck:
+    """Is the frame ``frame`` (4×4 in body ``body``'s frame) level on that foot's geometry?
+
+    Its −z footprint is compared with the largest footprint along ±x, ±y, ±z of it, of every
+    frame in ``frames`` (name → 4×4 in the same body) and of every shape of the body; the
+    frames whose own footprint passes are listed as fixes."""
+    dirs = [frame[:3, :3], *(f[:3, :3] for f in frames.values())]
+    dirs += [s.pose[:3, :3] for s in shapes if s.body == body]
+    largest = max(footprint(shapes, body, t) for r in dirs for t in _turns(r))
+    if not largest > 0:
+        return LevelCheck(True, math.nan)
+    own = [footprint(shapes, body, t) for t in _turns(frame[:3, :3])]
+    share = own[0] / largest
+    up = _UP[int(np.argmax(own))]
+    good = [
+        n for n, f in frames.items() if footprint(shapes, body, f[:3, :3]) >= LEVEL_SHARE * largest
+    ]
+    return LevelCheck(share >= LEVEL_SHARE, share, good, up)
+
+
+# --- the free foot -------------------------------------------------------------------------
+def supporting_leg(parents: list[int], masses: np.ndarray) -> tuple[list[int], int]:
+    """(bodies of the supporting leg, the body it ends at): from the support body (0) up the
+    tree while the other branches are light (each below ``LEG_SIDE_SHARE`` of the mass: a toe,
+    a sensor board), to the first body where the mass splits (the pelvis of a humanoid)."""
+    n = len(parents)
+    sub = np.asarray(masses, dtype=float).copy()
+    for i in range(n - 1, 0, -1):  # children follow their parents
+        sub[parents[i]] += sub[i]
+    children: dict[int, list[int]] = {}
+    for i, p in enumerate(parents):
+        children.setdefault(p, []).append(i)
+    total = sub[0] if sub[0] > 0 else 1.0
+    leg, cur = [0], 0
+    while children.get(cur):
+        kids = sorted(children[cur], key=lambda c: (-sub[c], c))
+        if any(sub[c] >= LEG_SIDE_SHARE * total for c in kids[1:]):
+            break
+        cur = kids[0]
+        leg.append(cur)
+    return leg[:-1] if len(leg) > 1 else leg, cur
+
+
+def _descendants(parents: list[int], top: int) -> list[int]:
+    """Bodies below ``top`` in the tree rooted at the support body (``top`` excluded)."""
+    below = np.zeros(len(parents), dtype=bool)
+    for i in range(len(parents)):  # children follow their parents
+        p = parents[i]
+        below[i] = p >= 0 and (p == top or below[p])
+    return [int(i) for i in np.flatnonzero(below)]
+
+
+def free_foot(
+    parents: list[int],
+    masses: np.ndarray,
+    shapes: list[Shape],
+    zero_pose: tuple[np.ndarray, np.ndarray],
+    floor: float,
+) -> tuple[int | None, str]:
+    """(body index or None, how it was found) of the free foot: of the bodies beyond the end
+    of the supporting leg (``supporting_leg``), the one whose geometry (collision, else visual,
+    else its origin) reaches lowest at the zero pose, when that lies within
+    ``FREE_FOOT_SHARE`` of the robot's height of ``floor`` [m].
+
+    ``zero_pose``: rotations (N, 3, 3) and origins (N, 3) of the bodies at the zero pose in
+    the support frame."""
+    rot, org = zero_pose
+    top = supporting_leg(parents, masses)[1]
+    cand = _descendants(parents, top)
+    low = np.full(len(parents), np.inf)
+    high = np.full(len(parents), -np.inf)
+    how: dict[int, str] = {}
+    for b in range(len(parents)):
+        pts, role = body_points(shapes, b, rot[b], org[b])
+        z = org[b, 2:3] if pts is None else pts[:, 2]
+        low[b], high[b] = float(z.min()), float(z.max())
+        how[b] = "its origin" if pts is None else f"its {role} geometry"
+    if not cand:
+        return None, "no body beyond the supporting leg"
+    height = float(np.max(high) - floor)
+    best = min(cand, key=lambda b: (low[b], b))
+    gap = low[best] - floor
+    if not gap <= FREE_FOOT_SHARE * height:
+        return None, (
+            f"no body beyond the supporting leg comes within {FREE_FOOT_SHARE:.0%} of the robot's "
+            f"height of the floor at the zero pose (lowest: {gap * 1e3:.0f} mm above it)"
+        )
+    return best, (
+        f"the body beyond the supporting leg whose {how[best].removeprefix('its ')} reaches "
+        f"lowest at the zero pose ({gap * 1e3:+.1f} mm from the floor)"
     )

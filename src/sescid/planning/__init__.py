@@ -1,9 +1,13 @@
 """Pose planning for a bench identification: stable, collision-free, informative poses.
 
-Pipeline (vectorised across poses, SI units, radians): sampling limits (``limits``) →
-candidates that are statically stable, ground-clear and free of self-collision (``candidates``,
-``stability``, ``collision``) → D-optimal choice and its expected CoP error (``doptimal``) →
-visiting order (``ordering``); ``plan_poses`` runs it all.
+Pipeline (vectorised across poses, SI units, radians): sampling limits (``limits``: unlimited
+joints get a stated range) → candidates (``candidates``: uniform draws, or draws moved over the
+foot by the CoM Jacobian, ``adjust``, ``com``) that are stable on a compliant robot
+(``stability``: the CoP box; ``compliance``: servo sag, sole tilt, backlash), clear of the floor
+on every body's geometry (``ground``) and free of self-collision (``collision``) → D-optimal
+choice and its expected CoP error (``doptimal``), optionally checked on a physics bench
+(``PlanOptions.check``) → visiting order (``ordering``); ``plan_poses`` runs it all. Every
+kernel runs without fast-math and breaks near-ties by index: the same poses on every CPU.
 """
 
 from __future__ import annotations
@@ -18,6 +22,8 @@ from sescid.planning.collision import (
     first_contact,
     segment_distance,
 )
+from sescid.planning.com import ComState, com_state, level_cop
+from sescid.planning.compliance import Compliance, compliance, compliant_margin, dynamic_cop
 from sescid.planning.doptimal import (
     Selection,
     expected_cop_error,
@@ -34,9 +40,17 @@ from sescid.planning.limits import (
     load_paper_convention,
     paper_convention,
     sampling_limits,
+    unlimited_joints,
 )
 from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.plan import PosePlan, design_curve, plan_poses
+from sescid.planning.plan import (
+    PlanOptions,
+    PoseCheck,
+    PosePlan,
+    default_candidates,
+    design_curve,
+    plan_poses,
+)
 from sescid.planning.stability import (
     DEFAULT_CLEARANCE,
     FALLBACK_COP_BOX,
@@ -52,8 +66,12 @@ __all__ = [
     "FALLBACK_COP_BOX",
     "Candidates",
     "Capsules",
+    "ComState",
+    "Compliance",
     "GroundChecks",
     "PaperConvention",
+    "PlanOptions",
+    "PoseCheck",
     "PosePlan",
     "Selection",
     "box_capsules",
@@ -61,8 +79,13 @@ __all__ = [
     "collision_capsules",
     "collision_free_mask",
     "collision_free_mask_numpy",
+    "com_state",
+    "compliance",
+    "compliant_margin",
     "cop_half_extents",
+    "default_candidates",
     "design_curve",
+    "dynamic_cop",
     "expected_cop_error",
     "first_contact",
     "ground_checks",
@@ -70,6 +93,7 @@ __all__ = [
     "ground_clear_mask",
     "identifiable_basis",
     "information",
+    "level_cop",
     "load_paper_convention",
     "order_poses",
     "paper_convention",
@@ -83,4 +107,5 @@ __all__ = [
     "select_d_optimal",
     "sole_corners",
     "stable_mask",
+    "unlimited_joints",
 ]

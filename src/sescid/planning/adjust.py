@@ -1,30 +1,39 @@
-"""Candidate generation that does not depend on how rarely a uniform draw is stable: draw the
-joints uniformly, then move the supporting leg so that the CoP lands at a random point of the
-stability box.
+"""Candidate draws that do not depend on how rarely a uniform draw is stable: draw joints, then
+move the CoM over the support foot by a few steps of the CoM Jacobian.
 
-The supporting leg is the chain of joints from the support body up to the first body with more
-than one child (the pelvis for a humanoid). A few damped Gauss–Newton steps on the model CoP
-over those joints (finite-difference Jacobian, vectorised across poses, clipped to the sampling
-limits) bring most draws inside the box; the usual stability, floor and self-collision checks
-then decide. The other joints keep their draw. Draws (``draw``) mix uniform poses within the
-limits with poses near already accepted ones (Gaussian steps of ``NEAR_STEP`` of each joint's
-range; before any is accepted, uniform within ``NEAR_STEP`` of the range around the zero pose):
-on a 32-joint humanoid almost no uniform draw is free of self-collision, a nearby one often is.
-Draws already in self-collision are dropped before the (costlier) adjustment.
+Draws (``draw``, ``Search``) mix uniform poses within the limits with poses near accepted ones
+(Gaussian steps of ``NEAR_STEP`` of the range on a random ``NEAR_JOINTS`` of the joints; before
+any is accepted, uniform within ``NEAR_STEP`` of the range around the zero pose): on a 32-joint
+humanoid almost no uniform draw is free of self-collision, a nearby one often is. Draws already
+in self-collision are dropped; the others get ``SEARCH_STEPS`` damped Gauss–Newton steps that
+move the model CoP toward a target drawn in the central half of the stability box
+(``move_com``): all joints move, each in proportion to its range (the minimum-norm step in
+range-scaled coordinates), joints at a limit that the step pushes further drop out, and the
+result is clipped to the limits. Every check
+(stability, compliant stability, floor, self-collision) is then made again. This finds the
+stable poses of a robot whose uniform draws almost never are (a small foot, a heavy torso far
+ahead); ``closest_box`` says how near a robot that cannot stand on one foot came.
+
+``adjust_support_leg`` moves only the supporting leg's joints (the same steps).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from sescid.planning.broadphase import collision_free_mask_broad
+from sescid.planning.broadphase import collision_free_poses
 from sescid.planning.collision import Capsules
+from sescid.planning.com import com_state
 from sescid.robot import Robot
 
-ADJUST_STEPS = 3  #: Gauss–Newton steps
-_FD = 1e-6  #: rad, finite-difference step
+SEARCH_STEPS = 3  #: Gauss–Newton steps
+ADJUST_STEPS = 3  #: steps of ``adjust_support_leg``
 _DAMP = 1e-8  #: m², damping of the 2×2 normal matrix
-NEAR_STEP = 0.15  #: standard deviation of a step from an accepted pose, fraction of the range
+_MAX_STEP = 0.5  #: rad, largest change of a joint per step
+NEAR_STEP = 0.25  #: standard deviation of a step from an accepted pose, fraction of the range
+NEAR_JOINTS = 0.3  #: share of the joints a step from an accepted pose moves (each by chance)
 UNIFORM_SHARE = 0.25  #: share of each chunk drawn uniformly within the limits
 
 
@@ -40,7 +49,9 @@ def draw(
     m = n - n_uni
     if accepted is not None and len(accepted):
         base = accepted[rng.integers(0, len(accepted), m)]
-        q[n_uni:] = base + NEAR_STEP * width * rng.standard_normal(base.shape)
+        step = NEAR_STEP * width * rng.standard_normal(base.shape)
+        step *= rng.random(base.shape) < NEAR_JOINTS
+        q[n_uni:] = base + step
     else:
         zero = np.clip(0.0, lo, hi)
         q[n_uni:] = zero + NEAR_STEP * width * rng.uniform(-1, 1, (m, len(lo)))
@@ -73,7 +84,7 @@ def support_chain(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _subtrees(robot: Robot, chain: np.ndarray) -> np.ndarray:
-    """(k, N) mass-weighting mask: body i lies at or beyond chain body k (away from support)."""
+    """(k, N) mask: body i lies at or beyond chain body k (away from the support)."""
     parents = [b.parent for b in robot.model.bodies]
     out = np.zeros((len(chain), len(parents)))
     for i in range(len(parents)):
@@ -82,6 +93,49 @@ def _subtrees(robot: Robot, chain: np.ndarray) -> np.ndarray:
             out[chain == a, i] = 1.0
             a = parents[a]
     return out
+
+
+def move_com(
+    robot: Robot,
+    q: np.ndarray,
+    limits: np.ndarray,
+    target: np.ndarray,
+    cols: np.ndarray | None = None,
+    steps: int = SEARCH_STEPS,
+) -> np.ndarray:
+    """Poses ``q`` (n, nq) [rad] moved so that the CoM's x, y approach ``target`` (n, 2) [m]:
+    damped Gauss–Newton on the joints ``cols`` (default all), range-scaled, within ``limits``
+    (see the module docstring). Elementwise arithmetic: the same bits on every CPU."""
+    q = np.array(q, dtype=float)
+    cols = np.arange(robot.nq) if cols is None else np.asarray(cols)
+    if not len(cols) or not len(q):
+        return q
+    lo, hi = limits[cols, 0], limits[cols, 1]
+    scale = hi - lo  # range-scaled coordinates: dq = scale · dz
+    free = np.ones((len(q), len(cols)), dtype=bool)
+    for _ in range(steps):
+        st = com_state(robot, q)
+        err = target - st.com[:, :2]
+        a = st.jac[:, :2][:, :, cols] * scale * free[:, None, :]  # (n, 2, k)
+        g00 = np.sum(a[:, 0] * a[:, 0], axis=1) + _DAMP
+        g01 = np.sum(a[:, 0] * a[:, 1], axis=1)
+        g11 = np.sum(a[:, 1] * a[:, 1], axis=1) + _DAMP
+        det = g00 * g11 - g01 * g01
+        y0 = (g11 * err[:, 0] - g01 * err[:, 1]) / det
+        y1 = (g00 * err[:, 1] - g01 * err[:, 0]) / det
+        dq = np.clip((a[:, 0] * y0[:, None] + a[:, 1] * y1[:, None]) * scale, -_MAX_STEP, _MAX_STEP)
+        new = q[:, cols] + dq
+        free &= (new > lo) & (new < hi)  # a joint the step pushes past a limit stops there
+        q[:, cols] = np.clip(new, lo, hi)
+    return q
+
+
+def _targets(
+    rng: np.random.Generator, n: int, half_extents: np.ndarray, centre: np.ndarray
+) -> np.ndarray:
+    """(n, 2) CoP targets [m] uniform in the central half of ``centre ± half_extents``."""
+    half = np.asarray(half_extents, dtype=float)
+    return np.asarray(centre, dtype=float) + half * rng.uniform(-0.5, 0.5, size=(n, 2))
 
 
 def adjust_support_leg(
@@ -93,54 +147,35 @@ def adjust_support_leg(
     rng: np.random.Generator,
     steps: int = ADJUST_STEPS,
 ) -> np.ndarray:
-    """Poses ``q`` (n, nq) [rad] with the supporting leg moved toward a CoP target drawn
-    uniformly in the central half of ``centre ± half_extents`` [m].
-
-    Jacobian of the CoM in closed form: joint k turns the bodies beyond it about its axis
-    w_k through its point p_k, so ∂CoM/∂q_k = s_k (w_k × (c_k − p_k)) M_k / M with M_k, c_k
-    the mass and CoM beyond it."""
-    q = np.array(q, dtype=float)
-    cols, chain = support_chain(robot)
-    if not len(cols) or not len(q):
-        return q
-    lo, hi = limits[cols, 0], limits[cols, 1]
-    half = np.asarray(half_extents, dtype=float)
-    target = np.asarray(centre, dtype=float) + half * rng.uniform(-0.5, 0.5, size=(len(q), 2))
-    bodies = robot.model.bodies
-    mass = np.array([b.mass for b in bodies])
-    com = np.array([b.com for b in bodies])
-    sub = _subtrees(robot, chain) * mass  # (k, N)
-    m_sub = sub.sum(axis=1)  # (k,)
-    axis = np.array([bodies[c].axis * bodies[c].sign for c in chain])  # (k, 3)
-    total = mass.sum()
-    for _ in range(steps):
-        rot, org = robot.forward(q)
-        cw = org + (rot @ com[:, :, None])[..., 0]  # body CoMs (n, N, 3)
-        c_all = np.einsum("b,nbi->ni", mass, cw) / total
-        c_sub = np.einsum("kb,nbi->nki", sub, cw)  # (n, k, 3): Σ m c beyond joint k
-        w = (rot[:, chain] @ axis[:, :, None])[..., 0]
-        jac = np.cross(w, c_sub - m_sub[:, None] * org[:, chain]) / total  # (n, k, 3)
-        jac = jac[..., :2].transpose(0, 2, 1)  # (n, 2, k)
-        err = target - c_all[:, :2]
-        jjt = jac @ jac.transpose(0, 2, 1) + _DAMP * np.eye(2)
-        dq = np.einsum("nij,ni->nj", jac, np.linalg.solve(jjt, err[..., None])[..., 0])
-        q[:, cols] = np.clip(q[:, cols] + np.clip(dq, -0.5, 0.5), lo, hi)
-    return q
+    """Poses ``q`` (n, nq) [rad] with only the supporting leg moved toward a CoP target drawn
+    uniformly in the central half of ``centre ± half_extents`` [m] (``move_com``)."""
+    cols, _ = support_chain(robot)
+    target = _targets(rng, len(q), half_extents, centre)
+    return move_com(robot, q, limits, target, cols, steps)
 
 
-def adjusted_draws(
-    robot: Robot,
-    cap: Capsules,
-    limits: np.ndarray,
-    n: int,
-    rng: np.random.Generator,
-    accepted: np.ndarray | None,
-    half_extents: np.ndarray,
-    centre: np.ndarray,
-) -> np.ndarray:
-    """``n`` draws (``draw``) less those already in self-collision, with the supporting leg
-    adjusted (``adjust_support_leg``); every check is made again on the result."""
-    q = draw(limits, n, rng, accepted)
-    rot, org = robot.forward(q)
-    q = q[collision_free_mask_broad(cap, rot, org)]
-    return adjust_support_leg(robot, q, limits, half_extents, centre, rng)
+@dataclass
+class Search:
+    """Adjusted draws for one robot and stability box: ``draws`` gives each chunk."""
+
+    robot: Robot
+    cap: Capsules
+    limits: np.ndarray  #: (nq, 2) rad
+    half_extents: np.ndarray  #: (2,) m
+    centre: np.ndarray  #: (2,) m
+
+    def draws(self, n: int, rng: np.random.Generator, accepted: np.ndarray | None) -> np.ndarray:
+        """``n`` draws (``draw``) less those already in self-collision, moved toward a stable
+        CoP by every joint (``move_com``); every check is made again on the result."""
+        q = draw(self.limits, n, rng, accepted)
+        q = q[collision_free_poses(self.robot, self.cap, q)]
+        target = _targets(rng, len(q), self.half_extents, self.centre)
+        return move_com(self.robot, q, self.limits, target)
+
+
+def closest_box(robot: Robot, q: np.ndarray, half_extents, centre) -> float:
+    """The smallest max(|CoP − centre| / half_extents) over poses q: < 1 when one is in the box."""
+    if not len(q):
+        return float("inf")
+    off = np.abs(robot.cop(q) - np.asarray(centre)) / np.asarray(half_extents)
+    return float(off.max(axis=1).min())

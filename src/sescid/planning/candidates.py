@@ -1,17 +1,26 @@
-"""Candidate poses: drawn uniformly within the sampling limits, kept when statically stable,
-clear of the ground and free of self-collision.
+"""Candidate poses: drawn within the sampling limits, kept when stable (the CoP box, and the
+compliant-robot margin of ``compliance``), clear of the ground and free of self-collision.
+
+Uniform draws first (the paper's study) when the profile asks for them; when fewer than
+``SWITCH_RATE`` of them are accepted after ``SWITCH_AFTER`` draws, the adjusted draws of
+``adjust`` (the CoM moved over the foot by the CoM Jacobian) take over (a caller that asks
+for ``sampler="uniform"`` gets uniform draws only, up to ``max_sampled``). When those find
+nothing either, the error says which check stops them: the CoM that cannot reach the box within the
+joint limits (how near it came), or the compliant margin, the floor, self-collision.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from sescid.errors import SescidError
 from sescid.kinematics import MAX_ANGLE, cop_xy
 from sescid.planning.collision import Capsules, collision_capsules
+from sescid.planning.com import com_state
+from sescid.planning.compliance import Compliance, compliant_margin
 from sescid.planning.limits import sampling_limits
 from sescid.planning.stability import (
     DEFAULT_CLEARANCE,
@@ -24,41 +33,92 @@ from sescid.planning.stability import (
 )
 from sescid.robot import Robot
 
+SWITCH_AFTER = 400_000  #: uniform draws before the adjusted draws may take over
+SWITCH_RATE = 1e-4  #: accepted share of uniform draws below which they do
+#: adjusted draws without one CoP in the box: the robot cannot put its CoM over the foot
+GIVE_UP_BOX = 30_000
+GIVE_UP = 200_000  #: adjusted draws without one accepted pose: something else stops them all
+
 
 @dataclass
 class Candidates:
-    """Stable, collision-free, ground-clear poses sampled uniformly within ``limits``."""
+    """Stable, collision-free, ground-clear poses sampled within ``limits``."""
 
     q: np.ndarray  #: (n, nq) rad
     cop: np.ndarray  #: (n, 2) model CoP, m
     limits: np.ndarray  #: (nq, 2) sampling limits, rad
     half_extents: np.ndarray  #: (2,) CoP rectangle, m
     n_sampled: int  #: raw poses drawn
-    n_stable: int  #: of which statically stable
+    n_stable: int  #: of which stable (CoP box, and compliant margin when checked)
     n_ground: int  #: of which also clear of the ground
     n_free: int  #: of which also free of self-collision (= accepted, before truncation)
     capsules: Capsules | None = None
-    sampler: str = "uniform"  #: "uniform" or "adjusted" (supporting leg moved)
+    sampler: str = "uniform"  #: "uniform", "adjusted" or "uniform+adjusted"
     centre: np.ndarray | None = None  #: (2,) centre of the CoP rectangle, m (None: 0)
+    n_box: int = 0  #: raw poses whose CoP is in the box
+    compliance: Compliance | None = None  #: the compliant-stability model checked (None: rigid)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def acceptance(self) -> float:
-        """Fraction of raw uniform poses that are stable, ground-clear and collision free."""
+        """Fraction of raw draws that are stable, ground-clear and collision free."""
         return self.n_free / max(self.n_sampled, 1)
 
     def summary(self) -> str:
         """One line: acceptance at each stage and the number accepted."""
         s = max(self.n_sampled, 1)
-        kind = (
-            "uniform poses"
-            if self.sampler == "uniform"
-            else "draws (those in self-collision dropped first, then the supporting leg adjusted)"
-        )
+        kind = {
+            "uniform": "uniform poses",
+            "adjusted": "draws moved over the foot by the CoM Jacobian",
+            "uniform+adjusted": "draws (uniform, then moved over the foot by the CoM Jacobian)",
+        }[self.sampler]
+        comp = " and compliant" if self.compliance is not None else ""
         return (
-            f"{self.n_sampled} {kind}: {self.n_stable / s:.2%} stable, "
-            f"{self.n_ground / s:.2%} also ground-clear, {self.n_free / s:.2%} also free of "
-            f"self-collision ({self.n_free} accepted)"
+            f"{self.n_sampled} {kind}: {self.n_box / s:.2%} CoP in the box, "
+            f"{self.n_stable / s:.2%} stable{comp}, {self.n_ground / s:.2%} also ground-clear, "
+            f"{self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
         )
+
+
+@dataclass
+class _Run:
+    """State of one candidate search."""
+
+    robot: Robot
+    lim: np.ndarray
+    half: np.ndarray
+    centre: np.ndarray
+    cap: Capsules
+    model: Compliance | None
+    clearance: float
+    sole_size: tuple[float, float] | None
+    qs: list = field(default_factory=list)
+    cops: list = field(default_factory=list)
+    counts: np.ndarray = field(default_factory=lambda: np.zeros(5, dtype=np.int64))
+    closest: float = np.inf  #: nearest |CoP − centre| / half over the adjusted draws
+
+    def keep(self, q: np.ndarray, ok: np.ndarray, cop: np.ndarray, n_drawn: int) -> None:
+        """Count ``n_drawn`` draws; the box-stable ones ``q[ok]`` (CoP ``cop``) through the
+        compliant, floor and self-collision checks."""
+        from sescid.planning.broadphase import collision_free_mask_broad
+
+        q = q[ok]
+        self.counts[0] += n_drawn
+        self.counts[1] += len(q)
+        if len(q) and self.model is not None:
+            good = compliant_margin(self.model, com_state(self.robot, q)) > 0
+            q, cop = q[good], cop[good]
+        self.counts[2] += len(q)
+        if len(q):
+            rot, org = self.robot.forward(q)
+            g = ground_clear_mask(self.robot, q, self.cap, rot, org, self.clearance, self.sole_size)
+            q, cop, rot, org = q[g], cop[g], rot[g], org[g]
+            self.counts[3] += len(q)
+            f = collision_free_mask_broad(self.cap, rot, org)
+            q, cop = q[f], cop[f]
+            self.counts[4] += len(q)
+            self.qs.append(q)
+            self.cops.append(cop)
 
 
 def candidates(
@@ -71,92 +131,137 @@ def candidates(
     clearance: float = DEFAULT_CLEARANCE,
     sole_size: tuple[float, float] | None = None,
     chunk: int = 100_000,
-    max_sampled: int = 200_000_000,
     progress: Callable[[int, int], None] | None = None,
     sampler: str | None = None,
+    compliance: Compliance | None = None,
+    max_sampled: int = 200_000_000,
 ) -> Candidates:
-    """Draw ``n`` accepted poses (uniform within ``limits``, default ``sampling_limits(robot)``).
+    """Draw ``n`` accepted poses within ``limits`` (default ``sampling_limits(robot)``).
 
-    ``half_extents``: CoP rectangle (default ``cop_half_extents(robot)``). Raises SescidError when
-    the acceptance rate would need more than ``max_sampled`` raw poses. ``sampler``:
-    "uniform" or "adjusted" (``adjust.adjust_support_leg``; default the profile's).
+    ``half_extents``: CoP rectangle (default ``cop_half_extents(robot)``); ``compliance``: the
+    compliant-stability model to check too (None: the CoP box only). ``sampler``: "uniform"
+    (only uniform draws, at most ``max_sampled``) or "adjusted"; None: the profile's, whose
+    "uniform" hands over to the adjusted draws when too few are accepted (module docstring).
+    SescidError when no pose passes, saying which check stops them.
     """
-    from sescid.planning.adjust import adjusted_draws
-    from sescid.planning.broadphase import collision_free_mask_broad
+    from sescid.planning.adjust import Search, closest_box
 
+    only = sampler is not None
     sampler = sampler or robot.profile.pose_sampler
     if sampler not in ("uniform", "adjusted"):
         raise SescidError(f"unknown pose sampler '{sampler}' (uniform or adjusted)")
-    centre = cop_centre(robot)
-    if sampler == "adjusted":
-        chunk = min(chunk, 4_000)
     if n < 1:
         raise SescidError(f"number of candidates must be ≥ 1, got {n}")
     rng = np.random.default_rng(seed)
     lim = sampling_limits(robot) if limits is None else np.asarray(limits, dtype=float)
     half = cop_half_extents(robot) if half_extents is None else np.asarray(half_extents, float)
-    cap = collision_capsules(robot)
-    qs: list[np.ndarray] = []
-    cops: list[np.ndarray] = []
-    n_sampled = n_stable = n_ground = n_free = 0
+    run = _Run(robot, lim, half, cop_centre(robot), collision_capsules(robot), compliance,
+               clearance, sole_size)  # fmt: skip
+    used = sampler
+    if sampler == "uniform":
+        _uniform(run, n, rng, chunk, progress, max_sampled if only else None)
+        if run.counts[4] < n:
+            used = "uniform+adjusted" if run.counts[4] else "adjusted"
+    if run.counts[4] < n:
+        drawn, size = 0, 1_000
+        search = Search(robot, run.cap, lim, half, run.centre)
+        while run.counts[4] < n:
+            pool = np.concatenate(run.qs) if run.qs else None
+            q = search.draws(size, rng, pool)
+            ok, cop = stable_subset(robot, q, half, run.centre)
+            run.closest = min(run.closest, closest_box(robot, q, half, run.centre))
+            run.keep(q, ok, cop, size)
+            drawn += size
+            if progress is not None:
+                progress(int(min(run.counts[4], n)), n)
+            if not run.counts[4] and drawn >= (GIVE_UP if run.counts[1] else GIVE_UP_BOX):
+                raise SescidError(_nothing(run))
+            left = n - run.counts[4]
+            rate = run.counts[4] / drawn if run.counts[4] else 0.0
+            want = 1.05 * left / rate + 500 if rate else 5_000  # ≤ 4× the last: rates climb
+            size = int(min(100_000, 4 * size, max(1_000, want)))
+    c = run.counts
+    return Candidates(
+        q=np.concatenate(run.qs)[:n],
+        cop=np.concatenate(run.cops)[:n],
+        limits=lim,
+        half_extents=half,
+        n_sampled=int(c[0]),
+        n_stable=int(c[2]),
+        n_ground=int(c[3]),
+        n_free=int(c[4]),
+        capsules=run.cap,
+        sampler=used,
+        centre=run.centre,
+        n_box=int(c[1]),
+        compliance=compliance,
+    )
+
+
+def _uniform(
+    run: _Run,
+    n: int,
+    rng: np.random.Generator,
+    chunk: int,
+    progress: Callable | None,
+    max_sampled: int | None,
+) -> None:
+    """Uniform draws until ``n`` are accepted, or until they are too rarely accepted (then
+    SescidError when ``max_sampled`` is given: uniform draws only)."""
+    robot, lim = run.robot, run.lim
     width = lim[:, 1] - lim[:, 0]
-    draw = np.empty((chunk if sampler == "uniform" else 0, robot.nq))
+    draw = np.empty((chunk, robot.nq))
     screen = None
-    if sampler == "uniform" and np.all(np.abs(lim) < MAX_ANGLE):
+    if np.all(np.abs(lim) < MAX_ANGLE):
         screen = coarse_screen_tree(robot, lim[:, 0], width)
-    while n_free < n:
-        if sampler == "adjusted":
-            pool = np.concatenate(qs) if qs else None
-            q = adjusted_draws(robot, cap, lim, chunk, rng, pool, half, centre)
-            ok, cop = stable_subset(robot, q, half, centre)
-        elif screen is None:
-            q = rng.random((chunk, robot.nq), out=draw[:chunk])
-            q *= width
-            q += lim[:, 0]
-            ok, cop = stable_subset(robot, q, half, centre)
+    while run.counts[4] < n:
+        u = rng.random((chunk, robot.nq), out=draw)
+        if screen is None:
+            q = u * width + lim[:, 0]
+            ok, cop = stable_subset(robot, q, run.half, run.centre)
         else:
             # unit draws screened by the coarse CoP before they are scaled; the survivors get
             # the same numbers as lim[:, 0] + width * rng.random((chunk, nq))
-            u = rng.random((chunk, robot.nq), out=draw[:chunk])
             tree, r, bound = screen
-            q = u[inside_box(cop_xy(tree, u, r), centre, half + bound)]
+            q = u[inside_box(cop_xy(tree, u, r), run.centre, run.half + bound)]
             q *= width
             q += lim[:, 0]
-            ok, cop = stable_subset(robot, q, half, centre, coarse=False)
-        n_sampled += chunk
-        q = q[ok]
-        n_stable += len(q)
-        if len(q):
-            rot, org = robot.forward(q)
-            g = ground_clear_mask(robot, q, cap, rot, org, clearance, sole_size)
-            q, cop, rot, org = q[g], cop[g], rot[g], org[g]
-            n_ground += len(q)
-            f = collision_free_mask_broad(cap, rot, org)
-            q, cop = q[f], cop[f]
-            n_free += len(q)
-            qs.append(q)
-            cops.append(cop)
+            ok, cop = stable_subset(robot, q, run.half, run.centre, coarse=False)
+        run.keep(q, ok, cop, chunk)
         if progress is not None:
-            progress(min(n_free, n), n)
-        if sampler == "adjusted" and n_free:  # next chunk sized to what is still missing
-            chunk = int(min(100_000, max(1_000, 1.2 * (n - n_free) * n_sampled / n_free)))
-        rate = n_free / n_sampled
-        if n_sampled >= 1_000_000 and (rate == 0 or n / rate > max_sampled):
+            progress(int(min(run.counts[4], n)), n)
+        done, drawn = int(run.counts[4]), int(run.counts[0])
+        if max_sampled is None:
+            if drawn >= SWITCH_AFTER and done < SWITCH_RATE * drawn:
+                return
+        elif drawn >= 1_000_000 and (done == 0 or n * drawn / done > max_sampled):
             raise SescidError(
-                f"only {n_free} of {n_sampled} uniform poses are stable and collision free "
-                f"({rate:.2e}); {n} candidates would need more than {max_sampled} samples — "
-                "widen the CoP box or the joint ranges"
+                f"only {done} of {drawn} uniform poses are accepted: {n} would need more "
+                f"than {max_sampled} draws (the adjusted sampler moves draws over the foot)"
             )
-    return Candidates(
-        q=np.concatenate(qs)[:n],
-        cop=np.concatenate(cops)[:n],
-        limits=lim,
-        half_extents=half,
-        n_sampled=n_sampled,
-        n_stable=n_stable,
-        n_ground=n_ground,
-        n_free=n_free,
-        capsules=cap,
-        sampler=sampler,
-        centre=centre,
+
+
+def _nothing(run: _Run) -> str:
+    """Why no draw was accepted: the first check that stops them all."""
+    c = run.counts
+    r = run.robot
+    if c[1] == 0:
+        return (
+            f"{r.name} cannot put its CoP in the stability box (±{run.half[0] * 1e3:.1f} x "
+            f"±{run.half[1] * 1e3:.1f} mm around the sole centre) within its joint limits: "
+            f"moved by the CoM Jacobian, {c[0]} draws came no nearer than "
+            f"{run.closest:.2f} times the box's half-size — it cannot stand on '{r.support}' "
+            "alone (widen the joint limits, or stand it on another foot)"
+        )
+    stage = (
+        "the compliant-robot margin (stiffer servos or a stiffer sole in the profile, or --rigid)"
+        if c[2] == 0
+        else "the floor check"
+        if c[3] == 0
+        else "self-collision"
+    )
+    return (
+        f"no pose of {r.name} passes every check: of {c[0]} draws moved over the foot by the "
+        f"CoM Jacobian {c[1]} had their CoP in the box, {c[2]} kept the compliant margin, "
+        f"{c[3]} cleared the floor, {c[4]} were free of self-collision: {stage} stops them"
     )

@@ -44,8 +44,12 @@ def _seg_dist2(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz):  # pragma: no co
 
 
 @lazy_njit(cache=True, nogil=True)
-def _broad(rot, org, cbody, p0, p1, rad, sph_c, sph_r, pb_i, pb_j, pb_start, pi, pj, out):
-    """out[k] = True where no checked capsule pair of pose k intersects."""  # pragma: no cover
+def _broad(  # pragma: no cover - compiled
+    rot, org, cbody, p0, p1, rad, sph_c, sph_r, pb_i, pb_j, pb_lo, pb_hi, pi, pj, hits, out
+):
+    """out[k] = True where no checked capsule pair of pose k intersects. ``rot`` (n, N, 3, 3),
+    ``org`` (n, N, 3) from forward kinematics. Body pair m's capsule pairs are
+    pi/pj[pb_lo[m]:pb_hi[m]]; hits[m] counts the poses that body pair m rejected."""
     w0 = np.empty((p0.shape[0], 3))
     w1 = np.empty((p0.shape[0], 3))
     done = np.empty(p0.shape[0], dtype=np.bool_)
@@ -69,7 +73,7 @@ def _broad(rot, org, cbody, p0, p1, rad, sph_c, sph_r, pb_i, pb_j, pb_start, pi,
             reach = sph_r[bi] + sph_r[bj]
             if dx * dx + dy * dy + dz * dz >= reach * reach:
                 continue
-            for u in range(pb_start[m], pb_start[m + 1]):
+            for u in range(pb_lo[m], pb_hi[m]):
                 for c in (pi[u], pj[u]):
                     if not done[c]:
                         b = cbody[c]
@@ -94,6 +98,7 @@ def _broad(rot, org, cbody, p0, p1, rad, sph_c, sph_r, pb_i, pb_j, pb_start, pi,
                 rr = rad[i] + rad[j]
                 if d2 < rr * rr:
                     out[k] = False
+                    hits[m] += 1
                     break
             if not out[k]:
                 break

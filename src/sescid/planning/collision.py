@@ -68,14 +68,13 @@ def box_capsules(size) -> tuple[np.ndarray, np.ndarray, float]:
     return e0, e1, r
 
 
-def collision_capsules(robot: Robot) -> Capsules:
-    """Capsules from the model's collision boxes, cylinders, capsules, spheres, and one bounding
-    capsule per mesh whose vertices are loaded (``mesh_capsule``; unloaded meshes ignored)."""
+def shape_capsules(shapes) -> tuple[Capsules, int, int]:
+    """(capsules, meshes covered, meshes without vertices) covering ``shapes``: boxes,
+    cylinders, capsules and spheres, and one bounding covering per mesh whose vertices are
+    loaded (``mesh_capsules``); ``pairs`` is left empty."""
     body, p0, p1, rad, links, meshy = [], [], [], [], [], []
     n_mesh = n_mesh_capsules = 0
-    for shape in robot.shapes:
-        if shape.role != "collision":
-            continue
+    for shape in shapes:
         t = shape.pose
         if shape.kind == BOX:
             e0, e1, r = box_capsules(shape.size)
@@ -106,6 +105,22 @@ def collision_capsules(robot: Robot) -> Capsules:
             p1.append(t[:3, :3] @ a1 + t[:3, 3])
             rad.append(r)
             links.append(shape.link)
+    cap = Capsules(
+        body=np.array(body, dtype=np.int64),
+        p0=np.array(p0).reshape(-1, 3),
+        p1=np.array(p1).reshape(-1, 3),
+        radius=np.array(rad, dtype=float),
+        link=links,
+        pairs=np.zeros((0, 2), dtype=np.int64),
+        from_mesh=np.array(meshy, dtype=bool),
+    )
+    return cap, n_mesh_capsules, n_mesh
+
+
+def collision_capsules(robot: Robot) -> Capsules:
+    """Capsules from the model's collision boxes, cylinders, capsules, spheres, and one bounding
+    capsule per mesh whose vertices are loaded (``mesh_capsules``; unloaded meshes ignored)."""
+    cap, n_mesh_capsules, n_mesh = shape_capsules(s for s in robot.shapes if s.role == "collision")
     notes = list(robot.geometry_notes)
     if n_mesh_capsules:
         notes.append(
@@ -117,21 +132,12 @@ def collision_capsules(robot: Robot) -> Capsules:
             f"{n_mesh} mesh collision element(s) without vertices ignored: not checked for "
             "self-collision"
         )
-    cap = Capsules(
-        body=np.array(body, dtype=np.int64),
-        p0=np.array(p0).reshape(-1, 3),
-        p1=np.array(p1).reshape(-1, 3),
-        radius=np.array(rad, dtype=float),
-        link=links,
-        pairs=np.zeros((0, 2), dtype=np.int64),
-        notes=notes,
-        from_mesh=np.array(meshy, dtype=bool),
-    )
-    if not body:
+    cap.notes = notes
+    if not len(cap.body):
         cap.notes.append("no collision shapes: self-collision is not checked")
         return cap
     parent = np.array([bd.parent for bd in robot.model.bodies])
-    i, j = np.triu_indices(len(body), k=1)
+    i, j = np.triu_indices(len(cap.body), k=1)
     bi, bj = cap.body[i], cap.body[j]
     keep = (bi != bj) & (parent[bi] != bj) & (parent[bj] != bi)
     i, j = i[keep], j[keep]

@@ -19,7 +19,14 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import SescidError
 from sescid.estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
 from sescid.kinematics import CHAIN_BLOCK, Workspace, as_poses, reduced_columns
-from sescid.planning.doptimal_kernels import project_columns, rank2, sandwich
+from sescid.planning.doptimal_kernels import (
+    TIE_LOGDET,
+    first_best,
+    project_columns,
+    rank2,
+    sandwich,
+    swap_best,
+)
 from sescid.robot import Robot
 
 
@@ -97,14 +104,13 @@ class _Design:
         self.a = np.ascontiguousarray(a)
         self.minv = minv
         self.s = sandwich(self.a, minv) if s is None else s
-        self._buf = np.empty_like(self.s)
         self.chosen = np.zeros(len(a), dtype=bool)
 
     def best(self) -> int:
-        """The unchosen candidate of largest log det(I + S_i)."""
+        """The unchosen candidate of largest log det(I + S_i) (near-ties: the lowest index)."""
         gain = _logdet2(self.s)
         gain[self.chosen] = -np.inf
-        return int(np.nanargmax(gain))
+        return first_best(gain)
 
     def add(self, i: int) -> int:
         """Add candidate i; returns the unchosen candidate of largest gain afterwards (−1: none)."""
@@ -115,23 +121,26 @@ class _Design:
         self.minv = self.minv - u @ g_inv @ u.T
         return best
 
-    def try_exchange(self, i_out: int, tol: float = 1e-10) -> int | None:
-        """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None."""
-        h_inv, det_h = _inv2(self.s[i_out], -1.0)
-        if not det_h > 0:
-            return None
-        u = self.minv @ self.a[i_out].T
-        # S_j once i_out is removed, into the spare buffer; i_out itself stays excluded
-        j = rank2(self.a, u, h_inv, 1.0, self.s, self._buf, self.chosen)
-        if j < 0:
-            return None
-        gain = _logdet2(self._buf[j : j + 1])[0] + math.log(det_h)
-        if not gain > tol:
-            return None
+    def remove(self, i: int) -> None:
+        """Remove chosen candidate i (the design without it must be non-singular)."""
+        u = self.minv @ self.a[i].T
+        h_inv = _inv2(self.s[i], -1.0)[0]
+        self.chosen[i] = False
+        rank2(self.a, u, h_inv, 1.0, self.s, self.s, self.chosen)
         self.minv = self.minv + u @ h_inv @ u.T
-        self.s, self._buf = self._buf, self.s
-        self.chosen[i_out] = False
+
+    def try_exchange(self, i_out: int, tol: float = TIE_LOGDET) -> int | None:
+        """Swap chosen ``i_out`` for the candidate that raises log det most; its index or None.
+
+        The swap's gain is exact (``swap_best``, a 4 × 4 determinant in 2 × 2 blocks) and the
+        swap adds before it removes, so no step forms the design without ``i_out`` — singular
+        when the design is saturated (K poses, 2K = p rows)."""
+        u = self.minv @ self.a[i_out].T
+        j, ratio = swap_best(self.a, u, self.s, self.s[i_out], self.chosen)
+        if j < 0 or not math.log(ratio) > tol:
+            return None
         self.add(j)
+        self.remove(i_out)
         return j
 
 
@@ -180,7 +189,7 @@ def select_d_optimal(
         s_all = sandwich(a, minv)
         score = np.nan_to_num(_logdet2(s_all), nan=-np.inf)
         score[order] = -np.inf
-        top = np.argpartition(-score, n_short - 1)[:n_short] if n_short > 0 else np.zeros(0, int)
+        top = np.lexsort((np.arange(n), -score))[:n_short]  # ties: the lower index
         idx = np.concatenate([np.asarray(order), top])
         sub = _Design(a[idx], minv, s_all[idx])
         sub.chosen[:k] = True

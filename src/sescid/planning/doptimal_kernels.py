@@ -1,30 +1,39 @@
 """Compiled kernels of the D-optimal search (``doptimal``): one pass over the candidates per
 greedy step or exchange trial, single-threaded (no BLAS threads spinning on a busy machine).
 
-Each candidate's S_j = A_j M⁻¹ A_jᵀ (2 × 2, symmetric) is stored as (s00, s01, s11). They live in
-one module because a lazily compiled kernel calls other kernels through its own module's globals
-(``kinematics.lazy_njit``).
+Each candidate's S_j = A_j M⁻¹ A_jᵀ (2 × 2, symmetric) is stored as (s00, s01, s11). No
+``fastmath``: every sum runs in the written order, so the bits do not depend on the CPU (no
+fused multiply-add, no reassociation); the argmax breaks near-ties deterministically
+(``TIE_LOGDET``). They live in one module because a lazily compiled kernel calls other
+kernels through its own module's globals (``kinematics.lazy_njit``).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from sescid.kinematics import lazy_njit
 
+#: log det rises within this of the best are ties, won by the lowest candidate index: a choice
+#: that rounding at the last bit cannot flip (the first greedy step is an exact tie on any robot:
+#: every pose's x/y regressor rows have the same Gram matrix, Φ Φᵀ = N I)
+TIE_LOGDET = 1e-9
 
-@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
-def _rank2(a, ut, g, sign, s_in, s_out, chosen):  # pragma: no cover - compiled
+
+@lazy_njit(cache=True, nogil=True)
+def _rank2(a, ut, g, sign, s_in, s_out, chosen, tie):  # pragma: no cover - compiled
     """s_out[j] = s_in[j] + sign · W_j g W_jᵀ with W_j = A_j U (2 × 2), for every candidate j.
 
     ``a`` (n, 2, p), ``ut`` = Uᵀ (2, p), ``g`` (2, 2) symmetric, ``s_in``/``s_out`` (n, 3) (may be
-    the same array). Returns the unchosen j of largest det(I + s_out[j]) > 0, or −1.
+    the same array). Returns the lowest unchosen j whose det(I + s_out[j]) > 0 is within the
+    factor exp(−``tie``) of the largest, or −1.
     """
     n, _, p = a.shape
     g00 = g[0, 0]
     g01 = g[0, 1]
     g11 = g[1, 1]
-    best = -1
     best_det = 0.0
     for j in range(n):
         w00 = 0.0
@@ -52,14 +61,77 @@ def _rank2(a, ut, g, sign, s_in, s_out, chosen):  # pragma: no cover - compiled
             det = (1.0 + s00) * (1.0 + s11) - s01 * s01
             if det > best_det:
                 best_det = det
-                best = j
-    return best
+    return _first_within(s_out, chosen, best_det * math.exp(-tie))
 
 
-@lazy_njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+@lazy_njit(cache=True, nogil=True)
+def _first_within(s, chosen, floor):  # pragma: no cover - compiled
+    """The lowest unchosen j with det(I + S_j) ≥ ``floor`` > 0, or −1."""
+    if not floor > 0.0:
+        return -1
+    for j in range(s.shape[0]):
+        if not chosen[j]:
+            det = (1.0 + s[j, 0]) * (1.0 + s[j, 2]) - s[j, 1] * s[j, 1]
+            if det >= floor:
+                return j
+    return -1
+
+
+@lazy_njit(cache=True, nogil=True)
+def _swap(a, ut, s, s_out, chosen, tie):  # pragma: no cover - compiled
+    """Best candidate to swap in for the chosen one whose A_o M⁻¹ A_oᵀ is ``s_out`` (3,), with
+    ``ut`` = (M⁻¹ A_oᵀ)ᵀ (2, p): for each unchosen j, X = A_j M⁻¹ A_oᵀ and the exact ratio
+    det(M − A_oᵀA_o + A_jᵀA_j) / det M = det(I + S_j) · det(I − S_o + Xᵀ (I + S_j)⁻¹ X),
+    which never forms the (possibly singular) design without o. Returns (j, ratio): the lowest j
+    whose ratio is within the factor exp(−``tie``) of the largest; (−1, 0) when none is > 0."""
+    n, _, p = a.shape
+    best = 0.0
+    for sweep in range(2):
+        floor = best * math.exp(-tie)
+        for j in range(n):
+            if chosen[j]:
+                continue
+            x00 = 0.0
+            x01 = 0.0
+            x10 = 0.0
+            x11 = 0.0
+            for t in range(p):
+                a0 = a[j, 0, t]
+                a1 = a[j, 1, t]
+                x00 += a0 * ut[0, t]
+                x01 += a0 * ut[1, t]
+                x10 += a1 * ut[0, t]
+                x11 += a1 * ut[1, t]
+            p00 = 1.0 + s[j, 0]
+            p01 = s[j, 1]
+            p11 = 1.0 + s[j, 2]
+            det_p = p00 * p11 - p01 * p01
+            if not det_p > 0.0:
+                continue
+            # Y = Xᵀ P⁻¹ X, P⁻¹ = [[p11, −p01], [−p01, p00]] / det_p
+            k00 = (p11 * x00 - p01 * x10) / det_p
+            k01 = (p11 * x01 - p01 * x11) / det_p
+            k10 = (p00 * x10 - p01 * x00) / det_p
+            k11 = (p00 * x11 - p01 * x01) / det_p
+            y00 = x00 * k00 + x10 * k10
+            y01 = x00 * k01 + x10 * k11
+            y11 = x01 * k01 + x11 * k11
+            q00 = 1.0 - s_out[0] + y00
+            q01 = -s_out[1] + y01
+            q11 = 1.0 - s_out[2] + y11
+            ratio = det_p * (q00 * q11 - q01 * q01)
+            if sweep == 0:
+                if ratio > best:
+                    best = ratio
+            elif ratio >= floor and ratio > 0.0:
+                return j, ratio
+    return -1, 0.0
+
+
+@lazy_njit(cache=True, nogil=True)
 def _sandwich(a, kt, s):  # pragma: no cover - compiled
     """s[j] = (s00, s01, s11) of A_j M⁻¹ A_jᵀ = |K A_jᵀ|² with M⁻¹ = KᵀK, ``kt`` = Kᵀ (p, p)
-    lower triangular: y = K a accumulated column by column (contiguous, vectorised)."""
+    lower triangular: y = K a accumulated column by column."""
     n, _, p = a.shape
     y0 = np.empty(p)
     y1 = np.empty(p)
@@ -151,5 +223,27 @@ def rank2(
     s_out: np.ndarray,
     chosen: np.ndarray,
 ) -> int:
-    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ into ``s_out``; the best unchosen j."""
-    return int(_rank2(a, np.ascontiguousarray(u.T), g, float(sign), s_in, s_out, chosen))
+    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ into ``s_out``; the best unchosen j
+    (near-ties: the lowest index, ``TIE_LOGDET``)."""
+    ut = np.ascontiguousarray(u.T)
+    return int(_rank2(a, ut, g, float(sign), s_in, s_out, chosen, TIE_LOGDET))
+
+
+def swap_best(
+    a: np.ndarray, u: np.ndarray, s: np.ndarray, s_out: np.ndarray, chosen: np.ndarray
+) -> tuple[int, float]:
+    """``_swap`` with U = M⁻¹ A_oᵀ (p, 2): the best candidate j to swap in for the chosen o and
+    det(M')/det(M) (near-ties: the lowest index, ``TIE_LOGDET``)."""
+    j, ratio = _swap(a, np.ascontiguousarray(u.T), s, np.ascontiguousarray(s_out), chosen,
+                     TIE_LOGDET)  # fmt: skip
+    return int(j), float(ratio)
+
+
+def first_best(gain: np.ndarray) -> int:
+    """Index of the largest finite ``gain`` (log det rises), near-ties (``TIE_LOGDET``) won by
+    the lowest index; −1 when none is finite."""
+    ok = np.isfinite(gain)
+    if not ok.any():
+        return -1
+    best = float(gain[ok].max())
+    return int(np.flatnonzero(ok & (gain >= best - TIE_LOGDET))[0])

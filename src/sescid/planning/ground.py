@@ -1,12 +1,16 @@
 """Ground clearance for any robot: every body above the floor, the free sole above it by a
 clearance.
 
-The floor is ``Robot.floor`` (z = 0 of a sole frame, or the plane under a foot frame derived
-from the foot's geometry). Primitive shapes are checked through their collision capsules; mesh
-shapes through their exact hull vertices (``Robot.shapes``); meshes whose file is missing are
-not checked and named in the notes. A body other than the support body and the free foot that
-already reaches below the floor at the zero pose (a conservative covering of an ankle link) is
-not checked, with a note — as self-collision skips pairs that touch at the zero pose.
+Every body but the support body is checked, on the best geometry it has: its collision shapes;
+its visual shapes where it has no collision shape (a model whose collision geometry is only
+the feet, as MuJoCo Playground models are); its origin as a last resort (no geometry, or only
+mesh files that could not be read). Each shape's lowest point is exact: a sphere or capsule is
+its segment less its radius, a cylinder its end discs' lowest rim points, a box its corners, a
+mesh its hull vertices (checked only in the poses where the capsules that cover it dip below
+the floor, ``collision.mesh_capsules``). The floor is ``Robot.floor`` (z = 0 of a sole frame, or
+the plane under a foot frame derived from the foot's geometry). A body other than the free foot
+that already reaches below the floor at the zero pose (a conservative covering of an ankle link)
+is not checked, with a note — as self-collision skips pairs that touch at the zero pose.
 """
 
 from __future__ import annotations
@@ -16,76 +20,179 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.model.geometry import MESH
+from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from sescid.model.sole import profile_sole
-from sescid.planning.collision import Capsules
+from sescid.planning.collision import Capsules, mesh_capsules
 from sescid.robot import Robot
 
 _TOUCH = 1e-6  #: m, below the floor at the zero pose by more than this counts as touching
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+
+
+@dataclass
+class Segments:
+    """Segments p0–p1 in body frames with a radius: capsules and spheres (round: the lowest
+    point is the lower end less the radius), cylinders (flat: less r·√(1 − a_z²)), points."""
+
+    body: np.ndarray  #: (S,)
+    p0: np.ndarray  #: (S, 3) m
+    p1: np.ndarray  #: (S, 3) m
+    radius: np.ndarray  #: (S,) m
+    flat: np.ndarray  #: (S,) bool: a cylinder (flat ends)
+
+    def lowest(self, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
+        """(n, S) lowest z [m] of each segment in poses with body ``rot``, ``org``."""
+        b = self.body
+        zrow = rot[:, b, 2, :]  # (n, S, 3): only heights are needed
+        z0 = org[:, b, 2] + np.einsum("nsj,sj->ns", zrow, self.p0)
+        z1 = org[:, b, 2] + np.einsum("nsj,sj->ns", zrow, self.p1)
+        length = np.linalg.norm(self.p1 - self.p0, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            az = np.where(length > 0, (z1 - z0) / length, 0.0)
+        down = np.where(self.flat, self.radius * np.sqrt(np.clip(1.0 - az * az, 0.0, 1.0)),
+                        self.radius)  # fmt: skip
+        return np.minimum(z0, z1) - down
+
+    def subset(self, keep: np.ndarray) -> Segments:
+        """The segments where ``keep``."""
+        return Segments(self.body[keep], self.p0[keep], self.p1[keep], self.radius[keep],
+                        self.flat[keep])  # fmt: skip
 
 
 @dataclass
 class GroundChecks:
     """What ``ground_clear`` checks on a robot."""
 
-    capsules: np.ndarray  #: (C,) bool: capsules checked (primitive shapes, not exempt)
+    segments: Segments  #: spheres, capsules, cylinders, origins
+    corner_body: np.ndarray  #: (B,) body of each box corner
+    corners: np.ndarray  #: (B, 3) box corners, body frames, m
+    mesh_cover: Capsules  #: capsules covering each checked mesh (a pre-check)
     vert_body: np.ndarray  #: (V,) body index of each checked mesh vertex
     vertices: np.ndarray  #: (V, 3) checked mesh hull vertices, body frames, m
+    source: dict[str, str] = field(default_factory=dict)  #: body → collision/visual/origin
     exempt: list[str] = field(default_factory=list)  #: bodies below the floor at q = 0
     notes: list[str] = field(default_factory=list)
 
 
-def ground_checks(robot: Robot, cap: Capsules) -> GroundChecks:
-    """The capsules and mesh vertices that ``ground_clear`` checks, with notes."""
-    floor = robot.floor
-    free = robot.free_sole
-    free_body = -1 if free is None else free.body
-    mesh_cap = cap.from_mesh if cap.from_mesh is not None else np.zeros(len(cap.body), bool)
-    chk = (cap.body != 0) & ~mesh_cap
-    vb, vv = [], []
-    n_missing = 0
-    for s in robot.shapes:
-        if s.role != "collision" or s.kind != MESH or s.body == 0:
-            continue
-        if s.vertices is None:
-            n_missing += 1
-            continue
-        vb.append(np.full(len(s.vertices), s.body))
-        vv.append(s.vertices)
-    vert_body = np.concatenate(vb) if vb else np.zeros(0, dtype=np.int64)
-    verts = np.vstack(vv) if vv else np.zeros((0, 3))
-    rot, org = robot.forward(np.zeros((1, robot.nq)))
-    names = robot.body_names
-    exempt: set[int] = set()
-    if chk.any():
-        w0, w1 = cap.world(rot, org)
-        low = np.minimum(w0[0, :, 2], w1[0, :, 2]) - cap.radius
-        exempt |= {int(b) for b in cap.body[chk & (low < floor - _TOUCH)]}
-    if len(verts):
-        z = org[0, vert_body, 2] + np.einsum("vj,vj->v", rot[0, vert_body, 2, :], verts)
-        exempt |= {int(b) for b in vert_body[z < floor - _TOUCH]}
-    exempt.discard(free_body)
-    if exempt:
-        chk &= ~np.isin(cap.body, list(exempt))
-        keep = ~np.isin(vert_body, list(exempt))
-        vert_body, verts = vert_body[keep], verts[keep]
-    notes = []
-    if exempt:
-        notes.append(
-            f"{len(exempt)} body(ies) reach below the floor at q = 0 and are not checked "
-            f"against it: {', '.join(names[b] for b in sorted(exempt))}"
-        )
-    if n_missing:
-        notes.append(
-            f"{n_missing} mesh collision shape(s) not loaded: not checked against the floor"
-        )
-    if free is None:
-        notes.append("free foot unknown: its sole is not checked against the floor")
-    if not chk.any() and not len(verts):
-        notes.append("no collision shapes on the moving bodies: none is checked against the floor")
-    return GroundChecks(
-        chk, vert_body.astype(np.int64), verts, sorted(names[b] for b in exempt), notes
+def _body_shapes(robot: Robot, b: int) -> tuple[list, str]:
+    """The shapes a body is checked with and their role: collision, else visual, else none."""
+    for role in ("collision", "visual"):
+        shapes = [s for s in robot.shapes if s.body == b and s.role == role]
+        usable = [s for s in shapes if s.kind != MESH or s.vertices is not None]
+        if usable:
+            return usable, role
+    return [], "origin"
+
+
+def _build(shapes: list, origins: list[int]) -> GroundChecks:
+    """The exact lowest-point representation of ``shapes`` and of the bodies in ``origins``."""
+    sb, p0, p1, rad, flat = [], [], [], [], []
+    cb, cv, vb, vv, mb, m0, m1, mr = [], [], [], [], [], [], [], []
+    for s in shapes:
+        r, t = s.pose[:3, :3], s.pose[:3, 3]
+        if s.kind in (SPHERE, CAPSULE, CYLINDER):
+            half = 0.0 if s.kind == SPHERE else float(s.size[1]) / 2
+            sb.append(s.body)
+            p0.append(t - half * r[:, 2])
+            p1.append(t + half * r[:, 2])
+            rad.append(float(s.size[0]))
+            flat.append(s.kind == CYLINDER)
+        elif s.kind == BOX:
+            cb += [s.body] * 8
+            cv.append((_CORNERS * (0.5 * s.size)) @ r.T + t)
+        elif s.kind == MESH and s.vertices is not None:
+            vb.append(np.full(len(s.vertices), s.body))
+            vv.append(s.vertices)
+            e0, e1, rr = mesh_capsules((s.vertices - t) @ r)
+            mb += [s.body] * len(e0)
+            m0.append(e0 @ r.T + t)
+            m1.append(e1 @ r.T + t)
+            mr += [rr] * len(e0)
+    for b in origins:
+        sb.append(b)
+        p0.append(np.zeros(3))
+        p1.append(np.zeros(3))
+        rad.append(0.0)
+        flat.append(False)
+    seg = Segments(
+        np.array(sb, dtype=np.int64),
+        np.array(p0).reshape(-1, 3),
+        np.array(p1).reshape(-1, 3),
+        np.array(rad),
+        np.array(flat, dtype=bool),
     )
+
+    def stack(parts, width=3):
+        return np.vstack(parts) if parts else np.zeros((0, width))
+
+    cover = Capsules(np.array(mb, dtype=np.int64), stack(m0), stack(m1), np.array(mr), [],
+                     np.zeros((0, 2), dtype=np.int64))  # fmt: skip
+    vert_body = np.concatenate(vb).astype(np.int64) if vb else np.zeros(0, dtype=np.int64)
+    return GroundChecks(seg, np.array(cb, dtype=np.int64), stack(cv), cover, vert_body, stack(vv))
+
+
+def ground_checks(robot: Robot, cap: Capsules | None = None) -> GroundChecks:
+    """What ``ground_clear`` checks, with notes; ``cap`` (the self-collision capsules) only
+    keeps the result for the next call."""
+    cached = getattr(cap, "_ground", None)
+    if cached is not None and cached[0] is robot:
+        return cached[1]
+    names = robot.body_names
+    shapes, source, origins = [], {}, []
+    for b in range(1, len(names)):
+        use, role = _body_shapes(robot, b)
+        shapes += use
+        source[names[b]] = role
+        if role == "origin":
+            origins.append(b)
+    g = _build(shapes, origins)
+    exempt = _exempt(robot, g)
+    if exempt:
+        out = list(exempt)
+        g.segments = g.segments.subset(~np.isin(g.segments.body, out))
+        keep = ~np.isin(g.corner_body, out)
+        g.corner_body, g.corners = g.corner_body[keep], g.corners[keep]
+        keep = ~np.isin(g.vert_body, out)
+        g.vert_body, g.vertices = g.vert_body[keep], g.vertices[keep]
+    g.source, g.exempt = source, sorted(names[b] for b in exempt)
+    g.notes = _notes(robot, g)
+    if cap is not None:
+        cap._ground = (robot, g)  # type: ignore[attr-defined]
+    return g
+
+
+def _exempt(robot: Robot, g: GroundChecks) -> set[int]:
+    """Bodies other than the free foot that reach below the floor at the zero pose."""
+    rot, org = robot.forward(np.zeros((1, robot.nq)))
+    below = robot.floor - _TOUCH
+    out = {int(b) for b in g.segments.body[g.segments.lowest(rot, org)[0] < below]}
+    for body, pts in ((g.corner_body, g.corners), (g.vert_body, g.vertices)):
+        if len(pts):
+            z = org[0, body, 2] + np.einsum("vj,vj->v", rot[0, body, 2, :], pts)
+            out |= {int(b) for b in body[z < below]}
+    free = robot.free_sole
+    out.discard(-1 if free is None else free.body)
+    return out
+
+
+def _notes(robot: Robot, g: GroundChecks) -> list[str]:
+    """What the floor check covers and leaves out."""
+    by = {r: [n for n, s in g.source.items() if s == r] for r in ("collision", "visual", "origin")}
+    notes = [
+        f"floor check on every body but the support: {len(by['collision'])} by their collision "
+        f"shapes, {len(by['visual'])} by their visual shapes (no collision shape), "
+        f"{len(by['origin'])} by their origin only (no usable geometry)"
+    ]
+    if by["origin"]:
+        notes.append("bodies checked by their origin only: " + ", ".join(by["origin"][:6]))
+    if g.exempt:
+        notes.append(
+            f"{len(g.exempt)} body(ies) reach below the floor at q = 0 and are not checked "
+            f"against it: {', '.join(g.exempt)}"
+        )
+    if robot.free_sole is None:
+        notes.append("free foot unknown: its sole is not checked against the floor")
+    return notes
 
 
 def free_sole_corners(
@@ -106,9 +213,23 @@ def free_sole_corners(
     return org[:, None, b] + np.einsum("nij,cj->nci", rot[:, b], sole.corners)
 
 
+def lowest_heights(robot: Robot, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
+    """(n,) the lowest checked point [m] (support-frame z) over every checked body, per pose
+    (every mesh vertex, no pre-check)."""
+    g = ground_checks(robot)
+    low = np.full(rot.shape[0], np.inf)
+    if len(g.segments.body):
+        low = np.minimum(low, g.segments.lowest(rot, org).min(axis=1))
+    for body, pts in ((g.corner_body, g.corners), (g.vert_body, g.vertices)):
+        if len(pts):
+            z = org[:, body, 2] + np.einsum("nvj,vj->nv", rot[:, body, 2, :], pts)
+            low = np.minimum(low, z.min(axis=1))
+    return low
+
+
 def ground_clear(
     robot: Robot,
-    cap: Capsules,
+    cap: Capsules | None,
     rot: np.ndarray,
     org: np.ndarray,
     clearance: float,
@@ -116,23 +237,22 @@ def ground_clear(
 ) -> np.ndarray:
     """(n,) True where every checked body is above the floor and the free sole's corners are
     above it by ``clearance`` [m]; ``rot``, ``org`` from ``robot.forward``."""
-    g = _cache(robot, cap)
+    g = ground_checks(robot, cap)
     floor = robot.floor
     ok = np.ones(rot.shape[0], dtype=bool)
-    if g.capsules.any():
-        b = cap.body[g.capsules]
-        zrow = rot[:, b, 2, :]  # (n, C, 3): only heights are needed
-        z0 = org[:, b, 2] + np.einsum("ncj,cj->nc", zrow, cap.p0[g.capsules])
-        z1 = org[:, b, 2] + np.einsum("ncj,cj->nc", zrow, cap.p1[g.capsules])
-        ok &= np.all(np.minimum(z0, z1) - cap.radius[g.capsules] > floor, axis=1)
-    mesh_cap = cap.from_mesh if cap.from_mesh is not None else np.zeros(len(cap.body), bool)
+    if len(g.segments.body):
+        ok &= np.all(g.segments.lowest(rot, org) > floor, axis=1)
+    if len(g.corners):
+        b = g.corner_body
+        z = org[:, b, 2] + np.einsum("ncj,cj->nc", rot[:, b, 2, :], g.corners)
+        ok &= np.all(z > floor, axis=1)
+    c = g.mesh_cover
     for b in np.unique(g.vert_body):
         idx = np.flatnonzero(ok)
-        mc = np.flatnonzero(mesh_cap & (cap.body == b))
-        if len(mc):  # the body's mesh capsules cover its hull: exact check only where they dip
-            zrow = rot[idx, b, 2, :]
-            low = np.minimum(zrow @ cap.p0[mc].T, zrow @ cap.p1[mc].T) - cap.radius[mc]
-            idx = idx[(org[idx, b, 2] + low.min(axis=1)) <= floor]
+        mc = np.flatnonzero(c.body == b)  # the capsules cover the hull: exact where they dip
+        zrow = rot[idx, b, 2, :]
+        low = np.minimum(zrow @ c.p0[mc].T, zrow @ c.p1[mc].T) - c.radius[mc]
+        idx = idx[(org[idx, b, 2] + low.min(axis=1)) <= floor]
         v = g.vertices[g.vert_body == b]
         z = org[idx, b, 2:3] + rot[idx, b, 2, :] @ v.T
         ok[idx] = z.min(axis=1) > floor
@@ -140,12 +260,3 @@ def ground_clear(
     if corners is not None:
         ok &= np.all(corners[..., 2] > floor + clearance, axis=1)
     return ok
-
-
-def _cache(robot: Robot, cap: Capsules) -> GroundChecks:
-    """The ground checks, kept on the capsules object (built once per capsule set)."""
-    g = getattr(cap, "_ground", None)
-    if g is None or g[0] is not robot:
-        g = (robot, ground_checks(robot, cap))
-        cap._ground = g  # type: ignore[attr-defined]
-    return g[1]

@@ -1,6 +1,10 @@
 """Sampling limits of candidate poses: the model's joint limits ∩ the paper's Table 2 (robots
 whose profile carries the paper's angle convention, the OP2) ∩ an optional ±range.
 
+A joint without limits (URDF ``continuous``, MJCF hinge without ``range``) is sampled within
+±``UNLIMITED_RANGE`` (90°): a full turn of a knee or an elbow is no pose a robot takes; the
+planner says which joints got it (``unlimited_joints``), and ``--range-deg`` widens it.
+
 The OP2 paper convention: ``paper = sign · servo + offset`` per joint
 (``robots/op2/op2_paper_limits.csv``).
 """
@@ -76,12 +80,31 @@ def paper_convention(robot: Robot) -> PaperConvention | None:
     )
 
 
-def sampling_limits(robot: Robot, paper: bool = True, range_deg: float | None = None) -> np.ndarray:
-    """(nq, 2) sampling limits [rad]: URDF limits ∩ the paper's Table 2 (OP2, ``paper``) ∩ ±range.
+#: rad, sampling range ± of a joint the model leaves unlimited
+UNLIMITED_RANGE = math.pi / 2
 
-    Continuous joints are limited to ±π.
+
+def unlimited_joints(robot: Robot) -> list[str]:
+    """Joints the model leaves unlimited (sampled within ±``UNLIMITED_RANGE`` by default)."""
+    lim = robot.joint_limits
+    return [
+        j
+        for j, lo, hi in zip(robot.joint_names, lim[:, 0], lim[:, 1], strict=True)
+        if not (np.isfinite(lo) and np.isfinite(hi))
+    ]
+
+
+def sampling_limits(robot: Robot, paper: bool = True, range_deg: float | None = None) -> np.ndarray:
+    """(nq, 2) sampling limits [rad]: model limits ∩ the paper's Table 2 (OP2, ``paper``) ∩ ±range.
+
+    A joint without limits gets ±``UNLIMITED_RANGE``, or ±``range_deg`` when that is given.
     """
-    lim = np.clip(robot.joint_limits, -math.pi, math.pi)
+    lim = robot.joint_limits
+    free = ~(np.isfinite(lim[:, 0]) & np.isfinite(lim[:, 1]))
+    wide = UNLIMITED_RANGE if range_deg is None else math.pi
+    lim[free, 0] = np.maximum(lim[free, 0], -wide)
+    lim[free, 1] = np.minimum(lim[free, 1], wide)
+    lim = np.clip(lim, -math.pi, math.pi)
     pc = paper_convention(robot) if paper else None
     if pc is not None:
         lim = np.column_stack(

@@ -81,12 +81,17 @@ class RobotProfile:
     sensors_file: Path | None = None  #: foot-sensor layout (sescid-fsr/1 JSON)
     paper_limits_file: Path | None = None  #: paper angle convention and Table 2 limits (CSV)
     body_table_file: Path | None = None  #: the paper's Table 1: index → body (CSV)
-    #: pose candidates: "adjusted" (supporting leg moved to put the CoP in the box) or
-    #: "uniform" (plain uniform draws, the paper's study)
+    #: pose candidates: "adjusted" (draws moved toward a stable CoP by a few steps of the CoM
+    #: Jacobian, ``planning.adjust``) or "uniform" (plain uniform draws, the paper's study;
+    #: the adjusted draws take over when uniform ones are too rarely accepted)
     pose_sampler: str = "adjusted"
     #: link carrying the IMU whose roll/pitch (``imu_roll``, ``imu_pitch``) give the gravity
     #: direction; None: unknown (``--imu-link`` names it)
     imu_link: str | None = None
+    #: N/m, vertical stiffness of each contact of a sole (a pad); None: unknown
+    pad_stiffness: float | None = None
+    #: rad, a joint's play around its commanded angle (uniform in ±); None: unknown
+    servo_backlash: float | None = None
 
 
 def generic_profile(name: str) -> RobotProfile:

@@ -11,10 +11,17 @@ MX-28's proportional term alone (``mx28_kp``: P 32 → 6.4, P 254 → 50.6 N·m/
 OP2 poses topple on the bench (P 254: 22 of 40); a real OP2 holds them through the servo's
 I term and gear friction, which this linear servo model stands in for. kv = 1 N·m·s/rad
 (settles in < 1 s); armature: rotor inertia 0.9e-7 kg·m² through the 193:1 gear ≈ 3.4e-3 kg·m².
+
+Pad stiffness 17 kN/m per FSR pad: what the physics bench's pad contacts give (MuJoCo soft
+contact, solref 0.02 s / 1): 0.7 mm under 12 N, 0.33 mm under 5.7 N; a real OP2-FSR pad's is not
+published. Backlash ±1°: the bench's default (``ExperimentConfig.backlash_deg``); the MX-28's
+gear play is not published either. Both set the planner's compliant-stability margins
+(``planning.compliance``).
 """
 
 from __future__ import annotations
 
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -36,6 +43,8 @@ PROFILE = RobotProfile(
     body_table_file=_HERE / "op2_table1.csv",
     pose_sampler="uniform",  # the paper's uniform draws within Table 2
     imu_link="MP_BODY",  # the CM-730 board's gyro/accelerometer sit in the torso
+    pad_stiffness=17_000.0,
+    servo_backlash=math.radians(1.0),
 )
 
 __all__ = ["PROFILE"]
