@@ -13,7 +13,8 @@ from fitting import identify_ls
 from op2_stance import stable_poses
 from test_html import _browse, _chromium
 
-from sescid.report import write_report
+from sescid.estimation import Measurements
+from sescid.report import ReportOptions, write_report
 from sescid.session.loop import SessionStep
 
 CHROMIUM = pytest.mark.skipif(_chromium() is None, reason="no chromium (apt-get install chromium)")
@@ -116,8 +117,10 @@ def report(op2, tmp_path_factory):
     q = stable_poses(op2, 48, seed=0)
     fit = identify_ls(op2, q, op2.cop(q))
     out = tmp_path_factory.mktemp("rep3d")
-    res = write_report(fit, q[:12], op2.cop(q[:12]), out, n_side=2)
-    return res["html"]
+    res = write_report(
+        fit, Measurements(q=q[:12], cop=op2.cop(q[:12])), out, ReportOptions(n_side=2)
+    )
+    return res.html
 
 
 def test_report_embeds_the_3d_scene(report, op2):
