@@ -28,6 +28,8 @@ from sescid.report.view3d_script import SCRIPT
 SUPPORT_FOOT, SUPPORT_LEG, TRUNK = 0, 1, 2
 LIMB_COLOURS = ["#e07b00", "#3c8d93", "#8a8f98", "#5b9bd5", "#8e6bbf", "#6aa84f", "#c0587e",
                 "#b08a3c", "#4f7fbf"]  # fmt: skip
+#: gap [m] between a held robot's lowest point and the reference plane drawn under it
+HELD_CLEARANCE = 0.02
 
 
 def limb_groups(robot) -> list[int]:
@@ -76,6 +78,10 @@ def scene_data(robot, q, com, cop, cop_fit, labels) -> dict:
     mm = 1e3
     groups = limb_groups(robot)
     links = [[b.parent, i] for i, b in enumerate(robot.model.bodies) if b.parent >= 0]
+    held = groups[0] == TRUNK  # the trunk itself is held (a gantry): no foot on a floor
+    floor = robot.floor
+    if held:  # a reference plane under the lowest point of any pose
+        floor = float(min(org[..., 2].min(), w0[..., 2].min(), w1[..., 2].min())) - HELD_CLEARANCE
 
     def pts(a, digits=2):
         return None if a is None else np.round(np.asarray(a) * mm, digits).tolist()
@@ -92,15 +98,25 @@ def scene_data(robot, q, com, cop, cop_fit, labels) -> dict:
         "com": pts(com),
         "cop": pts(cop),
         "cop_fit": pts(cop_fit),
-        "sole": _sole_corners(robot),
+        "sole": None if held else _sole_corners(robot),
         "support": robot.support,
-        "floor": round(robot.floor * mm, 2),
+        "held": held,
+        "floor": round(floor * mm, 2),
     }
 
 
 def view3d_html(data: dict, width: int = 900, height: int = 620) -> str:
     """The view's HTML section: canvas, slider, label, the scene JSON and the inline script."""
     n = len(data["labels"])
+    name = html.escape(str(data["support"]))
+    if data.get("held"):
+        support = (
+            f"held body ({name}) in grey over a reference plane, the CoM from above in the inset"
+        )
+    else:
+        support = (
+            f"support foot ({name}) in orange on the floor grid, the sole from above in the inset"
+        )
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     cop = (
         " Blue dot: measured CoP; green ring: the identified model's CoP."
@@ -109,10 +125,9 @@ def view3d_html(data: dict, width: int = 900, height: int = 620) -> str:
     )
     return f"""<section id="view3d-section">
 <h2>3-D view of the measured poses</h2>
-<p>The robot's collision capsules at each measured pose (support frame), coloured by limb; the
-support foot ({html.escape(str(data["support"]))}) in orange on the floor grid; the identified
-CoM as the quartered disc with its drop line to the floor.{cop} The inset shows the sole from
-above, magnified. Slide to change the pose; drag the picture to turn it, double-click to reset.</p>
+<p>The robot's collision capsules at each measured pose (support frame) over its skeleton,
+coloured by limb; the {support} (magnified); the identified CoM as the quartered disc with its
+drop line.{cop} Slide to change the pose; drag the picture to turn it, double-click to reset.</p>
 <input type="range" id="view3d-pose" min="0" max="{n - 1}" value="0" step="1"
  style="width:{width}px" aria-label="pose">
 <div id="view3d-label" style="font-size:0.9em">{html.escape(data["labels"][0])}</div>

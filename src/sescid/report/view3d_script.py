@@ -84,7 +84,8 @@ SCRIPT = r"""
     });
     D.links.forEach(function (l) {
       var a = proj(D.origin[k][l[0]]), b = proj(D.origin[k][l[1]]);
-      items.push({ a: a, b: b, d: (a[2] + b[2]) / 2, w: 3, c: "#555555", bone: true });
+      var colour = D.colours[Math.min(D.group[l[1]], D.colours.length - 1)];
+      items.push({ a: a, b: b, d: (a[2] + b[2]) / 2, w: 5, c: colour, bone: true });
     });
     var dmin = Math.min.apply(null, items.map(function (t) { return t.d; }));
     var dmax = Math.max.apply(null, items.map(function (t) { return t.d; }));
@@ -92,7 +93,7 @@ SCRIPT = r"""
     ctx.lineCap = "round";
     items.forEach(function (t) {
       var near = dmax > dmin ? (t.d - dmin) / (dmax - dmin) : 1;
-      ctx.globalAlpha = t.bone ? 0.8 : 0.55 + 0.45 * near;
+      ctx.globalAlpha = t.bone ? 0.9 : 0.55 + 0.45 * near;
       ctx.strokeStyle = t.c; ctx.lineWidth = t.w;
       ctx.beginPath(); ctx.moveTo(t.a[0], t.a[1]); ctx.lineTo(t.b[0], t.b[1]); ctx.stroke();
     });
@@ -118,8 +119,9 @@ SCRIPT = r"""
     }
   }
   function legend() {
-    var rows = [["support foot", D.colours[0]], ["support leg", D.colours[1]],
-      ["trunk", D.colours[2]], ["other limbs", D.colours[3]]];
+    var rows = D.held ? [["trunk (held)", D.colours[2]], ["limbs", D.colours[3]]] :
+      [["support foot", D.colours[0]], ["support leg", D.colours[1]], ["trunk", D.colours[2]],
+        ["other limbs", D.colours[3]]];
     var y = H - 12 - 16 * (rows.length + (D.cop ? 3 : 1));
     rows.forEach(function (r) {
       ctx.fillStyle = r[1]; ctx.fillRect(12, y - 9, 18, 10); text(r[0], 36, y, "#333"); y += 16;
@@ -145,7 +147,7 @@ SCRIPT = r"""
     }
     ctx.fillStyle = "rgba(255,255,255,0.92)"; ctx.fillRect(x0, y0, S, S);
     ctx.strokeStyle = "#999"; ctx.lineWidth = 1; ctx.strokeRect(x0, y0, S, S);
-    text("sole from above (x up)", x0 + 6, y0 + 13, "#333", "left", 11);
+    text((D.sole ? "sole" : "CoM") + " from above (x up)", x0 + 6, y0 + 13, "#333", "left", 11);
     if (D.sole) {
       ctx.beginPath();
       D.sole.forEach(function (p, i) { var t = top(p); if (i) ctx.lineTo(t[0], t[1]);
@@ -185,11 +187,12 @@ SCRIPT = r"""
     }
     capsules(k);
     var sc = proj(c); comMark(sc[0], sc[1], 8);
-    text("CoM " + (c[2] - D.floor).toFixed(0) + " mm above floor", sc[0] + 12, sc[1] - 8,
-      "#a01010");
+    text(D.held ? "CoM z " + c[2].toFixed(0) + " mm" :
+      "CoM " + (c[2] - D.floor).toFixed(0) + " mm above floor", sc[0] + 12, sc[1] - 8, "#a01010");
     text("pose " + D.labels[k] + "  (" + (k + 1) + " of " + D.labels.length + ")", 12, 22,
       "#222", "left", 15);
-    text("grid " + step + " mm", 12, 40, "#777", "left", 11);
+    text("grid " + step + " mm" + (D.held ? "; held: " + D.support : ""), 12, 40, "#777",
+      "left", 11);
     legend(); gizmo(); inset(k);
     var info = "pose " + D.labels[k] + " (" + (k + 1) + "/" + D.labels.length + "): ";
     if (D.cop) {
