@@ -215,8 +215,7 @@ def test_masses_table_is_the_fits_inertials(op2, tmp_path):
 
 
 def test_cli_report_reads_torques_without_cop_columns(op2, torque_case, tmp_path):
-    """A robot without foot sensors: ``sescid report`` on tau_<joint> + approach columns only;
-    with a CoP in the same file it reports both kinds."""
+    """A robot without foot sensors: ``sescid report`` on tau_<joint> + approach columns only."""
     m, fit, *_ = torque_case
     sescid.save_fit(fit, tmp_path / "fit.json")
     cols = {j: m.q[:, i] for i, j in enumerate(op2.joint_names)}
@@ -229,12 +228,6 @@ def test_cli_report_reads_torques_without_cop_columns(op2, torque_case, tmp_path
     assert "joint torques residual, measured − predicted, over 40 poses (800 rows)" in res.output
     assert "CoP" not in res.output
     assert "Joint torques" in (tmp_path / "rep" / "report.html").read_text()
-    cop = op2.cop(m.q)
-    write_table(tmp_path / "both.csv", cols | {"cop_x": cop[:, 0], "cop_y": cop[:, 1]})
-    args[2] = str(tmp_path / "both.csv")
-    res = CliRunner().invoke(cli, [*args, "--out-dir", str(tmp_path / "rep2")])
-    assert res.exit_code == 0, res.output
-    assert "CoP residual" in res.output and "joint torques residual" in res.output
 
 
 @CHROMIUM

@@ -8,8 +8,26 @@ from sescid.base.files import OutputSet
 from sescid.base.progress import TerminalProgress
 from sescid.cli.common import force_option, imu_link_option
 from sescid.estimation import load_fit
-from sescid.report import ReportOptions, read_report_data, write_report
-from sescid.report.text import KIND_TITLES, with_unit
+from sescid.report import KindNumbers, ReportOptions, read_report_data, write_report
+from sescid.report.text import KIND_TITLES, in_unit, with_unit
+
+
+def _residual_line(k: KindNumbers, n: int) -> str:
+    """One kind's residuals, measured − predicted, of both models (the CoP's mean per axis)."""
+
+    def model(name: str) -> str:
+        s = k.stats[name]
+        mean = ""
+        if k.kind == "cop":
+            mean = f"mean ({in_unit(s[0].mean, 'm')}, {in_unit(s[1].mean, 'm')}) mm, "
+        return f"{mean}RMS {with_unit(s[-1].rms, k.unit)}"
+
+    fitted = k.total()
+    return (
+        f"{KIND_TITLES[k.kind]} residual, measured − predicted, over {n} poses "
+        f"({fitted.n_rows} rows): manufacturer model {model('manufacturer model')}; "
+        f"identified {model('identified')}, MAE {with_unit(fitted.mae, k.unit)}"
+    )
 
 
 @click.command()
@@ -31,12 +49,6 @@ def report(fit_file, measured, out_dir, imu_link, force):
     with outs:
         res = write_report(fit, data, outs.folder(out_dir), options)
     for k in (res.content.cop, res.content.tau):
-        if k is None:
-            continue
-        cad, fitted = k.total("manufacturer model"), k.total()
-        click.echo(
-            f"{KIND_TITLES[k.kind]} residual, measured − predicted, over {data.n} poses "
-            f"({fitted.n_rows} rows): manufacturer model RMS {with_unit(cad.rms, k.unit)}, "
-            f"identified RMS {with_unit(fitted.rms, k.unit)}, MAE {with_unit(fitted.mae, k.unit)}"
-        )
+        if k is not None:
+            click.echo(_residual_line(k, data.n))
     click.echo(f"wrote {out_dir}/{res.html.name} and {len(res.figures)} figures")

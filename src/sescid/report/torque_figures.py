@@ -60,8 +60,10 @@ def plot_leg_torques(idx, joints, measured, predicted: dict, path, title: str = 
             ax.plot(idx, arr[:, j], style, color=colour, lw=1.2, label=label)
         ax.set_ylabel(f"{joints[j]}\n[N·m]", fontsize=8)
         ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7, ncol=3, loc="upper right")
+    axes[0, 0].legend(  # above the panels, clear of the data
+        fontsize=7, ncol=3, loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False
+    )
     axes[-1, 0].set_xlabel("pose")
     if title:
-        axes[0, 0].set_title(title, y=TITLE_Y, fontsize=10)
+        axes[0, 0].set_title(title, y=TITLE_Y, fontsize=10, loc="left")
     _save(fig, path, None)
