@@ -180,12 +180,12 @@ SCRIPT = r"""
     var c = D.com[k], g = [c[0], c[1], D.floor];
     line(c, g, "#c81e1e", 1.5, [5, 4]);
     var sg = proj(g); disc(sg[0], sg[1], 3, "#c81e1e", null);
-    if (D.cop) {
+    capsules(k);
+    if (D.cop) {  // on top of the foot that stands on them
       var m = proj([D.cop[k][0], D.cop[k][1], D.floor]);
       var f = proj([D.cop_fit[k][0], D.cop_fit[k][1], D.floor]);
-      disc(m[0], m[1], 4.5, "#1f4fd0", null); disc(f[0], f[1], 7, null, "#1a9a50", 2);
+      disc(m[0], m[1], 4.5, "#1f4fd0", "#ffffff", 1); disc(f[0], f[1], 7, null, "#1a9a50", 2);
     }
-    capsules(k);
     var sc = proj(c); comMark(sc[0], sc[1], 8);
     text(D.held ? "CoM z " + c[2].toFixed(0) + " mm" :
       "CoM " + (c[2] - D.floor).toFixed(0) + " mm above floor", sc[0] + 12, sc[1] - 8, "#a01010");
