@@ -245,3 +245,25 @@ def test_torque_page_renders_in_headless_chromium(torque_case, tmp_path):
     assert canvas and int(canvas.group(1)) == 5 and int(canvas.group(2)) > 20_000
     label = re.search(r'<div id="view3d-label"[^>]*>([^<]*)</div>', dom.stdout).group(1)
     assert label.startswith("pose 5 (6/40): identified CoM (") and "CoP" not in label
+
+
+def test_sensor_table_shows_every_parameter_the_fit_carries(torque_case):
+    """A gain per sensor (as a fit with gains records them) gets its own column, value ± 1σ;
+    one the data leave undetermined reads "not determined" with its reason."""
+    from sescid.estimation import NuisanceEstimate
+    from sescid.report.sections import nuisance_table
+
+    m, fit, *_ = torque_case
+    gains = tuple(
+        NuisanceEstimate("tau", "gain", j, "1", 0.01 * k, 0.002, True)
+        for k, j in enumerate(m.tau_joints[:-1])
+    ) + (
+        NuisanceEstimate(
+            "tau", "gain", m.tau_joints[-1], "1", np.nan, np.nan, False, "only ratios: no mass"
+        ),
+    )
+    page = nuisance_table(dataclasses.replace(fit, nuisance=fit.nuisance + gains), m.tau_joints)
+    assert "gain error g ± 1σ" in page and "why not determined" in page
+    assert _row(page, m.tau_joints[2])[2] == "0.0200 ± 0.0020"
+    last = _row(page, m.tau_joints[-1])
+    assert last[2] == NOT_DETERMINED and last[3] == "gain: only ratios: no mass"

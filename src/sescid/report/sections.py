@@ -16,6 +16,7 @@ from sescid.report.text import (
     RESIDUAL_DEFINITION,
     cell,
     esc,
+    fixed,
     mm,
     nm,
     table,
@@ -131,28 +132,42 @@ def _value(e: NuisanceEstimate | None) -> str:
     if not e.determined:
         return NOT_DETERMINED
     scale, digits = (1e3, 3) if e.unit == "m" else (1.0, 4)
-    std = "" if not np.isfinite(e.std) else f" ± {e.std * scale:.{digits}f}"
-    return f"{e.value * scale:.{digits}f}{std}"
+    std = "" if not np.isfinite(e.std) else f" ± {fixed(e.std * scale, digits)}"
+    return f"{fixed(e.value * scale, digits)}{std}"
+
+
+#: column titles of the torque sensors' nuisance parameters (others: "<what> ± 1σ [unit]")
+NUISANCE_TITLES = {
+    "offset": "sensor offset ± 1σ [N·m]",
+    "friction": "friction band f ± 1σ [N·m]",
+    "gain": "gain error g ± 1σ (reading × (1 + g))",
+}
 
 
 def nuisance_table(fit: Fit, joints: tuple[str, ...]) -> str:
-    """Each torque sensor's estimated offset and friction band (value ± 1σ, N·m), or "not
-    determined" with the reason."""
-    est = {(e.what, e.name): e for e in fit.nuisance if e.kind == "tau"}
+    """Each torque sensor's estimated parameters (offset, friction band, and any other the fit
+    carries, e.g. a gain) as value ± 1σ, or "not determined" with the reason."""
+    tau = [e for e in fit.nuisance if e.kind == "tau"]
+    est = {(e.what, e.name): e for e in tau}
+    whats = ["offset", "friction"] + list(dict.fromkeys(
+        e.what for e in tau if e.what not in ("offset", "friction")
+    ))  # fmt: skip
     rows, reasons = [], []
     for j in joints:
-        off, fr = est.get(("offset", j)), est.get(("friction", j))
+        got = [est.get((w, j)) for w in whats]
         reasons.append("; ".join(
-            f"{what}: {e.reason}"
-            for what, e in (("offset", off), ("friction", fr))
+            f"{w}: {e.reason}" for w, e in zip(whats, got, strict=True)
             if e is not None and not e.determined
         ))  # fmt: skip
-        rows.append([f"<code>{esc(j)}</code>", cell(_value(off)), cell(_value(fr))])
-    head = ["joint", "sensor offset ± 1σ [N·m]", "friction band f ± 1σ [N·m]"]
+        rows.append([f"<code>{esc(j)}</code>", *(cell(_value(e)) for e in got)])
+    units = {e.what: e.unit for e in tau}
+    head = ["joint"] + [
+        NUISANCE_TITLES.get(w, f"{w} ± 1σ [{units.get(w, '')}]") for w in whats
+    ]  # fmt: skip
     if any(reasons):  # the reasons' column only when something is not determined
         rows = [[*r, esc(w)] for r, w in zip(rows, reasons, strict=True)]
         head.append("why not determined")
-    return table(head, rows, "lrrl")
+    return table(head, rows, "l" + "r" * len(whats) + "l")
 
 
 def _friction_words(fit: Fit) -> str:
@@ -178,6 +193,7 @@ def torque_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     k = c.tau
     if k is None:
         return ""
+    gains = " (and gains)" if any(e.what == "gain" for e in c.fit.nuisance) else ""
     return (
         "<h2>Joint torques</h2>\n"
         "<p>Torque residual, measured − predicted [N·m], per joint over the report's poses. "
@@ -186,7 +202,7 @@ def torque_section(c: ReportContent, figs: Mapping[str, str]) -> str:
         "friction band) per joint of the same form, so the two are compared on their masses."
         "</p>\n"
         f"{_torque_table(k)}\n{_figure(figs, 'torque_residuals.png')}\n"
-        "<h3>Torque sensor offsets and friction bands</h3>\n"
+        f"<h3>Torque sensor offsets and friction bands{gains}</h3>\n"
         f"<p>{esc(_friction_words(c.fit))}</p>\n{nuisance_table(c.fit, k.columns)}\n"
         f"<h3>Support leg</h3>{_figure(figs, 'torque_support_leg.png')}"
     )
