@@ -172,10 +172,7 @@ def _cli_imports() -> list[tuple[str, int, str, str]]:
 
 
 #: imports of CLI modules that other helpers own, to be fixed there (module, from, name)
-_PENDING = {
-    ("sescid.cli.report", "sescid.base.files", "OutputSet"),
-    ("sescid.cli.report", "sescid.base.progress", "TerminalProgress"),
-}
+_PENDING = {}
 
 
 def _private_cli_imports() -> list[str]:

@@ -38,7 +38,8 @@ from sescid.study import paper_study
 
 #: options with no API counterpart, and why
 CLI_ONLY = {
-    "check": "poses: a physics bench to check the chosen poses on (PlanOptions.check takes the check itself)",
+    "check": "poses: a physics bench to check the chosen poses on (PlanOptions.check takes "
+    "the check itself)",
     "out": "the output file",
     "out_dir": "the output folder",
     "truth": "experiment: a second output file",

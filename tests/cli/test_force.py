@@ -98,11 +98,13 @@ CASES = {
 }
 
 
-def _stub_report(fit, q, cop, out_dir, **kwargs) -> dict:
+def _stub_report(fit, data, out_dir, options):
     """What ``write_report`` leaves in its folder, without the figures (the check is the CLI's)."""
+    from types import SimpleNamespace
+
     (out_dir / "report.html").write_text("<html></html>\n")
-    stats = {"mean": 0.0, "mean_x": 0.0, "mean_y": 0.0, "rms": 0.0}
-    return {"before": stats, "after": stats, "html": out_dir / "report.html", "figures": []}
+    content = SimpleNamespace(cop=None, tau=None)
+    return SimpleNamespace(html=out_dir / "report.html", figures=(), content=content)
 
 
 def test_every_writing_command_is_covered():

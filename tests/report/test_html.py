@@ -1,4 +1,5 @@
-"""The experiment report: figures, a self-contained HTML page, and a check in a real browser."""
+"""The report of a CoP fit: numbers against recomputed residuals, figures, a self-contained
+HTML page, and a check in a real browser."""
 
 from __future__ import annotations
 
@@ -18,8 +19,10 @@ from op2_stance import stable_poses
 
 import sescid
 from sescid.cli import cli
+from sescid.estimation import Measurements
 from sescid.io import write_table
-from sescid.report import cop_offset_stats, write_report
+from sescid.report import ReportOptions, cop_offset_stats, write_report
+from sescid.report.text import RESIDUAL_DEFINITION
 
 FIGURES = 5
 
@@ -36,7 +39,9 @@ def case(tmp_path_factory):
     se = np.full((len(q), 2), 5e-4)
     fit = identify_ls(robot, q, cop, sigma=se)
     out = tmp_path_factory.mktemp("report")
-    res = write_report(fit, q, cop, out, cop_se=se, pose_ids=np.arange(100, 160))
+    data = Measurements(q=q, cop=cop, cop_se=se)
+    ids = tuple(str(i) for i in range(100, 160))
+    res = write_report(fit, data, out, ReportOptions(pose_ids=ids))
     return robot, q, cop, fit, out, res
 
 
@@ -48,20 +53,33 @@ def test_offset_stats_closed_form():
     assert s["rms"] == pytest.approx(np.sqrt((9 + 16 + 9 + 16) / 4))
 
 
-def test_report_numbers_are_the_offsets_of_both_models(case):
+def test_report_residuals_are_recomputed_from_both_models(case):
+    """Residuals measured − predicted per CoP component, recomputed here from each model's SESC
+    vectors: the tables' mean, RMS and MAE; the identified RMS is the fit's own (same data,
+    one definition: per row)."""
     robot, q, cop, fit, _, res = case
-    d_model = robot.cop(q) - cop
-    d_fit = fit.predict_cop(q) - cop
-    assert res["before"]["mean_x"] == pytest.approx(d_model[:, 0].mean(), abs=1e-15)
-    assert res["after"]["rms"] == pytest.approx(np.sqrt(np.mean(d_fit**2)), abs=1e-15)
+    k = res.content.cop
+    for model, r in (("manufacturer model", robot.sesc_vectors()), ("identified", fit.r)):
+        d = cop - robot.cop(q, r)  # (n, 2): both rows of each pose
+        x, y, all_ = k.stats[model]
+        assert (x.mean, y.mean) == pytest.approx((d[:, 0].mean(), d[:, 1].mean()), abs=1e-15)
+        assert all_.rms == pytest.approx(np.sqrt(np.mean(d**2)), rel=1e-12)
+        assert all_.mae == pytest.approx(np.mean(np.abs(d)), rel=1e-12)
+        assert all_.n_rows == 2 * len(q)
+    assert k.total().rms == pytest.approx(fit.kind("cop").rms, rel=1e-12)
     # the 2 mm / 1 mm torso shift (× torso share of the mass) shows before, not after
-    assert res["before"]["mean"] > 5 * res["after"]["mean"]
+    cad_mean = np.hypot(
+        k.stats["manufacturer model"][0].mean, k.stats["manufacturer model"][1].mean
+    )
+    assert cad_mean > 5 * abs(k.stats["identified"][0].mean)
+    page = res.html.read_text()
+    assert RESIDUAL_DEFINITION.split(",")[0] in page
 
 
 def test_report_figures_are_nonblank_pngs(case):
     *_, res = case
-    assert len(res["figures"]) == FIGURES
-    for path in res["figures"]:
+    assert len(res.figures) == FIGURES
+    for path in res.figures:
         img = matplotlib.image.imread(path)
         assert img.shape[0] > 200 and img.shape[1] > 400
         assert img[..., :3].std() > 0.05, path.name
@@ -69,15 +87,21 @@ def test_report_figures_are_nonblank_pngs(case):
 
 def test_html_is_self_contained(case):
     *_, out, res = case
-    page = res["html"].read_text()
-    imgs = re.findall(r'<img alt="[^"]*" src="data:image/png;base64,([A-Za-z0-9+/=]+)">', page)
-    assert len(imgs) == FIGURES
-    for data, path in zip(imgs, res["figures"], strict=True):
-        assert base64.b64decode(data) == path.read_bytes()
+    page = res.html.read_text()
+    imgs = re.findall(
+        r'<img alt="[^"]*" src="data:image/png;base64,([A-Za-z0-9+/=]+)">'
+        r"<figcaption>[^<]*<code>([^<]+)</code>",
+        page,
+    )
+    assert sorted(name for _, name in imgs) == sorted(p.name for p in res.figures)
+    for data, name in imgs:  # each embedded figure is the file it names
+        assert base64.b64decode(data) == (out / name).read_bytes()
     assert not re.search(r'(src|href)="(?!data:)', page)  # nothing fetched from elsewhere
     assert "comes from the prior (manufacturer) model" in page
     assert page.count("<tr><td><code>") == len(case[3].base) + len(case[3].unidentifiable)
     assert not list(out.glob(".*"))  # no temporary files left
+    assert "nan" not in re.sub(r"<[^>]*>|data:image/png;base64,[A-Za-z0-9+/=]+", "", page)
+    assert "-0.00<" not in page and "±0<" not in page
 
 
 def test_report_never_refits(case, monkeypatch, tmp_path):
@@ -89,7 +113,7 @@ def test_report_never_refits(case, monkeypatch, tmp_path):
 
     monkeypatch.setattr(sescid.estimation.solve, "solve_system", boom)
     monkeypatch.setattr(sescid.estimation.least_squares, "solve_system", boom)
-    write_report(fit, q[:5], cop[:5], tmp_path, n_side=2)
+    write_report(fit, Measurements(q=q[:5], cop=cop[:5]), tmp_path, ReportOptions(n_side=2))
     assert (tmp_path / "report.html").stat().st_size > 10000
 
 
@@ -102,10 +126,12 @@ def test_cli_report_and_bad_input(case, tmp_path):
     res = CliRunner().invoke(cli, [*args, "--out-dir", str(tmp_path / "rep")])
     assert res.exit_code == 0, res.output
     assert (tmp_path / "rep" / "report.html").is_file()
-    write_table(tmp_path / "bad.csv", cols)  # no cop columns
+    assert "CoP residual, measured − predicted, over 60 poses (120 rows)" in res.output
+    write_table(tmp_path / "bad.csv", cols)  # nothing measured
     bad = ["report", str(tmp_path / "fit.json"), str(tmp_path / "bad.csv")]
     res = CliRunner().invoke(cli, [*bad, "--out-dir", str(tmp_path / "rep2")])
-    assert res.exit_code == 2 and "missing column 'cop_x'" in res.output
+    assert res.exit_code == 2 and "no measurement columns" in res.output
+    assert "bad.csv" in res.output and res.output.count("\n") == 1
     assert not (tmp_path / "rep2").exists()
 
 
@@ -141,7 +167,7 @@ def _browse(binary: str, url: str, *extra: str) -> subprocess.CompletedProcess:
 @pytest.mark.skipif(_chromium() is None, reason="no chromium binary (apt-get install chromium)")
 def test_page_renders_in_headless_chromium(case, tmp_path):
     *_, res = case
-    binary, url = _chromium(), res["html"].resolve().as_uri()
+    binary, url = _chromium(), res.html.resolve().as_uri()
     dom = _browse(binary, url, "--dump-dom")
     assert dom.returncode == 0, dom.stderr[-2000:]
     # the page's own check: every embedded figure decoded (naturalWidth > 0)
@@ -161,7 +187,7 @@ def test_page_renders_in_headless_chromium(case, tmp_path):
 def test_browser_check_catches_a_broken_figure(case, tmp_path):
     """The console check can fail: a corrupt embedded figure is reported by the page."""
     *_, res = case
-    page = res["html"].read_text()
+    page = res.html.read_text()
     broken = re.sub(r"base64,[A-Za-z0-9+/=]{40}", "base64,AAAA", page, count=1)
     (tmp_path / "broken.html").write_text(broken)
     dom = _browse(_chromium(), (tmp_path / "broken.html").as_uri(), "--dump-dom")

@@ -13,7 +13,9 @@ from fitting import identify_ls
 from op2_stance import stable_poses
 from test_html import _browse, _chromium
 
-from sescid.report import write_report
+from sescid.estimation import Measurements
+from sescid.report import ReportOptions, scene_data, write_report
+from sescid.report.view3d import SUPPORT_FOOT, SUPPORT_LEG, TRUNK
 from sescid.session.loop import SessionStep
 
 CHROMIUM = pytest.mark.skipif(_chromium() is None, reason="no chromium (apt-get install chromium)")
@@ -116,8 +118,10 @@ def report(op2, tmp_path_factory):
     q = stable_poses(op2, 48, seed=0)
     fit = identify_ls(op2, q, op2.cop(q))
     out = tmp_path_factory.mktemp("rep3d")
-    res = write_report(fit, q[:12], op2.cop(q[:12]), out, n_side=2)
-    return res["html"]
+    res = write_report(
+        fit, Measurements(q=q[:12], cop=op2.cop(q[:12])), out, ReportOptions(n_side=2)
+    )
+    return res.html
 
 
 def test_report_embeds_the_3d_scene(report, op2):
@@ -151,3 +155,46 @@ def test_report_3d_view_changes_with_the_slider(report, tmp_path):
     a, b = shots
     assert a.sum() > 20_000 and b.sum() > 20_000  # the robot is on screen (scrolled into view)
     assert (a ^ b).sum() > 1000  # and it moved between the two poses
+
+
+def test_scene_marks_the_support_leg_and_orders_the_sole(op2):
+    """Limbs of the OP2 (right sole support): the support foot, the right leg up to the trunk
+    (MP_BODY), the trunk, the other limbs; the sole's corners go round its rectangle."""
+    q = stable_poses(op2, 3, seed=1)
+    scene = scene_data(op2, q, op2.com(q), op2.cop(q), op2.cop(q), ["a", "b", "c"])
+    group = dict(zip(op2.body_names, scene["group"], strict=True))
+    leg = ["MP_ANKLE1_R", "MP_TIBIA_R", "MP_THIGH2_R", "MP_THIGH1_R", "MP_PELVIS_R"]
+    assert group["MP_ANKLE2_R"] == SUPPORT_FOOT and group["MP_BODY"] == TRUNK
+    assert all(group[b] == SUPPORT_LEG for b in leg)
+    others = {b: g for b, g in group.items() if b not in [*leg, "MP_ANKLE2_R", "MP_BODY"]}
+    assert min(others.values()) > TRUNK
+    assert group["MP_ARM_LOW_R"] == group["MP_SHOULDER_R"] != group["MP_SHOULDER_L"]
+    corners = np.array(scene["sole"])[:, :2]
+    edges = np.roll(corners, -1, axis=0) - corners
+    area = 0.5 * abs(np.sum(corners[:, 0] * np.roll(corners[:, 1], -1) -
+                            np.roll(corners[:, 0], -1) * corners[:, 1]))  # fmt: skip
+    size = op2.sole.size
+    assert area == pytest.approx(size[0] * size[1] * 1e6, rel=1e-3)  # a rectangle, not a bow tie
+    assert np.allclose(np.sum(edges[:-1] * edges[1:], axis=1), 0, atol=1e-6)
+    assert len(scene["origin"]) == 3 and len(scene["origin"][0]) == len(op2.body_names)
+    assert scene["held"] is False and scene["floor"] == 0.0
+
+
+def test_scene_of_feet_only_collision_keeps_the_skeleton(tmp_path):
+    """An MJCF humanoid whose only collision geometry is its feet: the capsules are the feet's,
+    the skeleton links every body (so the limbs are drawn); a held trunk (gantry) has no sole
+    and a reference plane under its lowest point."""
+    from humanoid_mjcf_gen import write_humanoid
+
+    import sescid
+
+    robot = sescid.load_robot(write_humanoid(tmp_path / "h"), "r_sole")
+    q = np.zeros((2, robot.nq))
+    scene = scene_data(robot, q, robot.com(q), None, None, ["0", "1"])
+    feet = {robot.body_names[b] for b in scene["body"]}
+    assert feet == {"r_foot", "l_foot"}
+    assert len(scene["links"]) == len(robot.body_names) - 1 and scene["cop"] is None
+    held = sescid.load_robot(write_humanoid(tmp_path / "g"), "pelvis")
+    scene = scene_data(held, q, held.com(q), None, None, ["0", "1"])
+    lowest = min(p[2] for pose in scene["origin"] for p in pose)
+    assert scene["held"] and scene["sole"] is None and scene["floor"] < lowest

@@ -4,17 +4,36 @@ from __future__ import annotations
 
 import click
 
-from sescid.base.files import OutputSet
-from sescid.base.progress import TerminalProgress
-from sescid.cli.common import (
-    force_option,
-    imu_link_option,
-    mm,
-)
+from sescid.base import OutputSet, TerminalProgress
+from sescid.cli.common import force_option, imu_link_option
 from sescid.estimation import load_fit
-from sescid.io import read_cop, read_cop_se, read_poses, read_table
-from sescid.report import write_report
-from sescid.sensors import pose_list_ids
+from sescid.report import (
+    KIND_TITLES,
+    KindNumbers,
+    ReportOptions,
+    in_unit,
+    read_report_data,
+    with_unit,
+    write_report,
+)
+
+
+def _residual_line(k: KindNumbers, n: int) -> str:
+    """One kind's residuals, measured − predicted, of both models (the CoP's mean per axis)."""
+
+    def model(name: str) -> str:
+        s = k.stats[name]
+        mean = ""
+        if k.kind == "cop":
+            mean = f"mean ({in_unit(s[0].mean, 'm')}, {in_unit(s[1].mean, 'm')}) mm, "
+        return f"{mean}RMS {with_unit(s[-1].rms, k.unit)}"
+
+    fitted = k.total()
+    return (
+        f"{KIND_TITLES[k.kind]} residual, measured − predicted, over {n} poses "
+        f"({fitted.n_rows} rows): manufacturer model {model('manufacturer model')}; "
+        f"identified {model('identified')}, MAE {with_unit(fitted.mae, k.unit)}"
+    )
 
 
 @click.command()
@@ -24,35 +43,18 @@ from sescid.sensors import pose_list_ids
 @imu_link_option
 @force_option
 def report(fit_file, measured, out_dir, imu_link, force):
-    """Figures and one self-contained HTML page from a fit and measured CoPs (never re-fits).
+    """Figures and one self-contained HTML page from a fit and what was measured (never
+    re-fits): CoP (cop_x, cop_y), joint torques (tau_<joint>, approach) or both.
 
-    With grav_x/y/z (or IMU) columns the predicted CoPs are projected along that gravity.
+    With grav_x/y/z (or IMU) columns the predictions use that gravity.
     """
-    from sescid.sensors import table_gravity
-
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
-    table = read_table(measured)
-    q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
-    gravity = table_gravity(fit.robot, table, q, imu_link)
-    cop = read_cop(table)
-    se = read_cop_se(table)
+    data, ids = read_report_data(measured, fit, imu_link)
+    options = ReportOptions(pose_ids=ids, progress=TerminalProgress("report files"))
     with outs:
-        res = write_report(
-            fit,
-            q,
-            cop,
-            outs.folder(out_dir),
-            cop_se=se,
-            pose_ids=pose_list_ids(table),
-            progress=TerminalProgress("report files"),
-            gravity=gravity,
-        )
-    b, a = res["before"], res["after"]
-    click.echo(
-        f"CoP offset predicted − measured over {len(q)} poses: manufacturer model mean "
-        f"{mm(b['mean'])} (x {mm(b['mean_x'])}, y {mm(b['mean_y'])}), RMS {mm(b['rms'])}; "
-        f"identified mean {mm(a['mean'])}, RMS {mm(a['rms'])}"
-    )
-    html = f"{out_dir}/{res['html'].name}"
-    click.echo(f"wrote {html} and {len(res['figures'])} figures")
+        res = write_report(fit, data, outs.folder(out_dir), options)
+    for k in (res.content.cop, res.content.tau):
+        if k is not None:
+            click.echo(_residual_line(k, data.n))
+    click.echo(f"wrote {out_dir}/{res.html.name} and {len(res.figures)} figures")

@@ -20,6 +20,10 @@ MARGINS = (0.85, 0.2, 0.6, 0.4)
 #: titles sit just above their axes (where matplotlib puts them when nothing is drawn there);
 #: given explicitly, matplotlib skips measuring every tick label to find that place
 TITLE_Y = 1.0
+#: colours of the two models, the same in every figure (others: matplotlib's cycle)
+MODEL_COLOURS = {"manufacturer model": "0.45", "identified": "tab:blue"}
+#: half-length [m] of the sole drawn in the side view of a robot without a known sole
+SOLE_FALLBACK = 0.05
 
 
 def _figure(*args: Any, dpi: float = REPORT_DPI, **kwargs: Any) -> tuple[Any, Any]:
@@ -76,12 +80,7 @@ def plot_r_magnitudes(fit, path, title: str = "SESC vector magnitudes R_i = |r_i
     labels = [body_labels(fit.robot)[i] for i in order]
     r0 = np.linalg.norm(fit.r_prior, axis=1)[order] * 1e3
     r1 = fit.r_magnitudes[order] * 1e3
-    # 1σ of |r| by linearisation: (r/|r|)ᵀ Σ_i (r/|r|)
-    std = []
-    for i in order:
-        u = fit.r[i] / max(np.linalg.norm(fit.r[i]), 1e-15)
-        blk = fit.cov[3 * i : 3 * i + 3, 3 * i : 3 * i + 3]
-        std.append(np.sqrt(max(u @ np.nan_to_num(blk) @ u, 0.0)) * 1e3)
+    std = r_magnitude_std(fit)[order] * 1e3
     x = np.arange(len(order))
     fig, ax = _figure(figsize=(10, 4), dpi=PAPER_DPI)
     ax.bar(x - 0.2, r0, 0.4, label="manufacturer model", color="0.4")
@@ -105,7 +104,8 @@ def plot_cop_comparison(poses_idx, measured, predicted, path, extra=None, title=
     for k, ax in enumerate(axes):
         ax.plot(poses_idx, measured[:, k] * 1e3, "o-", color="tab:red", ms=3, label="measured")
         for s, (lab, arr) in enumerate({**predicted, **(extra or {})}.items()):
-            ax.plot(poses_idx, arr[:, k] * 1e3, styles[s % 4], marker=".", label=lab)
+            colour = MODEL_COLOURS.get(lab, f"C{s + 1}")
+            ax.plot(poses_idx, arr[:, k] * 1e3, styles[s % 4], marker=".", label=lab, c=colour)
         ax.set_ylabel(f"CoP_{'xy'[k]} [mm]")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, ncol=2)
@@ -146,31 +146,45 @@ def plot_com_height(idx, z_prior, z_fit, std, path, caveat: str = "", title=None
 
 
 def plot_residuals(idx, measured, predicted: dict, path, title=None) -> None:
-    """Residuals predicted − measured CoP per pose and their histogram; (n, 2) arrays in m."""
+    """Residuals measured − predicted CoP per pose and their histogram; (n, 2) arrays in m."""
     fig, axes = _figure(2, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [3, 1]})
     for k in range(2):
-        for lab, arr in predicted.items():
-            res = (arr[:, k] - measured[:, k]) * 1e3
-            axes[k, 0].plot(idx, res, ".-", ms=3, label=lab)
+        for s, (lab, arr) in enumerate(predicted.items()):
+            res = (measured[:, k] - arr[:, k]) * 1e3
+            colour = MODEL_COLOURS.get(lab, f"C{s + 1}")
+            axes[k, 0].plot(idx, res, ".-", ms=3, label=lab, color=colour)
             axes[k, 1].hist(  # one filled outline per histogram, not a patch per bar
-                res, bins=15, alpha=0.6, orientation="horizontal", label=lab, histtype="stepfilled"
-            )
+                res, bins=15, alpha=0.6, orientation="horizontal", label=lab,
+                histtype="stepfilled", color=colour,
+            )  # fmt: skip
         axes[k, 0].axhline(0, color="k", lw=0.8)
         axes[k, 0].set_ylabel(f"Δ CoP_{'xy'[k]} [mm]")
         axes[k, 0].grid(alpha=0.3)
         axes[k, 1].set_xlabel("poses")
     axes[1, 0].set_xlabel("pose")
     axes[0, 0].legend(fontsize=8)
-    axes[0, 0].set_title(title or "CoP residuals: predicted − measured", y=TITLE_Y)
+    axes[0, 0].set_title(title or "CoP residuals: measured − predicted", y=TITLE_Y)
     _save(fig, path, wspace=0.12, hspace=0.35)  # the histograms' own tick labels between
+
+
+def sole_x_range(robot) -> tuple[float, float]:
+    """The x extent [m] of the support sole in the support frame (the profile's or the geometry's;
+    ±SOLE_FALLBACK without a sole)."""
+    sole = robot.sole
+    if sole is None:
+        return -SOLE_FALLBACK, SOLE_FALLBACK
+    corners = sole.corners @ robot.model.root_rotation.T + robot.model.root_origin
+    return float(corners[:, 0].min()), float(corners[:, 0].max())
 
 
 def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
     """Stick figures (x–z, support frame) of a few poses with CoM(s) and the measured CoP.
 
-    ``q`` (k, nq) rad, ``cop`` (k, 2) m, ``coms`` label → (k, 3) m.
+    ``q`` (k, nq) rad, ``cop`` (k, 2) m or None (no CoP measured), ``coms`` label → (k, 3) m.
     """
     _, origins = robot.forward(q)
+    sole = np.array(sole_x_range(robot)) * 1e3
+    floor = robot.floor * 1e3
     parents = [b.parent for b in robot.model.bodies]
     k = len(q)
     fig, axes = _figure(1, k, figsize=(2.6 * k + 0.5, 4.2), sharey=True, squeeze=False)
@@ -183,13 +197,14 @@ def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
         seg[:, 0], seg[:, 1] = o[links[:, 0]][:, [0, 2]], o[links[:, 1]][:, [0, 2]]
         ax.plot(seg[..., 0].ravel(), seg[..., 1].ravel(), "-", color="0.55", lw=2)
         ax.plot(o[:, 0], o[:, 2], "o", color="0.35", ms=3)
-        ax.axhline(0, color="k", lw=0.8)
-        ax.plot([-52.5, 52.5], [0, 0], "-", color="tab:brown", lw=4, alpha=0.6)
+        ax.axhline(floor, color="k", lw=0.8)
+        ax.plot(sole, [floor, floor], "-", color="tab:brown", lw=4, alpha=0.6)
         for c, (lab, com) in enumerate(coms.items()):
             x, z = com[i, 0] * 1e3, com[i, 2] * 1e3
             ax.plot([x], [z], "X", ms=9, color=colors[c % 3], label=f"CoM {lab}")
-            ax.plot([x, x], [0, z], ":", color=colors[c % 3], lw=1)
-        ax.plot([cop[i, 0] * 1e3], [0], "^", ms=9, color="tab:red", label="CoP measured")
+            ax.plot([x, x], [floor, z], ":", color=colors[c % 3], lw=1)
+        if cop is not None:
+            ax.plot([cop[i, 0] * 1e3], [floor], "^", ms=9, color="tab:red", label="CoP measured")
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_title(f"pose {labels[i] if labels is not None else i}", fontsize=9, y=TITLE_Y)
