@@ -279,3 +279,28 @@ def with_residuals(fit: Fit, data: Iterable[Measurements]) -> Fit:
         rms=single.rms if single else math.nan,
         truth_cop_rmse=math.sqrt(truth_sq / truth_n) if truth_n else fit.truth_cop_rmse,
     )
+
+
+def refit_nuisance(fit: Fit, system: System) -> Fit:
+    """The nuisance parameters re-estimated for the fit's r (least squares given vec(r)): after
+    the consistent step moves r along directions its offsets traded with, the offsets follow.
+    Kinds are weighed by the fit's noise; what stays undetermined keeps its record."""
+    if not system.nuisance:
+        return fit
+    from sescid.estimation.solve import weighted_sums
+
+    noise = {k.kind: (k.sigma if math.isfinite(k.sigma) and k.sigma > 0 else 1.0)
+             for k in fit.kinds}  # fmt: skip
+    if len(system.kinds) == 1:
+        noise = {system.kinds[0]: 1.0}
+    ne = weighted_sums(system, noise)
+    n_x = system.n_x
+    x = fit.r.reshape(-1)
+    a_nn = ne.ata[n_x:, n_x:]
+    b_n = ne.atb[n_x:] - ne.ata[n_x:, :n_x] @ x
+    values = np.linalg.pinv(a_nn, rcond=1e-10, hermitian=True) @ b_n
+    out = tuple(
+        dataclasses.replace(e, value=float(v)) if e.determined else e
+        for e, v in zip(fit.nuisance, values, strict=True)
+    )
+    return dataclasses.replace(fit, nuisance=out)

@@ -93,11 +93,16 @@ def fit_notes(fit: Fit) -> list[str]:
     if fit.inertials is not None:
         b = fit.inertials
         active = b.active_constraints
+        compare = (
+            f"; CoP residual RMS {fit.rms * 1e3:.3f} mm vs {b.source_rms * 1e3:.3f} mm for "
+            f"{b.source_method}"
+            if math.isfinite(fit.rms) and math.isfinite(b.source_rms)
+            else f" (each kind's residuals above; the {b.source_method} fit's in its record)"
+        )
         notes.append(
             f"consistent masses/CoMs (total {b.total_mass:.4f} kg): "
             + (f"{len(active)} active constraints" if active else "no active constraint")
-            + f"; CoP residual RMS {fit.rms * 1e3:.3f} mm vs {b.source_rms * 1e3:.3f} mm for "
-            f"{b.source_method}"
+            + compare
         )
         if b.grown_boxes:
             notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))

@@ -14,7 +14,7 @@ from sescid.errors import OptionError
 from sescid.estimation.checks import check_total_mass, fit_warnings
 from sescid.estimation.consistent import consistent_from_fit
 from sescid.estimation.fit import Fit
-from sescid.estimation.least_squares import fit_least_squares, with_residuals
+from sescid.estimation.least_squares import fit_least_squares, refit_nuisance, with_residuals
 from sescid.estimation.map import fit_map
 from sescid.estimation.measurements import COP, TORQUE, Measurements
 from sescid.estimation.options import IdentifyOptions
@@ -90,7 +90,8 @@ def run_method(
         if copts.total_mass is None and options.total_mass is not None:
             copts = dataclasses.replace(copts, total_mass=options.total_mass)
         src, kw = copts.resolved(fit)
-        fit = with_residuals(consistent_from_fit(src, **kw), (c for s in sources for c in
+        masses = refit_nuisance(consistent_from_fit(src, **kw), system)
+        fit = with_residuals(masses, (c for s in sources for c in
                                                               s.chunks()))  # fmt: skip
         dof = fit.n_rows - fit.rank
         if len(fit.kinds) == 1 and not fit.kinds[0].weighted:
