@@ -208,7 +208,8 @@ class Robot:
 
         b, x = self.model.link_frames[self.support]
         size = self.profile.sole_size
-        if size is not None:
+        soles = set(self.profile.free_sole) | set(self.profile.free_sole.values())
+        if size is not None and (self.support in soles or not soles):  # the profile's soles only
             return profile_sole(self.support, b, x, size, f"sole {size[0]} x {size[1]} m (profile)")
         return derive_sole(
             self.support, b, self.shapes, self.model.root_rotation, self.model.root_origin, 0.0
@@ -306,6 +307,9 @@ def load_robot(name_or_path: str | Path = "op2", support: str | None = None) -> 
         model = load_model(profile.model_file, support or profile.support or "")
         return Robot(model, key, profile)
     path = Path(key)
+    if path.suffix.lower() in (".urdf", ".xml", ".mjcf") and not path.is_file():
+        kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
+        raise ModelError(f"{path}: {kind} file not found")
     if path.suffix.lower() not in (".urdf", ".xml", ".mjcf") and not path.exists():
         raise ModelError(
             f"unknown robot '{key}': give an embedded name ({', '.join(EMBEDDED)}) "

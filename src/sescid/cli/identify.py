@@ -69,7 +69,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         joint_noise=None if opts["joint_noise_deg"] is None else math.radians(
             opts["joint_noise_deg"]),
         mc_draws=opts["mc_draws"],
-        online_step=opts["online_step"] if opts["online"] else None,
+        online_step=_online_step(opts),
         map=MapOptions(
             prior_scale=opts["prior_scale"],
             noise=opts["noise"],
@@ -81,6 +81,15 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         else MapOptions(),
         consistent=consistent,
     )  # fmt: skip
+
+
+def _online_step(opts: dict) -> int | None:
+    """--online-step applies with --online only (an error without it, never ignored)."""
+    if opts["online"]:
+        return opts["online_step"]
+    if opts["online_step"] != 1:
+        raise OptionError("online", "--online-step needs --online")
+    return None
 
 
 @click.command()
