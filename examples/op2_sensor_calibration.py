@@ -51,15 +51,15 @@ def main() -> None:
             sessions.append(pad_session(right, table_from_columns(ex.columns), cfg, foot))
             truth[foot] = ex.truth
         cal = calibrate_sensors(right, sessions, total_mass=mass, offset_prior=args.offset_prior)
-        gains = truth["right"]["fsr_gain"]
+        gains = truth["right"].pad_gain
         for foot in ("right", "left"):
             v, s = cal.gain("default", foot)
             zg += list((v - np.array(gains[foot])) / s)
             v, s = cal.offset(foot, foot)
-            zo += list((v - np.array(truth[foot]["fsr_bias_N"][foot])) / s)
+            zo += list((v - np.array(truth[foot].pad_bias[foot])) / s)
         known = KnownSensors(
             gains={("default", f): np.array(g) for f, g in gains.items()},
-            offsets={(f, f): np.array(truth[f]["fsr_bias_N"][f]) for f in ("right", "left")},
+            offsets={(f, f): np.array(truth[f].pad_bias[f]) for f in ("right", "left")},
         )
         ideal = calibrate_sensors(right, sessions, total_mass=mass, known=known)
         e1, e0 = (

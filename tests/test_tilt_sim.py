@@ -43,8 +43,7 @@ def test_kinematic_bench_tilt(op2, tmp_path):
     """Kinematic bench with tilt_deg: grav_* logged; gravity-aware fit beats the flat one."""
     from sescid.bench import ExperimentConfig, run_experiment
     from sescid.planning import candidates
-    from sescid.sensors import load_sensors
-    from sescid.sensors.pads import fsr
+    from sescid.sensors import fsr, load_sensors
     from sescid.session.loop import raw_table
 
     sensors = load_sensors(None, op2.profile)
@@ -53,15 +52,15 @@ def test_kinematic_bench_tilt(op2, tmp_path):
     ex = run_experiment(op2, q, sensors, samples=20, seed=1, config=cfg)
     res, _ = fsr(op2, raw_table(ex.columns), sensors)
     t = ex.truth
-    g = np.array(t["grav"])
+    g = np.array(t.grav)
     assert res.gravity is not None and np.abs(res.gravity - g).max() < 1e-12
     # the pads' centroid is the tilted CoP (pads on the sole plane)
-    assert np.abs(np.array(t["cop_expected"]) - np.array(t["cop_true"])).max() < 2e-3
-    qa = np.array(t["q_actual"])
+    assert np.abs(np.array(t.cop_expected) - np.array(t.cop_true)).max() < 2e-3
+    qa = np.array(t.q_actual)
     err = {}
     for label, grav in (("flat", None), ("gravity", res.gravity)):
         fit = sescid.identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav, method="map")
-        err[label] = np.sqrt(np.mean((fit.predict_cop(qa, g) - np.array(t["cop_true"])) ** 2))
+        err[label] = np.sqrt(np.mean((fit.predict_cop(qa, g) - np.array(t.cop_true)) ** 2))
     assert err["gravity"] < 0.7 * err["flat"], err
 
 

@@ -41,7 +41,7 @@ def walk_through(engine: str = "kinematic") -> dict[str, str]:
     """Run the commands in a temporary folder; the quoted figures as the README prints them."""
     from click.testing import CliRunner
 
-    from sescid.bench.truth import compare_truth
+    from sescid.bench import compare_truth
     from sescid.cli import cli
     from sescid.estimation import load_fit
     from sescid.io import read_cop, read_poses, read_table
@@ -90,31 +90,32 @@ def walk_through(engine: str = "kinematic") -> dict[str, str]:
 
 def _physics_figures(fit, table, q, cop) -> dict[str, str]:
     """Physics bench only: statics vs the pads' CoP, gravity's share, LS vs MAP CoM height."""
-    import json
 
     import numpy as np
 
+    from sescid.bench import load_truth
     from sescid.estimation import identify
     from sescid.estimation.tilt import tilt_direction
     from sescid.io import read_cop_se
     from sescid.sensors.imu import table_gravity
 
-    t = json.loads(open("truth.json").read())
-    pads, grav = np.array(t["cop_pads"]), np.array(t["cop_gravity"])
-    flat = np.array(t["cop_true"])
+    t = load_truth("truth.json")
+    assert t.physics is not None and t.cop_true is not None
+    pads, grav = np.array(t.physics.cop_pads), np.array(t.physics.cop_gravity)
+    flat = np.array(t.cop_true)
     robot = fit.robot
-    r_true = np.array([t["r_true"][b] for b in robot.body_names])
-    qa = np.array(t["q_actual"])
+    r_true = t.r_true
+    qa = np.array(t.q_actual)
     g = table_gravity(robot, table, q)
     se = read_cop_se(table)
     com_true = robot.com(qa, r_true)[:, 2]
     out = {
-        "skipped": str(len(t["skipped"])),
+        "skipped": str(len(t.skipped)),
         "pads − gravity-aware statics max": f"{np.abs(pads - grav).max() * 1e6:.1f} µm",
         "pads − flat statics max": f"{np.abs(pads - flat).max() * 1e3:.2f} mm",
         "pads − flat statics RMS": f"{np.sqrt(np.mean((pads - flat) ** 2)) * 1e3:.2f} mm",
-        "foot tilt max": f"{max(t['foot_tilt']) * 1e3:.1f} mrad",
-        "servo sag max": f"{np.abs(np.array(t['servo_sag'])).max() * 1e3:.1f} mrad",
+        "foot tilt max": f"{max(t.physics.foot_tilt) * 1e3:.1f} mrad",
+        "servo sag max": f"{np.abs(np.array(t.physics.servo_sag)).max() * 1e3:.1f} mrad",
     }
     for label, method, grav_cols in (
         ("flat LS", "ls", None),

@@ -18,7 +18,7 @@ from sescid.errors import SescidError
 from sescid.io import Table, write_table
 from sescid.report import cop_offset_stats
 from sescid.robots import MX28, profile_for
-from sescid.sensors.pads import load_sensors, measure, read_raw
+from sescid.sensors import load_sensors, measure, read_raw
 
 G = 9.80665
 
@@ -77,19 +77,17 @@ def test_backlash_and_readbacks(robot, sensors):
     q = stable_poses(robot, 200, seed=3)
     cfg = ExperimentConfig(backlash_deg=1.0, readback_seen=0.5)
     tr = run_experiment(robot, q, sensors, samples=1, seed=0, config=cfg).truth
-    delta = np.degrees(tr["q_actual"] - q)
+    delta = np.degrees(tr.q_actual - q)
     assert np.abs(delta).max() <= 1.0
     assert delta.std() == pytest.approx(1.0 / math.sqrt(3), rel=0.03)  # U(−1°, 1°)
-    np.testing.assert_allclose(np.degrees(tr["q_readback"] - q), 0.5 * delta, atol=1e-12)
+    np.testing.assert_allclose(np.degrees(tr.q_readback - q), 0.5 * delta, atol=1e-12)
 
 
 def test_truth_cop_is_the_real_robots_projection(robot, sensors):
     q = stable_poses(robot, 10, seed=4)
     ex = run_experiment(robot, q, sensors, samples=2, seed=5)
-    r_true = np.array([ex.truth["r_true"][b] for b in robot.body_names])
-    np.testing.assert_allclose(
-        ex.truth["cop_true"], robot.cop(np.array(ex.truth["q_actual"]), r_true), atol=1e-15
-    )
+    r_true = ex.truth.r_true
+    np.testing.assert_allclose(ex.truth.cop_true, robot.cop(ex.truth.q_actual, r_true), atol=1e-15)
     np.testing.assert_allclose(r_true, real_robot(robot, ExperimentConfig())[0], atol=1e-15)
 
 
@@ -123,7 +121,7 @@ def test_identified_fit_recovers_the_true_cop_on_fresh_poses(robot, sensors):
     ex = run_experiment(robot, q, sensors, samples=20, seed=1)
     res = reduce(robot, sensors, ex)
     fit = identify_ls(robot, res.q, res.cop, sigma=res.cop_se)
-    r_true = np.array([ex.truth["r_true"][b] for b in robot.body_names])
+    r_true = ex.truth.r_true
     fresh = stable_poses(robot, 3000, seed=8)
     truth = robot.cop(fresh, r_true)
 
@@ -150,7 +148,7 @@ def test_pose_beyond_the_sensors_is_skipped_and_reported(robot, sensors):
     assert [p for p, _ in ex.skipped] == ["2"]
     assert "outside the sensor rectangle of r_sole" in ex.skipped[0][1]
     assert sorted(set(ex.columns["pose"])) == ["0", "1", "3"]
-    assert ex.truth["pose"] == ["0", "1", "3"] and len(ex.truth["cop_true"]) == 3
+    assert list(ex.truth.pose) == ["0", "1", "3"] and len(ex.truth.cop_true) == 3
     with pytest.raises(SescidError, match="no pose can be measured"):
         run_experiment(robot, np.zeros((2, robot.nq)), sensors, samples=2)
 

@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from sescid.base.columns import Table  # noqa: E402
-from sescid.bench import ExperimentConfig
+from sescid.bench import ExperimentConfig, load_truth
 from sescid.bench.kinematic import real_robot  # noqa: E402
 from sescid.bench.mujoco import (  # noqa: E402
     MujocoBenchConfig,
@@ -81,12 +81,12 @@ def test_welded_foot_cop_equals_statics(op2, sensors, poses):
     t = ex.truth
     assert not ex.skipped
     r_true, mass, _ = real_robot(op2, ExperimentConfig())
-    cop = op2.cop(np.array(t["q_actual"]), r_true)
-    err = np.abs(np.array(t["cop_ft"]) - cop).max()
+    cop = op2.cop(np.array(t.q_actual), r_true)
+    err = np.abs(np.array(t.physics.cop_ft) - cop).max()
     assert err <= 1e-9, err
-    assert np.array(t["foot_tilt"]).max() == 0.0
+    assert np.array(t.physics.foot_tilt).max() == 0.0
     # the ideal pad split has that CoP too, and the load cell weighs the real robot
-    assert np.abs(np.array(t["cop_pads"]) - cop).max() <= 1e-9
+    assert np.abs(np.array(t.physics.cop_pads) - cop).max() <= 1e-9
     assert np.allclose(ex.columns["fz_total_n"], mass * 9.80665, rtol=1e-12)
     res = reduce(op2, sensors, ex)
     assert np.abs(res.cop - cop).max() < 3e-3  # FSR noise and bias, unseen backlash
@@ -95,19 +95,19 @@ def test_welded_foot_cop_equals_statics(op2, sensors, poses):
 def test_free_standing_gravity_aware_statics(op2, free):
     """Free-standing: the pad CoP meets gravity-aware statics to ≤ 10 µm; flat statics ~1 mm."""
     t = free.truth
-    assert len(t["pose"]) >= 3
-    pads = np.array(t["cop_pads"])
-    flat = np.array(t["cop_true"])
-    grav = np.array(t["cop_gravity"])
-    g = np.array(t["grav"])
+    assert len(t.pose) >= 3
+    pads = np.array(t.physics.cop_pads)
+    flat = np.array(t.cop_true)
+    grav = np.array(t.physics.cop_gravity)
+    g = np.array(t.grav)
     assert np.allclose(np.linalg.norm(g, axis=1), 1.0)
     assert np.linalg.norm(pads - grav, axis=1).max() < 1e-5  # measured 1–4 µm
     d_flat = np.linalg.norm(pads - flat, axis=1)
     assert 1e-4 < d_flat.max() < 4e-3  # the foot tilts on the compliant contact
-    tilt = np.array(t["foot_tilt"])
+    tilt = np.array(t.physics.foot_tilt)
     assert np.all(tilt > 0) and tilt.max() < 0.03
     # gravity-aware statics from the sim's tilt, with sescid's CoM at the actual angles
-    c = op2.com(np.array(t["q_actual"]), real_robot(op2, ExperimentConfig())[0])
+    c = op2.com(np.array(t.q_actual), real_robot(op2, ExperimentConfig())[0])
     assert np.allclose(c[:, :2] - c[:, 2:3] * g[:, :2] / g[:, 2:3], grav, atol=1e-15)
 
 
@@ -120,19 +120,19 @@ def test_toppling_pose_is_skipped(op2, sensors, poses):
     assert [p for p, _ in ex.skipped] == ["1"]
     assert "toppled" in ex.skipped[0][1]
     assert set(ex.columns["pose"]) == {"0"}
-    assert ex.truth["skipped"][0]["pose"] == "1"
+    assert ex.truth.skipped[0][0] == "1"
 
 
 def test_log_reduces_through_fsr(op2, sensors, free):
     """The raw log passes through read_raw/measure to a per-pose CoP near the pads' truth."""
     res = reduce(op2, sensors, free)
     t = free.truth
-    assert list(res.pose) == t["pose"]
-    expected = np.array(t["cop_expected"])  # noise-free CoP of the biased pads
+    assert list(res.pose) == list(t.pose)
+    expected = np.array(t.cop_expected)  # noise-free CoP of the biased pads
     # measure carries the CoP with the model's sole pose (level): the tilt is invisible to it
     assert np.abs(res.cop - expected).max() < 5 * res.cop_se.max() + 2e-4
     noise = 2 * ExperimentConfig().fsr_noise / math.sqrt(20)  # 4 pads, 20 samples
-    assert np.abs(res.force - t["true_mass_kg"] * 9.80665).max() < 4 * noise
+    assert np.abs(res.force - t.true_mass * 9.80665).max() < 4 * noise
     for col in ("imu_roll", "imu_pitch", "fz_total_n", "l_fsr1", "r_fsr4"):
         assert col in free.columns
     assert np.all(free.columns["l_fsr1"] == 0)  # the lifted foot reads nothing
@@ -162,7 +162,7 @@ def test_double_support_splits_the_load(op2, sensors):
     assert np.all(ex.columns["l_fsr1"] + ex.columns["l_fsr4"] > 0)
     assert np.all(ex.columns["r_fsr1"] + ex.columns["r_fsr4"] > 0)
     t = ex.truth
-    assert np.linalg.norm(np.array(t["cop_pads"]) - np.array(t["cop_gravity"]), axis=1).max() < 5e-5
+    assert np.linalg.norm(t.physics.cop_pads - t.physics.cop_gravity, axis=1).max() < 5e-5
 
 
 def test_servo_gains_from_profile(op2):
@@ -188,9 +188,9 @@ def test_gravity_aware_identify_beats_flat(op2, tilted):
 
     ex, res = tilted
     t = ex.truth
-    keep = [t["pose"].index(p) for p in res.pose]
-    qa, g = np.array(t["q_actual"])[keep], np.array(t["grav"])[keep]
-    pads = np.array(t["cop_pads"])[keep]
+    keep = [list(t.pose).index(p) for p in res.pose]
+    qa, g = np.array(t.q_actual)[keep], np.array(t.grav)[keep]
+    pads = np.array(t.physics.cop_pads)[keep]
     assert res.gravity is not None and np.abs(res.gravity - g).max() < 1e-4
     err, rank, z_prior = {}, {}, {}
     for label, grav in (("flat", None), ("gravity", res.gravity)):
@@ -217,7 +217,6 @@ def test_cop_under_gravity_is_linear(op2):
 
 def test_cli_experiment_mujoco(op2, poses, tmp_path):
     """`sescid experiment --engine mujoco` writes the raw log and truth; fsr keeps gravity."""
-    import json
 
     from click.testing import CliRunner
 
@@ -230,8 +229,8 @@ def test_cli_experiment_mujoco(op2, poses, tmp_path):
     args = ["experiment", "--poses", plist, "--samples", 6, "--out", raw, "--truth", truth]
     res = CliRunner().invoke(cli, [str(a) for a in [*args, "--engine", "mujoco", "--kp", 400]])
     assert res.exit_code == 0, res.output
-    t = json.loads(truth.read_text())
-    assert t["engine"] == "mujoco" and t["settings"]["servo_gains"]["kp"] == 400.0
+    t = load_truth(truth)
+    assert t.engine == "mujoco" and t.settings["servo_gains"]["kp"] == 400.0
     assert {"grav_x", "grav_y", "grav_z", "r_fsr1"} <= set(read_table(raw).names())
     res = CliRunner().invoke(cli, ["fsr", str(raw), "--out", str(meas)])
     assert res.exit_code == 0, res.output

@@ -59,15 +59,15 @@ def _coverage(setup, seeds):
     for seed in seeds:
         sessions, truth = _sessions(setup, seed)
         cal = calibrate_sensors(right, sessions, total_mass=mass, offset_prior=0.1)
-        gains = truth["right"]["fsr_gain"]
+        gains = truth["right"].pad_gain
         for foot in ("right", "left"):
             v, s = cal.gain("default", foot)
             zg += list((v - np.array(gains[foot])) / s)
             v, s = cal.offset(foot, foot)
-            zo += list((v - np.array(truth[foot]["fsr_bias_N"][foot])) / s)
+            zo += list((v - truth[foot].pad_bias[foot]) / s)
         known = KnownSensors(
             gains={("default", f): np.array(g) for f, g in gains.items()},
-            offsets={(f, f): np.array(truth[f]["fsr_bias_N"][f]) for f in ("right", "left")},
+            offsets={(f, f): truth[f].pad_bias[f] for f in ("right", "left")},
         )
         ideal = calibrate_sensors(right, sessions, total_mass=mass, known=known)
         err = [math.sqrt(np.mean((c.fit.predict_cop(hold) - cop_true) ** 2)) for c in (cal, ideal)]
@@ -115,7 +115,7 @@ def test_one_foot_names_unidentifiable_directions(setup):
 def test_both_feet_only_twists_left(setup):
     """Each foot in turn with a weighed mass: no confounded direction, no scale, no gain unseen."""
     sessions, truth = _sessions(setup, 1)
-    cal = calibrate_sensors(setup[0], sessions, total_mass=truth["right"]["true_mass_kg"])
+    cal = calibrate_sensors(setup[0], sessions, total_mass=truth["right"].true_mass)
     kinds = {d.kind for d in cal.unidentifiable}
     assert "support-confounded" not in kinds and "scale" not in kinds
     assert all(p.unseen < 1e-6 for p in cal.gains)
@@ -134,8 +134,8 @@ def test_calibrated_sensor_file_removes_gain_error(setup, tmp_path):
     cal = calibrate_sensors(right, sessions)
     doc = calibrated_sensor_document(cfg.source, cal, "s")
     for foot in ("right", "left"):  # the truth in the written file's fields
-        doc["feet"][foot]["gains"] = list(ex.truth["fsr_gain"][foot])
-        doc["feet"][foot]["offsets_N"] = list(ex.truth["fsr_bias_N"][foot])
+        doc["feet"][foot]["gains"] = list(ex.truth.pad_gain[foot])
+        doc["feet"][foot]["offsets_N"] = list(ex.truth.pad_bias[foot])
     path = tmp_path / "cal.json"
     path.write_text(json.dumps(doc))
     cal_cfg = load_sensors(path)
@@ -143,7 +143,7 @@ def test_calibrated_sensor_file_removes_gain_error(setup, tmp_path):
     table = table_from_columns(ex.columns)
     raw, _ = fsr(right, table, cfg)
     fixed, _ = fsr(right, table, cal_cfg)
-    truth = np.array(ex.truth["cop_true"])
+    truth = np.array(ex.truth.cop_true)
     assert np.abs(fixed.cop - truth).max() < 2e-5  # mN rounding only
     assert np.abs(raw.cop - truth).max() > 10 * np.abs(fixed.cop - truth).max()
 
@@ -162,12 +162,12 @@ def test_double_support_bench_and_calibration(setup):
     ex = run_experiment(right, q, cfg, samples=6, seed=0, config=bench)
     table = table_from_columns(ex.columns)
     res, _ = fsr(right, table, cfg)
-    assert np.abs(res.cop - np.array(ex.truth["cop_true"])).max() < 2e-5
+    assert np.abs(res.cop - np.array(ex.truth.cop_true)).max() < 2e-5
     session = pad_session(right, table, cfg, "two")
     assert all(f.loaded.all() for f in session.feet)
     noisy = run_experiment(right, q, cfg, samples=100, seed=0, config=BENCH_TWO)
     session = pad_session(right, table_from_columns(noisy.columns), cfg, "two")
-    cal = calibrate_sensors(right, [session], total_mass=noisy.truth["true_mass_kg"])
+    cal = calibrate_sensors(right, [session], total_mass=noisy.truth.true_mass)
     assert cal.sessions[0].double_support_poses == len(session.q) > 20
     # the elastic split is linear in the CoP: the pads' pattern barely separates the gains
     assert max(p.std for p in cal.gains) > 0.1

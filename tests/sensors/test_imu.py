@@ -77,18 +77,18 @@ def test_imu_gravity_equals_bench_gravity(op2, bench_runs):
     """IMU roll/pitch through the model at the actual angles = the bench's gravity (< 1 µrad)."""
     _, runs = bench_runs
     t, c = runs[0.0].truth, runs[0.0].columns
-    k = len(t["pose"])
+    k = len(t.pose)
     roll, pitch = (
         np.asarray(c[n], dtype=float).reshape(k, -1)[:, 0] for n in ("imu_roll", "imu_pitch")
     )
-    g = gravity_from_imu(op2, np.array(t["q_actual"]), roll, pitch, "MP_BODY")
-    assert np.abs(g - np.array(t["grav"])).max() < 1e-6  # measured 1.9e-7 (settling motion)
-    assert np.array(t["foot_tilt"]).max() > 1e-3  # the bench tilts, so this is a real check
+    g = gravity_from_imu(op2, np.array(t.q_actual), roll, pitch, "MP_BODY")
+    assert np.abs(g - np.array(t.grav)).max() < 1e-6  # measured 1.9e-7 (settling motion)
+    assert np.array(t.physics.foot_tilt).max() > 1e-3  # the bench tilts, so this is a real check
 
 
 def test_fsr_uses_imu_without_grav_columns(op2, bench_runs):
     """fsr without grav_* columns takes gravity from the IMU at the read-backs (ticks only)."""
-    from sescid.sensors.pads import fsr
+    from sescid.sensors import fsr
 
     sensors, runs = bench_runs
     err = {}
@@ -98,8 +98,8 @@ def test_fsr_uses_imu_without_grav_columns(op2, bench_runs):
         cols = {k: v for k, v in cols.items() if not k.startswith("grav_")}
         table = Table(Path("raw"), cols, {"pose": [str(p) for p in c["pose"]]})
         res, _ = fsr(op2, table, sensors)
-        keep = [t["pose"].index(p) for p in res.pose]
-        err[b] = np.linalg.norm(res.gravity - np.array(t["grav"])[keep], axis=1).max()
+        keep = [list(t.pose).index(p) for p in res.pose]
+        err[b] = np.linalg.norm(res.gravity - np.array(t.grav)[keep], axis=1).max()
     # read-back quantisation (MX-28 ticks, 1.5 mrad) over the leg chain: measured ≤ 1.2 mrad
     assert err[0.0] < 3e-3
     # unseen backlash (half of ±1° per joint) on the six leg joints: measured 7–12 mrad

@@ -117,10 +117,6 @@ class Truth:
                 f"{path}: malformed truth file ({exc.__class__.__name__}: {exc})"
             ) from None
 
-    def __getitem__(self, key: str):
-        """The JSON entry ``key`` (for code written against the former dict; prefer fields)."""
-        return self.to_json()[key]
-
 
 def _arr(v) -> np.ndarray:
     return np.asarray(v, dtype=float)
@@ -315,12 +311,3 @@ def torque_truth(errors, tau: np.ndarray, approach: np.ndarray, noise: float) ->
         errors.tau_joints, true, expected, errors.tau_offset, errors.tau_gain,
         errors.tau_friction, np.asarray(approach, dtype=float), noise,
     )  # fmt: skip
-
-
-def __getattr__(name: str):
-    """``compare_truth`` moved to ``bench.compare``; still found here for older callers."""
-    if name in ("compare_truth", "TruthComparison"):
-        from sescid.bench import compare
-
-        return getattr(compare, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

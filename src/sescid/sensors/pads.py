@@ -276,19 +276,3 @@ def check_sensors(robot, config: SensorConfig) -> None:
 
 #: names that moved to ``sensors.raw`` / ``sensors.reduce`` / ``sensors.feet``; still found here
 #: for callers written before the split (import them from ``sescid.sensors`` instead)
-_MOVED = {
-    "fsr": "sescid.sensors.reduce",
-    "measure": "sescid.sensors.reduce",
-    "Measured": "sescid.sensors.reduce",
-    "read_raw": "sescid.sensors.raw",
-    "RawLog": "sescid.sensors.raw",
-    "REASONS": "sescid.sensors.feet",
-}
-
-
-def __getattr__(name: str):
-    if name in _MOVED:
-        import importlib
-
-        return getattr(importlib.import_module(_MOVED[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
