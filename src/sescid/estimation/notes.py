@@ -11,8 +11,29 @@ if TYPE_CHECKING:  # pragma: no cover
 
 def fit_notes(fit: Fit) -> list[str]:
     """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
+    notes = _identifiability_notes(fit)
+    notes += _map_notes(fit)
+    notes += _sensor_notes(fit)
+    if fit.map is not None and fit.map.prior_decided:
+        notes.append(
+            f"the prior, not the data, decided {fit.map.prior_decided} of {fit.r.size} directions "
+            "(unseen by the data, or where they carry less than half of the information)"
+        )
+    if fit.cop_offset is not None:
+        bv, bs = fit.cop_offset.value, fit.cop_offset.std
+        notes.append(
+            f"CoP offset b = ({bv[0] * 1e3:.3f} ± {bs[0] * 1e3:.3f}, {bv[1] * 1e3:.3f} ± "
+            f"{bs[1] * 1e3:.3f}) mm: confounded with the support body's x/y SESC components, "
+            "separated only by the prior on them (±τ); predictions exclude it"
+        )
+    notes += _consistent_notes(fit)
+    notes += _modifier_notes(fit)
+    return notes
+
+
+def _identifiability_notes(fit: Fit) -> list[str]:
+    """Residual degrees of freedom, the unseen directions, a tilted sole's height, weighting."""
     notes: list[str] = []
-    n_par = fit.r.size
     if fit.method == "ls" or (fit.method == "consistent" and fit.map is None):
         if fit.n_rows - fit.rank <= 0:
             notes.append(
@@ -38,8 +59,8 @@ def fit_notes(fit: Fit) -> list[str]:
             )
         )
         notes.append(
-            f"{len(fit.unidentifiable)} of {n_par} directions are not determined by the data; "
-            f"{filled} ({seen} predictions do not depend on them, {effect})"
+            f"{len(fit.unidentifiable)} of {fit.r.size} directions are not determined by the "
+            f"data; {filled} ({seen} predictions do not depend on them, {effect})"
         )
     from sescid.estimation.tilt import tilt_direction
 
@@ -55,63 +76,68 @@ def fit_notes(fit: Fit) -> list[str]:
             "weighted by the given CoP standard errors: sigma_hat is the dimensionless scale "
             "of the normalised residuals (≈ 1 when the standard errors are right)"
         )
-    if fit.map is not None:
-        m = fit.map
-        if m.prior == "bodies":
-            shape = (
-                f"a per-body CAD prior (masses ±{100 * m.prior_scale:.3g} %, first moments "
-                f"±{(m.prior_com_std or math.nan) * 1e3:.3g} mm per unit mass; "
-                f"{m.prior_scale_by})"
-            )
-        else:
-            shape = (
-                f"a Gaussian prior N(CAD, ({m.prior_scale * 1e3:.3g} mm)²) on each SESC "
-                f"component ({m.prior_scale_by})"
-            )
+    return notes
+
+
+def _map_notes(fit: Fit) -> list[str]:
+    """The prior's shape and whether the evidence found any deviation from it."""
+    m = fit.map
+    if m is None:
+        return []
+    if m.prior == "bodies":
+        shape = (
+            f"a per-body CAD prior (masses ±{100 * m.prior_scale:.3g} %, first moments "
+            f"±{(m.prior_com_std or math.nan) * 1e3:.3g} mm per unit mass; "
+            f"{m.prior_scale_by})"
+        )
+    else:
+        shape = (
+            f"a Gaussian prior N(CAD, ({m.prior_scale * 1e3:.3g} mm)²) on each SESC "
+            f"component ({m.prior_scale_by})"
+        )
+    notes = [
+        f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
+        "the prior's value and uncertainty (included in cov)"
+    ]
+    if m.at_lower_bound:
         notes.append(
-            f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
-            "the prior's value and uncertainty (included in cov)"
+            "the evidence is largest at the smallest prior scale searched: these data cannot "
+            "detect any deviation from CAD, and the intervals (±τ) assume there is none"
         )
-        if m.at_lower_bound:
-            notes.append(
-                "the evidence is largest at the smallest prior scale searched: these data cannot "
-                "detect any deviation from CAD, and the intervals (±τ) assume there is none"
-            )
-    notes += _sensor_notes(fit)
-    if fit.map is not None and fit.map.prior_decided:
+    return notes
+
+
+def _consistent_notes(fit: Fit) -> list[str]:
+    """The consistent step: total mass, active constraints, grown boxes."""
+    b = fit.inertials
+    if b is None:
+        return []
+    active = b.active_constraints
+    compare = (
+        f"; CoP residual RMS {fit.rms * 1e3:.3f} mm vs {b.source_rms * 1e3:.3f} mm for "
+        f"{b.source_method}"
+        if math.isfinite(fit.rms) and math.isfinite(b.source_rms)
+        else f" (each kind's residuals above; the {b.source_method} fit's in its record)"
+    )
+    notes = [
+        f"consistent masses/CoMs (total {b.total_mass:.4f} kg): "
+        + (f"{len(active)} active constraints" if active else "no active constraint")
+        + compare
+    ]
+    if b.grown_boxes:
+        notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))
+    if active and b.prior_std is None:
         notes.append(
-            f"the prior, not the data, decided {fit.map.prior_decided} of {n_par} directions "
-            "(unseen by the data, or where they carry less than half of the information)"
+            "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
+            "their bounds; a CAD prior (ConsistentOptions.prior_std, e.g. 0.05) gives "
+            "plausible masses"
         )
-    if fit.cop_offset is not None:
-        bv, bs = fit.cop_offset.value, fit.cop_offset.std
-        notes.append(
-            f"CoP offset b = ({bv[0] * 1e3:.3f} ± {bs[0] * 1e3:.3f}, {bv[1] * 1e3:.3f} ± "
-            f"{bs[1] * 1e3:.3f}) mm: confounded with the support body's x/y SESC components, "
-            "separated only by the prior on them (±τ); predictions exclude it"
-        )
-    if fit.inertials is not None:
-        b = fit.inertials
-        active = b.active_constraints
-        compare = (
-            f"; CoP residual RMS {fit.rms * 1e3:.3f} mm vs {b.source_rms * 1e3:.3f} mm for "
-            f"{b.source_method}"
-            if math.isfinite(fit.rms) and math.isfinite(b.source_rms)
-            else f" (each kind's residuals above; the {b.source_method} fit's in its record)"
-        )
-        notes.append(
-            f"consistent masses/CoMs (total {b.total_mass:.4f} kg): "
-            + (f"{len(active)} active constraints" if active else "no active constraint")
-            + compare
-        )
-        if b.grown_boxes:
-            notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))
-        if active and b.prior_std is None:
-            notes.append(
-                "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
-                "their bounds; a CAD prior (ConsistentOptions.prior_std, e.g. 0.05) gives "
-                "plausible masses"
-            )
+    return notes
+
+
+def _modifier_notes(fit: Fit) -> list[str]:
+    """Robust weighting and the recursive estimator."""
+    notes: list[str] = []
     if fit.robust is not None:
         r = fit.robust
         shown = (
