@@ -4,9 +4,9 @@
 ``Measurements``, lists of them, chunks) and also a file path or a list of paths (CSV or
 Parquet, see ``sescid.io.measurements``): each file is one source, streamed once (flat memory
 for any number of poses) and pooled with the others. The options are the same typed
-``IdentifyOptions``; ``imu_link`` names the IMU link when the files carry its roll and pitch, and
-``allow_outside_limits`` accepts poses outside the model's joint limits (else an error names the
-first one; simulated data only warn).
+``IdentifyOptions``, whose ``imu_link`` names the IMU link when the files carry its roll and
+pitch, and whose ``allow_outside_limits`` accepts poses outside the model's joint limits (else an
+error names the first one; simulated data only warn).
 """
 
 from __future__ import annotations
@@ -33,18 +33,14 @@ def identify(
     *,
     method: str = "ls",
     options: IdentifyOptions | None = None,
-    imu_link: str | None = None,
-    allow_outside_limits: bool = False,
-    reports: list[ReadReport] | None = None,
     progress: Any = None,
     **overrides: Any,
 ) -> Fit:
     """Identify from files or arrays (see ``sescid.estimation.identify`` for the rest).
 
     ``data``: a path, a list of paths (pooled), or anything ``estimation.identify`` takes.
-    ``reports``: a list that receives one ``ReadReport`` per file (poses, outside the limits,
-    simulated). Poses outside the limits of a file that allows them (or of simulated data) are
-    a warning stored in the fit.
+    Poses outside the limits of a file that allows them (or of simulated data) are a warning
+    stored in the fit.
     """
     paths = [data] if _is_path(data) else data
     if not (isinstance(paths, list | tuple) and paths and all(_is_path(p) for p in paths)):
@@ -53,18 +49,19 @@ def identify(
         )
     if cop is not None:
         raise TypeError("cop= goes with joint angles, not with files")
-    got = reports if reports is not None else []
+    opts = (options or IdentifyOptions()).with_overrides(**overrides)
+    got: list[ReadReport] = []
     streams = []
     for p in paths:
         rep = ReadReport(str(p))
         got.append(rep)
         streams.append(
             read_measurements(
-                p, robot, imu_link=imu_link, allow_outside_limits=allow_outside_limits,
-                report=rep,
+                p, robot, imu_link=opts.imu_link,
+                allow_outside_limits=opts.allow_outside_limits, report=rep,
             )
         )  # fmt: skip
-    fit = _identify(robot, streams, method=method, options=options, progress=progress, **overrides)
+    fit = _identify(robot, streams, method=method, options=opts, progress=progress)
     notes = [m for m in (r.limit_message() for r in got) if m is not None]
     if notes:
         import dataclasses

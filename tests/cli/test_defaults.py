@@ -121,8 +121,6 @@ def _identify(d: _Read) -> list:
     return [
         *_robot(d),
         ("method", d["method"], _arg(identify, "method")),
-        ("imu_link", d["imu_link"], _arg(identify, "imu_link")),
-        ("allow_outside_limits", d["allow_outside_limits"], _arg(identify, "allow_outside_limits")),
         *[(names.get(n, f"IdentifyOptions.{n}"), v, getattr(api, n)) for n, v in mine],
         ("MapOptions", options_from_flags("map", d).map, MapOptions()),  # read for --method map
     ]

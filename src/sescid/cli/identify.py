@@ -63,6 +63,8 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         kinds=None if opts["kinds"] == "all" else (opts["kinds"],),
         gain_prior=opts["gain_prior"],
         allow_exact=opts["allow_exact"],
+        imu_link=opts["imu_link"],
+        allow_outside_limits=opts["allow_outside_limits"],
         robust=robust,
         seed=opts["seed"],
         cv=opts["cv"],
@@ -252,8 +254,6 @@ def identify(data, robot_name, support, out, method, force, **opts):
             list(data),
             method=method,
             options=options,
-            imu_link=opts["imu_link"],
-            allow_outside_limits=opts["allow_outside_limits"],
             progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
         )
     with outs:

@@ -104,15 +104,9 @@ def identify(
     ``progress(poses_done, total)`` is called while the normal equations are accumulated
     (total None for data read once). Data-quality warnings are stored in ``fit.warnings``.
     """
-    opts = options or IdentifyOptions()
-    renamed = {"map_options": "map", "consistent_options": "consistent"}
-    changes = {renamed.get(k, k): v for k, v in overrides.items() if v is not None}
-    unknown = set(changes) - {f.name for f in dataclasses.fields(IdentifyOptions)}
-    if unknown:
-        raise OptionError(sorted(unknown)[0], "is not an option of identify")
+    opts = (options or IdentifyOptions()).with_overrides(**overrides)
     if sigma is not None:
-        changes["weighted"] = True
-    opts = dataclasses.replace(opts, **changes)
+        opts = dataclasses.replace(opts, weighted=True)
     opts.check(method)
     sources = as_sources(robot, _normalise(data, cop, sigma, gravity), opts.kinds)
     try:

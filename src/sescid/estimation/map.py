@@ -49,6 +49,7 @@ from sescid.estimation.least_squares import (
 )
 from sescid.estimation.measurements import TORQUE
 from sescid.estimation.normal_equations import NormalEquations
+from sescid.estimation.options import MapOptions
 from sescid.estimation.solve import Solution, solve_system, weighted_sums
 from sescid.estimation.system import System
 from sescid.robot import Robot
@@ -267,21 +268,21 @@ def cv_ridge(parts: list[NormalEquations], x0: np.ndarray, unit: np.ndarray, n_p
 def fit_map(
     robot: Robot,
     system: System,
+    options: MapOptions | None = None,
     *,
-    prior_scale: float | None = None,
-    noise: float | None = None,
     r_prior: np.ndarray | None = None,
     rtol: float = DEFAULT_RTOL,
     cv_folds: list[System] | None = None,
     kind_noise: dict[str, float] | None = None,
-    prior: str = "auto",
 ) -> Fit:
-    """MAP ``Fit`` of a pooled system (module docstring). ``prior_scale`` τ [m] and ``noise`` σ
-    (the kinds' common noise scale; m for one unweighted CoP kind) are chosen by evidence when
-    None; ``cv_folds``: the systems of k folds of the data, to choose σ²/τ² by cross-validation
-    instead; ``kind_noise``: given noise of some kinds (the others from least squares);
-    ``prior``: "sesc", "bodies" (``Prior``; τ is then relative) or "auto" ("bodies" with
-    torque rows, else "sesc")."""
+    """MAP ``Fit`` of a pooled system (module docstring). ``options.prior_scale`` τ [m] and
+    ``options.noise`` σ (the kinds' common noise scale; m for one unweighted CoP kind) are chosen
+    by evidence when None; ``cv_folds``: the systems of k folds of the data, to choose σ²/τ² by
+    cross-validation instead; ``kind_noise``: given noise of some kinds (the others from least
+    squares); ``options.prior``: "sesc", "bodies" (``Prior``; τ is then relative) or "auto"
+    ("bodies" with torque rows, else "sesc")."""
+    options = options or MapOptions()
+    prior_scale, noise, prior = options.prior_scale, options.noise, options.prior
     check_scale(prior_scale, "prior scale")
     check_scale(noise, "noise")
     if system.n_poses == 0:

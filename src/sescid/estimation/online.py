@@ -27,6 +27,7 @@ from sescid.estimation.identifiability import DEFAULT_RTOL, identifiable_eigen
 from sescid.estimation.least_squares import cop_system, fit_least_squares
 from sescid.estimation.map import fit_map
 from sescid.estimation.normal_equations import NormalEquations, accumulate
+from sescid.estimation.options import MapOptions
 from sescid.robot import Robot
 from sescid.simulation import random_poses
 
@@ -175,8 +176,7 @@ class OnlineEstimator:
             fit = fit_map(
                 self.robot,
                 system,
-                prior_scale=self.prior_scale,
-                noise=self.noise,
+                MapOptions(prior_scale=self.prior_scale, noise=self.noise),
                 r_prior=self.r_prior,
                 rtol=self.rtol,
             )

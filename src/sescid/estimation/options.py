@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -107,7 +108,10 @@ class IdentifyOptions:
     ``r_prior`` (N, 3) [m]: SESC vectors that fill what the data do not determine and centre
     the MAP prior (None: the model's); ``tau_gains``: also a gain error per torque sensor, with
     a prior N(0, ``gain_prior``²) (only their ratios come from the data); ``kinds``: use only
-    these measurement kinds of the data ("cop", "tau"; None: all it has).
+    these measurement kinds of the data ("cop", "tau"; None: all it has). Files only
+    (``sescid.identify`` on paths): ``imu_link``, the link whose ``imu_roll``/``imu_pitch``
+    columns give gravity (None: the profile's); ``allow_outside_limits``, accept poses outside
+    the model's joint limits with a warning (else an error names the first).
     """
 
     rtol: float = DEFAULT_RTOL
@@ -128,8 +132,21 @@ class IdentifyOptions:
     tau_gains: bool = False
     gain_prior: float = 0.1
     kinds: tuple[str, ...] | None = None
+    imu_link: str | None = None
+    allow_outside_limits: bool = False
     map: MapOptions = field(default_factory=MapOptions)
     consistent: ConsistentOptions = field(default_factory=ConsistentOptions)
+
+    def with_overrides(self, **overrides: Any) -> IdentifyOptions:
+        """A copy with fields replaced by keyword (None keeps a field; ``map_options=`` and
+        ``consistent_options=`` name ``map`` and ``consistent``); OptionError for an unknown
+        name."""
+        renamed = {"map_options": "map", "consistent_options": "consistent"}
+        changes = {renamed.get(k, k): v for k, v in overrides.items() if v is not None}
+        unknown = set(changes) - {f.name for f in dataclasses.fields(IdentifyOptions)}
+        if unknown:
+            raise OptionError(sorted(unknown)[0], "is not an option of identify")
+        return dataclasses.replace(self, **changes)
 
     def check(self, method: str) -> None:
         """OptionError for a value out of range or an option another method owns."""

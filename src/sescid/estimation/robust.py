@@ -166,14 +166,12 @@ def joint_noise_mc(
     draws: int = 30,
     seed: int = 0,
     reference_poses=None,
-    progress=None,
 ) -> JointNoiseEffect:
     """Propagate joint-angle errors N(0, joint_noise²) [rad] to r and CoP predictions.
 
     ``fitter`` refits perturbed copies of ``data``; ``fit`` is the fit of the unperturbed data
     (its ``cov`` gives the CoP-noise share);
-    ``reference_poses`` (default 500 random ±30° poses) are where predictions are compared;
-    ``progress(i, draws)`` is called after each draw.
+    ``reference_poses`` (default 500 random ±30° poses) are where predictions are compared.
     """
     if not (math.isfinite(joint_noise) and joint_noise > 0):
         raise SescidError(f"joint noise must be a positive angle, got {joint_noise} rad")
@@ -184,12 +182,10 @@ def joint_noise_mc(
     rng = np.random.default_rng(seed)
     q_ref = random_poses(robot, 500, 30.0, seed + 1) if reference_poses is None else reference_poses
     rs, preds = [], []
-    for i in range(draws):
+    for _ in range(draws):
         f = fitter([dataclasses.replace(data, q=q + rng.normal(0.0, joint_noise, q.shape))])
         rs.append(f.r)
         preds.append(f.predict_cop(q_ref))
-        if progress:
-            progress(i + 1, draws)
     r_draws, p_draws = np.array(rs), np.array(preds)
     var_j = float(np.mean(np.var(p_draws, axis=0, ddof=1)))
     var_c = float(np.mean(fit.predict_std(q_ref, rows=(0, 1)) ** 2))

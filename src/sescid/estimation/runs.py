@@ -81,8 +81,8 @@ def run_method(
         elif m.select not in ("evidence", "cv"):
             raise OptionError("select", f"must be 'evidence' or 'cv', got {m.select!r}")
         fit = fit_map(
-            robot, system, prior_scale=m.prior_scale, noise=m.noise, rtol=options.rtol,
-            cv_folds=cv, kind_noise=options.noise(), r_prior=options.r_prior, prior=m.prior,
+            robot, system, m, rtol=options.rtol, cv_folds=cv, kind_noise=options.noise(),
+            r_prior=options.r_prior,
         )  # fmt: skip
     fit = with_residuals(fit, (c for s in sources for c in s.chunks()))
     if method == "consistent":
@@ -161,9 +161,8 @@ def fit_with_gains(robot, method, opts: IdentifyOptions, memory, robust: bool) -
                 allow_exact=opts.allow_exact,
             )  # fmt: skip
         return fit_map(
-            robot, system, prior_scale=opts.map.prior_scale, noise=opts.map.noise,
-            rtol=opts.rtol, kind_noise=opts.noise(), r_prior=opts.r_prior, prior=opts.map.prior,
-        )  # fmt: skip
+            robot, system, opts.map, rtol=opts.rtol, kind_noise=opts.noise(), r_prior=opts.r_prior
+        )
 
     fit = with_gains(solve, robot, memory, plain, start)
     return with_residuals(fit, memory)

@@ -19,6 +19,7 @@ from sescid.estimation.fit import Fit
 from sescid.estimation.least_squares import cop_system
 from sescid.estimation.map import TAU_RANGE, fit_map
 from sescid.estimation.normal_equations import NormalEquations
+from sescid.estimation.options import MapOptions
 from sescid.robot import Robot
 from sescid.sensors.calibration.directions import Problem, parameters, unseen_directions
 from sescid.sensors.calibration.model import (
@@ -200,7 +201,10 @@ def _mass_fit(robot: Robot, pb: Problem, sol: _Solution, theta: np.ndarray, tau_
     yty = ztz + 2 * x0 @ atb - x0 @ ata @ x0
     ne = NormalEquations(ata, atb, float(yty), int(aw.shape[0]), pb.rows.n_poses)
     fit = fit_map(
-        robot, cop_system(robot, ne, weighted=True), prior_scale=sol.tau, noise=1.0, rtol=pb.rtol
+        robot,
+        cop_system(robot, ne, weighted=True),
+        MapOptions(prior_scale=sol.tau, noise=1.0),
+        rtol=pb.rtol,
     )
     cop_rows = pb.rows.moment
     info = fit.map
