@@ -294,3 +294,47 @@ def test_truth_command_compares_with_the_real_robot(bench):
         assert float(ident) < float(manuf)
     code, out = run("truth", bench["fit"], bench["fit"])
     assert code == 2 and "not an experiment truth file" in out
+
+
+def test_api_refuses_degrees_and_millimetres(op2):
+    """The Python API, like the readers, refuses angles in degrees, a CoP in mm and a CoP noise
+    in mm, naming the pose and the joint or axis."""
+    import sescid
+    from sescid.errors import DataError, OptionError
+    from sescid.estimation import Measurements
+
+    s = sescid.simulate(op2, 60, seed=1)
+    with pytest.raises(DataError, match=r"pose \d+, joint \w+: .* looks like degrees"):
+        sescid.identify(op2, Measurements(q=np.degrees(s.q), cop=s.cop))
+    with pytest.raises(DataError, match=r"cop_[xy] = .* not a plausible CoP"):
+        sescid.identify(op2, Measurements(q=s.q, cop=s.cop * 1000))
+    with pytest.raises(OptionError, match="not a plausible CoP noise"):
+        sescid.simulate(op2, 10, noise=4.93)
+    assert sescid.identify(op2, Measurements(q=s.q, cop=s.cop)).rank == 42  # the same in SI
+
+
+def test_map_without_residual_does_not_claim_an_exact_fit(op2):
+    """21 poses (42 equations, 42 combinations): MAP fits with the prior's help and says its
+    noise rests on the prior, not that an exact fit was asked for."""
+    import sescid
+
+    s = sescid.simulate(op2, 21, seed=0)
+    fit = sescid.identify(op2, s.q, s.cop, method="map")
+    assert np.isfinite(fit.sigma_hat)
+    text = " ".join(fit.warnings)
+    assert "rest on the prior" in text and "exact fit was asked" not in text
+
+
+def test_output_folder_in_a_read_only_place_names_the_folder(tmp_path, monkeypatch):
+    """A folder output whose temporary cannot be created: the error names the output folder."""
+    import tempfile
+
+    from sescid.base.files import OutputSet
+    from sescid.errors import DataError
+
+    def refuse(*a, **k):
+        raise PermissionError(13, "Permission denied", str(tmp_path / ".demo.x.tmp"))
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse)
+    with pytest.raises(DataError, match=r"demo: cannot create the output folder \(Permission"):
+        OutputSet([], [], folders=[tmp_path / "demo"]).folder(tmp_path / "demo")

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sescid.base.columns import MAX_COP_NOISE_M
 from sescid.errors import OptionError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -178,6 +179,10 @@ def simulate(
     """
     if not (noise >= 0 and math.isfinite(noise)):
         raise OptionError("noise", f"must be a finite standard deviation ≥ 0 m, got {noise}")
+    if noise > MAX_COP_NOISE_M:
+        raise OptionError(
+            "noise", f"{noise:g} m is not a plausible CoP noise (millimetres for metres?)"
+        )
     if not (0 <= tilt <= math.radians(30)):
         raise OptionError("tilt", f"must be a standard deviation in [0, 30°], got {tilt} rad")
     if clip is None:  # clip, unless the profile carries the paper's unclipped ±30° convention

@@ -148,3 +148,26 @@ def test_version_1_fit_files_are_read(tmp_path):
     assert list(back.cop_offset.value) == list(fit.cop_offset.value)
     q = sim.q[:5]
     assert (back.predict_cop(q) == fit.predict_cop(q)).all()
+
+
+def test_a_model_edited_after_the_fit_is_flagged(op2, tmp_path):
+    """The fit stores the model's total mass and SESC vectors: a model file edited afterwards
+    (one body 50 g heavier) is named in a warning of the fit read back; the unedited one is not."""
+    import re
+
+    from sescid.estimation import MODEL_CHANGED
+
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(op2.model_path.read_text())
+    robot = sescid.load_robot(str(urdf), op2.support)
+    sim = simulate(robot, 100, seed=2)
+    path = tmp_path / "fit.json"
+    sescid.save_fit(identify_ls(robot, sim.q, sim.cop), path)
+    assert not any(w.startswith(MODEL_CHANGED) for w in sescid.load_fit(path).warnings)
+    text = urdf.read_text()
+    m = re.search(r'<link name="MP_HEAD">.*?<mass value="([0-9.eE+-]+)"', text, re.S)
+    assert m is not None
+    heavier = f"{float(m.group(1)) + 0.05!r}"
+    urdf.write_text(text[: m.start(1)] + heavier + text[m.end(1) :])
+    (w,) = [w for w in sescid.load_fit(path).warnings if w.startswith(MODEL_CHANGED)]
+    assert f"{robot.total_mass + 0.05:.4g} kg ({robot.total_mass:.4g} kg at fit time)" in w

@@ -101,3 +101,11 @@ def test_robot_that_cannot_stand_on_one_foot_is_told_so(tmp_path):
     near = float(str(exc.value).split("no nearer than ")[1].split(" times")[0])
     assert near >= best - 1e-6
     assert "sampling range" not in str(exc.value)
+
+
+def test_a_support_without_a_sole_is_named(tmp_path):
+    """A shank as the support (level frame, no flat face under it): one error naming the
+    support and the fix, not a zero-size box searched to infinity."""
+    robot = sescid.load_robot(str(write_humanoid(tmp_path)), "legA_shank")
+    with pytest.raises(SescidError, match=r"'legA_shank' has no sole to stand on .* sole frame"):
+        sescid.plan_poses(robot, count=21, seed=0)

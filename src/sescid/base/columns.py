@@ -161,7 +161,7 @@ def read_joint_columns(
         unit, name = found[0]
         v = column_with_missing(table, name) if allow_missing else table.get(name, "joint column")
         if unit == "rad":
-            bad = np.flatnonzero(np.abs(v) > 2 * math.pi)
+            bad = np.flatnonzero(np.abs(v) > MAX_ANGLE_RAD)
             if bad.size:
                 raise DataError(
                     f"{table.path}: row {table.row(bad[0])}, "
@@ -203,10 +203,18 @@ def read_poses(
     return read_joint_columns(table, joint_names, servo, allow_missing=False)[0]
 
 
+#: m: a CoP coordinate beyond this is taken for a unit mistake (mm for m)
+MAX_COP_M = 2.0
+#: m: a CoP noise standard deviation beyond this is taken for a unit mistake (mm for m)
+MAX_COP_NOISE_M = 0.1
+#: rad: a joint angle beyond this is taken for degrees (or servo ticks)
+MAX_ANGLE_RAD = 2 * math.pi
+
+
 def read_cop(table: Table) -> np.ndarray:
     """Measured CoP (n, 2) in metres from ``cop_x``, ``cop_y``."""
     cop = np.column_stack([table.get("cop_x"), table.get("cop_y")])
-    big = np.argwhere(np.abs(cop) > 2.0)
+    big = np.argwhere(np.abs(cop) > MAX_COP_M)
     if big.size:
         i, j = big[0]
         raise DataError(

@@ -263,7 +263,12 @@ class OutputSet:
         base = target.resolve().parent
         while not base.is_dir():
             base = base.parent
-        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=base))
+        try:
+            tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=base))
+        except OSError as exc:
+            raise DataError(
+                f"{target}: cannot create the output folder ({exc.strerror or exc})"
+            ) from None
         self._folders[target] = tmp
         return tmp
 

@@ -106,6 +106,15 @@ def load(robot_name: str, support: str | None) -> Any:
     return load_robot(robot_name, support)
 
 
+def echo_model_change(fit: Any, fit_file: str) -> None:
+    """The warning of a fit whose model file changed since it was made, on stderr."""
+    from sescid.estimation import MODEL_CHANGED
+
+    for w in fit.warnings:
+        if w.startswith(MODEL_CHANGED):
+            click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
+
+
 def mm(x: float | None) -> str:
     """A length in m shown in mm, or n/a."""
     return "n/a" if x is None or math.isnan(x) else f"{x * 1e3:.3f} mm"

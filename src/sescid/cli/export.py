@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option
+from sescid.cli.common import echo_model_change, force_option
 from sescid.cli.options import (
     DEFAULT_CONSISTENT,
     consistent_from_flags,
@@ -44,6 +44,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
     """
     OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
+    echo_model_change(fit, fit_file)
     outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:

@@ -60,9 +60,10 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
         write_table(outs.path(out), res.columns(robot.joint_names))
     total = res.rejected.sum(axis=0)
     why = ", ".join(f"{r} {int(c)}" for r, c in zip(REASONS, total, strict=True) if c) or "none"
+    dropped = f"; {len(res.dropped)} poses dropped (below)" if res.dropped else ""
     click.echo(
         f"{len(res.pose)} poses from {res.mode}: {int(res.n_used.sum())} samples used "
-        f"(median {int(np.median(res.n_used))} per pose), rejected: {why}"
+        f"(median {int(np.median(res.n_used))} per pose), rejected in these poses: {why}{dropped}"
     )
     if res.mode == "forces":
         click.echo(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from sescid.base import OutputSet, TerminalProgress
-from sescid.cli.common import force_option, imu_link_option
+from sescid.cli.common import echo_model_change, force_option, imu_link_option
 from sescid.estimation import load_fit
 from sescid.report import (
     KIND_TITLES,
@@ -50,6 +50,7 @@ def report(fit_file, measured, out_dir, imu_link, force):
     """
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
+    echo_model_change(fit, fit_file)
     data, ids = read_report_data(measured, fit, imu_link)
     options = ReportOptions(pose_ids=ids, progress=TerminalProgress("report files"))
     with outs:

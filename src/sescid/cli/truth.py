@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from sescid.bench import FRESH_POSES, FRESH_WITHIN_DEG
-from sescid.cli.common import mm, seed_option
+from sescid.cli.common import echo_model_change, mm, seed_option
 
 
 @click.command()
@@ -27,7 +27,9 @@ def truth(fit_file, truth_file, fresh, within_deg, seed):
     from sescid.bench import compare_truth
     from sescid.estimation import load_fit
 
-    c = compare_truth(load_fit(fit_file), truth_file, fresh, within_deg, seed)
+    fit = load_fit(fit_file)
+    echo_model_change(fit, fit_file)
+    c = compare_truth(fit, truth_file, fresh, within_deg, seed)
     click.echo(
         f"truth: real robot {c.true_mass_kg:.3f} kg, model {c.model_mass_kg:.3f} kg; "
         f"RMS CoP error vs the true robot"

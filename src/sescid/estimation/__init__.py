@@ -30,7 +30,7 @@ from sescid.estimation.fit import (
     OnlineInfo,
     RobustInfo,
 )
-from sescid.estimation.fit_json import load_fit, save_fit
+from sescid.estimation.fit_json import MODEL_CHANGED, load_fit, save_fit
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     identifiable_eigen,
@@ -81,6 +81,7 @@ __all__ = [
     "fit_warnings",
     "identifiable_eigen",
     "identify",
+    "MODEL_CHANGED",
     "load_fit",
     "min_poses",
     "outside_limits",

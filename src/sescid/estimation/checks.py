@@ -115,7 +115,13 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "are that uncertain: use a MAP fit (method map) with the gravity columns"
         )
     dof = fit.n_rows - fit.rank - sum(e.determined for e in fit.nuisance)
-    if dof <= 0:
+    if dof <= 0 and fit.map is not None:
+        out.append(
+            f"the data leave no residual degrees of freedom ({fit.n_rows} equations for "
+            f"{fit.rank} identifiable combinations): MAP's noise and intervals rest on the prior "
+            "(evidence), not on a residual; measure more poses"
+        )
+    elif dof <= 0:
         out.append(
             "no degrees of freedom are left: σ̂ and every standard error are not determined "
             "(an exact fit was asked for); measure more poses"

@@ -109,6 +109,7 @@ def fit_to_json(fit: Fit) -> dict:
             "joint_names": robot.joint_names,
             "body_names": bodies,
             "total_mass": robot.total_mass,
+            "r_model": {b: v for b, v in zip(bodies, robot.sesc_vectors().tolist(), strict=True)},
         },
         "method": fit.method,
         "method_label": fit.method_label,
@@ -321,8 +322,35 @@ def load_fit(path: str | Path) -> Fit:
             unidentifiable=tuple(Combination.from_json(c) for c in data["unidentifiable"]),
             **fields,
         )
+        changed = _model_change(path, meta, robot)
     except SescidError:
         raise
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise DataError(f"{path}: malformed fit file ({exc.__class__.__name__}: {exc})") from None
+    if changed is not None:
+        fit = dataclasses.replace(fit, warnings=(changed, *fit.warnings))
     return fit
+
+
+#: the start of the warning a fit read back carries when its model file changed since the fit
+MODEL_CHANGED = "the model changed since this fit"
+#: relative change of the total mass, and change of an SESC vector [m], taken as a model change
+MODEL_TOL_MASS, MODEL_TOL_R = 1e-9, 1e-9
+
+
+def _model_change(path: Path, meta: dict, robot) -> str | None:
+    """A ``MODEL_CHANGED`` warning when the model's total mass or SESC vectors differ from the
+    ones stored at fit time (files without them: None)."""
+    mass0 = float(meta["total_mass"])
+    dm = abs(robot.total_mass - mass0)
+    dr = 0.0
+    if meta.get("r_model") is not None:
+        r0 = np.array([meta["r_model"][b] for b in robot.body_names], dtype=float)
+        dr = float(np.abs(robot.sesc_vectors() - r0).max())
+    if dm <= MODEL_TOL_MASS * mass0 and dr <= MODEL_TOL_R:
+        return None
+    return (
+        f"{MODEL_CHANGED}: '{meta['source']}' now weighs {robot.total_mass:.4g} "
+        f"kg ({mass0:.4g} kg at fit time), its SESC vectors moved by up to {dr * 1e3:.3g} mm; "
+        "refit with the current model, or restore the model the fit was made with"
+    )

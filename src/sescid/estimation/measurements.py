@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import MAX_TORQUE_NM
+from sescid.base.columns import MAX_ANGLE_RAD, MAX_COP_M, MAX_TORQUE_NM
 from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
@@ -81,7 +81,19 @@ class Measurements:
         n = q.shape[0]
         if n == 0:
             raise DataError(f"{where}: no poses")
+        if q.max() > MAX_ANGLE_RAD or q.min() < -MAX_ANGLE_RAD:  # no |q| temporary
+            row, col = np.argwhere(np.abs(q) > MAX_ANGLE_RAD)[0]
+            raise DataError(
+                f"{where}: pose {row}, joint {robot.joint_names[col]}: {q[row, col]:g} rad looks "
+                "like degrees; joint angles are in radians"
+            )
         cop = _array(self.cop, (n, 2), f"{where}: cop", "m")
+        if cop is not None and np.any(np.abs(cop) > MAX_COP_M):
+            row, col = np.argwhere(np.abs(cop) > MAX_COP_M)[0]
+            raise DataError(
+                f"{where}: pose {row}, cop_{'xy'[col]} = {cop[row, col]:g} m is not a plausible "
+                "CoP (millimetres for metres?)"
+            )
         cop_se = _positive(_array(self.cop_se, (n, 2), f"{where}: cop_se", "m"), where, "cop_se")
         joints = tuple(str(j) for j in self.tau_joints)
         if self.tau is not None and not joints:

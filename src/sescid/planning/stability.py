@@ -35,6 +35,10 @@ COARSE_MIN_POSES = 1_000
 SOLE_BOX_FRACTION = 0.5
 
 
+#: m: a support whose lowest face is narrower than this has no sole to stand on
+MIN_SOLE = 0.005
+
+
 def cop_half_extents(
     robot: Robot,
     cop_box: float | tuple[float, float] | None = None,
@@ -51,6 +55,12 @@ def cop_half_extents(
     if margin is None and cop_box is None and robot.profile.cop_box is None:
         sole = robot.sole
         if sole is not None:
+            if min(sole.size) < MIN_SOLE:
+                raise SescidError(
+                    f"the support '{robot.support}' has no sole to stand on (its lowest face is "
+                    f"{sole.size[0] * 1e3:.1f} x {sole.size[1] * 1e3:.1f} mm): give --support a "
+                    "sole frame, the flat bottom of a foot"
+                )
             return SOLE_BOX_FRACTION * np.asarray(sole.size, dtype=float) / 2
     if margin is not None:
         sole_size = sole_size or (robot.sole.size if robot.sole is not None else None)
