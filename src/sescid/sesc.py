@@ -31,16 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
-from sescid.kinematics import (
-    CHAIN_BLOCK,
-    Tree,
-    Workspace,
-    as_poses,
-    chain,
-    com_one,
-    cop_xy_compiled,
-    forward,
-)
+from sescid.kinematics import CHAIN_BLOCK, Tree, as_poses, com_one, com_rows, forward
 from sescid.model import RobotModel
 
 #: standard gravity, m/s² (the magnitude of g; its direction comes from the data or a level sole)
@@ -83,20 +74,9 @@ def com_from_sesc(
         if com is not None:
             first = tuple(rows) in ((0, 1), (0, 1, 2))  # CoP or CoM: a view, no index array
             return com[:, : len(rows)] if first else com[:, list(rows)]
-    if tuple(rows) == (0, 1) and np.shape(r) == (tree.parent.shape[0], 3):
-        cop = cop_xy_compiled(tree, q, np.ascontiguousarray(r, dtype=float))  # rows 0, 1 only
-        if cop is not None:
-            return cop
-    rows = list(rows)
-    vec = np.asarray(r, dtype=float).reshape(-1)
-    out = np.empty((q.shape[0], len(rows)))
-    ws = Workspace(tree, min(CHAIN_BLOCK, max(q.shape[0], 1)))
-    for s in range(0, q.shape[0], ws.block):
-        rot = chain(tree, q[s : s + ws.block], ws)  # (N, 3, 3, m), [b, j, i, k]
-        m = rot.shape[3]
-        com = vec @ rot.reshape(vec.size, 3 * m)  # (3·m,), ordered (i, k)
-        out[s : s + m] = com.reshape(3, m)[rows].T
-    return out + tree.root_o[rows]
+    k = 2 if tuple(rows) == (0, 1) else 3  # the CoP's rows alone, else all three
+    com = com_rows(tree, q, np.asarray(r, dtype=float).reshape(-1, 3), k)
+    return com if tuple(rows) in ((0, 1), (0, 1, 2)) else com[:, list(rows)]
 
 
 def _plain(r) -> bool:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.kinematics.chains import Workspace, chain
-from sescid.kinematics.compile import GROUP, compiled, lazy_njit
+from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
 
 
@@ -70,12 +70,21 @@ def _reduced_kernel(rot, rows, u, out):
                     )
 
 
-def reduced_columns(tree: Tree, red: Reduction, q: np.ndarray, ws: Workspace | None = None):
-    """Φ_redᵀ of a block of validated poses: (P_red, len(rows)·m), columns ordered (row, pose)."""
-    rot = chain(tree, q, ws)
+def reduced_columns(
+    tree: Tree,
+    red: Reduction,
+    q: np.ndarray,
+    ws: Workspace | None = None,
+    kernels: bool | None = None,
+) -> np.ndarray:
+    """Φ_redᵀ of a block of validated poses: (P_red, len(rows)·m), columns ordered (row, pose).
+    ``kernels``: the job's path (None: ``prefer_kernels`` of this block); both the same bits."""
+    if kernels is None:
+        kernels = prefer_kernels(q.shape[0] * tree.parent.shape[0])
+    rot = chain(tree, q, ws, kernels)
     shape = (red.g.shape[0], len(red.rows) * rot.shape[3])
     out = ws.buffer("reduced", shape) if ws is not None else np.empty(shape)
-    if not compiled():  # the chain ran in numpy: so does this
+    if not kernels:  # the chain ran in numpy: so does this
         nr, m = len(red.rows), rot.shape[3]
         out[:nr] = np.repeat(np.eye(nr), m, axis=1)
         # out[nr + 2(b−1) + l, i·m + k] = Σ_j rot[b, j, row_i, k] u[b, l, j], the kernel's order
