@@ -24,8 +24,7 @@ from sescid.estimation.normal_equations import (
     tilted_sums,
 )
 from sescid.estimation.torque_rows import torque_columns
-from sescid.kinematics import augmented_size, split_augmented
-from sescid.kinematics.torque import TorqueRows, fold_torque, gram_fused, torque_size
+from sescid.kinematics.torque import TorqueRows, gram_fused
 from sescid.kinematics.torque_plan import TorquePlan, torque_plan
 from sescid.robot import Robot
 
@@ -85,25 +84,19 @@ class RowMaker:
         """Torques (and a level CoP) of a block in one compiled pass; False when an angle is
         beyond the kernels' range (nothing added)."""
         assert m.tau is not None and self.plan is not None
-        red = self.robot.reduction
-        p = red.g.shape[0]
         tau_sw = None
         if self.weighted:
             if m.tau_se is None:
                 raise DataError(f"{m.source}: weighted torques need tau_se_<joint> columns")
             tau_sw = 1.0 / m.tau_se
         rows = TorqueRows(m.tau, tau_sw, m.approach, self.mass * self.g0)
-        acc_t = np.zeros((torque_size(self.plan),) * 2)
-        cop = None
-        if m.cop is not None:
-            cop = (m.cop - self.robot.d[:2], cop_sw, np.zeros((augmented_size(p),) * 2))
-        if not gram_fused(self.robot.tree, red, self.plan, m.q, rows, cop, acc_t):
+        cop = None if m.cop is None else (m.cop - self.robot.d[:2], cop_sw)
+        sums = gram_fused(self.robot.tree, self.robot.reduction, self.plan, m.q, rows, cop)
+        if sums is None:
             return False
-        ata, atb, yty = fold_torque(acc_t, self.plan, p)
-        out.tau_red = NormalEquations(ata, atb, yty, m.n * len(m.tau_joints))
-        if cop is not None:
-            ata, atb, yty = split_augmented(cop[2], p)
-            out.cop_red = NormalEquations(ata, atb, yty, 2 * m.n)
+        if sums[0] is not None:
+            out.cop_red = NormalEquations(*sums[0], 2 * m.n)
+        out.tau_red = NormalEquations(*sums[1], m.n * len(m.tau_joints))
         return True
 
 

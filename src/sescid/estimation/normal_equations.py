@@ -21,7 +21,6 @@ from sescid.errors import DataError
 from sescid.kinematics import (
     Workspace,
     as_poses,
-    augmented_size,
     gram_columns,
     gram_reduced,
     reduced_columns,
@@ -160,9 +159,9 @@ def reduced_sums(robot, q, y, sw, kernels: bool, ws: Workspace | None) -> Normal
     p = red.g.shape[0]
     part = NormalEquations.empty(p)
     if kernels:
-        out = np.zeros((augmented_size(p),) * 2)
-        if gram_reduced(robot.tree, red, q, y, sw, out):
-            part.ata, part.atb, part.yty = split_augmented(out, p)
+        sums = gram_reduced(robot.tree, red, q, y, sw)
+        if sums is not None:
+            part.ata, part.atb, part.yty = sums
             part.n_rows = y.shape[0] * y.shape[1]
             return part
     x = reduced_columns(robot.tree, red, q, ws, kernels)  # (P_red, 2m): x rows, y rows

@@ -75,6 +75,39 @@ def _tile(a, a0, a1, a2, a3, b, b0, b1, b2, b3, kk):  # pragma: no cover - compi
     )  # fmt: skip
 
 
+@lazy_njit(GROUP, cache=True, nogil=True, inline="always")
+def _tile3(a, a0, a1, a2, b, b0, b1, b2, b3, kk):  # pragma: no cover - compiled
+    """``_tile`` for 3 rows × 4 columns (12 sums, row-major)."""
+    c00 = c01 = c02 = c03 = vzero()
+    c10 = c11 = c12 = c13 = vzero()
+    c20 = c21 = c22 = c23 = vzero()
+    for k in range(0, kk, 8):
+        u0 = vload(a, a0 + k)
+        u1 = vload(a, a1 + k)
+        u2 = vload(a, a2 + k)
+        w = vload(b, b0 + k)
+        c00 = vfma(u0, w, c00)
+        c10 = vfma(u1, w, c10)
+        c20 = vfma(u2, w, c20)
+        w = vload(b, b1 + k)
+        c01 = vfma(u0, w, c01)
+        c11 = vfma(u1, w, c11)
+        c21 = vfma(u2, w, c21)
+        w = vload(b, b2 + k)
+        c02 = vfma(u0, w, c02)
+        c12 = vfma(u1, w, c12)
+        c22 = vfma(u2, w, c22)
+        w = vload(b, b3 + k)
+        c03 = vfma(u0, w, c03)
+        c13 = vfma(u1, w, c13)
+        c23 = vfma(u2, w, c23)
+    return (
+        vsum(c00), vsum(c01), vsum(c02), vsum(c03),
+        vsum(c10), vsum(c11), vsum(c12), vsum(c13),
+        vsum(c20), vsum(c21), vsum(c22), vsum(c23),
+    )  # fmt: skip
+
+
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _syrk(x, p4, kk, out):  # pragma: no cover - compiled
     """out[i, j] += Σ_{k<kk} x[i, k] x[j, k] on the 4 × 4 tiles on and above the diagonal

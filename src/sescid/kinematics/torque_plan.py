@@ -45,6 +45,8 @@ class TorquePlan:
     n_joints: int
     friction: bool
     to_reduced: np.ndarray  #: (n_sesc,) each depth-first column's index in ``Reduction`` order
+    own_ptr: np.ndarray  #: (N + 1,) the left rows each body owns: own[own_ptr[b] : own_ptr[b + 1]]
+    own: np.ndarray  #: (L,) left rows by owner (the body of the column or joint they come from)
 
     @property
     def n_nuisance(self) -> int:
@@ -55,19 +57,6 @@ class TorquePlan:
     def target(self) -> int:
         """Index of the targets' column in the augmented accumulator."""
         return self.n_sesc + self.n_nuisance
-
-
-def depth_first(parent: np.ndarray) -> np.ndarray:
-    """(N,) bodies in depth-first preorder from the support body (children in index order)."""
-    children: list[list[int]] = [[] for _ in parent]
-    for b in range(1, len(parent)):
-        children[int(parent[b])].append(b)
-    out, stack = [], [0]
-    while stack:
-        b = stack.pop()
-        out.append(b)
-        stack.extend(reversed(children[b]))
-    return np.asarray(out, dtype=np.int64)
 
 
 def torque_plan(tree: Tree, cols: np.ndarray, friction: bool, nr: int) -> TorquePlan | None:
@@ -82,10 +71,7 @@ def torque_plan(tree: Tree, cols: np.ndarray, friction: bool, nr: int) -> Torque
         if len(hit) != 1:
             return None
         meas[hit[0]] = m
-    dfs = depth_first(tree.parent)
-    order = dfs[1:]
-    pos = np.full(nb, -1, dtype=np.int64)
-    pos[order] = np.arange(nb - 1)
+    order, pos = tree.depth_first
     end = pos.copy()  # end of each subtree's range in ``order`` (exclusive)
     for b in order[::-1]:
         end[b] = max(end[b], pos[b] + 1)
@@ -116,6 +102,10 @@ def torque_plan(tree: Tree, cols: np.ndarray, friction: bool, nr: int) -> Torque
             lrows += [(ROW_PAIR, r, c, r) for r in rows]
             first = 2 * pos[later]
             tasks.append((start, len(rows), first, 2 * end[c] - first, first))
+    lr = np.asarray(lrows, dtype=np.int64).reshape(-1, 4)
+    owner = np.where(lr[:, 0] == ROW_PAIR, order[lr[:, 1] // 2], lr[:, 2])
+    by_owner = np.argsort(owner, kind="stable")
+    own_ptr = np.searchsorted(owner[by_owner], np.arange(nb + 1)).astype(np.int64)
     to_red = np.empty(n_sesc, dtype=np.int64)
     for b in order:
         for lc in range(2):
@@ -126,10 +116,12 @@ def torque_plan(tree: Tree, cols: np.ndarray, friction: bool, nr: int) -> Torque
         meas=meas,
         axis=np.ascontiguousarray(tree.axis, dtype=float),
         coef=np.ascontiguousarray(tree.coef, dtype=float),
-        lrows=np.asarray(lrows, dtype=np.int64).reshape(-1, 4),
+        lrows=lr,
         tasks=np.asarray(tasks, dtype=np.int64).reshape(-1, 5),
         n_sesc=n_sesc,
         n_joints=n_j,
         friction=friction,
         to_reduced=to_red,
+        own_ptr=own_ptr,
+        own=by_owner.astype(np.int64),
     )

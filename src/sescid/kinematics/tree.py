@@ -46,6 +46,24 @@ class Tree:
         ).astype(float)
         return ints, reals
 
+    @cached_property
+    def depth_first(self) -> tuple[np.ndarray, np.ndarray]:
+        """(order (N − 1,), pos (N,)): the moving bodies in depth-first preorder from the
+        support body (children in index order: every subtree is a contiguous range), and each
+        body's place in it (−1 for the support body)."""
+        children: list[list[int]] = [[] for _ in self.parent]
+        for b in range(1, len(self.parent)):
+            children[int(self.parent[b])].append(b)
+        out, stack = [], [0]
+        while stack:
+            b = stack.pop()
+            out.append(b)
+            stack.extend(reversed(children[b]))
+        order = np.asarray(out[1:], dtype=np.int64)
+        pos = np.full(len(self.parent), -1, dtype=np.int64)
+        pos[order] = np.arange(len(order))
+        return order, pos
+
     @classmethod
     def from_model(cls, model: RobotModel) -> Tree:
         """Flatten a ``RobotModel`` into the kernels' arrays."""
