@@ -16,10 +16,19 @@ from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
 from sescid.kinematics.gram import _syrk, padded
 from sescid.kinematics.reduced import Reduction
 from sescid.kinematics.tree import Tree
-from sescid.kinematics.trig import MAX_ANGLE
+from sescid.kinematics.trig import MAX_ANGLE, SMALL_ANGLE
 from sescid.kinematics.trig_fma import _trig_row_fma
 
 fma = simd_intrinsic("fma")
+vload = simd_intrinsic("vload")
+vstore = simd_intrinsic("vstore")
+vsplat = simd_intrinsic("vsplat")
+vzero = simd_intrinsic("vzero")
+vfma = simd_intrinsic("vfma")
+vmul = simd_intrinsic("vmul")
+vneg = simd_intrinsic("vneg")
+vabsmax = simd_intrinsic("vabsmax")
+vmaxlane = simd_intrinsic("vmaxlane")
 
 #: poses per sub-block of the fused pass (a multiple of 8: the block's rotations, columns and
 #: product stay in L2)
@@ -38,72 +47,123 @@ def _angles_ok(q):  # pragma: no cover - compiled
 
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _transpose(q, s0, w, qt):  # pragma: no cover - compiled
-    """qt[j, k] = q[s0 + k, j] for k < w: the block's angles, joint-major."""
+    """qt[j, k] = q[s0 + k, j] for k < w, zero beyond: the block's angles, joint-major."""
     qb = q[s0 : s0 + w]
     for k in range(w):
         for j in range(q.shape[1]):
             qt[j, k] = qb[k, j]
+    qt[:, w:] = 0.0
+
+
+@lazy_njit(GROUP, cache=True, nogil=True)
+def _trig_simd(qt, jc, cb, ob, w, seg, s, c1):  # pragma: no cover - compiled
+    """s, c1 = sin θ, 1 − cos θ of θ = cb·qt[jc] + ob for the block (``_trig_row_fma``'s bits):
+    8 lanes at a time when every |θ| < SMALL_ANGLE, else its reduction."""
+    base = jc * qt.shape[1]
+    vb, vo = vsplat(cb), vsplat(ob)
+    big = vzero()
+    for k in range(0, seg, 8):
+        big = vabsmax(big, vfma(vb, vload(qt, base + k), vo))
+    if not vmaxlane(big) < SMALL_ANGLE:
+        _trig_row_fma(qt[jc], cb, ob, w, s, c1)
+        return
+    for k in range(0, seg, 8):
+        r = vfma(vb, vload(qt, base + k), vo)
+        z = vmul(r, r)
+        ps = vfma(z, vsplat(-1 / 1307674368000), vsplat(1 / 6227020800))
+        ps = vfma(z, ps, vsplat(-1 / 39916800))
+        ps = vfma(z, ps, vsplat(1 / 362880))
+        ps = vfma(z, ps, vsplat(-1 / 5040))
+        ps = vfma(z, ps, vsplat(1 / 120))
+        ps = vfma(z, ps, vsplat(-1 / 6))
+        pc = vfma(z, vsplat(1 / 20922789888000), vsplat(-1 / 87178291200))
+        pc = vfma(z, pc, vsplat(1 / 479001600))
+        pc = vfma(z, pc, vsplat(-1 / 3628800))
+        pc = vfma(z, pc, vsplat(1 / 40320))
+        pc = vfma(z, pc, vsplat(-1 / 720))
+        pc = vfma(z, pc, vsplat(1 / 24))
+        pc = vfma(z, pc, vsplat(-0.5))
+        vstore(s, k, vfma(vmul(r, z), ps, r))
+        vstore(c1, k, vneg(vmul(z, pc)))
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rows, u,
           pos, s, c1, rot, xv):  # fmt: skip  # pragma: no cover - compiled
-    """Body b for the block's w poses: rot[b, j, i, k] = R_b[rows[i], j] from its parent's (trig
-    and chain in FMAs) and, for a moving body, its unweighted reduced columns
-    xv[nr + 2·pos[b] + l, i·seg + k] = R_b[rows[i]] u_{b,l} (zero for w ≤ k < seg)."""
+    """Body b for the block's w poses (8 lanes at a time, seg = w rounded up to 8):
+    rot[b, j, i, k] = R_b[rows[i], j] from its parent's (trig and chain in FMAs) and, for a
+    moving body, its unweighted reduced columns xv[nr + 2·pos[b] + l, i·seg + k] =
+    R_b[rows[i]] u_{b,l} (zero for w ≤ k < seg)."""
     nr = rows.shape[0]
+    blk = s.shape[0]
     p = parent[b]
+    ob = b * 3 * nr * blk  # rot[b, j, i] starts at ob + (j·nr + i)·blk
     if p < 0:
         for j in range(3):
             for i in range(nr):
-                v = root_r[rows[i], j]
-                for k in range(w):
-                    rot[b, j, i, k] = v
+                v = vsplat(root_r[rows[i], j])
+                for k in range(0, seg, 8):
+                    vstore(rot, ob + (j * nr + i) * blk + k, v)
         return
     jc = jcol[b]
     if jc >= 0:
-        _trig_row_fma(qt[jc], coef[b], off[b], w, s, c1)
+        _trig_simd(qt, jc, coef[b], off[b], w, seg, s, c1)
     else:
-        for k in range(w):
-            s[k] = 0.0
-            c1[k] = 0.0
-    for j in range(3):
-        for i in range(nr):
-            for k in range(w):
-                rot[b, j, i, k] = 0.0
+        s[:] = 0.0
+        c1[:] = 0.0
+    op = p * 3 * nr * blk
+    done = np.zeros(3, dtype=np.bool_)  # R_b's columns started (the first term is stored)
     for z in range(nz_ptr[b], nz_ptr[b + 1]):
         kk = nz_k[z]
         jj = nz_j[z]
-        a0 = nz_a[z, 0]
-        a1 = nz_a[z, 1]
-        a2 = nz_a[z, 2]
-        if nr == 2:  # the CoP's rows: one pass, the entry of M_b in a register
-            o0 = rot[b, jj, 0]
-            o1 = rot[b, jj, 1]
-            i0 = rot[p, kk, 0]
-            i1 = rot[p, kk, 1]
-            for k in range(w):
-                mz = fma(a2, c1[k], fma(a1, s[k], a0))
-                o0[k] = fma(i0[k], mz, o0[k])
-                o1[k] = fma(i1[k], mz, o1[k])
+        a0 = vsplat(nz_a[z, 0])
+        a1 = vsplat(nz_a[z, 1])
+        a2 = vsplat(nz_a[z, 2])
+        first = not done[jj]
+        done[jj] = True
+        if nr == 2:  # the CoP's rows: M_b's entry once for both
+            d0 = ob + jj * 2 * blk
+            s0 = op + kk * 2 * blk
+            for k in range(0, seg, 8):
+                mz = vfma(a2, vload(c1, k), vfma(a1, vload(s, k), a0))
+                if first:
+                    vstore(rot, d0 + k, vmul(vload(rot, s0 + k), mz))
+                    vstore(rot, d0 + blk + k, vmul(vload(rot, s0 + blk + k), mz))
+                else:
+                    e0, e1 = d0 + k, d0 + blk + k
+                    vstore(rot, e0, vfma(vload(rot, s0 + k), mz, vload(rot, e0)))
+                    vstore(rot, e1, vfma(vload(rot, s0 + blk + k), mz, vload(rot, e1)))
             continue
         for i in range(nr):
-            o = rot[b, jj, i]
-            ip = rot[p, kk, i]
-            for k in range(w):
-                o[k] = fma(ip[k], fma(a2, c1[k], fma(a1, s[k], a0)), o[k])
+            dst = ob + (jj * nr + i) * blk
+            src = op + (kk * nr + i) * blk
+            for k in range(0, seg, 8):
+                mz = vfma(a2, vload(c1, k), vfma(a1, vload(s, k), a0))
+                acc = vzero() if first else vload(rot, dst + k)
+                vstore(rot, dst + k, vfma(vload(rot, src + k), mz, acc))
+    for jj in range(3):  # a column with no entry (a degenerate joint transform): zero
+        if not done[jj]:
+            for i in range(nr):
+                for k in range(0, seg, 8):
+                    vstore(rot, ob + (jj * nr + i) * blk + k, vzero())
     row = nr + 2 * pos[b]
+    ld = xv.shape[1]
     for lc in range(2):
-        u0, u1, u2 = u[b, lc, 0], u[b, lc, 1], u[b, lc, 2]
+        u0, u1, u2 = vsplat(u[b, lc, 0]), vsplat(u[b, lc, 1]), vsplat(u[b, lc, 2])
         for i in range(nr):
-            r0 = rot[b, 0, i]
-            r1 = rot[b, 1, i]
-            r2 = rot[b, 2, i]
-            dst = xv[row + lc, i * seg : (i + 1) * seg]  # a view: plain k indices vectorise
-            for k in range(w):
-                dst[k] = fma(r2[k], u2, fma(r1[k], u1, r0[k] * u0))
-            for k in range(w, seg):
-                dst[k] = 0.0
+            r0 = ob + i * blk
+            r1 = ob + (nr + i) * blk
+            r2 = ob + (2 * nr + i) * blk
+            dst = (row + lc) * ld + i * seg
+            for k in range(0, seg, 8):
+                col = vfma(
+                    vload(rot, r2 + k),
+                    u2,
+                    vfma(vload(rot, r1 + k), u1, vmul(vload(rot, r0 + k), u0)),
+                )
+                vstore(xv, dst + k, col)  # fmt: skip
+            for k in range(w, seg):  # the poses past the block's end add nothing
+                xv[row + lc, i * seg + k] = 0.0
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)

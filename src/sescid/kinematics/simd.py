@@ -156,3 +156,55 @@ def fma(typingctx, a, b, c):
         return builder.call(_fma_fn(builder, _F64, "llvm.fma.f64"), vals)
 
     return types.float64(a, b, c), codegen
+
+
+@intrinsic
+def vsub(typingctx, a, b):
+    """A − b lane by lane."""
+
+    def codegen(context, builder, sig, args):
+        return builder.fsub(args[0], args[1])
+
+    return vec(vec, vec), codegen
+
+
+@intrinsic
+def vneg(typingctx, a):
+    """−a lane by lane (the sign flipped: exact)."""
+
+    def codegen(context, builder, sig, args):
+        return builder.fneg(args[0])
+
+    return vec(vec), codegen
+
+
+@intrinsic
+def vabsmax(typingctx, m, a):
+    """max(m, |a|) lane by lane (``llvm.maxnum`` of ``llvm.fabs``: exact, a NaN never wins)."""
+
+    def codegen(context, builder, sig, args):
+        fabs = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_VEC, [_VEC]), f"llvm.fabs.v{LANES}f64"
+        )
+        fmax = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_VEC, [_VEC, _VEC]), f"llvm.maxnum.v{LANES}f64"
+        )
+        return builder.call(fmax, [args[0], builder.call(fabs, [args[1]])])
+
+    return vec(vec, vec), codegen
+
+
+@intrinsic
+def vmaxlane(typingctx, v):
+    """The largest lane (exact: max does not round, so any order gives it)."""
+
+    def codegen(context, builder, sig, args):
+        fmax = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_F64, [_F64, _F64]), "llvm.maxnum.f64"
+        )
+        out = builder.extract_element(args[0], ir.Constant(_I32, 0))
+        for i in range(1, LANES):
+            out = builder.call(fmax, [out, builder.extract_element(args[0], ir.Constant(_I32, i))])
+        return out
+
+    return types.float64(vec), codegen
