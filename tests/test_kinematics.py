@@ -155,7 +155,6 @@ def test_fused_normal_equations_equal_the_columns_product(op2, rng, rows, weight
     y = rng.normal(0, 0.05, (n, len(rows)))
     sw = rng.uniform(0.5, 2.0, (n, len(rows))) if weighted else None
     red = kinematics.reduction(op2.tree, np.array([b.axis for b in op2.model.bodies]), rows)
-    p = red.g.shape[0]
     x = kinematics.reduced_columns(op2.tree, red, q)  # (p, len(rows)·n), columns (row, pose)
     yv = y.T.reshape(-1)
     if weighted:

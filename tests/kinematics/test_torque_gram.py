@@ -131,7 +131,7 @@ def test_sums_reproduce_pinocchio_torques(tmp_path, seed):
     m = Measurements(q=q, tau=tau[1], tau_joints=tuple(ra.joint_names)).checked(ra)
     _, (ata, atb, yty) = _fused(ra, m, ra.total_mass, False)
     g = ra.reduction.g
-    a_full, b_full = g.T @ ata[:-ra.nq, :-ra.nq] @ g, g.T @ atb[: -ra.nq]
+    a_full, b_full = g.T @ ata[: -ra.nq, : -ra.nq] @ g, g.T @ atb[: -ra.nq]
     va, vb = ra.sesc_vectors().reshape(-1), rb.sesc_vectors().reshape(-1)
     ref = float(np.sum(tau[0] * tau[1]))
     assert va @ a_full @ vb == pytest.approx(ref, rel=1e-12)

@@ -28,7 +28,11 @@ class _LazyKernel:
 
     def __call__(self, *args):
         load_group(self.group)
-        return getattr(sys.modules[self.fn.__module__], self.fn.__name__)(*args)
+        fn = getattr(sys.modules[self.fn.__module__], self.fn.__name__)
+        if fn is self:  # another thread is swapping the group's kernels: wait for it
+            with _SWAP_LOCK:
+                fn = getattr(sys.modules[self.fn.__module__], self.fn.__name__)
+        return fn(*args)
 
 
 class _LazyIntrinsic:

@@ -1,0 +1,106 @@
+"""The accumulator's paths: the job's size alone picks numpy or the kernels, a file streamed in
+chunks gives the same bits as its arrays in memory on both, and every path agrees with the
+explicit rows' product (BLAS) to rounding."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sescid
+from sescid.estimation.block_sums import work
+from sescid.estimation.measurements import Measurements
+from sescid.estimation.system import Accumulator, RowOptions
+from sescid.estimation.torque_rows import torque_columns
+from sescid.kinematics import NUMPY_JOB
+
+
+def _data(robot, n, seed, kinds=("cop", "tau"), approach=True, weighted=True):
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-1.2, 1.2, (n, robot.nq))
+    names = tuple(robot.joint_names[::2])
+    return Measurements(
+        q=q,
+        cop=rng.normal(0, 0.02, (n, 2)) if "cop" in kinds else None,
+        cop_se=rng.uniform(0.002, 0.01, (n, 2)) if ("cop" in kinds and weighted) else None,
+        tau=rng.normal(0, 1, (n, len(names))) if "tau" in kinds else None,
+        tau_joints=names if "tau" in kinds else (),
+        tau_se=rng.uniform(0.02, 0.1, (n, len(names))) if ("tau" in kinds and weighted) else None,
+        approach=rng.choice([-1.0, 1.0], n) if ("tau" in kinds and approach) else None,
+    ).checked(robot)
+
+
+def _system(robot, chunks, weighted=True):
+    acc = Accumulator(robot, RowOptions(weighted=weighted, total_mass=3.0))
+    for c in chunks:
+        acc.add(c)
+    return acc
+
+
+def _same_bits(a, b):
+    assert a.kinds == b.kinds and a.nuisance == b.nuisance
+    for k in a.kinds:
+        x, y = a.parts[k].ne, b.parts[k].ne
+        assert np.array_equal(x.ata, y.ata) and np.array_equal(x.atb, y.atb)
+        assert x.yty == y.yty and x.n_rows == y.n_rows and x.n_poses == y.n_poses
+
+
+@pytest.mark.parametrize("kinds", [("cop",), ("tau",), ("cop", "tau")])
+def test_streamed_equals_in_memory_on_the_compiled_path(op2, kinds):
+    """A source large enough for the kernels, fed in odd chunks or at once: the same bits."""
+    probe = _data(op2, 1, 0, kinds)
+    n = NUMPY_JOB // work(op2, probe, 1) + 2500  # past the numpy budget, several blocks
+    m = _data(op2, n, 1, kinds)
+    whole = _system(op2, [m])
+    assert whole.maker is not None and whole.maker.kernels  # decided before the end
+    cuts = [0, 777, 3000, 3001, n // 2, n]
+    parts = _system(op2, [m.take(slice(a, b)) for a, b in zip(cuts[:-1], cuts[1:], strict=True)])
+    _same_bits(whole.finish(), parts.finish())
+
+
+def test_a_small_source_stays_in_numpy_whatever_was_loaded(op2):
+    """Below the budget the path is numpy even with the kernels loaded (the job decides), and
+    streamed equals in memory there too."""
+    sescid.kinematics.load_kernels()
+    m = _data(op2, 300, 2)
+    acc = _system(op2, [m])
+    assert acc.maker is None  # waiting: the job may still grow
+    whole = acc.finish()
+    assert acc.maker is not None and not acc.maker.kernels
+    parts = _system(op2, [m.take(slice(0, 7)), m.take(slice(7, 300))]).finish()
+    _same_bits(whole, parts)
+
+
+@pytest.mark.parametrize("kernels", [False, True])
+def test_every_path_equals_the_explicit_rows(op2, kernels):
+    """Weighted CoP and torques with friction columns, small (numpy) or large (compiled): the
+    reduced sums equal the explicit rows' product by BLAS to rounding."""
+    from sescid.estimation.block_sums import RowMaker
+
+    m = _data(op2, 600, 3)
+    maker = RowMaker(op2, kernels, True, 3.0, 9.80665, m.tau_joints, True)
+    sums = maker.sums(m)
+    x, y, sw = torque_columns(op2, m, 3.0, True, 9.80665)
+    x, y = x * sw, y * sw
+    scale = np.abs(x @ x.T).max()
+    assert np.abs(sums.tau_red.ata - x @ x.T).max() <= 1e-14 * scale
+    assert np.abs(sums.tau_red.atb - x @ y).max() <= 1e-14 * np.abs(x @ y).max()
+    assert sums.tau_red.yty == pytest.approx(y @ y, rel=1e-14)
+    xc = sescid.kinematics.reduced_columns(op2.tree, op2.reduction, m.q) * (1 / m.cop_se).T.reshape(
+        -1
+    )
+    yc = ((m.cop - op2.d[:2]) / m.cop_se).T.reshape(-1)
+    assert np.abs(sums.cop_red.ata - xc @ xc.T).max() <= 1e-13 * np.abs(xc @ xc.T).max()
+    assert np.abs(sums.cop_red.atb - xc @ yc).max() <= 1e-13 * np.abs(xc @ yc).max()
+
+
+def test_the_paths_agree_on_a_fit(op2):
+    """The same data below and above the budget (a copy of the poses, so the job is large):
+    numpy's and the kernels' fits agree to rounding."""
+    m = _data(op2, 2000, 4, kinds=("cop",), weighted=False)
+    small = sescid.identify(op2, m)
+    k = NUMPY_JOB // work(op2, m, 1) // m.n + 1
+    big = Measurements(q=np.tile(m.q, (k, 1)), cop=np.tile(m.cop, (k, 1))).checked(op2)
+    large = sescid.identify(op2, big)
+    np.testing.assert_allclose(large.r, small.r, rtol=0, atol=1e-12)
+    assert large.rms == pytest.approx(small.rms, rel=1e-10)
