@@ -24,7 +24,9 @@ from sescid.estimation.normal_equations import (
     tilted_sums,
 )
 from sescid.estimation.torque_rows import torque_columns
-from sescid.kinematics.torque import TorqueRows, gram_fused
+from sescid.kinematics import augmented_size
+from sescid.kinematics.fused import add_gram_reduced
+from sescid.kinematics.torque import TorqueRows, add_gram_fused, torque_size
 from sescid.kinematics.torque_plan import TorquePlan, torque_plan
 from sescid.robot import Robot
 
@@ -36,6 +38,12 @@ class BlockSums:
     cop_red: NormalEquations | None = None  #: level CoP, reduced coordinates
     cop_full: NormalEquations | None = None  #: tilted CoP, full coordinates
     tau_red: NormalEquations | None = None  #: torques: reduced coordinates, then nuisance
+    #: the compiled passes' raw accumulators (``fused.reduced_order``, ``torque.fold_torque``
+    #: read their sum over the blocks once) and their rows
+    cop_raw: np.ndarray | None = None
+    tau_raw: np.ndarray | None = None
+    cop_rows: int = 0
+    tau_rows: int = 0
 
 
 @dataclass(frozen=True)
@@ -64,39 +72,48 @@ class RowMaker:
         out = BlockSums()
         level = m.gravity is None
         cop_sw = _cop_weights(m) if (self.weighted and m.cop is not None) else None
-        fused = (
-            self.kernels and level and m.tau is not None and bool(m.tau_joints)
-        ) and self.plan is not None
+        has_tau = m.tau is not None and bool(m.tau_joints)
         if m.cop is not None and not level:
             out.cop_full = tilted_sums(self.robot, m.q, m.cop, cop_sw, m.gravity, self.kernels)
-        if fused and self._fused(m, cop_sw, out):
-            return out
-        if m.cop is not None and level:
+        if self.kernels and level and self._compiled(m, cop_sw, out):
+            if not has_tau or out.tau_raw is not None:
+                return out
+        elif m.cop is not None and level:
             y = m.cop - self.robot.d[:2]
             out.cop_red = reduced_sums(self.robot, m.q, y, cop_sw, self.kernels, None)
-        if m.tau is not None and m.tau_joints:
+        if has_tau:
             x, y, sw = torque_columns(self.robot, m, self.mass, self.weighted, self.g0)
             out.tau_red = NormalEquations.empty(x.shape[0])
             add_columns(out.tau_red, x, y, sw, self.kernels)
         return out
 
-    def _fused(self, m: Measurements, cop_sw, out: BlockSums) -> bool:
-        """Torques (and a level CoP) of a block in one compiled pass; False when an angle is
-        beyond the kernels' range (nothing added)."""
-        assert m.tau is not None and self.plan is not None
+    def _compiled(self, m: Measurements, cop_sw, out: BlockSums) -> bool:
+        """A level block on the compiled passes: the CoP (and the torques, when their plan
+        allows) into raw accumulators. False (nothing added) when an angle is beyond the
+        kernels' range."""
+        red = self.robot.reduction
+        p = red.g.shape[0]
+        cop = None if m.cop is None else (m.cop - self.robot.d[:2], cop_sw)
+        raw_c = None if cop is None else np.zeros((augmented_size(p),) * 2)
+        if m.tau is None or not m.tau_joints or self.plan is None:
+            if cop is None or raw_c is None:
+                return True  # torques with a mimic joint: the explicit rows
+            if not add_gram_reduced(self.robot.tree, red, m.q, cop[0], cop[1], raw_c):
+                return False
+            out.cop_raw, out.cop_rows = raw_c, 2 * m.n
+            return True
         tau_sw = None
         if self.weighted:
             if m.tau_se is None:
                 raise DataError(f"{m.source}: weighted torques need tau_se_<joint> columns")
             tau_sw = 1.0 / m.tau_se
         rows = TorqueRows(m.tau, tau_sw, m.approach, self.mass * self.g0)
-        cop = None if m.cop is None else (m.cop - self.robot.d[:2], cop_sw)
-        sums = gram_fused(self.robot.tree, self.robot.reduction, self.plan, m.q, rows, cop)
-        if sums is None:
+        raw_t = np.zeros((torque_size(self.plan),) * 2)
+        if not add_gram_fused(self.robot.tree, red, self.plan, m.q, rows, cop, (raw_t, raw_c)):
             return False
-        if sums[0] is not None:
-            out.cop_red = NormalEquations(*sums[0], 2 * m.n)
-        out.tau_red = NormalEquations(*sums[1], m.n * len(m.tau_joints))
+        out.tau_raw, out.tau_rows = raw_t, m.n * len(m.tau_joints)
+        if raw_c is not None:
+            out.cop_raw, out.cop_rows = raw_c, 2 * m.n
         return True
 
 

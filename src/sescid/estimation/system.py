@@ -27,6 +27,8 @@ from sescid.estimation.measurements import COP, TORQUE, Measurements, concatenat
 from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import use_kernels
+from sescid.kinematics.fused import reduced_order
+from sescid.kinematics.torque import fold_torque
 from sescid.robot import Robot
 from sescid.sesc import STANDARD_GRAVITY
 
@@ -169,6 +171,8 @@ class Accumulator:
         self.cop_red = NormalEquations.empty(self.p_red)
         self.cop_full: NormalEquations | None = None
         self.tau_red: NormalEquations | None = None
+        self.cop_raw: np.ndarray | None = None  #: the compiled passes' raw sums (block order)
+        self.tau_raw: np.ndarray | None = None
         self.first: Measurements | None = None
         self.pending: list[Measurements] = []
         self.n_pending = 0
@@ -221,22 +225,55 @@ class Accumulator:
 
         parts = ordered_map(one, starts) if maker.kernels and len(starts) > 1 else map(one, starts)
         for s, part in zip(starts, parts, strict=True):
-            if part.cop_red is not None:
-                self.cop_red.add_sums(part.cop_red)
-            if part.cop_full is not None:
-                if self.cop_full is None:
-                    self.cop_full = NormalEquations.empty(3 * len(self.robot.body_names))
-                self.cop_full.add_sums(part.cop_full)
-            if part.tau_red is not None:
-                if self.tau_red is None:
-                    self.tau_red = NormalEquations.empty(part.tau_red.ata.shape[0])
-                self.tau_red.add_sums(part.tau_red)
+            self._add(part)
             if progress is not None:
                 progress(done + min(s + ACCUMULATE_BLOCK, m.n))
         if m.cop is not None:
             self.cop_red.n_poses += m.n
-        if self.tau_red is not None and m.tau is not None:
-            self.tau_red.n_poses += m.n
+        if m.tau is not None and m.tau_joints:
+            self._torque_sums().n_poses += m.n
+
+    def _torque_sums(self) -> NormalEquations:
+        if self.tau_red is None:
+            first = self.first
+            assert first is not None
+            self.tau_red = NormalEquations.empty(self.p_red + len(torque_nuisance(first)))
+        return self.tau_red
+
+    def _add(self, part: BlockSums) -> None:
+        """One block's sums, in block order."""
+        if part.cop_red is not None:
+            self.cop_red.add_sums(part.cop_red)
+        if part.cop_raw is not None:
+            self.cop_raw = part.cop_raw if self.cop_raw is None else self.cop_raw + part.cop_raw
+            self.cop_red.n_rows += part.cop_rows
+        if part.cop_full is not None:
+            if self.cop_full is None:
+                self.cop_full = NormalEquations.empty(3 * len(self.robot.body_names))
+            self.cop_full.add_sums(part.cop_full)
+        if part.tau_red is not None:
+            self._torque_sums().add_sums(part.tau_red)
+        if part.tau_raw is not None:
+            self.tau_raw = part.tau_raw if self.tau_raw is None else self.tau_raw + part.tau_raw
+            self._torque_sums().n_rows += part.tau_rows
+
+    def _raw_sums(self) -> None:
+        """The compiled passes' raw accumulators, read once: into the reduced sums."""
+        tree, p = self.robot.tree, self.p_red
+        if self.cop_raw is not None:
+            ata, atb, yty = reduced_order(self.cop_raw, tree, len(self.robot.reduction.rows), p)
+            self.cop_red.ata += ata
+            self.cop_red.atb += atb
+            self.cop_red.yty += yty
+            self.cop_raw = None
+        if self.tau_raw is not None:
+            assert self.maker is not None and self.maker.plan is not None
+            ata, atb, yty = fold_torque(self.tau_raw, self.maker.plan, p)
+            t = self._torque_sums()
+            t.ata += ata
+            t.atb += atb
+            t.yty += yty
+            self.tau_raw = None
 
     def finish(self) -> System:
         """The source's system, in full coordinates (DataError when it had no poses)."""
@@ -247,6 +284,7 @@ class Accumulator:
             self.pending, self.n_pending = [], 0
         if self.first is None or self.n_poses == 0:
             raise DataError("no poses to identify from")
+        self._raw_sums()
         first = self.first
         nuisance = cop_offsets() if (COP in first.kinds and self.options.cop_offset) else ()
         n_x = 3 * len(self.robot.body_names)

@@ -266,14 +266,31 @@ def gram_reduced(
     compiled pass; y (n, len(rows)) [m] targets, sw (n, len(rows)) square-root weights or None.
     None when an angle needs numpy's exact reduction."""
     nr, p = len(red.rows), red.g.shape[0]
-    w = np.empty((0, nr)) if sw is None else np.ascontiguousarray(sw, dtype=float)
     out = np.zeros((augmented_size(p),) * 2)
-    ok = _gram_reduced(
-        q, np.ascontiguousarray(y, dtype=float), w, tree.jcol, tree.coef, tree.off,
-        tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r,
-        np.asarray(red.rows, dtype=np.int64), red.u, tree.depth_first[1], GRAM_BLOCK, out,
-    )  # fmt: skip
+    ok = add_gram_reduced(tree, red, q, y, sw, out)
     return reduced_order(out, tree, nr, p) if ok else None
+
+
+def add_gram_reduced(
+    tree: Tree,
+    red: Reduction,
+    q: np.ndarray,
+    y: np.ndarray,
+    sw: np.ndarray | None,
+    out: np.ndarray,
+) -> bool:
+    """``gram_reduced``'s sums added to ``out`` ((augmented_size(P_red),) * 2: the raw upper
+    tiles, depth-first; ``reduced_order`` reads them, once, after any number of blocks); False
+    (nothing added) when an angle needs numpy's exact reduction."""
+    nr = len(red.rows)
+    w = np.empty((0, nr)) if sw is None else np.ascontiguousarray(sw, dtype=float)
+    return bool(
+        _gram_reduced(
+            q, np.ascontiguousarray(y, dtype=float), w, tree.jcol, tree.coef, tree.off,
+            tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r,
+            np.asarray(red.rows, dtype=np.int64), red.u, tree.depth_first[1], GRAM_BLOCK, out,
+        )
+    )  # fmt: skip
 
 
 def reduced_order(out: np.ndarray, tree: Tree, nr: int, p: int):

@@ -328,30 +328,49 @@ def gram_fused(
     or None) the CoP's reduced sums (``fused.gram_reduced``'s) from the same pass: (CoP sums or
     None, torque sums). ``red.rows`` must be (0, 1). None when an angle needs numpy's exact
     reduction."""
+    p = red.g.shape[0]
+    out_t = np.zeros((torque_size(plan),) * 2)
+    out_c = None if cop is None else np.zeros((augmented_size(p),) * 2)
+    if not add_gram_fused(tree, red, plan, q, torque, cop, (out_t, out_c)):
+        return None
+    cop_sums = None if out_c is None else reduced_order(out_c, tree, 2, p)
+    return cop_sums, fold_torque(out_t, plan, p)
+
+
+def add_gram_fused(
+    tree: Tree,
+    red: Reduction,
+    plan: TorquePlan,
+    q: np.ndarray,
+    torque: TorqueRows,
+    cop: tuple[np.ndarray, np.ndarray | None] | None,
+    out: tuple[np.ndarray, np.ndarray | None],
+) -> bool:
+    """``gram_fused``'s sums added to out = (torque accumulator (torque_size(plan),) * 2,
+    ``fold_torque`` reads it; CoP accumulator (augmented_size(P_red),) * 2 or None,
+    ``fused.reduced_order`` reads it), raw, once after any number of blocks. False (nothing
+    added) when an angle needs numpy's exact reduction."""
     if red.rows != (0, 1):
         raise ValueError("the fused torque pass takes the CoP's rows (0, 1)")
-    nj, p = torque.tau.shape[1], red.g.shape[0]
+    nj = torque.tau.shape[1]
     empty = np.empty((0, nj))
-    out_t = np.zeros((torque_size(plan),) * 2)
-    if cop is None:
+    out_t, out_c = out
+    if cop is None or out_c is None:
         y_c, sw_c, out_c = np.empty((0, 2)), np.empty((0, 2)), np.zeros((0, 0))
     else:
         y_c = np.ascontiguousarray(cop[0], dtype=float)
         sw_c = np.empty((0, 2)) if cop[1] is None else np.ascontiguousarray(cop[1], dtype=float)
-        out_c = np.zeros((augmented_size(p),) * 2)
-    ok = _gram_fused(
-        q, y_c, sw_c, np.ascontiguousarray(torque.tau, dtype=float),
-        empty if torque.sw is None else np.ascontiguousarray(torque.sw, dtype=float),
-        np.empty(0) if torque.approach is None else np.ascontiguousarray(torque.approach),
-        float(torque.mass_g0), tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr,
-        tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, red.u, tree.depth_first[1], plan.meas,
-        plan.axis, plan.own_ptr, plan.own, plan.lrows, plan.tasks, plan.n_sesc, GRAM_BLOCK,
-        out_c, out_t,
+    return bool(
+        _gram_fused(
+            q, y_c, sw_c, np.ascontiguousarray(torque.tau, dtype=float),
+            empty if torque.sw is None else np.ascontiguousarray(torque.sw, dtype=float),
+            np.empty(0) if torque.approach is None else np.ascontiguousarray(torque.approach),
+            float(torque.mass_g0), tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr,
+            tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, red.u, tree.depth_first[1],
+            plan.meas, plan.axis, plan.own_ptr, plan.own, plan.lrows, plan.tasks, plan.n_sesc,
+            GRAM_BLOCK, out_c, out_t,
+        )
     )  # fmt: skip
-    if not ok:
-        return None
-    cop_sums = None if cop is None else reduced_order(out_c, tree, 2, p)
-    return cop_sums, fold_torque(out_t, plan, p)
 
 
 def fold_torque(
