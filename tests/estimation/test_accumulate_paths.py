@@ -114,3 +114,27 @@ def test_the_paths_agree_on_a_fit(op2):
     large = sescid.identify(op2, big)
     np.testing.assert_allclose(large.r, small.r, rtol=0, atol=1e-12)
     assert large.rms == pytest.approx(small.rms, rel=1e-10)
+
+
+def test_residual_pass_kernel_equals_numpy_and_streams(op2):
+    """The compiled residual sums (a large fit) equal numpy's to rounding, the true-error too,
+    and a source streamed in odd chunks gives the MAE's and RMS's bits of the arrays."""
+    from sescid.estimation.residual_sums import block_sums
+    from sescid.simulation import simulate
+
+    sim = simulate(op2, 30_000, seed=5)
+    m = Measurements(q=sim.q, cop=sim.cop, cop_true=sim.cop_true).checked(op2)
+    fit = sescid.identify(op2, m)
+    fast = block_sums(fit, m, True)
+    slow = block_sums(fit, m, False)
+    for a, b in zip(fast, slow, strict=True):
+        assert a[0] == b[0] and a[3] == b[3]
+        assert a[1] == pytest.approx(b[1], rel=1e-12) and a[2] == pytest.approx(b[2], rel=1e-12)
+    cuts = [0, 1001, 9000, 17777, 30_000]
+    chunks = (m.take(slice(a, b)) for a, b in zip(cuts[:-1], cuts[1:], strict=True))
+    streamed = sescid.identify(op2, chunks)
+    assert (streamed.mae, streamed.rms, streamed.truth_cop_rmse) == (
+        fit.mae,
+        fit.rms,
+        fit.truth_cop_rmse,
+    )

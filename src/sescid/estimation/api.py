@@ -267,14 +267,13 @@ def _fit(robot, method, options, sources, memory: list[Measurements] | None, pro
             robot, system, prior_scale=m.prior_scale, noise=m.noise, rtol=options.rtol,
             cv_folds=cv, kind_noise=options.noise(), r_prior=options.r_prior,
         )  # fmt: skip
-    fit = with_residuals(fit, (c for s in sources for c in s.chunks()))
+    fit = with_residuals(fit, sources=[s.chunks() for s in sources])
     if method == "consistent":
         copts = options.consistent
         if copts.total_mass is None and options.total_mass is not None:
             copts = dataclasses.replace(copts, total_mass=options.total_mass)
         src, kw = copts.resolved(fit)
-        fit = with_residuals(consistent_from_fit(src, **kw), (c for s in sources for c in
-                                                              s.chunks()))  # fmt: skip
+        fit = with_residuals(consistent_from_fit(src, **kw), sources=[s.chunks() for s in sources])
         dof = fit.n_rows - fit.rank
         if len(fit.kinds) == 1 and not fit.kinds[0].weighted:
             sig = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan

@@ -89,11 +89,11 @@ def _trig_simd(qt, jc, cb, ob, w, seg, s, c1):  # pragma: no cover - compiled
 
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rows, u,
-          pos, s, c1, rot, xv):  # fmt: skip  # pragma: no cover - compiled
+          pos, s, c1, rot, xv, cols=True):  # fmt: skip  # pragma: no cover - compiled
     """Body b for the block's w poses (8 lanes at a time, seg = w rounded up to 8):
     rot[b, j, i, k] = R_b[rows[i], j] from its parent's (trig and chain in FMAs) and, for a
     moving body, its unweighted reduced columns xv[nr + 2·pos[b] + l, i·seg + k] =
-    R_b[rows[i]] u_{b,l} (zero for w ≤ k < seg)."""
+    R_b[rows[i]] u_{b,l} (zero for w ≤ k < seg; skipped when not ``cols``)."""
     nr = rows.shape[0]
     blk = s.shape[0]
     p = parent[b]
@@ -112,15 +112,15 @@ def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root
         s[:] = 0.0
         c1[:] = 0.0
     op = p * 3 * nr * blk
-    done = np.zeros(3, dtype=np.bool_)  # R_b's columns started (the first term is stored)
+    started = 0  # bit jj: R_b's column jj has its first term (stored, not added)
     for z in range(nz_ptr[b], nz_ptr[b + 1]):
         kk = nz_k[z]
         jj = nz_j[z]
         a0 = vsplat(nz_a[z, 0])
         a1 = vsplat(nz_a[z, 1])
         a2 = vsplat(nz_a[z, 2])
-        first = not done[jj]
-        done[jj] = True
+        first = (started >> jj) & 1 == 0
+        started |= 1 << jj
         if nr == 2:  # the CoP's rows: M_b's entry once for both
             d0 = ob + jj * 2 * blk
             s0 = op + kk * 2 * blk
@@ -142,10 +142,12 @@ def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root
                 acc = vzero() if first else vload(rot, dst + k)
                 vstore(rot, dst + k, vfma(vload(rot, src + k), mz, acc))
     for jj in range(3):  # a column with no entry (a degenerate joint transform): zero
-        if not done[jj]:
+        if (started >> jj) & 1 == 0:
             for i in range(nr):
                 for k in range(0, seg, 8):
                     vstore(rot, ob + (jj * nr + i) * blk + k, vzero())
+    if not cols:
+        return
     row = nr + 2 * pos[b]
     ld = xv.shape[1]
     for lc in range(2):

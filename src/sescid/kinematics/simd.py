@@ -208,3 +208,16 @@ def vmaxlane(typingctx, v):
         return out
 
     return types.float64(vec), codegen
+
+
+@intrinsic
+def vabs(typingctx, a):
+    """|a| lane by lane (exact)."""
+
+    def codegen(context, builder, sig, args):
+        fabs = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_VEC, [_VEC]), f"llvm.fabs.v{LANES}f64"
+        )
+        return builder.call(fabs, [args[0]])
+
+    return vec(vec), codegen
