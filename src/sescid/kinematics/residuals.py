@@ -30,7 +30,7 @@ vsum = simd_intrinsic("vsum")
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                        root_o, r, blk, out):  # fmt: skip  # pragma: no cover - compiled
-    """out = (Σ|y − c|, Σ(y − c)², Σ(y2 − c)²) over the poses q (n, nq) and both axes, c the
+    """Out = (Σ|y − c|, Σ(y − c)², Σ(y2 − c)²) over the poses q (n, nq) and both axes, c the
     CoM's x, y for SESC vectors r (N, 3); y, y2 (n, 2) (y2 (0, 2): none). False (nothing
     written) when an angle is beyond MAX_ANGLE."""
     if not _angles_ok(q):
