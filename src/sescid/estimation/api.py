@@ -357,6 +357,9 @@ def identify(
     sources = as_sources(robot, _normalise(data, cop, sigma, gravity))
     try:
         robust = opts.robust
+        if robust == "auto":  # torques without an approach side: from each source's first chunk
+            heads = [s.first() for s in sources]
+            robust = any(m is not None and m.tau is not None and m.approach is None for m in heads)
         needs_memory = (
             robust is not False
             or (method == "map" and opts.map.select == "cv")
@@ -365,8 +368,6 @@ def identify(
             or opts.online_step is not None
         )
         memory = in_memory(robot, sources) if needs_memory else None
-        if robust == "auto":
-            robust = any(m.tau is not None and m.approach is None for m in memory or [])
         if opts.online_step is not None:
             assert memory is not None
             fit = _online(robot, method, opts, memory)

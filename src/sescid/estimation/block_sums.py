@@ -10,13 +10,14 @@ explicit rows with the same fixed-order product. Small jobs take numpy (``use_ke
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.measurements import Measurements
+from sescid.estimation.measurements import Measurements, concatenate
 from sescid.estimation.normal_equations import (
     NormalEquations,
     add_columns,
@@ -128,3 +129,25 @@ def work(robot: Robot, m: Measurements, n: int) -> int:
     of reduced columns per CoP axis and per measured torque."""
     rows = 2 * (m.cop is not None) + len(m.tau_joints) * (m.tau is not None)
     return n * (len(robot.body_names) + rows * robot.reduction.g.shape[0])
+
+
+def aligned(chunks: Iterable[Measurements], size: int) -> Iterable[Measurements]:
+    """Consecutive blocks of ``size`` poses (the last may be shorter) of chunks of any size:
+    views into the chunks, a copy only for a block that spans two of them."""
+    carry: Measurements | None = None
+    for m in chunks:
+        if carry is not None:
+            need = size - carry.n
+            if m.n < need:
+                carry = concatenate([carry, m])
+                continue
+            yield concatenate([carry, m.take(slice(0, need))])
+            m = m.take(slice(need, None))
+            carry = None
+        whole = m.n - m.n % size
+        for s in range(0, whole, size):
+            yield m.take(slice(s, s + size))
+        if m.n > whole:
+            carry = m.take(slice(whole, None))
+    if carry is not None:
+        yield carry

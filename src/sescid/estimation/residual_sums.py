@@ -16,9 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sescid.base.threads import ordered_map
+from sescid.base.threads import ordered_map, usable_cores
+from sescid.estimation.block_sums import aligned
 from sescid.estimation.fit import Fit
-from sescid.estimation.measurements import COP, TORQUE, Measurements, concatenate
+from sescid.estimation.measurements import COP, TORQUE, Measurements
 from sescid.kinematics import use_kernels
 from sescid.kinematics.residuals import cop_residual_sums
 
@@ -80,21 +81,9 @@ def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, floa
 
 
 def _blocks(chunks: Iterable[Measurements]) -> Iterable[Measurements]:
-    """The source's poses in blocks of ``RESIDUAL_BLOCK`` from its first, whatever its chunks."""
-    pending: list[Measurements] = []
-    n = 0
-    for m in chunks:
-        pending.append(m)
-        n += m.n
-        if n >= RESIDUAL_BLOCK:
-            joined = concatenate(pending)
-            whole = n - n % RESIDUAL_BLOCK
-            for s in range(0, whole, RESIDUAL_BLOCK):
-                yield joined.take(slice(s, s + RESIDUAL_BLOCK))
-            rest = joined.take(slice(whole, None))
-            pending, n = ([rest] if rest.n else []), rest.n
-    if n:
-        yield concatenate(pending)
+    """The source's poses in blocks of ``RESIDUAL_BLOCK`` from its first, whatever its chunks
+    (only a block that spans two chunks is copied)."""
+    yield from aligned(chunks, RESIDUAL_BLOCK)
 
 
 def residual_sums(fit: Fit, sources: Iterable[Iterable[Measurements]]) -> ResidualSums:
@@ -105,7 +94,7 @@ def residual_sums(fit: Fit, sources: Iterable[Iterable[Measurements]]) -> Residu
         batch: list[Measurements] = []
         for blk in _blocks(chunks):
             batch.append(blk)
-            if len(batch) == 8:  # a few blocks at a time on every core, results in order
+            if len(batch) == 2 * usable_cores():  # a few blocks at a time on every core
                 _add(out, ordered_map(lambda b: block_sums(fit, b, kernels), batch))
                 batch = []
         _add(out, ordered_map(lambda b: block_sums(fit, b, kernels), batch))

@@ -22,8 +22,8 @@ import numpy as np
 
 from sescid.base.threads import ordered_map
 from sescid.errors import DataError
-from sescid.estimation.block_sums import BlockSums, RowMaker, work
-from sescid.estimation.measurements import COP, TORQUE, Measurements, concatenate
+from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
+from sescid.estimation.measurements import COP, TORQUE, Measurements
 from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import use_kernels
@@ -196,12 +196,13 @@ class Accumulator:
             if not use_kernels(work(self.robot, m, self.n_poses + self.n_pending)):
                 return  # a small job so far: its poses wait for the end (numpy), or for more
             self.maker = self._maker(True)
-        whole = self.n_pending - self.n_pending % ACCUMULATE_BLOCK
-        if whole:
-            joined = concatenate(self.pending)
-            self._blocks(joined.take(slice(0, whole)), progress)
-            rest = joined.take(slice(whole, None))
-            self.pending, self.n_pending = ([rest] if rest.n else []), rest.n
+        if self.n_pending < ACCUMULATE_BLOCK:
+            return
+        blocks = list(aligned(self.pending, ACCUMULATE_BLOCK))  # views (a copy at a seam)
+        rest = blocks.pop() if blocks[-1].n < ACCUMULATE_BLOCK else None
+        self._blocks(blocks, progress)
+        self.pending = [] if rest is None else [rest]
+        self.n_pending = 0 if rest is None else rest.n
 
     def _maker(self, kernels: bool) -> RowMaker:
         first = self.first
@@ -211,27 +212,25 @@ class Accumulator:
             first.tau_joints if first.tau is not None else (), first.approach is not None,
         )  # fmt: skip
 
-    def _blocks(self, m: Measurements, progress) -> None:
-        """Sums of poses whose count is a multiple of the block (or the source's last ones):
-        each block on its own (on every core for the compiled path), added in block order."""
+    def _blocks(self, blocks: list[Measurements], progress) -> None:
+        """Sums of consecutive blocks (``ACCUMULATE_BLOCK`` poses, the source's last one
+        shorter): each block on its own (on every core for the compiled path), in block order."""
         maker = self.maker
         assert maker is not None
-        done = self.n_poses
-        self.n_poses += m.n
-        starts = range(0, m.n, ACCUMULATE_BLOCK)
-
-        def one(s: int) -> BlockSums:
-            return maker.sums(m.take(slice(s, s + ACCUMULATE_BLOCK)))
-
-        parts = ordered_map(one, starts) if maker.kernels and len(starts) > 1 else map(one, starts)
-        for s, part in zip(starts, parts, strict=True):
+        parts = (
+            ordered_map(maker.sums, blocks)
+            if maker.kernels and len(blocks) > 1
+            else map(maker.sums, blocks)
+        )
+        for blk, part in zip(blocks, parts, strict=True):
             self._add(part)
+            self.n_poses += blk.n
             if progress is not None:
-                progress(done + min(s + ACCUMULATE_BLOCK, m.n))
-        if m.cop is not None:
-            self.cop_red.n_poses += m.n
-        if m.tau is not None and m.tau_joints:
-            self._torque_sums().n_poses += m.n
+                progress(self.n_poses)
+            if blk.cop is not None:
+                self.cop_red.n_poses += blk.n
+            if blk.tau is not None and blk.tau_joints:
+                self._torque_sums().n_poses += blk.n
 
     def _torque_sums(self) -> NormalEquations:
         if self.tau_red is None:
@@ -280,7 +279,7 @@ class Accumulator:
         if self.first is not None and self.maker is None:
             self.maker = self._maker(False)  # the whole source fit numpy's budget
         if self.pending:
-            self._blocks(concatenate(self.pending), self.progress)
+            self._blocks(list(aligned(self.pending, ACCUMULATE_BLOCK)), self.progress)
             self.pending, self.n_pending = [], 0
         if self.first is None or self.n_poses == 0:
             raise DataError("no poses to identify from")
