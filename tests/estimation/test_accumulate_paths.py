@@ -138,3 +138,15 @@ def test_residual_pass_kernel_equals_numpy_and_streams(op2):
         fit.rms,
         fit.truth_cop_rmse,
     )
+
+
+def test_torque_residual_pass_kernel_equals_numpy(op2):
+    """The compiled torque residual sums (offsets, friction sides) equal numpy's to rounding."""
+    from sescid.estimation.residual_sums import block_sums
+
+    m = _data(op2, 3000, 6, kinds=("tau",), approach=True, weighted=False)
+    fit = sescid.identify(op2, m, total_mass=3.0)
+    fast, slow = block_sums(fit, m, True), block_sums(fit, m, False)
+    assert fast[0][3] == slow[0][3] == m.tau.size
+    assert fast[0][1] == pytest.approx(slow[0][1], rel=1e-12)
+    assert fast[0][2] == pytest.approx(slow[0][2], rel=1e-12)

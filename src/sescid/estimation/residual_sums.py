@@ -11,6 +11,7 @@ in memory), blocks in order, each in a fixed order: compiled for a large fit
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -21,7 +22,7 @@ from sescid.estimation.block_sums import aligned
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import COP, TORQUE, Measurements
 from sescid.kinematics import use_kernels
-from sescid.kinematics.residuals import cop_residual_sums
+from sescid.kinematics.residuals import cop_residual_sums, torque_residual_sums
 
 #: poses per block of the residual pass
 RESIDUAL_BLOCK = 8192
@@ -72,6 +73,15 @@ def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, floa
             out.append(("truth", 0.0, float(sums[2]), 2 * m.n))
     if m.tau is not None and m.tau_joints:
         off, fr = _torque_nuisance(fit, m)
+        if kernels and m.gravity is None:
+            mass = fit.total_mass if math.isfinite(fit.total_mass) else fit.robot.total_mass
+            sums = torque_residual_sums(
+                fit.robot.tree, m.q, fit.r, mass * fit.gravity_accel,
+                fit.robot.joint_columns(m.tau_joints), (m.tau, m.approach, off, fr),
+            )  # fmt: skip
+            if sums is not None:
+                out.append((TORQUE, float(sums[0]), float(sums[1]), m.tau.size))
+                return out
         e = m.tau - fit.predict_torque(m.q, m.tau_joints, m.gravity) - off
         if m.approach is not None:
             e = e - m.approach[:, None] * fr
@@ -89,7 +99,10 @@ def _blocks(chunks: Iterable[Measurements]) -> Iterable[Measurements]:
 def residual_sums(fit: Fit, sources: Iterable[Iterable[Measurements]]) -> ResidualSums:
     """The residual sums of a fit over its sources (each an iterable of chunks), in one pass."""
     out = ResidualSums()
-    kernels = use_kernels(fit.n_poses * len(fit.robot.body_names))
+    rows = sum(k.n_rows for k in fit.kinds)  # the job: as the accumulation counted it
+    kernels = use_kernels(
+        fit.n_poses * len(fit.robot.body_names) + rows * fit.robot.reduction.g.shape[0]
+    )
     for chunks in sources:
         batch: list[Measurements] = []
         for blk in _blocks(chunks):
