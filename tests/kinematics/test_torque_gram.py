@@ -14,8 +14,8 @@ import sescid
 from sescid.estimation.measurements import Measurements
 from sescid.estimation.torque_rows import torque_columns
 from sescid.kinematics import gram_reduced
-from sescid.kinematics.torque import TorqueRows, gram_fused
 from sescid.kinematics.torque_plan import torque_plan
+from sescid.kinematics.torque_sums import TorqueRows, gram_fused
 
 G0 = 9.81
 

@@ -27,8 +27,8 @@ from sescid.estimation.normal_equations import (
 from sescid.estimation.torque_rows import torque_columns
 from sescid.kinematics import augmented_size
 from sescid.kinematics.fused import add_gram_reduced
-from sescid.kinematics.torque import TorqueRows, add_gram_fused, torque_size
 from sescid.kinematics.torque_plan import TorquePlan, torque_plan
+from sescid.kinematics.torque_sums import TorqueRows, add_gram_fused, torque_size
 from sescid.robot import Robot
 
 

@@ -28,7 +28,7 @@ from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import use_kernels
 from sescid.kinematics.fused import reduced_order
-from sescid.kinematics.torque import fold_torque
+from sescid.kinematics.torque_sums import fold_torque
 from sescid.robot import Robot
 from sescid.sesc import STANDARD_GRAVITY
 

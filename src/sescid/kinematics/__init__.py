@@ -9,10 +9,12 @@ sin/cos come from a polynomial kernel (``trig``). Each body's joint contributes
 with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Rodrigues).
 Modules: ``tree`` (the flat arrays), ``compile`` (numba loaded on first use, and which jobs
 run in numpy: by their size alone), ``simd`` (explicit FMAs and 8-lane vectors: the same bits on
-every CPU), ``trig``, ``chains`` (the chain: kernel beside its numpy twin), ``cop`` (x, y of
-the CoM of many poses), ``reduced`` (the regressor without its structural null space), ``gram``
-(sums of products in a fixed order), ``fused`` (the CoP's normal equations in one pass) and
-``torque`` (the joint torques' normal equations in the same pass).
+every CPU), ``trig`` and ``trig_fma``, ``chains`` (the chain: kernel beside its numpy twin),
+``cop`` (x, y of the CoM of many poses), ``reduced`` (the regressor without its structural null
+space), ``gram`` (sums of products in a fixed order), ``fused`` (the CoP's normal equations in one
+pass), ``torque_plan``, ``torque`` and ``torque_sums`` (the joint torques' normal equations in the
+same pass), ``torque_values`` (holding torques and their regressor rows) and ``residuals`` (a
+fit's residual pass).
 """
 
 from __future__ import annotations
