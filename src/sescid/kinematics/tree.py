@@ -75,8 +75,8 @@ class Tree:
             x, y, z = b.axis
             skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
             a0[i] = b.rot_const
-            a1[i] = b.rot_const @ skew
-            a2[i] = b.rot_const @ skew @ skew
+            a1[i] = _mat3(b.rot_const, skew)
+            a2[i] = _mat3(a1[i], skew)
         ptr, ks, js, coefs = [0], [], [], []
         for i in range(n):
             for k in range(3):
@@ -105,6 +105,13 @@ class Tree:
             nq=len(model.joint_names),
             axis=np.array([b.axis for b in model.bodies], dtype=float).reshape(n, 3),
         )
+
+
+def _mat3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """A @ b for 3 × 3 matrices, each entry (a_i0 b_0j + a_i1 b_1j) + a_i2 b_2j (no BLAS: its
+    order and FMAs follow the CPU)."""
+    a = np.asarray(a, dtype=float)
+    return (a[:, 0, None] * b[0] + a[:, 1, None] * b[1]) + a[:, 2, None] * b[2]
 
 
 def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
