@@ -4,12 +4,15 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench slow docs clean
+LOCK   := requirements-dev.lock
 
-$(STAMP): pyproject.toml
+.PHONY: demo test lint bench slow docs clean lock
+
+# the development environment: the lock file's exact versions (pyproject.toml keeps ranges)
+$(STAMP): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[dev]'
+	$(PY) -m pip install -q -e '.[dev]' -c $(LOCK)
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -29,11 +32,22 @@ slow: $(STAMP)
 docs: $(STAMP)
 	$(PY) tools/readme_numbers.py
 
+# speed figures, each beside its target and a reference measured in the same run (docs/speed.md)
 bench: $(STAMP)
-	$(PY) benchmarks/bench_commands.py
 	$(PY) benchmarks/bench_regressor.py
+	$(PY) benchmarks/bench_commands.py
 	$(PY) benchmarks/bench_poses.py
 	$(PY) benchmarks/bench_consistent.py
 
+# refresh the lock file: the newest releases pyproject.toml's ranges allow, in a scratch venv
+lock:
+	rm -rf .venv-lock
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/python -m pip install -q --upgrade pip
+	.venv-lock/bin/python -m pip install -q -e '.[dev]'
+	{ sed -n '1,/^[^#]/{/^#/p}' $(LOCK); .venv-lock/bin/python -m pip freeze --exclude-editable; } > $(LOCK).new
+	mv $(LOCK).new $(LOCK)
+	rm -rf .venv-lock
+
 clean:
-	rm -rf $(VENV) demo_out .pytest_cache .ruff_cache
+	rm -rf $(VENV) .venv-newest .venv-lock demo_out .pytest_cache .ruff_cache

@@ -33,7 +33,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from timing import best_of
+from timing import best_of, environment
 
 CLI = "import sys; from sescid.cli import main; sys.argv[0] = 'sescid'; main()"
 
@@ -208,6 +208,7 @@ def main() -> None:
         "--huge", action="store_true", help="also identify 10 × --poses poses (not in make bench)"
     )
     args = ap.parse_args()
+    print(environment())
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         r = args.repeat

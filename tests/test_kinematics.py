@@ -148,47 +148,51 @@ def test_poses_are_validated(op2):
 @pytest.mark.parametrize("weighted", [False, True])
 @pytest.mark.parametrize("rows", [(0, 1), (0, 1, 2), (2,)])
 def test_fused_normal_equations_equal_the_columns_product(op2, rng, rows, weighted):
-    """One compiled pass (chain rows, reduced columns, symmetric product) = Φ_redᵀWΦ_red by BLAS."""
+    """One compiled pass (chain rows, reduced columns, symmetric product of the augmented
+    columns [Φ_red, y]) = Φ_redᵀWΦ_red, Φ_redᵀWy, yᵀWy by BLAS, in any process."""
     n = 3 * kinematics.GRAM_BLOCK + 17  # several blocks and a partial one
     q = rng.uniform(-2, 2, (n, op2.nq))
     y = rng.normal(0, 0.05, (n, len(rows)))
     sw = rng.uniform(0.5, 2.0, (n, len(rows))) if weighted else None
     red = kinematics.reduction(op2.tree, np.array([b.axis for b in op2.model.bodies]), rows)
-    p = red.g.shape[0]
     x = kinematics.reduced_columns(op2.tree, red, q)  # (p, len(rows)·n), columns (row, pose)
     yv = y.T.reshape(-1)
     if weighted:
         x, yv = x * sw.T.reshape(-1), yv * sw.T.reshape(-1)
-    p4 = kinematics.padded(p)
-    ata, atb = np.zeros((p4, p4)), np.zeros(p4)
-    yty = kinematics.gram_reduced(op2.tree, red, q, y, sw, ata, atb)
-    assert yty is not None  # the kernels are loaded for a block this size
-    upper = np.triu(ata)[:p, :p]
-    np.testing.assert_allclose(upper + np.triu(upper, 1).T, x @ x.T, rtol=1e-13, atol=1e-12)
-    np.testing.assert_allclose(atb[:p], x @ yv, rtol=1e-13, atol=1e-14)
+    sums = kinematics.gram_reduced(op2.tree, red, q, y, sw)  # runs whenever called
+    assert sums is not None
+    ata, atb, yty = sums
+    np.testing.assert_allclose(ata, x @ x.T, rtol=1e-13, atol=1e-12)
+    np.testing.assert_allclose(atb, x @ yv, rtol=1e-13, atol=1e-14)
     assert yty == pytest.approx(yv @ yv, rel=1e-14)
-    assert not ata[p:].any() and not atb[p:].any()  # padding rows stay zero
+    assert kinematics.gram_reduced(op2.tree, red, q + 1e6, y, sw) is None  # huge: numpy's
 
 
-def test_symmetric_product_matches_blas_for_any_width(rng):
-    """``gram_upper`` (2 × 4 register blocks, rows padded to 4) = X Xᵀ, X y, yᵀy."""
-    for p, m in [(1, 1), (5, 3), (42, 512), (63, 1000)]:
-        x, y = rng.normal(size=(p, m)), rng.normal(size=m)
-        p4 = kinematics.padded(p)
-        ata, atb = np.zeros((p4, p4)), np.zeros(p4)
-        yty = kinematics.gram_upper(x, y, ata, atb)
-        np.testing.assert_allclose(np.triu(ata)[:p, :p], np.triu(x @ x.T), rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(atb[:p], x @ y, rtol=1e-12, atol=1e-12)
-        assert yty == pytest.approx(y @ y, rel=1e-13)
+@pytest.mark.parametrize("kernels", [True, False])
+def test_symmetric_product_matches_blas_for_any_width(rng, kernels):
+    """``gram_columns`` (compiled 4 × 4 tiles of 8-lane FMA sums, or numpy column by column)
+    = X Xᵀ on and above the diagonal, for any number of rows and columns."""
+    for p, m in [(1, 1), (5, 3), (42, 512), (63, 1000), (9, 17)]:
+        x = rng.normal(size=(p, m))
+        out = kinematics.gram_columns(x, kernels)
+        assert out.shape == (kinematics.padded(p),) * 2
+        np.testing.assert_allclose(np.triu(out[:p, :p]), np.triu(x @ x.T), rtol=1e-12, atol=1e-12)
 
 
 def test_compiled_cop_equals_the_full_chain(op2, rng):
-    """The CoP path over rows 0, 1 only agrees with the 3-row chain and Pinocchio's CoM."""
+    """The CoP over rows 0, 1 only gives the same bits as the 3-row CoM in numpy and compiled,
+    agrees with the chain, and refuses (or hands to numpy) angles beyond the kernel's range."""
     q = rng.uniform(-3, 3, (2 * kinematics.CHAIN_BLOCK + 5, op2.nq))
-    fast = kinematics.cop_xy_compiled(op2.tree, q, op2.sesc_vectors())
-    assert fast is not None
+    r = op2.sesc_vectors()
+    fast = kinematics.cop_xy(op2.tree, q, r)
+    com = kinematics.com_rows(op2.tree, q, r, 3)
+    assert np.array_equal(fast, com[:, :2])
+    rot = kinematics.chain(op2.tree, q, None, False)
+    assert np.array_equal(kinematics.com_sum(rot, r, op2.tree.root_o, 3).T, com)
     np.testing.assert_allclose(fast, op2.com(q)[:, :2], rtol=0, atol=1e-15)
-    assert kinematics.cop_xy_compiled(op2.tree, q + 1e6, op2.sesc_vectors()) is None  # huge
+    with pytest.raises(sescid.SescidError, match="beyond"):
+        kinematics.cop_xy(op2.tree, q + 1e6, r)
+    np.testing.assert_allclose(kinematics.com_rows(op2.tree, q + 2e6 * np.pi, r), fast, atol=1e-9)
 
 
 def test_nan_hidden_in_a_finite_looking_sum_is_found(op2):

@@ -18,14 +18,6 @@ from sescid.kinematics import trig as ktrig
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@pytest.fixture(autouse=True)
-def _keep_numpy_spent():
-    """Tests that reset the process's numpy-work counter restore it."""
-    old = kcompile._numpy_spent[0]
-    yield
-    kcompile._numpy_spent[0] = old
-
-
 def _kernel_chain(tree, q):
     nb = len(tree.parent)
     s, c1 = np.empty((nb, len(q))), np.empty((nb, len(q)))
@@ -38,56 +30,73 @@ def _kernel_chain(tree, q):
 
 
 @pytest.mark.parametrize("scale", [0.5, 3.0, 2e4])
-def test_numpy_chain_is_the_kernel_bit_for_bit(op2, scale, monkeypatch):
-    """sin θ, 1 − cos θ, rotations, origins and reduced regressor columns of the numpy path are
-    the compiled kernels' bits, small and large angles (|θ| up to ~4·10⁴ rad) alike."""
+def test_numpy_chain_is_the_kernel_bit_for_bit(op2, scale):
+    """sin θ, 1 − cos θ, rotations, origins, reduced regressor columns and CoM sums of the numpy
+    path are the compiled kernels' bits, small and large angles (|θ| up to ~4·10⁴ rad) alike."""
     tree, m = op2.tree, 300
     q = np.random.default_rng(7).uniform(-scale, scale, (m, op2.nq))
     s_ref, c_ref, rot_ref = _kernel_chain(tree, q)  # loads the kernels
     nb = len(tree.parent)
     org_ref = np.empty((nb, 3, m))
     kchain._origins_block(rot_ref, tree.parent, tree.t, tree.root_o, org_ref)
-    cols_ref = kin.reduced_columns(tree, op2.reduction, q).copy()
-    # the numpy path, as it runs while the kernels are not loaded
-    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [object()])
-    kcompile._numpy_spent[0] = 0
+    cols_ref = kin.reduced_columns(tree, op2.reduction, q, None, True).copy()
     s, c1, rot = np.empty((nb, m)), np.empty((nb, m)), np.empty((nb, 3, 3, m))
     ktrig._trig_poly_numpy(tree, q, s, c1)
     kchain._chain_numpy(tree, s, c1, rot)
     assert np.array_equal(s, s_ref) and np.array_equal(c1, c_ref)
     assert np.array_equal(rot, rot_ref)
     org = np.empty((nb, 3, m))
-    kchain._origins(rot, tree, org)
+    kchain._origins(rot, tree, org, False)
     assert np.array_equal(org, org_ref)
-    cols = kin.reduced_columns(tree, op2.reduction, q)
-    assert kcompile._numpy_spent[0] == m * nb  # the chain ran in numpy
-    assert np.array_equal(cols, cols_ref)
+    assert np.array_equal(kin.reduced_columns(tree, op2.reduction, q, None, False), cols_ref)
+    r = op2.sesc_vectors()
+    com = kin.com_sum(rot, r, tree.root_o, 3).T
+    assert np.array_equal(com, kin.com_rows(tree, q, r, 3))  # compiled: the kernels are loaded
+    one = [kchain.com_one(tree, np.ascontiguousarray(qk), r) for qk in q[:5]]
+    assert all(o is not None and np.array_equal(o[0], c) for o, c in zip(one, com, strict=False))
 
 
-def test_chain_paths_agree_beyond_the_kernel_angle_range(op2, monkeypatch):
+def test_chain_paths_agree_beyond_the_kernel_angle_range(op2):
     """chain() on angles beyond MAX_ANGLE (libm sin/cos on both paths) gives the same bits in
-    numpy as with the kernels loaded."""
+    numpy as with the kernels."""
     q = np.random.default_rng(3).uniform(-1, 1, (40, op2.nq)) * 3 * kin.MAX_ANGLE
-    _kernel_chain(op2.tree, q[:1])  # loads the kernels
-    ref = kin.chain(op2.tree, q).copy()
-    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [object()])
-    kcompile._numpy_spent[0] = 0
-    assert np.array_equal(kin.chain(op2.tree, q), ref) and kcompile._numpy_spent[0] > 0
+    ref = kin.chain(op2.tree, q, None, True).copy()
+    assert np.array_equal(kin.chain(op2.tree, q, None, False), ref)
 
 
-def test_numpy_path_rule(monkeypatch):
-    """Blocks of ≤ SMALL_BLOCK poses run in numpy while the body-poses run so far plus the
-    block's stay within NUMPY_BUDGET, and never once the kernels are loaded."""
-    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [object()])
-    kcompile._numpy_spent[0] = 0
-    nb = 21
-    assert kcompile._numpy_path(kcompile.SMALL_BLOCK, nb) and not kcompile._numpy_path(
-        kcompile.SMALL_BLOCK + 1, nb
+def test_the_path_depends_on_the_job_alone():
+    """numpy below NUMPY_JOB work units, the kernels above, whatever ran before; kernels already
+    loaded may run a small job only where both paths give the same bits (prefer_kernels)."""
+    assert not kcompile.use_kernels(kcompile.NUMPY_JOB)
+    assert kcompile.use_kernels(kcompile.NUMPY_JOB + 1)
+    kin.load_kernels()
+    assert not kcompile.use_kernels(1) and kcompile.prefer_kernels(1)
+    assert "_numpy_spent" not in vars(kcompile)  # no process-wide counter
+
+
+def test_a_fit_is_the_same_bits_whatever_ran_before(tmp_path):
+    """The same small and large fits in a fresh process and after the kernels were loaded by
+    other work: the same bytes (the path is the job's, not the process's history)."""
+    code = (
+        "import sys, numpy as np, sescid\n"
+        "r = sescid.load_robot('op2')\n"
+        "if sys.argv[1] == 'warm':\n"
+        "    sescid.kinematics.cop_xy(r.tree, np.zeros((3, r.nq)), r.sesc_vectors())\n"
+        "out = []\n"
+        "for n in (300, 30000):\n"
+        "    rng = np.random.default_rng(n)\n"
+        "    q = rng.uniform(-0.5, 0.5, (n, r.nq))\n"
+        "    f = sescid.identify(r, q, rng.normal(0, 0.01, (n, 2)))\n"
+        "    out.append(f.r.tobytes().hex() + f.cov.tobytes().hex() + repr(f.mae))\n"
+        "print('numba' in sys.modules, hash(tuple(out)))\n"
     )
-    kcompile._numpy_spent[0] = kcompile.NUMPY_BUDGET - 100 * nb
-    assert kcompile._numpy_path(100, nb) and not kcompile._numpy_path(101, nb)
-    monkeypatch.setitem(kcompile._LAZY, kcompile.GROUP, [])
-    assert not kcompile._numpy_path(1, nb)
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), PYTHONHASHSEED="0")
+    runs = [
+        subprocess.run([sys.executable, "-c", code, how], capture_output=True, text=True,
+                       env=env, check=True).stdout.split()
+        for how in ("cold", "warm")
+    ]  # fmt: skip
+    assert runs[0][1] == runs[1][1]
 
 
 def test_demo_runs_without_numba_and_prints_the_readme_numbers(tmp_path):

@@ -31,16 +31,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
-from sescid.kinematics import (
-    CHAIN_BLOCK,
-    Tree,
-    Workspace,
-    as_poses,
-    chain,
-    com_one,
-    cop_xy_compiled,
-    forward,
-)
+from sescid.kinematics import Tree, as_poses, com_one, com_rows
+from sescid.kinematics.torque_values import torque_rows, torque_values
 from sescid.model import RobotModel
 
 #: standard gravity, m/s² (the magnitude of g; its direction comes from the data or a level sole)
@@ -83,20 +75,9 @@ def com_from_sesc(
         if com is not None:
             first = tuple(rows) in ((0, 1), (0, 1, 2))  # CoP or CoM: a view, no index array
             return com[:, : len(rows)] if first else com[:, list(rows)]
-    if tuple(rows) == (0, 1) and np.shape(r) == (tree.parent.shape[0], 3):
-        cop = cop_xy_compiled(tree, q, np.ascontiguousarray(r, dtype=float))  # rows 0, 1 only
-        if cop is not None:
-            return cop
-    rows = list(rows)
-    vec = np.asarray(r, dtype=float).reshape(-1)
-    out = np.empty((q.shape[0], len(rows)))
-    ws = Workspace(tree, min(CHAIN_BLOCK, max(q.shape[0], 1)))
-    for s in range(0, q.shape[0], ws.block):
-        rot = chain(tree, q[s : s + ws.block], ws)  # (N, 3, 3, m), [b, j, i, k]
-        m = rot.shape[3]
-        com = vec @ rot.reshape(vec.size, 3 * m)  # (3·m,), ordered (i, k)
-        out[s : s + m] = com.reshape(3, m)[rows].T
-    return out + tree.root_o[rows]
+    k = 2 if tuple(rows) == (0, 1) else 3  # the CoP's rows alone, else all three
+    com = com_rows(tree, q, np.asarray(r, dtype=float).reshape(-1, 3), k)
+    return com if tuple(rows) in ((0, 1), (0, 1, 2)) else com[:, list(rows)]
 
 
 def _plain(r) -> bool:
@@ -168,20 +149,8 @@ def torque_regressor(
     ``cols`` (J,), under gravity (n, 3) directions in the support frame (None: level) of
     magnitude g0 [m/s²]."""
     q = as_poses(q, tree.nq)
-    n, nb = q.shape[0], tree.parent.shape[0]
     cols = np.asarray(cols, dtype=np.int64).reshape(-1)
-    g = gravity_vectors(gravity, n, g0)
-    out = np.empty((n, cols.size, 3 * nb))
-    weight = joint_bodies(tree, cols)  # (J, N)
-    sub = subtree_matrix(tree)  # (N, N)
-    for s in range(0, n, CHAIN_BLOCK):
-        rot, _ = forward(tree, q[s : s + CHAIN_BLOCK])  # (m, N, 3, 3)
-        axes = np.einsum("mbij,bj->mbi", rot, tree.axis)  # joint axes, support frame
-        h = np.cross(axes, g[s : s + CHAIN_BLOCK, None, :])  # (m, N, 3)
-        lever = np.einsum("jb,bi,mbk->mjik", weight, sub, h)  # (m, J, N, 3)
-        block = np.einsum("mjik,mikl->mjil", lever, rot)  # hᵀ R_i
-        out[s : s + block.shape[0]] = block.reshape(block.shape[0], cols.size, 3 * nb)
-    return out
+    return torque_rows(tree, q, cols, gravity_vectors(gravity, q.shape[0], g0))
 
 
 def torques(
@@ -197,5 +166,6 @@ def torques(
     r (N, 3) [m] and total mass [kg], under gravity (n, 3) directions (None: level) of
     magnitude g0 [m/s²]."""
     cols = np.arange(tree.nq) if cols is None else np.asarray(cols, dtype=np.int64)
-    phi = torque_regressor(tree, q, cols, gravity, g0)
-    return total_mass * (phi @ np.asarray(r, dtype=float).reshape(-1))
+    q = as_poses(q, tree.nq)
+    g = gravity_vectors(gravity, q.shape[0], g0)
+    return torque_values(tree, q, np.asarray(r, dtype=float), float(total_mass), cols, g)

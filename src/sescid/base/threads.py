@@ -11,6 +11,13 @@ against 0.3 ms on one thread. So:
   BLAS libraries already loaded (threadpoolctl) for the duration of the call and restores the
   caller's setting after.
 
+The same bytes on every x86-64 CPU: OpenBLAS picks its kernels by CPU (FMA or not, vector
+width), so the eigendecompositions and products of a fit differ in their last bits between
+machines (measured: a fit's r and covariance change with ``OPENBLAS_CORETYPE``). ``pin_process``
+also asks OpenBLAS for one baseline kernel set (``BLAS_CORE``, SSE3: every x86-64 CPU runs it;
+the products are 63 × 63, so speed does not suffer), unless the user chose one. Other
+architectures (ARM) and other BLAS libraries (MKL, Accelerate) keep their own kernels.
+
 Large jobs use every core this process may run on through ``ordered_map``: independent blocks
 of poses on worker threads (the compiled kernels release the GIL), results in block order, so
 a sum over blocks is the same bit for bit whatever the number of threads.
@@ -46,13 +53,22 @@ def _linalg_modules() -> frozenset[str]:
     )
 
 
+#: OpenBLAS's kernel set for the command line on x86-64 (the SSE3 baseline: the same code, and
+#: so the same bits, on every x86-64 CPU)
+BLAS_CORE = "Prescott"
+
+
 def pin_process() -> None:
-    """Ask every BLAS this process loads later for one thread (call before numpy is imported;
-    a variable the user set is kept). ``one_blas_thread`` then has nothing left to do."""
+    """Ask every BLAS this process loads later for one thread and, on x86-64, OpenBLAS for its
+    baseline kernels (call before numpy is imported; a variable the user set is kept).
+    ``one_blas_thread`` then has nothing left to do."""
+    import platform
     import sys
 
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+    if platform.machine().lower() in ("x86_64", "amd64"):
+        os.environ.setdefault("OPENBLAS_CORETYPE", BLAS_CORE)
     _state["pinned"] = "numpy" not in sys.modules and all(
         os.environ[name] == "1" for name in THREAD_VARIABLES
     )
@@ -112,6 +128,7 @@ def ordered_map(fn: Callable[[T], R], items: Sequence[T]) -> Iterator[R]:
 
 
 __all__ = [
+    "BLAS_CORE",
     "MAX_WORKERS",
     "THREAD_VARIABLES",
     "one_blas_thread",

@@ -7,7 +7,8 @@ A's own when there is no nuisance), its named base combinations and the named di
 of these kinds could see; the nuisance parameters (sensor offsets, friction bands) with their
 standard errors, or "not determined" with the reason; one ``KindFit`` per measurement kind.
 ``with_residuals`` adds each kind's residual MAE and RMS (and the error against a simulation's
-noise-free CoP) from a second pass over the data.
+noise-free CoP) from one more pass over the data (``residual_sums``: the MAE needs each row's
+residual at the final estimate).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from sescid.estimation.identifiability import (
 )
 from sescid.estimation.measurements import COP, TORQUE, Measurements
 from sescid.estimation.normal_equations import NormalEquations
+from sescid.estimation.residual_sums import residual_sums
 from sescid.estimation.solve import UNITS, Solution, solve_system
 from sescid.estimation.system import KindSums, System
 from sescid.robot import Robot
@@ -246,23 +248,18 @@ def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     return out
 
 
-def with_residuals(fit: Fit, data: Iterable[Measurements]) -> Fit:
+def with_residuals(
+    fit: Fit,
+    data: Iterable[Measurements] = (),
+    *,
+    sources: Iterable[Iterable[Measurements]] | None = None,
+) -> Fit:
     """The fit with each kind's residual MAE and RMS (per row, in the kind's unit) and, for
-    simulated data with a noise-free CoP, the RMS error against it."""
-    abs_sum: dict[str, float] = {}
-    sq_sum: dict[str, float] = {}
-    count: dict[str, int] = {}
-    truth_sq, truth_n = 0.0, 0
-    for m in data:
-        for k, e in residuals(fit, m).items():
-            flat = e.reshape(-1)
-            abs_sum[k] = abs_sum.get(k, 0.0) + float(np.sum(np.abs(flat)))
-            sq_sum[k] = sq_sum.get(k, 0.0) + float(np.dot(flat, flat))
-            count[k] = count.get(k, 0) + flat.size
-        if m.cop_true is not None:
-            d = fit.predict_cop(m.q, m.gravity) - m.cop_true
-            truth_sq += float(np.sum(d * d))
-            truth_n += d.size
+    simulated data with a noise-free CoP, the RMS error against it: one pass over ``data``
+    (chunks of one data set) or ``sources`` (each data set's chunks), ``residual_sums``."""
+    sums = residual_sums(fit, [data] if sources is None else sources)
+    abs_sum, sq_sum, count = sums.abs_sum, sums.sq_sum, sums.count
+    truth_sq, truth_n = sums.truth_sq, sums.truth_n
     kinds = tuple(
         dataclasses.replace(
             kf,

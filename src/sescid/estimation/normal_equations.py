@@ -2,12 +2,14 @@
 
 The x/y regressor is accumulated in reduced coordinates (``Robot.reduction``: the structural
 null directions removed in closed form) and expanded exactly, so a stream of chunks gives the
-same sums as one array without storing Φ.
+same sums as one array without storing Φ. Every sum runs in a fixed order, never BLAS's (whose
+order follows the CPU): the compiled product (``kinematics.gram``: FMAs in 8 lanes) for a large
+job, numpy one column at a time for a small one (``kinematics.use_kernels``: the job's size
+alone decides), so the same data give the same bits on every machine.
 """
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -19,11 +21,11 @@ from sescid.errors import DataError
 from sescid.kinematics import (
     Workspace,
     as_poses,
-    compiled,
+    gram_columns,
     gram_reduced,
-    gram_upper,
-    padded,
     reduced_columns,
+    split_augmented,
+    use_kernels,
 )
 from sescid.robot import Robot
 
@@ -47,36 +49,61 @@ class NormalEquations:
         return cls(np.zeros((n_params, n_params)), np.zeros(n_params))
 
     def add(self, phi_t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> None:
-        """Add rows given as columns: phi_t = Φᵀ (P, m), y (m,), optional weights w (m,) = 1/σ²."""
-        if w is not None:
-            sw = np.sqrt(w)
-            phi_t = phi_t * sw
-            y = y * sw
-        self.ata += phi_t @ phi_t.T
-        self.atb += phi_t @ y
-        self.yty += float(y @ y)
-        self.n_rows += phi_t.shape[1]
+        """Add rows given as columns: phi_t = Φᵀ (P, m), y (m,), optional weights w (m,) = 1/σ²
+        (in a fixed order: ``add_columns`` on the job's path)."""
+        sw = None if w is None else np.sqrt(w)
+        add_columns(self, phi_t, y, sw, use_kernels(phi_t.shape[0] * phi_t.shape[1]))
+
+    def add_sums(self, other: NormalEquations) -> None:
+        """Add another block's sums (its rows; the poses are counted by the caller)."""
+        self.ata += other.ata
+        self.atb += other.atb
+        self.yty += other.yty
+        self.n_rows += other.n_rows
 
 
-def add_columns(acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndarray | None) -> None:
-    """Add a block given as columns x = Φᵀ (P, m) ≤ acc's padded size, targets y (m,) and
-    square-root weights sw (m,) or None: compiled (one core) once the kernels are loaded,
-    BLAS for the few small blocks before."""
+def add_columns(
+    acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndarray | None, kernels: bool
+) -> None:
+    """Add a block given as columns x = Φᵀ (P, m), P ≤ acc's size, targets y (m,) and
+    square-root weights sw (m,) or None: the augmented product [x; y][x; y]ᵀ compiled (FMAs in
+    8 lanes) when ``kernels``, else numpy one column at a time (``kinematics.gram_columns``)."""
     if sw is not None:
         x, y = x * sw, y * sw
-    if compiled():
-        acc.yty += gram_upper(x, y, acc.ata, acc.atb)
-    else:
-        p = x.shape[0]
-        acc.ata[:p, :p] += x @ x.T
-        acc.atb[:p] += x @ y
-        acc.yty += float(y @ y)
+    p = x.shape[0]
+    aug = np.empty((p + 1, x.shape[1]))
+    aug[:p] = x
+    aug[p] = y
+    ata, atb, yty = split_augmented(gram_columns(aug, kernels), p)
+    acc.ata[:p, :p] += ata
+    acc.atb[:p] += atb
+    acc.yty += yty
     acc.n_rows += x.shape[1]
 
 
-def upper_to_full(a: np.ndarray) -> np.ndarray:
-    """The symmetric matrix whose upper triangle ``a`` holds."""
-    return np.triu(a) + np.triu(a, 1).T
+def matmul_fixed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """A (m, k) @ b (k, n) [or (k,)] summed over k in order, each product and sum rounded on its
+    own: the same bits on every CPU (BLAS picks its order and FMAs by CPU)."""
+    vec = b.ndim == 1
+    b2 = b[:, None] if vec else b
+    out = np.zeros((a.shape[0], b2.shape[1]))
+    tmp = np.empty_like(out)
+    for k in range(a.shape[1]):
+        np.multiply(a[:, k, None], b2[None, k, :], out=tmp)
+        out += tmp
+    return out[:, 0] if vec else out
+
+
+def expand(g: np.ndarray, ne: NormalEquations) -> tuple[np.ndarray, np.ndarray]:
+    """(Gᵀ A G, Gᵀ b) of reduced sums (A, b) over β = G θ, in a fixed order."""
+    gt = np.ascontiguousarray(g.T)
+    return matmul_fixed(matmul_fixed(gt, ne.ata), g), matmul_fixed(gt, ne.atb)
+
+
+def cop_work(robot: Robot, n: int) -> int:
+    """Work units (``kinematics.NUMPY_JOB``) of n CoP poses: the chain and two rows of reduced
+    columns."""
+    return n * (len(robot.body_names) + 2 * robot.reduction.g.shape[0])
 
 
 def check_cop(cop: ArrayLike, n: int, what: str = "cop") -> np.ndarray:
@@ -105,55 +132,61 @@ def row_weights(sigma: ArrayLike | None, n: int) -> np.ndarray | None:
     return (1.0 / s**2).reshape(-1)
 
 
-def add_cop_tilted(robot, ne: NormalEquations, q, cop, sw, gravity, progress=None) -> None:
-    """Add the tilted x/y rows of validated poses under per-pose gravity (n, 3) to ``ne`` (full
-    Φ); ``sw`` (n, 2) square-root weights or None."""
+def tilted_sums(robot, q, cop, sw, gravity, kernels: bool) -> NormalEquations:
+    """The tilted x/y rows' sums (full Φ) of one block of validated poses under per-pose
+    gravity (n, 3); ``sw`` (n, 2) square-root weights or None."""
+    ne = NormalEquations.empty(3 * len(robot.body_names))
+    phi = robot.regressor_tilted(q, gravity)  # (m, 2, P), rows (pose, row)
+    y = (cop - robot.d_tilted(gravity, q.shape[0])).reshape(-1)
+    add_columns(ne, phi.reshape(-1, phi.shape[2]).T, y, None if sw is None else sw.reshape(-1),
+                kernels)  # fmt: skip
+    return ne
+
+
+def add_cop_tilted(robot, ne: NormalEquations, q, cop, sw, gravity, kernels: bool) -> None:
+    """Add the tilted x/y rows of validated poses, block by block, to ``ne`` (full Φ)."""
     g = np.asarray(gravity, dtype=float)
-    d = robot.d_tilted(g, q.shape[0])
-    block = ACCUMULATE_BLOCK
-    for s in range(0, q.shape[0], block):
-        blk = slice(s, s + block)
-        phi = robot.regressor_tilted(q[blk], g[blk])  # (m, 2, P)
-        y = (cop[blk] - d[blk]).reshape(-1)
-        ne.add(phi.reshape(-1, phi.shape[2]).T, y, None if sw is None else sw[blk].reshape(-1) ** 2)
-        if progress is not None:
-            progress(min(s + block, q.shape[0]), q.shape[0])
+    for s in range(0, q.shape[0], ACCUMULATE_BLOCK):
+        blk = slice(s, s + ACCUMULATE_BLOCK)
+        ne.add_sums(tilted_sums(robot, q[blk], cop[blk], None if sw is None else sw[blk], g[blk],
+                                kernels))  # fmt: skip
 
 
-def add_cop_reduced(robot, acc: NormalEquations, q, y, sw, ws: Workspace, progress) -> None:
+def reduced_sums(robot, q, y, sw, kernels: bool, ws: Workspace | None) -> NormalEquations:
+    """One block's reduced CoP sums (P_red): the fused kernel when ``kernels`` (numpy's exact
+    reduction and the compiled product for angles beyond its range), else numpy."""
+    red = robot.reduction
+    p = red.g.shape[0]
+    part = NormalEquations.empty(p)
+    if kernels:
+        sums = gram_reduced(robot.tree, red, q, y, sw)
+        if sums is not None:
+            part.ata, part.atb, part.yty = sums
+            part.n_rows = y.shape[0] * y.shape[1]
+            return part
+    x = reduced_columns(robot.tree, red, q, ws, kernels)  # (P_red, 2m): x rows, y rows
+    add_columns(part, x, y.T.reshape(-1), None if sw is None else sw.T.reshape(-1), kernels)
+    return part
+
+
+def add_cop_reduced(robot, acc: NormalEquations, q, y, sw, kernels: bool, progress=None) -> None:
     """Add a validated chunk's reduced sums to ``acc``, block by block: each block's sums on
     their own, added in block order (the same bits on any number of threads)."""
-    red = robot.reduction
-    starts = range(0, q.shape[0], ws.block)
+    starts = range(0, q.shape[0], ACCUMULATE_BLOCK)
 
-    def block_sums(s: int, ws: Workspace | None = ws) -> NormalEquations:
-        """One block's sums; ``ws`` None on a worker thread (the shared one is not safe)."""
-        part = NormalEquations.empty(acc.ata.shape[0])
+    def block_sums(s: int) -> NormalEquations:
         blk = slice(s, s + ACCUMULATE_BLOCK)
-        sw_b = None if sw is None else sw[blk]
-        yty = gram_reduced(robot.tree, red, q[blk], y[blk], sw_b, part.ata, part.atb)
-        if yty is None:  # kernels not loaded yet, or huge angles: columns, then product
-            x = reduced_columns(robot.tree, red, q[blk], ws)  # (P_red, 2m): x rows, y rows
-            add_columns(part, x, y[blk].T.reshape(-1), None if sw_b is None else sw_b.T.reshape(-1))
-        else:
-            part.yty, part.n_rows = yty, 2 * y[blk].shape[0]
-        return part
+        return reduced_sums(robot, q[blk], y[blk], None if sw is None else sw[blk], kernels, None)
 
-    if not starts:
-        return
-    first = block_sums(starts[0])  # alone: it may load the kernels
-    rest = starts[1:]
-    if compiled() and len(rest) > 1:  # then on every core: the kernels release the GIL
-        parts: Iterable[NormalEquations] = ordered_map(lambda s: block_sums(s, None), rest)
+    parts: Iterable[NormalEquations]
+    if kernels and len(starts) > 1:  # on every core: the kernels release the GIL
+        parts = ordered_map(block_sums, starts)
     else:
-        parts = map(block_sums, rest)
-    for k, part in enumerate(itertools.chain([first], parts)):
-        acc.ata += part.ata
-        acc.atb += part.atb
-        acc.yty += part.yty
-        acc.n_rows += part.n_rows
+        parts = map(block_sums, starts)
+    for k, part in enumerate(parts):
+        acc.add_sums(part)
         if progress is not None:
-            progress(min(starts[k] + ws.block, q.shape[0]), q.shape[0])
+            progress(min(starts[k] + ACCUMULATE_BLOCK, q.shape[0]), q.shape[0])
 
 
 @one_blas_thread()
@@ -166,7 +199,7 @@ def accumulate(
     validated: bool = False,
 ) -> NormalEquations:
     """Accumulate normal equations from chunks ``(q, cop)``, ``(q, cop, sigma)`` or
-    ``(q, cop, sigma, gravity)``.
+    ``(q, cop, sigma, gravity)``; each chunk is one job (its size picks the path).
 
     ``gravity`` (n, 3): per-pose gravity direction in the support frame; its rows are the tilted
     ones Φx − (gx/gz) Φz, Φy − (gy/gz) Φz (accumulated in full coordinates: z information
@@ -174,11 +207,8 @@ def accumulate(
     ``validated``: q and cop already passed ``as_poses``/``check_cop`` (not checked again).
     """
     ne = ne or NormalEquations.empty(3 * len(robot.body_names))
-    d_xy = robot.d[:2]
-    ws = Workspace(robot.tree, ACCUMULATE_BLOCK)
     red = robot.reduction
-    p_red = red.g.shape[0]
-    acc = NormalEquations.empty(padded(p_red))  # in reduced coordinates β = G r (zero-padded)
+    acc = NormalEquations.empty(red.g.shape[0])  # in reduced coordinates β = G r
     for chunk in chunks:
         q, cop = chunk[0], chunk[1]
         sigma = chunk[2] if len(chunk) > 2 else None
@@ -187,17 +217,18 @@ def accumulate(
             q = as_poses(q, robot.nq)
             cop = check_cop(cop, q.shape[0])
         w = row_weights(sigma, q.shape[0])
-        if gravity is not None:
-            sw_t = None if w is None else np.sqrt(w).reshape(-1, 2)
-            add_cop_tilted(robot, ne, q, cop, sw_t, gravity, progress)
-            ne.n_poses += q.shape[0]
-            continue
-        y = cop - d_xy
         sw = None if w is None else np.sqrt(w).reshape(-1, 2)
-        add_cop_reduced(robot, acc, q, y, sw, ws, progress)
+        kernels = use_kernels(cop_work(robot, q.shape[0]))
+        if gravity is not None:
+            add_cop_tilted(robot, ne, q, cop, sw, gravity, kernels)
+            if progress is not None:
+                progress(q.shape[0], q.shape[0])
+        else:
+            add_cop_reduced(robot, acc, q, cop - robot.d[:2], sw, kernels, progress)
         ne.n_poses += q.shape[0]
-    ne.ata += red.g.T @ upper_to_full(acc.ata)[:p_red, :p_red] @ red.g
-    ne.atb += red.g.T @ acc.atb[:p_red]
+    ata, atb = expand(red.g, acc)
+    ne.ata += ata
+    ne.atb += atb
     ne.yty += acc.yty
     ne.n_rows += acc.n_rows
     return ne

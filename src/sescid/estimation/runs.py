@@ -84,15 +84,14 @@ def run_method(
             robot, system, m, rtol=options.rtol, cv_folds=cv, kind_noise=options.noise(),
             r_prior=options.r_prior,
         )  # fmt: skip
-    fit = with_residuals(fit, (c for s in sources for c in s.chunks()))
+    fit = with_residuals(fit, sources=[s.chunks() for s in sources])
     if method == "consistent":
         copts = options.consistent
         if copts.total_mass is None and options.total_mass is not None:
             copts = dataclasses.replace(copts, total_mass=options.total_mass)
         src, kw = copts.resolved(fit)
         masses = refit_nuisance(consistent_from_fit(src, **kw), system)
-        fit = with_residuals(masses, (c for s in sources for c in
-                                                              s.chunks()))  # fmt: skip
+        fit = with_residuals(masses, sources=[s.chunks() for s in sources])
         dof = fit.n_rows - fit.rank
         if len(fit.kinds) == 1 and not fit.kinds[0].weighted:
             sig = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
@@ -165,7 +164,7 @@ def fit_with_gains(robot, method, opts: IdentifyOptions, memory, robust: bool) -
         )
 
     fit = with_gains(solve, robot, memory, plain, start)
-    return with_residuals(fit, memory)
+    return with_residuals(fit, sources=[[m] for m in memory])
 
 
 def fit_online(robot, method, opts: IdentifyOptions, memory: list[Measurements]) -> Fit:

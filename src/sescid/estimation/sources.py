@@ -11,6 +11,7 @@ cache, not this process's memory) and replayed from there: flat memory for any n
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import tempfile
 from collections.abc import Iterable, Iterator
 from typing import IO, Any
@@ -35,6 +36,10 @@ class MemorySource:
         """The data, as one chunk."""
         yield self.data
 
+    def first(self) -> Measurements | None:
+        """The first chunk (what the data measure)."""
+        return self.data
+
     def close(self) -> None:
         """Nothing to release."""
 
@@ -47,6 +52,17 @@ class StreamSource:
         self._chunks: Iterable[Measurements] | None = chunks
         self._spill: IO[bytes] | None = None
         self._layout: list[tuple[Measurements, list[Any]]] = []
+
+    def first(self) -> Measurements | None:
+        """The first chunk, unchecked (what the data measure), read ahead without losing it:
+        the first pass still yields every chunk."""
+        if self._chunks is None:
+            return self._layout[0][0] if self._layout else None
+        it = iter(self._chunks)
+        head = next(it, None)
+        if head is not None:
+            self._chunks = itertools.chain([head], it)
+        return head
 
     def chunks(self) -> Iterator[Measurements]:
         """The chunks: read (and spilled) on the first pass, replayed on later ones."""

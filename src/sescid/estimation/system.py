@@ -20,18 +20,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sescid.base.threads import ordered_map
 from sescid.errors import DataError
-from sescid.estimation.measurements import COP, TORQUE, Measurements, concatenate
-from sescid.estimation.normal_equations import (
-    ACCUMULATE_BLOCK,
-    NormalEquations,
-    add_columns,
-    add_cop_reduced,
-    add_cop_tilted,
-    upper_to_full,
-)
-from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names, torque_columns
-from sescid.kinematics import Workspace, padded
+from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
+from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
+from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
+from sescid.kinematics import use_kernels
+from sescid.kinematics.fused import reduced_order
+from sescid.kinematics.torque_sums import fold_torque
 from sescid.robot import Robot
 from sescid.sesc import STANDARD_GRAVITY
 
@@ -160,22 +157,28 @@ class RowOptions:
 
 
 class Accumulator:
-    """The normal equations of one source (a file, or arrays), fed in chunks of any size."""
+    """The normal equations of one source (a file, or arrays), fed in chunks of any size.
+
+    The source is one job: its size alone picks numpy or the compiled kernels
+    (``kinematics.use_kernels``), decided once its poses exceed numpy's budget or at ``finish``
+    (until then its poses wait, at most that budget's worth), so a file streamed in chunks and
+    the same data in memory take the same path and give the same bits."""
 
     def __init__(self, robot: Robot, options: RowOptions = RowOptions()):
         self.robot, self.options = robot, options
         self.mass = robot.total_mass if options.total_mass is None else float(options.total_mass)
-        red = robot.reduction
-        self.p_red = red.g.shape[0]
-        self.cop_red = NormalEquations.empty(padded(self.p_red))
+        self.p_red = robot.reduction.g.shape[0]
+        self.cop_red = NormalEquations.empty(self.p_red)
         self.cop_full: NormalEquations | None = None
         self.tau_red: NormalEquations | None = None
+        self.cop_raw: np.ndarray | None = None  #: the compiled passes' raw sums (block order)
+        self.tau_raw: np.ndarray | None = None
         self.first: Measurements | None = None
         self.pending: list[Measurements] = []
         self.n_pending = 0
-        self.ws = Workspace(robot.tree, ACCUMULATE_BLOCK)
         self.n_poses = 0
         self.progress = None
+        self.maker: RowMaker | None = None  #: set when the path is decided
 
     def add(self, m: Measurements, progress=None) -> None:
         """Add validated measurements (``Measurements.checked``) of this source;
@@ -189,107 +192,140 @@ class Accumulator:
         self.progress = progress
         self.pending.append(m)
         self.n_pending += m.n
-        whole = self.n_pending - self.n_pending % ACCUMULATE_BLOCK
-        if whole:
-            joined = concatenate(self.pending)
-            self._blocks(joined.take(slice(0, whole)), progress)
-            rest = joined.take(slice(whole, None))
-            self.pending, self.n_pending = ([rest] if rest.n else []), rest.n
+        if self.maker is None:
+            if not use_kernels(work(self.robot, m, self.n_poses + self.n_pending)):
+                return  # a small job so far: its poses wait for the end (numpy), or for more
+            self.maker = self._maker(True)
+        if self.n_pending < ACCUMULATE_BLOCK:
+            return
+        blocks = list(aligned(self.pending, ACCUMULATE_BLOCK))  # views (a copy at a seam)
+        rest = blocks.pop() if blocks[-1].n < ACCUMULATE_BLOCK else None
+        self._blocks(blocks, progress)
+        self.pending = [] if rest is None else [rest]
+        self.n_pending = 0 if rest is None else rest.n
 
-    def _blocks(self, m: Measurements, progress) -> None:
-        """Rows of poses whose count is a multiple of the block (or the source's last ones)."""
-        done = self.n_poses
-        report = None if progress is None else (lambda d, _n: progress(done + d))
-        self.n_poses += m.n
-        if m.cop is not None:
-            sw = _cop_weights(m) if self.options.weighted else None
-            if m.gravity is None:
-                y = m.cop - self.robot.d[:2]
-                add_cop_reduced(self.robot, self.cop_red, m.q, y, sw, self.ws, report)
-            else:
-                if self.cop_full is None:
-                    self.cop_full = NormalEquations.empty(3 * len(self.robot.body_names))
-                add_cop_tilted(self.robot, self.cop_full, m.q, m.cop, sw, m.gravity)
-            self.cop_red.n_poses += m.n
-        if m.tau is not None and m.tau_joints:
-            size = padded(self.p_red + len(torque_nuisance(m)))  # the product's 4 × 4 blocks
-            if self.tau_red is None:
-                self.tau_red = NormalEquations.empty(size)
-            for s in range(0, m.n, ACCUMULATE_BLOCK):
-                blk = m.take(slice(s, s + ACCUMULATE_BLOCK))
-                x, y, sw = torque_columns(
-                    self.robot, blk, self.mass, self.options.weighted, self.options.gravity_accel
-                )
-                part = NormalEquations.empty(size)
-                add_columns(part, x, y, sw)
-                self.tau_red.ata += part.ata
-                self.tau_red.atb += part.atb
-                self.tau_red.yty += part.yty
-                self.tau_red.n_rows += part.n_rows
-                if progress is not None:
-                    progress(done + min(s + ACCUMULATE_BLOCK, m.n))
-            self.tau_red.n_poses += m.n
+    def _maker(self, kernels: bool) -> RowMaker:
+        first = self.first
+        assert first is not None
+        return RowMaker(
+            self.robot, kernels, self.options.weighted, self.mass, self.options.gravity_accel,
+            first.tau_joints if first.tau is not None else (), first.approach is not None,
+        )  # fmt: skip
+
+    def _blocks(self, blocks: list[Measurements], progress) -> None:
+        """Sums of consecutive blocks (``ACCUMULATE_BLOCK`` poses, the source's last one
+        shorter): each block on its own (on every core for the compiled path), in block order."""
+        maker = self.maker
+        assert maker is not None
+        parts = (
+            ordered_map(maker.sums, blocks)
+            if maker.kernels and len(blocks) > 1
+            else map(maker.sums, blocks)
+        )
+        for blk, part in zip(blocks, parts, strict=True):
+            self._add(part)
+            self.n_poses += blk.n
+            if progress is not None:
+                progress(self.n_poses)
+            if blk.cop is not None:
+                self.cop_red.n_poses += blk.n
+            if blk.tau is not None and blk.tau_joints:
+                self._torque_sums().n_poses += blk.n
+
+    def _torque_sums(self) -> NormalEquations:
+        if self.tau_red is None:
+            first = self.first
+            assert first is not None
+            self.tau_red = NormalEquations.empty(self.p_red + len(torque_nuisance(first)))
+        return self.tau_red
+
+    def _add(self, part: BlockSums) -> None:
+        """One block's sums, in block order."""
+        if part.cop_red is not None:
+            self.cop_red.add_sums(part.cop_red)
+        if part.cop_raw is not None:
+            self.cop_raw = part.cop_raw if self.cop_raw is None else self.cop_raw + part.cop_raw
+            self.cop_red.n_rows += part.cop_rows
+        if part.cop_full is not None:
+            if self.cop_full is None:
+                self.cop_full = NormalEquations.empty(3 * len(self.robot.body_names))
+            self.cop_full.add_sums(part.cop_full)
+        if part.tau_red is not None:
+            self._torque_sums().add_sums(part.tau_red)
+        if part.tau_raw is not None:
+            self.tau_raw = part.tau_raw if self.tau_raw is None else self.tau_raw + part.tau_raw
+            self._torque_sums().n_rows += part.tau_rows
+
+    def _raw_sums(self) -> None:
+        """The compiled passes' raw accumulators, read once: into the reduced sums."""
+        tree, p = self.robot.tree, self.p_red
+        if self.cop_raw is not None:
+            ata, atb, yty = reduced_order(self.cop_raw, tree, len(self.robot.reduction.rows), p)
+            self.cop_red.ata += ata
+            self.cop_red.atb += atb
+            self.cop_red.yty += yty
+            self.cop_raw = None
+        if self.tau_raw is not None:
+            assert self.maker is not None and self.maker.plan is not None
+            ata, atb, yty = fold_torque(self.tau_raw, self.maker.plan, p)
+            t = self._torque_sums()
+            t.ata += ata
+            t.atb += atb
+            t.yty += yty
+            self.tau_raw = None
 
     def finish(self) -> System:
         """The source's system, in full coordinates (DataError when it had no poses)."""
+        if self.first is not None and self.maker is None:
+            self.maker = self._maker(False)  # the whole source fit numpy's budget
         if self.pending:
-            self._blocks(concatenate(self.pending), self.progress)
+            self._blocks(list(aligned(self.pending, ACCUMULATE_BLOCK)), self.progress)
             self.pending, self.n_pending = [], 0
         if self.first is None or self.n_poses == 0:
             raise DataError("no poses to identify from")
+        self._raw_sums()
         first = self.first
         nuisance = cop_offsets() if (COP in first.kinds and self.options.cop_offset) else ()
         n_x = 3 * len(self.robot.body_names)
         g = self.robot.reduction.g
         parts: dict[str, KindSums] = {}
         if COP in first.kinds:
-            ne = NormalEquations.empty(n_x)
-            p = self.p_red
-            ne.ata += g.T @ upper_to_full(self.cop_red.ata)[:p, :p] @ g
-            ne.atb += g.T @ self.cop_red.atb[:p]
-            ne.yty += self.cop_red.yty
-            ne.n_rows += self.cop_red.n_rows
+            ata, atb = expand(g, self.cop_red)
+            ne = NormalEquations(ata, atb, self.cop_red.yty, self.cop_red.n_rows)
             if self.cop_full is not None:
-                ne.ata += self.cop_full.ata
-                ne.atb += self.cop_full.atb
-                ne.yty += self.cop_full.yty
-                ne.n_rows += self.cop_full.n_rows
+                ne.add_sums(self.cop_full)
             ne.n_poses = self.cop_red.n_poses
             ne = _with_cop_offset(self.robot, ne) if self.options.cop_offset else ne
             parts[COP] = KindSums(COP, ne, self.options.weighted)
         system = System(n_x, nuisance, parts, self.mass, self.options.total_mass is not None)
         if self.tau_red is not None:
-            t = self.tau_red
-            k = len(torque_nuisance(first))
-            size = self.p_red + k
-            expand = np.zeros((size, n_x + k))
-            expand[: self.p_red, :n_x] = g
-            expand[self.p_red :, n_x:] = np.eye(k)
-            full = upper_to_full(t.ata)[:size, :size]
-            ne = NormalEquations(
-                expand.T @ full @ expand, expand.T @ t.atb[:size], t.yty, t.n_rows, t.n_poses
-            )
-            tau_sys = System(
-                n_x,
-                torque_nuisance(first),
-                {TORQUE: KindSums(TORQUE, ne, self.options.weighted)},
-                self.mass,
-                system.mass_given,
-            )
-            if parts:
-                system = system.merged(dataclasses.replace(tau_sys, n_poses=0))
-            else:
-                system = tau_sys
+            system = self._with_torques(system, parts)
         system.n_poses = self.n_poses
         system.sources = [first.source]
         system.gravity_accel = self.options.gravity_accel
         return system
 
-
-def _cop_weights(m: Measurements) -> np.ndarray:
-    if m.cop_se is None:
-        raise DataError(f"{m.source}: weighted CoP rows need the cop_se_x, cop_se_y columns")
-    return 1.0 / m.cop_se
+    def _with_torques(self, system: System, parts: dict[str, KindSums]) -> System:
+        """The torque kind's sums expanded to [vec(r); its nuisance], merged into ``system``."""
+        t, first = self.tau_red, self.first
+        assert t is not None and first is not None
+        n_x = system.n_x
+        k = len(torque_nuisance(first))
+        expand_m = np.zeros((self.p_red + k, n_x + k))
+        expand_m[: self.p_red, :n_x] = self.robot.reduction.g
+        expand_m[self.p_red :, n_x:] = np.eye(k)
+        ata, atb = expand(expand_m, t)
+        ne = NormalEquations(ata, atb, t.yty, t.n_rows, t.n_poses)
+        tau_sys = System(
+            n_x,
+            torque_nuisance(first),
+            {TORQUE: KindSums(TORQUE, ne, self.options.weighted)},
+            self.mass,
+            system.mass_given,
+        )
+        if parts:
+            return system.merged(dataclasses.replace(tau_sys, n_poses=0))
+        return tau_sys
 
 
 def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
@@ -300,7 +336,8 @@ def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
     t = np.zeros((n_x, n_x + 2))
     t[:, :n_x] = np.eye(n_x)
     t[:3, n_x:] = robot.tree.root_r.T[:, :2]
-    return NormalEquations(t.T @ ne.ata @ t, t.T @ ne.atb, ne.yty, ne.n_rows, ne.n_poses)
+    ata, atb = expand(t, ne)
+    return NormalEquations(ata, atb, ne.yty, ne.n_rows, ne.n_poses)
 
 
 def accumulate_sources(

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.kinematics.compile import GROUP, _numpy_path, _numpy_spent, compiled, lazy_njit
+from sescid.kinematics.compile import GROUP, compiled, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree, as_poses
 from sescid.kinematics.trig import MAX_ANGLE, _joint_trig, _sin_cos1m, _trig_numpy, _trig_poly_numpy
 
@@ -100,7 +100,8 @@ def _origins_block(rot, parent, t, root_o, org):
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _com_one(q, ints, reals, r, out):
     """Out (1, k) = the first k of root_o + Σ_b R_b r_b at one pose: the chain and the sum in
-    one call. False (out untouched) when q is not finite or q, r do not fit the tree.
+    one call. False (out untouched) when q is not finite, an angle is beyond MAX_ANGLE or q, r
+    do not fit the tree.
 
     The tree comes packed (``Tree.packed``) so the call checks five arguments, not thirteen:
     ints = [N, nnz, parent (N), jcol (N), nz_ptr (N + 1), nz_k (nnz), nz_j (nnz)],
@@ -129,10 +130,9 @@ def _com_one(q, ints, reals, r, out):
         jc = ints[o_jc + b]
         if jc >= 0:
             theta = reals[b] * q[jc] + reals[nb + b]
-            if abs(theta) < MAX_ANGLE:
-                s, c1 = _sin_cos1m(theta)
-            else:
-                s, c1 = np.sin(theta), 1.0 - np.cos(theta)
+            if not abs(theta) < MAX_ANGLE:  # numpy's exact reduction: the caller's path
+                return False
+            s, c1 = _sin_cos1m(theta)
         for i in range(3):
             for j in range(3):
                 rot[b, i, j] = 0.0
@@ -142,11 +142,12 @@ def _com_one(q, ints, reals, r, out):
             m = reals[o_a + 3 * z] + reals[o_a + 3 * z + 1] * s + reals[o_a + 3 * z + 2] * c1
             for i in range(3):
                 rot[b, i, jj] += rot[p, i, kk] * m
-    for i in range(out.shape[1]):
-        acc = 0.0
+    for i in range(out.shape[1]):  # the CoM's one summation order (``cop``)
+        acc = reals[o_rr + 9 + i]
         for b in range(nb):
-            acc += rot[b, i, 0] * r[b, 0] + rot[b, i, 1] * r[b, 1] + rot[b, i, 2] * r[b, 2]
-        out[0, i] = acc + reals[o_rr + 9 + i]
+            for j in range(3):
+                acc += rot[b, i, j] * r[b, j]
+        out[0, i] = acc
     return True
 
 
@@ -181,12 +182,14 @@ def _chain_numpy(tree: Tree, s: np.ndarray, c1: np.ndarray, rot: np.ndarray) -> 
             rb[tree.nz_j[z]] += tmp
 
 
-def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
+def chain(
+    tree: Tree, q: np.ndarray, ws: Workspace | None = None, kernels: bool | None = None
+) -> np.ndarray:
     """Rotations of a block of m ≤ ws.block poses, layout (N, 3, 3, m): [b, j, i, k] = R_b[i, j].
 
     ``q`` must already be validated (see ``as_poses``). The result is a view into the
-    workspace, overwritten by the next call. Small blocks run in numpy until the compiled
-    kernels are worth loading (``_numpy_path``); both give the same bits.
+    workspace, overwritten by the next call. ``kernels``: the job's path (``prefer_kernels`` of
+    the whole job's size; None: this block's); numpy and the kernels give the same bits.
     """
     ws = ws or Workspace(tree, max(len(q), 1))
     m = q.shape[0]
@@ -195,8 +198,9 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     else:
         s, c1 = np.empty((len(tree.parent), m)), np.empty((len(tree.parent), m))
         rot = np.empty(ws.rot.shape[:3] + (m,))
-    if _numpy_path(m, len(tree.parent)):
-        _numpy_spent[0] += m * len(tree.parent)
+    if kernels is None:
+        kernels = prefer_kernels(m * len(tree.parent))
+    if not kernels:
         if np.abs(q).max(initial=0.0) < MAX_ANGLE:
             _trig_poly_numpy(tree, q, s, c1)
         else:
@@ -211,9 +215,9 @@ def chain(tree: Tree, q: np.ndarray, ws: Workspace | None = None) -> np.ndarray:
     return rot
 
 
-def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray) -> None:
-    """Org (N, 3, m) from rot (N, 3, 3, m): the kernel, or numpy for a block it did in numpy."""
-    if compiled():
+def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray, kernels: bool) -> None:
+    """Org (N, 3, m) from rot (N, 3, 3, m): the kernel, or numpy (the same bits)."""
+    if kernels:
         _origins_block(rot, tree.parent, tree.t, tree.root_o, org)
         return
     for b in range(tree.parent.shape[0]):  # the kernel's sums in its order: the same bits
@@ -235,11 +239,12 @@ def forward(tree: Tree, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     org_out = np.empty((n, nb, 3))
     ws = Workspace(tree, min(CHAIN_BLOCK, max(n, 1)))
     org = np.empty((nb, 3, ws.block))
+    kernels = prefer_kernels(n * nb)
     for s0 in range(0, n, ws.block):
         blk = q[s0 : s0 + ws.block]
-        rot = chain(tree, blk, ws)
+        rot = chain(tree, blk, ws, kernels)
         o = org[..., : len(blk)] if len(blk) == ws.block else np.empty((nb, 3, len(blk)))
-        _origins(rot, tree, o)
+        _origins(rot, tree, o, kernels)
         rot_out[s0 : s0 + len(blk)] = rot.transpose(3, 0, 2, 1)
         org_out[s0 : s0 + len(blk)] = o.transpose(2, 0, 1)
     return rot_out, org_out
@@ -256,17 +261,20 @@ def regressor(tree: Tree, q: ArrayLike, rows: tuple[int, ...] = (0, 1)) -> np.nd
     n, nb = q.shape[0], tree.parent.shape[0]
     out = np.empty((n, len(rows), 3 * nb))
     ws = Workspace(tree, min(CHAIN_BLOCK, max(n, 1)))
+    kernels = prefer_kernels(n * nb)
     for s0 in range(0, n, ws.block):
-        rot = chain(tree, q[s0 : s0 + ws.block], ws)
+        rot = chain(tree, q[s0 : s0 + ws.block], ws, kernels)
         # rot[b, j, i, k] → out[k, i, 3b + j]
         out[s0 : s0 + rot.shape[3]] = rot[:, :, rows, :].reshape(3 * nb, len(rows), -1).T
     return out
 
 
-def regressor_columns(tree: Tree, q: np.ndarray, rows=(0, 1), ws: Workspace | None = None):
+def regressor_columns(
+    tree: Tree, q: np.ndarray, rows=(0, 1), ws: Workspace | None = None, kernels=None
+):
     """Φᵀ of a block as a (3N, len(rows)·m) matrix, columns ordered (row, pose): the layout the
-    normal equations want (ΦᵀΦ = X Xᵀ in one BLAS call). A view into the workspace."""
-    rot = chain(tree, q, ws)
+    normal equations want (ΦᵀΦ = X Xᵀ). A view into the workspace; ``kernels`` as ``chain``."""
+    rot = chain(tree, q, ws, kernels)
     nb, m = rot.shape[0], rot.shape[3]
     rows = list(rows)
     if rows == list(range(rows[0], rows[-1] + 1)):  # contiguous rows: no copy

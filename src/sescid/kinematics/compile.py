@@ -1,8 +1,18 @@
-"""The compile policy: numba kernels loaded on first call (``lazy_njit``), and which jobs run in
-numpy before that (small ones: loading numba costs more than they do)."""
+"""The compile policy: numba kernels loaded on first call (``lazy_njit``), the SIMD intrinsics they
+use (``simd_intrinsic``), and which jobs run in numpy instead (``use_kernels``).
+
+The choice of path is a function of the job alone (its size), never of what the process did
+before, so the same inputs give the same bits in any process: loading numba costs 0.5–1 s, so a
+small job (``sescid identify`` on 38 poses, ``make demo``) runs in numpy and a large one on the
+kernels. Where the numpy twin gives the kernel's bits (trig, chain, origins, reduced columns, CoM
+sums: the same operations in the same order, tested), kernels that are already loaded also run
+small jobs: only the speed differs. The normal equations' product uses fused multiply-adds and a
+fixed 8-lane order (``simd``) that numpy cannot reproduce, so there the job size alone decides.
+"""
 
 from __future__ import annotations
 
+import importlib
 import sys
 import threading
 from collections.abc import Callable
@@ -18,7 +28,22 @@ class _LazyKernel:
 
     def __call__(self, *args):
         load_group(self.group)
-        return getattr(sys.modules[self.fn.__module__], self.fn.__name__)(*args)
+        fn = getattr(sys.modules[self.fn.__module__], self.fn.__name__)
+        if fn is self:  # another thread is swapping the group's kernels: wait for it
+            with _SWAP_LOCK:
+                fn = getattr(sys.modules[self.fn.__module__], self.fn.__name__)
+        return fn(*args)
+
+
+class _LazyIntrinsic:
+    """A placeholder for an intrinsic of ``sescid.kinematics.simd`` (which imports numba): the
+    group's kernels see the real intrinsic once ``load_group`` swapped it in."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __call__(self, *args):  # pragma: no cover - only compiled code calls intrinsics
+        raise RuntimeError(f"{self.name} is a numba intrinsic: call it from a compiled kernel")
 
 
 #: group → its kernels not yet swapped for numba dispatchers (a registry, like a cache)
@@ -28,17 +53,21 @@ _SWAP_LOCK = threading.Lock()
 
 def load_group(group: str) -> None:
     """Swap every lazy kernel of ``group`` (a module, or a package and its modules) for its
-    numba dispatcher, in every module of the group that holds it: kernels call each other
-    through module globals, so all of them are swapped before any compiles. The dispatchers
-    use numba's on-disk cache (``cache=True``) where one is writable (beside the package, else
-    ``NUMBA_CACHE_DIR`` or the user's cache folder), else compile in memory, silently."""
+    numba dispatcher, and every SIMD placeholder for its intrinsic, in every module of the group:
+    kernels call each other through module globals, so all of them are swapped before any
+    compiles. The dispatchers use numba's on-disk cache (``cache=True``) where one is writable
+    (beside the package, else ``NUMBA_CACHE_DIR`` or the user's cache folder), else compile in
+    memory, silently."""
     if not _LAZY.get(group):
         return
     import numba
 
     with _SWAP_LOCK:  # a second thread's first call waits here, then finds the dispatchers
         kernels = _LAZY.pop(group, [])
-        swapped = {id(k): _dispatcher(k, numba) for k in kernels}
+        if not kernels:
+            return
+        swapped: dict[int, Any] = {id(k): _dispatcher(k, numba) for k in kernels}
+        simd: Any = None
         for name, module in list(sys.modules.items()):
             if module is None or not (name == group or name.startswith(group + ".")):
                 continue
@@ -46,6 +75,10 @@ def load_group(group: str) -> None:
             for attr, value in list(space.items()):
                 if isinstance(value, _LazyKernel) and id(value) in swapped:
                     space[attr] = swapped[id(value)]
+                elif isinstance(value, _LazyIntrinsic):
+                    if simd is None:
+                        simd = importlib.import_module("sescid.kinematics.simd")
+                    space[attr] = getattr(simd, value.name)
 
 
 def _dispatcher(kernel: _LazyKernel, numba: Any) -> Any:
@@ -60,7 +93,9 @@ def _dispatcher(kernel: _LazyKernel, numba: Any) -> Any:
 
 def lazy_njit(group: str | None = None, **options: Any) -> Callable[[Callable], Any]:
     """``numba.njit(**options)`` deferred to the first call of any kernel of ``group`` (default:
-    the kernel's module; a package name groups kernels that call each other across modules)."""
+    the kernel's module; a package name groups kernels that call each other across modules).
+    Kernels whose results must not depend on the CPU take no ``fastmath`` (FMA contraction and
+    reassociation follow the CPU's features): ``simd`` gives explicit FMAs and vectors."""
 
     def wrap(fn: Callable) -> _LazyKernel:
         kernel = _LazyKernel(fn, options, group or fn.__module__)
@@ -68,6 +103,12 @@ def lazy_njit(group: str | None = None, **options: Any) -> Callable[[Callable], 
         return kernel
 
     return wrap
+
+
+def simd_intrinsic(name: str) -> Any:
+    """A module-level stand-in for ``sescid.kinematics.simd.<name>`` in a kernel module of the
+    kinematics group (the real intrinsic replaces it when the group loads)."""
+    return _LazyIntrinsic(name)
 
 
 def loaded(group: str) -> bool:
@@ -79,33 +120,33 @@ def loaded(group: str) -> bool:
 GROUP = "sescid.kinematics"
 
 
-#: body-poses (poses × bodies) the chain runs in numpy in a process before the compiled kernels
-#: are loaded anyway (ski rental). Loading them costs 0.5–1 s (numba's import and type
-#: registries); the numpy chain ~0.1 µs per body-pose (~2.5 µs per OP2 pose), so this budget
-#: is ~0.2 s of numpy work: a command on a few thousand poses (``demo``: ~70 000 OP2 poses)
-#: never loads numba, a large file or a long session does. Counted in work, not seconds, so
-#: which path runs does not depend on the machine's load.
-NUMPY_BUDGET = 2_000_000
-_numpy_spent = [0]  # body-poses run in numpy so far
-
-
 def compiled() -> bool:
-    """True once the kinematics kernels are loaded (the chain no longer runs in numpy)."""
+    """True once the kinematics kernels are loaded."""
     return loaded(GROUP)
 
 
-def _within_budget(m: int, nb: int) -> bool:
-    """True while the kernels are not loaded and m more poses of nb bodies keep the numpy
-    work within ``NUMPY_BUDGET``."""
-    return not loaded(GROUP) and _numpy_spent[0] + m * nb <= NUMPY_BUDGET
+def load_kernels() -> None:
+    """Load the kinematics kernels now (a long-running controller or session that queries one
+    pose at a time: ``robot.com`` then takes the single-pose kernel). Results do not change."""
+    load_group(GROUP)
 
 
-def _numpy_path(m: int, nb: int) -> bool:
-    """True while the kernels are not loaded, the block (m poses of nb bodies) is at most
-    ``SMALL_BLOCK`` poses and the numpy work stays within ``NUMPY_BUDGET`` with it."""
-    return m <= SMALL_BLOCK and _within_budget(m, nb)
+#: work units a job may do in numpy before loading the kernels pays (ski rental): one unit is
+#: one body of one pose in the chain (~0.1 µs in numpy) or one column of one row in the normal
+#: equations (about as much); loading costs 0.5–1 s, so this is ~0.2 s of numpy work: a command
+#: on a few thousand poses (``identify`` on 38, ``demo``'s 1000-pose fit and 20 000-pose CoPs)
+#: never loads numba, a large file does. Counted in work, not seconds: the path does not depend
+#: on the machine or its load.
+NUMPY_JOB = 2_000_000
 
 
-#: blocks of at most this many poses may run in numpy until the compiled kernels are loaded (one
-#: chain block: a CoP/CoM over many poses, or the normal equations of up to this many poses)
-SMALL_BLOCK = 1024
+def use_kernels(work: int) -> bool:
+    """True when a job of ``work`` units runs on the compiled kernels (``NUMPY_JOB``): the job's
+    size alone decides, so the same inputs take the same path in every process."""
+    return work > NUMPY_JOB
+
+
+def prefer_kernels(work: int) -> bool:
+    """``use_kernels``, or kernels already loaded: for paths whose numpy twin gives the kernel's
+    bits, where the choice changes the speed only."""
+    return work > NUMPY_JOB or compiled()

@@ -1,44 +1,50 @@
-"""The CoM's x, y (the level-floor CoP) of many poses in one compiled pass over the two rows it
-needs, shared out among the cores."""
+"""The CoM's x, y (the level-floor CoP) or x, y, z of many poses in one compiled pass over the rows
+it needs, shared out among the cores, beside its numpy twin.
+
+Every path sums the CoM in one order, so all give the same bits: start from the root's origin,
+then add R_b[i, j]·r_b[j] for bodies b in order and j = 0, 1, 2, each product and sum rounded
+on its own (no FMA): the compiled pass, the single-pose kernel (``chains._com_one``) and numpy.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.kinematics.compile import GROUP, _within_budget, lazy_njit
+from sescid.kinematics.chains import CHAIN_BLOCK, Workspace, chain
+from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
 from sescid.kinematics.trig import MAX_ANGLE, _trig_row
 
 
-@lazy_njit(GROUP, cache=True, nogil=True, fastmath={"contract"})
+@lazy_njit(GROUP, cache=True, nogil=True)
 def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, r, root_o, out):
-    """Out (n, 2): x, y of root_o + Σ R_b r_b, rows 0 and 1 of each R_b only, in blocks.
-    False (out untouched) when an angle is beyond MAX_ANGLE."""
+    """Out (n, k): the first k ≤ 3 of root_o + Σ R_b r_b, only those rows of each R_b, in
+    blocks. False (out untouched) when an angle is beyond MAX_ANGLE."""
     nb = parent.shape[0]
     n = q.shape[0]
+    nr = out.shape[1]
     for k in range(n):
         for j in range(q.shape[1]):
             if not abs(q[k, j]) < MAX_ANGLE:
                 return False
     blk = 128
-    rot = np.empty((nb, 2, 3, blk))
+    rot = np.empty((nb, nr, 3, blk))
     s = np.empty(blk)
     c1 = np.empty(blk)
-    ox = np.empty(blk)
-    oy = np.empty(blk)
+    acc = np.empty((nr, blk))
     qt = np.empty((q.shape[1], blk))
     for s0 in range(0, n, blk):
         w = min(blk, n - s0)
         for k in range(w):
             for j in range(q.shape[1]):
                 qt[j, k] = q[s0 + k, j]
-        ox[:] = root_o[0]
-        oy[:] = root_o[1]
+        for i in range(nr):
+            acc[i, :] = root_o[i]
         for b in range(nb):
             p = parent[b]
             if p < 0:
-                for i in range(2):
+                for i in range(nr):
                     for j in range(3):
                         rot[b, i, j, :] = root_r[i, j]
             else:
@@ -47,9 +53,7 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                     s[:] = 0.0
                     c1[:] = 0.0
                 else:
-                    cb = coef[b]
-                    ob = off[b]
-                    _trig_row(qt[jc], cb, ob, w, s, c1)
+                    _trig_row(qt[jc], coef[b], off[b], w, s, c1)
                 rot[b, :, :, :] = 0.0
                 for z in range(nz_ptr[b], nz_ptr[b + 1]):
                     kk = nz_k[z]
@@ -57,30 +61,36 @@ def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                     a0 = nz_a[z, 0]
                     a1 = nz_a[z, 1]
                     a2 = nz_a[z, 2]
-                    o0 = rot[b, 0, jj]
-                    o1 = rot[b, 1, jj]
-                    i0 = rot[p, 0, kk]
-                    i1 = rot[p, 1, kk]
-                    for k in range(w):  # the entry of M_b in a register, both rows in one pass
+                    if nr == 2:  # the CoP: both rows in one pass, M_b's entry in a register
+                        o0 = rot[b, 0, jj]
+                        o1 = rot[b, 1, jj]
+                        i0 = rot[p, 0, kk]
+                        i1 = rot[p, 1, kk]
+                        for k in range(w):
+                            mz = a0 + a1 * s[k] + a2 * c1[k]
+                            o0[k] += i0[k] * mz
+                            o1[k] += i1[k] * mz
+                        continue
+                    for k in range(w):
                         mz = a0 + a1 * s[k] + a2 * c1[k]
-                        o0[k] += i0[k] * mz
-                        o1[k] += i1[k] * mz
-            for j in range(3):
-                rj = r[b, j]
-                for k in range(w):
-                    ox[k] += rot[b, 0, j, k] * rj
-                    oy[k] += rot[b, 1, j, k] * rj
+                        for i in range(nr):
+                            rot[b, i, jj, k] += rot[p, i, kk, k] * mz
+            for i in range(nr):
+                for j in range(3):
+                    rj = r[b, j]
+                    for k in range(w):
+                        acc[i, k] += rot[b, i, j, k] * rj
         for k in range(w):
-            out[s0 + k, 0] = ox[k]
-            out[s0 + k, 1] = oy[k]
+            for i in range(nr):
+                out[s0 + k, i] = acc[i, k]
     return True
 
 
 def cop_xy(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray:
     """CoM x, y (n, 2) [m] of validated poses ``q`` (n, nq) within |q| < 1e5 rad, one compiled
-    pass: for screening many poses (rounding differs from ``sesc.com_from_sesc`` by ~1e-16 m).
-    An angle beyond that range is an error here (``cop_xy_compiled`` falls back instead)."""
-    out = _cop_xy_or_none(tree, q, r)
+    pass (loads the kernels: for screening many poses; the same bits as ``com_rows``). An angle
+    beyond that range is an error here (``com_rows`` takes numpy's exact reduction instead)."""
+    out = _com_or_none(tree, q, r, 2)
     if out is None:
         raise DataError(f"q: an angle beyond ±{MAX_ANGLE:g} rad")
     return out
@@ -90,17 +100,17 @@ def cop_xy(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray:
 PARALLEL_PART = 16384
 
 
-def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
+def _com_or_none(tree: Tree, q: np.ndarray, r: np.ndarray, k: int) -> np.ndarray | None:
     from sescid.base.threads import ordered_map, usable_cores
 
     n = q.shape[0]
-    out = np.empty((n, 2))
+    out = np.empty((n, k))
     rr = np.ascontiguousarray(r, dtype=float)
     parts = max(min(usable_cores(), n // PARALLEL_PART), 1)
-    edges = [n * k // parts for k in range(parts + 1)]
+    edges = [n * j // parts for j in range(parts + 1)]
 
-    def part(k: int) -> bool:  # poses are independent: any split gives the same bits
-        a, b = edges[k], edges[k + 1]
+    def part(j: int) -> bool:  # poses are independent: any split gives the same bits
+        a, b = edges[j], edges[j + 1]
         return _cop_xy_kernel(
             q[a:b], tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k,
             tree.nz_j, tree.nz_a, tree.root_r, rr, tree.root_o, out[a:b],
@@ -109,11 +119,35 @@ def _cop_xy_or_none(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | No
     return out if all(list(ordered_map(part, range(parts)))) else None
 
 
-def cop_xy_compiled(tree: Tree, q: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """``cop_xy`` (q validated, |q| < MAX_ANGLE): the CoP of many poses in one pass over the
-    rows it needs, loading the kernels if the whole job would overrun the numpy path's budget;
-    None while the job fits that budget (``chain`` then runs it in numpy, block by block)."""
-    nb = tree.parent.shape[0]
-    if _within_budget(q.shape[0], nb):
-        return None
-    return _cop_xy_or_none(tree, q, r)
+def com_sum(rot: np.ndarray, r: np.ndarray, root_o: np.ndarray, k: int) -> np.ndarray:
+    """The kernel's CoM sum in numpy, (k, m): root_o[i] + Σ_b Σ_j R_b[i, j] r_b[j] in its order,
+    from rotations rot (N, 3, 3, m) ([b, j, i, pose], ``chain``'s layout)."""
+    m = rot.shape[3]
+    out = np.empty((k, m))
+    tmp = np.empty(m)
+    for i in range(k):
+        acc = out[i]
+        acc[:] = root_o[i]
+        for b in range(rot.shape[0]):
+            for j in range(3):
+                np.multiply(rot[b, j, i], r[b, j], out=tmp)
+                acc += tmp
+    return out
+
+
+def com_rows(tree: Tree, q: np.ndarray, r: np.ndarray, k: int = 2) -> np.ndarray:
+    """The first k ≤ 3 rows of the CoM, (n, k) [m], of validated poses q (n, nq) for SESC
+    vectors r (N, 3): compiled for a large job (or with the kernels loaded), else numpy; both
+    give the same bits, huge angles (beyond MAX_ANGLE) included (numpy's exact reduction)."""
+    n, nb = q.shape[0], tree.parent.shape[0]
+    rr = np.ascontiguousarray(r, dtype=float).reshape(nb, 3)
+    if prefer_kernels(n * nb) and np.abs(q).max(initial=0.0) < MAX_ANGLE:
+        out = _com_or_none(tree, q, rr, k)
+        if out is not None:
+            return out
+    out = np.empty((n, k))
+    ws = Workspace(tree, min(CHAIN_BLOCK, max(n, 1)))
+    for s in range(0, n, ws.block):
+        rot = chain(tree, q[s : s + ws.block], ws, False)
+        out[s : s + rot.shape[3]] = com_sum(rot, rr, tree.root_o, k).T
+    return out

@@ -46,6 +46,24 @@ class Tree:
         ).astype(float)
         return ints, reals
 
+    @cached_property
+    def depth_first(self) -> tuple[np.ndarray, np.ndarray]:
+        """(order (N − 1,), pos (N,)): the moving bodies in depth-first preorder from the
+        support body (children in index order: every subtree is a contiguous range), and each
+        body's place in it (−1 for the support body)."""
+        children: list[list[int]] = [[] for _ in self.parent]
+        for b in range(1, len(self.parent)):
+            children[int(self.parent[b])].append(b)
+        out, stack = [], [0]
+        while stack:
+            b = stack.pop()
+            out.append(b)
+            stack.extend(reversed(children[b]))
+        order = np.asarray(out[1:], dtype=np.int64)
+        pos = np.full(len(self.parent), -1, dtype=np.int64)
+        pos[order] = np.arange(len(order))
+        return order, pos
+
     @classmethod
     def from_model(cls, model: RobotModel) -> Tree:
         """Flatten a ``RobotModel`` into the kernels' arrays."""
@@ -57,8 +75,8 @@ class Tree:
             x, y, z = b.axis
             skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
             a0[i] = b.rot_const
-            a1[i] = b.rot_const @ skew
-            a2[i] = b.rot_const @ skew @ skew
+            a1[i] = _mat3(b.rot_const, skew)
+            a2[i] = _mat3(a1[i], skew)
         ptr, ks, js, coefs = [0], [], [], []
         for i in range(n):
             for k in range(3):
@@ -87,6 +105,13 @@ class Tree:
             nq=len(model.joint_names),
             axis=np.array([b.axis for b in model.bodies], dtype=float).reshape(n, 3),
         )
+
+
+def _mat3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """A @ b for 3 × 3 matrices, each entry (a_i0 b_0j + a_i1 b_1j) + a_i2 b_2j (no BLAS: its
+    order and FMAs follow the CPU)."""
+    a = np.asarray(a, dtype=float)
+    return (a[:, 0, None] * b[0] + a[:, 1, None] * b[1]) + a[:, 2, None] * b[2]
 
 
 def as_poses(q: ArrayLike, nq: int, what: str = "q") -> np.ndarray:
