@@ -23,7 +23,7 @@ COMMANDS = [
     "sescid poses --robot op2 --count 38 --select d-optimal --seed 0 --out poses.csv",
     "sescid experiment --robot op2 --poses poses.csv --samples 100 --seed 0 --out raw.csv "
     "--truth truth.json",
-    "sescid fsr raw.csv --robot op2 --poses poses.csv --out measured.csv",
+    "sescid measure raw.csv --robot op2 --poses poses.csv --out measured.csv",
     "sescid identify measured.csv --robot op2 --weighted --out fit.json",
     "sescid report fit.json measured.csv --out-dir report/",
     "sescid truth fit.json truth.json",
