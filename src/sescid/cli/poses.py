@@ -28,6 +28,7 @@ from sescid.planning import (
     free_sole,
     min_block_poses,
     plan_poses,
+    resolve_mount,
     sampling_limits,
 )
 from sescid.planning import paper_convention as robot_paper_convention
@@ -220,6 +221,7 @@ def poses(
     robot = load(robot_name, support)
     if n_candidates is None:
         n_candidates = default_candidates(robot, select, count, kinds)
+    resolve_mount(robot, mount, kinds)  # a CoP design on a held trunk: say so first
     need = min_poses(robot)
     if count < need and kinds == "cop":
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")

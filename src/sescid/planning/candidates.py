@@ -69,9 +69,11 @@ class Candidates:
         """One line: acceptance at each stage and the number accepted."""
         s = max(self.n_sampled, 1)
         if self.mount == "gantry":
+            drawn = "uniform poses" if self.sampler == "uniform" else "poses (uniform, then near "
+            drawn += "" if self.sampler == "uniform" else "accepted ones)"
             return (
-                f"{self.n_sampled} uniform poses, held: {self.n_ground / s:.2%} clear of the "
-                f"floor, {self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
+                f"{self.n_sampled} {drawn}, held: {self.n_ground / s:.2%} clear of the floor, "
+                f"{self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
             )
         kind = {
             "uniform": "uniform poses",

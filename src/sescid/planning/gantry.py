@@ -7,7 +7,10 @@ on its feet at the zero pose, lifted by ``GANTRY_LIFT``: the floor lies ``GANTRY
 the lowest point of its geometry at the zero pose (every body but the held one; collision
 shapes, else visual, else the origin: ``ground``). A candidate is kept when every such point
 stays ``clearance`` above the floor and no two collision capsules touch (pairs touching at the
-zero pose skipped, ``collision``). Candidates are uniform draws within the sampling limits.
+zero pose skipped, ``collision``). Candidates are uniform draws within the sampling limits;
+when fewer than ``SWITCH_RATE`` of them are accepted (a many-jointed robot whose limbs cross),
+the rest are drawn near accepted poses (``adjust.draw``: a quarter uniform, the others a random
+30 % of the joints moved by a quarter of their range from an accepted pose).
 
 The mount follows from the support unless given: a support at which the robot's mass splits
 into several heavy branches (a trunk, ``model.sole.supporting_leg``) is held in a gantry; a
@@ -22,6 +25,7 @@ import numpy as np
 
 from sescid.errors import OptionError, SescidError
 from sescid.model.sole import supporting_leg
+from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
 from sescid.planning.candidates import Candidates
 from sescid.planning.collision import collision_capsules
@@ -33,8 +37,10 @@ from sescid.robot import Robot
 MOUNTS = ("stand", "gantry")
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
-#: uniform draws without one accepted pose after which the gantry search gives up
+#: draws without one accepted pose after which the gantry search gives up
 GIVE_UP = 200_000
+#: accepted share of the first uniform chunk below which the draws move near accepted poses
+SWITCH_RATE = 0.05
 
 
 def held_trunk(robot: Robot) -> bool:
@@ -116,16 +122,26 @@ def gantry_candidates(
     width = lim[:, 1] - lim[:, 0]
     qs: list[np.ndarray] = []
     counts = np.zeros(3, dtype=np.int64)  # drawn, clear of the floor, free of self-collision
+    sampler, size = "uniform", chunk
     while counts[2] < n:
-        q = rng.random((chunk, robot.nq)) * width + lim[:, 0]
+        if sampler == "uniform":
+            q = rng.random((size, robot.nq)) * width + lim[:, 0]
+        else:
+            q = draw(lim, size, rng, np.concatenate(qs) if counts[2] else None)
         rot, org = robot.forward(q)
         ok = clear_above(checks, rot, org, floor + clearance)
         q, rot, org = q[ok], rot[ok], org[ok]
-        counts[0] += chunk
+        counts[0] += size
         counts[1] += len(q)
         free = collision_free_mask_broad(cap, rot, org)
         qs.append(q[free])
         counts[2] += int(free.sum())
+        rate = int(free.sum()) / size  # of the last chunk's draws
+        if sampler == "uniform" and counts[2] < min(SWITCH_RATE * counts[0], n):
+            sampler, size = "uniform+adjusted", 1_000
+        else:  # what is missing at the last rate, at most 4× the last chunk: rates climb
+            want = 1.05 * (n - counts[2]) / rate + 500 if rate > 0 else chunk
+            size = int(min(chunk, 4 * size, max(1_000, want)))
         if progress is not None:
             progress(int(min(counts[2], n)), n)
         if not counts[2] and counts[0] >= GIVE_UP:
@@ -148,7 +164,7 @@ def gantry_candidates(
         n_ground=int(c[1]),
         n_free=int(c[2]),
         capsules=cap,
-        sampler="uniform",
+        sampler=sampler,
         n_box=int(c[0]),
         mount="gantry",
     )
