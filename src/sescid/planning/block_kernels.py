@@ -40,8 +40,9 @@ def _chol_logdet(a, r):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True, nogil=True)
-def _rows_times(x, col, val, j, ux, uo, w):  # pragma: no cover - compiled
-    """W (r, c) = A_j U for U = [ux (p, c); uo (K, c)]."""
+def _rows_times(x, col, val, j, ux, uo, w, lower):  # pragma: no cover - compiled
+    """W (r, c) = A_j U for U = [ux (p, c); uo (K, c)]; ``lower``: U is lower triangular
+    (row t has no entries beyond column t: they are skipped)."""
     r, p = x.shape[1], x.shape[2]
     c = ux.shape[1]
     for a in range(r):
@@ -49,28 +50,34 @@ def _rows_times(x, col, val, j, ux, uo, w):  # pragma: no cover - compiled
             w[a, e] = 0.0
         for t in range(p):
             xv = x[j, a, t]
-            for e in range(c):
+            top = min(t + 1, c) if lower else c
+            for e in range(top):
                 w[a, e] += xv * ux[t, e]
         k = col[a]
         if k >= 0:
             v = val[a]
-            for e in range(c):
+            top = min(p + k + 1, c) if lower else c
+            for e in range(top):
                 w[a, e] += v * uo[k, e]
 
 
 @lazy_njit(cache=True, nogil=True)
-def _gram(z, r, c, s, j, sign, first):  # pragma: no cover - compiled
-    """s[j] = (0 if ``first`` else s[j]) + sign · z zᵀ for z (r, c), as c rank-one updates
-    (upper triangle), then mirrored."""
+def _gram(z, r, c, s, j, sign, first, zt):  # pragma: no cover - compiled
+    """s[j] = (0 if ``first`` else s[j]) + sign · z zᵀ for z (r, c), as c rank-one updates of
+    the upper triangle (z transposed into ``zt`` (c, r) first: the inner loop runs along a
+    row), then mirrored."""
+    for a in range(r):
+        for e in range(c):
+            zt[e, a] = z[a, e]
     if first:
         for a in range(r):
             for b in range(a, r):
                 s[j, a, b] = 0.0
     for e in range(c):
         for a in range(r):
-            v = sign * z[a, e]
+            v = sign * zt[e, a]
             for b in range(a, r):
-                s[j, a, b] += v * z[b, e]
+                s[j, a, b] += v * zt[e, b]
     for a in range(r):
         for b in range(a + 1, r):
             s[j, b, a] = s[j, a, b]
@@ -92,31 +99,42 @@ def _sandwich(x, col, val, lx, lo, s, gain):  # pragma: no cover - compiled
     and the gains, for every candidate."""
     n, r = x.shape[0], x.shape[1]
     w = np.empty((r, lx.shape[1]))
+    wt = np.empty((lx.shape[1], r))
     scratch = np.empty((r, r))
     for j in range(n):
-        _rows_times(x, col, val, j, lx, lo, w)
-        _gram(w, r, lx.shape[1], s, j, 1.0, True)
+        _rows_times(x, col, val, j, lx, lo, w, True)
+        _gram(w, r, lx.shape[1], s, j, 1.0, True, wt)
         gain[j] = _gain(s, j, r, scratch)
 
 
 @lazy_njit(cache=True, nogil=True)
-def _update(x, col, val, ux, uo, lg, sign, s, gain):  # pragma: no cover - compiled
-    """S_j += sign · (A_j U) G (A_j U)ᵀ, G = lg lgᵀ (lg lower, r × r), U = [ux; uo]
-    ((p + K) × r), and the gains, for every candidate."""
+def _update(x, col, val, ux, uo, g, sign, s, gain):  # pragma: no cover - compiled
+    """S_j += sign · (A_j U) G (A_j U)ᵀ, G (r × r) symmetric, U = [ux; uo] ((p + K) × r), and
+    the gains, for every candidate: V = W G, then S_j's upper triangle += sign · V Wᵀ as r
+    rank-one updates (inner loops along rows), mirrored."""
     n, r = x.shape[0], x.shape[1]
     w = np.empty((r, r))
-    z = np.empty((r, r))
+    wt = np.empty((r, r))
+    v = np.empty((r, r))
     scratch = np.empty((r, r))
     for j in range(n):
-        _rows_times(x, col, val, j, ux, uo, w)
-        for a in range(r):  # z = w lg (lg lower triangular)
+        _rows_times(x, col, val, j, ux, uo, w, False)
+        for a in range(r):
             for e in range(r):
-                z[a, e] = 0.0
+                wt[e, a] = w[a, e]
+                v[a, e] = 0.0
             for t in range(r):
-                wv = w[a, t]
-                for e in range(t + 1):
-                    z[a, e] += wv * lg[t, e]
-        _gram(z, r, r, s, j, sign, False)
+                wv = sign * w[a, t]
+                for e in range(r):
+                    v[a, e] += wv * g[t, e]
+        for a in range(r):
+            for t in range(r):
+                f = v[a, t]
+                for b in range(a, r):
+                    s[j, a, b] += f * wt[t, b]
+        for a in range(r):
+            for b in range(a + 1, r):
+                s[j, b, a] = s[j, a, b]
         gain[j] = _gain(s, j, r, scratch)
 
 
@@ -141,7 +159,7 @@ def _swap(x, col, val, ux, uo, s, s_o, chosen, out):  # pragma: no cover - compi
         if first == -math.inf:
             out[j] = -math.inf
             continue
-        _rows_times(x, col, val, j, ux, uo, y)  # y = X, then y ← U⁻ᵀ X row by row
+        _rows_times(x, col, val, j, ux, uo, y, False)  # y = X, then y ← U⁻ᵀ X row by row
         for a in range(r):
             d = ch[a, a]
             for e in range(r):
@@ -172,10 +190,10 @@ def sandwich_blocks(x, col, val, minv: np.ndarray, s: np.ndarray, gain: np.ndarr
 
 def update_blocks(x, col, val, u: np.ndarray, g: np.ndarray, sign: float, s, gain) -> None:
     """S_j += sign · (A_j U) G (A_j U)ᵀ and the gains, for every candidate; U (p + K, r),
-    G (r, r) positive definite."""
+    G (r, r) symmetric."""
     p = x.shape[2]
-    lg = np.ascontiguousarray(np.linalg.cholesky(g))
-    _update(x, col, val, np.ascontiguousarray(u[:p]), np.ascontiguousarray(u[p:]), lg,
+    gs = np.ascontiguousarray((g + g.T) / 2)
+    _update(x, col, val, np.ascontiguousarray(u[:p]), np.ascontiguousarray(u[p:]), gs,
             float(sign), s, gain)  # fmt: skip
 
 

@@ -143,12 +143,17 @@ def select_blocks(
         order.append(i)
         design.add(i)
     exchanges = passes = 0
+    full = design  # the first pass ranks by the greedy's own S_j (current, ridge included)
     for passes in range(1, max_passes + 1):  # noqa: B007
-        full = BlockDesign(rows, design.ridge)
-        full.chosen[order] = True
-        if schur_logdet(rows, order) > -math.inf:  # drop the ridge once non-singular
-            full.ridge = 0.0
-        full.refresh()
+        if passes > 1:
+            full = BlockDesign.__new__(BlockDesign)
+            full.rows, full.ridge = rows, design.ridge
+            full.s, full.gain = design.s, design.gain  # reused: the greedy's are not needed
+            full.chosen = np.zeros(n, dtype=bool)
+            full.chosen[order] = True
+            if schur_logdet(rows, order) > -math.inf:  # drop the ridge once non-singular
+                full.ridge = 0.0
+            full.refresh()
         score = full.gains()
         top = np.lexsort((np.arange(n), -score))[: min(shortlist, n - k)]
         idx = np.concatenate([np.asarray(order), top])
