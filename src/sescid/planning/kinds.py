@@ -92,17 +92,49 @@ def design_kinds(
     return DesignKinds(kinds, float(cop_noise), float(tau_noise), joints, robot.total_mass)
 
 
-def _torque_blocks(robot: Robot, q: np.ndarray, spec: DesignKinds):
-    """(start, X) blocks of the scaled torque rows X = M Φ_τ / σ_τ (m, J, 3N)."""
-    scale = spec.total_mass / spec.tau_noise
-    for s in range(0, len(q), ROW_CHUNK):
-        yield s, robot.torque_regressor(q[s : s + ROW_CHUNK], spec.tau_joints) * scale
+#: bytes of torque rows kept in memory between the basis and the rows (``TorqueRows``)
+KEEP_BYTES = 300_000_000
 
 
-def pool_information(robot: Robot, q, spec: DesignKinds) -> np.ndarray:
+class TorqueRows:
+    """The scaled torque rows X = M Φ_τ / σ_τ of poses ``q``, block by block (``ROW_CHUNK``
+    poses): computed once and kept when they fit in ``KEEP_BYTES``, else recomputed on every
+    pass (the basis needs one pass, the rows a second)."""
+
+    def __init__(self, robot: Robot, q: np.ndarray, spec: DesignKinds):
+        self.robot, self.q, self.spec = robot, q, spec
+        n3 = 3 * len(robot.body_names)
+        self.kept: list[np.ndarray] | None = None
+        if len(q) * len(spec.tau_joints) * n3 * 8 <= KEEP_BYTES:
+            self.kept = [x for _, x in self._compute()]
+
+    def _compute(self):
+        scale = self.spec.total_mass / self.spec.tau_noise
+        for s in range(0, len(self.q), ROW_CHUNK):
+            yield s, self.robot.torque_regressor(self.q[s : s + ROW_CHUNK],
+                                                 self.spec.tau_joints) * scale  # fmt: skip
+
+    def blocks(self):
+        """(start, X (m, J, 3N)) blocks in pose order."""
+        if self.kept is None:
+            yield from self._compute()
+            return
+        for k, x in enumerate(self.kept):
+            yield k * ROW_CHUNK, x
+
+
+def _torque_blocks(robot: Robot, q: np.ndarray, spec: DesignKinds, rows: TorqueRows | None):
+    """The blocks of ``rows`` (computed for ``q`` when None)."""
+    return (rows or TorqueRows(robot, q, spec)).blocks()
+
+
+def pool_information(
+    robot: Robot, q, spec: DesignKinds, torques: TorqueRows | None = None
+) -> np.ndarray:
     """(3N, 3N) information about vec(r) of the poses ``q`` (n, nq) [rad], each kind's rows
     divided by its noise, the torque offsets marginalised (the Schur complement: per joint,
-    the scatter of its rows about their mean over the poses)."""
+    the scatter of its rows about their mean over the poses); ``torques``: their torque rows
+    already computed."""
     q = as_poses(q, robot.nq)
     n3 = 3 * len(robot.body_names)
     info = np.zeros((n3, n3))
@@ -113,7 +145,7 @@ def pool_information(robot: Robot, q, spec: DesignKinds) -> np.ndarray:
         total = np.zeros((len(spec.tau_joints), n3))
         shift = None
         scatter = np.zeros((n3, n3))
-        for _, x in _torque_blocks(robot, q, spec):
+        for _, x in _torque_blocks(robot, q, spec, torques):
             if shift is None:  # about the first block's mean: no cancellation in the sums
                 shift = x.mean(axis=0)
             d = x - shift
@@ -123,10 +155,16 @@ def pool_information(robot: Robot, q, spec: DesignKinds) -> np.ndarray:
     return (info + info.T) / 2
 
 
-def kind_basis(robot: Robot, q, spec: DesignKinds, rtol: float = DEFAULT_RTOL) -> np.ndarray:
+def kind_basis(
+    robot: Robot,
+    q,
+    spec: DesignKinds,
+    rtol: float = DEFAULT_RTOL,
+    torques: TorqueRows | None = None,
+) -> np.ndarray:
     """(3N, p) orthonormal basis of what the kinds' rows over the poses ``q`` determine
     (``pool_information``'s identifiable subspace, the estimation's rank rule)."""
-    return identifiable_eigen(pool_information(robot, q, spec), rtol)[1]
+    return identifiable_eigen(pool_information(robot, q, spec, torques), rtol)[1]
 
 
 @dataclass(frozen=True)
@@ -169,9 +207,12 @@ class BlockRows:
         return a.T @ a
 
 
-def block_rows(robot: Robot, q, spec: DesignKinds, basis: np.ndarray) -> BlockRows:
+def block_rows(
+    robot: Robot, q, spec: DesignKinds, basis: np.ndarray, torques: TorqueRows | None = None
+) -> BlockRows:
     """The design rows of the poses ``q`` (n, nq) [rad] in ``basis`` (3N, p): CoP rows first,
-    then one row per measured joint; each divided by its kind's noise."""
+    then one row per measured joint; each divided by its kind's noise (``torques``: their
+    torque rows already computed)."""
     from sescid.planning.doptimal import projected_regressor
 
     q = as_poses(q, robot.nq)
@@ -184,7 +225,7 @@ def block_rows(robot: Robot, q, spec: DesignKinds, basis: np.ndarray) -> BlockRo
     if spec.has_tau:
         nj = len(spec.tau_joints)
         tau = np.empty((len(q), nj, p))
-        for s, x in _torque_blocks(robot, q, spec):
+        for s, x in _torque_blocks(robot, q, spec, torques):
             tau[s : s + len(x)] = (x.reshape(-1, x.shape[2]) @ basis).reshape(len(x), nj, p)
         parts.append(tau)
         cols += list(range(nj))

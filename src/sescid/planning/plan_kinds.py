@@ -20,6 +20,7 @@ from sescid.planning.gantry import gantry_candidates
 from sescid.planning.kinds import (
     BlockRows,
     DesignKinds,
+    TorqueRows,
     block_rows,
     design_kinds,
     expected_com_error,
@@ -87,7 +88,8 @@ def plan_kinds(
     cand = _candidates(robot, opt.n_candidates + opt.n_test, seed, opt, mount, lim, progress)
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
-    basis = kind_basis(robot, pool_q, spec)
+    torques = TorqueRows(robot, pool_q, spec) if spec.has_tau else None
+    basis = kind_basis(robot, pool_q, spec, torques=torques)
     need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
     if count < need:
         raise OptionError(
@@ -96,7 +98,8 @@ def plan_kinds(
             f"{basis.shape[1]} combinations these kinds see and {spec.n_nuisance} sensor "
             f"offsets: at least {need} poses",
         )
-    rows = block_rows(robot, pool_q, spec, basis)
+    rows = block_rows(robot, pool_q, spec, basis, torques)
+    del torques
     c_test = per_row_information(projected_regressor(robot, test_q, basis))
     sel, n_checked, n_failed = checked_choice(
         lambda keep: choose_blocks(rows, count, select, seed, keep), pool_q, opt

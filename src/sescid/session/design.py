@@ -19,6 +19,7 @@ import numpy as np
 from sescid.errors import DataError, OptionError
 from sescid.planning import (
     MOUNTS,
+    TorqueRows,
     block_rows,
     candidates,
     cop_half_extents,
@@ -89,8 +90,9 @@ class SessionDesign:
             design = SequentialDesign(projected_regressor(self.robot, q, basis), self.opt.near)
             return basis, design, 0
         spec = design_kinds(self.robot, kinds, self.opt.cop_noise, self.opt.tau_noise)
-        basis = kind_basis(self.robot, q, spec)
-        rows = block_rows(self.robot, q, spec, basis)
+        torques = TorqueRows(self.robot, q, spec)
+        basis = kind_basis(self.robot, q, spec, torques=torques)
+        rows = block_rows(self.robot, q, spec, basis, torques)
         need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
         return basis, SequentialDesign(rows, self.opt.near), need
 
