@@ -12,8 +12,13 @@ per robot, and the OP2's D-optimal choice from 10⁵ candidates against a naive 
    foot and a heavy torso far ahead (``tests/humanoid_gen.py``, uniform draws almost never pass).
 3. OP2: 38 D-optimal poses from 10⁵ candidates; the rank-2 greedy against a naive greedy that
    recomputes every log det (timed on ``--naive-subset`` candidates, scaled).
+4. Torque designs (``--kinds tau``): the user's commands (the OP2 standing, 38 poses from the
+   default 5000 candidates; held by its torso; Unitree G1 from example-robot-data held by its
+   pelvis, 29 joints), and the OP2's stages in-process: candidates, basis and rows, the block
+   greedy and exchange against the CoP design's on the same pool (20 rows per pose against 2),
+   the expected CoM error against random sets.
 
-Usage: ``python benchmarks/bench_poses.py [--repeat 3] [--skip-op2-pool]``.
+Usage: ``python benchmarks/bench_poses.py [--repeat 3] [--skip-op2-pool] [--only-torque]``.
 """
 
 from __future__ import annotations
@@ -182,19 +187,76 @@ def op2_pool(repeat: int, n: int = 100_000, k: int = 38, subset: int = 1_000) ->
           f"{k} random {rand * 1e3:.2f} mm (median of 50)")  # fmt: skip
 
 
+def torque_designs(repeat: int, tmp: Path, k: int = 38) -> None:
+    exe = str(Path(sys.executable).parent / "sescid")
+    g1 = erd("g1_description/urdf/g1_29dof_rev_1_0.urdf")
+    ref = run_timed([sys.executable, "-c", "import numpy"], repeat)
+    rows = [
+        ("OP2 standing, --kinds tau, 38 poses", [exe, "poses", "--kinds", "tau"]),
+        ("OP2 standing, --kinds both, 38 poses", [exe, "poses", "--kinds", "both"]),
+        ("OP2 held by MP_BODY (gantry), 38 poses",
+         [exe, "poses", "--kinds", "tau", "--support", "MP_BODY"]),
+        ("G1 held by its pelvis (29 joints), 38 poses",
+         [exe, "poses", "--kinds", "tau", "--robot", str(g1), "--support", "pelvis"]),
+    ]  # fmt: skip
+    print(f"4. torque designs: sescid poses (best wall of {repeat} fresh processes)")
+    print(f"   reference: python -c 'import numpy'            {ref[0]:6.2f} s (CPU {ref[1]:.2f})")
+    for label, args in rows:
+        args = [*args, "--count", str(k), "--seed", "0", "--out", str(tmp / "t.csv"), "--force"]
+        subprocess.run(args, check=True, capture_output=True)  # warm the kernel caches
+        wall, cpu = run_timed(args, repeat)
+        print(f"   {label:52s} {wall:6.2f} s (CPU {cpu:.2f} s)")
+    robot = sescid.load_robot("op2")
+    n, n_test = 5000, 2000
+    t = time.process_time()
+    cand = design.candidates(robot, n + n_test, seed=0, compliance=design.compliance(robot))
+    t_cand = time.process_time() - t
+    q, q_test = cand.q[:n], cand.q[n:]
+    spec = design.design_kinds(robot, "tau")
+    t = time.process_time()
+    basis = design.kind_basis(robot, q, spec)
+    rows_tau = design.block_rows(robot, q, spec, basis)
+    t_rows = time.process_time() - t
+    c = design.per_row_information(design.projected_regressor(robot, q_test, basis))
+    t = time.process_time()
+    greedy = design.select_blocks(rows_tau, k, 0, max_passes=0)
+    t_greedy = time.process_time() - t
+    t = time.process_time()
+    sel = design.select_blocks(rows_tau, k, 0)
+    t_sel = time.process_time() - t
+    a = design.projected_regressor(robot, q, design.identifiable_basis(robot, q))
+    t = time.process_time()
+    design.select_d_optimal(a, k, seed=0)
+    t_cop = time.process_time() - t
+    err = design.expected_com_error(rows_tau, sel.index, c)
+    err_g = design.expected_com_error(rows_tau, greedy.index, c)
+    rand = np.median(design.random_com_error(rows_tau, k, c, 50, 0))
+    print(f"   OP2 in-process, {k} of {n} candidates, CPU seconds: candidates {t_cand:.2f}, "
+          f"basis and rows {t_rows:.2f}, block greedy {t_greedy:.2f}, greedy + exchange "
+          f"{t_sel:.2f} ({sel.exchanges} exchanges in {sel.passes} passes); the CoP design on "
+          f"the same pool {t_cop:.2f}")  # fmt: skip
+    print(f"   expected CoM x/y error (σ_τ = 0.05 N·m): D-optimal {err * 1e3:.2f} mm (greedy "
+          f"alone {err_g * 1e3:.2f} mm), {k} random {rand * 1e3:.2f} mm (median of 50)"
+          )  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--search-candidates", type=int, default=1000)
     ap.add_argument("--skip-op2-pool", action="store_true")
+    ap.add_argument("--only-torque", action="store_true", help="section 4 only")
     args = ap.parse_args()
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(f"load average {load}; numpy {np.__version__}, sescid {sescid.__version__}")
     with tempfile.TemporaryDirectory() as d:
-        commands(args.repeat, Path(d))
-    search_cost(args.search_candidates)
-    if not args.skip_op2_pool:
-        op2_pool(args.repeat)
+        if not args.only_torque:
+            commands(args.repeat, Path(d))
+        torque_designs(args.repeat, Path(d))
+    if not args.only_torque:
+        search_cost(args.search_candidates)
+        if not args.skip_op2_pool:
+            op2_pool(args.repeat)
     print(f"load average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
 
 

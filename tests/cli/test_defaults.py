@@ -32,7 +32,7 @@ from sescid.planning import PlanOptions, cop_half_extents, plan_poses, sampling_
 from sescid.report import LiveView
 from sescid.robot import load_robot
 from sescid.sensors import CalibrationOptions, PadSessionOptions, fsr, load_sensors, table_gravity
-from sescid.session import SessionOptions
+from sescid.session import KinematicAdapter, SessionOptions
 from sescid.simulation import TorqueNoise, simulate
 from sescid.study import paper_study
 
@@ -165,10 +165,13 @@ def _poses(d) -> list:
     pairs = [("count", "count"), ("select", "select"), ("seed", "seed")]
     fields = [("n_candidates", "n_candidates"), ("test_poses", "n_test")]
     fields += [("clearance", "clearance"), ("noise", "sigma"), ("rigid", "rigid")]
+    fields += [(n, n) for n in ("kinds", "tau_noise", "mount", "hang_height")]
+    joints = None if d["tau_joints"] == "all" else d["tau_joints"]
     return [
         *_robot(d),
         *[(n, d[n], _arg(plan_poses, a)) for n, a in pairs],
         *[(n, d[n], _field(PlanOptions, a)) for n, a in fields],
+        ("tau_joints", joints, _field(PlanOptions, "tau_joints")),
         ("urdf_limits", not d["urdf_limits"], _arg(sampling_limits, "paper")),
         ("range_deg", d["range_deg"], _arg(sampling_limits, "range_deg")),
         *[(n, d[n], _arg(cop_half_extents, n)) for n in ("cop_box", "margin", "sole_size")],
@@ -220,6 +223,7 @@ def _session(d) -> list:
         ("sensors_file", d["sensors_file"], _arg(load_sensors, "path")),
         ("SessionOptions", session_options(d), SessionOptions()),
         ("TorqueConfig", torque_config(d), TorqueConfig()),
+        ("foot_sensors", d["foot_sensors"], _arg(KinematicAdapter.__init__, "feet")),
         ("view_port", d["view_port"], _arg(LiveView.__init__, "port")),
         ("view_linger", d["view_linger"], _arg(LiveView.close, "linger")),
     ]

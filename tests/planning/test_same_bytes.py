@@ -1,7 +1,8 @@
 """``sescid poses --seed 0`` writes the same bytes whatever the CPU: run in subprocesses on the
 host CPU and as a generic x86-64 (numba's ``NUMBA_CPU_NAME=generic``: no FMA, no AVX; OpenBLAS's
-oldest kernels), on the OP2 (uniform draws) and on the synthetic humanoid (the CoM-Jacobian
-search), and the files compared byte for byte."""
+oldest kernels), on the OP2 (uniform draws), on the synthetic humanoid (the CoM-Jacobian
+search) and for the OP2's torque rows held by its torso (the block search, a gantry), and the
+files compared byte for byte."""
 
 from __future__ import annotations
 
@@ -26,10 +27,12 @@ def _poses(out, robot_args, extra_env) -> bytes:
     return out.read_bytes()
 
 
-@pytest.mark.parametrize("which", ["op2", "humanoid"])
+@pytest.mark.parametrize("which", ["op2", "humanoid", "op2-tau-gantry"])
 def test_poses_same_bytes_on_a_generic_cpu(tmp_path, which):
     if which == "op2":
         robot_args = ["--robot", "op2"]
+    elif which == "op2-tau-gantry":
+        robot_args = ["--robot", "op2", "--support", "MP_BODY", "--kinds", "tau"]
     else:
         robot_args = ["--robot", str(write_humanoid(tmp_path)), "--support", "legA_sole"]
     host = _poses(tmp_path / "host.csv", robot_args, {})

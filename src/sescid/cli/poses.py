@@ -18,12 +18,17 @@ from sescid.estimation import min_poses
 from sescid.io import write_table
 from sescid.planning import (
     DEFAULT_CLEARANCE,
+    DEFAULT_TAU_NOISE,
+    DESIGN_KINDS,
     PlanOptions,
+    block_curve,
     cop_half_extents,
     default_candidates,
     design_curve,
     free_sole,
+    min_block_poses,
     plan_poses,
+    resolve_mount,
     sampling_limits,
 )
 from sescid.planning import paper_convention as robot_paper_convention
@@ -133,6 +138,42 @@ def _sole_notes(robot, capsules) -> list[str]:
     "backlash from the robot profile).",
 )
 @click.option(
+    "--kinds",
+    type=click.Choice(list(DESIGN_KINDS)),
+    default="cop",
+    show_default=True,
+    help="What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
+    "tau (joint torques, an unknown offset per joint) or both.",
+)
+@click.option(
+    "--tau-noise",
+    default=DEFAULT_TAU_NOISE,
+    show_default=True,
+    type=float,
+    help="Joint-torque noise σ per pose for the design and its expected error [N·m].",
+)
+@click.option(
+    "--tau-joints",
+    default="all",
+    show_default=True,
+    help="Joints whose torque is measured: all, or a comma-separated list.",
+)
+@click.option(
+    "--mount",
+    type=click.Choice(["stand", "gantry"]),
+    default=None,
+    help="stand: on the support foot (balance checked); gantry: the support link (a torso, "
+    "pelvis) held level, the robot hanging free (joint limits, floor, self-collision only; "
+    "--kinds tau). Default: gantry when the robot's mass splits at the support (a trunk).",
+)
+@click.option(
+    "--hang-height",
+    default=None,
+    type=float,
+    help="Gantry: height of the held link's frame above the floor [m] (default: its height "
+    "when the robot stands at the zero pose + 50 mm).",
+)
+@click.option(
     "--check",
     "check",
     type=click.Choice(["none", "mujoco"]),
@@ -161,6 +202,11 @@ def poses(
     figure,
     paper_convention: bool,
     rigid: bool,
+    kinds: str,
+    tau_noise: float,
+    tau_joints: str,
+    mount: str | None,
+    hang_height: float | None,
     check: str,
     force: bool,
 ):
@@ -168,19 +214,25 @@ def poses(
     informative, ordered to keep consecutive poses close.
 
     Columns: pose (id), one per joint in radians (servo convention), <joint>_deg,
-    <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m).
+    <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m; not for
+    a robot held in a gantry).
     """
     outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
     if n_candidates is None:
-        n_candidates = default_candidates(robot, select, count)
+        n_candidates = default_candidates(robot, select, count, kinds)
+    resolve_mount(robot, mount, kinds)  # a CoP design on a held trunk: say so first
     need = min_poses(robot)
-    if count < need:
+    if count < need and kinds == "cop":
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
     if n_candidates < count:
         raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
     if not noise > 0 or not clearance >= 0:
         raise OptionError("noise", "must be > 0 and --clearance ≥ 0 (metres)")
+    if not tau_noise > 0:
+        raise OptionError("tau_noise", f"must be > 0 (N·m), got {tau_noise}")
+    if hang_height is not None and not hang_height > 0:
+        raise OptionError("hang_height", f"must be > 0 (metres), got {hang_height}")
     pc = robot_paper_convention(robot)
     if paper_convention and pc is None:
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
@@ -201,11 +253,17 @@ def poses(
         rigid=rigid,
         check=pose_check,
         check_name="MuJoCo bench",
+        kinds=kinds,
+        tau_noise=tau_noise,
+        tau_joints=_joint_list(tau_joints),
+        mount=mount,
+        hang_height=hang_height,
     )
     plan = plan_poses(robot, count, select, seed, opt, progress=TerminalProgress("candidates"))
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
-    notes += _sole_notes(robot, capsules)
+    if plan.mount == "stand":
+        notes += _sole_notes(robot, capsules)
     notes += plan.notes
     cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
     names = robot.joint_names
@@ -221,39 +279,65 @@ def poses(
     if paper_convention and pc is not None:
         qp = np.degrees(pc.to_paper(plan.q))
         cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
-    cols |= {"cop_x": plan.cop[:, 0], "cop_y": plan.cop[:, 1]}
+    if plan.mount == "stand":
+        cols |= {"cop_x": plan.cop[:, 0], "cop_y": plan.cop[:, 1]}
     echo = click.echo
     cand = plan.candidates
     echo(f"candidates: {cand.summary()}")
     free = free_sole(robot)
     n_pairs = len(capsules.pairs) if capsules is not None else 0
-    echo(
-        f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
-        + (f"{free} corners ≥ {clearance * 1e3:g} mm above ground; " if free else "")
-        + f"{n_pairs} capsule pairs checked"
-    )
+    if plan.mount == "stand":
+        echo(
+            f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
+            + (f"{free} corners ≥ {clearance * 1e3:g} mm above ground; " if free else "")
+            + f"{n_pairs} capsule pairs checked"
+        )
+    else:
+        echo(f"  held by {robot.support} (gantry); {n_pairs} capsule pairs checked")
     for note in notes:
         echo(f"  note: {note}")
-    echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({select})")
-    echo(
-        f"expected noise-free CoP error on fresh poses (σ = {noise * 1e3:g} mm): "
-        f"chosen {mm(plan.expected_error)}, {count} random {mm(plan.random_error)} (median)"
-    )
+    echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({select}, {kinds} rows)")
+    echo(f"expected noise-free {_error_line(plan, noise, tau_noise)}: chosen "
+         f"{mm(plan.expected_error)}, {count} random {mm(plan.random_error)} (median)")  # fmt: skip
     echo(
         f"joint-space path from the zero pose: {plan.path_unordered:.2f} rad in selection "
         f"order → {plan.path_ordered:.2f} rad ordered"
     )
-    curve = None
-    if figure:
-        ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
-        ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
-        curve = design_curve(
-            plan.a_pool, plan.c_test, ks, noise, seed, progress=TerminalProgress("figure: K values")
-        )
+    curve = _curve(plan, need, count, n_candidates, noise, seed) if figure else None
     with outs:
         write_table(outs.path(out), cols)
         if curve is not None:
-            design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection")
+            what = "" if plan.rows is None else f" ({kinds} rows, CoM x/y error)"
+            design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection{what}")
     echo(f"wrote {out}: {count} poses ({len(cols)} columns)")
     if curve is not None:
         echo(f"wrote {figure}")
+
+
+def _joint_list(spec: str) -> tuple[str, ...] | None:
+    """``--tau-joints``: None for all, else the comma-separated names."""
+    spec = spec.strip()
+    if spec in ("", "all"):
+        return None
+    return tuple(j.strip() for j in spec.split(",") if j.strip())
+
+
+def _error_line(plan, noise: float, tau_noise: float) -> str:
+    """What the expected error is of, and the noise it assumes."""
+    if plan.rows is None:
+        return f"CoP error on fresh poses (σ = {noise * 1e3:g} mm)"
+    sig = f"σ_τ = {tau_noise:g} N·m" + (f", σ = {noise * 1e3:g} mm" if plan.kinds == "both" else "")
+    return f"CoM x/y error on fresh poses ({sig})"
+
+
+def _curve(plan, need: int, count: int, n_candidates: int, noise: float, seed: int):
+    """The figure's expected error vs K (the CoP's, or the CoM's for torque rows)."""
+    progress = TerminalProgress("figure: K values")
+    if plan.rows is not None:
+        r = plan.rows
+        need = min_block_poses(r.x.shape[1], r.p, r.n_nuisance)
+    ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
+    ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
+    if plan.rows is not None:
+        return block_curve(plan.rows, plan.c_test, ks, seed, progress=progress)
+    return design_curve(plan.a_pool, plan.c_test, ks, noise, seed, progress=progress)

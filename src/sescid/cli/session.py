@@ -18,9 +18,10 @@ from sescid.cli.common import (
     robot_options,
     sensors_option,
 )
-from sescid.cli.experiment import torque_config, torque_options
+from sescid.cli.experiment import bench_sensors, torque_config, torque_options
 from sescid.errors import OptionError
-from sescid.session import SessionOptions
+from sescid.planning import MOUNTS
+from sescid.session import SESSION_KINDS, SessionOptions, session_mount
 
 _OPT = SessionOptions()
 
@@ -42,24 +43,44 @@ class _Printer:
         if step.status != "measured":
             click.echo(f"{head}: skipped — {step.reason}")
             return
-        assert step.cop is not None
         std = (
             "not yet (rank " + str(step.rank) + ")"
             if not math.isfinite(step.cop_std)
             else mm(step.cop_std)
         )
-        pred = ""
-        if step.cop_predicted is not None:
-            pred = (
-                f", predicted − measured {mm(float(np.linalg.norm(step.cop_predicted - step.cop)))}"
-            )
+        what = []
+        if step.cop is not None:
+            pred = ""
+            if step.cop_predicted is not None:
+                d = float(np.linalg.norm(step.cop_predicted - step.cop))
+                pred = f", predicted − measured {mm(d)}"
+            what.append(f"CoP ({step.cop[0] * 1e3:.2f}, {step.cop[1] * 1e3:.2f}) mm{pred}")
+        if step.tau is not None:
+            what.append(f"{len(step.tau)} joint torques")
         click.echo(
-            f"{head}: CoP ({step.cop[0] * 1e3:.2f}, {step.cop[1] * 1e3:.2f}) mm{pred}; "
-            f"predicted CoP std {std}" + (" — converged" if step.converged else "")
+            f"{head}: {', '.join(what)}; predicted {step.quantity} std {std}"
+            + (" — converged" if step.converged else "")
         )
 
     def stopped(self, result):
         pass
+
+
+class _CopView:
+    """The live view, shown the poses that measured a CoP (it draws the measured CoP)."""
+
+    def __init__(self, view):
+        self.view = view
+
+    def planned(self, *a):
+        self.view.planned(*a)
+
+    def finished_pose(self, step, steps):
+        if step.status != "measured" or step.cop is not None:
+            self.view.finished_pose(step, steps)
+
+    def stopped(self, *a):
+        self.view.stopped(*a)
 
 
 class _Both:
@@ -139,6 +160,44 @@ class _Both:
     type=click.FloatRange(min=0, min_open=True),
     help="Also stop when the predicted CoP std reaches this [m].",
 )
+@click.option(
+    "--kinds",
+    type=click.Choice(list(SESSION_KINDS)),
+    default=_OPT.kinds,
+    show_default=True,
+    help="What the next pose is chosen for: auto (what the robot reports: a loaded foot sensor "
+    "gives the CoP, tau_<joint> columns the joint torques), cop, tau or both.",
+)
+@click.option("--tau-noise", default=_OPT.tau_noise, show_default=True, type=float,
+              help="Joint-torque noise per pose the design assumes [N·m].")  # fmt: skip
+@click.option(
+    "--mount",
+    type=click.Choice(list(MOUNTS)),
+    default=None,
+    help="stand: on the support foot; gantry: the support link held level, the robot hanging "
+    "free (joint torques only). Default: gantry when the robot's mass splits at the support.",
+)
+@click.option(
+    "--hang-height",
+    default=None,
+    type=float,
+    help="Gantry: height of the held link above the floor [m] (default: its height when the "
+    "robot stands at the zero pose + 50 mm).",
+)
+@click.option(
+    "--total-mass",
+    default=None,
+    type=float,
+    help="The robot's weighed mass [kg]: the scale of joint torques (default: the model's, "
+    "with a warning in the fit).",
+)
+@click.option(
+    "--foot-sensors/--no-foot-sensors",
+    default=True,
+    show_default=True,
+    help="mujoco, kinematic: whether the robot logs its foot sensors; --no-foot-sensors: a "
+    "robot that reports joint torques only (with --torques). Other adapters log what they log.",
+)
 @sensors_option
 @torque_options
 @click.option("--no-view", is_flag=True, help="No live 3-D view (the session runs the same).")
@@ -159,7 +218,9 @@ class _Both:
 @force_option
 def session(**opts):
     """Guided identification: plan the next-best pose, command it, measure, update the estimate;
-    stop when the predicted CoP error has converged or the budget is spent.
+    stop when the predicted CoP error (the CoM's, with joint torques) has converged or the
+    budget is spent. The poses are chosen for what the robot reports: its CoP, its joint
+    torques, or both.
 
     Writes OUT_DIR/poses.csv, raw.csv, measured.csv, fit.json (as the step-by-step path) and
     session.json (the decisions); OUT_DIR/journal.jsonl keeps every pose as it is measured
@@ -188,7 +249,8 @@ def session(**opts):
         click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
     try:
         res = run_session(
-            robot, bot, sensors, opt, _Both(_Printer(opt.budget), view),
+            robot, bot, sensors, opt,
+            _Both(_Printer(opt.budget), None if view is None else _CopView(view)),
             TerminalProgress("candidates"), journal,
         )  # fmt: skip
     except BaseException:
@@ -210,6 +272,11 @@ def session_options(opts: dict) -> SessionOptions:
         window=opts["window"],
         tol=opts["tol"],
         target_std=opts["target_std"],
+        kinds=opts["kinds"],
+        tau_noise=opts["tau_noise"],
+        mount=opts["mount"],
+        hang_height=opts["hang_height"],
+        total_mass=opts["total_mass"],
     )
 
 
@@ -225,14 +292,19 @@ def _adapter(robot, opts, opt):
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
     outputs = [Path(out_dir) / name for name in SESSION_FILES]
     check_outputs(outputs, inputs, force=opts["force"], folders=[out_dir])
-    sensors = load_sensors(opts["sensors_file"], robot.profile)
-    bot = _bot(robot, opts, sensors, opt.seed)
+    bench = adapter in ("mujoco", "kinematic")
+    if bench:
+        sensors = bench_sensors(opts["sensors_file"], robot.profile, torque_config(opts))
+    else:
+        sensors = load_sensors(opts["sensors_file"], robot.profile)
+    bot = _bot(robot, opts, sensors, opt)
     header = {
         "robot": robot.source,
         "support": robot.support,
         "adapter": adapter if adapter != "replay" else f"replay:{Path(replay_path).resolve()}",
-        "sensors": sensors.source,
+        "sensors": sensors.source if sensors is not None else None,
         "torques": opts["torques"],
+        "foot_sensors": opts["foot_sensors"],
         "options": dataclasses.asdict(opt),
     }
     return bot, sensors, header
@@ -253,7 +325,7 @@ def _replay_files(adapter: str, replay_path: str | None) -> tuple[Path | None, P
     return rp / "raw.csv", rp / "poses.csv" if (rp / "poses.csv").exists() else None
 
 
-def _bot(robot, opts, sensors, seed: int):
+def _bot(robot, opts, sensors, opt: SessionOptions):
     """The robot the session commands: a bench, a recorded session, or the user's class."""
     from sescid.io import read_session_reasons, read_table
     from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
@@ -262,9 +334,10 @@ def _bot(robot, opts, sensors, seed: int):
     if adapter in ("mujoco", "kinematic"):
         from sescid.bench import ExperimentConfig
 
-        cfg = ExperimentConfig(torque=torque_config(opts))
+        mount, _ = session_mount(robot, opt)
+        cfg = ExperimentConfig(torque=torque_config(opts), mount=mount)
         cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
-        return cls(robot, sensors, cfg, seed=seed)
+        return cls(robot, sensors, cfg, seed=opt.seed, feet=opts["foot_sensors"])
     if adapter == "replay":
         raw_file, poses_file = _replay_files(adapter, opts["replay_path"])
         assert raw_file is not None
@@ -285,7 +358,7 @@ def _write(res, robot, out_dir, view, opts) -> None:
     written = write_session(res, robot, out_dir)
     click.echo(
         f"stopped: {res.stop_reason}; {res.n_measured} of {len(res.steps)} commanded poses "
-        f"measured, predicted CoP std "
+        f"measured ({' and '.join(res.kinds)}), predicted {res.quantity} std "
         f"{mm(res.cop_std) if math.isfinite(res.cop_std) else 'not determined'}, "
         f"rank {res.fit.rank}"
     )

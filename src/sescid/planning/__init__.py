@@ -6,12 +6,17 @@ foot by the CoM Jacobian, ``adjust``, ``com``) that are stable on a compliant ro
 (``stability``: the CoP box; ``compliance``: servo sag, sole tilt, backlash), clear of the floor
 on every body's geometry (``ground``) and free of self-collision (``collision``) → D-optimal
 choice and its expected CoP error (``doptimal``), optionally checked on a physics bench
-(``PlanOptions.check``) → visiting order (``ordering``); ``plan_poses`` runs it all. Every
-kernel runs without fast-math and breaks near-ties by index: the same poses on every CPU.
+(``PlanOptions.check``) → visiting order (``ordering``); ``plan_poses`` runs it all. Designs
+for joint torques, alone or with the CoP (``PlanOptions.kinds``): each pose's rows of those
+kinds with a torque offset per joint as nuisance (``kinds``), chosen D-optimally in blocks
+(``blocks``), the expected CoM x/y error (``plan_kinds``); a robot held in a fixture
+(``gantry``): no balance, only joint limits, the floor and self-collision. Every kernel runs
+without fast-math and breaks near-ties by index: the same poses on every CPU.
 """
 
 from __future__ import annotations
 
+from sescid.planning.blocks import BlockDesign, schur_logdet, select_blocks
 from sescid.planning.candidates import Candidates, candidates
 from sescid.planning.collision import (
     Capsules,
@@ -34,7 +39,31 @@ from sescid.planning.doptimal import (
     random_cop_error,
     select_d_optimal,
 )
+from sescid.planning.gantry import (
+    GANTRY_LIFT,
+    MOUNTS,
+    gantry_candidates,
+    gantry_floor,
+    held_trunk,
+    resolve_mount,
+    standing_height,
+)
 from sescid.planning.ground import GroundChecks, ground_checks
+from sescid.planning.kinds import (
+    DEFAULT_TAU_NOISE,
+    DESIGN_KINDS,
+    BlockRows,
+    DesignKinds,
+    TorqueRows,
+    block_rows,
+    design_kinds,
+    expected_com_error,
+    kind_basis,
+    min_block_poses,
+    pool_information,
+    random_com_error,
+    schur_information,
+)
 from sescid.planning.limits import (
     PaperConvention,
     load_paper_convention,
@@ -43,14 +72,9 @@ from sescid.planning.limits import (
     unlimited_joints,
 )
 from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.plan import (
-    PlanOptions,
-    PoseCheck,
-    PosePlan,
-    default_candidates,
-    design_curve,
-    plan_poses,
-)
+from sescid.planning.plan import design_curve, plan_poses
+from sescid.planning.plan_kinds import block_curve, choose_blocks
+from sescid.planning.plan_types import PlanOptions, PoseCheck, PosePlan, default_candidates
 from sescid.planning.stability import (
     DEFAULT_CLEARANCE,
     FALLBACK_COP_BOX,
@@ -63,19 +87,30 @@ from sescid.planning.stability import (
 
 __all__ = [
     "DEFAULT_CLEARANCE",
+    "DEFAULT_TAU_NOISE",
+    "DESIGN_KINDS",
     "FALLBACK_COP_BOX",
+    "GANTRY_LIFT",
+    "MOUNTS",
+    "BlockDesign",
+    "BlockRows",
     "Candidates",
     "Capsules",
     "ComState",
     "Compliance",
+    "DesignKinds",
     "GroundChecks",
+    "TorqueRows",
     "PaperConvention",
     "PlanOptions",
     "PoseCheck",
     "PosePlan",
     "Selection",
+    "block_curve",
+    "block_rows",
     "box_capsules",
     "candidates",
+    "choose_blocks",
     "collision_capsules",
     "collision_free_mask",
     "collision_free_mask_numpy",
@@ -85,27 +120,41 @@ __all__ = [
     "cop_half_extents",
     "default_candidates",
     "design_curve",
+    "design_kinds",
     "dynamic_cop",
+    "expected_com_error",
     "expected_cop_error",
     "first_contact",
+    "gantry_candidates",
+    "gantry_floor",
     "ground_checks",
     "free_sole",
     "ground_clear_mask",
+    "held_trunk",
     "identifiable_basis",
     "information",
+    "kind_basis",
     "level_cop",
     "load_paper_convention",
+    "min_block_poses",
     "order_poses",
     "paper_convention",
     "path_length",
     "per_row_information",
     "plan_poses",
+    "pool_information",
     "projected_regressor",
+    "random_com_error",
     "random_cop_error",
+    "resolve_mount",
     "sampling_limits",
+    "schur_information",
+    "schur_logdet",
     "segment_distance",
+    "select_blocks",
     "select_d_optimal",
     "sole_corners",
     "stable_mask",
+    "standing_height",
     "unlimited_joints",
 ]

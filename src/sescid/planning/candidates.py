@@ -58,6 +58,7 @@ class Candidates:
     n_box: int = 0  #: raw poses whose CoP is in the box
     compliance: Compliance | None = None  #: the compliant-stability model checked (None: rigid)
     notes: list[str] = field(default_factory=list)
+    mount: str = "stand"  #: "stand" on the support foot, or "gantry" (held: no balance)
 
     @property
     def acceptance(self) -> float:
@@ -67,6 +68,13 @@ class Candidates:
     def summary(self) -> str:
         """One line: acceptance at each stage and the number accepted."""
         s = max(self.n_sampled, 1)
+        if self.mount == "gantry":
+            drawn = "uniform poses" if self.sampler == "uniform" else "poses (uniform, then near "
+            drawn += "" if self.sampler == "uniform" else "accepted ones)"
+            return (
+                f"{self.n_sampled} {drawn}, held: {self.n_ground / s:.2%} clear of the floor, "
+                f"{self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
+            )
         kind = {
             "uniform": "uniform poses",
             "adjusted": "draws moved over the foot by the CoM Jacobian",

@@ -131,10 +131,12 @@ def _build(shapes: list, origins: list[int]) -> GroundChecks:
     return GroundChecks(seg, np.array(cb, dtype=np.int64), stack(cv), cover, vert_body, stack(vv))
 
 
-def ground_checks(robot: Robot, cap: Capsules | None = None) -> GroundChecks:
+def ground_checks(robot: Robot, cap: Capsules | None = None, exempt: bool = True) -> GroundChecks:
     """What ``ground_clear`` checks, with notes; ``cap`` (the self-collision capsules) only
-    keeps the result for the next call."""
-    cached = getattr(cap, "_ground", None)
+    keeps the result for the next call. ``exempt=False``: every body but the support is
+    checked (a robot hanging in a gantry: nothing touches the floor at the zero pose)."""
+    key = "_ground" if exempt else "_ground_all"
+    cached = getattr(cap, key, None)
     if cached is not None and cached[0] is robot:
         return cached[1]
     names = robot.body_names
@@ -146,18 +148,18 @@ def ground_checks(robot: Robot, cap: Capsules | None = None) -> GroundChecks:
         if role == "origin":
             origins.append(b)
     g = _build(shapes, origins)
-    exempt = _exempt(robot, g)
-    if exempt:
-        out = list(exempt)
+    below = _exempt(robot, g) if exempt else set()
+    if below:
+        out = list(below)
         g.segments = g.segments.subset(~np.isin(g.segments.body, out))
         keep = ~np.isin(g.corner_body, out)
         g.corner_body, g.corners = g.corner_body[keep], g.corners[keep]
         keep = ~np.isin(g.vert_body, out)
         g.vert_body, g.vertices = g.vert_body[keep], g.vertices[keep]
-    g.source, g.exempt = source, sorted(names[b] for b in exempt)
+    g.source, g.exempt = source, sorted(names[b] for b in below)
     g.notes = _notes(robot, g)
     if cap is not None:
-        cap._ground = (robot, g)  # type: ignore[attr-defined]
+        setattr(cap, key, (robot, g))
     return g
 
 
@@ -213,10 +215,12 @@ def free_sole_corners(
     return org[:, None, b] + np.einsum("nij,cj->nci", rot[:, b], sole.corners)
 
 
-def lowest_heights(robot: Robot, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
+def lowest_heights(
+    robot: Robot, rot: np.ndarray, org: np.ndarray, exempt: bool = True
+) -> np.ndarray:
     """(n,) the lowest checked point [m] (support-frame z) over every checked body, per pose
-    (every mesh vertex, no pre-check)."""
-    g = ground_checks(robot)
+    (every mesh vertex, no pre-check); ``exempt=False``: over every body but the support."""
+    g = ground_checks(robot, exempt=exempt)
     low = np.full(rot.shape[0], np.inf)
     if len(g.segments.body):
         low = np.minimum(low, g.segments.lowest(rot, org).min(axis=1))
@@ -237,8 +241,15 @@ def ground_clear(
 ) -> np.ndarray:
     """(n,) True where every checked body is above the floor and the free sole's corners are
     above it by ``clearance`` [m]; ``rot``, ``org`` from ``robot.forward``."""
-    g = ground_checks(robot, cap)
-    floor = robot.floor
+    ok = clear_above(ground_checks(robot, cap), rot, org, robot.floor)
+    corners = free_sole_corners(robot, rot, org, sole_size)
+    if corners is not None:
+        ok &= np.all(corners[..., 2] > robot.floor + clearance, axis=1)
+    return ok
+
+
+def clear_above(g: GroundChecks, rot: np.ndarray, org: np.ndarray, floor: float) -> np.ndarray:
+    """(n,) True where every point ``g`` checks lies above the plane z = ``floor`` [m]."""
     ok = np.ones(rot.shape[0], dtype=bool)
     if len(g.segments.body):
         ok &= np.all(g.segments.lowest(rot, org) > floor, axis=1)
@@ -256,7 +267,4 @@ def ground_clear(
         v = g.vertices[g.vert_body == b]
         z = org[idx, b, 2:3] + rot[idx, b, 2, :] @ v.T
         ok[idx] = z.min(axis=1) > floor
-    corners = free_sole_corners(robot, rot, org, sole_size)
-    if corners is not None:
-        ok &= np.all(corners[..., 2] > floor + clearance, axis=1)
     return ok

@@ -6,16 +6,15 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import min_poses, structural_rank
-from sescid.planning.candidates import Candidates, candidates
+from sescid.planning.candidates import candidates
 from sescid.planning.com import level_cop
-from sescid.planning.compliance import Compliance, compliance
+from sescid.planning.compliance import compliance
 from sescid.planning.doptimal import (
     Selection,
     expected_cop_error,
@@ -26,79 +25,19 @@ from sescid.planning.doptimal import (
     random_cop_error,
     select_d_optimal,
 )
+from sescid.planning.gantry import resolve_mount
 from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
 from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.stability import DEFAULT_CLEARANCE
+from sescid.planning.plan_types import (
+    PlanOptions,
+    PosePlan,
+    checked_choice,
+    default_candidates,
+    options_with,
+    plan_notes,
+)
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
-
-#: (k, nq) poses [rad] → (k,) True where the pose stands (a physics bench, ``bench.standing``)
-PoseCheck = Callable[[np.ndarray], np.ndarray]
-
-
-@dataclass(frozen=True)
-class PlanOptions:
-    """How ``plan_poses`` samples, checks and scores (SI units, radians)."""
-
-    #: stable, collision-free candidates to choose from; None: ``default_candidates``
-    n_candidates: int | None = None
-    n_test: int = 2_000  #: further candidates on which the expected error is computed
-    sigma: float = PAPER_NOISE  #: m, CoP noise assumed for the expected error
-    limits: np.ndarray | None = None  #: (nq, 2) rad; None: ``sampling_limits(robot)``
-    half_extents: np.ndarray | None = None  #: (2,) m CoP box; None: ``cop_half_extents``
-    clearance: float = DEFAULT_CLEARANCE  #: m, free sole corners above the floor
-    random_draws: int = 50  #: random sets drawn for the random-choice error
-    rigid: bool = False  #: True: the CoP box only, no compliant-robot margin
-    check: PoseCheck | None = None  #: keeps only chosen poses it passes (a physics bench)
-    check_name: str = ""  #: what ``check`` is, for the notes
-    max_check_rounds: int = 20  #: choose again at most this often after failed checks
-
-
-@dataclass
-class PosePlan:
-    """K chosen poses in visiting order, with what the choice is expected to achieve."""
-
-    q: np.ndarray  #: (K, nq) rad, ordered
-    cop: np.ndarray  #: (K, 2) model CoP on a level floor, m (CPU-independent bits)
-    method: str  #: "d-optimal" or "random"
-    expected_error: float  #: m, expected noise-free CoP error of least squares on these poses
-    random_error: float  #: m, the same for K random candidates (median over draws)
-    sigma: float  #: m, CoP noise assumed
-    rank: int  #: dimension p of the identifiable subspace
-    logdet: float
-    path_unordered: float  #: rad, joint-space path length in selection order
-    path_ordered: float  #: rad, after ordering
-    candidates: Candidates
-    selection: Selection
-    basis: np.ndarray  #: (3N, p)
-    a_pool: np.ndarray = field(repr=False)  #: (n, 2, p)
-    c_test: np.ndarray = field(repr=False)  #: (p, p)
-    #: joints the model leaves unlimited, sampled within ±``unlimited_range``
-    unlimited: list[str] = field(default_factory=list)
-    unlimited_range: float = UNLIMITED_RANGE  #: rad (the default, or what ``limits`` gave)
-    compliance: Compliance | None = None  #: the compliant-stability model (None: rigid)
-    n_checked: int = 0  #: poses the physics check ran
-    n_check_failed: int = 0  #: of which did not stand (replaced)
-    notes: list[str] = field(default_factory=list)
-
-
-def default_candidates(robot: Robot, select: str, count: int) -> int:
-    """The pool a choice draws from by default: D-optimal, 20 000 candidates when the profile asks
-    for uniform draws (the OP2), 5 000 for the CoM-Jacobian search (dearer per candidate); random,
-    ``count`` (a random subset of random candidates is random)."""
-    if select == "random":
-        return count
-    return 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
-
-
-def _options(options: PlanOptions | None, overrides: dict) -> PlanOptions:
-    """``options`` with keyword overrides (OptionError naming an unknown one)."""
-    opt = options or PlanOptions()
-    names = {f.name for f in dataclasses.fields(PlanOptions)}
-    bad = sorted(set(overrides) - names)
-    if bad:
-        raise OptionError(bad[0], f"not an option of plan_poses ({', '.join(sorted(names))})")
-    return dataclasses.replace(opt, **overrides)
 
 
 def _choose(a: np.ndarray, count: int, select: str, seed: int, keep: np.ndarray) -> Selection:
@@ -112,33 +51,6 @@ def _choose(a: np.ndarray, count: int, select: str, seed: int, keep: np.ndarray)
     pick = idx[np.random.default_rng(seed).choice(len(idx), count, replace=False)]
     sign, ld = np.linalg.slogdet(information(a[pick]))
     return Selection(index=pick, logdet=float(ld) if sign > 0 else -math.inf)
-
-
-def _checked(
-    a: np.ndarray, q: np.ndarray, count: int, select: str, seed: int, opt: PlanOptions
-) -> tuple[Selection, int, int]:
-    """(selection, poses checked, failed): choose, run ``opt.check`` on the chosen poses not
-    checked yet, drop those that fail from the pool and choose again, until all stand."""
-    keep = np.ones(len(a), dtype=bool)
-    sel = _choose(a, count, select, seed, keep)
-    if opt.check is None:
-        return sel, 0, 0
-    stands: dict[int, bool] = {}
-    for _ in range(opt.max_check_rounds):
-        new = [int(i) for i in sel.index if int(i) not in stands]
-        if new:
-            ok = np.asarray(opt.check(q[new]), dtype=bool)
-            stands |= dict(zip(new, ok.tolist(), strict=True))
-        bad = [int(i) for i in sel.index if not stands[int(i)]]
-        if not bad:
-            return sel, len(stands), sum(not v for v in stands.values())
-        keep[bad] = False
-        sel = _choose(a, count, select, seed, keep)
-    raise SescidError(
-        f"after {opt.max_check_rounds} rounds some chosen poses still fail the "
-        f"{opt.check_name or 'physics'} check ({sum(not v for v in stands.values())} of "
-        f"{len(stands)} checked failed): more candidates (--candidates) or a tighter box"
-    )
 
 
 @one_blas_thread()
@@ -159,12 +71,18 @@ def plan_poses(
     physics ``check``. The expected error is computed on ``n_test`` further candidates.
     ModelError when the support frame is not level (``Robot.check_support_level``).
     """
-    opt = _options(options, overrides)
+    opt = options_with(options, overrides)
     if select not in ("d-optimal", "random"):
         raise SescidError(f"unknown selection '{select}' (d-optimal or random)")
     if opt.n_candidates is None:
-        opt = dataclasses.replace(opt, n_candidates=default_candidates(robot, select, count))
+        n_cand = default_candidates(robot, select, count, opt.kinds)
+        opt = dataclasses.replace(opt, n_candidates=n_cand)
     assert opt.n_candidates is not None
+    mount = resolve_mount(robot, opt.mount, opt.kinds)
+    if opt.kinds != "cop" or mount != "stand":
+        from sescid.planning.plan_kinds import plan_kinds
+
+        return plan_kinds(robot, count, select, seed, opt, mount, progress)
     need = min_poses(robot)
     if count < need:
         raise OptionError(
@@ -194,7 +112,9 @@ def plan_poses(
     basis = identifiable_basis(robot, pool_q)
     a_pool = projected_regressor(robot, pool_q, basis)
     c_test = per_row_information(projected_regressor(robot, test_q, basis))
-    sel, n_checked, n_failed = _checked(a_pool, pool_q, count, select, seed, opt)
+    sel, n_checked, n_failed = checked_choice(
+        lambda keep: _choose(a_pool, count, select, seed, keep), pool_q, opt
+    )
     q_sel = pool_q[sel.index]
     perm = order_poses(q_sel)
     rng = np.random.default_rng(seed)
@@ -220,35 +140,8 @@ def plan_poses(
         compliance=model,
         n_checked=n_checked,
         n_check_failed=n_failed,
-        notes=_notes(free, free_range, opt, model, (n_checked, n_failed)),
+        notes=plan_notes(free, free_range, opt, model, (n_checked, n_failed)),
     )
-
-
-def _notes(
-    free: list[str],
-    free_range: float,
-    opt: PlanOptions,
-    model: Compliance | None,
-    checked: tuple[int, int],
-) -> list[str]:
-    """What the plan assumed and checked, one line each."""
-    out = []
-    if free:
-        out.append(
-            f"{len(free)} joint(s) without limits sampled within "
-            f"±{math.degrees(free_range):.4g}°: {', '.join(free[:6])}"
-            + (" …" if len(free) > 6 else "")
-        )
-    if model is None:
-        out.append("stability: the CoP box only (rigid robot)")
-    else:
-        out.append(f"compliant-robot margin: {model.source}")
-    if opt.check is not None:
-        out.append(
-            f"{opt.check_name or 'physics'} check: {checked[0]} poses simulated, {checked[1]} "
-            "did not stand and were replaced"
-        )
-    return out
 
 
 @one_blas_thread()

@@ -9,6 +9,10 @@ Rule for the next pose (``near``): among the candidates not yet commanded, those
 least ``near`` × the best gain are taken as equally good, and the one nearest the current pose
 (Euclidean joint-space distance, rad) is chosen, so the path between poses stays short.
 ``near = 1`` is the pure greedy choice.
+
+Poses that give more than two rows (joint torques, with an offset per joint: ``kinds``) are
+handled alike from their ``BlockRows``: each candidate's r × r ``Sⱼ`` kept by rank-r updates
+(``blocks.BlockDesign``), the gain ``log det(I + Sⱼ)``.
 """
 
 from __future__ import annotations
@@ -18,7 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import OptionError, SescidError
+from sescid.planning.blocks import BlockDesign
 from sescid.planning.doptimal import _Design, _logdet2
+from sescid.planning.kinds import BlockRows
 
 
 @dataclass(frozen=True)
@@ -32,23 +38,32 @@ class NextPose:
 
 
 class SequentialDesign:
-    """Greedy, one-pose-at-a-time D-optimal choice over a candidate pool A (n, 2, p)."""
+    """Greedy, one-pose-at-a-time D-optimal choice over a candidate pool: the CoP's rows
+    A (n, 2, p), or ``BlockRows`` (r rows per pose with nuisance columns)."""
 
-    def __init__(self, a: np.ndarray, near: float = 0.8):
+    def __init__(self, a: np.ndarray | BlockRows, near: float = 0.8):
         if not 0 < near <= 1:
             raise OptionError("near", f"must be in (0, 1], got {near}")
-        n, _, p = a.shape
+        n = a.x.shape[0] if isinstance(a, BlockRows) else a.shape[0]
         if n == 0:
             raise SescidError("no candidate poses to choose from")
-        x = a.reshape(2 * n, p)
-        delta = 1e-8 * float(np.einsum("ij,ij->", x, x)) / (n * p)
-        self._d = _Design(a, np.eye(p) / delta)
+        self._d: _Design | BlockDesign
+        if isinstance(a, BlockRows):
+            self._d = BlockDesign(a)
+        else:
+            p = a.shape[2]
+            x = a.reshape(2 * n, p)
+            delta = 1e-8 * float(np.einsum("ij,ij->", x, x)) / (n * p)
+            self._d = _Design(a, np.eye(p) / delta)
         self.near = near
         self.tried = np.zeros(n, dtype=bool)  #: commanded already (measured or failed)
 
     def gains(self) -> np.ndarray:
         """(n,) log det(I + A_j M⁻¹ A_jᵀ); −inf for candidates already commanded."""
-        g = np.nan_to_num(_logdet2(self._d.s), nan=-np.inf)
+        if isinstance(self._d, BlockDesign):
+            g = self._d.gains()
+        else:
+            g = np.nan_to_num(_logdet2(self._d.s), nan=-np.inf)
         g[self.tried] = -np.inf
         return g
 

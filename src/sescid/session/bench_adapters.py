@@ -10,6 +10,12 @@ whose true CoP leaves the support foot's pads. ``read(n)``: ``n`` samples of the
 gain error and noise, gravity, joint torques). ``truth`` keeps per measured pose the actual
 angles, the true CoP ``robot.cop(q_actual, r_true)`` and, with torque sensors, the true
 holding torques.
+
+A robot without foot sensors (``feet=False``: it logs joint torques only) stands on the same
+foot (its pads still carry it in MuJoCo) but its log has no foot-sensor columns; without a
+board on the support foot, rigid statics fails a pose whose CoP leaves the support sole. In a
+gantry (``ExperimentConfig.mount = "gantry"``) the support link is held: every pose holds, no
+foot is loaded.
 """
 
 from __future__ import annotations
@@ -40,7 +46,9 @@ G = 9.80665  #: m/s², standard gravity
 class _BenchAdapter:
     """What both bench adapters share: the real robot, its errors, the writer, one pose."""
 
-    def __init__(self, robot, sensors: SensorConfig | None, config, seed: int | None, imu=0.0):
+    def __init__(
+        self, robot, sensors: SensorConfig | None, config, seed: int | None, imu=0.0, feet=True
+    ):
         self.robot = robot
         self.sensors = sensors
         self.config = config or ExperimentConfig()
@@ -50,7 +58,10 @@ class _BenchAdapter:
         self.seed = seed
         self.rng = np.random.default_rng(seed)
         self.errors = draw_errors(robot, sensors, self.config, seed, self.rng)
-        self.writer = RawLogWriter(robot, sensors, self.config, self.errors, imu)
+        if not feet and not self.errors.tau_joints:
+            raise OptionError("torques", "a robot without foot sensors needs torque sensors")
+        logged = sensors if feet else None  # feet=False: the pads carry it, nothing logs them
+        self.writer = RawLogWriter(robot, logged, self.config, self.errors, imu)
         self.r_true, self.mass_true, _ = real_robot(robot, self.config)
         self.truth: dict[str, dict[str, Any]] = {}
         self._pose = ""
@@ -81,30 +92,51 @@ class _BenchAdapter:
 
 
 class KinematicAdapter(_BenchAdapter):
-    """The kinematic bench as a robot: rigid statics of the real robot on its support foot."""
+    """The kinematic bench as a robot: rigid statics of the real robot on its support foot, or
+    held in a gantry (module docstring)."""
 
-    def __init__(self, robot, sensors: SensorConfig, config=None, seed: int | None = 0):
-        super().__init__(robot, sensors, config, seed)
-        foot = next((f for f in sensors.feet if f.sole_frame == robot.support), None)
-        if foot is None:
+    def __init__(
+        self, robot, sensors: SensorConfig | None, config=None, seed: int | None = 0, feet=True
+    ):
+        super().__init__(robot, sensors, config, seed, feet=feet)
+        boards = sensors.feet if sensors is not None else ()
+        self.foot = next((f for f in boards if f.sole_frame == robot.support), None)
+        self.held = self.config.mount == "gantry"
+        if self.foot is None and not self.held and feet:
             raise DataError(f"no foot sensor board sits on the support link '{robot.support}'")
-        self.foot = foot
         self.bodies, _ = real_bodies(robot, self.config)
         self._pads = np.zeros(4)
         self._tau = np.zeros(robot.nq)
 
+    def _tipped(self, cop: np.ndarray) -> str:
+        """Why the true CoP (2,) [m] tips the robot over ('' when it stands): off the pads of
+        the support foot's board, else off its sole."""
+        where = f"the CoP ({cop[0] * 1e3:.1f}, {cop[1] * 1e3:.1f}) mm left the"
+        if self.foot is not None:
+            uv = self.foot.board_coordinates(cop[None])
+            if np.any((uv < 0) | (uv > 1)):
+                return f"toppled: {where} pads"
+            self._pads = self.mass_true * G * bilinear_weights(uv[:, 0], uv[:, 1])[0]
+            return ""
+        sole = self.robot.sole
+        if sole is not None and np.any(
+            np.abs(cop - self.robot.sole_centre) > np.asarray(sole.size) / 2
+        ):
+            return f"toppled: {where} sole"
+        return ""
+
     def wait_settled(self) -> str:
-        """See ``RobotAdapter.wait_settled``: a pose whose CoP leaves the pads tips over."""
+        """See ``RobotAdapter.wait_settled``: a pose whose CoP leaves the pads (the sole) tips
+        over; a held robot always holds."""
         q = self._target[None]
         cop = self.robot.cop(q, self.r_true)
-        uv = self.foot.board_coordinates(cop)
-        if np.any((uv < 0) | (uv > 1)):
-            return (
-                f"toppled: the CoP ({cop[0, 0] * 1e3:.1f}, {cop[0, 1] * 1e3:.1f}) mm left the pads"
-            )
-        self._pads = self.mass_true * G * bilinear_weights(uv[:, 0], uv[:, 1])[0]
+        if not self.held and (why := self._tipped(cop[0])):
+            return why
         self._tau = holding_torques(self.robot, q, self.bodies)[0]
-        self.truth[self._pose] = {"q_actual": self._target, "cop_true": cop[0], "tau": self._tau}
+        truth: dict[str, Any] = {"q_actual": self._target, "tau": self._tau}
+        if not self.held:
+            truth["cop_true"] = cop[0]
+        self.truth[self._pose] = truth
         self._settled = True
         return ""
 
@@ -112,9 +144,9 @@ class KinematicAdapter(_BenchAdapter):
         """See ``RobotAdapter.read``."""
         if not self._settled:
             raise DataError(f"pose {self._pose}: read before the robot settled")
-        assert self.sensors is not None
-        pads = {f.name: np.zeros((n, 4)) for f in self.sensors.feet}
-        pads[self.foot.name] = np.tile(self._pads, (n, 1))
+        pads = {f.name: np.zeros((n, 4)) for f in (self.sensors.feet if self.sensors else ())}
+        if self.foot is not None and not self.held:
+            pads[self.foot.name] = np.tile(self._pads, (n, 1))
         r = Readings(
             q=np.tile(self._target - self._unseen(), (n, 1)),
             pads=pads,
@@ -128,13 +160,21 @@ class MujocoAdapter(_BenchAdapter):
     """The MuJoCo physics bench as a robot: the "real" robot of ``ExperimentConfig`` in
     MuJoCo, one MjModel/MjData kept across poses."""
 
-    def __init__(self, robot, sensors: SensorConfig, config=None, bench=None, seed: int | None = 0):
+    def __init__(
+        self,
+        robot,
+        sensors: SensorConfig | None,
+        config=None,
+        bench=None,
+        seed: int | None = 0,
+        feet: bool = True,
+    ):
         from sescid.bench.mujoco import MujocoBenchConfig, Simulation  # the mujoco extra
 
         bench = bench or MujocoBenchConfig()
         if bench.weld_foot:
             raise OptionError("weld_foot", "a session stands the robot on its foot (no weld)")
-        super().__init__(robot, sensors, config, seed, bench.imu_noise)
+        super().__init__(robot, sensors, config, seed, bench.imu_noise, feet)
         self.bench = bench
         self.sim = Simulation(robot, sensors, self.config, bench)
         self._res: PoseResult | None = None

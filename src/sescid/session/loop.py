@@ -2,27 +2,30 @@
 
 Loop (``run_session``):
 
-1. once: stable, ground-clear, collision-free candidate poses (``planning.candidates``) and their
-   x/y regressor projected on the identifiable subspace;
+1. once: candidate poses — stable on the support foot, ground-clear and collision-free
+   (``planning.candidates``), or for a robot held in a gantry clear of the floor and of itself
+   (``planning.gantry``) — and the sequential design for the kinds the robot reports
+   (``session.design``: the CoP's two rows, or joint torques with an offset each, or both);
 2. plan: the next pose by sequential D-optimal design near the current pose
    (``planning.sequential``: the nearest of the candidates whose information gain is at least
    ``near`` × the best);
 3. safety, before every command: the pose is within the joint limits and statically stable —
    the model's CoP and, once every identifiable combination is determined, the current
-   estimate's CoP inside the stability box; a pose that fails is never commanded (logged in
-   ``rejected``, not counted in the budget) and the next candidate is taken;
+   estimate's CoP inside the stability box (a held robot: the limits only); a pose that fails
+   is never commanded (logged in ``rejected``, not counted in the budget) and the next
+   candidate is taken;
 4. command it through the adapter (``session.adapters``), wait until settled (a pose the
    adapter reports as failed — fell, did not settle — is skipped and logged), read ``samples``
    samples, reduce them to one measurement per pose exactly as ``sescid measure`` does;
    with a ``Journal`` each pose is written to disk before the next is commanded (resumable);
-5. update the online estimator (``estimation.OnlineEstimator``, weighted by the CoP standard
-   errors, with the gravity direction the adapter logs (``grav_x/y/z``, or the IMU's roll/pitch
-   on the profile's IMU link): at every step equal to the batch ``identify --weighted`` fit of
-   the session's measured poses);
-6. stop when **converged** — the predicted RMS CoP standard error over reference poses fell by
-   less than ``tol`` (relative) over the last ``window`` measured poses, with at least
-   ``min_measured`` poses — or when it reached ``target_std``, or when the ``budget`` of
-   commanded poses (failed ones included) is spent.
+5. update the estimate (``session.estimate``): a CoP session's online estimator
+   (``estimation.OnlineEstimator``, weighted by the CoP standard errors, with the gravity
+   direction the adapter logs: at every step equal to ``identify --weighted``), or, with joint
+   torques, ``identify --weighted`` itself on the poses so far;
+6. stop when **converged** — the predicted RMS standard error over reference poses of the CoP
+   (of the CoM x/y with torques) fell by less than ``tol`` (relative) over the last ``window``
+   measured poses, with at least ``min_measured`` poses — or when it reached ``target_std``,
+   or when the ``budget`` of commanded poses (failed ones included) is spent.
 
 The decisions depend only on the options and on the measurements, so replaying a session's raw
 log (``ReplayAdapter``) or its journal makes the same decisions. Pose ids are "0", "1", … in
@@ -39,17 +42,13 @@ import numpy as np
 from sescid.base.columns import Table
 from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError, SescidError
-from sescid.estimation import OnlineEstimator, min_poses
-from sescid.planning import (
-    candidates,
-    cop_half_extents,
-    identifiable_basis,
-    projected_regressor,
-)
+from sescid.estimation import check_total_mass, min_poses
 from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
 from sescid.session.adapters import RobotAdapter
+from sescid.session.design import SessionDesign, session_mount
+from sescid.session.estimate import BatchEstimate, CopEstimate, as_measurements
 from sescid.session.journal import Journal, JournalEntry, ResumingAdapter
 from sescid.session.records import (
     BODY_PRIOR_SCALE,
@@ -80,30 +79,10 @@ def _read_log(robot: Robot, cols: dict[str, np.ndarray], sensors: SensorConfig) 
     return read_log(robot, raw_table(cols), sensors)
 
 
-def _body_std(est: OnlineEstimator, basis: np.ndarray, n_bodies: int) -> np.ndarray:
-    """(N,) RMS SESC std per body [m] over the identifiable directions (prior scale τ)."""
-    s = est.history[-1].noise if est.history else 1.0
-    s = s if math.isfinite(s) and s > 0 else 1.0
-    h = basis.T @ est.ne.ata @ basis / s**2 + np.eye(basis.shape[1]) / BODY_PRIOR_SCALE**2
-    cov = basis @ np.linalg.inv(h) @ basis.T
-    return np.sqrt(np.maximum(np.diag(cov).reshape(n_bodies, 3).sum(axis=1), 0.0))
-
-
-def _estimate(est: OnlineEstimator, basis: np.ndarray) -> np.ndarray:
-    """(N, 3) least-squares SESC vectors in the identifiable subspace, the rest from the prior.
-
-    The directions the poses so far leave undetermined keep the prior (minimum-norm step); the
-    CoP it predicts equals the batch fit's once every identifiable combination is determined.
-    """
-    x0 = est.r_prior.reshape(-1)
-    h = basis.T @ est.ne.ata @ basis
-    g = basis.T @ (est.ne.atb - est.ne.ata @ x0)
-    return (x0 + basis @ (np.linalg.pinv(h, rcond=1e-10, hermitian=True) @ g)).reshape(-1, 3)
-
-
 def check_options(robot: Robot, opt: SessionOptions) -> int:
     """OptionError for options no session can run with; the least measured poses to stop."""
-    need = min_poses(robot)
+    mount, kinds = session_mount(robot, opt)
+    need = min_poses(robot) if kinds == "cop" else 2
     if opt.budget < need:
         raise OptionError("budget", f"{opt.budget} poses cannot identify {robot.name}: ≥ {need}")
     if opt.samples < opt.min_samples or opt.min_samples < 2:
@@ -112,6 +91,13 @@ def check_options(robot: Robot, opt: SessionOptions) -> int:
         raise OptionError("n_candidates", f"must be ≥ the budget ({opt.budget})")
     if not (0 < opt.tol < 1 and 0 < opt.near <= 1 and opt.window >= 1):
         raise OptionError("tol", "need 0 < tol < 1, 0 < near ≤ 1 and window ≥ 1")
+    for name, v in (("cop_noise", opt.cop_noise), ("tau_noise", opt.tau_noise)):
+        if not (math.isfinite(v) and v > 0):
+            raise OptionError(name, f"must be a positive noise level, got {v}")
+    if opt.total_mass is not None:
+        check_total_mass(robot, opt.total_mass)
+    if opt.torque_method not in ("ls", "map"):
+        raise OptionError("torque_method", f"must be ls or map, got {opt.torque_method!r}")
     return need if opt.min_measured is None else opt.min_measured
 
 
@@ -121,18 +107,10 @@ class _Run:
     def __init__(self, robot: Robot, sensors, opt: SessionOptions, progress):
         self.robot, self.sensors, self.opt = robot, sensors, opt
         self.min_measured = check_options(robot, opt)
-        self.half = (
-            cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents)
-        )
-        self.cand = candidates(
-            robot, opt.n_candidates, opt.seed, limits=opt.limits, half_extents=self.half,
-            progress=progress,
-        )  # fmt: skip
-        self.basis = identifiable_basis(robot, self.cand.q)
-        self.design = SequentialDesign(
-            projected_regressor(robot, self.cand.q, self.basis), opt.near
-        )
-        self.est = OnlineEstimator(robot, window=opt.window, tol=opt.tol)
+        self.plan = SessionDesign(robot, opt, progress)
+        self.cand, self.half = self.plan.cand, self.plan.half
+        self.est: CopEstimate | BatchEstimate | None = None
+        self.measured: list[int] = []  #: pool indices of the measured poses
         self.steps: list[SessionStep] = []
         self.raw_parts: list[dict[str, np.ndarray]] = []
         self.names: list[str] | None = None
@@ -140,12 +118,18 @@ class _Run:
         self.r_est: np.ndarray | None = None
         self.rejected: list[tuple[int, str]] = []
 
+    @property
+    def design(self) -> SequentialDesign:
+        """The sequential design for the kinds planned for now."""
+        return self.plan.design
+
     def next_safe(self):
         """The next safe candidate (unsafe ones are logged and never commanded)."""
         while True:
             nxt = self.design.next(self.cand.q, self.q_cur)
             self.design.mark_tried(nxt.index)
-            unsafe = _unsafe(self.robot, self.cand.q[nxt.index], self.half, self.r_est)
+            q = self.cand.q[nxt.index]
+            unsafe = _unsafe(self.robot, q, self.half, self.r_est, self.plan.mount == "gantry")
             if not unsafe:
                 return nxt
             self.rejected.append((nxt.index, unsafe))
@@ -164,50 +148,79 @@ class _Run:
             c: np.asarray(cols[c]) for c in self.names
         }
 
+    def _kinds(self, meas, step: SessionStep) -> str:
+        """The kinds this pose measured for the session; at the first measured pose the
+        estimator is made and the design switched to them (``SessionDesign.switch``)."""
+        has_cop = meas.cop is not None and meas.cop_se is not None
+        kinds = self.plan.measured_kinds(has_cop, meas.tau is not None, step.pose)
+        if self.est is None:
+            self.plan.switch(kinds, self.measured)
+            window, tol = self.opt.window, self.opt.tol
+            if kinds == "cop":
+                self.est = CopEstimate(self.robot, self.plan.basis, window, tol)
+            else:
+                o = self.opt
+                self.est = BatchEstimate(self.robot, self.plan.basis, window, tol, o.total_mass,
+                                         o.torque_method)  # fmt: skip
+        return self.plan.kinds
+
     def measure(self, step: SessionStep, part: dict) -> bool:
-        """Reduce the pose's samples and update the estimate; False when it gave no CoP."""
+        """Reduce the pose's samples and update the estimate; False when it gave nothing."""
         robot, opt = self.robot, self.opt
         meas = measure(robot, _read_log(robot, part, self.sensors), self.sensors, opt.min_samples)
-        if meas.cop is None or meas.cop_se is None:
-            raise DataError(
-                f"pose {step.pose}: the adapter logs no loaded foot sensor: a session measures "
-                "the CoP (joint torques alone are recorded but not yet used to plan)"
-            )
+        kinds = self._kinds(meas, step)
         if len(meas.pose) == 0:
-            step.reason = meas.dropped[0][1] if meas.dropped else "no usable CoP"
+            none = "no usable CoP" if kinds == "cop" else "no usable samples"
+            step.reason = meas.dropped[0][1] if meas.dropped else none
             return False
-        se = meas.cop_se[0]
-        if not np.all(se > 0):
+        if meas.cop_se is not None and kinds != "tau" and not np.all(meas.cop_se[0] > 0):
             step.reason = "CoP standard error is zero (identical samples): cannot weight"
             return False
+        assert self.est is not None
+        pred = None
+        if meas.cop is not None and self.est.n_poses:
+            pred = robot.cop(meas.q, self.est.estimate(), meas.gravity)[0]
+        if isinstance(self.est, CopEstimate):
+            st = self.est.update(meas)
+        else:
+            try:
+                data = as_measurements(meas, kinds, f"pose {step.pose}")
+            except DataError as exc:
+                step.reason = str(exc).split(": ", 1)[1]
+                return False
+            st = self.est.update(data)
+            step.tau = None if data.tau is None else data.tau[0]
         self.raw_parts.append(part)
-        step.status = "measured"
-        step.q_measured, step.cop, step.cop_se = meas.q[0], meas.cop[0], se
-        if self.est.ne.n_poses:
-            step.cop_predicted = robot.cop(meas.q, _estimate(self.est, self.basis), meas.gravity)[0]
-        st = self.est.update(meas.q, meas.cop, meas.cop_se, meas.gravity)  # as identify does
-        step.cop_std, step.rank = st.cop_std, st.rank
-        step.converged = st.converged and st.n_poses >= self.min_measured
-        step.body_std = _body_std(self.est, self.basis, len(robot.body_names))
-        if st.rank >= self.basis.shape[1]:  # identified: check stability on the estimate too
-            self.r_est = _estimate(self.est, self.basis)
+        self.measured.append(step.candidate)
+        step.status, step.q_measured, step.quantity = "measured", meas.q[0], self.est.quantity
+        if meas.cop is not None and meas.cop_se is not None:
+            step.cop, step.cop_se, step.cop_predicted = meas.cop[0], meas.cop_se[0], pred
+        step.cop_std, step.rank = st.std, st.rank
+        need = self.min_measured if kinds == "cop" else max(self.min_measured, self.plan.min_rows)
+        step.converged = st.converged and self.est.n_poses >= need
+        step.body_std = self.est.body_std()
+        if self.est.identified(
+            st.rank, self.half
+        ):  # identified: check stability on the estimate too
+            self.r_est = self.est.estimate()
         return True
 
     def stop_reason(self, step: SessionStep) -> str:
         """Why to stop after this measured pose ('' to go on)."""
         opt = self.opt
+        what = step.quantity
         if step.converged:
             return (
-                f"converged: predicted CoP std {step.cop_std * 1e3:.3f} mm fell by less than "
+                f"converged: predicted {what} std {step.cop_std * 1e3:.3f} mm fell by less than "
                 f"{opt.tol:.0%} over the last {opt.window} poses"
             )
         if opt.target_std is not None and step.cop_std <= opt.target_std:
-            return f"predicted CoP std reached {opt.target_std * 1e3:g} mm"
+            return f"predicted {what} std reached {opt.target_std * 1e3:g} mm"
         return ""
 
     def result(self, stop: str) -> SessionResult:
         """The session's result (DataError when no pose was measured)."""
-        if self.est.ne.n_poses == 0:
+        if self.est is None or self.est.n_poses == 0:
             why = self.steps[0].reason if self.steps else "no pose commanded"
             raise DataError(f"the session measured no pose (first: {why})")
         raw = {k: np.concatenate([p[k] for p in self.raw_parts]) for k in self.raw_parts[0]}
@@ -279,16 +292,21 @@ def run_session(
     return result
 
 
-def _unsafe(robot: Robot, q: np.ndarray, half: np.ndarray, r_est: np.ndarray | None) -> str:
+def _unsafe(
+    robot: Robot, q: np.ndarray, half: np.ndarray, r_est: np.ndarray | None, held: bool = False
+) -> str:
     """Why ``q`` must not be commanded ('' when it is within limits and statically stable).
 
     Stable: the model's CoP, and once every identifiable combination is determined the current
-    estimate's CoP too, strictly inside the stability box ``half``.
+    estimate's CoP too, strictly inside the stability box ``half``; a robot ``held`` in a gantry
+    has no balance to keep (its candidates already clear the floor and themselves).
     """
     try:
         check_limits(robot, q[None], "command")
     except DataError as exc:
         return str(exc)
+    if held:
+        return ""
     for what, r in (("model", None), ("identified", r_est)):
         if what == "identified" and r is None:
             continue

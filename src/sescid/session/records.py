@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sescid.estimation.fit import Fit
-from sescid.planning import Candidates
+from sescid.planning import DEFAULT_TAU_NOISE, Candidates
 from sescid.sensors import Measured
+from sescid.simulation import PAPER_NOISE
 
 #: m, prior scale of a body's SESC components, for the per-body uncertainty shown (0..1 scale)
 BODY_PRIOR_SCALE = 0.005
@@ -32,6 +33,19 @@ class SessionOptions:
     target_std: float | None = None  #: m, also stop when the predicted CoP std reaches this
     limits: np.ndarray | None = None  #: (nq, 2) sampling limits, rad (None: the robot's)
     half_extents: np.ndarray | None = None  #: (2,) CoP stability box, m (None: the profile's)
+    #: what the poses are chosen for: "cop", "tau", "both", or "auto" — what the robot reports
+    #: (decided at the first measured pose; planned for the CoP before it, joint torques when
+    #: the robot is held in a gantry)
+    kinds: str = "auto"
+    cop_noise: float = PAPER_NOISE  #: m, CoP noise per pose the design weighs CoP rows by
+    tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose the design assumes
+    mount: str | None = None  #: "stand" or "gantry" (None: from the support, ``planning.gantry``)
+    hang_height: float | None = None  #: m, gantry: held link above the floor (None: the rule)
+    #: kg, the weighed mass that scales joint torques (None: the model's, with a warning)
+    total_mass: float | None = None
+    #: how a session with joint torques fits: "map" (the CAD prior, as ``identify --method
+    #: map``) or "ls"; a CoP session fits least squares (the online estimator)
+    torque_method: str = "map"
 
 
 @dataclass
@@ -49,10 +63,14 @@ class SessionStep:
     cop: np.ndarray | None = None  #: (2,) measured CoP, m
     cop_se: np.ndarray | None = None  #: (2,) its standard error, m
     cop_predicted: np.ndarray | None = None  #: (2,) predicted before this pose was added, m
-    cop_std: float = math.inf  #: predicted RMS CoP std after this pose, m
+    #: predicted RMS std after this pose, m: of the CoP (a CoP session), else of the CoM x/y
+    #: (``quantity``)
+    cop_std: float = math.inf
     rank: int = 0
     converged: bool = False
     body_std: np.ndarray | None = None  #: (N,) per-body SESC std after this pose, m
+    quantity: str = "CoP"  #: what ``cop_std`` is the std of: "CoP" or "CoM x/y"
+    tau: np.ndarray | None = None  #: (J,) measured joint torques, N·m (sessions with torques)
 
 
 @dataclass
@@ -79,9 +97,20 @@ class SessionResult:
 
     @property
     def cop_std(self) -> float:
-        """Predicted RMS CoP std at the end, m."""
+        """Predicted RMS std at the end, m: of the CoP, or of the CoM x/y (``quantity``)."""
         done = [s.cop_std for s in self.steps if s.status == "measured"]
         return done[-1] if done else math.inf
+
+    @property
+    def quantity(self) -> str:
+        """What ``cop_std`` is the std of: "CoP" or "CoM x/y" (a session with torques)."""
+        done = [s.quantity for s in self.steps if s.status == "measured"]
+        return done[-1] if done else "CoP"
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The measurement kinds the session used ("cop", "tau")."""
+        return tuple(k.kind for k in self.fit.kinds)
 
 
 class SessionObserver:

@@ -1,0 +1,185 @@
+"""The pose plan for joint torques (``kinds`` "tau") or torques and the CoP ("both"), standing
+on a foot or held in a gantry: candidates, the D-optimal (or random) choice over the rows of
+those kinds (``kinds``, ``blocks``), the physics check, order, and the expected error of the
+CoM x/y on fresh poses."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+
+from sescid.errors import OptionError, SescidError
+from sescid.planning.blocks import schur_logdet, select_blocks
+from sescid.planning.candidates import Candidates, candidates
+from sescid.planning.com import level_cop
+from sescid.planning.compliance import compliance
+from sescid.planning.doptimal import Selection, per_row_information, projected_regressor
+from sescid.planning.gantry import gantry_candidates
+from sescid.planning.kinds import (
+    BlockRows,
+    DesignKinds,
+    TorqueRows,
+    block_rows,
+    design_kinds,
+    expected_com_error,
+    kind_basis,
+    min_block_poses,
+    random_com_error,
+)
+from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
+from sescid.planning.ordering import order_poses, path_length
+from sescid.planning.plan_types import PlanOptions, PosePlan, checked_choice, plan_notes
+from sescid.robot import Robot
+
+
+def choose_blocks(
+    rows: BlockRows, count: int, select: str, seed: int, keep: np.ndarray
+) -> Selection:
+    """``count`` of the candidates where ``keep``: D-optimal over their rows, or random
+    (seeded, as ``plan._choose``)."""
+    idx = np.flatnonzero(keep)
+    if len(idx) < count:
+        raise SescidError(f"only {len(idx)} candidates left to choose {count} poses from")
+    if select == "d-optimal":
+        sel = select_blocks(rows.take(idx), count, seed)
+        return dataclasses.replace(sel, index=idx[sel.index])
+    pick = idx[np.random.default_rng(seed).choice(len(idx), count, replace=False)]
+    return Selection(index=pick, logdet=schur_logdet(rows, pick))
+
+
+def _candidates(
+    robot: Robot, n: int, seed: int, opt: PlanOptions, mount: str, lim: np.ndarray, progress
+) -> Candidates:
+    """The pool and the test poses: held in a gantry, or standing as for a CoP design."""
+    if mount == "gantry":
+        if opt.check is not None:
+            raise OptionError("check", "the physics check stands the robot on its foot, not held")
+        return gantry_candidates(robot, n, seed, limits=lim, hang_height=opt.hang_height,
+                                 clearance=opt.clearance, progress=progress)  # fmt: skip
+    if opt.hang_height is not None:
+        raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
+    robot.check_support_level()
+    model = None if opt.rigid else compliance(robot)
+    return candidates(robot, n, seed, limits=lim, half_extents=opt.half_extents,
+                      clearance=opt.clearance, progress=progress, compliance=model)  # fmt: skip
+
+
+def plan_kinds(
+    robot: Robot,
+    count: int,
+    select: str,
+    seed: int,
+    opt: PlanOptions,
+    mount: str,
+    progress: Callable[[int, int], None] | None = None,
+) -> PosePlan:
+    """``plan_poses`` for torque rows (module docstring); ``opt.n_candidates`` is set."""
+    spec = design_kinds(robot, opt.kinds, opt.sigma, opt.tau_noise, opt.tau_joints)
+    assert opt.n_candidates is not None
+    if count < 2:
+        raise OptionError("count", f"{count}: a torque offset needs at least 2 poses")
+    if count > opt.n_candidates:
+        raise SescidError(f"cannot choose {count} poses from {opt.n_candidates} candidates")
+    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
+    free = unlimited_joints(robot)
+    free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
+    cand = _candidates(robot, opt.n_candidates + opt.n_test, seed, opt, mount, lim, progress)
+    n = opt.n_candidates
+    pool_q, test_q = cand.q[:n], cand.q[n:]
+    torques = TorqueRows(robot, pool_q, spec) if spec.has_tau else None
+    basis = kind_basis(robot, pool_q, spec, torques=torques)
+    need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
+    if count < need:
+        raise OptionError(
+            "count",
+            f"{count} poses are too few: {spec.rows} rows per pose must determine the "
+            f"{basis.shape[1]} combinations these kinds see and {spec.n_nuisance} sensor "
+            f"offsets: at least {need} poses",
+        )
+    rows = block_rows(robot, pool_q, spec, basis, torques)
+    del torques
+    c_test = per_row_information(projected_regressor(robot, test_q, basis))
+    sel, n_checked, n_failed = checked_choice(
+        lambda keep: choose_blocks(rows, count, select, seed, keep), pool_q, opt
+    )
+    q_sel = pool_q[sel.index]
+    perm = order_poses(q_sel)
+    rng = np.random.default_rng(seed)
+    rand = random_com_error(rows, count, c_test, opt.random_draws, rng)
+    model = cand.compliance
+    notes = plan_notes(free, free_range, opt, model, (n_checked, n_failed), mount == "gantry")
+    notes += cand.notes + _kind_notes(spec, mount)
+    return PosePlan(
+        q=q_sel[perm],
+        cop=level_cop(robot, q_sel[perm]) if mount == "stand" else np.full((count, 2), np.nan),
+        method=select,
+        expected_error=expected_com_error(rows, sel.index, c_test),
+        random_error=float(np.median(rand)),
+        sigma=opt.sigma,
+        rank=basis.shape[1],
+        logdet=sel.logdet,
+        path_unordered=path_length(q_sel, np.zeros(robot.nq)),
+        path_ordered=path_length(q_sel[perm], np.zeros(robot.nq)),
+        candidates=cand,
+        selection=sel,
+        basis=basis,
+        a_pool=np.zeros((0, 2, basis.shape[1])),
+        c_test=c_test,
+        unlimited=free,
+        unlimited_range=free_range if free else UNLIMITED_RANGE,
+        compliance=model,
+        n_checked=n_checked,
+        n_check_failed=n_failed,
+        notes=notes,
+        kinds=spec.kinds,
+        quantity="CoM x/y",
+        mount=mount,
+        rows=rows,
+    )
+
+
+def _kind_notes(spec: DesignKinds, mount: str) -> list[str]:
+    """What the torque design assumed, one line each."""
+    joints = spec.tau_joints
+    out = [
+        f"torque rows: {len(joints)} joint(s) ({', '.join(joints[:4])}"
+        + (" …" if len(joints) > 4 else "")
+        + f"), noise {spec.tau_noise:g} N·m per pose, an unknown offset per joint"
+        + (f"; CoP noise {spec.cop_noise * 1e3:g} mm" if spec.has_cop else "")
+    ]
+    if spec.kinds == "tau":
+        held = "the held link's" if mount == "gantry" else "the support foot's"
+        out.append(
+            f"torques do not see {held} own horizontal moments: the expected CoM error is that of "
+            "what they determine (a constant CoM shift is the model's)"
+        )
+    return out
+
+
+def block_curve(
+    rows: BlockRows,
+    c_test: np.ndarray,
+    ks,
+    seed: int = 0,
+    draws: int = 50,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, np.ndarray]:
+    """Expected CoM x/y error [m] vs K for a torque design: D-optimal, and random (median,
+    10th/90th percentile) — ``design_curve``'s for blocks of rows."""
+    ks = np.asarray(ks, dtype=int)
+    out: dict[str, list[float]] = {k: [] for k in ("d_optimal", "random_median", "random_p10",
+                                                   "random_p90")}  # fmt: skip
+    for n_done, k in enumerate(ks):
+        if progress is not None:
+            progress(n_done, len(ks))
+        sel = select_blocks(rows, int(k), seed)
+        out["d_optimal"].append(expected_com_error(rows, sel.index, c_test))
+        r = random_com_error(rows, int(k), c_test, draws, seed)
+        out["random_median"].append(float(np.median(r)))
+        out["random_p10"].append(float(np.percentile(r, 10)))
+        out["random_p90"].append(float(np.percentile(r, 90)))
+    if progress is not None:
+        progress(len(ks), len(ks))
+    return {"k": ks} | {k: np.array(v) for k, v in out.items()}

@@ -1,0 +1,162 @@
+"""What a pose plan is given and gives (``PlanOptions``, ``PosePlan``), the default pool, the
+physics check's choose-again loop and the plan's notes: shared by the CoP plan (``plan``) and
+the torque plan (``plan_kinds``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sescid.errors import OptionError, SescidError
+from sescid.planning.candidates import Candidates
+from sescid.planning.compliance import Compliance
+from sescid.planning.doptimal import Selection
+from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows
+from sescid.planning.limits import UNLIMITED_RANGE
+from sescid.planning.stability import DEFAULT_CLEARANCE
+from sescid.robot import Robot
+from sescid.simulation import PAPER_NOISE
+
+#: (k, nq) poses [rad] → (k,) True where the pose stands (a physics bench, ``bench.standing``)
+PoseCheck = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """How ``plan_poses`` samples, checks and scores (SI units, radians)."""
+
+    #: stable, collision-free candidates to choose from; None: ``default_candidates``
+    n_candidates: int | None = None
+    n_test: int = 2_000  #: further candidates on which the expected error is computed
+    sigma: float = PAPER_NOISE  #: m, CoP noise assumed for the expected error
+    limits: np.ndarray | None = None  #: (nq, 2) rad; None: ``sampling_limits(robot)``
+    half_extents: np.ndarray | None = None  #: (2,) m CoP box; None: ``cop_half_extents``
+    clearance: float = DEFAULT_CLEARANCE  #: m, free sole corners above the floor
+    random_draws: int = 50  #: random sets drawn for the random-choice error
+    rigid: bool = False  #: True: the CoP box only, no compliant-robot margin
+    check: PoseCheck | None = None  #: keeps only chosen poses it passes (a physics bench)
+    check_name: str = ""  #: what ``check`` is, for the notes
+    max_check_rounds: int = 20  #: choose again at most this often after failed checks
+    kinds: str = "cop"  #: the measured kinds the design counts: "cop", "tau" or "both"
+    tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose and joint
+    tau_joints: tuple[str, ...] | None = None  #: joints whose torque is measured (None: all)
+    mount: str | None = None  #: "stand" or "gantry" (None: from the support, ``gantry``)
+    hang_height: float | None = None  #: m, gantry: held link above the floor (None: ``gantry``)
+
+
+@dataclass
+class PosePlan:
+    """K chosen poses in visiting order, with what the choice is expected to achieve."""
+
+    q: np.ndarray  #: (K, nq) rad, ordered
+    cop: np.ndarray  #: (K, 2) model CoP on a level floor, m (CPU-independent bits; nan: gantry)
+    method: str  #: "d-optimal" or "random"
+    #: m, expected noise-free error of least squares on these poses: of the CoP (a CoP design),
+    #: else of the CoM x/y (``quantity``) on fresh poses
+    expected_error: float
+    random_error: float  #: m, the same for K random candidates (median over draws)
+    sigma: float  #: m, CoP noise assumed
+    rank: int  #: dimension p of the identifiable subspace
+    logdet: float
+    path_unordered: float  #: rad, joint-space path length in selection order
+    path_ordered: float  #: rad, after ordering
+    candidates: Candidates
+    selection: Selection
+    basis: np.ndarray  #: (3N, p)
+    a_pool: np.ndarray = field(repr=False)  #: (n, 2, p)
+    c_test: np.ndarray = field(repr=False)  #: (p, p)
+    #: joints the model leaves unlimited, sampled within ±``unlimited_range``
+    unlimited: list[str] = field(default_factory=list)
+    unlimited_range: float = UNLIMITED_RANGE  #: rad (the default, or what ``limits`` gave)
+    compliance: Compliance | None = None  #: the compliant-stability model (None: rigid)
+    n_checked: int = 0  #: poses the physics check ran
+    n_check_failed: int = 0  #: of which did not stand (replaced)
+    notes: list[str] = field(default_factory=list)
+    kinds: str = "cop"  #: the kinds the design counts
+    quantity: str = "CoP"  #: what ``expected_error`` is the error of: "CoP" or "CoM x/y"
+    mount: str = "stand"  #: "stand" or "gantry"
+    rows: BlockRows | None = field(default=None, repr=False)  #: the pool's rows (kinds ≠ cop)
+
+
+def default_candidates(robot: Robot, select: str, count: int, kinds: str = "cop") -> int:
+    """The pool a choice draws from by default: D-optimal, 20 000 candidates when the profile asks
+    for uniform draws (the OP2), 5 000 for the CoM-Jacobian search (dearer per candidate) and for
+    designs with torque rows (a pose's J rows cost J²/4 times a CoP pose's two); random,
+    ``count`` (a random subset of random candidates is random)."""
+    if select == "random":
+        return count
+    if kinds != "cop":
+        return 5_000
+    return 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
+
+
+def options_with(options: PlanOptions | None, overrides: dict) -> PlanOptions:
+    """``options`` with keyword overrides (OptionError naming an unknown one)."""
+    opt = options or PlanOptions()
+    names = {f.name for f in dataclasses.fields(PlanOptions)}
+    bad = sorted(set(overrides) - names)
+    if bad:
+        raise OptionError(bad[0], f"not an option of plan_poses ({', '.join(sorted(names))})")
+    return dataclasses.replace(opt, **overrides)
+
+
+def checked_choice(
+    choose: Callable[[np.ndarray], Selection], q: np.ndarray, opt: PlanOptions
+) -> tuple[Selection, int, int]:
+    """(selection, poses checked, failed): ``choose(keep)`` among the pool poses ``q`` where
+    ``keep``, run ``opt.check`` on the chosen poses not checked yet, drop those that fail from
+    the pool and choose again, until all stand."""
+    keep = np.ones(len(q), dtype=bool)
+    sel = choose(keep)
+    if opt.check is None:
+        return sel, 0, 0
+    stands: dict[int, bool] = {}
+    for _ in range(opt.max_check_rounds):
+        new = [int(i) for i in sel.index if int(i) not in stands]
+        if new:
+            ok = np.asarray(opt.check(q[new]), dtype=bool)
+            stands |= dict(zip(new, ok.tolist(), strict=True))
+        bad = [int(i) for i in sel.index if not stands[int(i)]]
+        if not bad:
+            return sel, len(stands), sum(not v for v in stands.values())
+        keep[bad] = False
+        sel = choose(keep)
+    raise SescidError(
+        f"after {opt.max_check_rounds} rounds some chosen poses still fail the "
+        f"{opt.check_name or 'physics'} check ({sum(not v for v in stands.values())} of "
+        f"{len(stands)} checked failed): more candidates (--candidates) or a tighter box"
+    )
+
+
+def plan_notes(
+    free: list[str],
+    free_range: float,
+    opt: PlanOptions,
+    model: Compliance | None,
+    checked: tuple[int, int],
+    held: bool = False,
+) -> list[str]:
+    """What the plan assumed and checked, one line each (``held``: a gantry, no balance)."""
+    out = []
+    if free:
+        out.append(
+            f"{len(free)} joint(s) without limits sampled within "
+            f"±{math.degrees(free_range):.4g}°: {', '.join(free[:6])}"
+            + (" …" if len(free) > 6 else "")
+        )
+    if held:
+        out.append("held in a gantry: no balance to keep (joint limits, floor, self-collision)")
+    elif model is None:
+        out.append("stability: the CoP box only (rigid robot)")
+    else:
+        out.append(f"compliant-robot margin: {model.source}")
+    if opt.check is not None:
+        out.append(
+            f"{opt.check_name or 'physics'} check: {checked[0]} poses simulated, {checked[1]} "
+            "did not stand and were replaced"
+        )
+    return out

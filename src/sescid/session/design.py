@@ -1,0 +1,130 @@
+"""What a guided session chooses from and how: the candidate pool (standing on the support
+foot, or held in a gantry) and the sequential D-optimal design for the kinds the robot
+reports.
+
+The kinds (``SessionOptions.kinds``): "cop", "tau", "both", or "auto" — what the robot
+reports, known at the first measured pose: a loaded foot sensor gives the CoP, ``tau_<joint>``
+columns the joint torques. Until then an "auto" session plans for the CoP (a held robot: for the
+torques); when the first measurement shows other kinds, the design is rebuilt for them with
+what was commanded so far (``switch``), so every later pose is chosen for the rows the robot
+gives. The decisions depend only on the options and the measurements (a replay repeats them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from sescid.errors import DataError, OptionError
+from sescid.planning import (
+    MOUNTS,
+    TorqueRows,
+    block_rows,
+    candidates,
+    cop_half_extents,
+    design_kinds,
+    gantry_candidates,
+    held_trunk,
+    identifiable_basis,
+    kind_basis,
+    min_block_poses,
+    projected_regressor,
+    resolve_mount,
+)
+from sescid.planning.sequential import SequentialDesign
+from sescid.robot import Robot
+from sescid.session.records import SessionOptions
+
+#: the kinds a session may be asked for
+SESSION_KINDS = ("auto", "cop", "tau", "both")
+
+
+def session_mount(robot: Robot, opt: SessionOptions) -> tuple[str, str]:
+    """(mount, kinds planned for before the first measurement); OptionError for kinds a mount
+    cannot give (a CoP in a gantry)."""
+    if opt.kinds not in SESSION_KINDS:
+        raise OptionError("kinds", f"must be one of {', '.join(SESSION_KINDS)}, got {opt.kinds}")
+    if opt.mount is not None and opt.mount not in MOUNTS:
+        raise OptionError("mount", f"must be one of {', '.join(MOUNTS)}, got {opt.mount!r}")
+    mount = opt.mount or ("gantry" if held_trunk(robot) else "stand")
+    kinds = opt.kinds
+    if kinds == "auto":
+        kinds = "tau" if mount == "gantry" else "cop"
+    return resolve_mount(robot, mount, kinds), kinds
+
+
+def kinds_of(cop: bool, tau: bool) -> str:
+    """The design kinds of a measurement with a CoP and/or joint torques."""
+    return "both" if cop and tau else "cop" if cop else "tau"
+
+
+class SessionDesign:
+    """The session's candidates and its sequential design for ``kinds``."""
+
+    def __init__(self, robot: Robot, opt: SessionOptions, progress: Callable | None = None):
+        self.robot, self.opt = robot, opt
+        self.mount, self.kinds = session_mount(robot, opt)
+        self.half = (
+            cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents)
+        )
+        if self.mount == "gantry":
+            self.cand = gantry_candidates(
+                robot, opt.n_candidates, opt.seed, limits=opt.limits,
+                hang_height=opt.hang_height, progress=progress,
+            )  # fmt: skip
+        else:
+            if opt.hang_height is not None:
+                raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
+            self.cand = candidates(
+                robot, opt.n_candidates, opt.seed, limits=opt.limits, half_extents=self.half,
+                progress=progress,
+            )  # fmt: skip
+        self.basis, self.design, self.min_rows = self._design(self.kinds)
+
+    def _design(self, kinds: str) -> tuple[np.ndarray, SequentialDesign, int]:
+        """(basis, sequential design, fewest poses that determine it) for ``kinds``."""
+        q = self.cand.q
+        if kinds == "cop":
+            basis = identifiable_basis(self.robot, q)
+            design = SequentialDesign(projected_regressor(self.robot, q, basis), self.opt.near)
+            return basis, design, 0
+        spec = design_kinds(self.robot, kinds, self.opt.cop_noise, self.opt.tau_noise)
+        torques = TorqueRows(self.robot, q, spec)
+        basis = kind_basis(self.robot, q, spec, torques=torques)
+        rows = block_rows(self.robot, q, spec, basis, torques)
+        need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
+        return basis, SequentialDesign(rows, self.opt.near), need
+
+    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> str:
+        """The kinds a measurement gives for this session (``auto``: all of them); DataError
+        when it lacks what the session was asked for."""
+        asked = self.opt.kinds
+        if not cop and not tau:
+            raise DataError(
+                f"pose {pose}: the robot reports neither a loaded foot sensor (the CoP) nor "
+                "joint torques (tau_<joint> columns): a session measures one of them"
+            )
+        if asked in ("cop", "both") and not cop:
+            raise DataError(
+                f"pose {pose}: the adapter logs no loaded foot sensor, but the session was asked "
+                f"to plan for the CoP (--kinds {asked}); with joint torques use --kinds tau or auto"
+            )
+        if asked in ("tau", "both") and not tau:
+            raise DataError(
+                f"pose {pose}: the adapter logs no joint torques (tau_<joint> columns), but the "
+                f"session was asked to plan for them (--kinds {asked})"
+            )
+        return kinds_of(cop, tau) if asked == "auto" else asked
+
+    def switch(self, kinds: str, measured: list[int]) -> None:
+        """Plan for ``kinds`` from now on: a new design holding the poses ``measured`` (pool
+        indices) and never proposing one already commanded."""
+        if kinds == self.kinds:
+            return
+        tried = self.design.tried.copy()
+        self.basis, self.design, self.min_rows = self._design(kinds)
+        self.kinds = kinds
+        for i in measured:
+            self.design.add(i)
+        self.design.tried |= tried
