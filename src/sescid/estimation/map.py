@@ -316,7 +316,7 @@ def fit_map(
         chosen = f"{len(cv_folds)}-fold cv"
     tau, sig = maximise_evidence(ne, theta0, pri, prior_scale=prior_scale, noise=noise)
     post = posterior(ne, theta0, pri, tau, sig)
-    return _map_fit(base, system, post, ls, chosen, noise is not None, curve, pri)
+    return _map_fit(base, system, post, ls, _Choice(chosen, noise is not None, curve), pri)
 
 
 def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) -> int:
@@ -339,8 +339,18 @@ def _noise_ratios(system: System, ls: Solution) -> dict[str, float]:
     return {k: (v if math.isfinite(v) and v > 0 else 1.0) for k, v in ls.noise.items()}
 
 
+@dataclass(frozen=True)
+class _Choice:
+    """How τ and σ were chosen: τ's rule ("given", "evidence", "k-fold cv"), σ given or not,
+    and the cross-validation curve (None without cv)."""
+
+    prior_scale_by: str
+    noise_given: bool
+    cv_curve: list | None
+
+
 def _map_fit(
-    base: Fit, system: System, post: Posterior, ls: Solution, chosen, noise_given, curve, pri
+    base: Fit, system: System, post: Posterior, ls: Solution, choice: _Choice, pri: Prior
 ) -> Fit:
     n_x = system.n_x
     x, cov = post.x[:n_x], post.cov[:n_x, :n_x]
@@ -353,13 +363,14 @@ def _map_fit(
     decided = _prior_decided(ls, n_x, base.rtol, post.noise**2 * pri.matrix(post.prior_scale))
     info = MapInfo(
         prior_scale=post.prior_scale,
-        prior_scale_by=chosen,
+        prior_scale_by=choice.prior_scale_by,
         noise=post.noise,
-        noise_by="given" if noise_given else "evidence",
+        noise_by="given" if choice.noise_given else "evidence",
         log_evidence=float(post.log_evidence),
         effective_parameters=post.edf,
-        cv_curve=curve,
-        at_lower_bound=chosen == "evidence" and post.prior_scale <= 1.01 * TAU_RANGE[0],
+        cv_curve=choice.cv_curve,
+        at_lower_bound=choice.prior_scale_by == "evidence"
+        and post.prior_scale <= 1.01 * TAU_RANGE[0],
         prior_decided=decided,
         prior=pri.kind,
         prior_com_std=post.prior_scale * BODY_COM_SCALE if pri.kind == "bodies" else None,
@@ -386,7 +397,7 @@ def _map_fit(
         method="map",
         sigma_hat=post.noise,
         base=combos,
-        sigma_dof=math.inf if noise_given else max(base.n_rows - post.edf, 1.0),
+        sigma_dof=math.inf if choice.noise_given else max(base.n_rows - post.edf, 1.0),
         map=info,
         cop_offset=offset,
         nuisance=nuisance,

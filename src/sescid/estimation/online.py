@@ -43,6 +43,10 @@ class Step:
     converged: bool
 
 
+#: where the predicted CoP std is averaged: (count, range in degrees, seed) of random poses
+REFERENCE_POSES = (200, 30.0, 12345)
+
+
 class OnlineEstimator:
     """Pose-by-pose identification; ``fit()`` gives the batch-equivalent ``Fit`` at any time.
 
@@ -58,7 +62,6 @@ class OnlineEstimator:
         prior_scale: float | None = None,
         noise: float | None = None,
         r_prior: np.ndarray | None = None,
-        reference_poses: np.ndarray | None = None,
         window: int = 20,
         tol: float = 0.05,
         rtol: float = DEFAULT_RTOL,
@@ -75,9 +78,7 @@ class OnlineEstimator:
         self.noise = noise
         self.r_prior = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, float)
         self.window, self.tol, self.rtol = window, tol, rtol
-        q_ref = (
-            random_poses(robot, 200, 30.0, 12345) if reference_poses is None else reference_poses
-        )
+        q_ref = random_poses(robot, *REFERENCE_POSES)
         phi = robot.regressor(q_ref, (0, 1)).reshape(-1, 3 * len(robot.body_names))
         self._g = phi.T @ phi / q_ref.shape[0]  # mean φᵀφ per pose (two rows)
         self.ne = NormalEquations.empty(3 * len(robot.body_names))
