@@ -21,7 +21,7 @@ import numpy as np
 
 import sescid
 from sescid.estimation import min_poses
-from sescid.planning import candidates, collision_capsules
+from sescid.planning import CandidateOptions, candidates, collision_capsules
 from sescid.planning.ground import ground_checks
 
 ROBOTS = {
@@ -112,7 +112,8 @@ def main() -> None:
     talos = sescid.load_robot(erd() / ROBOTS["talos"][0], ROBOTS["talos"][1])
     t0 = time.perf_counter()
     try:
-        c = candidates(talos, 20, seed=0, sampler="uniform", max_sampled=2_000_000, chunk=50_000)
+        uniform = CandidateOptions(sampler="uniform", max_sampled=2_000_000, chunk=50_000)
+        c = candidates(talos, 20, 0, uniform)
         rate, n = c.acceptance, c.n_sampled
     except sescid.SescidError:
         rate, n = 0.0, 2_000_000

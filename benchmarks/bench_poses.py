@@ -113,13 +113,13 @@ def search_cost(n: int) -> None:
     print("   self-collision); uniform draws give up after 10⁶ without enough")
     for name, robot in robots:
         model = design.compliance(robot)
-        design.candidates(robot, 20, 0, compliance=model)  # warm
+        design.candidates(robot, 20, 0, design.CandidateOptions(compliance=model))  # warm
         out = []
         for sampler in ("uniform", "adjusted"):
             t = time.process_time()
             try:
-                c = design.candidates(robot, n, 1, sampler=sampler, compliance=model,
-                                      max_sampled=10**6)  # fmt: skip
+                draw = design.CandidateOptions(sampler=sampler, compliance=model, max_sampled=10**6)
+                c = design.candidates(robot, n, 1, draw)
                 cpu = time.process_time() - t
                 out.append(
                     f"{sampler}: {c.acceptance:.2%} accepted, {c.n_sampled / n:7.1f} draws and "
@@ -163,7 +163,7 @@ def op2_pool(repeat: int, n: int = 100_000, k: int = 38, subset: int = 1_000) ->
         return best
 
     cand, t_cand, c_cand = timed(
-        lambda: design.candidates(robot, n + n_test, seed=0, compliance=model)
+        lambda: design.candidates(robot, n + n_test, 0, design.CandidateOptions(compliance=model))
     )
     q, q_test = cand.q[:n], cand.q[n:]
     basis = design.identifiable_basis(robot, q)
@@ -209,7 +209,8 @@ def torque_designs(repeat: int, tmp: Path, k: int = 38) -> None:
     robot = sescid.load_robot("op2")
     n, n_test = 5000, 2000
     t = time.process_time()
-    cand = design.candidates(robot, n + n_test, seed=0, compliance=design.compliance(robot))
+    draw = design.CandidateOptions(compliance=design.compliance(robot))
+    cand = design.candidates(robot, n + n_test, 0, draw)
     t_cand = time.process_time() - t
     q, q_test = cand.q[:n], cand.q[n:]
     spec = design.design_kinds(robot, "tau")

@@ -27,7 +27,8 @@ def test_icub_uniform_finds_nothing_the_search_finds_poses():
     robot = sescid.load_robot(erd("icub_description/robots/icub.urdf"), "r_sole")
     model = design.compliance(robot)
     with pytest.raises(SescidError, match=r"only 0 of 1000000 uniform poses are accepted"):
-        design.candidates(robot, 5, 0, sampler="uniform", compliance=model, max_sampled=10**6)
+        uniform = design.CandidateOptions(sampler="uniform", compliance=model, max_sampled=10**6)
+        design.candidates(robot, 5, 0, uniform)
     plan = sescid.plan_poses(robot, count=40, n_candidates=300, n_test=80, seed=1)
     assert plan.candidates.sampler == "adjusted"
     cop = PinOracle(robot.model_path, "r_sole", robot.joint_names).com(plan.q)[:, :2]
@@ -47,8 +48,10 @@ def test_synthetic_h1_style_uniform_fails(h1_style):
     draws pass; the uniform-only sampler gives up and points to the search."""
     _, robot = h1_style
     with pytest.raises(SescidError, match="adjusted sampler") as exc:
-        design.candidates(robot, 20, 0, sampler="uniform", compliance=design.compliance(robot),
-                          max_sampled=10**6)  # fmt: skip
+        uniform = design.CandidateOptions(
+            sampler="uniform", compliance=design.compliance(robot), max_sampled=10**6
+        )
+        design.candidates(robot, 20, 0, uniform)
     assert int(str(exc.value).split()[1]) <= 20
 
 
@@ -72,7 +75,7 @@ def test_uniform_profile_hands_over_to_the_search(h1_style):
     """A profile that asks for uniform draws: too few pass, the search takes over (said)."""
     path, robot = h1_style
     uni = Robot(robot.model, str(path), RobotProfile(name="h1_style", pose_sampler="uniform"))
-    cand = design.candidates(uni, 50, 0, compliance=design.compliance(uni))
+    cand = design.candidates(uni, 50, 0, design.CandidateOptions(compliance=design.compliance(uni)))
     assert cand.sampler in ("uniform+adjusted", "adjusted") and len(cand.q) == 50
     assert cand.n_sampled >= SWITCH_AFTER
     assert "moved over the foot by the CoM Jacobian" in cand.summary()

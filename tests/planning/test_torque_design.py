@@ -26,7 +26,9 @@ SIGMA_TAU = 0.05
 @pytest.fixture(scope="module")
 def pool(op2):
     """300 stable OP2 candidates and 200 test poses (standing on r_sole)."""
-    cand = design.candidates(op2, 500, seed=11, compliance=design.compliance(op2))
+    cand = design.candidates(
+        op2, 500, 11, design.CandidateOptions(compliance=design.compliance(op2))
+    )
     return cand.q[:300], cand.q[300:]
 
 

@@ -17,7 +17,7 @@ without fast-math and breaks near-ties by index: the same poses on every CPU.
 from __future__ import annotations
 
 from sescid.planning.blocks import BlockDesign, schur_logdet, select_blocks
-from sescid.planning.candidates import Candidates, candidates
+from sescid.planning.candidates import CandidateOptions, Candidates, candidates
 from sescid.planning.collision import (
     Capsules,
     box_capsules,
@@ -42,6 +42,7 @@ from sescid.planning.doptimal import (
 from sescid.planning.gantry import (
     GANTRY_LIFT,
     MOUNTS,
+    GantryOptions,
     gantry_candidates,
     gantry_floor,
     held_trunk,
@@ -94,11 +95,13 @@ __all__ = [
     "MOUNTS",
     "BlockDesign",
     "BlockRows",
+    "CandidateOptions",
     "Candidates",
     "Capsules",
     "ComState",
     "Compliance",
     "DesignKinds",
+    "GantryOptions",
     "GroundChecks",
     "TorqueRows",
     "PaperConvention",

@@ -11,10 +11,38 @@ the innermost loops run over independent outputs, so they vectorise without reas
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from sescid.kinematics import lazy_njit
+
+
+class Rows(NamedTuple):
+    """The candidates' rows A_j = [x_j, nuisance] as the kernels read them (``BlockRows``)."""
+
+    x: np.ndarray  #: (n, r, p) SESC part
+    col: np.ndarray  #: (r,) int64 nuisance column of row a (−1: none)
+    val: np.ndarray  #: (r,) its value
+
+
+class Split(NamedTuple):
+    """A (p + K, c) matrix U = [x; o] split into its SESC rows and its nuisance rows."""
+
+    x: np.ndarray  #: (p, c)
+    o: np.ndarray  #: (K, c)
+
+
+class Sandwiches(NamedTuple):
+    """Every candidate's S_j = A_j M⁻¹ A_jᵀ and its gain log det(I + S_j) (updated in place)."""
+
+    s: np.ndarray  #: (n, r, r)
+    gain: np.ndarray  #: (n,)
+
+
+def split(u: np.ndarray, p: int) -> Split:
+    """``u`` (p + K, c) split at row ``p``, each part contiguous."""
+    return Split(np.ascontiguousarray(u[:p]), np.ascontiguousarray(u[p:]))
 
 
 @lazy_njit(cache=True, nogil=True)
@@ -40,9 +68,11 @@ def _chol_logdet(a, r):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True, nogil=True)
-def _rows_times(x, col, val, j, ux, uo, w, lower):  # pragma: no cover - compiled
-    """W (r, c) = A_j U for U = [ux (p, c); uo (K, c)]; ``lower``: U is lower triangular
-    (row t has no entries beyond column t: they are skipped)."""
+def _rows_times(rows, j, u, w, lower):  # pragma: no cover - compiled
+    """W (r, c) = A_j U for U = [ux (p, c); uo (K, c)] (a ``Split``); ``lower``: U is lower
+    triangular (row t has no entries beyond column t: they are skipped)."""
+    x, col, val = rows
+    ux, uo = u
     r, p = x.shape[1], x.shape[2]
     c = ux.shape[1]
     for a in range(r):
@@ -62,10 +92,11 @@ def _rows_times(x, col, val, j, ux, uo, w, lower):  # pragma: no cover - compile
 
 
 @lazy_njit(cache=True, nogil=True)
-def _gram(z, r, c, s, j, sign, first, zt):  # pragma: no cover - compiled
+def _gram(z, s, j, sign, first, zt):  # pragma: no cover - compiled
     """s[j] = (0 if ``first`` else s[j]) + sign · z zᵀ for z (r, c), as c rank-one updates of
     the upper triangle (z transposed into ``zt`` (c, r) first: the inner loop runs along a
     row), then mirrored."""
+    r, c = z.shape
     for a in range(r):
         for e in range(c):
             zt[e, a] = z[a, e]
@@ -94,31 +125,34 @@ def _gain(s, j, r, scratch):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True, nogil=True)
-def _sandwich(x, col, val, lx, lo, s, gain):  # pragma: no cover - compiled
-    """S_j = A_j M⁻¹ A_jᵀ = (A_j L)(A_j L)ᵀ for M⁻¹ = L Lᵀ, L = [lx; lo] ((p + K), p + K),
-    and the gains, for every candidate."""
-    n, r = x.shape[0], x.shape[1]
-    w = np.empty((r, lx.shape[1]))
-    wt = np.empty((lx.shape[1], r))
+def _sandwich(rows, low, out):  # pragma: no cover - compiled
+    """S_j = A_j M⁻¹ A_jᵀ = (A_j L)(A_j L)ᵀ for M⁻¹ = L Lᵀ, L = [lx; lo] ((p + K), p + K)
+    (a ``Split``), and the gains, for every candidate, into ``out`` (``Sandwiches``)."""
+    s, gain = out
+    n, r = rows.x.shape[0], rows.x.shape[1]
+    w = np.empty((r, low.x.shape[1]))
+    wt = np.empty((low.x.shape[1], r))
     scratch = np.empty((r, r))
     for j in range(n):
-        _rows_times(x, col, val, j, lx, lo, w, True)
-        _gram(w, r, lx.shape[1], s, j, 1.0, True, wt)
+        _rows_times(rows, j, low, w, True)
+        _gram(w, s, j, 1.0, True, wt)
         gain[j] = _gain(s, j, r, scratch)
 
 
 @lazy_njit(cache=True, nogil=True)
-def _update(x, col, val, ux, uo, g, sign, s, gain):  # pragma: no cover - compiled
-    """S_j += sign · (A_j U) G (A_j U)ᵀ, G (r × r) symmetric, U = [ux; uo] ((p + K) × r), and
-    the gains, for every candidate: V = W G, then S_j's upper triangle += sign · V Wᵀ as r
-    rank-one updates (inner loops along rows), mirrored."""
-    n, r = x.shape[0], x.shape[1]
+def _update(rows, u, g, sign, out):  # pragma: no cover - compiled
+    """S_j += sign · (A_j U) G (A_j U)ᵀ, G (r × r) symmetric, U = [ux; uo] ((p + K) × r, a
+    ``Split``), and the gains, for every candidate (``out``: ``Sandwiches``): V = W G, then
+    S_j's upper triangle += sign · V Wᵀ as r rank-one updates (inner loops along rows),
+    mirrored."""
+    s, gain = out
+    n, r = rows.x.shape[0], rows.x.shape[1]
     w = np.empty((r, r))
     wt = np.empty((r, r))
     v = np.empty((r, r))
     scratch = np.empty((r, r))
     for j in range(n):
-        _rows_times(x, col, val, j, ux, uo, w, False)
+        _rows_times(rows, j, u, w, False)
         for a in range(r):
             for e in range(r):
                 wt[e, a] = w[a, e]
@@ -139,11 +173,11 @@ def _update(x, col, val, ux, uo, g, sign, s, gain):  # pragma: no cover - compil
 
 
 @lazy_njit(cache=True, nogil=True)
-def _swap(x, col, val, ux, uo, s, s_o, chosen, out):  # pragma: no cover - compiled
+def _swap(rows, u, s, s_o, chosen, out):  # pragma: no cover - compiled
     """out[j] = log det(M − A_oᵀA_o + A_jᵀA_j) − log det M for each unchosen j (−inf for the
     chosen): log det(I + S_j) + log det(I − S_o + Xᵀ (I + S_j)⁻¹ X), X = A_j M⁻¹ A_oᵀ = A_j U
-    with U = M⁻¹A_oᵀ = [ux; uo]. Never forms the design without o."""
-    n, r = x.shape[0], x.shape[1]
+    with U = M⁻¹A_oᵀ = [ux; uo] (a ``Split``). Never forms the design without o."""
+    n, r = rows.x.shape[0], rows.x.shape[1]
     y = np.empty((r, r))
     ch = np.empty((r, r))
     q = np.empty((r, r))
@@ -159,7 +193,7 @@ def _swap(x, col, val, ux, uo, s, s_o, chosen, out):  # pragma: no cover - compi
         if first == -math.inf:
             out[j] = -math.inf
             continue
-        _rows_times(x, col, val, j, ux, uo, y, False)  # y = X, then y ← U⁻ᵀ X row by row
+        _rows_times(rows, j, u, y, False)  # y = X, then y ← U⁻ᵀ X row by row
         for a in range(r):
             d = ch[a, a]
             for e in range(r):
@@ -180,28 +214,26 @@ def _swap(x, col, val, ux, uo, s, s_o, chosen, out):  # pragma: no cover - compi
         out[j] = first + _chol_logdet(q, r)
 
 
-def sandwich_blocks(x, col, val, minv: np.ndarray, s: np.ndarray, gain: np.ndarray) -> None:
-    """S_j = A_j M⁻¹ A_jᵀ and log det(I + S_j) of every candidate, into ``s`` (n, r, r) and
-    ``gain`` (n,); M⁻¹ (p + K, p + K) positive definite."""
+def sandwich_blocks(rows: Rows, minv: np.ndarray, out: Sandwiches) -> None:
+    """S_j = A_j M⁻¹ A_jᵀ and log det(I + S_j) of every candidate, into ``out`` (s (n, r, r),
+    gain (n,)); M⁻¹ (p + K, p + K) positive definite."""
     low = np.linalg.cholesky(minv)
-    p = x.shape[2]
-    _sandwich(x, col, val, np.ascontiguousarray(low[:p]), np.ascontiguousarray(low[p:]), s, gain)
+    _sandwich(rows, split(low, rows.x.shape[2]), out)
 
 
-def update_blocks(x, col, val, u: np.ndarray, g: np.ndarray, sign: float, s, gain) -> None:
-    """S_j += sign · (A_j U) G (A_j U)ᵀ and the gains, for every candidate; U (p + K, r),
-    G (r, r) symmetric."""
-    p = x.shape[2]
+def update_blocks(rows: Rows, u: np.ndarray, g: np.ndarray, sign: float, out: Sandwiches) -> None:
+    """S_j += sign · (A_j U) G (A_j U)ᵀ and the gains, for every candidate, in ``out``;
+    U (p + K, r), G (r, r) symmetric."""
     gs = np.ascontiguousarray((g + g.T) / 2)
-    _update(x, col, val, np.ascontiguousarray(u[:p]), np.ascontiguousarray(u[p:]), gs,
-            float(sign), s, gain)  # fmt: skip
+    _update(rows, split(u, rows.x.shape[2]), gs, float(sign), out)
 
 
-def swap_gains(x, col, val, u: np.ndarray, s, s_o: np.ndarray, chosen) -> np.ndarray:
+def swap_gains(
+    rows: Rows, u: np.ndarray, s: np.ndarray, s_o: np.ndarray, chosen: np.ndarray
+) -> np.ndarray:
     """(n,) log det rise of swapping the chosen o (U = M⁻¹A_oᵀ (p + K, r), S_o (r, r)) for
-    each unchosen candidate; −inf for the chosen and where the swap is singular."""
-    p = x.shape[2]
-    out = np.empty(x.shape[0])
-    _swap(x, col, val, np.ascontiguousarray(u[:p]), np.ascontiguousarray(u[p:]), s,
-          np.ascontiguousarray(s_o), chosen, out)  # fmt: skip
+    each unchosen candidate (S_j in ``s`` (n, r, r)); −inf for the chosen and where the swap is
+    singular."""
+    out = np.empty(rows.x.shape[0])
+    _swap(rows, split(u, rows.x.shape[2]), s, np.ascontiguousarray(s_o), chosen, out)
     return out

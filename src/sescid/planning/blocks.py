@@ -19,7 +19,13 @@ import numpy as np
 
 from sescid.base.threads import one_blas_thread
 from sescid.errors import SescidError
-from sescid.planning.block_kernels import sandwich_blocks, swap_gains, update_blocks
+from sescid.planning.block_kernels import (
+    Rows,
+    Sandwiches,
+    sandwich_blocks,
+    swap_gains,
+    update_blocks,
+)
 from sescid.planning.doptimal import Selection
 from sescid.planning.doptimal_kernels import TIE_LOGDET, first_best
 from sescid.planning.kinds import BlockRows, schur_information
@@ -54,16 +60,19 @@ class BlockDesign:
         self.chosen = np.zeros(n, dtype=bool)
         self.refresh()
 
-    def _args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _rows(self) -> Rows:
         r = self.rows
-        return r.x, r.col, r.val
+        return Rows(r.x, r.col, r.val)
+
+    def _out(self) -> Sandwiches:
+        return Sandwiches(self.s, self.gain)
 
     def refresh(self) -> None:
         """M⁻¹ and every S_j recomputed from the chosen rows (no Woodbury chain)."""
         m = self.rows.information(np.flatnonzero(self.chosen))
         m[np.diag_indices_from(m)] += self.ridge
         self.minv = _pd_inverse(m)
-        sandwich_blocks(*self._args(), self.minv, self.s, self.gain)
+        sandwich_blocks(self._rows(), self.minv, self._out())
 
     def gains(self) -> np.ndarray:
         """(n,) log det rise if each candidate were added; −inf for the chosen."""
@@ -87,7 +96,7 @@ class BlockDesign:
         if int(self.chosen.sum()) * r <= self.rows.size + r:  # the ridge still dominates
             self.refresh()
             return
-        update_blocks(*self._args(), u, g, -1.0, self.s, self.gain)
+        update_blocks(self._rows(), u, g, -1.0, self._out())
         self.minv = self.minv - u @ g @ u.T
 
     def remove(self, i: int) -> None:
@@ -96,14 +105,14 @@ class BlockDesign:
         r = u.shape[1]
         h = _pd_inverse(np.eye(r) - self.s[i])
         self.chosen[i] = False
-        update_blocks(*self._args(), u, h, 1.0, self.s, self.gain)
+        update_blocks(self._rows(), u, h, 1.0, self._out())
         self.minv = self.minv + u @ h @ u.T
 
     def try_exchange(self, i_out: int, tol: float = TIE_LOGDET) -> int | None:
         """Swap chosen ``i_out`` for the candidate that raises log det most (exact, adding
         before removing); its index, or None when no swap raises it by more than ``tol``."""
         u = self._u(i_out)
-        ratio = swap_gains(*self._args(), u, self.s, self.s[i_out], self.chosen)
+        ratio = swap_gains(self._rows(), u, self.s, self.s[i_out], self.chosen)
         j = first_best(np.where(np.isfinite(ratio), ratio, -np.inf))
         if j < 0 or not ratio[j] > tol:
             return None

@@ -11,7 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.planning.capsule_kernels import _broad
+from sescid.planning.capsule_kernels import (
+    BodyPairs,
+    BodySpheres,
+    BroadPhase,
+    CapsuleEnds,
+    _broad,
+)
 from sescid.planning.collision import Capsules
 from sescid.robot import Robot
 
@@ -41,18 +47,17 @@ def collision_free_poses(robot: Robot, cap: Capsules, q: np.ndarray) -> np.ndarr
 
 def _check(cap: Capsules, rot: np.ndarray, org: np.ndarray, out: np.ndarray) -> None:
     """The kernel on poses; then the body pairs re-ordered by how many poses they rejected."""
-    args = _spheres(cap, rot.shape[1])
-    _broad(rot, org, *args, out)
-    hits = args[-1]
-    order = np.argsort(-hits, kind="stable")  # most rejecting body pairs first, next call
-    for a in args[6:10] + (hits,):
+    phase = _phase(cap, rot.shape[1])
+    _broad(rot, org, phase, out)
+    order = np.argsort(-phase.body_pairs.hits, kind="stable")  # most rejecting first, next call
+    for a in phase.body_pairs:
         a[:] = a[order]
 
 
-def _spheres(cap: Capsules, nb: int) -> tuple:
+def _phase(cap: Capsules, nb: int) -> BroadPhase:
     """The kernel's fixed arguments (body spheres, body pairs, capsule pairs grouped by body
     pair), built once per capsule set and kept on it."""
-    kept = getattr(cap, "_broad_args", None)
+    kept = getattr(cap, "_broad_phase", None)
     if kept is not None and kept[0] == (nb, len(cap.pairs)):
         return kept[1]
     sph_c = np.zeros((nb, 3))
@@ -71,21 +76,23 @@ def _spheres(cap: Capsules, nb: int) -> tuple:
     pairs = cap.pairs[order]
     first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     start = np.r_[first, len(key)].astype(np.int64)
-    lo, hi = start[:-1].copy(), start[1:].copy()
-    args = (
-        cap.body.astype(np.int64),
-        np.ascontiguousarray(cap.p0),
-        np.ascontiguousarray(cap.p1),
-        cap.radius.astype(float),
-        sph_c,
-        sph_r,
-        (key[first] // nb).astype(np.int64),
-        (key[first] % nb).astype(np.int64),
-        lo,
-        hi,
-        np.ascontiguousarray(pairs[:, 0]),
-        np.ascontiguousarray(pairs[:, 1]),
-        np.zeros(len(first), dtype=np.int64),
+    phase = BroadPhase(
+        capsules=CapsuleEnds(
+            body=cap.body.astype(np.int64),
+            p0=np.ascontiguousarray(cap.p0),
+            p1=np.ascontiguousarray(cap.p1),
+            radius=cap.radius.astype(float),
+        ),
+        spheres=BodySpheres(centre=sph_c, radius=sph_r),
+        body_pairs=BodyPairs(
+            i=(key[first] // nb).astype(np.int64),
+            j=(key[first] % nb).astype(np.int64),
+            lo=start[:-1].copy(),
+            hi=start[1:].copy(),
+            hits=np.zeros(len(first), dtype=np.int64),
+        ),
+        pair_i=np.ascontiguousarray(pairs[:, 0]),
+        pair_j=np.ascontiguousarray(pairs[:, 1]),
     )
-    cap._broad_args = ((nb, len(cap.pairs)), args)  # type: ignore[attr-defined]
-    return args
+    cap._broad_phase = ((nb, len(cap.pairs)), phase)  # type: ignore[attr-defined]
+    return phase

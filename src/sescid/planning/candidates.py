@@ -4,7 +4,8 @@ compliant-robot margin of ``compliance``), clear of the ground and free of self-
 Uniform draws first (the paper's study) when the profile asks for them; when fewer than
 ``SWITCH_RATE`` of them are accepted after ``SWITCH_AFTER`` draws, the adjusted draws of
 ``adjust`` (the CoM moved over the foot by the CoM Jacobian) take over (a caller that asks
-for ``sampler="uniform"`` gets uniform draws only, up to ``max_sampled``). When those find
+for ``sampler="uniform"`` in its ``CandidateOptions`` gets uniform draws only, up to
+``max_sampled``). When those find
 nothing either, the error says which check stops them: the CoM that cannot reach the box within the
 joint limits (how near it came), or the compliant margin, the floor, self-collision.
 """
@@ -88,6 +89,23 @@ class Candidates:
         )
 
 
+@dataclass(frozen=True)
+class CandidateOptions:
+    """How ``candidates`` draws and checks poses (SI units, radians)."""
+
+    limits: np.ndarray | None = None  #: (nq, 2) rad; None: ``sampling_limits(robot)``
+    half_extents: np.ndarray | None = None  #: (2,) m CoP box; None: ``cop_half_extents(robot)``
+    clearance: float = DEFAULT_CLEARANCE  #: m, free sole corners above the floor
+    #: m, sole length and width for the floor check (None: the robot's sole)
+    sole_size: tuple[float, float] | None = None
+    compliance: Compliance | None = None  #: compliant-stability model to check (None: CoP box)
+    #: "uniform" (only uniform draws, at most ``max_sampled``) or "adjusted"; None: the
+    #: profile's, whose "uniform" hands over to the adjusted draws when too few are accepted
+    sampler: str | None = None
+    max_sampled: int = 200_000_000  #: uniform draws at most, with ``sampler="uniform"``
+    chunk: int = 100_000  #: uniform draws per batch
+
+
 @dataclass
 class _Run:
     """State of one candidate search."""
@@ -97,9 +115,7 @@ class _Run:
     half: np.ndarray
     centre: np.ndarray
     cap: Capsules
-    model: Compliance | None
-    clearance: float
-    sole_size: tuple[float, float] | None
+    opt: CandidateOptions
     qs: list = field(default_factory=list)
     cops: list = field(default_factory=list)
     counts: np.ndarray = field(default_factory=lambda: np.zeros(5, dtype=np.int64))
@@ -113,13 +129,15 @@ class _Run:
         q = q[ok]
         self.counts[0] += n_drawn
         self.counts[1] += len(q)
-        if len(q) and self.model is not None:
-            good = compliant_margin(self.model, com_state(self.robot, q)) > 0
+        model = self.opt.compliance
+        if len(q) and model is not None:
+            good = compliant_margin(model, com_state(self.robot, q)) > 0
             q, cop = q[good], cop[good]
         self.counts[2] += len(q)
         if len(q):
             rot, org = self.robot.forward(q)
-            g = ground_clear_mask(self.robot, q, self.cap, rot, org, self.clearance, self.sole_size)
+            clearance, sole_size = self.opt.clearance, self.opt.sole_size
+            g = ground_clear_mask(self.robot, q, self.cap, rot, org, clearance, sole_size)
             q, cop, rot, org = q[g], cop[g], rot[g], org[g]
             self.counts[3] += len(q)
             f = collision_free_mask_broad(self.cap, rot, org)
@@ -133,41 +151,32 @@ def candidates(
     robot: Robot,
     n: int,
     seed: int | np.random.Generator = 0,
+    options: CandidateOptions | None = None,
     *,
-    limits: np.ndarray | None = None,
-    half_extents=None,
-    clearance: float = DEFAULT_CLEARANCE,
-    sole_size: tuple[float, float] | None = None,
-    chunk: int = 100_000,
     progress: Callable[[int, int], None] | None = None,
-    sampler: str | None = None,
-    compliance: Compliance | None = None,
-    max_sampled: int = 200_000_000,
 ) -> Candidates:
-    """Draw ``n`` accepted poses within ``limits`` (default ``sampling_limits(robot)``).
-
-    ``half_extents``: CoP rectangle (default ``cop_half_extents(robot)``); ``compliance``: the
-    compliant-stability model to check too (None: the CoP box only). ``sampler``: "uniform"
-    (only uniform draws, at most ``max_sampled``) or "adjusted"; None: the profile's, whose
-    "uniform" hands over to the adjusted draws when too few are accepted (module docstring).
-    SescidError when no pose passes, saying which check stops them.
+    """Draw ``n`` accepted poses within the sampling limits (``CandidateOptions``: limits, CoP
+    box, floor clearance, compliant-stability model, sampler), reporting
+    ``progress(accepted, n)``. SescidError when no pose passes, saying which check stops them.
     """
     from sescid.planning.adjust import Search, closest_box
 
-    only = sampler is not None
-    sampler = sampler or robot.profile.pose_sampler
+    opt = options or CandidateOptions()
+    only = opt.sampler is not None
+    sampler = opt.sampler or robot.profile.pose_sampler
     if sampler not in ("uniform", "adjusted"):
         raise SescidError(f"unknown pose sampler '{sampler}' (uniform or adjusted)")
     if n < 1:
         raise SescidError(f"number of candidates must be ≥ 1, got {n}")
     rng = np.random.default_rng(seed)
-    lim = sampling_limits(robot) if limits is None else np.asarray(limits, dtype=float)
-    half = cop_half_extents(robot) if half_extents is None else np.asarray(half_extents, float)
-    run = _Run(robot, lim, half, cop_centre(robot), collision_capsules(robot), compliance,
-               clearance, sole_size)  # fmt: skip
+    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
+    half = (
+        cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents, float)
+    )
+    run = _Run(robot, lim, half, cop_centre(robot), collision_capsules(robot), opt)
     used = sampler
     if sampler == "uniform":
-        _uniform(run, n, rng, chunk, progress, max_sampled if only else None)
+        _uniform(run, n, rng, progress, opt.max_sampled if only else None)
         if run.counts[4] < n:
             used = "uniform+adjusted" if run.counts[4] else "adjusted"
     if run.counts[4] < n:
@@ -202,7 +211,7 @@ def candidates(
         sampler=used,
         centre=run.centre,
         n_box=int(c[1]),
-        compliance=compliance,
+        compliance=opt.compliance,
     )
 
 
@@ -210,13 +219,12 @@ def _uniform(
     run: _Run,
     n: int,
     rng: np.random.Generator,
-    chunk: int,
     progress: Callable | None,
     max_sampled: int | None,
 ) -> None:
-    """Uniform draws until ``n`` are accepted, or until they are too rarely accepted (then
-    SescidError when ``max_sampled`` is given: uniform draws only)."""
-    robot, lim = run.robot, run.lim
+    """Uniform draws, ``run.opt.chunk`` at a time, until ``n`` are accepted, or until they are
+    too rarely accepted (then SescidError when ``max_sampled`` is given: uniform draws only)."""
+    robot, lim, chunk = run.robot, run.lim, run.opt.chunk
     width = lim[:, 1] - lim[:, 0]
     draw = np.empty((chunk, robot.nq))
     screen = None

@@ -7,14 +7,58 @@ module's globals (``kinematics.lazy_njit``).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from sescid.kinematics import lazy_njit
 
 
+class BodySpheres(NamedTuple):
+    """A bounding sphere per body, in the body's frame."""
+
+    centre: np.ndarray  #: (N, 3) m
+    radius: np.ndarray  #: (N,) m
+
+
+class CapsuleEnds(NamedTuple):
+    """Capsules in their bodies' frames."""
+
+    body: np.ndarray  #: (C,) int64 body of each capsule
+    p0: np.ndarray  #: (C, 3) m, one end of the axis
+    p1: np.ndarray  #: (C, 3) m, the other end
+    radius: np.ndarray  #: (C,) m
+
+
+class BodyPairs(NamedTuple):
+    """Body pairs with capsule pairs to check: capsule pairs ``lo[m]:hi[m]`` belong to body pair
+    m; ``hits[m]`` counts the poses it rejected (the order of the next call)."""
+
+    i: np.ndarray  #: (B,) int64
+    j: np.ndarray  #: (B,) int64
+    lo: np.ndarray  #: (B,) int64
+    hi: np.ndarray  #: (B,) int64
+    hits: np.ndarray  #: (B,) int64
+
+
+class BroadPhase(NamedTuple):
+    """What the broad-phase kernel checks, built once per capsule set (``broadphase``)."""
+
+    capsules: CapsuleEnds
+    spheres: BodySpheres
+    body_pairs: BodyPairs
+    pair_i: np.ndarray  #: (P,) int64 first capsule of each checked pair, grouped by body pair
+    pair_j: np.ndarray  #: (P,) int64 second capsule
+
+
 @lazy_njit(cache=True, inline="always")
-def _seg_dist2(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz):  # pragma: no cover - compiled
-    """Squared distance between segments a–b and c–d (clamped closest points)."""
+def _seg_dist2(a, b, c, d):  # pragma: no cover - compiled
+    """Squared distance between segments a–b and c–d (clamped closest points); each end an
+    (x, y, z) tuple [m]."""
+    ax, ay, az = a
+    bx, by, bz = b
+    cx, cy, cz = c
+    dx, dy, dz = d
     eps = 1e-18
     d1x, d1y, d1z = bx - ax, by - ay, bz - az
     d2x, d2y, d2z = dx - cx, dy - cy, dz - cz
@@ -44,12 +88,14 @@ def _seg_dist2(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz):  # pragma: no co
 
 
 @lazy_njit(cache=True, nogil=True)
-def _broad(  # pragma: no cover - compiled
-    rot, org, cbody, p0, p1, rad, sph_c, sph_r, pb_i, pb_j, pb_lo, pb_hi, pi, pj, hits, out
-):
+def _broad(rot, org, phase, out):  # pragma: no cover - compiled
     """out[k] = True where no checked capsule pair of pose k intersects. ``rot`` (n, N, 3, 3),
-    ``org`` (n, N, 3) from forward kinematics. Body pair m's capsule pairs are
-    pi/pj[pb_lo[m]:pb_hi[m]]; hits[m] counts the poses that body pair m rejected."""
+    ``org`` (n, N, 3) from forward kinematics; ``phase`` a ``BroadPhase`` (its body pairs'
+    ``hits`` counted)."""
+    cbody, p0, p1, rad = phase.capsules
+    sph_c, sph_r = phase.spheres
+    pb_i, pb_j, pb_lo, pb_hi, hits = phase.body_pairs
+    pi, pj = phase.pair_i, phase.pair_j
     w0 = np.empty((p0.shape[0], 3))
     w1 = np.empty((p0.shape[0], 3))
     done = np.empty(p0.shape[0], dtype=np.bool_)
@@ -92,9 +138,11 @@ def _broad(  # pragma: no cover - compiled
                 i = pi[u]
                 j = pj[u]
                 d2 = _seg_dist2(
-                    w0[i, 0], w0[i, 1], w0[i, 2], w1[i, 0], w1[i, 1], w1[i, 2],
-                    w0[j, 0], w0[j, 1], w0[j, 2], w1[j, 0], w1[j, 1], w1[j, 2],
-                )  # fmt: skip
+                    (w0[i, 0], w0[i, 1], w0[i, 2]),
+                    (w1[i, 0], w1[i, 1], w1[i, 2]),
+                    (w0[j, 0], w0[j, 1], w0[j, 2]),
+                    (w1[j, 0], w1[j, 1], w1[j, 2]),
+                )
                 rr = rad[i] + rad[j]
                 if d2 < rr * rr:
                     out[k] = False
@@ -116,18 +164,10 @@ def _first_contact(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
             i = pi[m]
             j = pj[m]
             d2 = _seg_dist2(
-                w0[k, i, 0],
-                w0[k, i, 1],
-                w0[k, i, 2],
-                w1[k, i, 0],
-                w1[k, i, 1],
-                w1[k, i, 2],
-                w0[k, j, 0],
-                w0[k, j, 1],
-                w0[k, j, 2],
-                w1[k, j, 0],
-                w1[k, j, 1],
-                w1[k, j, 2],
+                (w0[k, i, 0], w0[k, i, 1], w0[k, i, 2]),
+                (w1[k, i, 0], w1[k, i, 1], w1[k, i, 2]),
+                (w0[k, j, 0], w0[k, j, 1], w0[k, j, 2]),
+                (w1[k, j, 0], w1[k, j, 1], w1[k, j, 2]),
             )
             if d2 < reach[m] * reach[m]:
                 out[k] = m

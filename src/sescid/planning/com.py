@@ -11,6 +11,7 @@ same bits on every CPU, so the poses and CoPs the planner writes do not depend o
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,14 +29,38 @@ class ComState:
     jac: np.ndarray  #: (n, 3, nq) m/rad (zeros when not asked for)
 
 
+class MassTree(NamedTuple):
+    """The bodies' masses and joints as the kernel reads them (parents before children)."""
+
+    mass: np.ndarray  #: (N,) kg
+    com: np.ndarray  #: (N, 3) m, each body's CoM in its frame
+    parent: np.ndarray  #: (N,) int64
+    joint: np.ndarray  #: (N,) int64 q column of the body's joint (−1: none)
+    axis: np.ndarray  #: (N, 3) joint axis scaled by sign × mimic multiplier
+    total: float  #: kg
+
+
+def mass_tree(robot: Robot) -> MassTree:
+    """The robot's ``MassTree``."""
+    bodies = robot.model.bodies
+    return MassTree(
+        mass=np.array([b.mass for b in bodies]),
+        com=np.array([b.com for b in bodies], dtype=float).reshape(-1, 3),
+        parent=np.array([b.parent for b in bodies], dtype=np.int64),
+        joint=np.array([b.joint for b in bodies], dtype=np.int64),
+        axis=np.array([b.axis * (b.sign * b.multiplier) for b in bodies], dtype=float).reshape(
+            -1, 3
+        ),
+        total=float(sum(b.mass for b in bodies)),
+    )
+
+
 @lazy_njit(cache=True, nogil=True)
-def _com_jac(
-    rot, org, mass, com, parent, joint, axis, total, want_jac, out_com, out_jac
-):  # pragma: no cover
+def _com_jac(rot, org, tree, want_jac, out_com, out_jac):  # pragma: no cover
     """CoM (n, 3) and, with ``want_jac``, ∂CoM/∂q (n, 3, nq) into ``out_*`` (module docstring).
 
-    ``rot`` (n, N, 3, 3), ``org`` (n, N, 3) from forward kinematics; ``axis`` (N, 3) joint axes
-    already scaled by sign × mimic multiplier; ``joint`` (N,) q columns (−1: none)."""
+    ``rot`` (n, N, 3, 3), ``org`` (n, N, 3) from forward kinematics; ``tree`` a ``MassTree``."""
+    mass, com, parent, joint, axis, total = tree
     n, nb = org.shape[0], org.shape[1]
     s = np.empty((nb, 3))
     m_sub = np.empty(nb)
@@ -78,19 +103,12 @@ def _com_jac(
 def com_state(robot: Robot, q: np.ndarray, jacobian: bool = True) -> ComState:
     """CoM (n, 3) and, with ``jacobian``, ∂CoM/∂q (n, 3, nq) of poses q (n, nq) [rad]."""
     q = np.ascontiguousarray(q, dtype=float).reshape(-1, robot.nq)
-    bodies = robot.model.bodies
-    mass = np.array([b.mass for b in bodies])
-    com_b = np.array([b.com for b in bodies], dtype=float).reshape(-1, 3)
-    parent = np.array([b.parent for b in bodies], dtype=np.int64)
-    joint = np.array([b.joint for b in bodies], dtype=np.int64)
-    axis = np.array([b.axis * (b.sign * b.multiplier) for b in bodies], dtype=float).reshape(-1, 3)
-    total = float(sum(b.mass for b in bodies))
+    tree = mass_tree(robot)
     com = np.empty((len(q), 3))
     jac = np.zeros((len(q), 3, robot.nq))
     for s in range(0, len(q), _BLOCK):
         rot, org = robot.forward(q[s : s + _BLOCK])
-        _com_jac(rot, org, mass, com_b, parent, joint, axis, total, jacobian,
-                 com[s : s + _BLOCK], jac[s : s + _BLOCK])  # fmt: skip
+        _com_jac(rot, org, tree, jacobian, com[s : s + _BLOCK], jac[s : s + _BLOCK])
     return ComState(com=com, jac=jac)
 
 

@@ -117,7 +117,7 @@ class _Design:
         u = self.minv @ self.a[i].T  # (p, 2)
         g_inv = _inv2(self.s[i], 1.0)[0]
         self.chosen[i] = True
-        best = rank2(self.a, u, g_inv, -1.0, self.s, self.s, self.chosen)
+        best = rank2(self.a, u, g_inv, -1.0, self.s, self.chosen)
         self.minv = self.minv - u @ g_inv @ u.T
         return best
 
@@ -126,7 +126,7 @@ class _Design:
         u = self.minv @ self.a[i].T
         h_inv = _inv2(self.s[i], -1.0)[0]
         self.chosen[i] = False
-        rank2(self.a, u, h_inv, 1.0, self.s, self.s, self.chosen)
+        rank2(self.a, u, h_inv, 1.0, self.s, self.chosen)
         self.minv = self.minv + u @ h_inv @ u.T
 
     def try_exchange(self, i_out: int, tol: float = TIE_LOGDET) -> int | None:

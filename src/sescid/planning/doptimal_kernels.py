@@ -23,12 +23,12 @@ TIE_LOGDET = 1e-9
 
 
 @lazy_njit(cache=True, nogil=True)
-def _rank2(a, ut, g, sign, s_in, s_out, chosen, tie):  # pragma: no cover - compiled
-    """s_out[j] = s_in[j] + sign · W_j g W_jᵀ with W_j = A_j U (2 × 2), for every candidate j.
+def _rank2(a, ut, g, sign, s, chosen, tie):  # pragma: no cover - compiled
+    """s[j] += sign · W_j g W_jᵀ with W_j = A_j U (2 × 2), for every candidate j.
 
-    ``a`` (n, 2, p), ``ut`` = Uᵀ (2, p), ``g`` (2, 2) symmetric, ``s_in``/``s_out`` (n, 3) (may be
-    the same array). Returns the lowest unchosen j whose det(I + s_out[j]) > 0 is within the
-    factor exp(−``tie``) of the largest, or −1.
+    ``a`` (n, 2, p), ``ut`` = Uᵀ (2, p), ``g`` (2, 2) symmetric, ``s`` (n, 3). Returns the
+    lowest unchosen j whose det(I + s[j]) > 0 is within the factor exp(−``tie``) of the
+    largest, or −1.
     """
     n, _, p = a.shape
     g00 = g[0, 0]
@@ -51,17 +51,17 @@ def _rank2(a, ut, g, sign, s_in, s_out, chosen, tie):  # pragma: no cover - comp
         h1 = g01 * w00 + g11 * w01
         k0 = g00 * w10 + g01 * w11
         k1 = g01 * w10 + g11 * w11
-        s00 = s_in[j, 0] + sign * (w00 * h0 + w01 * h1)
-        s01 = s_in[j, 1] + sign * (w00 * k0 + w01 * k1)
-        s11 = s_in[j, 2] + sign * (w10 * k0 + w11 * k1)
-        s_out[j, 0] = s00
-        s_out[j, 1] = s01
-        s_out[j, 2] = s11
+        s00 = s[j, 0] + sign * (w00 * h0 + w01 * h1)
+        s01 = s[j, 1] + sign * (w00 * k0 + w01 * k1)
+        s11 = s[j, 2] + sign * (w10 * k0 + w11 * k1)
+        s[j, 0] = s00
+        s[j, 1] = s01
+        s[j, 2] = s11
         if not chosen[j]:
             det = (1.0 + s00) * (1.0 + s11) - s01 * s01
             if det > best_det:
                 best_det = det
-    return _first_within(s_out, chosen, best_det * math.exp(-tie))
+    return _first_within(s, chosen, best_det * math.exp(-tie))
 
 
 @lazy_njit(cache=True, nogil=True)
@@ -215,18 +215,12 @@ def sandwich(a: np.ndarray, minv: np.ndarray) -> np.ndarray:
 
 
 def rank2(
-    a: np.ndarray,
-    u: np.ndarray,
-    g: np.ndarray,
-    sign: float,
-    s_in: np.ndarray,
-    s_out: np.ndarray,
-    chosen: np.ndarray,
+    a: np.ndarray, u: np.ndarray, g: np.ndarray, sign: float, s: np.ndarray, chosen: np.ndarray
 ) -> int:
-    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ into ``s_out``; the best unchosen j
-    (near-ties: the lowest index, ``TIE_LOGDET``)."""
+    """``_rank2`` with U (p, 2): S_j ± A_j U g Uᵀ A_jᵀ in ``s`` (n, 3), in place; the best
+    unchosen j (near-ties: the lowest index, ``TIE_LOGDET``)."""
     ut = np.ascontiguousarray(u.T)
-    return int(_rank2(a, ut, g, float(sign), s_in, s_out, chosen, TIE_LOGDET))
+    return int(_rank2(a, ut, g, float(sign), s, chosen, TIE_LOGDET))
 
 
 def swap_best(

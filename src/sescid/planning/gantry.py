@@ -20,6 +20,7 @@ support at the end of a limb (a foot) stands on the floor.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,6 +32,7 @@ from sescid.planning.candidates import Candidates
 from sescid.planning.collision import collision_capsules
 from sescid.planning.ground import clear_above, ground_checks, lowest_heights
 from sescid.planning.limits import sampling_limits
+from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
 
 #: the mounts a plan knows
@@ -41,6 +43,16 @@ GANTRY_LIFT = 0.05
 GIVE_UP = 200_000
 #: accepted share of the first uniform chunk below which the draws move near accepted poses
 SWITCH_RATE = 0.05
+
+
+@dataclass(frozen=True)
+class GantryOptions:
+    """How ``gantry_candidates`` draws and checks poses (SI units, radians)."""
+
+    limits: np.ndarray | None = None  #: (nq, 2) rad; None: ``sampling_limits(robot)``
+    hang_height: float | None = None  #: m, held link above the floor (None: ``gantry_floor``)
+    clearance: float = DEFAULT_CLEARANCE  #: m, every body above the floor
+    chunk: int = 20_000  #: uniform draws per batch (at most)
 
 
 def held_trunk(robot: Robot) -> bool:
@@ -103,20 +115,20 @@ def gantry_candidates(
     robot: Robot,
     n: int,
     seed: int | np.random.Generator = 0,
+    options: GantryOptions | None = None,
     *,
-    limits: np.ndarray | None = None,
-    hang_height: float | None = None,
-    clearance: float = 0.005,
-    chunk: int = 20_000,
     progress: Callable[[int, int], None] | None = None,
 ) -> Candidates:
-    """``n`` uniform draws within ``limits`` that keep every body ``clearance`` [m] above the
-    floor (``gantry_floor``) and free of self-collision; ``cop`` is nan (no foot is loaded)."""
+    """``n`` uniform draws within the limits that keep every body ``clearance`` [m] above the
+    floor (``gantry_floor``) and free of self-collision (``GantryOptions``), reporting
+    ``progress(accepted, n)``; ``cop`` is nan (no foot is loaded)."""
+    opt = options or GantryOptions()
     if n < 1:
         raise SescidError(f"number of candidates must be ≥ 1, got {n}")
     rng = np.random.default_rng(seed)
-    lim = sampling_limits(robot) if limits is None else np.asarray(limits, dtype=float)
-    floor, how = gantry_floor(robot, hang_height, clearance)
+    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
+    clearance, chunk = opt.clearance, opt.chunk
+    floor, how = gantry_floor(robot, opt.hang_height, clearance)
     cap = collision_capsules(robot)
     checks = ground_checks(robot, exempt=False)
     width = lim[:, 1] - lim[:, 0]

@@ -12,7 +12,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import min_poses, structural_rank
-from sescid.planning.candidates import candidates
+from sescid.planning.candidates import CandidateOptions, candidates
 from sescid.planning.com import level_cop
 from sescid.planning.compliance import compliance
 from sescid.planning.doptimal import (
@@ -97,16 +97,10 @@ def plan_poses(
     lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
     free = unlimited_joints(robot)
     free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
-    cand = candidates(
-        robot,
-        opt.n_candidates + opt.n_test,
-        seed,
-        limits=lim,
-        half_extents=opt.half_extents,
-        clearance=opt.clearance,
-        progress=progress,
-        compliance=model,
+    draw = CandidateOptions(
+        limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
     )
+    cand = candidates(robot, opt.n_candidates + opt.n_test, seed, draw, progress=progress)
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
     basis = identifiable_basis(robot, pool_q)

@@ -12,11 +12,11 @@ import numpy as np
 
 from sescid.errors import OptionError, SescidError
 from sescid.planning.blocks import schur_logdet, select_blocks
-from sescid.planning.candidates import Candidates, candidates
+from sescid.planning.candidates import CandidateOptions, Candidates, candidates
 from sescid.planning.com import level_cop
 from sescid.planning.compliance import compliance
 from sescid.planning.doptimal import Selection, per_row_information, projected_regressor
-from sescid.planning.gantry import gantry_candidates
+from sescid.planning.gantry import GantryOptions, gantry_candidates
 from sescid.planning.kinds import (
     BlockRows,
     DesignKinds,
@@ -56,14 +56,16 @@ def _candidates(
     if mount == "gantry":
         if opt.check is not None:
             raise OptionError("check", "the physics check stands the robot on its foot, not held")
-        return gantry_candidates(robot, n, seed, limits=lim, hang_height=opt.hang_height,
-                                 clearance=opt.clearance, progress=progress)  # fmt: skip
+        held = GantryOptions(limits=lim, hang_height=opt.hang_height, clearance=opt.clearance)
+        return gantry_candidates(robot, n, seed, held, progress=progress)
     if opt.hang_height is not None:
         raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
     robot.check_support_level()
     model = None if opt.rigid else compliance(robot)
-    return candidates(robot, n, seed, limits=lim, half_extents=opt.half_extents,
-                      clearance=opt.clearance, progress=progress, compliance=model)  # fmt: skip
+    draw = CandidateOptions(
+        limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
+    )
+    return candidates(robot, n, seed, draw, progress=progress)
 
 
 def plan_kinds(

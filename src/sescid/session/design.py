@@ -19,6 +19,8 @@ import numpy as np
 from sescid.errors import DataError, OptionError
 from sescid.planning import (
     MOUNTS,
+    CandidateOptions,
+    GantryOptions,
     TorqueRows,
     block_rows,
     candidates,
@@ -69,17 +71,15 @@ class SessionDesign:
             cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents)
         )
         if self.mount == "gantry":
+            held = GantryOptions(limits=opt.limits, hang_height=opt.hang_height)
             self.cand = gantry_candidates(
-                robot, opt.n_candidates, opt.seed, limits=opt.limits,
-                hang_height=opt.hang_height, progress=progress,
-            )  # fmt: skip
+                robot, opt.n_candidates, opt.seed, held, progress=progress
+            )
         else:
             if opt.hang_height is not None:
                 raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
-            self.cand = candidates(
-                robot, opt.n_candidates, opt.seed, limits=opt.limits, half_extents=self.half,
-                progress=progress,
-            )  # fmt: skip
+            draw = CandidateOptions(limits=opt.limits, half_extents=self.half)
+            self.cand = candidates(robot, opt.n_candidates, opt.seed, draw, progress=progress)
         self.basis, self.design, self.min_rows = self._design(self.kinds)
 
     def _design(self, kinds: str) -> tuple[np.ndarray, SequentialDesign, int]:
