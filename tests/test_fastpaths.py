@@ -19,10 +19,7 @@ def test_numpy_chain_equals_kernel(op2, rng):
     s, c1 = np.empty((nb, 50)), np.empty((nb, 50))
     ref = np.empty((nb, 3, 3, 50))
     ktrig._joint_trig(np.ascontiguousarray(q.T), op2.tree.jcol, op2.tree.coef, op2.tree.off, s, c1)
-    kchain._chain_block(
-        s, c1, op2.tree.parent, op2.tree.nz_ptr, op2.tree.nz_k, op2.tree.nz_j, op2.tree.nz_a,
-        op2.tree.root_r, ref,
-    )  # fmt: skip
+    kchain._chain_block(s, c1, op2.tree.arrays, ref)
     s2, c2, rot = np.empty_like(s), np.empty_like(c1), np.empty_like(ref)
     ktrig._trig_numpy(op2.tree, q, s2, c2)
     kchain._chain_numpy(op2.tree, s2, c2, rot)

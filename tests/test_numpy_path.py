@@ -23,9 +23,7 @@ def _kernel_chain(tree, q):
     s, c1 = np.empty((nb, len(q))), np.empty((nb, len(q)))
     rot = np.empty((nb, 3, 3, len(q)))
     ktrig._joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
-    kchain._chain_block(
-        s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot
-    )
+    kchain._chain_block(s, c1, tree.arrays, rot)
     return s, c1, rot
 
 

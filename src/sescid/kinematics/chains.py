@@ -36,13 +36,15 @@ class Workspace:
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _chain_block(s, c1, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rot):
+def _chain_block(s, c1, tree, rot):
     """Rotations of every body for a block of poses, structure-of-arrays.
 
-    s, c1: (N, B) sin θ and 1 − cos θ of each body's joint; rot: (N, 3, 3, B) with
-    rot[b, j, i, k] = R_b[i, j] at pose k. Only the non-zero entries (z) of M_b = C_b Rot(a, θ)
-    are visited: M_b[nz_k[z], nz_j[z]] = a0 + a1 sin θ + a2 (1 − cos θ).
+    s, c1: (N, B) sin θ and 1 − cos θ of each body's joint; tree: ``Tree.arrays``;
+    rot: (N, 3, 3, B) with rot[b, j, i, k] = R_b[i, j] at pose k. Only the non-zero entries (z)
+    of M_b = C_b Rot(a, θ) are visited: M_b[nz_k[z], nz_j[z]] = a0 + a1 sin θ + a2 (1 − cos θ).
     """
+    parent, root_r, nz_ptr = tree.parent, tree.root_r, tree.nz_ptr
+    nz_k, nz_j, nz_a = tree.nz_k, tree.nz_j, tree.nz_a
     nb, nbk = s.shape
     m = np.empty(nbk)
     for b in range(nb):
@@ -211,7 +213,7 @@ def chain(
         _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
         _trig_numpy(tree, q, s, c1)
-    _chain_block(s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot)
+    _chain_block(s, c1, tree.arrays, rot)
     return rot
 
 

@@ -18,9 +18,12 @@ from sescid.kinematics.trig import MAX_ANGLE, _trig_row
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _cop_xy_kernel(q, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, r, root_o, out):
+def _cop_xy_kernel(q, tree, r, out):
     """Out (n, k): the first k ≤ 3 of root_o + Σ R_b r_b, only those rows of each R_b, in
-    blocks. False (out untouched) when an angle is beyond MAX_ANGLE."""
+    blocks (tree: ``Tree.arrays``). False (out untouched) when an angle is beyond MAX_ANGLE."""
+    parent, jcol, coef, off = tree.parent, tree.jcol, tree.coef, tree.off
+    nz_ptr, nz_k, nz_j, nz_a = tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a
+    root_r, root_o = tree.root_r, tree.root_o
     nb = parent.shape[0]
     n = q.shape[0]
     nr = out.shape[1]
@@ -106,15 +109,13 @@ def _com_or_none(tree: Tree, q: np.ndarray, r: np.ndarray, k: int) -> np.ndarray
     n = q.shape[0]
     out = np.empty((n, k))
     rr = np.ascontiguousarray(r, dtype=float)
+    arrays = tree.arrays
     parts = max(min(usable_cores(), n // PARALLEL_PART), 1)
     edges = [n * j // parts for j in range(parts + 1)]
 
     def part(j: int) -> bool:  # poses are independent: any split gives the same bits
         a, b = edges[j], edges[j + 1]
-        return _cop_xy_kernel(
-            q[a:b], tree.jcol, tree.coef, tree.off, tree.parent, tree.nz_ptr, tree.nz_k,
-            tree.nz_j, tree.nz_a, tree.root_r, rr, tree.root_o, out[a:b],
-        )  # fmt: skip
+        return _cop_xy_kernel(q[a:b], arrays, rr, out[a:b])
 
     return out if all(list(ordered_map(part, range(parts)))) else None
 

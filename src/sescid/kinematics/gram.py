@@ -35,9 +35,11 @@ def padded(p: int) -> int:
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _tile(a, a0, a1, a2, a3, b, b0, b1, b2, b3, kk):  # pragma: no cover - compiled
-    """The 16 sums Σ_{k<kk} a.flat[ai + k] b.flat[bj + k] of a 4 × 4 tile (ai, bj: flat offsets
-    of the rows), row-major; kk a multiple of 8."""
+def _tile(a, ra, b, rb, kk):  # pragma: no cover - compiled
+    """The 16 sums Σ_{k<kk} a.flat[ai + k] b.flat[bj + k] of a 4 × 4 tile (ra = (a0, …, a3),
+    rb = (b0, …, b3): flat offsets of the rows), row-major; kk a multiple of 8."""
+    a0, a1, a2, a3 = ra
+    b0, b1, b2, b3 = rb
     c00 = c01 = c02 = c03 = vzero()
     c10 = c11 = c12 = c13 = vzero()
     c20 = c21 = c22 = c23 = vzero()
@@ -76,8 +78,10 @@ def _tile(a, a0, a1, a2, a3, b, b0, b1, b2, b3, kk):  # pragma: no cover - compi
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _tile3(a, a0, a1, a2, b, b0, b1, b2, b3, kk):  # pragma: no cover - compiled
-    """``_tile`` for 3 rows × 4 columns (12 sums, row-major)."""
+def _tile3(a, ra, b, rb, kk):  # pragma: no cover - compiled
+    """``_tile`` for 3 rows × 4 columns (ra = (a0, a1, a2); 12 sums, row-major)."""
+    a0, a1, a2 = ra
+    b0, b1, b2, b3 = rb
     c00 = c01 = c02 = c03 = vzero()
     c10 = c11 = c12 = c13 = vzero()
     c20 = c21 = c22 = c23 = vzero()
@@ -117,8 +121,9 @@ def _syrk(x, p4, kk, out):  # pragma: no cover - compiled
         ra = i0 * ld
         for j0 in range(i0, p4, 4):
             rb = j0 * ld
-            t = _tile(x, ra, ra + ld, ra + 2 * ld, ra + 3 * ld, x, rb, rb + ld, rb + 2 * ld,
-                      rb + 3 * ld, kk)  # fmt: skip
+            rows_a = (ra, ra + ld, ra + 2 * ld, ra + 3 * ld)
+            rows_b = (rb, rb + ld, rb + 2 * ld, rb + 3 * ld)
+            t = _tile(x, rows_a, x, rows_b, kk)
             for r in range(4):
                 for c in range(4):
                     out[i0 + r, j0 + c] += t[4 * r + c]

@@ -218,7 +218,7 @@ def _blocks(seg, lrows, tasks, n_sesc, ul, v, v0, out):  # pragma: no cover - co
                 b2 = (v0 + rs + min(c0 + 2, rc - 1)) * ldv
                 b3 = (v0 + rs + min(c0 + 3, rc - 1)) * ldv
                 if nrow == 3:
-                    t3 = _tile3(ul, a0, a1, a2, v, b0, b1, b2, b3, kk)
+                    t3 = _tile3(ul, (a0, a1, a2), v, (b0, b1, b2, b3), kk)
                     for i in range(3):
                         orow = lrows[ra + i, 3]
                         for j in range(min(4, rc - c0)):
@@ -226,7 +226,7 @@ def _blocks(seg, lrows, tasks, n_sesc, ul, v, v0, out):  # pragma: no cover - co
                             if orow >= n_sesc or ocol >= orow:
                                 out[orow, ocol] += t3[4 * i + j]
                     continue
-                tile = _tile(ul, a0, a1, a2, a3, v, b0, b1, b2, b3, kk)
+                tile = _tile(ul, (a0, a1, a2, a3), v, (b0, b1, b2, b3), kk)
                 for i in range(min(4, lc - r0)):
                     orow = lrows[ra + i, 3]
                     for j in range(min(4, rc - c0)):

@@ -20,10 +20,12 @@ from sescid.kinematics.trig import MAX_ANGLE, _joint_trig
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _torques_block(rot, parent, axis, coef, jbody, r, g, mass, f, out):  # pragma: no cover
-    """out[k, j] for a block's rotations rot (N, 3, 3, m) [b, j, i, k] = R_b[i, j], gravity
-    g (m, 3), joints' bodies jbody (J, B) (−1 padded): see the module docstring; f (N, 3, m)
-    scratch."""
+def _torques_block(rot, tree, jbody, r, g, mass, buf):  # pragma: no cover - compiled
+    """out[k, j] for a block's rotations rot (N, 3, 3, m) [b, j, i, k] = R_b[i, j], the tree
+    (``Tree.arrays``), gravity g (m, 3), joints' bodies jbody (J, B) (−1 padded): see the module
+    docstring; buf = (f (N, 3, m) scratch, out (m, J))."""
+    parent, axis, coef = tree.parent, tree.axis, tree.coef
+    f, out = buf
     nb = rot.shape[0]
     m = rot.shape[3]
     for b in range(nb):
@@ -105,9 +107,8 @@ def torque_values(
         if kernels and np.abs(q[blk]).max(initial=0.0) < MAX_ANGLE:
             rot = _chain_kernel(tree, q[blk], ws)
             m = rot.shape[3]
-            _torques_block(rot, tree.parent, tree.axis, tree.coef, jbody, rr, gb, float(mass),
-                           f[..., :m] if m == ws.block else np.empty((nb, 3, m)),
-                           out[blk])  # fmt: skip
+            scratch = f[..., :m] if m == ws.block else np.empty((nb, 3, m))
+            _torques_block(rot, tree.arrays, jbody, rr, gb, float(mass), (scratch, out[blk]))
         else:
             rot = chain(tree, q[blk], ws, False)
             out[blk] = _torques_numpy(rot, tree, jbody, rr, gb, float(mass))
@@ -123,7 +124,7 @@ def _chain_kernel(tree: Tree, q: np.ndarray, ws: Workspace) -> np.ndarray:
         nb = tree.parent.shape[0]
         s, c1, rot = np.empty((nb, m)), np.empty((nb, m)), np.empty((nb, 3, 3, m))
     _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
-    _chain_block(s, c1, tree.parent, tree.nz_ptr, tree.nz_k, tree.nz_j, tree.nz_a, tree.root_r, rot)
+    _chain_block(s, c1, tree.arrays, rot)
     return rot
 
 

@@ -5,12 +5,31 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
 from sescid.model import RobotModel
+
+
+class TreeArrays(NamedTuple):
+    """The tree as one argument of the compiled kernels (``Tree.arrays``, built once per tree):
+    numba resolves each field at compile time."""
+
+    parent: np.ndarray  #: (N,) int64, −1 for the root
+    jcol: np.ndarray  #: (N,) int64 column of q, −1 for the root
+    coef: np.ndarray  #: (N,) sign × mimic multiplier
+    off: np.ndarray  #: (N,) sign × mimic offset, rad
+    nz_ptr: np.ndarray  #: (N + 1,) start of each body's non-zero entries of M_b
+    nz_k: np.ndarray  #: row of each entry
+    nz_j: np.ndarray  #: column of each entry
+    nz_a: np.ndarray  #: (nnz, 3) coefficients a0, a1, a2 of each entry
+    root_r: np.ndarray  #: (3, 3)
+    root_o: np.ndarray  #: (3,)
+    axis: np.ndarray  #: (N, 3) unit joint axis of each body in its own frame
+    pos: np.ndarray  #: (N,) each body's place in depth-first order (−1: the support body)
 
 
 @dataclass(frozen=True)
@@ -45,6 +64,14 @@ class Tree:
             [self.coef, self.off, self.nz_a.reshape(-1), self.root_r.reshape(-1), self.root_o]
         ).astype(float)
         return ints, reals
+
+    @cached_property
+    def arrays(self) -> TreeArrays:
+        """The flat arrays the kernels read, as one argument."""
+        return TreeArrays(
+            self.parent, self.jcol, self.coef, self.off, self.nz_ptr, self.nz_k, self.nz_j,
+            self.nz_a, self.root_r, self.root_o, self.axis, self.depth_first[1],
+        )  # fmt: skip
 
     @cached_property
     def depth_first(self) -> tuple[np.ndarray, np.ndarray]:
