@@ -83,12 +83,36 @@ def load_group(group: str) -> None:
 
 def _dispatcher(kernel: _LazyKernel, numba: Any) -> Any:
     try:
-        return numba.njit(**kernel.options)(kernel.fn)
+        dispatcher = numba.njit(**kernel.options)(kernel.fn)
     except RuntimeError as exc:  # "cannot cache function …: no locator available"
         if "no locator available" not in str(exc):
             raise
         # a read-only install (service user, read-only container): compile in memory
         return numba.njit(**(kernel.options | {"cache": False}))(kernel.fn)
+    if kernel.options.get("cache"):
+        _drop_stale_index(dispatcher)
+    return dispatcher
+
+
+def _drop_stale_index(dispatcher: Any) -> None:
+    """Forget an on-disk cache index another version of sescid left (an upgrade keeps
+    ``__pycache__``; a user cache folder outlives installs). numba unpickles an index before it
+    compares the source's stamp, so an index whose signatures name a record type this version
+    renamed or removed raises (AttributeError) on the first call instead of recompiling. Such an
+    index is emptied, or caching is turned off for this kernel where the folder is read-only."""
+    cache: Any = getattr(dispatcher, "_cache", None)
+    index: Any = getattr(cache, "_cache_file", None)
+    if index is None or not hasattr(index, "_load_index"):
+        return  # numba without that cache layout: nothing to check
+    try:
+        index._load_index()
+    except Exception:  # noqa: BLE001 - any unreadable index is stale by definition
+        try:
+            cache.flush()
+        except OSError:
+            from numba.core.caching import NullCache
+
+            dispatcher._cache = NullCache()
 
 
 def lazy_njit(group: str | None = None, **options: Any) -> Callable[[Callable], Any]:
