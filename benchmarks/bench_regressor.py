@@ -121,18 +121,27 @@ def kinds(robot, n: int) -> None:
     for k, m in checked.items():
         runs[("pass", k)] = lambda m=m: fused(m)
         runs[("identify", k)] = lambda m=data[k]: sescid.identify(
+            robot, m, total_mass=robot.total_mass, robust=False
+        )
+        # the default: torques without an approach side get the Huber loss (IRLS, ~5 passes)
+        runs[("default", k)] = lambda m=data[k]: sescid.identify(
             robot, m, total_mass=robot.total_mass
         )
     for f in runs.values():
         f()
     _, cpu = interleaved(runs, 4)
     base = cpu[("pass", "CoP")]
-    print(f"measurement kinds, {n} OP2 poses, CPU time per pose (all threads)")
+    print(
+        f"measurement kinds, {n} OP2 poses, CPU time per pose (all threads); identify "
+        "least squares (robust=False), and its default (the Huber loss for torques without an "
+        "approach column)"
+    )
     for k in data:
-        p, i = cpu[("pass", k)], cpu[("identify", k)]
+        p, i, d = cpu[("pass", k)], cpu[("identify", k)], cpu[("default", k)]
         print(
             f"  {k:<26} fused pass {p / n * 1e9:6.0f} ns ({p / base:4.2f}× CoP)   identify "
-            f"{i / n * 1e9:6.0f} ns ({i / cpu[('identify', 'CoP')]:4.2f}× CoP)"
+            f"{i / n * 1e9:6.0f} ns ({i / cpu[('identify', 'CoP')]:4.2f}× CoP)   default "
+            f"{d / n * 1e9:6.0f} ns"
         )
     ratio = cpu[("pass", "torque (20 joints)")] / base
     print(
