@@ -56,9 +56,11 @@ def _transpose(q, s0, w, qt):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _trig_simd(qt, jc, cb, ob, w, seg, s, c1):  # pragma: no cover - compiled
-    """s, c1 = sin θ, 1 − cos θ of θ = cb·qt[jc] + ob for the block (``_trig_row_fma``'s bits):
-    8 lanes at a time when every |θ| < SMALL_ANGLE, else its reduction."""
+def _trig_simd(qt, jc, lin, w, seg, s, c1):  # pragma: no cover - compiled
+    """s, c1 = sin θ, 1 − cos θ of θ = cb·qt[jc] + ob, lin = (cb, ob), for the block
+    (``_trig_row_fma``'s bits): 8 lanes at a time when every |θ| < SMALL_ANGLE, else its
+    reduction."""
+    cb, ob = lin
     base = jc * qt.shape[1]
     vb, vo = vsplat(cb), vsplat(ob)
     big = vzero()
@@ -107,7 +109,7 @@ def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root
         return
     jc = jcol[b]
     if jc >= 0:
-        _trig_simd(qt, jc, coef[b], off[b], w, seg, s, c1)
+        _trig_simd(qt, jc, (coef[b], off[b]), w, seg, s, c1)
     else:
         s[:] = 0.0
         c1[:] = 0.0
@@ -182,9 +184,11 @@ def _cop_rows(w, seg, nr, xv):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _cop_target(w, seg, s0, y, sw, pt, xv, xw):  # pragma: no cover - compiled
+def _cop_target(span, y, sw, pt, xv, xw):  # pragma: no cover - compiled
     """Target row pt of xv (y, zero tail) and, when weighted (sw (n, nr), else (0, nr)), rows
-    0..pt of xv times each CoP row's weight into xw."""
+    0..pt of xv times each CoP row's weight into xw; span = (s0, w, seg): the block's first
+    pose, its poses and w rounded up to 8."""
+    s0, w, seg = span
     nr = y.shape[1]
     yb = y[s0 : s0 + w]
     for i in range(nr):
@@ -234,7 +238,7 @@ def _gram_reduced(q, y, sw, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, r
             _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                   rows, u, pos, s, c1, rot, xv)  # fmt: skip
         _cop_rows(w, seg, nr, xv)
-        _cop_target(w, seg, s0, y, sw, pt, xv, xw)
+        _cop_target((s0, w, seg), y, sw, pt, xv, xw)
         _syrk(xw if sw.shape[0] > 0 else xv, p4, nr * seg, out)
     return True
 

@@ -46,9 +46,11 @@ def _dot(a, ia, b, ib, kk):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _joint_rows(w, seg, s0, tau, tau_sw, approach, ab, e):  # pragma: no cover - compiled
-    """The measured joints' rows e[m] = (s, s·approach, s·τ) of the block, s the square-root
-    weight (1 when none: tau_sw (0, J)); zero for w ≤ k < seg (ab: a (blk,) scratch)."""
+def _joint_rows(span, tau, tau_sw, approach, ab, e):  # pragma: no cover - compiled
+    """The measured joints' rows e[m] = (s, s·approach, s·τ) of the block span = (s0, w, seg),
+    s the square-root weight (1 when none: tau_sw (0, J)); zero for w ≤ k < seg (ab: a (blk,)
+    scratch)."""
+    s0, w, seg = span
     nj = e.shape[0]
     blk = e.shape[2]
     e[:, :, w:seg] = 0.0
@@ -104,10 +106,12 @@ def _lever(b, m, seg, mg, coef, axis, rot, e, lev):  # pragma: no cover - compil
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _prefix(c, p, m, seg, lev, e, sp, zp):  # pragma: no cover - compiled
-    """Body c's sums down the tree from its parent p's (the support body's, index 0, are
-    zeros): sp[c] = (xx, xy, yy) of Σ s²w wᵀ and zp[c, q·seg + k] = Σ s²τ w_q over the measured
-    joints on the path support → c (m: c's joint among the measured ones, −1 if none)."""
+def _prefix(node, seg, lev, e, sp, zp):  # pragma: no cover - compiled
+    """Body c's sums down the tree from its parent p's, node = (c, p, m) (the support body's,
+    index 0, are zeros): sp[c] = (xx, xy, yy) of Σ s²w wᵀ and zp[c, q·seg + k] = Σ s²τ w_q over
+    the measured joints on the path support → c (m: c's joint among the measured ones, −1 if
+    none)."""
+    c, p, m = node
     blk = sp.shape[2]
     ldz = zp.shape[1]
     cs, ps = 3 * c * blk, 3 * max(p, 0) * blk
@@ -170,7 +174,7 @@ def _body_torque(b, w, seg, mg, coef, axis, parent, pos, meas, own_ptr, own, lro
     m = meas[b]
     if m >= 0:
         _lever(b, m, seg, mg, coef, axis, rot, e, lev)
-    _prefix(b, parent[b], m, seg, lev, e, sp, zp)
+    _prefix((b, parent[b], m), seg, lev, e, sp, zp)
     for t in range(own_ptr[b], own_ptr[b + 1]):
         _left_row(own[t], seg, lrows, v, v0, lev, e, sp, ul)
     ldv = v.shape[1]
@@ -196,10 +200,11 @@ def _body_torque(b, w, seg, mg, coef, axis, parent, pos, meas, own_ptr, own, lro
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _blocks(seg, lrows, tasks, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
-    """Each block of the plan as tiles of 4 (or, for a multiple of 3 rows, 3) rows × 4 columns
-    (indices clamped at the block's edge, only its own entries written): out[row, col] +=
-    Σ ul[row] v[v0 + col] over the sub-block, each pair once."""
+def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
+    """Each block of the plan = (lrows, tasks) as tiles of 4 (or, for a multiple of 3 rows, 3)
+    rows × 4 columns (indices clamped at the block's edge, only its own entries written):
+    out[row, col] += Σ ul[row] v[v0 + col] over the sub-block, each pair once."""
+    lrows, tasks = plan
     ldl = ul.shape[1]
     ldv = v.shape[1]
     kk = 2 * seg
@@ -266,7 +271,7 @@ def _gram_fused(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, pa
         w = min(blk, n - s0)
         seg = (w + 7) // 8 * 8
         _transpose(q, s0, w, qt)
-        _joint_rows(w, seg, s0, tau, tau_sw, approach, ab, e)
+        _joint_rows((s0, w, seg), tau, tau_sw, approach, ab, e)
         for b in range(nb):
             _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                   rows, u, pos, s, c1, rot, xv)  # fmt: skip
@@ -276,7 +281,7 @@ def _gram_fused(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, pa
                              out_tau)  # fmt: skip
         if pc > 0:
             _cop_rows(w, seg, 2, xv)
-            _cop_target(w, seg, s0, cop_y, cop_sw, pt, xv, xw)
+            _cop_target((s0, w, seg), cop_y, cop_sw, pt, xv, xw)
             _syrk(xw if cop_sw.shape[0] > 0 else xv, pc, 2 * seg, out_cop)
-        _blocks(seg, lrows, tasks, n_sesc, ul, xv, 2, out_tau)
+        _blocks(seg, (lrows, tasks), n_sesc, ul, xv, 2, out_tau)
     return True
