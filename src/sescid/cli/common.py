@@ -84,6 +84,24 @@ def seed_option(f: Any) -> Any:
     )(f)
 
 
+def study_options(poses: int, range_deg: float, noise: float) -> Any:
+    """--poses, --range-deg, --noise of a simulated study (paper §3), with these defaults."""
+
+    def wrap(f: Any) -> Any:
+        f = click.option(
+            "--noise", default=noise, show_default=True, help="CoP noise standard deviation [m]."
+        )(f)
+        f = click.option(
+            "--range-deg",
+            default=range_deg,
+            show_default=True,
+            help="Joints uniform in ±range [degrees].",
+        )(f)
+        return click.option("--poses", default=poses, show_default=True, help="Number of poses.")(f)
+
+    return wrap
+
+
 def imu_link_option(f: Any) -> Any:
     """--imu-link: the link whose IMU roll/pitch columns give gravity (no grav_x/y/z)."""
     return click.option(

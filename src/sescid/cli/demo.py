@@ -8,7 +8,7 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, load, mm, robot_options, seed_option
+from sescid.cli.common import force_option, load, mm, robot_options, seed_option, study_options
 from sescid.estimation import save_fit
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
@@ -22,16 +22,7 @@ from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_D
     type=click.Path(file_okay=False),
     help="Folder for fit.json, the two figures and summary.csv.",
 )
-@click.option("--poses", default=PAPER_POSES, show_default=True, help="Number of poses.")
-@click.option(
-    "--range-deg",
-    default=PAPER_RANGE_DEG,
-    show_default=True,
-    help="Joints uniform in ±range [degrees].",
-)
-@click.option(
-    "--noise", default=PAPER_NOISE, show_default=True, help="CoP noise standard deviation [m]."
-)
+@study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
 @seed_option
 @force_option
 def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):

@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, load, robot_options, seed_option
+from sescid.cli.common import force_option, load, robot_options, seed_option, study_options
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 TORQUES = TorqueNoise()
@@ -14,16 +14,7 @@ TORQUES = TorqueNoise()
 
 @click.command()
 @robot_options
-@click.option("--poses", default=PAPER_POSES, show_default=True, help="Number of poses.")
-@click.option(
-    "--range-deg",
-    default=PAPER_RANGE_DEG,
-    show_default=True,
-    help="Joints uniform in ±range [degrees].",
-)
-@click.option(
-    "--noise", default=PAPER_NOISE, show_default=True, help="CoP noise standard deviation [m]."
-)
+@study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
 @seed_option
 @click.option(
     "--clip/--no-clip",

@@ -26,7 +26,7 @@ from sescid.planning.block_kernels import (
     swap_gains,
     update_blocks,
 )
-from sescid.planning.doptimal import Selection
+from sescid.planning.doptimal import Selection, exchange_pass
 from sescid.planning.doptimal_kernels import TIE_LOGDET, first_best
 from sescid.planning.kinds import BlockRows, schur_information
 
@@ -171,16 +171,10 @@ def select_blocks(
         sub.s, sub.gain = full.s[idx].copy(), full.gain[idx].copy()
         sub.chosen = np.zeros(len(idx), dtype=bool)
         sub.chosen[:k] = True
-        pos_sub = list(range(k))
-        improved = False
-        for pos in rng.permutation(k):
-            j = sub.try_exchange(pos_sub[pos])
-            if j is not None:
-                pos_sub[pos] = j
-                exchanges += 1
-                improved = True
+        pos_sub, swaps = exchange_pass(sub, k, rng)
+        exchanges += swaps
         order = [int(idx[i]) for i in pos_sub]
-        if not improved:
+        if swaps == 0:
             break
     return Selection(
         index=np.array(order),

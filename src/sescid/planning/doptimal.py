@@ -144,6 +144,20 @@ class _Design:
         return j
 
 
+def exchange_pass(design, k: int, rng: np.random.Generator) -> tuple[list[int], int]:
+    """One Fedorov pass over the k chosen rows (the first k of ``design``) in a random order:
+    each tries its best exchange (``design.try_exchange(pos) -> new position or None``).
+    Returns the chosen positions after the pass and the count of exchanges made."""
+    pos_sub = list(range(k))
+    swaps = 0
+    for pos in rng.permutation(k):
+        j = design.try_exchange(pos_sub[pos])
+        if j is not None:
+            pos_sub[pos] = j
+            swaps += 1
+    return pos_sub, swaps
+
+
 @one_blas_thread()
 def select_d_optimal(
     a: np.ndarray,
@@ -193,17 +207,11 @@ def select_d_optimal(
         idx = np.concatenate([np.asarray(order), top])
         sub = _Design(a[idx], minv, s_all[idx])
         sub.chosen[:k] = True
-        pos_sub = list(range(k))
-        improved = False
-        for pos in rng.permutation(k):
-            j = sub.try_exchange(pos_sub[pos])
-            if j is not None:
-                pos_sub[pos] = j
-                exchanges += 1
-                improved = True
+        pos_sub, swaps = exchange_pass(sub, k, rng)
+        exchanges += swaps
         order = [int(idx[i]) for i in pos_sub]
         minv = sub.minv
-        if not improved:
+        if swaps == 0:
             break
     sign, logdet = np.linalg.slogdet(information(a[order]))
     return Selection(
