@@ -10,7 +10,14 @@ from numpy.typing import ArrayLike
 
 from sescid.kinematics.compile import GROUP, compiled, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree, as_poses
-from sescid.kinematics.trig import MAX_ANGLE, _joint_trig, _sin_cos1m, _trig_numpy, _trig_poly_numpy
+from sescid.kinematics.trig import (
+    MAX_ANGLE,
+    _joint_trig,
+    _sin_cos1m,
+    _trig_numpy,
+    _trig_poly_numpy,
+    reducible,
+)
 
 #: poses per block of the compiled chain (keeps the block's rotations in cache)
 CHAIN_BLOCK = 1024
@@ -203,13 +210,13 @@ def chain(
     if kernels is None:
         kernels = prefer_kernels(m * len(tree.parent))
     if not kernels:
-        if np.abs(q).max(initial=0.0) < MAX_ANGLE:
+        if reducible(q):
             _trig_poly_numpy(tree, q, s, c1)
         else:
             _trig_numpy(tree, q, s, c1)
         _chain_numpy(tree, s, c1, rot)
         return rot
-    if np.abs(q).max(initial=0.0) < MAX_ANGLE:
+    if reducible(q):
         _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
         _trig_numpy(tree, q, s, c1)

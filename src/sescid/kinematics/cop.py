@@ -14,7 +14,7 @@ from sescid.errors import DataError
 from sescid.kinematics.chains import CHAIN_BLOCK, Workspace, chain
 from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
-from sescid.kinematics.trig import MAX_ANGLE, _trig_row
+from sescid.kinematics.trig import MAX_ANGLE, _trig_row, reducible
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -142,7 +142,7 @@ def com_rows(tree: Tree, q: np.ndarray, r: np.ndarray, k: int = 2) -> np.ndarray
     give the same bits, huge angles (beyond MAX_ANGLE) included (numpy's exact reduction)."""
     n, nb = q.shape[0], tree.parent.shape[0]
     rr = np.ascontiguousarray(r, dtype=float).reshape(nb, 3)
-    if prefer_kernels(n * nb) and np.abs(q).max(initial=0.0) < MAX_ANGLE:
+    if prefer_kernels(n * nb) and reducible(q):
         out = _com_or_none(tree, q, rr, k)
         if out is not None:
             return out

@@ -24,6 +24,14 @@ _TWO_OVER_PI = 6.36619772367581382433e-01
 MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
 
 
+def reducible(q: np.ndarray) -> bool:
+    """True when every angle of q is within ±MAX_ANGLE (no nan): the polynomial reduction
+    applies. Two passes over q, no temporary (|q| of 10⁶ poses would be a 160 MB array)."""
+    if q.size == 0:
+        return True
+    return bool(q.max() < MAX_ANGLE and q.min() > -MAX_ANGLE)
+
+
 #: rad: below this |θ| the reduction is the identity (its quotient is 0 since θ·2/π + ½ < 1),
 #: so the polynomials alone give ``_sin_cos1m``'s bits for less work
 SMALL_ANGLE = 0.78
