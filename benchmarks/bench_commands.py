@@ -139,6 +139,39 @@ def peak_of(args: list[str], cwd: Path) -> tuple[float, float]:
     return float(wall), float(mb)
 
 
+_SPLIT_CHILD = """
+import sys, threading, time
+peak = {"RssAnon": 0, "RssFile": 0}
+def sample():
+    while True:
+        for line in open("/proc/self/status"):
+            key = line.split(":")[0]
+            if key in peak:
+                peak[key] = max(peak[key], int(line.split()[1]))
+        time.sleep(0.005)
+threading.Thread(target=sample, daemon=True).start()
+from sescid.cli import main
+sys.argv = ["sescid", *sys.argv[1:]]
+try:
+    main()
+except SystemExit:
+    pass
+print(peak["RssAnon"] / 1024, peak["RssFile"] / 1024)
+"""
+
+
+def rss_split(args: list[str], cwd: Path) -> tuple[float, float] | None:
+    """Peak anonymous and peak file-backed resident memory (MB, sampled every 5 ms) of one run:
+    what the process allocated, and the pages of shared libraries (numba's LLVM: a 179 MB
+    library) and mapped files the kernel keeps in it, which depend on the page cache."""
+    if not Path("/proc/self/status").exists():
+        return None
+    out = subprocess.run([sys.executable, "-c", _SPLIT_CHILD, *args], cwd=cwd, check=True,
+                         capture_output=True, text=True, env=_env())  # fmt: skip
+    anon, file = out.stdout.split()[-2:]
+    return float(anon), float(file)
+
+
 def readers(path: Path) -> dict[str, float]:
     """Seconds to read ``path``: sescid's streamed reader, pyarrow.read_csv, the csv module."""
     import pyarrow.csv as pcsv
@@ -291,6 +324,12 @@ def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
         if what == "simulate":
             what = f"simulate --poses {n} ({(d / 'big.csv').stat().st_size / 2**20:.0f} MB CSV)"
         print(f"  {what:<40} {wall:6.2f} s  {mb:5.0f} MB peak   (target {target} for 10⁶)")
+        split = rss_split(args, d) if what == "identify big.csv" else None
+        if split is not None:
+            print(
+                f"    of which anonymous (sescid's arrays, the interpreter) {split[0]:.0f} MB at "
+                f"most, file-backed (shared libraries, mapped files) {split[1]:.0f} MB at most"
+            )
         out.append((wall, mb))
     shm = Path("/dev/shm")
     if shm.is_dir() and os.access(shm, os.W_OK):  # the same into memory: the disk's share
