@@ -42,7 +42,7 @@ from sescid.kinematics.fused import GRAM_BLOCK, augmented_size, gram_reduced, sp
 from sescid.kinematics.gram import gram_columns, gram_numpy, padded
 from sescid.kinematics.reduced import Reduction, reduced_columns, reduction
 from sescid.kinematics.tree import Tree, as_poses
-from sescid.kinematics.trig import MAX_ANGLE, SMALL_ANGLE
+from sescid.kinematics.trig import MAX_ANGLE, SMALL_ANGLE, reducible
 
 __all__ = [
     "CHAIN_BLOCK",
@@ -71,6 +71,7 @@ __all__ = [
     "padded",
     "prefer_kernels",
     "reduced_columns",
+    "reducible",
     "reduction",
     "regressor",
     "regressor_columns",

@@ -16,7 +16,7 @@ import numpy as np
 from sescid.kinematics.chains import CHAIN_BLOCK, Workspace, _chain_block, chain
 from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
-from sescid.kinematics.trig import MAX_ANGLE, _joint_trig
+from sescid.kinematics.trig import _joint_trig, reducible
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -104,7 +104,7 @@ def torque_values(
     for s in range(0, n, ws.block):
         blk = slice(s, s + ws.block)
         gb = np.ascontiguousarray(g[blk], dtype=float)
-        if kernels and np.abs(q[blk]).max(initial=0.0) < MAX_ANGLE:
+        if kernels and reducible(q[blk]):
             rot = _chain_kernel(tree, q[blk], ws)
             m = rot.shape[3]
             scratch = f[..., :m] if m == ws.block else np.empty((nb, 3, m))

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.kinematics import MAX_ANGLE, cop_xy
+from sescid.kinematics import cop_xy, reducible
 from sescid.planning.collision import Capsules, collision_capsules
 from sescid.planning.com import com_state
 from sescid.planning.compliance import Compliance, compliant_margin
@@ -228,7 +228,7 @@ def _uniform(
     width = lim[:, 1] - lim[:, 0]
     draw = np.empty((chunk, robot.nq))
     screen = None
-    if np.all(np.abs(lim) < MAX_ANGLE):
+    if reducible(lim):
         screen = coarse_screen_tree(robot, lim[:, 0], width)
     while run.counts[4] < n:
         u = rng.random((chunk, robot.nq), out=draw)

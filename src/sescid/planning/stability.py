@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import SescidError
-from sescid.kinematics import MAX_ANGLE, Tree, cop_xy
+from sescid.kinematics import Tree, cop_xy, reducible
 from sescid.planning.collision import Capsules
 from sescid.robot import Robot
 
@@ -107,7 +107,7 @@ def stable_subset(
     c = np.zeros(2) if centre is None else np.asarray(centre, dtype=float)
     idx = np.arange(len(q))
     plain = q.ndim == 2 and q.shape[1] == robot.nq and len(q) > 0
-    plain = plain and bool(-MAX_ANGLE < q.min() and q.max() < MAX_ANGLE)
+    plain = plain and reducible(q)
     # the pre-checks on plain finite poses only; anything else gets stable_mask's checks
     if plain and coarse and len(q) >= COARSE_MIN_POSES:
         tree, r, bound = coarse_cop_tree(robot)
