@@ -7,8 +7,7 @@ Nothing here knows about robots; everything above may import it.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from sescid.base.lazy import lazy_exports
 
 #: public name → module (loaded on first use: ``threads`` must load before numpy does)
 _EXPORTS = {
@@ -27,9 +26,4 @@ _EXPORTS = {
 
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use (PEP 562)."""
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+__getattr__, __dir__ = lazy_exports(__name__, {k: f"{__name__}.{m}" for k, m in _EXPORTS.items()})
