@@ -32,6 +32,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 from timing import best_of, environment
 
@@ -118,30 +119,12 @@ def walk_through(root: Path, repeat: int) -> None:
     print(f"  {'walk-through, six commands':<40} {wall:6.2f} s {cpu:6.2f} s   (target ≤ 8 s)")
 
 
-def peak_of(args: list[str], cwd: Path) -> tuple[float, float]:
-    """Wall and peak RSS of one run, measured by a fresh child (ru_maxrss is per child)."""
-    code = (
-        "import resource, subprocess, sys, time; t = time.perf_counter(); "
-        f"subprocess.run([sys.executable, '-c', {CLI!r}, *sys.argv[1:]], check=True, "
-        "capture_output=True); "
-        "print(time.perf_counter() - t, "
-        "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code, *args],
-        cwd=cwd,
-        check=True,
-        capture_output=True,
-        text=True,
-        env=_env(),
-    )
-    wall, mb = out.stdout.split()
-    return float(wall), float(mb)
-
-
-_SPLIT_CHILD = """
-import sys, threading, time
+#: a fresh process running one command while a thread samples its resident memory every 5 ms;
+#: prints its peak RSS and the peaks of its anonymous and file-backed parts (MB; -1 without /proc)
+_MEMORY_CHILD = """
+import os, resource, sys, threading, time
 peak = {"RssAnon": 0, "RssFile": 0}
+proc = os.path.exists("/proc/self/status")
 def sample():
     while True:
         for line in open("/proc/self/status"):
@@ -149,27 +132,40 @@ def sample():
             if key in peak:
                 peak[key] = max(peak[key], int(line.split()[1]))
         time.sleep(0.005)
-threading.Thread(target=sample, daemon=True).start()
+if proc:
+    threading.Thread(target=sample, daemon=True).start()
 from sescid.cli import main
 sys.argv = ["sescid", *sys.argv[1:]]
 try:
     main()
-except SystemExit:
-    pass
-print(peak["RssAnon"] / 1024, peak["RssFile"] / 1024)
+except SystemExit as exc:
+    if exc.code:
+        raise
+kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(kb / 1024, *((peak[k] / 1024 for k in peak) if proc else (-1, -1)))
 """
 
 
-def rss_split(args: list[str], cwd: Path) -> tuple[float, float] | None:
-    """Peak anonymous and peak file-backed resident memory (MB, sampled every 5 ms) of one run:
-    what the process allocated, and the pages of shared libraries (numba's LLVM: a 179 MB
-    library) and mapped files the kernel keeps in it, which depend on the page cache."""
-    if not Path("/proc/self/status").exists():
-        return None
-    out = subprocess.run([sys.executable, "-c", _SPLIT_CHILD, *args], cwd=cwd, check=True,
+class Peak(NamedTuple):
+    """One run of a command: wall time (s, the process's start included), peak RSS (MB) and the
+    peaks of its anonymous memory (what it allocated) and of its file-backed pages (shared
+    libraries — numba's LLVM is a 179 MB library — and mapped files, which depend on the page
+    cache), MB, nan where the system does not say."""
+
+    wall: float
+    mb: float
+    anon: float
+    file: float
+
+
+def peak_of(args: list[str], cwd: Path) -> Peak:
+    """Wall time and memory of one run of ``sescid ARGS`` in a fresh process."""
+    t = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", _MEMORY_CHILD, *args], cwd=cwd, check=True,
                          capture_output=True, text=True, env=_env())  # fmt: skip
-    anon, file = out.stdout.split()[-2:]
-    return float(anon), float(file)
+    wall = time.perf_counter() - t
+    mb, anon, file = (float(x) for x in out.stdout.split()[-3:])
+    return Peak(wall, mb, *(x if x >= 0 else float("nan") for x in (anon, file)))
 
 
 def readers(path: Path) -> dict[str, float]:
@@ -302,7 +298,8 @@ def huge_csv(n: int, d: Path) -> tuple[float, float]:
                     src.readline()
                 shutil.copyfileobj(src, dst, 1 << 24)
             part.unlink()
-    return peak_of(["identify", "huge.csv", "--robot", "op2", "--out", "huge.json"], d)
+    fit = peak_of(["identify", "huge.csv", "--robot", "op2", "--out", "huge.json"], d)
+    return fit.wall, fit.mb
 
 
 def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
@@ -320,15 +317,15 @@ def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
             if what == "simulate":
                 (d / "big.csv").unlink(missing_ok=True)  # a fresh file each time
             runs.append(peak_of(args, d))
-        wall, mb = min(w for w, _ in runs), max(m for _, m in runs)
+        wall, mb = min(r.wall for r in runs), max(r.mb for r in runs)
         if what == "simulate":
             what = f"simulate --poses {n} ({(d / 'big.csv').stat().st_size / 2**20:.0f} MB CSV)"
         print(f"  {what:<40} {wall:6.2f} s  {mb:5.0f} MB peak   (target {target} for 10⁶)")
-        split = rss_split(args, d) if what == "identify big.csv" else None
-        if split is not None:
+        anon, file = max(r.anon for r in runs), max(r.file for r in runs)
+        if what == "identify big.csv" and anon == anon:  # not nan: the system says
             print(
-                f"    of which anonymous (sescid's arrays, the interpreter) {split[0]:.0f} MB at "
-                f"most, file-backed (shared libraries, mapped files) {split[1]:.0f} MB at most"
+                f"    of which anonymous (sescid's arrays, the interpreter) {anon:.0f} MB at "
+                f"most, file-backed (shared libraries, mapped files) {file:.0f} MB at most"
             )
         out.append((wall, mb))
     shm = Path("/dev/shm")
@@ -338,7 +335,7 @@ def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
             runs = []
             for _ in range(repeat):
                 target.unlink(missing_ok=True)
-                runs.append(peak_of([*sim[:-1], str(target)], d)[0])
+                runs.append(peak_of([*sim[:-1], str(target)], d).wall)
             print(f"  {'  the same into /dev/shm (no disk)':<40} {min(runs):6.2f} s")
         finally:
             target.unlink(missing_ok=True)
