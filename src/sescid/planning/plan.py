@@ -12,9 +12,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import min_poses, structural_rank
-from sescid.planning.candidates import CandidateOptions, candidates
 from sescid.planning.com import level_cop
-from sescid.planning.compliance import compliance
 from sescid.planning.doptimal import (
     Selection,
     expected_cop_error,
@@ -26,8 +24,7 @@ from sescid.planning.doptimal import (
     select_d_optimal,
 )
 from sescid.planning.gantry import resolve_mount
-from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
-from sescid.planning.ordering import order_poses, path_length
+from sescid.planning.limits import UNLIMITED_RANGE
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,
@@ -35,6 +32,9 @@ from sescid.planning.plan_types import (
     default_candidates,
     options_with,
     plan_notes,
+    sampling_range,
+    standing_candidates,
+    visiting_order,
 )
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
@@ -92,15 +92,9 @@ def plan_poses(
         )
     if count > opt.n_candidates:
         raise SescidError(f"cannot choose {count} poses from {opt.n_candidates} candidates")
-    robot.check_support_level()
-    model = None if opt.rigid else compliance(robot)
-    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
-    free = unlimited_joints(robot)
-    free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
-    draw = CandidateOptions(
-        limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
-    )
-    cand = candidates(robot, opt.n_candidates + opt.n_test, seed, draw, progress=progress)
+    lim, free, free_range = sampling_range(robot, opt)
+    cand = standing_candidates(robot, opt.n_candidates + opt.n_test, seed, opt, lim, progress)
+    model = cand.compliance
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
     basis = identifiable_basis(robot, pool_q)
@@ -109,21 +103,20 @@ def plan_poses(
     sel, n_checked, n_failed = checked_choice(
         lambda keep: _choose(a_pool, count, select, seed, keep), pool_q, opt
     )
-    q_sel = pool_q[sel.index]
-    perm = order_poses(q_sel)
+    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
     rng = np.random.default_rng(seed)
     rand = random_cop_error(a_pool, count, c_test, opt.sigma, opt.random_draws, rng)
     return PosePlan(
-        q=q_sel[perm],
-        cop=level_cop(robot, q_sel[perm]),
+        q=q_ord,
+        cop=level_cop(robot, q_ord),
         method=select,
         expected_error=expected_cop_error(a_pool[sel.index], c_test, opt.sigma),
         random_error=float(np.median(rand)),
         sigma=opt.sigma,
         rank=basis.shape[1],
         logdet=sel.logdet,
-        path_unordered=path_length(q_sel, np.zeros(robot.nq)),
-        path_ordered=path_length(q_sel[perm], np.zeros(robot.nq)),
+        path_unordered=path_unordered,
+        path_ordered=path_ordered,
         candidates=cand,
         selection=sel,
         basis=basis,

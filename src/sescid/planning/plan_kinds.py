@@ -12,9 +12,8 @@ import numpy as np
 
 from sescid.errors import OptionError, SescidError
 from sescid.planning.blocks import schur_logdet, select_blocks
-from sescid.planning.candidates import CandidateOptions, Candidates, candidates
+from sescid.planning.candidates import Candidates
 from sescid.planning.com import level_cop
-from sescid.planning.compliance import compliance
 from sescid.planning.doptimal import Selection, per_row_information, projected_regressor
 from sescid.planning.gantry import GantryOptions, gantry_candidates
 from sescid.planning.kinds import (
@@ -28,9 +27,16 @@ from sescid.planning.kinds import (
     min_block_poses,
     random_com_error,
 )
-from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
-from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.plan_types import PlanOptions, PosePlan, checked_choice, plan_notes
+from sescid.planning.limits import UNLIMITED_RANGE
+from sescid.planning.plan_types import (
+    PlanOptions,
+    PosePlan,
+    checked_choice,
+    plan_notes,
+    sampling_range,
+    standing_candidates,
+    visiting_order,
+)
 from sescid.robot import Robot
 
 
@@ -60,12 +66,7 @@ def _candidates(
         return gantry_candidates(robot, n, seed, held, progress=progress)
     if opt.hang_height is not None:
         raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
-    robot.check_support_level()
-    model = None if opt.rigid else compliance(robot)
-    draw = CandidateOptions(
-        limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
-    )
-    return candidates(robot, n, seed, draw, progress=progress)
+    return standing_candidates(robot, n, seed, opt, lim, progress)
 
 
 def plan_kinds(
@@ -84,9 +85,7 @@ def plan_kinds(
         raise OptionError("count", f"{count}: a torque offset needs at least 2 poses")
     if count > opt.n_candidates:
         raise SescidError(f"cannot choose {count} poses from {opt.n_candidates} candidates")
-    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
-    free = unlimited_joints(robot)
-    free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
+    lim, free, free_range = sampling_range(robot, opt)
     cand = _candidates(robot, opt.n_candidates + opt.n_test, seed, opt, mount, lim, progress)
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
@@ -106,24 +105,23 @@ def plan_kinds(
     sel, n_checked, n_failed = checked_choice(
         lambda keep: choose_blocks(rows, count, select, seed, keep), pool_q, opt
     )
-    q_sel = pool_q[sel.index]
-    perm = order_poses(q_sel)
+    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
     rng = np.random.default_rng(seed)
     rand = random_com_error(rows, count, c_test, opt.random_draws, rng)
     model = cand.compliance
     notes = plan_notes(free, free_range, opt, model, (n_checked, n_failed), mount == "gantry")
     notes += cand.notes + _kind_notes(spec, mount)
     return PosePlan(
-        q=q_sel[perm],
-        cop=level_cop(robot, q_sel[perm]) if mount == "stand" else np.full((count, 2), np.nan),
+        q=q_ord,
+        cop=level_cop(robot, q_ord) if mount == "stand" else np.full((count, 2), np.nan),
         method=select,
         expected_error=expected_com_error(rows, sel.index, c_test),
         random_error=float(np.median(rand)),
         sigma=opt.sigma,
         rank=basis.shape[1],
         logdet=sel.logdet,
-        path_unordered=path_length(q_sel, np.zeros(robot.nq)),
-        path_ordered=path_length(q_sel[perm], np.zeros(robot.nq)),
+        path_unordered=path_unordered,
+        path_ordered=path_ordered,
         candidates=cand,
         selection=sel,
         basis=basis,

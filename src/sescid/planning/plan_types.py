@@ -12,11 +12,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sescid.errors import OptionError, SescidError
-from sescid.planning.candidates import Candidates
-from sescid.planning.compliance import Compliance
+from sescid.planning.candidates import CandidateOptions, Candidates, candidates
+from sescid.planning.compliance import Compliance, compliance
 from sescid.planning.doptimal import Selection
 from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows
-from sescid.planning.limits import UNLIMITED_RANGE
+from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
+from sescid.planning.ordering import order_poses, path_length
 from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
@@ -160,3 +161,33 @@ def plan_notes(
             "did not stand and were replaced"
         )
     return out
+
+
+def sampling_range(robot: Robot, opt: PlanOptions) -> tuple[np.ndarray, list[str], float]:
+    """The joint ranges (nq, 2) [rad] candidates are drawn in (``opt.limits`` or the robot's),
+    the joints the model leaves unlimited, and the widest range given to them (rad; 0: none)."""
+    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
+    free = unlimited_joints(robot)
+    free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
+    return lim, free, free_range
+
+
+def standing_candidates(
+    robot: Robot, n: int, seed: int, opt: PlanOptions, lim: np.ndarray, progress
+) -> Candidates:
+    """``n`` candidates for a robot standing on its support foot: a level support checked, the
+    compliant-robot margin unless ``opt.rigid``, the floor and self-collision."""
+    robot.check_support_level()
+    model = None if opt.rigid else compliance(robot)
+    draw = CandidateOptions(
+        limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
+    )
+    return candidates(robot, n, seed, draw, progress=progress)
+
+
+def visiting_order(q_sel: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """The chosen poses (k, nq) in visiting order (``ordering.order_poses``), and the length of
+    the joint-space path from the zero pose through them before and after ordering (rad)."""
+    q_ord = q_sel[order_poses(q_sel)]
+    zero = np.zeros(q_sel.shape[1])
+    return q_ord, path_length(q_sel, zero), path_length(q_ord, zero)
