@@ -271,9 +271,14 @@ def echo_fit(fit: Fit) -> None:
         echo_masses(fit)
     if fit.robust is not None:
         low = fit.robust.downweighted
+        if not low:
+            click.echo("robust: no pose down-weighted")
         shown = ", ".join(f"{i} (w {w:.2f})" for i, w in low[:10])
         more = f" and {len(low) - 10} more" if len(low) > 10 else ""
-        click.echo(f"robust: {len(low)} poses down-weighted (row index, weight): {shown}{more}")
+        if low:
+            click.echo(
+                f"robust: {len(low)} poses down-weighted (pose index, weight): {shown}{more}"
+            )
     if fit.cop_offset is not None:
         (bx, by), (sx, sy) = fit.cop_offset.value, fit.cop_offset.std
         click.echo(

@@ -133,10 +133,14 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "measure more poses"
         )
     if fit.sigma_hat < EXACT_FIT and fit.n_rows > fit.rank:
-        out.append(
-            "σ̂ = 0: the CoP is fitted exactly (a constant or all-zero CoP, or noise-free data); "
-            "intervals have zero width"
+        what = {k.kind for k in fit.kinds} or {"cop"}
+        data = (
+            "the CoP is fitted exactly (a constant or all-zero CoP, or noise-free data)"
+            if what == {"cop"}
+            else "the measurements are fitted exactly (constant or all-zero values, or "
+            "noise-free data)"
         )
+        out.append(f"σ̂ = 0: {data}; intervals have zero width")
     return out
 
 

@@ -71,10 +71,15 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             f"± {tilt.std * 1e3:.2f} mm (prior model {tilt.prior * 1e3:.2f} mm; rank +1 over "
             "a level sole)"
         )
-    if fit.weighted:
+    asked = fit.robust.weighted_input if fit.robust is not None else fit.weighted
+    if asked:
+        present = {k.kind for k in fit.kinds} or {"cop"}
+        given = " and ".join(
+            {"cop": "CoP", "tau": "torque"}[k] for k in ("cop", "tau") if k in present
+        )
         notes.append(
-            "weighted by the given CoP standard errors: sigma_hat is the dimensionless scale "
-            "of the normalised residuals (≈ 1 when the standard errors are right)"
+            f"weighted by the given {given} standard errors: sigma_hat is the dimensionless "
+            "scale of the normalised residuals (≈ 1 when the standard errors are right)"
         )
     return notes
 
@@ -140,8 +145,12 @@ def _modifier_notes(fit: Fit) -> list[str]:
     notes: list[str] = []
     if fit.robust is not None:
         r = fit.robust
-        shown = (
-            f"{r.scale:.3f} × the given errors" if r.weighted_input else f"{r.scale * 1e3:.3f} mm"
+        scales = r.scales or {"cop": r.scale}
+        shown = ", ".join(
+            f"{v:.3f} × the given errors"
+            if r.weighted_input
+            else (f"{v * 1e3:.3f} mm" if kd == "cop" else f"{v:.4f} N·m")
+            for kd, v in scales.items()
         )
         notes.append(
             f"Huber IRLS (k = {r.k:g}, robust scale {shown}): {len(r.downweighted)} of "

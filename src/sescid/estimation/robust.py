@@ -89,8 +89,8 @@ def huber(
     for iterations in range(1, max_iter + 1):  # noqa: B007 (reported after the loop)
         sizes = [_standardised(fit, m, base) for m, base in zip(data, bases, strict=True)]
         scale = {}
-        for kd in sizes[0]:
-            pooled = np.concatenate([s[kd].reshape(-1) for s in sizes])
+        for kd in sorted({kd for s in sizes for kd in s}):  # files may hold different kinds
+            pooled = np.concatenate([s[kd].reshape(-1) for s in sizes if kd in s])
             scale[kd] = float(np.median(pooled)) / (_MEDIAN_NORM if kd == COP else _MEDIAN_ABS)
         if any(v <= 0 for v in scale.values()):
             break
