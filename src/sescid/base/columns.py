@@ -11,6 +11,7 @@ gravity direction. Every error names the file, row and column.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,7 +29,8 @@ class Table:
 
     ``columns``: name → float array (n,); ``text``: columns that are not all numbers, as strings.
     ``first_row``: the file's row number of the first data row (2 under a header; a chunk of a
-    streamed file starts further down), so every error names the file's own row.
+    streamed file starts further down), so every error names the file's own row. ``label``
+    names a data row of in-memory columns instead (e.g. ``pose 3, sample 2`` of a session).
     """
 
     def __init__(
@@ -37,9 +39,11 @@ class Table:
         columns: dict[str, np.ndarray],
         text: dict[str, list],
         first_row: int = 2,
+        label: Callable[[int], str] | None = None,
     ):
         self.path = path
         self.first_row = first_row
+        self.label = label
         self.columns = columns
         self.text = text  #: columns that are not numbers (e.g. labels), as strings
         self.n = len(next(iter(columns.values()))) if columns else 0
@@ -47,6 +51,10 @@ class Table:
     def row(self, i) -> int:
         """The file's row number of data row ``i`` of this table."""
         return int(i) + self.first_row
+
+    def where(self, i) -> str:
+        """Data row ``i`` as an error names it: ``row N`` (the file's row) or the label's."""
+        return self.label(int(i)) if self.label is not None else f"row {self.row(i)}"
 
     def __contains__(self, name: str) -> bool:
         return name in self.columns
@@ -60,7 +68,7 @@ class Table:
         if name in self.text:
             row, value = next((i, v) for i, v in enumerate(self.text[name]) if not _is_number(v))
             raise DataError(
-                f"{self.path}: row {self.row(row)}, column '{name}': '{value}' is not a number"
+                f"{self.path}: {self.where(row)}, column '{name}': '{value}' is not a number"
             )
         if name not in self.columns:
             raise DataError(f"{self.path}: missing {what} '{name}'")
@@ -68,7 +76,7 @@ class Table:
         bad = np.flatnonzero(~np.isfinite(col))
         if bad.size:
             raise DataError(
-                f"{self.path}: row {self.row(bad[0])}, "
+                f"{self.path}: {self.where(bad[0])}, "
                 f"column '{name}': value {col[bad[0]]} is not finite"
             )
         return col
@@ -96,7 +104,7 @@ def column_with_missing(table: Table, name: str) -> np.ndarray:
             out[i] = float(v)
         except ValueError:
             raise DataError(
-                f"{table.path}: row {table.row(i)}, column '{name}': '{v}' is not a number"
+                f"{table.path}: {table.where(i)}, column '{name}': '{v}' is not a number"
             ) from None
     return out
 
@@ -110,14 +118,14 @@ def pose_ids(table: Table, name: str = "pose") -> np.ndarray:
         empty = np.flatnonzero(ids == "")
         if empty.size:
             raise DataError(
-                f"{table.path}: row {table.row(empty[0])}, column '{name}': empty pose id"
+                f"{table.path}: {table.where(empty[0])}, column '{name}': empty pose id"
             )
         return ids
     col = table.columns[name]
     bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
     if bad.size:
         raise DataError(
-            f"{table.path}: row {table.row(bad[0])}, "
+            f"{table.path}: {table.where(bad[0])}, "
             f"column '{name}': pose id {col[bad[0]]} is not an "
             "integer or a label"
         )
@@ -164,7 +172,7 @@ def read_joint_columns(
             bad = np.flatnonzero(np.abs(v) > MAX_ANGLE_RAD)
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"{table.path}: {table.where(bad[0])}, "
                     f"column '{name}': {v[bad[0]]:g} looks like "
                     f"degrees or ticks; joint columns are in radians (use '{j}_deg' for degrees)"
                 )
@@ -172,7 +180,7 @@ def read_joint_columns(
             bad = np.flatnonzero(np.abs(v) > 360)
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"{table.path}: {table.where(bad[0])}, "
                     f"column '{name}': {v[bad[0]]:g} is not an "
                     "angle in degrees"
                 )
@@ -186,14 +194,14 @@ def read_joint_columns(
             bad = np.flatnonzero((v < 0) | (v > servo.max_tick))
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"{table.path}: {table.where(bad[0])}, "
                     f"column '{name}': {v[bad[0]]:g} is outside "
                     f"the {servo.name} range 0–{servo.max_tick} ticks"
                 )
             v = servo.to_rad(v)
         cols.append(v)
         units[j] = unit
-    return np.column_stack(cols), units
+    return (np.column_stack(cols) if cols else np.zeros((table.n, 0))), units
 
 
 def read_poses(
@@ -218,7 +226,7 @@ def read_cop(table: Table) -> np.ndarray:
     if big.size:
         i, j = big[0]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
+            f"{table.path}: {table.where(i)}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
             "plausible CoP (columns are in metres)"
         )
     return cop
@@ -250,7 +258,7 @@ def read_gravity(table: Table) -> np.ndarray | None:
     if bad.size:
         i = int(bad[0])
         raise DataError(
-            f"{table.path}: row {table.row(i)}, columns grav_x/y/z: "
+            f"{table.path}: {table.where(i)}, columns grav_x/y/z: "
             f"gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
             "finite and point down through the sole (grav_z < 0, tilt < 60°)"
         )
@@ -307,7 +315,7 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
         big = np.flatnonzero(np.abs(v) > MAX_TORQUE_NM)
         if big.size:
             raise DataError(
-                f"{table.path}: row {table.row(big[0])}, column '{name}': {v[big[0]]:g} is not a "
+                f"{table.path}: {table.where(big[0])}, column '{name}': {v[big[0]]:g} is not a "
                 "plausible joint torque in N·m"
             )
         cols.append(v)
@@ -331,7 +339,7 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
         bad = np.flatnonzero(v < 0)
         if bad.size:
             raise DataError(
-                f"{table.path}: row {table.row(bad[0])}, column '{name}': {v[bad[0]]:g} is not "
+                f"{table.path}: {table.where(bad[0])}, column '{name}': {v[bad[0]]:g} is not "
                 "a standard error (≥ 0 N·m)"
             )
         se[:, k] = v
@@ -349,7 +357,7 @@ def read_approach(table: Table, name: str = "approach") -> np.ndarray | None:
     bad = np.flatnonzero((v != 1) & (v != -1))
     if bad.size:
         raise DataError(
-            f"{table.path}: row {table.row(bad[0])}, column '{name}': {v[bad[0]]:g} is not +1 "
+            f"{table.path}: {table.where(bad[0])}, column '{name}': {v[bad[0]]:g} is not +1 "
             "or -1 (the side the joints came from: +1 below, -1 above)"
         )
     return v.astype(int)

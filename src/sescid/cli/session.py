@@ -242,12 +242,12 @@ def session(**opts):
     elif journal.entries:
         click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
     view = None
-    if not opts["no_view"]:
-        from sescid.report import LiveView
-
-        view = LiveView(robot, port=opts["view_port"])
-        click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
     try:
+        if not opts["no_view"]:
+            from sescid.report import LiveView
+
+            view = LiveView(robot, port=opts["view_port"])
+            click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
         res = run_session(
             robot, bot, sensors, opt,
             _Both(_Printer(opt.budget), None if view is None else _CopView(view)),
@@ -256,6 +256,7 @@ def session(**opts):
     except BaseException:
         if view is not None:
             view.close()
+        journal.discard_if_empty()  # a session that measured nothing leaves nothing behind
         raise
     _write(res, robot, out_dir, view, opts)
     journal.finish(res.stop_reason)

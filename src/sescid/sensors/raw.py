@@ -75,9 +75,9 @@ class RawLog:
         return replace(self, gravity=gravity)
 
 
-def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>") -> Table:
+def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>", label=None) -> Table:
     """A ``Table`` of in-memory columns (a bench's or a session's raw log, as ``read_table``
-    gives a file: numbers as float, text as text)."""
+    gives a file: numbers as float, text as text); ``label(i)`` names data row i in errors."""
     num, text = {}, {}
     for k, v in columns.items():
         arr = np.asarray(v)
@@ -85,7 +85,7 @@ def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>") ->
             num[k] = arr.astype(float)
         else:
             text[k] = [str(x) for x in arr]
-    return Table(Path(name), num, text)
+    return Table(Path(name), num, text, label=label)
 
 
 def read_raw(
@@ -170,7 +170,7 @@ def _read_foot(table: Table, foot: Foot, config: SensorConfig, names: set[str], 
         if bad.size:
             i, k = bad[0]
             raise DataError(
-                f"{table.path}: row {table.row(i)}, column '{fcols[k]}': negative force count "
+                f"{table.path}: {table.where(i)}, column '{fcols[k]}': negative force count "
                 f"{f[i, k]:g} (the board reports 0–{config.saturation} counts)"
             )
         forces[foot.name] = f
@@ -183,7 +183,7 @@ def _read_foot(table: Table, foot: Foot, config: SensorConfig, names: set[str], 
         if bad.size:
             i, k = bad[0]
             raise DataError(
-                f"{table.path}: row {table.row(i)}, column '{ccols[k]}': {c[i, k]:g} is not a "
+                f"{table.path}: {table.where(i)}, column '{ccols[k]}': {c[i, k]:g} is not a "
                 f"centroid register (integer 0–{config.centroid_max}, "
                 f"{config.no_load} = no load)"
             )
@@ -211,7 +211,7 @@ def _read_cop(table: Table, foot: Foot, config: SensorConfig, names: set[str], o
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column '{pcols[k]}': {c[i, k]:g} is "
+            f"{table.path}: {table.where(i)}, column '{pcols[k]}': {c[i, k]:g} is "
             f"{COP_MAX_M:g} m or more from the sole (CoP columns are in metres)"
         )
     fz = column_with_missing(table, zcol) if zcol in names else None
@@ -232,7 +232,7 @@ def _check_normal_force(table: Table, zcol: str, fz: np.ndarray, min_force: floa
     inf = np.flatnonzero(np.isinf(fz))
     if inf.size:
         raise DataError(
-            f"{table.path}: row {table.row(inf[0])}, column '{zcol}': {fz[inf[0]]} is not a force"
+            f"{table.path}: {table.where(inf[0])}, column '{zcol}': {fz[inf[0]]} is not a force"
         )
     with np.errstate(invalid="ignore"):
         pushing = int(np.sum(fz >= min_force))
@@ -256,7 +256,7 @@ def _check_within_sole(table, foot: Foot, c: np.ndarray, loaded: np.ndarray, col
         i, k = bad[0]
         axis = "xy"[k]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column '{cols[k]}': {c[i, k]:g} m lies "
+            f"{table.path}: {table.where(i)}, column '{cols[k]}': {c[i, k]:g} m lies "
             f"{(abs(c[i, k] - centre[k]) - half[k]) * 1e3:.0f} mm outside the {foot.name} foot's "
             f"pads along {axis} (more than {COP_SOLE_MARGIN_M * 1e3:.0f} mm beyond the sole): "
             "a wrong sensor frame, sign or unit"

@@ -54,7 +54,7 @@ def read_torques(table: Table, joint_names: list[str]) -> tuple[list[str], np.nd
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column '{TAU_PREFIX}{joints[k]}': "
+            f"{table.path}: {table.where(i)}, column '{TAU_PREFIX}{joints[k]}': "
             f"{tau[i, k]} is not a torque"
         )
     return joints, tau
@@ -68,7 +68,7 @@ def read_approach(table: Table) -> np.ndarray | None:
     bad = np.flatnonzero(~np.isnan(a) & (np.abs(a) != 1))
     if bad.size:
         raise DataError(
-            f"{table.path}: row {table.row(bad[0])}, column '{APPROACH_COLUMN}': {a[bad[0]]:g} "
+            f"{table.path}: {table.where(bad[0])}, column '{APPROACH_COLUMN}': {a[bad[0]]:g} "
             "is not +1 (reached from below) or -1 (from above)"
         )
     return a
