@@ -97,9 +97,9 @@ def test_no_partial_output_when_a_later_output_cannot_be_written(bench, tmp_path
 
 
 def test_demo_and_report_leave_no_folder_on_failure(bench, tmp_path):
-    """`demo --poses 10` (too few poses) creates no folder; `report` on data that does not
+    """`demo --count 10` (too few poses) creates no folder; `report` on data that does not
     match the fit leaves no report folder and no temporary."""
-    code, out = run("demo", "--poses", 10, "--out-dir", tmp_path / "demo")
+    code, out = run("demo", "--count", 10, "--out-dir", tmp_path / "demo")
     assert code == 2 and not (tmp_path / "demo").exists()
     bad = tmp_path / "bad.csv"
     bad.write_text("pose,cop_x,cop_y\n0,0,0\n")
@@ -134,7 +134,7 @@ def sim(tmp_path_factory):
     """100 simulated poses within ±20° (some outside the OP2's joint limits)."""
     d = tmp_path_factory.mktemp("sim")
     path = d / "sim.csv"
-    code, out = run("simulate", "--poses", 100, "--range-deg", 20, "--out", path)
+    code, out = run("simulate", "--count", 100, "--range-deg", 20, "--out", path)
     assert code == 0, out
     return path
 
@@ -156,7 +156,7 @@ def _drop_truth(header, row):
     ("args", "message"),
     [
         (("simulate", "--range-deg", 1000), "--range-deg: must be in (0, 180]"),
-        (("simulate", "--poses", 10**11), "more than half this machine's memory"),
+        (("simulate", "--count", 10**11), "more than half this machine's memory"),
         (("simulate", "--seed", -1), "Invalid value for '--seed'"),
         (("poses", "--range-deg", 1000), "--range-deg: must be in (0, 180]"),
         (("identify", "{sim}", "--method", "map", "--prior-scale", "1e300"), "≤ 100"),
@@ -338,3 +338,43 @@ def test_output_folder_in_a_read_only_place_names_the_folder(tmp_path, monkeypat
     monkeypatch.setattr(tempfile, "mkdtemp", refuse)
     with pytest.raises(DataError, match=r"demo: cannot create the output folder \(Permission"):
         OutputSet([], [], folders=[tmp_path / "demo"]).folder(tmp_path / "demo")
+
+
+# --- 3. usage errors: one line, exit 2, the closest command or option (issue 27) -------------
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (("identfy", "x.csv"), "sescid: error: no command 'identfy' (did you mean identify?)"),
+        (("xyz",), "sescid: error: no command 'xyz' (sescid --help lists them)"),
+        (
+            ("identify", "m.csv", "--weigted", "--out", "f.json"),
+            "sescid: error: identify: no option --weigted (did you mean --weighted?)",
+        ),
+        (("--verbose",), "sescid: error: no option --verbose (did you mean --version?)"),
+        (("identify",), "sescid: error: identify: Missing argument 'DATA...' (see sescid identify"),
+        (("identify", "m.csv", "--out"), "sescid: error: identify: Option '--out' requires an"),
+        (("identify", "m.csv", "--method", "lsq", "--out", "f"), "Invalid value for '--method'"),
+        (("simulate", "--count", "0", "--out", "s.csv"), "Invalid value for '--count': 0 is"),
+        (("poses", "--count", "abc", "--out", "p.csv"), "poses: Invalid value for '--count'"),
+    ],
+)
+def test_usage_errors_are_one_line_with_a_suggestion(tmp_path, args, line):
+    """A mistyped command or option, a missing argument or a bad value: one line
+    `sescid: error: …` (the command named, the closest match suggested), exit 2."""
+    res = CliRunner().invoke(cli, list(args))
+    assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+    assert res.output.startswith("sescid: error: ") and line in res.output, res.output
+    assert "Usage:" not in res.output and "Try 'sescid" not in res.output
+
+
+def test_api_option_errors_name_the_flag(tmp_path):
+    """An options record's error names the command-line flag that set it (`budget` →
+    `--budget`), and the count of `simulate` keeps its former name `--poses`."""
+    code, out = run("session", "--adapter", "kinematic", "--budget", 5, "--no-view",
+                    "--out-dir", tmp_path / "s")  # fmt: skip
+    assert code == 2 and out.startswith("sescid: error: --budget: 5 poses cannot identify")
+    assert not (tmp_path / "s").exists()
+    code, out = run("simulate", "--poses", 7, "--out", tmp_path / "s.csv")
+    assert code == 0 and "wrote" in out and len((tmp_path / "s.csv").read_text().splitlines()) == 8

@@ -108,7 +108,7 @@ SCRIPT = textwrap.dedent(
     from sescid.cli import cli
     runner = CliRunner()
     steps = {
-        "simulate": ["simulate", "--poses", "60", "--out", str(tmp / "sim.csv")],
+        "simulate": ["simulate", "--count", "60", "--out", str(tmp / "sim.csv")],
         "identify": ["identify", str(tmp / "sim.csv"), "--method", "consistent",
                      "--allow-outside-limits", "--out", str(tmp / "fit.json")],
         "export": ["export", str(tmp / "fit.json"), "--out", str(tmp / "op2.urdf")],

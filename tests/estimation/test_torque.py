@@ -386,7 +386,7 @@ def test_cli_simulates_and_identifies_torques_alone(op2, tmp_path):
     friction band from them (the approach column) within their standard errors."""
     data, out = tmp_path / "t.csv", tmp_path / "fit.json"
     runner = CliRunner()
-    res = runner.invoke(cli, ["simulate", "--poses", "300", "--measure", "tau", "--tau-offset",
+    res = runner.invoke(cli, ["simulate", "--count", "300", "--measure", "tau", "--tau-offset",
                               "0.1", "--tau-friction", "0.15", "--out", str(data)])  # fmt: skip
     assert res.exit_code == 0, res.output
     header = data.read_text().splitlines()[0].split(",")

@@ -15,7 +15,7 @@ from sescid.errors import MissingExtraError, OptionError, SescidError
 
 #: CLI spelling of API parameters, for errors about options
 FLAG = {
-    "n": "--poses",
+    "n": "--count",
     "count": "--count",
     "range_deg": "--range-deg",
     "noise": "--noise",
@@ -34,13 +34,16 @@ def fail(message: str) -> None:
 
 
 def run_guarded(invoke: Any, ctx: click.Context) -> Any:
-    """Run a command; turn library errors, OS errors and Ctrl-C into one line and exit 2."""
+    """Run a command; turn usage errors, library errors, OS errors and Ctrl-C into one line
+    and exit 2."""
     try:
         return invoke(ctx)
+    except click.UsageError as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":  # bare `sescid`: the help
+            raise
+        fail(usage_message(exc, ctx))
     except OptionError as exc:
-        flag = FLAG.get(exc.name)
-        msg = str(exc)
-        fail(f"{flag}{msg[len(exc.name) :]}" if flag else msg)
+        fail(option_message(exc, _invoked(ctx)))
     except MissingExtraError as exc:
         fail(str(exc))
     except SescidError as exc:
@@ -53,6 +56,63 @@ def run_guarded(invoke: Any, ctx: click.Context) -> Any:
         sys.exit(130)
     except MemoryError:
         fail("not enough memory for this size (use fewer poses or samples)")
+
+
+def _invoked(ctx: click.Context) -> click.Command | None:
+    """The sub-command a group's context is running (None when unknown)."""
+    name = ctx.invoked_subcommand
+    group = ctx.command
+    if name is None or not isinstance(group, click.Group):
+        return None
+    return group.get_command(ctx, name)
+
+
+def option_message(exc: OptionError, command: click.Command | None) -> str:
+    """An API parameter's error in the CLI's words: the flag that sets it named first."""
+    rest = str(exc)[len(exc.name) + 2 :]
+    if rest.startswith("--"):
+        return rest  # the message names its flags itself
+    flag = FLAG.get(exc.name)
+    for p in command.params if command is not None else []:
+        if isinstance(p, click.Option) and p.name == exc.name:
+            flag = max(p.opts, key=len)
+    return f"{flag}: {rest}" if flag else str(exc)
+
+
+def usage_message(exc: click.UsageError, group_ctx: click.Context | None = None) -> str:
+    """A usage error (a mistyped command or option, a missing or bad value) as one line,
+    with the closest command or option suggested; ``group_ctx`` (the group's context) names
+    the command when the error carries no context of its own."""
+    import difflib
+
+    ctx = exc.ctx
+    name = ctx.info_name if ctx is not None and ctx.parent is not None else None
+    command = ctx.command if ctx is not None else None
+    if ctx is None and group_ctx is not None and group_ctx.invoked_subcommand:
+        name, command = group_ctx.invoked_subcommand, _invoked(group_ctx)
+    where = f"{name}: " if name else ""
+    help_hint = f"sescid {name} --help" if name else "sescid --help"
+    text = " ".join(exc.format_message().split())
+    unknown = getattr(exc, "option_name", None)
+    if isinstance(exc, click.NoSuchOption) and unknown and command is not None:
+        names = [o for p in command.params for o in getattr(p, "opts", []) + getattr(p, "secondary_opts", [])]  # fmt: skip
+        near = difflib.get_close_matches(unknown, names, n=1, cutoff=0.5)
+        hint = f"did you mean {near[0]}?" if near else f"{help_hint} lists them"
+        return f"{where}no option {unknown} ({hint})"
+    name = getattr(exc, "command_name", None) or _no_such_command(text)
+    if name is not None and isinstance(command, click.Group):
+        near = difflib.get_close_matches(name, command.list_commands(ctx), n=1, cutoff=0.4)  # type: ignore[arg-type]
+        hint = f"did you mean {near[0]}?" if near else f"{help_hint} lists them"
+        return f"{where}no command '{name}' ({hint})"
+    return f"{where}{text.rstrip('.')} (see {help_hint})"
+
+
+def _no_such_command(text: str) -> str | None:
+    """The name in click's "No such command 'X'." (older click has no NoSuchCommand)."""
+    import re
+
+    m = re.match(r"No such command '(.*)'\.", text)
+    return m.group(1) if m else None
 
 
 def robot_options(f: Any) -> Any:
@@ -84,8 +144,24 @@ def seed_option(f: Any) -> Any:
     )(f)
 
 
+class FormerName(click.Option):
+    """An option whose later names are former ones: accepted, not shown by ``--help``."""
+
+    def get_help_record(self, ctx: click.Context) -> tuple[str, str] | None:
+        names = self.opts
+        self.opts = names[:1]
+        try:
+            return super().get_help_record(ctx)
+        finally:
+            self.opts = names
+
+    def get_error_hint(self, ctx: click.Context) -> str:
+        return f"'{self.opts[0]}'"
+
+
 def study_options(poses: int, range_deg: float, noise: float) -> Any:
-    """--poses, --range-deg, --noise of a simulated study (paper §3), with these defaults."""
+    """--count, --range-deg, --noise of a simulated study (paper §3), with these defaults
+    (``--poses`` N, the count's former name, is still read: elsewhere --poses names a file)."""
 
     def wrap(f: Any) -> Any:
         f = click.option(
@@ -97,7 +173,16 @@ def study_options(poses: int, range_deg: float, noise: float) -> Any:
             show_default=True,
             help="Joints uniform in ±range [degrees].",
         )(f)
-        return click.option("--poses", default=poses, show_default=True, help="Number of poses.")(f)
+        return click.option(
+            "--count",
+            "--poses",
+            "poses",
+            cls=FormerName,
+            default=poses,
+            show_default=True,
+            type=click.IntRange(min=1),
+            help="Number of random poses.",
+        )(f)
 
     return wrap
 
