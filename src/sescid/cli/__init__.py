@@ -71,7 +71,7 @@ class LazyGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         return run_guarded(super().invoke, ctx)
 
-    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:  # type: ignore[no-untyped-def]
+    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
         """The group's own options parsed; a mistyped one is one line (``run_guarded``)."""
         try:
             return super().make_context(info_name, args, parent=parent, **extra)

@@ -95,7 +95,7 @@ def usage_message(exc: click.UsageError, group_ctx: click.Context | None = None)
     text = " ".join(exc.format_message().split())
     unknown = getattr(exc, "option_name", None)
     if isinstance(exc, click.NoSuchOption) and unknown and command is not None:
-        names = [o for p in command.params for o in getattr(p, "opts", []) + getattr(p, "secondary_opts", [])]  # fmt: skip
+        names = [o for p in command.params for o in [*p.opts, *p.secondary_opts]]
         near = difflib.get_close_matches(unknown, names, n=1, cutoff=0.5)
         hint = f"did you mean {near[0]}?" if near else f"{help_hint} lists them"
         return f"{where}no option {unknown} ({hint})"
@@ -148,6 +148,7 @@ class FormerName(click.Option):
     """An option whose later names are former ones: accepted, not shown by ``--help``."""
 
     def get_help_record(self, ctx: click.Context) -> tuple[str, str] | None:
+        """The help line with the current name only."""
         names = self.opts
         self.opts = names[:1]
         try:
@@ -155,7 +156,8 @@ class FormerName(click.Option):
         finally:
             self.opts = names
 
-    def get_error_hint(self, ctx: click.Context) -> str:
+    def get_error_hint(self, ctx: click.Context | None) -> str:
+        """The current name in error messages."""
         return f"'{self.opts[0]}'"
 
 
