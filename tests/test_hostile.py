@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -190,7 +191,9 @@ def test_angles_outside_the_joint_limits(sim, tmp_path):
     )
     fit = tmp_path / "fit.json"
     code, out = run("identify", plain, "--out", fit)
-    assert code == 2 and "outside the model's joint limits (first: pose" in out
+    assert code == 2 and re.search(
+        r"outside the model's joint limits \(first: row \d+, column '", out
+    )
     code, out = run("identify", plain, "--allow-outside-limits", "--out", fit)
     assert code == 0 and "warning:" in out and "joint limits" in out
     assert any("joint limits" in w for w in json.loads(fit.read_text())["warnings"])
@@ -304,7 +307,7 @@ def test_api_refuses_degrees_and_millimetres(op2):
     from sescid.estimation import Measurements
 
     s = sescid.simulate(op2, 60, seed=1)
-    with pytest.raises(DataError, match=r"pose \d+, joint \w+: .* looks like degrees"):
+    with pytest.raises(DataError, match=r"pose \d+, \w+: .* looks like degrees"):
         sescid.identify(op2, Measurements(q=np.degrees(s.q), cop=s.cop))
     with pytest.raises(DataError, match=r"cop_[xy] = .* not a plausible CoP"):
         sescid.identify(op2, Measurements(q=s.q, cop=s.cop * 1000))
@@ -378,3 +381,65 @@ def test_api_option_errors_name_the_flag(tmp_path):
     assert not (tmp_path / "s").exists()
     code, out = run("simulate", "--poses", 7, "--out", tmp_path / "s.csv")
     assert code == 0 and "wrote" in out and len((tmp_path / "s.csv").read_text().splitlines()) == 8
+
+
+# --- 4. errors name the file's row (header row 1) and column (issue 27) -----------------------
+
+
+def _cells(src: Path, dst: Path, edits: dict[tuple[int, str], str], blank_after: int = 0) -> Path:
+    """A copy of a CSV with cells replaced (file row, column) → text, and a blank line after
+    file row ``blank_after`` (0: none)."""
+    lines = src.read_text().splitlines()
+    header = lines[0].split(",")
+    out = []
+    for k, line in enumerate(lines, start=1):
+        cells = line.split(",")
+        for (row, col), value in edits.items():
+            if row == k:
+                cells[header.index(col)] = value
+        out.append(",".join(cells))
+        if k == blank_after:
+            out.append("")
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def test_standard_error_rows_are_the_files(bench, tmp_path):
+    """A zero or negative cop_se (the reader's check of a weighted fit) names the file's row
+    and the column, with the header as row 1; a blank line above counts as a row."""
+    m = bench["measured"]
+    code, out = run("identify", _cells(m, tmp_path / "a.csv", {(6, "cop_se_y"): "0"}),
+                    "--weighted", "--out", tmp_path / "f.json")  # fmt: skip
+    assert code == 2 and "a.csv: row 6, column 'cop_se_y' = 0 m" in out, out
+    bad = _cells(m, tmp_path / "b.csv", {(4, "cop_se_x"): "-0.001"}, blank_after=2)
+    code, out = run("identify", bad, "--weighted", "--out", tmp_path / "f.json")
+    assert code == 2 and "b.csv: row 5, column 'cop_se_x' = -0.001 m" in out, out
+    text = _cells(m, tmp_path / "c.csv", {(9, "cop_x"): "abc"}, blank_after=3)
+    code, out = run("identify", text, "--out", tmp_path / "f.json")
+    assert code == 2 and "c.csv: row 10, column 'cop_x': 'abc' is not a number" in out, out
+    assert not (tmp_path / "f.json").exists()
+
+
+def test_torque_errors_name_row_and_column(tmp_path):
+    """tau_se of 0, a NaN torque and an approach of 2 name the file's row and the column."""
+    sim = tmp_path / "t.csv"
+    code, out = run("simulate", "--count", 40, "--measure", "tau", "--tau-friction", 0.1,
+                    "--out", sim)  # fmt: skip
+    assert code == 0, out
+    header = sim.read_text().splitlines()[0].split(",")
+    joint = next(h for h in header if h.startswith("tau_") and not h.startswith("tau_se"))
+    taus = [h for h in header if h.startswith("tau_") and not h.startswith("tau_se")]
+    lines = sim.read_text().splitlines()
+    se = tmp_path / "se.csv"
+    extra = ",".join(f"tau_se_{t[4:]}" for t in taus)
+    rows = [f"{x}," + ",".join(["0.01"] * len(taus)) for x in lines[1:]]
+    rows[4] = rows[4][: -len("0.01")] + "0"  # file row 6, the last torque's standard error
+    se.write_text("\n".join([f"{lines[0]},{extra}", *rows]) + "\n")
+    joint = taus[-1]
+    code, out = run("identify", se, "--weighted", "--out", tmp_path / "f.json")
+    assert code == 2 and f"se.csv: row 6, column 'tau_se_{joint[4:]}' = 0 N·m" in out, out
+    for cell, expect in (("nan", "is not finite"), ("2", "is not +1 or -1")):
+        col = joint if cell == "nan" else "approach"
+        bad = _cells(sim, tmp_path / "x.csv", {(8, col): cell})
+        code, out = run("identify", bad, "--out", tmp_path / "f.json")
+        assert code == 2 and f"x.csv: row 8, column '{col}'" in out and expect in out, out

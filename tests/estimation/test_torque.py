@@ -284,7 +284,7 @@ def test_bad_torque_input_is_one_line(op2):
         identify(op2, Measurements(q=q, tau=tau[:, :1], tau_joints=("knee",)).checked(op2))
     bad = tau.copy()
     bad[4, 2] = np.nan
-    with pytest.raises(DataError, match="non-finite value at row 4, column 2"):
+    with pytest.raises(DataError, match="pose 4, tau_r_sho_roll: nan is not a finite number"):
         identify(op2, Measurements(q=q, tau=bad, tau_joints=tuple(op2.joint_names)))
     with pytest.raises(DataError, match="approach = 0"):
         identify(op2, Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names),

@@ -24,13 +24,51 @@ from sescid.robots import ServoEncoding
 MISSING_TEXT = {"", "nan", "na", "n/a", "none", "null"}
 
 
+class RowNumbers:
+    """A CSV file's row numbers of its data rows as a spreadsheet shows them (the header's
+    row 1 when it is the first line): blank lines and cells over several lines counted. The
+    file is scanned only when an error asks (data row k → row number), once."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self._starts: list[int] | None = None
+
+    def __call__(self, k: int) -> int:
+        """The row number of data row ``k`` (0-based over the whole file)."""
+        if self._starts is None:
+            self._starts = _record_starts(self.path)
+        return self._starts[k] if 0 <= k < len(self._starts) else k + 2
+
+
+def _record_starts(path: Path) -> list[int]:
+    """The first line of each data record of a CSV file (blank lines skipped, as read)."""
+    import csv
+
+    starts: list[int] = []
+    try:
+        with path.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
+            reader = csv.reader(fh)
+            prev, header = 0, False
+            for row in reader:
+                start, prev = prev + 1, reader.line_num
+                if not row or (len(row) == 1 and not row[0].strip()):
+                    continue
+                if header:
+                    starts.append(start)
+                header = True
+    except (OSError, csv.Error):
+        return []
+    return starts
+
+
 class Table:
     """Named float columns read from a file, with the file name for error messages.
 
     ``columns``: name → float array (n,); ``text``: columns that are not all numbers, as strings.
     ``first_row``: the file's row number of the first data row (2 under a header; a chunk of a
-    streamed file starts further down), so every error names the file's own row. ``label``
-    names a data row of in-memory columns instead (e.g. ``pose 3, sample 2`` of a session).
+    streamed file starts further down), so every error names the file's own row; ``numbers``
+    (a CSV file's ``RowNumbers``) counts blank lines and cells over several lines too.
+    ``label`` names a data row of in-memory columns instead (``pose 3, sample 2`` of a session).
     """
 
     def __init__(
@@ -40,16 +78,20 @@ class Table:
         text: dict[str, list],
         first_row: int = 2,
         label: Callable[[int], str] | None = None,
+        numbers: Callable[[int], int] | None = None,
     ):
         self.path = path
         self.first_row = first_row
         self.label = label
+        self.numbers = numbers  #: data row of the file (0-based) → its row number
         self.columns = columns
         self.text = text  #: columns that are not numbers (e.g. labels), as strings
         self.n = len(next(iter(columns.values()))) if columns else 0
 
     def row(self, i) -> int:
         """The file's row number of data row ``i`` of this table."""
+        if self.numbers is not None:
+            return self.numbers(int(i) + self.first_row - 2)
         return int(i) + self.first_row
 
     def where(self, i) -> str:

@@ -42,11 +42,13 @@ class LimitViolation:
     lower: float  #: rad
     upper: float  #: rad
 
-    def message(self, total: int) -> str:
-        """One line naming the first violation, in degrees."""
+    def message(self, total: int, at: str | None = None) -> str:
+        """One line naming the first violation, in degrees; ``at`` names its place in a file
+        ("row 7, column 'r_knee'"; default: pose index and joint)."""
+        where = at or f"pose {self.row}, {self.joint}"
         return (
             f"{self.n_poses} of {total} poses are outside the model's joint limits (first: "
-            f"pose {self.row}, {self.joint} = {math.degrees(self.value):.1f}° not in "
+            f"{where} = {math.degrees(self.value):.1f}° not in "
             f"[{math.degrees(self.lower):.1f}, {math.degrees(self.upper):.1f}]°)"
         )
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,6 +52,15 @@ class Measurements:
     gravity: np.ndarray | None = None
     cop_true: np.ndarray | None = None
     source: str = "data"
+    #: pose i → where a file holds it ("row 7"; None: arrays, named "pose i" in errors)
+    row_of: Callable[[int], str] | None = None
+
+    def cell(self, i: int, column: str) -> str:
+        """Pose ``i``'s value of ``column`` as an error names it: the file's row and column,
+        or the pose index of arrays."""
+        if self.row_of is not None:
+            return f"{self.row_of(int(i))}, column '{column}'"
+        return f"pose {int(i)}, {column}"
 
     @property
     def n(self) -> int:
@@ -81,20 +90,22 @@ class Measurements:
         n = q.shape[0]
         if n == 0:
             raise DataError(f"{where}: no poses")
+        names = list(robot.joint_names)
         if q.max() > MAX_ANGLE_RAD or q.min() < -MAX_ANGLE_RAD:  # no |q| temporary
             row, col = np.argwhere(np.abs(q) > MAX_ANGLE_RAD)[0]
             raise DataError(
-                f"{where}: pose {row}, joint {robot.joint_names[col]}: {q[row, col]:g} rad looks "
-                "like degrees; joint angles are in radians"
+                f"{where}: {self.cell(row, names[col])}: {q[row, col]:g} rad looks like degrees; "
+                "joint angles are in radians"
             )
-        cop = _array(self.cop, (n, 2), f"{where}: cop", "m")
+        cop = self._array(self.cop, (n, 2), "cop", ["cop_x", "cop_y"], "m")
         if cop is not None and np.any(np.abs(cop) > MAX_COP_M):
             row, col = np.argwhere(np.abs(cop) > MAX_COP_M)[0]
             raise DataError(
-                f"{where}: pose {row}, cop_{'xy'[col]} = {cop[row, col]:g} m is not a plausible "
-                "CoP (millimetres for metres?)"
+                f"{where}: {self.cell(row, f'cop_{chr(120 + col)}')} = {cop[row, col]:g} m is "
+                "not a plausible CoP (millimetres for metres?)"
             )
-        cop_se = _positive(_array(self.cop_se, (n, 2), f"{where}: cop_se", "m"), where, "cop_se")
+        cop_se = self._array(self.cop_se, (n, 2), "cop_se", ["cop_se_x", "cop_se_y"], "m")
+        self._positive(cop_se, ["cop_se_x", "cop_se_y"], "m")
         joints = tuple(str(j) for j in self.tau_joints)
         if self.tau is not None and not joints:
             raise DataError(f"{where}: torques given without the names of their joints")
@@ -102,27 +113,30 @@ class Measurements:
             raise DataError(f"{where}: a joint's torque is given twice ({', '.join(joints)})")
         if joints:
             robot.joint_columns(joints)  # ModelError naming an unknown joint
-        tau = _array(self.tau, (n, len(joints)), f"{where}: tau", "N·m")
+        tau_cols = [f"tau_{j}" for j in joints]
+        tau = self._array(self.tau, (n, len(joints)), "tau", tau_cols, "N·m")
         if tau is not None and np.any(np.abs(tau) > MAX_TORQUE_NM):
             row, col = np.argwhere(np.abs(tau) > MAX_TORQUE_NM)[0]
             raise DataError(
-                f"{where}: row {row}, tau_{joints[col]} = {tau[row, col]:g} N·m: beyond "
+                f"{where}: {self.cell(row, tau_cols[col])} = {tau[row, col]:g} N·m: beyond "
                 f"{MAX_TORQUE_NM:g} N·m (a unit slip: mN·m?)"
             )
-        tau_se = _array(self.tau_se, (n, len(joints)), f"{where}: tau_se", "N·m")
-        tau_se = _positive(tau_se, where, "tau_se")
+        se_cols = [f"tau_se_{j}" for j in joints]
+        tau_se = self._array(self.tau_se, (n, len(joints)), "tau_se", se_cols, "N·m")
+        self._positive(tau_se, se_cols, "N·m")
         approach = None
         if self.approach is not None:
-            approach = _array(self.approach, (n,), f"{where}: approach", "±1")
+            approach = self._array(self.approach, (n,), "approach", ["approach"], "±1")
             assert approach is not None
             bad = np.flatnonzero(np.abs(approach) != 1.0)
             if bad.size:
                 raise DataError(
-                    f"{where}: row {bad[0]}, approach = {approach[bad[0]]:g}: must be +1 "
-                    "(reached moving up) or −1 (moving down)"
+                    f"{where}: {self.cell(bad[0], 'approach')} = {approach[bad[0]]:g}: must be "
+                    "+1 (reached moving up) or −1 (moving down)"
                 )
-        gravity = _array(self.gravity, (n, 3), f"{where}: gravity", "direction")
-        cop_true = _array(self.cop_true, (n, 2), f"{where}: cop_true", "m")
+        grav = ["grav_x", "grav_y", "grav_z"]
+        gravity = self._array(self.gravity, (n, 3), "gravity", grav, "direction")
+        cop_true = self._array(self.cop_true, (n, 2), "cop_true", ["cop_x_true", "cop_y_true"], "m")
         if cop is None and tau is None:
             raise DataError(
                 f"{where}: nothing measured: give cop_x, cop_y (centre of pressure) and/or "
@@ -141,12 +155,48 @@ class Measurements:
             cop_true=cop_true,
         )
 
+    def _array(
+        self, value, shape: tuple[int, ...], what: str, columns: list[str], unit: str
+    ) -> np.ndarray | None:
+        """``value`` as a float array of ``shape``; DataError naming the first non-finite cell
+        (its ``columns`` name, row or pose)."""
+        if value is None:
+            return None
+        arr = np.asarray(value, dtype=float)
+        if shape[1:] == (2,) and arr.ndim == 1 and arr.shape == (shape[0] * 2,):
+            arr = arr.reshape(shape)
+        if arr.shape != shape:
+            raise DataError(
+                f"{self.source}: {what}: expected shape {shape} ({unit}), got {arr.shape}"
+            )
+        if arr.size and not math.isfinite(float(np.sum(arr))):
+            bad = np.argwhere(~np.isfinite(arr))
+            if bad.size:
+                i = int(bad[0][0])
+                col = columns[int(bad[0][1])] if arr.ndim > 1 else columns[0]
+                raise DataError(f"{self.source}: {self.cell(i, col)}: {arr[tuple(bad[0])]} is "
+                                "not a finite number")  # fmt: skip
+        return np.ascontiguousarray(arr)
+
+    def _positive(self, arr: np.ndarray | None, columns: list[str], unit: str) -> None:
+        """DataError naming the first standard error that is not > 0."""
+        if arr is not None and np.any(arr <= 0):
+            i, k = (int(v) for v in np.argwhere(arr <= 0)[0])
+            raise DataError(
+                f"{self.source}: {self.cell(i, columns[k])} = {arr[i, k]:g} {unit}: a standard "
+                "error must be > 0"
+            )
+
     def take(self, rows: slice | np.ndarray) -> Measurements:
         """The poses ``rows`` (a slice or index array) of every array."""
         taken: dict[str, Any] = {}
         for f in _ARRAYS:
             a = getattr(self, f)
             taken[f] = None if a is None else a[rows]
+        where = self.row_of
+        if where is not None:
+            index = np.arange(self.n)[rows]
+            taken["row_of"] = lambda i: where(int(index[i]))
         return dataclasses.replace(self, **taken)
 
     def only(self, kinds: tuple[str, ...] | None) -> Measurements:
@@ -189,30 +239,15 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
         if any(v is None for v in vals) and not all(v is None for v in vals):
             raise DataError(f"{first.source}: column {f} is missing in some parts")
         arrays[f] = None if vals[0] is None else np.concatenate(vals)
+    if all(p.row_of is not None for p in parts):
+        starts = np.cumsum([0] + [p.n for p in parts])
+        funcs = [p.row_of for p in parts]
+
+        def rows(i: int) -> str:
+            k = int(np.searchsorted(starts, i, side="right")) - 1
+            return funcs[k](i - int(starts[k]))  # type: ignore[misc]
+
+        arrays["row_of"] = rows
+    else:
+        arrays["row_of"] = None
     return dataclasses.replace(first, **arrays)
-
-
-def _array(value, shape: tuple[int, ...], what: str, unit: str) -> np.ndarray | None:
-    if value is None:
-        return None
-    arr = np.asarray(value, dtype=float)
-    if shape[1:] == (2,) and arr.ndim == 1 and arr.shape == (shape[0] * 2,):
-        arr = arr.reshape(shape)
-    if arr.shape != shape:
-        raise DataError(f"{what}: expected shape {shape} ({unit}), got {arr.shape}")
-    if arr.size and not math.isfinite(float(np.sum(arr))):
-        bad = np.argwhere(~np.isfinite(arr))
-        if bad.size:
-            idx = tuple(int(i) for i in bad[0])
-            raise DataError(
-                f"{what}: non-finite value at row {idx[0]}"
-                + (f", column {idx[1]}" if len(idx) > 1 else "")
-            )
-    return np.ascontiguousarray(arr)
-
-
-def _positive(arr: np.ndarray | None, where: str, name: str) -> np.ndarray | None:
-    if arr is not None and np.any(arr <= 0):
-        row = int(np.argwhere(arr <= 0)[0, 0])
-        raise DataError(f"{where}: {name} at row {row} must be > 0 (a standard error)")
-    return arr

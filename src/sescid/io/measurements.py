@@ -36,6 +36,8 @@ class ReadReport:
     n_poses: int = 0
     simulated: bool = False
     limits: list[tuple[int, LimitViolation]] = field(default_factory=list)
+    #: the file row and column of the first violation ("row 7, column 'r_knee'")
+    first_limit_at: str | None = None
 
     def limit_message(self) -> str | None:
         """One line about the poses outside the joint limits, or None."""
@@ -44,7 +46,9 @@ class ReadReport:
         start, first = self.limits[0]
         n_bad = sum(v.n_poses for _, v in self.limits)
         row = first.row + start
-        return dataclasses.replace(first, row=row, n_poses=n_bad).message(self.n_poses)
+        return dataclasses.replace(first, row=row, n_poses=n_bad).message(
+            self.n_poses, self.first_limit_at
+        )
 
 
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
@@ -78,6 +82,7 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
         gravity=table_gravity(robot, table, q, imu_link),
         cop_true=truth,
         source=str(table.path),
+        row_of=table.where,
     )
 
 
@@ -98,6 +103,8 @@ def read_measurements(
         rep.simulated = rep.simulated or simulated
         bad = outside_limits(robot, m.q)
         if bad is not None:
+            if not rep.limits:
+                rep.first_limit_at = m.cell(bad.row, _joint_column(table, bad.joint))
             rep.limits.append((rep.n_poses, bad))
         rep.n_poses += m.n
         if bad is not None and not (allow_outside_limits or rep.simulated):
@@ -106,6 +113,14 @@ def read_measurements(
                 "robot? (--allow-outside-limits accepts them)"
             )
         yield m
+
+
+def _joint_column(table: Table, joint: str) -> str:
+    """The column a joint's angle was read from (``<j>``, ``<j>_deg`` or ``<j>_ticks``)."""
+    for name in (joint, f"{joint}_deg", f"{joint}_ticks"):
+        if name in table.names():
+            return name
+    return joint
 
 
 def rows_estimate(path: str | Path) -> int | None:

@@ -67,7 +67,7 @@ def read_imu(table: Table) -> np.ndarray | None:
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{table.path}: row {i + 2}, column '{IMU_COLUMNS[k]}': {out[i, k]:g} is not an "
+            f"{table.path}: {table.where(i)}, column '{IMU_COLUMNS[k]}': {out[i, k]:g} is not an "
             "angle in radians below 90° (degrees?)"
         )
     return out

@@ -21,6 +21,7 @@ sign gives negative forces: refused in one line instead of unloaded feet).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -64,6 +65,14 @@ class RawLog:
     tau: np.ndarray | None = None  #: (m, k) joint torques, N·m
     approach: np.ndarray | None = None  #: (m,) ±1 (NaN missing)
     first_row: int = 2  #: the file's row number of sample 0
+    #: sample i → where the log holds it ("row 7"; None: ``first_row`` + i)
+    row_of: Callable[[int], str] | None = None
+
+    def where(self, i) -> str:
+        """Sample ``i`` as an error names it: the file's row (or the session's pose/sample)."""
+        if self.row_of is not None:
+            return self.row_of(int(i))
+        return f"row {int(i) + self.first_row}"
 
     @property
     def has_feet(self) -> bool:
@@ -139,6 +148,7 @@ def read_raw(
         tau=tau,
         approach=read_approach(table),
         first_row=table.first_row,
+        row_of=table.where,
     )
 
 

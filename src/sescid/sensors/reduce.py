@@ -152,7 +152,7 @@ def check_force_scale(log: RawLog, config: SensorConfig, mass: float) -> None:
         if bad.size:
             i = int(bad[0])
             raise DataError(
-                f"{log.path}: row {i + log.first_row}, column '{foot.cop_prefix}_fz': "
+                f"{log.path}: {log.where(i)}, column '{foot.cop_prefix}_fz': "
                 f"{fz[i]:g} N is more than {FORCE_WEIGHT_FACTOR:g}× the robot's weight "
                 f"({limit / FORCE_WEIGHT_FACTOR:.4g} N): not a force in N"
             )
@@ -205,7 +205,7 @@ def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 
         tau, tau_se = _tau_means(log, s, use, min_samples)
     approach = None
     if log.approach is not None:
-        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.first_row)[keep]
+        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)[keep]
     grav = _pose_gravity(log, s)
     return Measured(
         pose=groups.ids[keep],
