@@ -443,3 +443,58 @@ def test_torque_errors_name_row_and_column(tmp_path):
         bad = _cells(sim, tmp_path / "x.csv", {(8, col): cell})
         code, out = run("identify", bad, "--out", tmp_path / "f.json")
         assert code == 2 and f"x.csv: row 8, column '{col}'" in out and expect in out, out
+
+
+# --- 5. a file that is not what the command reads (issue 27) ----------------------------------
+
+
+def test_a_planned_pose_list_is_not_a_measurement(bench, tmp_path):
+    """The planner's file carries the model's CoP as cop_x_model/cop_y_model (a prediction):
+    `identify poses.csv` and `report fit poses.csv` refuse it in one line (it used to fit the
+    model to itself and exit 0); experiment and predict still read it."""
+    head = bench["poses"].read_text().splitlines()[0].split(",")
+    assert "cop_x_model" in head and "cop_x" not in head
+    for args in (
+        ("identify", bench["poses"], "--out", tmp_path / "f.json"),
+        ("report", bench["fit"], bench["poses"], "--out-dir", tmp_path / "r"),
+    ):
+        code, out = run(*args)
+        assert code == 2 and out.count("\n") == 1, out
+        assert "a planned pose list (cop_x_model, cop_y_model are the model's predictions" in out
+    code, out = run("predict", bench["fit"], bench["poses"], "--out", tmp_path / "p.csv")
+    assert code == 0, out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv"]
+
+
+def test_a_file_of_another_kind_says_what_it_is(bench, tmp_path):
+    """A table reader given a fit, a truth, a sensor file, a model, a YAML mapping, binary
+    data, a Parquet file named .csv or a semicolon CSV: one line saying what the file is."""
+    from sescid.robots.op2 import __file__ as op2_init
+
+    op2_dir = Path(op2_init).parent
+    semi = tmp_path / "semi.csv"
+    semi.write_text("pose;r_knee;cop_x\n0;0.1;0.01\n")
+    binary = tmp_path / "bin.csv"
+    binary.write_bytes(bytes(range(256)) * 8)
+    yaml = tmp_path / "map.csv"
+    yaml.write_text("format: sescid-bag-mapping/1\njoints:\n  topic: /joint_states\n")
+    parquet = tmp_path / "pq.csv"
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    pq.write_table(pa.table({"pose": [0, 1]}), parquet)
+    cases = [
+        (bench["truth"], "an experiment's truth (sescid experiment --truth), format sescid-exp"),
+        (bench["fit"], "a fit (sescid identify --out), format sescid-fit/"),
+        (op2_dir / "op2_fsr.json", "a foot-sensor file (--sensors)"),
+        (op2_dir / "op2.urdf", "an XML file (a robot model?), not a table"),
+        (yaml, "a YAML file (a mapping?), not a table"),
+        (binary, "binary data, not a table"),
+        (parquet, "a Parquet file without the .parquet name"),
+        (semi, "the header is one column split by semicolons"),
+    ]
+    for path, what in cases:
+        code, out = run("identify", path, "--out", tmp_path / "f.json")
+        assert code == 2 and out.count("\n") == 1 and what in out, (path, out)
+        assert out.startswith(f"sescid: error: {path}: ")
+    assert not (tmp_path / "f.json").exists()

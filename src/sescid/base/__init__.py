@@ -11,6 +11,7 @@ from sescid.base.lazy import lazy_exports
 
 #: public name → module (loaded on first use: ``threads`` must load before numpy does)
 _EXPORTS = {
+    "MODEL_COP_COLUMNS": "columns",
     "OutputSet": "files",
     "Table": "columns",
     "TerminalProgress": "progress",

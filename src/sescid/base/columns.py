@@ -283,6 +283,22 @@ def read_cop_se(table: Table) -> np.ndarray | None:
     return None
 
 
+#: a planned pose list's CoP: the model's prediction at each pose, never a measurement (named
+#: apart from ``cop_x``/``cop_y`` so that a plan cannot be fitted as if it were measured)
+MODEL_COP_COLUMNS = ("cop_x_model", "cop_y_model")
+
+
+def refuse_plan(table: Table) -> None:
+    """DataError when a table is a planned pose list (``sescid poses``, a session's poses.csv):
+    its CoP columns are the model's predictions, and a fit to them returns the model."""
+    if MODEL_COP_COLUMNS[0] in table or MODEL_COP_COLUMNS[0] in table.text:
+        raise DataError(
+            f"{table.path}: a planned pose list ({', '.join(MODEL_COP_COLUMNS)} are the model's "
+            "predictions, not measurements): measure the poses (sescid experiment or the "
+            "robot's log, then sescid measure) and give the measured file"
+        )
+
+
 GRAVITY_COLUMNS = ("grav_x", "grav_y", "grav_z")
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import OutputSet, TerminalProgress
+from sescid.base import MODEL_COP_COLUMNS, OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     load,
@@ -214,8 +214,8 @@ def poses(
     informative, ordered to keep consecutive poses close.
 
     Columns: pose (id), one per joint in radians (servo convention), <joint>_deg,
-    <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m; not for
-    a robot held in a gantry).
+    <joint>_ticks (when the robot profile knows its servo), cop_x_model, cop_y_model (the
+    model's CoP, m: a prediction, not a measurement; not for a robot held in a gantry).
     """
     outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
@@ -280,7 +280,7 @@ def poses(
         qp = np.degrees(pc.to_paper(plan.q))
         cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
     if plan.mount == "stand":
-        cols |= {"cop_x": plan.cop[:, 0], "cop_y": plan.cop[:, 1]}
+        cols |= {MODEL_COP_COLUMNS[k]: plan.cop[:, k] for k in range(2)}
     echo = click.echo
     cand = plan.candidates
     echo(f"candidates: {cand.summary()}")

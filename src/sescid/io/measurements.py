@@ -19,7 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import Table, read_approach, read_cop, read_poses, read_torques
+from sescid.base.columns import (
+    Table,
+    read_approach,
+    read_cop,
+    read_poses,
+    read_torques,
+    refuse_plan,
+)
 from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
@@ -53,6 +60,7 @@ class ReadReport:
 
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
     """One chunk of a measurement table as ``Measurements`` (not yet validated)."""
+    refuse_plan(table)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     cop = read_cop(table) if ("cop_x" in table or "cop_y" in table) else None
     cop_se = None

@@ -26,6 +26,7 @@ import numpy as np
 from sescid.base.columns import RowNumbers, Table
 from sescid.base.files import atomic_open, atomic_path
 from sescid.errors import DataError
+from sescid.io.file_kinds import refuse_other_content
 
 #: bytes of CSV text per block that pyarrow parses (about 540 OP2 poses); pyarrow's reader
 #: keeps up to 32 blocks read ahead, so its memory is ~32 times this
@@ -69,6 +70,7 @@ def iter_table(path: str | Path, chunk_rows: int | None = None) -> Iterator[Tabl
     if _is_parquet(path):
         yield from _iter_parquet(path, chunk_rows or CHUNK_ROWS)
         return
+    refuse_other_content(path)
     try:
         import pyarrow  # noqa: F401
     except ImportError:  # pragma: no cover - pyarrow is a dependency; plain reader otherwise
