@@ -498,3 +498,88 @@ def test_a_file_of_another_kind_says_what_it_is(bench, tmp_path):
         assert code == 2 and out.count("\n") == 1 and what in out, (path, out)
         assert out.startswith(f"sescid: error: {path}: ")
     assert not (tmp_path / "f.json").exists()
+
+
+# --- 6. options that would do nothing, robots with nothing to measure (issue 27) -------------
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (("experiment", "--poses", "{poses}", "--friction", "0.1", "0.3", "--out", "{out}"),
+         "--friction: does nothing without --torques"),
+        (("experiment", "--poses", "{poses}", "--approach", "up", "--out", "{out}"),
+         "--approach: does nothing without --torques"),
+        (("experiment", "--poses", "{poses}", "--mount", "gantry", "--out", "{out}"),
+         "--mount: a robot held in a gantry loads no foot: nothing is measured without"),
+        (("experiment", "--support", "MP_BODY", "--poses", "{poses}", "--mount", "gantry",
+          "--torques", "all", "--fsr-gain", "0.05", "--out", "{out}"),
+         "--fsr-gain: does nothing on a robot held in a gantry"),
+        (("identify", "{measured}", "--gain-prior", "0.1", "--out", "{out}"),
+         "--gain-prior: does nothing without --tau-gains"),
+        (("identify", "{measured}", "--mc-draws", "5", "--out", "{out}"),
+         "--mc-draws: does nothing without --joint-noise-deg"),
+        (("identify", "{measured}", "--noise", "0.001", "--out", "{out}"),
+         "--noise: does nothing without --method map or --online"),
+        (("simulate", "--tau-offset", "0.1", "--out", "{out}"), "--tau-offset: does nothing with"),
+        (("simulate", "--measure", "tau", "--noise", "0.01", "--out", "{out}"),
+         "--noise: does nothing with --measure tau"),
+        (("poses", "--tau-joints", "r_knee", "--out", "{out}"), "--tau-joints: does nothing"),
+        (("poses", "--support", "MP_BODY", "--kinds", "tau", "--count", "20", "--hang-height",
+          "inf", "--out", "{out}"), "--hang-height: must be a finite height > 0 m, got inf"),
+        (("session", "--adapter", "python:x.py:Robot", "--friction", "0", "0.1", "--out-dir",
+          "{out}"), "--friction: does nothing with --adapter python:x.py:Robot"),
+        (("session", "--adapter", "kinematic", "--no-view", "--view-linger", "5", "--out-dir",
+          "{out}"), "--view-linger: does nothing with --no-view"),
+    ],
+)  # fmt: skip
+def test_an_option_that_does_nothing_is_refused(bench, tmp_path, args, line):
+    """An option given while it has no effect (a torque setting without torques, a gantry
+    without torque sensors, a MAP setting of a least-squares fit, …) is one line, exit 2,
+    before anything is written; it used to be accepted silently."""
+    out = tmp_path / "out"
+    given = {"{poses}": bench["poses"], "{measured}": bench["measured"], "{out}": out}
+    code, text = run(*[given.get(a, a) for a in args])
+    assert code == 2 and text.count("\n") == 1 and line in text, text
+    assert list(tmp_path.iterdir()) == []
+
+
+ONE_BODY = """<robot name="block"><link name="foot"><inertial><origin xyz="0.01 0 0.1"/>
+<mass value="2"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
+</inertial><collision><origin xyz="0 0 0.1"/><geometry><box size="0.1 0.08 0.2"/></geometry>
+</collision></link></robot>"""
+ONE_JOINT = """<robot name="stick"><link name="foot"><inertial><origin xyz="0 0 0.02"/>
+<mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
+</inertial><collision><origin xyz="0 0 0.02"/><geometry><box size="0.2 0.12 0.04"/>
+</geometry></collision></link><link name="body"><inertial><origin xyz="0 0 0.15"/>
+<mass value="2"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
+</inertial></link><joint name="ankle" type="revolute"><parent link="foot"/>
+<child link="body"/><origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
+<limit lower="-0.5" upper="0.5" effort="10" velocity="1"/></joint></robot>"""
+
+
+def test_robots_with_nothing_to_measure(tmp_path):
+    """A one-body robot: torques are refused by simulate and experiment (they wrote a 1-byte
+    file, or failed in numpy); a one-joint robot with one pose and --allow-exact gives a fit
+    that says what is not determined (it failed in LAPACK)."""
+    block, stick = tmp_path / "block.urdf", tmp_path / "stick.urdf"
+    block.write_text(ONE_BODY)
+    stick.write_text(ONE_JOINT)
+    b = ("--robot", block, "--support", "foot")
+    out = tmp_path / "o.csv"
+    code, text = run("simulate", *b, "--measure", "tau", "--count", 10, "--out", out)
+    assert (
+        code == 2 and "block has no joints: there is no joint torque" in text and not out.exists()
+    )
+    code, text = run("simulate", *b, "--count", 10, "--out", tmp_path / "s.csv")
+    assert code == 0, text
+    code, text = run("experiment", *b, "--mount", "gantry", "--torques", "all", "--poses",
+                     tmp_path / "s.csv", "--out", out)  # fmt: skip
+    assert code == 2 and "the model has no joints to measure" in text and not out.exists()
+    s = ("--robot", stick, "--support", "foot")
+    code, text = run("simulate", *s, "--measure", "tau", "--count", 1, "--out", tmp_path / "t.csv")
+    assert code == 0, text
+    fit = tmp_path / "f.json"
+    code, text = run("identify", tmp_path / "t.csv", *s, "--allow-exact", "--out", fit)
+    assert code == 0 and "no degrees of freedom are left" in text, text
+    assert "not determined" in text and fit.is_file()

@@ -115,6 +115,29 @@ def _no_such_command(text: str) -> str | None:
     return m.group(1) if m else None
 
 
+def given(name: str) -> bool:
+    """True when the running command's parameter ``name`` was set on the command line (or
+    by its environment variable), not left at its default."""
+    from click.core import ParameterSource
+
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return False
+    source = ctx.get_parameter_source(name)
+    return source in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+
+
+def refuse_idle(names: Any, acts: bool, why: str) -> None:
+    """OptionError for a parameter of ``names`` given on the command line while it does
+    nothing (``acts`` False), e.g. ``--friction`` without ``--torques``; ``why`` ends the
+    message ("without --torques: no joint torque is measured")."""
+    if acts:
+        return
+    for name in [names] if isinstance(names, str) else names:
+        if given(name):
+            raise OptionError(name, f"does nothing {why}")
+
+
 def robot_options(f: Any) -> Any:
     """--robot/--support, shared by every command that loads a robot."""
     f = click.option(

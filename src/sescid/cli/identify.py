@@ -13,7 +13,15 @@ import click
 
 from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress
-from sescid.cli.common import force_option, imu_link_option, load, mm, robot_options, seed_option
+from sescid.cli.common import (
+    force_option,
+    imu_link_option,
+    load,
+    mm,
+    refuse_idle,
+    robot_options,
+    seed_option,
+)
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
 from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions, save_fit
@@ -24,7 +32,11 @@ MAP_DEFAULTS = MapOptions()
 
 
 def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
-    """The typed options of ``identify`` from the command's flags."""
+    """The typed options of ``identify`` from the command's flags (an error for a flag that
+    does nothing with the others)."""
+    refuse_idle("gain_prior", opts["tau_gains"], "without --tau-gains")
+    refuse_idle("mc_draws", opts["joint_noise_deg"] is not None, "without --joint-noise-deg")
+    refuse_idle("noise", method == "map" or opts["online"], "without --method map or --online")
     if method != "map":
         given = [
             name

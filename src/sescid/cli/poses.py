@@ -10,6 +10,7 @@ from sescid.cli.common import (
     force_option,
     load,
     mm,
+    refuse_idle,
     robot_options,
     seed_option,
 )
@@ -217,6 +218,7 @@ def poses(
     <joint>_ticks (when the robot profile knows its servo), cop_x_model, cop_y_model (the
     model's CoP, m: a prediction, not a measurement; not for a robot held in a gantry).
     """
+    refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
     outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
     if n_candidates is None:
@@ -231,8 +233,6 @@ def poses(
         raise OptionError("noise", "must be > 0 and --clearance ≥ 0 (metres)")
     if not tau_noise > 0:
         raise OptionError("tau_noise", f"must be > 0 (N·m), got {tau_noise}")
-    if hang_height is not None and not hang_height > 0:
-        raise OptionError("hang_height", f"must be > 0 (metres), got {hang_height}")
     pc = robot_paper_convention(robot)
     if paper_convention and pc is None:
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")

@@ -15,10 +15,11 @@ from sescid.cli.common import (
     force_option,
     load,
     mm,
+    refuse_idle,
     robot_options,
     sensors_option,
 )
-from sescid.cli.experiment import bench_sensors, torque_config, torque_options
+from sescid.cli.experiment import TORQUE_FLAGS, bench_sensors, torque_config, torque_options
 from sescid.errors import OptionError
 from sescid.planning import MOUNTS
 from sescid.session import SESSION_KINDS, SessionOptions, session_mount
@@ -231,6 +232,7 @@ def session(**opts):
     from sescid.base import TerminalProgress
     from sescid.session import Journal, check_options, run_session
 
+    _refuse_idle(opts)
     robot = load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
     opt = session_options(opts)
@@ -260,6 +262,16 @@ def session(**opts):
         raise
     _write(res, robot, out_dir, view, opts)
     journal.finish(res.stop_reason)
+
+
+def _refuse_idle(opts: dict) -> None:
+    """An error for flags that would do nothing: the bench's sensors with your own adapter,
+    the live view's settings with --no-view."""
+    # a replay may repeat the recorded session's command line: its bench flags are kept
+    bench = opts["adapter"] in ("mujoco", "kinematic", "replay")
+    why = f"with --adapter {opts['adapter']} (your robot logs what it logs)"
+    refuse_idle(("torques", *TORQUE_FLAGS, "foot_sensors"), bench, why)
+    refuse_idle(("view_port", "view_linger"), not opts["no_view"], "with --no-view")
 
 
 def session_options(opts: dict) -> SessionOptions:

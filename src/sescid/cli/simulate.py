@@ -6,7 +6,14 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, load, robot_options, seed_option, study_options
+from sescid.cli.common import (
+    force_option,
+    load,
+    refuse_idle,
+    robot_options,
+    seed_option,
+    study_options,
+)
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 TORQUES = TorqueNoise()
@@ -74,9 +81,11 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
 
+    measure = kinds["measure"]
+    refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure != "cop", "with --measure cop")
+    refuse_idle("noise", measure != "tau", "with --measure tau (no CoP is simulated)")
     outs = OutputSet([out], [robot_name], force=force)
     robot = load(robot_name, support)
-    measure = kinds["measure"]
     sim = run_simulate(
         robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
         torques=torque_noise(kinds),

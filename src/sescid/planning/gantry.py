@@ -19,6 +19,7 @@ support at the end of a limb (a foot) stands on the floor.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -101,6 +102,8 @@ def gantry_floor(robot: Robot, hang_height: float | None, clearance: float) -> t
         )
     else:
         height = float(hang_height)
+        if not (math.isfinite(height) and height > 0):
+            raise OptionError("hang_height", f"must be a finite height > 0 m, got {hang_height}")
         how = f"held link {height:.3f} m above the floor (given; standing height {stand:.3f} m)"
     if not height - stand > clearance:
         raise SescidError(
