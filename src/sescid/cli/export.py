@@ -21,6 +21,7 @@ from sescid.estimation import (
 from sescid.io import (
     FORMATS,
     export_model,
+    model_files,
 )
 
 
@@ -45,7 +46,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
     OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
     echo_model_change(fit, fit_file)
-    outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
+    outs = OutputSet([out], [fit_file, *model_files(fit.robot.model_path)], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")

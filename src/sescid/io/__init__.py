@@ -26,6 +26,7 @@ from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.io.export.mjcf import export_mjcf
+    from sescid.io.export.assets import model_files
     from sescid.io.export.model import FORMATS, export_model
     from sescid.io.export.urdf import export_urdf
     from sescid.io.measurements import rows_estimate
@@ -52,6 +53,7 @@ __all__ = [
     "export_urdf",
     "load_fit",
     "load_mapping",
+    "model_files",
     "parse_mapping",
     "read_cop",
     "read_bag",
@@ -87,6 +89,7 @@ _EXPORTS = {
     "export_mjcf": "sescid.io.export.mjcf",
     "export_model": "sescid.io.export.model",
     "export_urdf": "sescid.io.export.urdf",
+    "model_files": "sescid.io.export.assets",
     "iter_table": "sescid.io.tables",
     "read_session_reasons": "sescid.io.session_files",
     "read_table": "sescid.io.tables",
