@@ -25,8 +25,8 @@ from sescid.base.lazy import lazy_exports
 from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
-    from sescid.io.export.mjcf import export_mjcf
     from sescid.io.export.assets import model_files
+    from sescid.io.export.mjcf import export_mjcf
     from sescid.io.export.model import FORMATS, export_model
     from sescid.io.export.urdf import export_urdf
     from sescid.io.measurements import rows_estimate

@@ -158,10 +158,11 @@ def model_files(path: str | Path) -> list[Path]:
     except ModelError:
         return found
     compilers = list(root.iter("compiler"))
-    dirs = {k: next((c.get(k) for c in compilers if c.get(k)), "") for k in
-            ("meshdir", "texturedir", "assetdir")}  # fmt: skip
+    dirs: dict[str, str] = {}
+    for k in ("meshdir", "texturedir", "assetdir"):
+        dirs[k] = next((str(c.get(k)) for c in compilers if c.get(k)), "")
     for tag, (attrs, dir_key) in MJCF_FILES.items():
-        folder = (dirs.get(dir_key or "") or dirs["assetdir"]) if dir_key else ""
+        folder = (dirs[dir_key] or dirs["assetdir"]) if dir_key else ""
         for el in root.iter(tag):
             for a in attrs:
                 name = el.get(a)
