@@ -583,3 +583,57 @@ def test_robots_with_nothing_to_measure(tmp_path):
     code, text = run("identify", tmp_path / "t.csv", *s, "--allow-exact", "--out", fit)
     assert code == 0 and "no degrees of freedom are left" in text, text
     assert "not determined" in text and fit.is_file()
+
+
+@pytest.fixture(scope="module")
+def torque_raw(tmp_path_factory):
+    """A raw log with joint torques and approach sides (kinematic bench), and its pose list."""
+    d = tmp_path_factory.mktemp("traw")
+    poses, raw = d / "poses.csv", d / "raw.csv"
+    code, out = run("poses", "--count", 24, "--candidates", 400, "--test-poses", 50, "--out", poses)
+    assert code == 0, out
+    code, out = run("experiment", "--poses", poses, "--torques", "all", "--friction", 0.05, 0.1,
+                    "--samples", 12, "--out", raw)  # fmt: skip
+    assert code == 0, out
+    return poses, raw
+
+
+def _blank_cells(src: Path, dst: Path, column: str, pose: str | None) -> Path:
+    """A raw log copy with ``column`` emptied in the samples of ``pose`` (None: every pose)."""
+    lines = src.read_text().splitlines()
+    header = lines[0].split(",")
+    c, p = header.index(column), header.index("pose")
+    out = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        if pose is None or cells[p] == pose:
+            cells[c] = ""
+        out.append(",".join(cells))
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def test_measure_never_writes_an_undetermined_value(torque_raw, tmp_path):
+    """A dead torque sensor (no value at any pose) is left out with a note; a pose without
+    torque samples of one joint, or without its approach side, is dropped with the reason;
+    the measured file always fits (it used to hold NaN that identify then refused)."""
+    poses, raw = torque_raw
+    cases = [
+        ("tau_r_knee", None, "note: no usable tau_r_knee sample at any pose (a dead sensor?)"),
+        ("tau_l_hip_roll", "3", "pose 3 dropped: too few usable samples of tau_l_hip_roll"),
+        ("approach", "5", "pose 5 dropped: no 'approach' value in its samples"),
+    ]
+    for column, pose, line in cases:
+        bad = _blank_cells(raw, tmp_path / "raw.csv", column, pose)
+        out = tmp_path / "m.csv"
+        code, text = run("measure", bad, "--poses", poses, "--out", out)
+        assert code == 0 and line in text, text
+        m = out.read_text()
+        assert "nan" not in m.lower()
+        if pose is None:
+            assert column not in m.splitlines()[0].split(",")
+        else:
+            ids = [r.split(",")[0] for r in m.splitlines()[1:]]
+            assert pose not in ids and len(ids) == 23
+        code, text = run("identify", out, "--out", tmp_path / "f.json")
+        assert code == 0, text

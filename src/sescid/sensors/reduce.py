@@ -31,6 +31,8 @@ from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
 from sescid.sensors.stats import PoseGroups
 from sescid.sensors.torque import (
+    APPROACH_COLUMN,
+    TAU_PREFIX,
     TORQUE_OUTLIER_FLOOR,
     TORQUE_SE_FLOOR,
     check_torque_scale,
@@ -169,11 +171,21 @@ def _uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
     return bool(fs.loaded.any())
 
 
-def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 5) -> Measured:
+def measure(
+    robot,
+    log: RawLog,
+    config: SensorConfig | None,
+    min_samples: int = 5,
+    drop_dead: bool = True,
+) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
-    Poses left with fewer than ``min_samples`` usable samples are listed in ``dropped`` with
-    the reason. The foot poses come from ``robot.link_poses`` at each pose's mean read-backs.
+    Poses left with fewer than ``min_samples`` usable samples, or whose torques, approach side
+    or gravity the samples do not determine, are listed in ``dropped`` with the reason (never
+    written as NaN). ``drop_dead``: a torque column without a usable value at any pose (a dead
+    sensor) is left out, with a note (a session's single poses keep every column instead, and
+    drop the pose). The foot poses come from ``robot.link_poses`` at each pose's mean
+    read-backs.
     """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
@@ -201,12 +213,41 @@ def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 
     if feet:
         mean, se, fmean = _cop_means(log, config, fs, cop, force_n, s)
     tau = tau_se = None
+    joints = log.tau_joints
+    notes: list[str] = []
     if use is not None:
         tau, tau_se = _tau_means(log, s, use, min_samples)
+        dead = ~np.isfinite(tau[keep]).any(axis=0) if keep.any() else np.zeros(len(joints), bool)
+        if (
+            drop_dead and dead.any()
+        ):  # a joint without a usable value at any pose: its column is left out
+            gone = [j for j, d in zip(joints, dead, strict=True) if d]
+            notes.append(
+                f"no usable {', '.join(TAU_PREFIX + j for j in gone)} sample at any pose (a dead "
+                "sensor?): left out"
+            )
+            joints = tuple(j for j, d in zip(joints, dead, strict=True) if not d)
+            tau, tau_se = tau[:, ~dead], tau_se[:, ~dead]
+        if not joints:
+            tau = tau_se = None
     approach = None
     if log.approach is not None:
-        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)[keep]
+        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)
+        if not np.isfinite(approach[keep]).any():
+            notes.append(f"no '{APPROACH_COLUMN}' value at any pose: left out")
+            approach = None
     grav = _pose_gravity(log, s)
+    dropped = _dropped(groups.ids, n_used, rejected, keep, min_samples)
+    # a pose whose torques, approach side or gravity is not determined is dropped, not written
+    for what, values in (("joint torque", tau), (APPROACH_COLUMN, approach), ("gravity", grav)):
+        if values is None:
+            continue
+        finite = np.isfinite(values) if values.ndim == 1 else np.isfinite(values).all(axis=1)
+        lost = keep & ~finite
+        for i in np.flatnonzero(lost):
+            dropped.append((str(groups.ids[i]), _undetermined(what, values, int(i), joints)))
+        keep &= finite
+    approach = None if approach is None else approach[keep]
     return Measured(
         pose=groups.ids[keep],
         q=s.q_mean[keep],
@@ -215,14 +256,25 @@ def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 
         force=fmean[keep] if feet else np.full(int(keep.sum()), np.nan),
         n_used=n_used[keep],
         rejected=rejected[keep],
-        dropped=_dropped(groups.ids, n_used, rejected, keep, min_samples),
+        dropped=dropped,
         mode=mode,
         gravity=None if grav is None else grav[keep],
-        tau_joints=log.tau_joints,
+        tau_joints=joints if tau is not None else log.tau_joints,
         tau=None if tau is None else tau[keep],
         tau_se=None if tau_se is None else tau_se[keep],
         approach=approach,
+        notes=notes,
     )
+
+
+def _undetermined(what: str, values: np.ndarray, i: int, joints) -> str:
+    """Why pose ``i`` is dropped: which of its values the samples did not determine."""
+    if what == "joint torque":
+        bad = [TAU_PREFIX + j for j, v in zip(joints, values[i], strict=True) if not np.isfinite(v)]
+        return f"too few usable samples of {', '.join(bad)} (a torque not determined)"
+    if what == APPROACH_COLUMN:
+        return f"no '{APPROACH_COLUMN}' value in its samples (the side it was reached from)"
+    return "no usable gravity direction (grav_x/y/z or IMU) in its samples"
 
 
 def _dropped(ids, n_used, rejected, keep, min_samples) -> list[tuple[str, str]]:
