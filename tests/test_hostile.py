@@ -637,3 +637,38 @@ def test_measure_never_writes_an_undetermined_value(torque_raw, tmp_path):
             assert pose not in ids and len(ids) == 23
         code, text = run("identify", out, "--out", tmp_path / "f.json")
         assert code == 0, text
+
+
+def _scaled_torques(src: Path, dst: Path, factor: float, only: str | None = None) -> Path:
+    """A copy of a measured file with its tau_<joint> columns (or one) multiplied."""
+    lines = src.read_text().splitlines()
+    header = lines[0].split(",")
+    cols = [i for i, h in enumerate(header) if h.startswith("tau_") and not h.startswith("tau_se")]
+    cols = [i for i in cols if only is None or header[i] == only]
+    out = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        for i in cols:
+            cells[i] = repr(float(cells[i]) * factor)
+        out.append(",".join(cells))
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def test_torques_in_other_units_or_of_the_other_sign(torque_raw, bench, tmp_path):
+    """identify refuses torques in mN·m by the physical bound measure uses (the robot's weight
+    2 m from the joint) and torques of the reversed sign convention, naming the column; a fit
+    of standing CoP data at a trunk support (a gantry's) is refused, not written."""
+    poses, raw = torque_raw
+    measured = tmp_path / "m.csv"
+    assert run("measure", raw, "--poses", poses, "--out", measured)[0] == 0
+    fit = tmp_path / "f.json"
+    code, out = run("identify", _scaled_torques(measured, tmp_path / "mnm.csv", 1e3),
+                    "--out", fit)  # fmt: skip
+    assert code == 2 and "is more than the robot's weight at 2 m" in out and "mN·m" in out, out
+    assert re.search(r"mnm.csv: row \d+, column 'tau_\w+' = ", out), out
+    code, out = run("identify", _scaled_torques(measured, tmp_path / "neg.csv", -1), "--out", fit)
+    assert code == 2 and "the torques are the model's with the opposite sign" in out, out
+    code, out = run("identify", bench["measured"], "--support", "MP_BODY", "--out", fit)
+    assert code == 2 and "a CoP fitted at a trunk: the support 'MP_BODY'" in out, out
+    assert not fit.exists()

@@ -289,8 +289,10 @@ def test_bad_torque_input_is_one_line(op2):
     with pytest.raises(DataError, match="approach = 0"):
         identify(op2, Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names),
                                    approach=np.zeros(30)))  # fmt: skip
-    with pytest.raises(DataError, match="a unit slip"):
-        identify(op2, Measurements(q=q, tau=tau * 1e5, tau_joints=tuple(op2.joint_names)))
+    with pytest.raises(DataError, match=r"is more than the robot's weight at 2 m .*\(mN·m\?\)"):
+        identify(op2, Measurements(q=q, tau=tau * 1e3, tau_joints=tuple(op2.joint_names)))
+    with pytest.raises(DataError, match="the torques are the model's with the opposite sign"):
+        identify(op2, Measurements(q=q, tau=-tau, tau_joints=tuple(op2.joint_names)))
 
 
 def test_cli_identifies_from_a_torque_file(op2, tmp_path):

@@ -327,6 +327,16 @@ def read_gravity(table: Table) -> np.ndarray | None:
 TORQUE_PREFIX, TORQUE_SE_PREFIX = "tau_", "tau_se_"
 #: N·m beyond which a torque is taken for a unit mistake (mN·m, N·mm)
 MAX_TORQUE_NM = 1e4
+#: m, a lever no humanoid's gravity torque exceeds: a holding torque beyond the whole robot's
+#: weight this far from its joint is not in N·m (mN·m, N·mm)
+TORQUE_REACH_M = 2.0
+#: standard gravity [m/s²] of the torque bound
+G0 = 9.80665
+
+
+def torque_bound(mass: float) -> float:
+    """N·m, the largest holding torque a robot of ``mass`` kg can need (``TORQUE_REACH_M``)."""
+    return mass * G0 * TORQUE_REACH_M
 
 
 @dataclass(frozen=True)

@@ -23,8 +23,16 @@ from sescid.cli.common import (
     seed_option,
 )
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
-from sescid.errors import OptionError
-from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions, save_fit
+from sescid.errors import DataError, OptionError
+from sescid.estimation import (
+    COP_ON_TRUNK,
+    METHODS,
+    ConsistentOptions,
+    Fit,
+    IdentifyOptions,
+    MapOptions,
+    save_fit,
+)
 from sescid.io import rows_estimate
 
 DEFAULTS = IdentifyOptions()
@@ -268,6 +276,9 @@ def identify(data, robot_name, support, out, method, force, **opts):
             options=options,
             progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
         )
+    trunk = next((w for w in fit.warnings if w.startswith(COP_ON_TRUNK)), None)
+    if trunk is not None:
+        raise DataError(f"{', '.join(map(str, data))}: {trunk}")
     with outs:
         save_fit(fit, outs.path(out))
     echo_fit(fit)

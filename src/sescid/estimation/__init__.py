@@ -19,7 +19,12 @@ from sescid.base.lazy import lazy_exports
 if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.estimation.api import identify, to_consistent
     from sescid.estimation.cad_check import cad_violations
-    from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
+    from sescid.estimation.checks import (
+        COP_ON_TRUNK,
+        check_total_mass,
+        fit_warnings,
+        outside_limits,
+    )
     from sescid.estimation.consistent import body_boxes, fit_inertials
     from sescid.estimation.fit import (
         METHODS,
@@ -87,6 +92,7 @@ __all__ = [
     "identifiable_eigen",
     "identify",
     "MODEL_CHANGED",
+    "COP_ON_TRUNK",
     "load_fit",
     "min_poses",
     "outside_limits",
@@ -113,6 +119,7 @@ _EXPORTS = {
     "KindFit": "sescid.estimation.fit",
     "METHODS": "sescid.estimation.fit",
     "MODEL_CHANGED": "sescid.estimation.fit_json",
+    "COP_ON_TRUNK": "sescid.estimation.checks",
     "MapInfo": "sescid.estimation.fit",
     "MapOptions": "sescid.estimation.options",
     "Measurements": "sescid.estimation.measurements",

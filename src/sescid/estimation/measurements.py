@@ -17,10 +17,20 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import MAX_ANGLE_RAD, MAX_COP_M, MAX_TORQUE_NM
+from sescid.base.columns import MAX_ANGLE_RAD, MAX_COP_M, TORQUE_REACH_M, torque_bound
 from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
+
+#: poses a torque column's sign is checked on at most (spread over the data), and at least
+SIGN_POSES, SIGN_MIN_POSES = 256, 10
+#: a column whose torques correlate below −SIGN_CORR with the model's has the opposite sign
+SIGN_CORR = 0.8
+#: share of the columns the model explains (|correlation| > SIGN_CORR) that must look
+#: reversed for the data to be refused
+SIGN_SHARE = 0.75
+#: N·m, RMS variation of the model's torque below which a column's sign is not judged
+SIGN_SPREAD_NM = 0.02
 
 #: the measurement kinds, as named in fits, files and options
 COP = "cop"
@@ -115,12 +125,16 @@ class Measurements:
             robot.joint_columns(joints)  # ModelError naming an unknown joint
         tau_cols = [f"tau_{j}" for j in joints]
         tau = self._array(self.tau, (n, len(joints)), "tau", tau_cols, "N·m")
-        if tau is not None and np.any(np.abs(tau) > MAX_TORQUE_NM):
-            row, col = np.argwhere(np.abs(tau) > MAX_TORQUE_NM)[0]
+        bound = torque_bound(robot.total_mass)
+        if tau is not None and np.any(np.abs(tau) > bound):
+            row, col = np.argwhere(np.abs(tau) > bound)[0]
             raise DataError(
-                f"{where}: {self.cell(row, tau_cols[col])} = {tau[row, col]:g} N·m: beyond "
-                f"{MAX_TORQUE_NM:g} N·m (a unit slip: mN·m?)"
+                f"{where}: {self.cell(row, tau_cols[col])} = {tau[row, col]:g} N·m is more than "
+                f"the robot's weight at {TORQUE_REACH_M:g} m ({bound:.3g} N·m): not a torque in "
+                "N·m (mN·m?)"
             )
+        if tau is not None:
+            self._check_sign(robot, q, tau, joints, self.gravity)
         se_cols = [f"tau_se_{j}" for j in joints]
         tau_se = self._array(self.tau_se, (n, len(joints)), "tau_se", se_cols, "N·m")
         self._positive(tau_se, se_cols, "N·m")
@@ -177,6 +191,42 @@ class Measurements:
                 raise DataError(f"{self.source}: {self.cell(i, col)}: {arr[tuple(bad[0])]} is "
                                 "not a finite number")  # fmt: skip
         return np.ascontiguousarray(arr)
+
+    def _check_sign(self, robot: Robot, q, tau, joints: tuple[str, ...], gravity) -> None:
+        """DataError when the torques are the model's with the opposite sign at most joints (a
+        reversed sign convention: every friction band would come out negative), judged on up
+        to ``SIGN_POSES`` poses spread over the data; one joint alone may be a CAD model's
+        error, left to the fit (``fit_warnings``: a negative friction band)."""
+        n = tau.shape[0]
+        if n < SIGN_MIN_POSES:
+            return
+        idx = np.unique(np.linspace(0, n - 1, min(n, SIGN_POSES)).astype(int))
+        g = None if gravity is None else np.asarray(gravity, dtype=float)[idx]
+        try:
+            model = robot.torques(q[idx], joints=list(joints), gravity=g)
+        except Exception:  # the model cannot say: leave the data to the fit
+            return
+        t = tau[idx] - tau[idx].mean(axis=0)
+        m = model - model.mean(axis=0)
+        mm = np.sum(m * m, axis=0)
+        tt = np.sum(t * t, axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slope = np.sum(t * m, axis=0) / mm
+            corr = np.sum(t * m, axis=0) / np.sqrt(mm * tt)
+        spread = np.sqrt(mm / len(idx))
+        judged = (spread > SIGN_SPREAD_NM) & (np.abs(corr) > SIGN_CORR)  # the model explains
+        bad = np.flatnonzero((corr < -SIGN_CORR) & (slope < -0.5) & judged)
+        if bad.size and bad.size >= SIGN_SHARE * judged.sum():
+            k = int(bad[0])
+            others = ", ".join(f"tau_{joints[int(i)]}" for i in bad[1:4])
+            more = f" (also {others}{' …' if bad.size > 4 else ''})" if bad.size > 1 else ""
+            raise DataError(
+                f"{self.source}: column 'tau_{joints[k]}': the torques are the model's with the "
+                f"opposite sign (slope {slope[k]:.2f}, correlation {corr[k]:.2f} over "
+                f"{len(idx)} poses){more}: a sensor of reversed sign (tau_<joint> is the torque "
+                "the actuator applies about the joint's axis, as in the model), or data measured "
+                f"on another support than '{robot.support}'?"
+            )
 
     def _positive(self, arr: np.ndarray | None, columns: list[str], unit: str) -> None:
         """DataError naming the first standard error that is not > 0."""

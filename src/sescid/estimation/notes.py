@@ -72,8 +72,10 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             "a level sole)"
         )
     asked = fit.robust.weighted_input if fit.robust is not None else fit.weighted
+    if fit.kinds and fit.robust is None:  # several kinds are weighed by their noise anyway
+        asked = any(k.weighted for k in fit.kinds)
     if asked:
-        present = {k.kind for k in fit.kinds} or {"cop"}
+        present = {k.kind for k in fit.kinds if k.weighted or fit.robust is not None} or {"cop"}
         given = " and ".join(
             {"cop": "CoP", "tau": "torque"}[k] for k in ("cop", "tau") if k in present
         )

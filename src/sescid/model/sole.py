@@ -250,6 +250,12 @@ def supporting_leg(parents: list[int], masses: np.ndarray) -> tuple[list[int], i
     return leg[:-1] if len(leg) > 1 else leg, cur
 
 
+def splits_at_support(parents: list[int], masses: np.ndarray) -> bool:
+    """True when the robot's mass splits at its support body (a trunk or pelvis, held in a
+    gantry: no foot carries a load), False at the end of a limb (a foot) or for one body."""
+    return len(parents) > 1 and supporting_leg(parents, masses)[1] == 0
+
+
 def _descendants(parents: list[int], top: int) -> list[int]:
     """Bodies below ``top`` in the tree rooted at the support body (``top`` excluded)."""
     below = np.zeros(len(parents), dtype=bool)

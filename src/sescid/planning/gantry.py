@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import OptionError, SescidError
-from sescid.model.sole import supporting_leg
+from sescid.model.sole import splits_at_support
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
 from sescid.planning.candidates import Candidates
@@ -59,8 +59,7 @@ class GantryOptions:
 def held_trunk(robot: Robot) -> bool:
     """True when the robot's mass splits at its support body (a trunk or pelvis: several heavy
     branches leave it), False at the end of a limb (a foot)."""
-    parents = [b.parent for b in robot.model.bodies]
-    return supporting_leg(parents, robot.masses)[1] == 0
+    return splits_at_support([b.parent for b in robot.model.bodies], robot.masses)
 
 
 def resolve_mount(robot: Robot, mount: str | None, kinds: str) -> str:

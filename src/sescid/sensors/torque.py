@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.base.columns import Table, column_with_missing
+from sescid.base.columns import TORQUE_REACH_M, Table, column_with_missing, torque_bound
 from sescid.errors import DataError
 
 TAU_PREFIX = "tau_"
 TAU_SE_PREFIX = "tau_se_"
 APPROACH_COLUMN = "approach"
-#: m, a lever no humanoid's gravity torque exceeds (the whole weight this far from a joint)
-TORQUE_REACH_M = 2.0
 #: N·m, smallest robust scale of a torque in the outlier rule
 TORQUE_OUTLIER_FLOOR = 1e-3
 #: N·m, smallest standard error of a pose's mean torque (identical samples: a resolution)
@@ -77,7 +75,7 @@ def read_approach(table: Table) -> np.ndarray | None:
 def check_torque_scale(log, mass: float) -> None:
     """DataError naming the row and column of a torque of the raw log ``log`` beyond
     ``mass``·g·TORQUE_REACH_M."""
-    limit = mass * 9.80665 * TORQUE_REACH_M
+    limit = torque_bound(mass)
     with np.errstate(invalid="ignore"):
         bad = np.argwhere(np.abs(log.tau) > limit)
     if bad.size:
