@@ -672,3 +672,32 @@ def test_torques_in_other_units_or_of_the_other_sign(torque_raw, bench, tmp_path
     code, out = run("identify", bench["measured"], "--support", "MP_BODY", "--out", fit)
     assert code == 2 and "a CoP fitted at a trunk: the support 'MP_BODY'" in out, out
     assert not fit.exists()
+
+
+def test_raw_logs_and_repeated_files_are_not_pooled_poses(bench, tmp_path):
+    """A raw log (one row per sample) given to identify, the same file twice (by path, link or
+    copy) and a copied calibration session: one line each, nothing written."""
+    fit = tmp_path / "f.json"
+    raw = bench["raw"]
+    code, out = run("identify", raw, "--out", fit)
+    assert code == 2 and "a raw log (a 'sample' column" in out and "sescid measure" in out, out
+    no_sample = tmp_path / "raw.csv"
+    lines = raw.read_text().splitlines()
+    col = lines[0].split(",").index("sample")
+    no_sample.write_text("\n".join(",".join(c for k, c in enumerate(x.split(",")) if k != col)
+                                   for x in lines) + "\n")  # fmt: skip
+    code, out = run("identify", no_sample, "--out", fit)
+    assert code == 2 and "row 2 and row 3 are both pose '0': one row per sample" in out, out
+    m = bench["measured"]
+    copy, link = tmp_path / "copy.csv", tmp_path / "link.csv"
+    copy.write_bytes(m.read_bytes())
+    link.symlink_to(m)
+    for twice, what in ((m, "given twice as data"), (link, "given twice as data"),
+                        (copy, "the same bytes as")):  # fmt: skip
+        code, out = run("identify", m, twice, "--out", fit)
+        assert code == 2 and what in out and "each pose would count twice" in out, out
+    session = tmp_path / "session.csv"
+    session.write_bytes(raw.read_bytes())
+    code, out = run("calibrate", raw, session, "--total-mass", 3.13, "--out", tmp_path / "c.json")
+    assert code == 2 and "a copy given twice as a session" in out, out
+    assert not fit.exists() and not (tmp_path / "c.json").exists()

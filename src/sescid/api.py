@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from sescid.base.files import check_distinct
 from sescid.estimation import Fit, IdentifyOptions
 from sescid.estimation import identify as _identify
 from sescid.io.measurements import ReadReport, read_measurements
@@ -50,6 +51,7 @@ def identify(
     if cop is not None:
         raise TypeError("cop= goes with joint angles, not with files")
     opts = (options or IdentifyOptions()).with_overrides(**overrides)
+    check_distinct(list(paths), "data")
     got: list[ReadReport] = []
     streams = []
     for p in paths:

@@ -17,6 +17,7 @@ _EXPORTS = {
     "TerminalProgress": "progress",
     "atomic_open": "files",
     "atomic_path": "files",
+    "check_distinct": "files",
     "check_outputs": "files",
     "one_blas_thread": "threads",
     "ordered_map": "threads",

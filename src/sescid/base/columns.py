@@ -299,6 +299,27 @@ def refuse_plan(table: Table) -> None:
         )
 
 
+def refuse_raw_log(table: Table) -> None:
+    """DataError when a table is a raw log (a ``sample`` column, or a pose id repeated on
+    consecutive rows: one row per sample) given where one row per pose is read."""
+    if "sample" in table.names():
+        raise DataError(
+            f"{table.path}: a raw log (a 'sample' column: one row per sample): reduce it to one "
+            "row per pose with sescid measure, then give the measured file"
+        )
+    if "pose" not in table.names():
+        return
+    ids = pose_ids(table)
+    same = np.flatnonzero(ids[1:] == ids[:-1])
+    if same.size:
+        i = int(same[0])
+        raise DataError(
+            f"{table.path}: a raw log ({table.where(i)} and {table.where(i + 1)} are both pose "
+            f"'{ids[i]}': one row per sample): reduce it to one row per pose with sescid "
+            "measure, then give the measured file"
+        )
+
+
 GRAVITY_COLUMNS = ("grav_x", "grav_y", "grav_z")
 
 

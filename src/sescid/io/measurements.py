@@ -26,6 +26,7 @@ from sescid.base.columns import (
     read_poses,
     read_torques,
     refuse_plan,
+    refuse_raw_log,
 )
 from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
@@ -61,6 +62,7 @@ class ReadReport:
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
     """One chunk of a measurement table as ``Measurements`` (not yet validated)."""
     refuse_plan(table)
+    refuse_raw_log(table)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     cop = read_cop(table) if ("cop_x" in table or "cop_y" in table) else None
     cop_se = None
