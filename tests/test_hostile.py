@@ -701,3 +701,51 @@ def test_raw_logs_and_repeated_files_are_not_pooled_poses(bench, tmp_path):
     code, out = run("calibrate", raw, session, "--total-mass", 3.13, "--out", tmp_path / "c.json")
     assert code == 2 and "a copy given twice as a session" in out, out
     assert not fit.exists() and not (tmp_path / "c.json").exists()
+
+
+def test_columns_that_disagree_or_go_unused(bench, tmp_path):
+    """A pose list whose <j>_deg or <j>_ticks copy was edited (it disagrees with the radians),
+    IMU columns on a robot without a known IMU link (their gravity would be lost) and an
+    --imu-link for a file without IMU columns: one line naming file, row and columns."""
+    poses = bench["poses"]
+    edited = _cells(poses, tmp_path / "p.csv", {(5, "r_knee_deg"): "12.5"})
+    code, out = run("experiment", "--poses", edited, "--out", tmp_path / "r.csv")
+    assert code == 2 and "p.csv: row 5: columns 'r_knee' (" in out, out
+    assert "and 'r_knee_deg' (12.5°) disagree" in out
+    ticks = _cells(poses, tmp_path / "t.csv", {(7, "l_el_ticks"): "100"})
+    code, out = run("predict", bench["fit"], ticks, "--out", tmp_path / "o.csv")
+    assert code == 2 and "t.csv: row 7: columns 'l_el' (" in out and "100 ticks" in out, out
+    stick = tmp_path / "stick.urdf"
+    stick.write_text(ONE_JOINT)
+    s = ("--robot", stick, "--support", "foot")
+    sim = tmp_path / "s.csv"
+    assert run("simulate", *s, "--count", 20, "--out", sim)[0] == 0
+    lines = sim.read_text().splitlines()
+    imu = tmp_path / "imu.csv"
+    imu.write_text("\n".join([lines[0] + ",imu_roll,imu_pitch"]
+                             + [x + ",0.01,0.02" for x in lines[1:]]) + "\n")  # fmt: skip
+    code, out = run("identify", imu, *s, "--out", tmp_path / "f.json")
+    assert code == 2 and "imu.csv: columns imu_roll, imu_pitch, but stick's profile" in out, out
+    code, out = run("identify", sim, *s, "--imu-link", "body", "--out", tmp_path / "f.json")
+    assert code == 2 and "--imu-link: 'body': " in out and "has no imu_roll" in out, out
+    code, out = run("identify", imu, *s, "--imu-link", "body", "--out", tmp_path / "f.json")
+    assert code == 0, out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.json", "imu.csv", "p.csv", "s.csv",
+                                                          "stick.urdf", "t.csv"]  # fmt: skip
+
+
+def test_a_fit_of_an_older_file_format_says_so(bench, tmp_path):
+    """A fit file of format sescid-fit/2 is read with a warning printed; its exact-fit
+    covariance, stored as zeros by that version, is read as not determined (nan), so no
+    interval comes out zero wide."""
+    d = json.loads(bench["fit"].read_text())
+    d["format"] = "sescid-fit/2"
+    d["sigma_hat"] = None
+    d["cov"] = [[0.0] * len(d["cov"])] * len(d["cov"])
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(d))
+    pred = tmp_path / "p.csv"
+    code, out = run("predict", old, bench["poses"], "--level", 0.95, "--out", pred)
+    assert code == 0 and "an older fit file format 'sescid-fit/2'" in out, out
+    rows = list(csv.DictReader(pred.open()))
+    assert all(r["com_x_std"] == "nan" and r["cop_x_lower"] == "nan" for r in rows)

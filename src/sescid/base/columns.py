@@ -202,6 +202,7 @@ def read_joint_columns(
                 + (f", '{j}_ticks' in {servo.name} ticks)" if servo else ")")
             )
         if len(found) > 1 and not allow_missing and found[0][0] == "rad":
+            _check_copies(table, j, found, servo)
             found = found[:1]  # a pose list: radians plus derived copies for the operator
         if len(found) > 1:
             raise DataError(
@@ -244,6 +245,35 @@ def read_joint_columns(
         cols.append(v)
         units[j] = unit
     return (np.column_stack(cols) if cols else np.zeros((table.n, 0))), units
+
+
+#: degrees a pose list's ``<j>_deg`` copy may differ from its radians (printing round-off)
+COPY_TOL_DEG = 1e-6
+
+
+def _check_copies(table: Table, joint: str, found, servo: ServoEncoding | None) -> None:
+    """DataError when a pose list's ``<j>_deg``/``<j>_ticks`` copy disagrees with its radians
+    (an edited column: which one holds the pose?), naming the row and both columns."""
+    rad = table.get(joint, "joint column")
+    for unit, name in found[1:]:
+        if unit == "deg":
+            copy = table.get(name, "joint column")
+            bad = np.flatnonzero(~(np.abs(np.degrees(rad) - copy) <= COPY_TOL_DEG))
+            shown = "{:g}°"
+        elif servo is not None:
+            copy = table.get(name, "joint column")
+            ticks = servo.zero_tick + rad * servo.ticks_per_turn / (2 * math.pi)
+            bad = np.flatnonzero(~(np.abs(ticks - copy) <= 0.5 + 1e-6))
+            shown = "{:g} ticks"
+        else:
+            continue
+        if bad.size:
+            i = int(bad[0])
+            raise DataError(
+                f"{table.path}: {table.where(i)}: columns '{joint}' ({rad[i]:g} rad = "
+                f"{math.degrees(rad[i]):g}°) and '{name}' ({shown.format(copy[i])}) disagree: "
+                "keep one column per joint (the radians are read)"
+            )
 
 
 def read_poses(

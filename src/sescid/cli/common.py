@@ -235,11 +235,12 @@ def load(robot_name: str, support: str | None) -> Any:
 
 
 def echo_model_change(fit: Any, fit_file: str) -> None:
-    """The warning of a fit whose model file changed since it was made, on stderr."""
-    from sescid.estimation import MODEL_CHANGED
+    """The warnings of a fit read back (its model file changed since it was made, an older
+    file format), on stderr."""
+    from sescid.estimation import MODEL_CHANGED, OLD_FORMAT
 
     for w in fit.warnings:
-        if w.startswith(MODEL_CHANGED):
+        if w.startswith((MODEL_CHANGED, OLD_FORMAT)):
             click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
 
 

@@ -40,7 +40,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
         OnlineInfo,
         RobustInfo,
     )
-    from sescid.estimation.fit_json import MODEL_CHANGED, load_fit, save_fit
+    from sescid.estimation.fit_json import MODEL_CHANGED, OLD_FORMAT, load_fit, save_fit
     from sescid.estimation.identifiability import (
         DEFAULT_RTOL,
         identifiable_eigen,
@@ -92,6 +92,7 @@ __all__ = [
     "identifiable_eigen",
     "identify",
     "MODEL_CHANGED",
+    "OLD_FORMAT",
     "COP_ON_TRUNK",
     "load_fit",
     "min_poses",
@@ -119,6 +120,7 @@ _EXPORTS = {
     "KindFit": "sescid.estimation.fit",
     "METHODS": "sescid.estimation.fit",
     "MODEL_CHANGED": "sescid.estimation.fit_json",
+    "OLD_FORMAT": "sescid.estimation.fit_json",
     "COP_ON_TRUNK": "sescid.estimation.checks",
     "MapInfo": "sescid.estimation.fit",
     "MapOptions": "sescid.estimation.options",

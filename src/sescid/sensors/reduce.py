@@ -315,10 +315,10 @@ def pose_list_ids(table: Table) -> np.ndarray:
 
 def imu_gravity_samples(robot, table: Table, q: np.ndarray, link: str | None) -> np.ndarray | None:
     """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
-    from sescid.sensors.imu import gravity_from_imu, imu_link, read_imu
+    from sescid.sensors.imu import gravity_from_imu, read_imu, table_imu_link
 
+    name = table_imu_link(robot, table, link)
     rp = read_imu(table)
-    name = imu_link(robot, link)
     if rp is None or name is None:
         return None
     out = np.full((q.shape[0], 3), np.nan)
