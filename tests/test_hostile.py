@@ -749,3 +749,37 @@ def test_a_fit_of_an_older_file_format_says_so(bench, tmp_path):
     assert code == 0 and "an older fit file format 'sescid-fit/2'" in out, out
     rows = list(csv.DictReader(pred.open()))
     assert all(r["com_x_std"] == "nan" and r["cop_x_lower"] == "nan" for r in rows)
+
+
+def test_dead_pads_and_forces_in_kilonewtons_are_named(bench, tmp_path):
+    """A foot pad stuck at one value or without any value while the others vary (the CoP and
+    the weight were silently wrong), and F/T forces in kN (every sample 'unloaded'): one line
+    naming the column; the truth of another robot's fit names the fit and the truth."""
+    raw = bench["raw"]
+    lines = raw.read_text().splitlines()
+    col = lines[0].split(",").index("r_fsr3")
+    for value, what in (("0", "reads 0 in all"), ("", "has no value in the")):
+        bad = tmp_path / "raw.csv"
+        bad.write_text("\n".join([lines[0]] + [",".join(c if k != col else value
+                                                        for k, c in enumerate(x.split(",")))
+                                               for x in lines[1:]]) + "\n")  # fmt: skip
+        code, out = run("measure", bad, "--poses", bench["poses"], "--out", tmp_path / "m.csv")
+        assert code == 2 and f"column 'r_fsr3' {what}" in out and "dead" in out, out
+    header = lines[0].split(",")
+    keep = [k for k, h in enumerate(header) if "fsr" not in h]
+    ft = tmp_path / "ft.csv"
+    rows = [",".join([header[k] for k in keep] + ["r_cop_x", "r_cop_y", "r_fz"])]
+    rows += [",".join([x.split(",")[k] for k in keep] + ["0.001", "-0.002", "0.0301"])
+             for x in lines[1:]]  # fmt: skip
+    ft.write_text("\n".join(rows) + "\n")
+    code, out = run("measure", ft, "--poses", bench["poses"], "--out", tmp_path / "m.csv")
+    assert code == 2 and "ft.csv: column 'r_fz': at most 0.0301 N" in out and "kN" in out, out
+    assert not (tmp_path / "m.csv").exists()
+    stick = tmp_path / "stick.urdf"
+    stick.write_text(ONE_JOINT)
+    s = ("--robot", stick, "--support", "foot")
+    assert run("simulate", *s, "--count", 20, "--out", tmp_path / "s.csv")[0] == 0
+    assert run("identify", tmp_path / "s.csv", *s, "--out", tmp_path / "f.json")[0] == 0
+    code, out = run("truth", tmp_path / "f.json", bench["truth"])
+    assert code == 2 and out.startswith(f"sescid: error: {tmp_path / 'f.json'}: a fit of stick")
+    assert f"but {bench['truth']} is the truth of op2 on 'r_sole'" in out, out

@@ -25,7 +25,7 @@ import numpy as np
 
 from sescid.base.columns import Table, pose_ids
 from sescid.errors import DataError
-from sescid.sensors.feet import REASONS, Status, foot_samples, support_cop
+from sescid.sensors.feet import REASONS, Status, check_pads, foot_samples, support_cop
 from sescid.sensors.measured import Measured
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
@@ -141,10 +141,30 @@ def _pose_gravity(log: RawLog, s: _Samples) -> np.ndarray | None:
         return g_sum / np.linalg.norm(g_sum, axis=1, keepdims=True)
 
 
-def check_force_scale(log: RawLog, config: SensorConfig, mass: float) -> None:
+#: a log whose every logged foot force stays below this share of the robot's weight never
+#: carried the robot: its forces are not in N (kN?)
+FORCE_WEIGHT_FLOOR = 0.02
+
+
+def check_force_scale(
+    log: RawLog, config: SensorConfig, mass: float, whole_log: bool = True
+) -> None:
     """DataError naming row and column of a logged foot force beyond ``FORCE_WEIGHT_FACTOR`` ×
-    the robot's weight (a force in mN or a wrong unit, not a standing robot)."""
+    the robot's weight (a force in mN or a wrong unit, not a standing robot), or naming the
+    columns when no logged force of a ``whole_log`` reaches ``FORCE_WEIGHT_FLOOR`` × the weight
+    (kN; a session's single pose may be unloaded)."""
     limit = FORCE_WEIGHT_FACTOR * mass * 9.80665
+    logged = {f.cop_prefix: log.cop_force.get(f.name) for f in config.feet}
+    logged = {k: v for k, v in logged.items() if v is not None and np.isfinite(v).any()}
+    peak = max((float(np.nanmax(np.abs(v))) for v in logged.values()), default=None)
+    weight = mass * 9.80665
+    if whole_log and peak is not None and peak < FORCE_WEIGHT_FLOOR * weight:
+        cols = ", ".join(f"'{k}_fz'" for k in logged)
+        what = "column" if len(logged) == 1 else "columns"
+        raise DataError(
+            f"{log.path}: {what} {cols}: at most {peak:.3g} N over the whole log, while the "
+            f"robot weighs {weight:.4g} N: not a force in N (kN?)"
+        )
     for foot in config.feet:
         fz = log.cop_force.get(foot.name)
         if fz is None:
@@ -176,16 +196,17 @@ def measure(
     log: RawLog,
     config: SensorConfig | None,
     min_samples: int = 5,
-    drop_dead: bool = True,
+    whole_log: bool = True,
 ) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
     Poses left with fewer than ``min_samples`` usable samples, or whose torques, approach side
     or gravity the samples do not determine, are listed in ``dropped`` with the reason (never
-    written as NaN). ``drop_dead``: a torque column without a usable value at any pose (a dead
-    sensor) is left out, with a note (a session's single poses keep every column instead, and
-    drop the pose). The foot poses come from ``robot.link_poses`` at each pose's mean
-    read-backs.
+    written as NaN). ``whole_log`` (the log holds every pose, not one of a session's): a torque
+    column without a usable value at any pose (a dead sensor) is left out, with a note, and a
+    dead or stuck foot pad is an error (a session's single pose keeps every column and drops
+    the pose instead; one pose can leave a pad unloaded). The foot poses come from
+    ``robot.link_poses`` at each pose's mean read-backs.
     """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
@@ -195,7 +216,9 @@ def measure(
     if feet:
         assert config is not None
         check_sensors(robot, config)
-        check_force_scale(log, config, robot.total_mass)
+        check_force_scale(log, config, robot.total_mass, whole_log)
+        if whole_log:
+            check_pads(log, config)
         cop, force_n, fs, out = _cop_part(robot, log, config, s)
         mode = fs.mode
     else:
@@ -218,9 +241,7 @@ def measure(
     if use is not None:
         tau, tau_se = _tau_means(log, s, use, min_samples)
         dead = ~np.isfinite(tau[keep]).any(axis=0) if keep.any() else np.zeros(len(joints), bool)
-        if (
-            drop_dead and dead.any()
-        ):  # a joint without a usable value at any pose: its column is left out
+        if whole_log and dead.any():  # no usable value at any pose: the column is left out
             gone = [j for j, d in zip(joints, dead, strict=True) if d]
             notes.append(
                 f"no usable {', '.join(TAU_PREFIX + j for j in gone)} sample at any pose (a dead "

@@ -201,7 +201,7 @@ class _Run:
         """The pose's samples read and reduced as ``sescid measure`` does (DataError for
         samples that cannot be read: such a pose is never journaled)."""
         log = _read_log(self.robot, part, self.sensors, self.source)
-        return measure(self.robot, log, self.sensors, self.opt.min_samples, drop_dead=False)
+        return measure(self.robot, log, self.sensors, self.opt.min_samples, whole_log=False)
 
     def measure(self, step: SessionStep, part: dict, meas) -> bool:
         """Update the estimate with the pose's reduced samples; False when it gave nothing."""
