@@ -244,16 +244,25 @@ def _check_normal_force(table: Table, zcol: str, fz: np.ndarray, min_force: floa
         raise DataError(
             f"{table.path}: {table.where(inf[0])}, column '{zcol}': {fz[inf[0]]} is not a force"
         )
+    why = reversed_force(fz, min_force)
+    if why is not None:
+        raise DataError(f"{table.path}: column '{zcol}': {why}")
+
+
+def reversed_force(fz: np.ndarray, min_force: float) -> str | None:
+    """Why a foot's normal forces (m,) N come from a sensor of reversed sign (most loaded
+    samples pull on the floor), or None."""
     with np.errstate(invalid="ignore"):
         pushing = int(np.sum(fz >= min_force))
         pulling = int(np.sum(fz <= -min_force))
-    if pulling > pushing:
-        med = float(np.nanmedian(fz))
-        raise DataError(
-            f"{table.path}: column '{zcol}': the normal force is negative in {pulling} of "
-            f"{pulling + pushing} loaded samples (median {med:.4g} N): the force/torque sensor's "
-            "sign is reversed (negate its force and torque: the floor pushes up on the foot)"
-        )
+    if pulling <= pushing:
+        return None
+    med = float(np.nanmedian(fz))
+    return (
+        f"the normal force is negative in {pulling} of {pulling + pushing} loaded samples "
+        f"(median {med:.4g} N): the force/torque sensor's sign is reversed (negate its force "
+        "and torque: the floor pushes up on the foot)"
+    )
 
 
 def _check_within_sole(table, foot: Foot, c: np.ndarray, loaded: np.ndarray, cols) -> None:
