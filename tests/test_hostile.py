@@ -783,3 +783,17 @@ def test_dead_pads_and_forces_in_kilonewtons_are_named(bench, tmp_path):
     code, out = run("truth", tmp_path / "f.json", bench["truth"])
     assert code == 2 and out.startswith(f"sescid: error: {tmp_path / 'f.json'}: a fit of stick")
     assert f"but {bench['truth']} is the truth of op2 on 'r_sole'" in out, out
+
+
+def test_export_writes_the_weighed_mass_the_fit_was_given(bench, tmp_path):
+    """A fit made with --total-mass (CoP or torques) exports that mass by default (it wrote the
+    model's 2.9253 kg); without one the export says the total is the model's."""
+    fit = tmp_path / "f.json"
+    code, out = run("identify", bench["measured"], "--weighted", "--total-mass", 3.13, "--out", fit)
+    assert code == 0, out
+    code, out = run("export", fit, "--out", tmp_path / "a.urdf")
+    assert code == 0 and "(total 3.1300 kg, the weighed mass the fit was given)" in out, out
+    code, out = run("export", bench["fit"], "--out", tmp_path / "b.urdf")
+    assert code == 0 and "(total 2.9253 kg, the model's: weigh the robot" in out, out
+    code, out = run("export", fit, "--total-mass", 3.0, "--out", tmp_path / "c.urdf")
+    assert code == 0 and "(total 3.0000 kg, the given --total-mass)" in out, out

@@ -69,4 +69,13 @@ def export_cmd(fit_file, out, model_format, force, **opts):
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
     total = float(np.sum(fit.inertials.masses))
-    click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")
+    model = fit.robot.total_mass
+    how = (
+        "the given --total-mass" if copts.total_mass is not None
+        else "the weighed mass the fit was given" if fit.mass_given
+        else "the model's: weigh the robot and give --total-mass" if abs(total - model) < 1e-9
+        else "from the fit"
+    )  # fmt: skip
+    click.echo(
+        f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg, {how})"
+    )
