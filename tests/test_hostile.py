@@ -797,3 +797,26 @@ def test_export_writes_the_weighed_mass_the_fit_was_given(bench, tmp_path):
     assert code == 0 and "(total 2.9253 kg, the model's: weigh the robot" in out, out
     code, out = run("export", fit, "--total-mass", 3.0, "--out", tmp_path / "c.urdf")
     assert code == 0 and "(total 3.0000 kg, the given --total-mass)" in out, out
+
+
+def test_report_names_poses_as_the_files_do(bench, tmp_path):
+    """The report prints its page's path once (`wrote rep/report.html`, not `rep//…`); its
+    per-pose figures are labelled with the files' pose ids (0–23 here, not 1–24)."""
+    from sescid.report.figures import pose_ticks
+
+    code, out = run("report", bench["fit"], bench["measured"], "--out-dir", f"{tmp_path}/rep/")
+    assert code == 0 and f"wrote {tmp_path}/rep/report.html and" in out, out
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.plot(range(24), range(24))
+    pose_ticks(ax, [str(k) for k in range(24)])
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert ticks[0] == "0" and ticks[-1] == "22" and ax.get_xlabel() == "pose (id as in the file)"
+    ax.cla()
+    pose_ticks(ax, ["p3", "p0", "p1"])
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["p3", "p0", "p1"]
+    plt.close(fig)
