@@ -98,6 +98,8 @@ class BlockDesign:
             return
         update_blocks(self._rows(), u, g, -1.0, self._out())
         self.minv = self.minv - u @ g @ u.T
+        if not np.isfinite(self.gain[~self.chosen]).all():  # the Woodbury chain lost digits
+            self.refresh()
 
     def remove(self, i: int) -> None:
         """Remove chosen candidate i (the design without it must be non-singular)."""
@@ -117,8 +119,24 @@ class BlockDesign:
         if j < 0 or not ratio[j] > tol:
             return None
         self.add(j)
-        self.remove(i_out)
+        try:
+            self.remove(i_out)
+        except np.linalg.LinAlgError:  # i_out alone saw a direction (round-off hid it): keep it
+            self.chosen[j], self.chosen[i_out] = False, True
+            self.refresh()  # M⁻¹ and every S_j from the chosen rows again
+            return None
         return j
+
+
+#: smallest eigenvalue, relative to the largest, of an information matrix that determines every
+#: coordinate (below it, as when a few joints' torques leave coordinates unseen, the ridge stays)
+WELL_POSED = 1e-10
+
+
+def _well_posed(info: np.ndarray) -> bool:
+    """True when ``info`` (symmetric) determines every coordinate, in floating point too."""
+    w = np.linalg.eigvalsh(info)
+    return bool(w[-1] > 0 and w[0] > WELL_POSED * w[-1])
 
 
 def schur_logdet(rows: BlockRows, idx) -> float:
@@ -160,7 +178,7 @@ def select_blocks(
             full.s, full.gain = design.s, design.gain  # reused: the greedy's are not needed
             full.chosen = np.zeros(n, dtype=bool)
             full.chosen[order] = True
-            if schur_logdet(rows, order) > -math.inf:  # drop the ridge once non-singular
+            if _well_posed(schur_information(rows, order)):  # drop the ridge once determined
                 full.ridge = 0.0
             full.refresh()
         score = full.gains()
