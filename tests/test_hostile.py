@@ -820,3 +820,15 @@ def test_report_names_poses_as_the_files_do(bench, tmp_path):
     pose_ticks(ax, ["p3", "p0", "p1"])
     assert [t.get_text() for t in ax.get_xticklabels()] == ["p3", "p0", "p1"]
     plt.close(fig)
+
+
+def test_a_torque_design_on_the_support_legs_joints(tmp_path):
+    """Torque sensors on two support-leg joints see 36 combinations through 2 rows a pose: the
+    D-optimal choice's Woodbury updates lost their digits there (a LinAlgError traceback, or
+    'no candidate adds information'); it now plans, and a design that cannot determine the
+    CoM says so."""
+    out = tmp_path / "p.csv"
+    args = ["poses", "--kinds", "tau", "--tau-joints", "r_knee,r_hip_pitch", "--candidates", 3000]
+    code, text = run(*args, "--count", 38, "--out", out)
+    assert code == 0 and "identifiable subspace: p = 36; chose 38 poses" in text, text
+    assert len(out.read_text().splitlines()) == 39

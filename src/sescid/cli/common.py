@@ -48,6 +48,11 @@ def run_guarded(invoke: Any, ctx: click.Context) -> Any:
         fail(str(exc))
     except SescidError as exc:
         fail(str(exc))
+    except BrokenPipeError:  # the reader left (`| head`): stop quietly
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        sys.exit(141)
     except OSError as exc:
         name = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         fail(f"{name}{exc.strerror or exc}")
