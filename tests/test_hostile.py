@@ -832,3 +832,22 @@ def test_a_torque_design_on_the_support_legs_joints(tmp_path):
     code, text = run(*args, "--count", 38, "--out", out)
     assert code == 0 and "identifiable subspace: p = 36; chose 38 poses" in text, text
     assert len(out.read_text().splitlines()) == 39
+
+
+def test_a_bug_is_one_line_without_a_traceback(bench, monkeypatch, tmp_path):
+    """An exception sescid did not foresee still ends in one line and exit 1 (not 2: not the
+    input's fault), naming it a bug; SESCID_TRACEBACK=1 (set for the tests) lets it through."""
+    import sescid.cli.identify as cmd
+
+    def broken(*a, **k):
+        raise KeyError("cop")
+
+    monkeypatch.setattr(cmd, "run_identify", broken)
+    monkeypatch.delenv("SESCID_TRACEBACK", raising=False)
+    out = str(tmp_path / "f.json")
+    res = CliRunner().invoke(cli, ["identify", str(bench["measured"]), "--out", out])
+    assert res.exit_code == 1 and res.output.count("\n") == 1, res.output
+    assert res.output.startswith("sescid: internal error: KeyError: 'cop' (a bug in sescid")
+    monkeypatch.setenv("SESCID_TRACEBACK", "1")
+    res = CliRunner().invoke(cli, ["identify", str(bench["measured"]), "--out", out])
+    assert isinstance(res.exception, KeyError)

@@ -5,6 +5,7 @@ Only click and the exception types are imported here, so ``sescid --help`` stays
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from typing import Any
@@ -51,7 +52,8 @@ def run_guarded(invoke: Any, ctx: click.Context) -> Any:
     except BrokenPipeError:  # the reader left (`| head`): stop quietly
         import os
 
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         sys.exit(141)
     except OSError as exc:
         name = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
@@ -61,6 +63,26 @@ def run_guarded(invoke: Any, ctx: click.Context) -> Any:
         sys.exit(130)
     except MemoryError:
         fail("not enough memory for this size (use fewer poses or samples)")
+    except (click.exceptions.Exit, click.exceptions.Abort, click.ClickException):
+        raise
+    except Exception as exc:  # a bug, not the input: one line all the same
+        import os
+
+        if os.environ.get(TRACEBACK_ENV):
+            raise
+        what = " ".join(str(exc).split())
+        click.echo(
+            f"sescid: internal error: {type(exc).__name__}: {what} (a bug in sescid: please "
+            f"report it with the command; {TRACEBACK_ENV}=1 shows the traceback)",
+            err=True,
+        )
+        sys.exit(INTERNAL_ERROR)
+
+
+#: the environment variable that lets an internal error's traceback through
+TRACEBACK_ENV = "SESCID_TRACEBACK"
+#: exit code of an internal error (a bug; bad input exits 2)
+INTERNAL_ERROR = 1
 
 
 def _invoked(ctx: click.Context) -> click.Command | None:
