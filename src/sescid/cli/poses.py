@@ -103,10 +103,13 @@ def _sole_notes(robot, capsules) -> list[str]:
     help="Sole rectangle length and width [m] for --margin (default: the profile's).",
 )
 @click.option(
+    "--foot-clearance",
     "--clearance",
+    "clearance",
     default=DEFAULT_CLEARANCE,
     show_default=True,
-    help="Free sole corners above the ground by at least this [m].",
+    help="The free foot (all its geometry) above the floor by at least this [m]; on a gantry, "
+    "every body.",
 )
 @click.option(
     "--range-deg", default=None, type=float, help="Also limit every joint to ±this [degrees]."
@@ -228,7 +231,7 @@ def poses(
     if n_candidates < count:
         raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
     if not noise > 0 or not clearance >= 0:
-        raise OptionError("noise", "must be > 0 and --clearance ≥ 0 (metres)")
+        raise OptionError("noise", "must be > 0 and --foot-clearance ≥ 0 (metres)")
     if not tau_noise > 0:
         raise OptionError("tau_noise", f"must be > 0 (N·m), got {tau_noise}")
     if hang_height is not None and not hang_height > 0:
@@ -289,7 +292,7 @@ def poses(
     if plan.mount == "stand":
         echo(
             f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
-            + (f"{free} corners ≥ {clearance * 1e3:g} mm above ground; " if free else "")
+            + (f"free foot {free} ≥ {clearance * 1e3:g} mm above the floor; " if free else "")
             + f"{n_pairs} capsule pairs checked"
         )
     else:
