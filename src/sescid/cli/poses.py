@@ -224,7 +224,7 @@ def poses(
     robot = load(robot_name, support)
     if n_candidates is None:
         n_candidates = default_candidates(robot, select, count, kinds)
-    resolve_mount(robot, mount, kinds)  # a CoP design on a held trunk: say so first
+    held = resolve_mount(robot, mount, kinds) == "gantry"  # a CoP design held: said first
     need = min_poses(robot)
     if count < need and kinds == "cop":
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
@@ -239,7 +239,7 @@ def poses(
     pc = robot_paper_convention(robot)
     if paper_convention and pc is None:
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
-    half = cop_half_extents(robot, cop_box, margin, sole_size)
+    half = None if held else cop_half_extents(robot, cop_box, margin, sole_size)
     limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
     pose_check = None
     if check == "mujoco":
@@ -289,7 +289,7 @@ def poses(
     echo(f"candidates: {cand.summary()}")
     free = free_sole(robot)
     n_pairs = len(capsules.pairs) if capsules is not None else 0
-    if plan.mount == "stand":
+    if half is not None:
         echo(
             f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
             + (f"free foot {free} ≥ {clearance * 1e3:g} mm above the floor; " if free else "")
