@@ -213,6 +213,13 @@ def _turns(rot: np.ndarray) -> list[np.ndarray]:
                                          (z, x, y), (x, z, -y))]  # fmt: skip
 
 
+def largest_footprint(shapes: list[Shape], body: int, rotations: list[np.ndarray]) -> float:
+    """Area [m²] of a body's largest flat face: the largest ``footprint`` along ±x, ±y, ±z of
+    each rotation (3, 3) in ``rotations`` and of each of its shapes."""
+    dirs = [*rotations, *(s.pose[:3, :3] for s in shapes if s.body == body)]
+    return max((footprint(shapes, body, t) for r in dirs for t in _turns(r)), default=0.0)
+
+
 def level_check(
     shapes: list[Shape], body: int, frame: np.ndarray, frames: dict[str, np.ndarray]
 ) -> LevelCheck:
@@ -222,8 +229,7 @@ def level_check(
     frame in ``frames`` (name → 4×4 in the same body) and of every shape of the body; the
     frames whose own footprint passes are listed as fixes."""
     dirs = [frame[:3, :3], *(f[:3, :3] for f in frames.values())]
-    dirs += [s.pose[:3, :3] for s in shapes if s.body == body]
-    largest = max(footprint(shapes, body, t) for r in dirs for t in _turns(r))
+    largest = largest_footprint(shapes, body, dirs)
     if not largest > 0:
         return LevelCheck(True, math.nan)
     own = [footprint(shapes, body, t) for t in _turns(frame[:3, :3])]
