@@ -17,7 +17,7 @@ def info(robot_name, support):
 
     feet = None
     if support is None and robot_name not in EMBEDDED:
-        from sescid.model.feet import root_frame, support_candidates
+        from sescid.model import root_frame, support_candidates
 
         root, _ = root_frame(robot_name)
         robot = load(robot_name, root)
