@@ -104,7 +104,6 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--foot-clearance",
-    "--clearance",
     "clearance",
     default=DEFAULT_CLEARANCE,
     show_default=True,
