@@ -20,7 +20,7 @@ from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
-__all__ = ["Robot", "load_robot"]
+__all__ = ["Robot", "line_direction", "load_robot"]
 
 
 class Robot:
@@ -30,13 +30,24 @@ class Robot:
     Everything returned is in the support frame (x forward, y left, z up for a sole), metres.
     """
 
-    def __init__(self, model: RobotModel, source: str, profile: RobotProfile | None = None):
+    def __init__(
+        self,
+        model: RobotModel,
+        source: str,
+        profile: RobotProfile | None = None,
+        line: ArrayLike | None = None,
+    ):
         self.model = model
         #: what ``load_robot`` was given: an embedded name (``"op2"``) or a model file path
         self.source = source
         #: robot-specific facts (sole, servo, sensors, …); generic for an arbitrary model file
         self.profile = profile or generic_profile(model.name)
         self.tree = kinematics.Tree.from_model(model)
+        if line is None:
+            line = self.profile.support_lines.get(model.support)
+        #: (3,) unit direction of the support line (a wheel axle, an edge) through the support
+        #: frame's origin, in that frame; None for a support that is a sole or a held link
+        self.line = None if line is None else line_direction(line, f"{model.path.name}: line")
 
     # --- description -------------------------------------------------------------------
     @property
@@ -90,8 +101,9 @@ class Robot:
         return self.tree.root_o.copy()
 
     def __repr__(self) -> str:
+        line = "" if self.line is None else f", line={self.line.round(6).tolist()}"
         return (
-            f"Robot({self.name!r}, support={self.support!r}, {self.nq} joints, "
+            f"Robot({self.name!r}, support={self.support!r}{line}, {self.nq} joints, "
             f"{len(self.body_names)} bodies, {self.total_mass:.4f} kg)"
         )
 
@@ -180,6 +192,48 @@ class Robot:
         mass = self.total_mass if total_mass is None else float(total_mass)
         cols = self.joint_columns(joints)
         return sesc.torques(self.tree, q, rr, mass, cols, gravity, g0)
+
+    # --- stances: the same robot rooted elsewhere ----------------------------------------
+    def at(self, support: str, line: ArrayLike | str | None = None) -> Robot:
+        """The same model and profile rooted at another support frame (a stance: the other
+        foot, a held link, a line); ``line`` as in ``load_robot``."""
+        if support == self.support and line is None:
+            return self
+        key = self.source if self.source in EMBEDDED else self.model_path
+        return load_robot(key, support, line)
+
+    def body_parameters(self) -> np.ndarray:
+        """θ (4N,) = [m (N) kg; vec(m c) (3N) kg·m]: each body's mass and first moment about
+        its frame's origin, in its frame (the parameters every stance shares)."""
+        bodies = self.model.bodies
+        first = np.array([b.mass * b.com for b in bodies]).reshape(-1)
+        return np.concatenate([[b.mass for b in bodies], first])
+
+    def sesc_matrix(self, reference: Robot | None = None) -> np.ndarray:
+        """E (3N, 4N) with vec(r) = E θ / M: this support's SESC vectors from the body
+        parameters θ of ``reference`` (the same model rooted elsewhere: its bodies, its body
+        frames; default this robot), M = Σ m. Bodies are matched by the model links they
+        hold; ModelError when the two are not the same model."""
+        from sescid.model.tree import inv_transform
+
+        ref = reference or self
+        mine, theirs = self.model.bodies, ref.model.bodies
+        n = len(mine)
+        where = {lk: j for j, b in enumerate(theirs) for lk in b.links}
+        if len(theirs) != n or any(b.links[0] not in where for b in mine):
+            raise ModelError(
+                f"{self.model_path.name}: the stances '{self.support}' and '{ref.support}' are "
+                "not the same model (different bodies)"
+            )
+        p = np.zeros((4 * n, 4 * n))  # own-frame parameters from the reference's
+        for i, b in enumerate(mine):
+            link = b.links[0]
+            j = where[link]
+            x = self.model.link_frames[link][1] @ inv_transform(ref.model.link_frames[link][1])
+            p[i, j] = 1.0
+            p[n + 3 * i : n + 3 * i + 3, j] = x[:3, 3]
+            p[n + 3 * i : n + 3 * i + 3, n + 3 * j : n + 3 * j + 3] = x[:3, :3]
+        return sesc.sesc_matrix(self.model) @ p
 
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
@@ -293,19 +347,48 @@ class Robot:
         return rb @ x[:3, :3], ob + rb @ x[:3, 3]
 
 
-def load_robot(name_or_path: str | Path = "op2", support: str | None = None) -> Robot:
+def line_direction(line: ArrayLike | str, what: str = "line") -> np.ndarray:
+    """A support line's unit direction (3,) from an axis name ("x", "-y", …) or 3 numbers
+    (a string "ax,ay,az" or an array); ModelError for anything else."""
+    axes = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+    if isinstance(line, str):
+        text = line.strip().lower()
+        sign = -1.0 if text.startswith("-") else 1.0
+        if text.lstrip("+-") in axes:
+            return sign * np.array(axes[text.lstrip("+-")])
+        try:
+            line = [float(v) for v in text.split(",")]
+        except ValueError:
+            raise ModelError(
+                f"{what}: {line!r} is not a direction (x, y, z, -y, … or ax,ay,az)"
+            ) from None
+    v = np.asarray(line, dtype=float).reshape(-1)
+    norm = float(np.linalg.norm(v)) if v.shape == (3,) and np.all(np.isfinite(v)) else 0.0
+    if norm < 1e-9:
+        raise ModelError(f"{what}: a direction needs 3 finite numbers, not all 0 (got {line!r})")
+    return v / norm
+
+
+def load_robot(
+    name_or_path: str | Path = "op2",
+    support: str | None = None,
+    line: ArrayLike | str | None = None,
+) -> Robot:
     """Load an embedded robot (``"op2"``) or any URDF/MJCF file, rooted at the frame ``support``.
 
     ``support`` defaults to the profile's (``r_sole`` for the OP2) and is required for other
     model files. Fixed-joint links are merged into their parents (their mass counts); revolute,
     continuous and mimic joints are supported; prismatic and planar joints raise ModelError.
+    ``line``: the robot balances on a line through the support frame's origin (a wheel axle, an
+    edge) with this direction in the support frame ("x", "-y", "ax,ay,az" or 3 numbers); None:
+    the profile's line for this support, if any (else a sole or a held link).
     """
     key = str(name_or_path)
     if key in EMBEDDED:
         profile = profile_for(key)
         assert profile.model_file is not None
         model = load_model(profile.model_file, support or profile.support or "")
-        return Robot(model, key, profile)
+        return Robot(model, key, profile, line)
     path = Path(key)
     if path.suffix.lower() in (".urdf", ".xml", ".mjcf") and not path.is_file():
         kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
@@ -316,5 +399,23 @@ def load_robot(name_or_path: str | Path = "op2", support: str | None = None) -> 
             "or a URDF/MJCF file"
         )
     if support is None:
-        raise ModelError(f"{path}: name the support frame (a sole link, foot link or site)")
-    return Robot(load_model(path, support), str(path.resolve()))
+        raise ModelError(
+            f"{path}: name the support frame (--support: a sole link, foot link or site)"
+            + _feet_hint(path)
+        )
+    return Robot(load_model(path, support), str(path.resolve()), line=line)
+
+
+def _feet_hint(path: Path) -> str:
+    """'; feet found …: a, b' naming the model's support candidates ('' when none are found or
+    the model cannot be read: its own error comes with loading it)."""
+    from sescid.errors import SescidError
+    from sescid.model.feet import support_candidates
+
+    try:
+        feet = support_candidates(path)
+    except SescidError:
+        return ""
+    if not feet:
+        return ""
+    return "; feet found from the tree and the geometry: " + ", ".join(f.support for f in feet)

@@ -26,7 +26,7 @@ from sescid.cli.options import consistent_from_flags, consistent_options, echo_m
 from sescid.errors import DataError, OptionError
 from sescid.estimation import (
     COP_ON_TRUNK,
-    METHODS,
+    METHOD_CHOICES,
     ConsistentOptions,
     Fit,
     IdentifyOptions,
@@ -44,8 +44,9 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     does nothing with the others)."""
     refuse_idle("gain_prior", opts["tau_gains"], "without --tau-gains")
     refuse_idle("mc_draws", opts["joint_noise_deg"] is not None, "without --joint-noise-deg")
-    refuse_idle("noise", method == "map" or opts["online"], "without --method map or --online")
-    if method != "map":
+    refuse_idle("noise", method in ("map", "auto") or opts["online"],
+                "without --method map (or auto) or --online")  # fmt: skip
+    if method not in ("map", "auto"):
         given = [
             name
             for name, on in (
@@ -85,6 +86,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         allow_exact=opts["allow_exact"],
         imu_link=opts["imu_link"],
         allow_outside_limits=opts["allow_outside_limits"],
+        com_height=opts["com_height"],
         robust=robust,
         seed=opts["seed"],
         cv=opts["cv"],
@@ -99,7 +101,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
             bias=opts["bias"],
             prior=opts["prior"],
         )
-        if method == "map"
+        if method in ("map", "auto")
         else MapOptions(),
         consistent=consistent,
     )  # fmt: skip
@@ -120,19 +122,28 @@ def _online_step(opts: dict) -> int | None:
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Fit JSON.")
 @click.option(
     "--method",
-    type=click.Choice(list(METHODS)),
-    default="ls",
+    type=click.Choice(list(METHOD_CHOICES)),
+    default="auto",
     show_default=True,
-    help="ls: least squares (undetermined directions from the model file); map: Gaussian CAD "
-    "prior; consistent: body masses and CoMs (see --total-mass …).",
+    help="auto: MAP with the CAD prior when the data leave directions weakly determined, "
+    "least squares when they determine every direction well (the fit says which and why); "
+    "ls: least squares (the paper's; undetermined directions from the model file); map: "
+    "Gaussian CAD prior; consistent: body masses and CoMs (see --total-mass …).",
 )
 @click.option(
     "--kinds",
-    type=click.Choice(["all", "cop", "tau"]),
+    type=click.Choice(["all", "cop", "tau", "balance"]),
     default="all",
     show_default=True,
     help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
     "torques only.",
+)
+@click.option(
+    "--com-height",
+    default=None,
+    type=click.FloatRange(min=0, min_open=True),
+    help="Balance data (a robot on a line) carry no scale: the CoM's known distance from the "
+    "support line at the zero pose [m] (default: the model's).",
 )
 @click.option(
     "--weighted",

@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     )
     from sescid.estimation.consistent import body_boxes, fit_inertials
     from sescid.estimation.fit import (
+        METHOD_CHOICES,
         METHODS,
         BodyInertials,
         Combination,
@@ -53,6 +54,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.estimation.options import ConsistentOptions, IdentifyOptions, MapOptions
     from sescid.estimation.validation import (
         Interval,
+        balance_interval,
         com_interval,
         cop_interval,
         perturbed_sesc,
@@ -72,6 +74,7 @@ __all__ = [
     "JointNoiseEffect",
     "KINDS",
     "KindFit",
+    "METHOD_CHOICES",
     "METHODS",
     "MapInfo",
     "MapOptions",
@@ -85,6 +88,7 @@ __all__ = [
     "body_boxes",
     "cad_violations",
     "check_total_mass",
+    "balance_interval",
     "com_interval",
     "cop_interval",
     "fit_inertials",
@@ -118,6 +122,7 @@ _EXPORTS = {
     "JointNoiseEffect": "sescid.estimation.fit",
     "KINDS": "sescid.estimation.measurements",
     "KindFit": "sescid.estimation.fit",
+    "METHOD_CHOICES": "sescid.estimation.fit",
     "METHODS": "sescid.estimation.fit",
     "MODEL_CHANGED": "sescid.estimation.fit_json",
     "OLD_FORMAT": "sescid.estimation.fit_json",
@@ -134,6 +139,7 @@ _EXPORTS = {
     "body_boxes": "sescid.estimation.consistent",
     "cad_violations": "sescid.estimation.cad_check",
     "check_total_mass": "sescid.estimation.checks",
+    "balance_interval": "sescid.estimation.validation",
     "com_interval": "sescid.estimation.validation",
     "cop_interval": "sescid.estimation.validation",
     "fit_inertials": "sescid.estimation.consistent",

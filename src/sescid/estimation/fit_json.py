@@ -37,9 +37,11 @@ from sescid.estimation.fit import (
     JointNoiseEffect,
     KindFit,
     MapInfo,
+    MethodChoice,
     NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
+    ScaleAnchor,
 )
 from sescid.robot import load_robot
 
@@ -50,6 +52,8 @@ FIT_FORMATS = (FIT_FORMAT_V1, FIT_FORMAT_V2, FIT_FORMAT)
 _RECORDS: dict[str, type] = {
     "map": MapInfo,
     "cop_offset": CopOffset,
+    "scale": ScaleAnchor,
+    "choice": MethodChoice,
     "inertials": BodyInertials,
     "robust": RobustInfo,
     "online": OnlineInfo,
@@ -106,6 +110,7 @@ def fit_to_json(fit: Fit) -> dict:
             "source": robot.source,
             "name": robot.name,
             "support": robot.support,
+            "line": None if robot.line is None else robot.line.tolist(),
             "joint_names": robot.joint_names,
             "body_names": bodies,
             "total_mass": robot.total_mass,
@@ -131,6 +136,7 @@ def fit_to_json(fit: Fit) -> dict:
         "singular_values": fit.singular_values.tolist(),
         "base_combinations": [c.to_json() for c in fit.base],
         "unidentifiable": [c.to_json() for c in fit.unidentifiable],
+        "weak": [c.to_json() for c in fit.weak],
         "notes": fit.notes,
         "warnings": list(fit.warnings),
         "kinds": [_record_to_json(k) for k in fit.kinds],
@@ -262,7 +268,7 @@ def load_fit(path: str | Path) -> Fit:
     v1 = data["format"] == FIT_FORMAT_V1
     try:
         meta = data["robot"]
-        robot = load_robot(meta["source"], meta["support"])
+        robot = load_robot(meta["source"], meta["support"], meta.get("line"))
         if robot.body_names != meta["body_names"] or robot.joint_names != meta["joint_names"]:
             raise DataError(
                 f"{path}: the robot '{meta['source']}' no longer has the bodies/joints this "
@@ -326,6 +332,7 @@ def load_fit(path: str | Path) -> Fit:
             method=method,
             base=tuple(Combination.from_json(c) for c in data["base_combinations"]),
             unidentifiable=tuple(Combination.from_json(c) for c in data["unidentifiable"]),
+            weak=tuple(Combination.from_json(c) for c in data.get("weak", [])),
             **fields,
         )
         changed = _model_change(path, meta, robot)

@@ -35,16 +35,20 @@ SIGN_SPREAD_NM = 0.02
 #: the measurement kinds, as named in fits, files and options
 COP = "cop"
 TORQUE = "tau"
-KINDS = (COP, TORQUE)
+BALANCE = "balance"
+KINDS = (COP, TORQUE, BALANCE)
 
 
 @dataclass(frozen=True)
 class Measurements:
     """Poses and what was measured at them; every array has the poses first.
 
-    ``q`` (n, nq) rad in ``Robot.joint_names`` order; ``cop`` (n, 2) m and ``cop_se`` (n, 2) m
-    its standard errors; ``tau`` (n, J) N·m, the torque each actuator of ``tau_joints`` applies
-    to hold the pose (model sign convention) and ``tau_se`` (n, J) N·m; ``approach`` (n,) ±1:
+    ``q`` (n, nq) rad in ``Robot.joint_names`` order; ``cop`` (n, 2) m (nan where a coordinate
+    was not measured: each row fits the coordinates it has) and ``cop_se`` (n, 2) m its
+    standard errors; ``balance`` (n,) m: the CoM's measured horizontal offset from the robot's
+    support line (``Robot.line``; 0 for a pose balanced on it), which needs ``gravity``;
+    ``tau`` (n, J) N·m, the torque each actuator of ``tau_joints`` applies to hold the pose
+    (model sign convention) and ``tau_se`` (n, J) N·m; ``approach`` (n,) ±1:
     each pose was reached with the joints moving in their positive (+1) or negative (−1)
     direction last (static friction holds the torque on that side of the gravity torque);
     ``gravity`` (n, 3) the gravity direction in the support frame (None: level);
@@ -55,6 +59,7 @@ class Measurements:
     q: np.ndarray
     cop: np.ndarray | None = None
     cop_se: np.ndarray | None = None
+    balance: np.ndarray | None = None
     tau: np.ndarray | None = None
     tau_joints: tuple[str, ...] = ()
     tau_se: np.ndarray | None = None
@@ -64,6 +69,10 @@ class Measurements:
     source: str = "data"
     #: pose i → where a file holds it ("row 7"; None: arrays, named "pose i" in errors)
     row_of: Callable[[int], str] | None = None
+
+    def at(self, i: int) -> str:
+        """Pose ``i`` as an error names it: the file's row ("row 7"), or "pose i" of arrays."""
+        return self.row_of(int(i)) if self.row_of is not None else f"pose {int(i)}"
 
     def cell(self, i: int, column: str) -> str:
         """Pose ``i``'s value of ``column`` as an error names it: the file's row and column,
@@ -85,11 +94,16 @@ class Measurements:
             out.append(COP)
         if self.tau is not None and len(self.tau_joints):
             out.append(TORQUE)
+        if self.balance is not None:
+            out.append(BALANCE)
         return tuple(out)
 
     def rows(self) -> int:
-        """Equations these poses give: 2 per CoP, 1 per measured torque."""
-        return self.n * (2 * (self.cop is not None) + len(self.tau_joints) * (self.tau is not None))
+        """Equations these poses give: 1 per measured CoP coordinate, 1 per measured torque,
+        1 per balance."""
+        cop = 0 if self.cop is None else int(np.count_nonzero(~np.isnan(self.cop)))
+        tau = len(self.tau_joints) * (self.tau is not None) * self.n
+        return cop + tau + self.n * (self.balance is not None)
 
     def checked(self, robot: Robot) -> Measurements:
         """A validated copy: float64 C-contiguous arrays of the right shapes, finite values,
@@ -107,8 +121,8 @@ class Measurements:
                 f"{where}: {self.cell(row, names[col])}: {q[row, col]:g} rad looks like degrees; "
                 "joint angles are in radians"
             )
-        cop = self._array(self.cop, (n, 2), "cop", ["cop_x", "cop_y"], "m")
-        if cop is not None and np.any(np.abs(cop) > MAX_COP_M):
+        cop = self._array(self.cop, (n, 2), "cop", ["cop_x", "cop_y"], "m", missing=True)
+        if cop is not None and np.any(np.abs(cop) > MAX_COP_M):  # nan compares False
             row, col = np.argwhere(np.abs(cop) > MAX_COP_M)[0]
             raise DataError(
                 f"{where}: {self.cell(row, f'cop_{chr(120 + col)}')} = {cop[row, col]:g} m is "
@@ -151,11 +165,16 @@ class Measurements:
         grav = ["grav_x", "grav_y", "grav_z"]
         gravity = self._array(self.gravity, (n, 3), "gravity", grav, "direction")
         cop_true = self._array(self.cop_true, (n, 2), "cop_true", ["cop_x_true", "cop_y_true"], "m")
-        if cop is None and tau is None:
+        balance = self._array(self.balance, (n,), "balance", ["balance"], "m")
+        if balance is not None:
+            _check_balance(robot, balance, gravity, where, self.at)
+        if cop is None and tau is None and balance is None:
             raise DataError(
                 f"{where}: nothing measured: give cop_x, cop_y (centre of pressure) and/or "
                 "tau_<joint> columns (joint torques)"
             )
+        if cop is not None:
+            _check_cop_rows(cop, tau is not None or balance is not None, where, self.at)
         return dataclasses.replace(
             self,
             q=q,
@@ -167,13 +186,21 @@ class Measurements:
             approach=approach,
             gravity=gravity,
             cop_true=cop_true,
+            balance=balance,
         )
 
     def _array(
-        self, value, shape: tuple[int, ...], what: str, columns: list[str], unit: str
+        self,
+        value,
+        shape: tuple[int, ...],
+        what: str,
+        columns: list[str],
+        unit: str,
+        missing: bool = False,
     ) -> np.ndarray | None:
         """``value`` as a float array of ``shape``; DataError naming the first non-finite cell
-        (its ``columns`` name, row or pose)."""
+        (its ``columns`` name, row or pose; nan marks a value not measured where ``missing``
+        allows it)."""
         if value is None:
             return None
         arr = np.asarray(value, dtype=float)
@@ -184,7 +211,7 @@ class Measurements:
                 f"{self.source}: {what}: expected shape {shape} ({unit}), got {arr.shape}"
             )
         if arr.size and not math.isfinite(float(np.sum(arr))):
-            bad = np.argwhere(~np.isfinite(arr))
+            bad = np.argwhere(np.isinf(arr) if missing else ~np.isfinite(arr))
             if bad.size:
                 i = int(bad[0][0])
                 col = columns[int(bad[0][1])] if arr.ndim > 1 else columns[0]
@@ -269,10 +296,60 @@ class Measurements:
         """The same poses with one kind of measurement dropped."""
         if kind == COP:
             return dataclasses.replace(self, cop=None, cop_se=None, cop_true=None)
+        if kind == BALANCE:
+            return dataclasses.replace(self, balance=None)
         return dataclasses.replace(self, tau=None, tau_joints=(), tau_se=None, approach=None)
 
+    @property
+    def cop_missing(self) -> int:
+        """CoP coordinates not measured (nan) in these poses."""
+        return 0 if self.cop is None else int(np.count_nonzero(np.isnan(self.cop)))
 
-_ARRAYS = ("q", "cop", "cop_se", "tau", "tau_se", "approach", "gravity", "cop_true")
+
+_ARRAYS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
+
+
+#: a support line must not point closer to gravity than this (rad): the CoM's offset across it
+#: would be undefined
+MIN_LINE_GRAVITY_ANGLE = 0.1
+
+
+def _check_balance(
+    robot: Robot, balance: np.ndarray, gravity: np.ndarray | None, where: str, at=str
+) -> None:
+    """A balance measurement needs a line support and the gravity direction of every pose
+    (``at(i)`` names pose i: "row 7")."""
+    if robot.line is None:
+        raise DataError(
+            f"{where}: balance rows need a support line (a wheel axle, an edge): give its "
+            "direction (load_robot(…, line=…) / --line)"
+        )
+    if gravity is None:
+        raise DataError(
+            f"{where}: balance rows need the gravity direction of every pose (grav_x/y/z, or "
+            "the IMU's imu_roll/imu_pitch)"
+        )
+    g = gravity / np.linalg.norm(gravity, axis=1, keepdims=True)
+    bad = np.flatnonzero(np.abs(g @ robot.line) > math.cos(MIN_LINE_GRAVITY_ANGLE))
+    if bad.size:
+        raise DataError(
+            f"{where}: {at(bad[0])}: gravity {gravity[bad[0]].round(4).tolist()} runs along the "
+            "support line: the CoM's offset across it is not defined (check the line's "
+            "direction or the IMU columns)"
+        )
+
+
+def _check_cop_rows(cop: np.ndarray, other_kinds: bool, where: str, at=str) -> None:
+    """Each pose must measure something: a CoP row with both coordinates missing needs
+    another kind in the same data (``at(i)`` names pose i: "row 7")."""
+    if other_kinds:
+        return
+    empty = np.flatnonzero(np.all(np.isnan(cop), axis=1))
+    if empty.size:
+        raise DataError(
+            f"{where}: {at(empty[0])}: neither cop_x nor cop_y was measured (drop the row or "
+            "fill one of them)"
+        )
 
 
 def concatenate(parts: Sequence[Measurements]) -> Measurements:

@@ -13,9 +13,9 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
-from sescid.estimation.fit import METHODS, Fit
+from sescid.estimation.fit import METHOD_CHOICES, Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
-from sescid.estimation.measurements import COP, TORQUE
+from sescid.estimation.measurements import COP, KINDS, TORQUE
 from sescid.estimation.robust import HUBER_K
 from sescid.estimation.system import RowOptions
 from sescid.sesc import STANDARD_GRAVITY
@@ -26,9 +26,9 @@ class MapOptions:
     """MAP parameters: prior scale τ and noise σ (m; None = chosen by the data), how τ is
     chosen ("evidence" or "cv" with ``folds``), whether a constant CoP offset is fitted, and the
     prior's shape: "sesc" (each SESC component ±τ m), "bodies" (each body's mass ±τ and first
-    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction) or "auto" ("bodies"
-    for data with joint torques, whose many rows it suits — measured by tools/torque_study.py —
-    "sesc" for the CoP alone)."""
+    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction) or "auto" ("bodies":
+    closer to the truth than "sesc" for the CoP and for joint torques alike, in every case of
+    docs/defaults.md)."""
 
     prior_scale: float | None = None
     noise: float | None = None
@@ -114,7 +114,9 @@ class IdentifyOptions:
     these measurement kinds of the data ("cop", "tau"; None: all it has). Files only
     (``sescid.identify`` on paths): ``imu_link``, the link whose ``imu_roll``/``imu_pitch``
     columns give gravity (None: the profile's); ``allow_outside_limits``, accept poses outside
-    the model's joint limits with a warning (else an error names the first).
+    the model's joint limits with a warning (else an error names the first). ``com_height``
+    [m]: for balance data, which carry no scale (``estimation.anchor``), the CoM's known
+    distance from the support (its line) at the zero pose (None: the prior model's).
     """
 
     rtol: float = DEFAULT_RTOL
@@ -137,6 +139,7 @@ class IdentifyOptions:
     kinds: tuple[str, ...] | None = None
     imu_link: str | None = None
     allow_outside_limits: bool = False
+    com_height: float | None = None
     map: MapOptions = field(default_factory=MapOptions)
     consistent: ConsistentOptions = field(default_factory=ConsistentOptions)
 
@@ -153,8 +156,10 @@ class IdentifyOptions:
 
     def check(self, method: str) -> None:
         """OptionError for a value out of range or an option another method owns."""
-        if method not in METHODS:
-            raise OptionError("method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        if method not in METHOD_CHOICES:
+            raise OptionError(
+                "method", f"must be one of {', '.join(METHOD_CHOICES)}, got {method!r}"
+            )
         check_rtol(self.rtol)
         self.consistent.check()
         for name, value in (("cop_noise", self.cop_noise), ("tau_noise", self.tau_noise)):
@@ -182,14 +187,20 @@ class IdentifyOptions:
             )
         if self.online_step is not None:
             self._check_online(method)
-        if self.kinds is not None and (not self.kinds or set(self.kinds) - {COP, TORQUE}):
-            raise OptionError("kinds", f"must name cop and/or tau, got {self.kinds!r}")
+        if self.com_height is not None and not (
+            math.isfinite(self.com_height) and 0 < self.com_height <= 10
+        ):
+            raise OptionError(
+                "com_height", f"must be a distance in m (0–10), got {self.com_height}"
+            )
+        if self.kinds is not None and (not self.kinds or set(self.kinds) - set(KINDS)):
+            raise OptionError("kinds", f"must name some of {', '.join(KINDS)}, got {self.kinds!r}")
         if not (math.isfinite(self.gain_prior) and 0 < self.gain_prior <= 1):
             raise OptionError(
                 "gain_prior", f"must be a relative std in (0, 1], got {self.gain_prior}"
             )
-        if method != "map" and self.map != MapOptions():
-            raise OptionError("map_options", f"apply to method 'map' only, not {method!r}")
+        if method not in ("map", "auto") and self.map != MapOptions():
+            raise OptionError("map_options", f"apply to method 'map' (or auto), not {method!r}")
         if method != "consistent" and self.consistent != ConsistentOptions():
             raise OptionError(
                 "consistent_options", f"apply to method 'consistent' only, not {method!r}"
@@ -198,7 +209,7 @@ class IdentifyOptions:
     def _check_online(self, method: str) -> None:
         if self.online_step < 1:  # type: ignore[operator]
             raise OptionError("online_step", f"must be ≥ 1 pose, got {self.online_step}")
-        if method not in ("ls", "map"):
+        if method not in ("ls", "map", "auto"):
             raise OptionError("online", f"the recursive fit supports ls or map, not {method}")
         if self.robust is True or self.map.bias:
             raise OptionError("online", "the recursive fit cannot be robust or fit a bias")
