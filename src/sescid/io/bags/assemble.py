@@ -19,7 +19,7 @@ import numpy as np
 
 from sescid.errors import DataError, SescidError
 from sescid.io.bags.feet import FORCE_N, LENGTH_M, FootSource
-from sescid.io.bags.joints import joint_angles, joint_torques
+from sescid.io.bags.joints import check_joint_values, joint_angles, joint_torques
 from sescid.io.bags.mapping import BagMapping, load_mapping
 from sescid.io.bags.messages import foot_values, pose_ids
 from sescid.io.bags.recording import bag_paths, check_type, read_topics
@@ -184,7 +184,7 @@ def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> Raw
     clocks = _clocks(mp, topics, tol, notes)
     tj, q = _sorted(clocks["joints"], joint_angles(clocks["joints"], mp, joint_names, notes))
     q = fill_recent(tj, q, tol)
-    _check_joint_values(clocks["joints"], tj, q, joint_names, notes)
+    check_joint_values(clocks["joints"], tj, q, joint_names, notes)
     streams = _streams(mp, clocks, joint_names, notes)
     clock = f"feet.{mp.feet[0].name}" if mp.feet else "torques"
     t_clock = streams[clock][0]
@@ -208,48 +208,6 @@ def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> Raw
         foot = next((f for f in mp.feet if f"feet.{f.name}" == name), None)
         cols |= values if foot is None else _foot_columns(foot, values["v"], qk, robot, mp.source)
     return _result(cols, dropped, notes)
-
-
-#: rad: consecutive joint states further apart than this, while the states two apart agree,
-#: alternate between two time lines
-ALTERNATION_RAD = 0.01
-#: alternating joint states that make a recording two interleaved time lines
-ALTERNATIONS = 10
-
-
-def _check_joint_values(c: Clocked, tj: np.ndarray, q: np.ndarray, joint_names, notes) -> None:
-    """Name the joints whose angles are NaN (a note; an error when one never has a value), and
-    refuse joint states that alternate between two time lines (a clock that stepped back
-    while recording: the bag's order interleaves two stretches of the session)."""
-    where = f"{c.topic.bag}: {c.topic.name}"
-    nan = np.isnan(q)
-    if nan.any():
-        counts = nan.sum(axis=0)
-        dead = [j for j, n in zip(joint_names, counts, strict=True) if n == len(q)]
-        if dead:
-            raise DataError(
-                f"{where}: joint '{dead[0]}' has no value (NaN) in any of the {len(q)} joint "
-                "states: no sample can be placed (a dead encoder?)"
-            )
-        shown = ", ".join(f"'{j}' {int(n)}" for j, n in zip(joint_names, counts, strict=True)
-                          if n)  # fmt: skip
-        notes.append(
-            f"{c.topic.name}: NaN joint angles ({shown} of {len(q)} joint states): the samples "
-            "they would place are dropped (missing_joint)"
-        )
-    if len(q) < 3:
-        return
-    with np.errstate(invalid="ignore"):
-        d1 = np.nanmax(np.abs(q[1:-1] - q[:-2]), axis=1)
-        d2 = np.nanmax(np.abs(q[2:] - q[:-2]), axis=1)
-    alt = np.flatnonzero((d1 > ALTERNATION_RAD) & (d2 < 0.25 * d1))
-    if alt.size >= ALTERNATIONS:
-        t = (tj[alt[0] + 1] - tj[0]) * 1e-9
-        raise DataError(
-            f"{where}: from {t:.3f} s on, {alt.size} joint states alternate between two sets of "
-            "angles: two time lines interleaved in one recording (a clock that stepped back?); "
-            "split the bag where the clock stepped back"
-        )
 
 
 def _result(cols: dict[str, np.ndarray], dropped: dict[str, int], notes: list[str]):
