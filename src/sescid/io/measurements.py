@@ -80,9 +80,11 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
     gravity = table_gravity(robot, table, q, imu_link)
     balance = _balance(table, robot, has_cop, gravity)
     if cop is None and not joints and balance is None:
+        plan = any(f"{j}_deg" in table.names() for j in robot.joint_names)
         raise DataError(
-            f"{table.path}: no measurement columns: give cop_x, cop_y (centre of pressure) "
-            "and/or tau_<joint> (joint torques, N·m)"
+            f"{table.path}: no measurement columns"
+            + (" (joint angles only: a pose list, measured nowhere)" if plan else "")
+            + ": give cop_x, cop_y (centre of pressure) and/or tau_<joint> (joint torques, N·m)"
         )
     if cop is not None and not joints:
         empty = np.flatnonzero(np.all(np.isnan(cop), axis=1))

@@ -346,6 +346,8 @@ def write_table(path: str | Path, columns: dict[str, np.ndarray]) -> None:
     path = Path(path)
     names = list(columns)
     cols = [np.asarray(columns[k]) for k in names]
+    if not names:  # a header-less file would read back as nothing: say so instead
+        raise DataError(f"{path}: nothing to write (no column)")
     try:
         import pyarrow as pa
     except ImportError:  # pragma: no cover - pyarrow is a dependency; plain writer otherwise
