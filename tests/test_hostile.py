@@ -578,6 +578,10 @@ def test_robots_with_nothing_to_measure(tmp_path):
     code, text = run("experiment", *b, "--mount", "gantry", "--torques", "all", "--poses",
                      tmp_path / "s.csv", "--out", out)  # fmt: skip
     assert code == 2 and "the model has no joints to measure" in text and not out.exists()
+    code, text = run("identify", tmp_path / "s.csv", *b, "--out", tmp_path / "f.json")
+    assert code == 2 and "block has no joints: every pose is the same rigid body" in text, text
+    code, text = run("poses", *b, "--count", 5, "--out", out)
+    assert code == 2 and out.exists() is False and text.count("\n") == 1, text
     s = ("--robot", stick, "--support", "foot")
     code, text = run("simulate", *s, "--measure", "tau", "--count", 1, "--out", tmp_path / "t.csv")
     assert code == 0, text

@@ -110,12 +110,17 @@ class Measurements:
         positive standard errors, known joints, ±1 approach sides (DataError naming the source,
         the row and the column otherwise)."""
         where = self.source
+        if robot.nq == 0:
+            raise DataError(
+                f"{where}: {robot.name} has no joints: every pose is the same rigid body, and its "
+                "data repeat one measurement (sescid fits robots with joints)"
+            )
         q = as_poses(self.q, robot.nq, f"{where}: q")
         n = q.shape[0]
         if n == 0:
             raise DataError(f"{where}: no poses")
         names = list(robot.joint_names)
-        if q.max() > MAX_ANGLE_RAD or q.min() < -MAX_ANGLE_RAD:  # no |q| temporary
+        if q.size and (q.max() > MAX_ANGLE_RAD or q.min() < -MAX_ANGLE_RAD):  # no |q| temporary
             row, col = np.argwhere(np.abs(q) > MAX_ANGLE_RAD)[0]
             raise DataError(
                 f"{where}: {self.cell(row, names[col])}: {q[row, col]:g} rad looks like degrees; "
