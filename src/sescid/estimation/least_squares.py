@@ -29,7 +29,7 @@ from sescid.estimation.identifiability import (
     sparse_terms,
     unidentifiable,
 )
-from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.pooled import body_fit, prior_x, stance_map, view, x_labels
 from sescid.estimation.residual_sums import residual_sums
@@ -303,8 +303,17 @@ def solve(
 
 def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     """Residuals per kind at validated data m: "cop" (n, 2) m net of a CoP offset, "tau"
-    (n, J) N·m net of the sensor offsets and friction bands."""
+    (n, J) N·m net of the sensor offsets and friction bands, "balance" (n,) rad; data of
+    another stance with the fit seen there (``pooled.for_support``)."""
+    if m.support is not None and m.support != fit.robot.support:
+        from sescid.estimation.pooled import for_support
+
+        fit = for_support(fit, m.support)
     out = {}
+    if m.balance is not None and m.gravity is not None:
+        from sescid.estimation.balance_rows import balance_residuals
+
+        out[BALANCE] = balance_residuals(fit.robot, fit.r, m.q, m.balance, m.gravity)
     if m.cop is not None:
         out[COP] = m.cop - fit.predict_cop(m.q, m.gravity) - fit.cop_bias
     if m.tau is not None and m.tau_joints:
@@ -365,7 +374,7 @@ def refit_nuisance(fit: Fit, system: System) -> Fit:
         noise = {system.kinds[0]: 1.0}
     ne = weighted_sums(system, noise)
     n_x = system.n_x
-    x = fit.r.reshape(-1)
+    x = fit.bodies.x if system.space == "bodies" else fit.r.reshape(-1)
     a_nn = ne.ata[n_x:, n_x:]
     b_n = ne.atb[n_x:] - ne.ata[n_x:, :n_x] @ x
     values = np.linalg.pinv(a_nn, rcond=1e-10, hermitian=True) @ b_n
