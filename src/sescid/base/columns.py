@@ -301,7 +301,7 @@ def read_cop(table: Table) -> np.ndarray:
             inf = np.flatnonzero(np.isinf(col))
             if inf.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(inf[0])}, column '{name}': value "
+                    f"{table.path}: {table.where(inf[0])}, column '{name}': value "
                     f"{col[inf[0]]} is not finite"
                 )
             cols.append(col)
