@@ -182,7 +182,7 @@ TABLE_HEAD = (
 )
 TABLE_ROWS = [
     ("manufacturer model", "manufacturer"),
-    ("identified (weighted least squares)", "identified"),
+    ("identified (`identify --weighted`: method auto, MAP here)", "identified"),
 ]
 TABLE_ROWS_MUJOCO = [
     ("physics bench (`--engine mujoco`, 38 poses), manufacturer", "manufacturer"),
