@@ -42,15 +42,23 @@ def _unsided(fit: Fit) -> bool:
     return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
 
 
-def _huber(robot, method, opts, memory: list[Measurements]) -> Fit:
-    """Huber IRLS around ``method`` on data in memory."""
-    from sescid.estimation.robust import huber
+def _huber(robot, method, opts, sources, memory: list[Measurements] | None, start=None) -> Fit:
+    """Huber IRLS around ``method``: over the sources, re-read each step (flat memory), or on
+    the data in memory where the method needs them there (cross-validation)."""
+    from sescid.estimation.robust import huber, huber_sources
 
     def run(data: list[Measurements], weighted: bool) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
         return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data)
 
-    return huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+    if memory is not None:
+        return huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+
+    def run_sources(srcs: list[Any], weighted: bool) -> Fit:
+        o = dataclasses.replace(opts, robust=False, weighted=weighted)
+        return run_method(robot, method, o, srcs, None)
+
+    return huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k, start=start)
 
 
 def _normalise(data, cop, sigma, gravity) -> Any:
@@ -112,8 +120,7 @@ def identify(
     try:
         robust = opts.robust
         needs_memory = (
-            robust is True
-            or (method == "map" and opts.map.select == "cv")
+            (method == "map" and opts.map.select == "cv")
             or opts.cv is not None
             or opts.joint_noise is not None
             or opts.online_step is not None
@@ -129,13 +136,11 @@ def identify(
             assert memory is not None
             fit = fit_with_gains(robot, method, opts, memory, opts.robust is True)
         elif robust is True:
-            assert memory is not None
-            fit = _huber(robot, method, opts, memory)
+            fit = _huber(robot, method, opts, sources, memory)
         else:
             fit = run_method(robot, method, opts, sources, memory, progress)
             if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
-                memory = in_memory(robot, sources)
-                fit = _huber(robot, method, opts, memory)
+                fit = _huber(robot, method, opts, sources, memory, start=fit)
         fit = with_extras(robot, method, opts, fit, memory)
     finally:
         for s in sources:
