@@ -78,6 +78,14 @@ def install(root: Path, src: Path, label: str, **extra: str) -> tuple[Path, floa
     return venv / "bin", time.perf_counter() - t
 
 
+def versions(bin_dir: Path) -> str:
+    """numpy, numba, llvmlite and scipy versions of a venv."""
+    out = subprocess.run([str(bin_dir / "python"), "-m", "pip", "list", "--format=freeze"],
+                         check=True, capture_output=True, text=True).stdout  # fmt: skip
+    keep = ("numpy==", "numba==", "llvmlite==", "scipy==", "setuptools==")
+    return ", ".join(line for line in out.splitlines() if line.lower().startswith(keep))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--command", default=POSES, help="the sescid command timed (without 'sescid')")
@@ -97,6 +105,8 @@ def main() -> None:
             env = clean_env()
             runs = [timed([str(bin_dir / "sescid"), *command], work, env) for _ in range(2)]
             rows.append((label, took, runs))
+            if len(rows) == 1:
+                print("  the fresh install's " + versions(bin_dir))
         print(f"sescid {' '.join(command)}, each run a fresh process (load average "
               f"{os.getloadavg()[0]:.1f})")  # fmt: skip
         print(f"  {'':<34} {'install':>8} {'1st wall':>9} {'2nd wall':>9} {'1st CPU':>8} "
