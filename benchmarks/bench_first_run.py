@@ -1,7 +1,8 @@
 """Benchmark: the first command after a fresh plain install, against the second.
 
-Two fresh virtual environments get a plain ``pip install`` of this tree's tracked files (copied
-to a temporary folder, so no earlier ``build/`` folder is reused):
+Two fresh virtual environments get a plain ``pip install`` of this tree's tracked files (each
+install its own copy in a temporary folder: setuptools keeps ``build/`` in the source folder,
+and a wheel built there again would carry the earlier build's files):
 
 - as a user installs it: the wheel is built with the kernels compiled in (``sescid
   precompile`` at build time, ``tools/build_backend``);
@@ -94,11 +95,11 @@ def main() -> None:
     print(environment())
     with tempfile.TemporaryDirectory(prefix="sescid-first-run-") as tmp:
         root = Path(tmp)
-        src = root / "src-tree"
-        copy_tree(src)
         rows = []
         for label, extra in [("wheel with kernels", {}), ("reference: SESCID_PRECOMPILE=0", {
             "SESCID_PRECOMPILE": "0"})]:  # fmt: skip
+            src = root / f"src-tree-{len(rows)}"  # its own copy: setuptools keeps build/ in it
+            copy_tree(src)
             bin_dir, took = install(root, src, label.split(":")[0].replace(" ", "_"), **extra)
             work = root / f"work-{len(rows)}"
             work.mkdir()
