@@ -15,7 +15,9 @@ run, each kind from its own random stream, so enabling one leaves every other dr
 
 ``mount``: ``"stand"`` (on the support foot, which must carry the sensor board; poses that
 would tip are not measured) or ``"gantry"`` (the support link, e.g. the pelvis, is held level in
-a fixture: no balance, the robot hangs free, the feet carry no load).
+a fixture: no balance, the robot hangs free, the feet carry no load) or ``"line"`` (the robot
+balances on its support line, ``Robot.line``: a wheel axle or an edge; each pose at the tilt
+that puts the true CoM above the line, read by an IMU).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from sescid.sesc import sesc_vectors
 PAD_GAIN_STREAM = 11
 TORQUE_STREAM = 13
 APPROACH_STREAM = 17
-MOUNTS = ("stand", "gantry")
+MOUNTS = ("stand", "gantry", "line")
 #: the start of the error a bench raises when every pose fails (a caller may name its file)
 NO_POSE_MEASURED = "no pose can be measured"
 APPROACHES = ("random", "up", "down", "alternate")
@@ -122,14 +124,20 @@ class ExperimentConfig:
     #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
     tilt_deg: float = 0.0
     torque: TorqueConfig = field(default_factory=TorqueConfig)  #: joint torque sensors
-    mount: str = "stand"  #: "stand" on the support foot or "gantry" (support held in a fixture)
+    mount: str = "stand"  #: "stand" on the support foot, "gantry" (held) or "line" (balancing)
+    #: line mount: the IMU's link (None: the profile's, else the support frame) and its noise
+    #: per sample, degrees (roll and pitch)
+    imu_link: str | None = None
+    imu_noise_deg: float = 0.5
 
     def check(self) -> None:
         """DataError for a setting outside its range (the one check both benches use)."""
         if self.registers not in ("forces", "centroid", "both"):
             raise DataError(f"registers must be forces, centroid or both, got {self.registers}")
         if self.mount not in MOUNTS:
-            raise DataError(f"mount must be stand or gantry, got {self.mount}")
+            raise DataError(f"mount must be one of {', '.join(MOUNTS)}, got {self.mount}")
+        if self.mount == "line" and self.double_support:
+            raise DataError("a robot balancing on a line stands on no foot: no double support")
         if self.mount == "gantry" and self.double_support:
             raise DataError("a robot held in a gantry stands on no foot: no double support")
         for name, v in (
@@ -139,6 +147,7 @@ class ExperimentConfig:
             ("FSR gain error", self.fsr_gain),
             ("read-back jitter", self.readback_jitter_ticks),
             ("support tilt", self.tilt_deg),
+            ("IMU noise", self.imu_noise_deg),
         ):
             if not (v >= 0 and math.isfinite(v)):
                 raise DataError(f"{name} must be a finite number ≥ 0, got {v}")

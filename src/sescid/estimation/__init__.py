@@ -48,6 +48,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.estimation.options import ConsistentOptions, IdentifyOptions, MapOptions
     from sescid.estimation.validation import (
         Interval,
+        balance_interval,
         com_interval,
         cop_interval,
         perturbed_sesc,
@@ -80,6 +81,7 @@ __all__ = [
     "body_boxes",
     "cad_violations",
     "check_total_mass",
+    "balance_interval",
     "com_interval",
     "cop_interval",
     "fit_inertials",
@@ -125,6 +127,7 @@ _EXPORTS = {
     "body_boxes": "sescid.estimation.consistent",
     "cad_violations": "sescid.estimation.cad_check",
     "check_total_mass": "sescid.estimation.checks",
+    "balance_interval": "sescid.estimation.validation",
     "com_interval": "sescid.estimation.validation",
     "cop_interval": "sescid.estimation.validation",
     "fit_inertials": "sescid.estimation.consistent",

@@ -15,7 +15,7 @@ from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
 from sescid.estimation.fit import METHODS, Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
-from sescid.estimation.measurements import COP, TORQUE
+from sescid.estimation.measurements import COP, KINDS, TORQUE
 from sescid.estimation.robust import HUBER_K
 from sescid.estimation.system import RowOptions
 from sescid.sesc import STANDARD_GRAVITY
@@ -111,7 +111,9 @@ class IdentifyOptions:
     these measurement kinds of the data ("cop", "tau"; None: all it has). Files only
     (``sescid.identify`` on paths): ``imu_link``, the link whose ``imu_roll``/``imu_pitch``
     columns give gravity (None: the profile's); ``allow_outside_limits``, accept poses outside
-    the model's joint limits with a warning (else an error names the first).
+    the model's joint limits with a warning (else an error names the first). ``com_height``
+    [m]: for balance data, which carry no scale (``estimation.anchor``), the CoM's known
+    distance from the support (its line) at the zero pose (None: the prior model's).
     """
 
     rtol: float = DEFAULT_RTOL
@@ -134,6 +136,7 @@ class IdentifyOptions:
     kinds: tuple[str, ...] | None = None
     imu_link: str | None = None
     allow_outside_limits: bool = False
+    com_height: float | None = None
     map: MapOptions = field(default_factory=MapOptions)
     consistent: ConsistentOptions = field(default_factory=ConsistentOptions)
 
@@ -179,8 +182,14 @@ class IdentifyOptions:
             )
         if self.online_step is not None:
             self._check_online(method)
-        if self.kinds is not None and (not self.kinds or set(self.kinds) - {COP, TORQUE}):
-            raise OptionError("kinds", f"must name cop and/or tau, got {self.kinds!r}")
+        if self.com_height is not None and not (
+            math.isfinite(self.com_height) and 0 < self.com_height <= 10
+        ):
+            raise OptionError(
+                "com_height", f"must be a distance in m (0–10), got {self.com_height}"
+            )
+        if self.kinds is not None and (not self.kinds or set(self.kinds) - set(KINDS)):
+            raise OptionError("kinds", f"must name some of {', '.join(KINDS)}, got {self.kinds!r}")
         if not (math.isfinite(self.gain_prior) and 0 < self.gain_prior <= 1):
             raise OptionError(
                 "gain_prior", f"must be a relative std in (0, 1], got {self.gain_prior}"

@@ -109,7 +109,8 @@ def read_raw(
         for foot in config.feet:
             _read_foot(table, foot, config, names, (forces, centroid, cop, cop_force))
     joints, tau = read_torques(table, joint_names)
-    if not forces and not centroid and not cop and tau is None:
+    attitude = any(c in names for c in (*GRAVITY_COLUMNS, "imu_roll", "imu_pitch"))
+    if not forces and not centroid and not cop and tau is None and not attitude:
         if config is None:
             raise DataError(
                 f"{table.path}: no joint-torque columns (tau_<joint>) and no foot-sensor "

@@ -191,7 +191,7 @@ def measure(
         cop, force_n, fs, out = _cop_part(robot, log, config, s)
         mode = fs.mode
     else:
-        mode = "torque"
+        mode = "torque" if log.tau is not None else "imu"
     use = None
     if log.tau is not None:
         check_torque_scale(log, robot.total_mass)
