@@ -1,17 +1,18 @@
 """``sescid precompile``: compile the numba kernels the commands use, now, into numba's cache.
 
 A plain ``pip install .`` (or ``pip wheel .``) runs this while it builds the wheel
-(``tools/build_backend.py``), so the first ``sescid poses`` after installing loads its kernels
-instead of compiling them (10–20 s). numba's cache is keyed by the numba version, the kernels'
-source, their signatures and the CPU (name and features): run the command yourself where the
-wheel's kernels do not fit — a wheel built on another CPU or with another numba, an install
-built with ``SESCID_PRECOMPILE=0``, a cache folder of your own (``NUMBA_CACHE_DIR``). Where the
-package folder is read-only, numba caches in the user's folder (seeded from the package's).
+(``tools/build_backend/sescid_build.py``), so the first ``sescid poses`` after installing
+loads its kernels instead of compiling them (10–20 s). numba's cache is keyed by the numba
+version, the kernels' source, their signatures and the CPU (name and features): run the
+command yourself where the wheel's kernels do not fit — a wheel built on another CPU or with
+another numba, an install built with ``SESCID_PRECOMPILE=0``, a cache folder of your own
+(``NUMBA_CACHE_DIR``). Where the package folder is read-only, numba caches in the user's
+folder (seeded from the package's).
 
 It runs the commands users wait for (``WORKLOAD``) on the embedded OP2 in a temporary folder,
 with files large enough for the compiled path (``kinematics.NUMPY_JOB``), and discards their
-output. A robot other than the OP2 takes the same kernels (they are compiled per argument type,
-not per robot).
+output; and the API's one-pose CoM and collision check. A robot other than the OP2 takes the
+same kernels (they are compiled per argument type, not per robot).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import tempfile
 import time
 
 import click
+import numpy as np
 
 #: poses of the files the fits read: above ``kinematics.NUMPY_JOB`` for the OP2's CoP rows
 #: (147 work units a pose), so ``identify`` and ``predict`` take the compiled path
@@ -60,6 +62,7 @@ def run_workload(folder: str, progress=None) -> list[str]:
     from sescid.cli import cli
     from sescid.errors import SescidError
     from sescid.kinematics import counting_compiles, load_kernels
+    from sescid.planning import collision_capsules, collision_free_mask
     from sescid.robot import load_robot
 
     cwd = os.getcwd()
@@ -69,6 +72,9 @@ def run_workload(folder: str, progress=None) -> list[str]:
             load_kernels()  # the single-pose kernel (robot.com) too, not only what jobs call
             robot = load_robot("op2")
             robot.com([0.0] * robot.nq)
+            # the API's collision check (the commands use the broad phase's)
+            rot, org = robot.forward(np.zeros((1, robot.nq)))
+            collision_free_mask(collision_capsules(robot), rot, org)
             for done, args in enumerate(WORKLOAD, 1):
                 sink = io.StringIO()
                 try:
