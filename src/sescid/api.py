@@ -31,7 +31,7 @@ def identify(
     data: Any,
     cop: Any = None,
     *,
-    method: str = "ls",
+    method: str = "auto",
     options: IdentifyOptions | None = None,
     progress: Any = None,
     **overrides: Any,

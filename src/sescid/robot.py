@@ -193,6 +193,48 @@ class Robot:
         cols = self.joint_columns(joints)
         return sesc.torques(self.tree, q, rr, mass, cols, gravity, g0)
 
+    # --- stances: the same robot rooted elsewhere ----------------------------------------
+    def at(self, support: str, line: ArrayLike | str | None = None) -> Robot:
+        """The same model and profile rooted at another support frame (a stance: the other
+        foot, a held link, a line); ``line`` as in ``load_robot``."""
+        if support == self.support and line is None:
+            return self
+        key = self.source if self.source in EMBEDDED else self.model_path
+        return load_robot(key, support, line)
+
+    def body_parameters(self) -> np.ndarray:
+        """θ (4N,) = [m (N) kg; vec(m c) (3N) kg·m]: each body's mass and first moment about
+        its frame's origin, in its frame (the parameters every stance shares)."""
+        bodies = self.model.bodies
+        first = np.array([b.mass * b.com for b in bodies]).reshape(-1)
+        return np.concatenate([[b.mass for b in bodies], first])
+
+    def sesc_matrix(self, reference: Robot | None = None) -> np.ndarray:
+        """E (3N, 4N) with vec(r) = E θ / M: this support's SESC vectors from the body
+        parameters θ of ``reference`` (the same model rooted elsewhere: its bodies, its body
+        frames; default this robot), M = Σ m. Bodies are matched by the model links they
+        hold; ModelError when the two are not the same model."""
+        from sescid.model.tree import inv_transform
+
+        ref = reference or self
+        mine, theirs = self.model.bodies, ref.model.bodies
+        n = len(mine)
+        where = {lk: j for j, b in enumerate(theirs) for lk in b.links}
+        if len(theirs) != n or any(b.links[0] not in where for b in mine):
+            raise ModelError(
+                f"{self.model_path.name}: the stances '{self.support}' and '{ref.support}' are "
+                "not the same model (different bodies)"
+            )
+        p = np.zeros((4 * n, 4 * n))  # own-frame parameters from the reference's
+        for i, b in enumerate(mine):
+            link = b.links[0]
+            j = where[link]
+            x = self.model.link_frames[link][1] @ inv_transform(ref.model.link_frames[link][1])
+            p[i, j] = 1.0
+            p[n + 3 * i : n + 3 * i + 3, j] = x[:3, 3]
+            p[n + 3 * i : n + 3 * i + 3, n + 3 * j : n + 3 * j + 3] = x[:3, :3]
+        return sesc.sesc_matrix(self.model) @ p
+
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
     def _geometry(self) -> tuple[list[Shape], list[str]]:
@@ -357,5 +399,23 @@ def load_robot(
             "or a URDF/MJCF file"
         )
     if support is None:
-        raise ModelError(f"{path}: name the support frame (a sole link, foot link or site)")
+        raise ModelError(
+            f"{path}: name the support frame (--support: a sole link, foot link or site)"
+            + _feet_hint(path)
+        )
     return Robot(load_model(path, support), str(path.resolve()), line=line)
+
+
+def _feet_hint(path: Path) -> str:
+    """'; feet found …: a, b' naming the model's support candidates ('' when none are found or
+    the model cannot be read: its own error comes with loading it)."""
+    from sescid.errors import SescidError
+    from sescid.model.feet import support_candidates
+
+    try:
+        feet = support_candidates(path)
+    except SescidError:
+        return ""
+    if not feet:
+        return ""
+    return "; feet found from the tree and the geometry: " + ", ".join(f.support for f in feet)

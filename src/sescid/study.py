@@ -50,7 +50,7 @@ def paper_study(
     fresh = simulate(
         robot, n_fresh, range_deg, noise, None if seed is None else seed + 1, r_true=r_true
     )
-    fit = identify(robot, sim.q, sim.cop)
+    fit = identify(robot, sim.q, sim.cop, method="ls")  # the paper's method
     p, rows = fit.rank, 2 * n
 
     def rms(a):

@@ -75,8 +75,15 @@ def pin_process() -> None:
 
 
 @contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """Run the block with the loaded BLAS libraries limited to one thread (nests; restores)."""
+def one_blas_thread(preload: tuple[str, ...] = ()) -> Iterator[None]:
+    """Run the block with the loaded BLAS libraries limited to one thread (nests; restores);
+    ``preload``: modules the block will use that link a BLAS of their own (``scipy.linalg``),
+    imported first so that theirs is limited too."""
+    if preload and not _state["pinned"] and _state["depth"] == 0:
+        import importlib
+
+        for name in preload:
+            importlib.import_module(name)
     if _state["pinned"] or _state["depth"] > 0:
         _state["depth"] += 1
         try:

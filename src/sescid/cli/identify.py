@@ -16,7 +16,14 @@ from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import force_option, imu_link_option, load, mm, robot_options, seed_option
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
-from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions, save_fit
+from sescid.estimation import (
+    METHOD_CHOICES,
+    ConsistentOptions,
+    Fit,
+    IdentifyOptions,
+    MapOptions,
+    save_fit,
+)
 from sescid.io import rows_estimate
 
 DEFAULTS = IdentifyOptions()
@@ -25,7 +32,7 @@ MAP_DEFAULTS = MapOptions()
 
 def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     """The typed options of ``identify`` from the command's flags."""
-    if method != "map":
+    if method not in ("map", "auto"):
         given = [
             name
             for name, on in (
@@ -80,7 +87,7 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
             bias=opts["bias"],
             prior=opts["prior"],
         )
-        if method == "map"
+        if method in ("map", "auto")
         else MapOptions(),
         consistent=consistent,
     )  # fmt: skip
@@ -101,11 +108,13 @@ def _online_step(opts: dict) -> int | None:
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Fit JSON.")
 @click.option(
     "--method",
-    type=click.Choice(list(METHODS)),
-    default="ls",
+    type=click.Choice(list(METHOD_CHOICES)),
+    default="auto",
     show_default=True,
-    help="ls: least squares (undetermined directions from the model file); map: Gaussian CAD "
-    "prior; consistent: body masses and CoMs (see --total-mass …).",
+    help="auto: MAP with the CAD prior when the data leave directions weakly determined, "
+    "least squares when they determine every direction well (the fit says which and why); "
+    "ls: least squares (the paper's; undetermined directions from the model file); map: "
+    "Gaussian CAD prior; consistent: body masses and CoMs (see --total-mass …).",
 )
 @click.option(
     "--kinds",

@@ -22,6 +22,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
     from sescid.estimation.consistent import body_boxes, fit_inertials
     from sescid.estimation.fit import (
+        METHOD_CHOICES,
         METHODS,
         BodyInertials,
         Combination,
@@ -68,6 +69,7 @@ __all__ = [
     "JointNoiseEffect",
     "KINDS",
     "KindFit",
+    "METHOD_CHOICES",
     "METHODS",
     "MapInfo",
     "MapOptions",
@@ -113,6 +115,7 @@ _EXPORTS = {
     "JointNoiseEffect": "sescid.estimation.fit",
     "KINDS": "sescid.estimation.measurements",
     "KindFit": "sescid.estimation.fit",
+    "METHOD_CHOICES": "sescid.estimation.fit",
     "METHODS": "sescid.estimation.fit",
     "MODEL_CHANGED": "sescid.estimation.fit_json",
     "MapInfo": "sescid.estimation.fit",

@@ -1,6 +1,6 @@
 """One entry point, ``identify``, for every measurement kind and every estimation method.
 
-``identify(robot, data, method="ls" | "map" | "consistent", options=IdentifyOptions(…))``: ``data``
+``identify(robot, data, method="auto" | "ls" | "map" | "consistent", options=…)``: ``data``
 is a ``Measurements`` (arrays: joint angles and a CoP and/or joint torques), a list of them
 (pooled data sets, e.g. two files), or chunks of one data set (a file read once); joint angles
 with ``cop=`` are accepted too. All kinds feed one system (``system``); least squares weighs them
@@ -24,6 +24,7 @@ from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.options import ConsistentOptions, IdentifyOptions
 from sescid.estimation.runs import (
+    WORSE_THAN_CAD,
     HeldSource,
     fit_online,
     fit_with_gains,
@@ -42,23 +43,36 @@ def _unsided(fit: Fit) -> bool:
     return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
 
 
-def _huber(robot, method, opts, sources, memory: list[Measurements] | None, start=None) -> Fit:
+def _held(robot, sources, memory: list[Measurements] | None) -> list[Any]:
+    """The data as sources: in memory where they are held there, else the sources themselves
+    (re-read on each pass)."""
+    return sources if memory is None else [HeldSource(robot, m) for m in memory]
+
+
+def _huber(robot, method, opts, sources, memory: list[Measurements] | None) -> Fit:
     """Huber IRLS around ``method``: over the sources, re-read each step (flat memory), or on
     the data in memory where the method needs them there (cross-validation)."""
     from sescid.estimation.robust import huber, huber_sources
 
     def run(data: list[Measurements], weighted: bool) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data)
-
-    if memory is not None:
-        return huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data,
+                          compare=False)  # fmt: skip
 
     def run_sources(srcs: list[Any], weighted: bool) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, srcs, None)
+        return run_method(robot, method, o, srcs, None, compare=False)
 
-    return huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k, start=start)
+    if memory is not None:
+        fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+    else:
+        fit = huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k)
+    if method != "ls":
+        return fit
+    plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
+    first = run_method(robot, method, plain, _held(robot, sources, memory), memory)
+    extra = tuple(w for w in first.warnings if w.startswith(WORSE_THAN_CAD))
+    return dataclasses.replace(fit, warnings=fit.warnings + extra)
 
 
 def _normalise(data, cop, sigma, gravity) -> Any:
@@ -87,13 +101,13 @@ def _se(sigma, n: int) -> np.ndarray:
     return s
 
 
-@one_blas_thread()
+@one_blas_thread(preload=("scipy.linalg",))  # the MAP of the default method uses scipy's
 def identify(
     robot: Robot,
     data: Any,
     cop: Any = None,
     *,
-    method: str = "ls",
+    method: str = "auto",
     options: IdentifyOptions | None = None,
     sigma: Any = None,
     gravity: Any = None,
@@ -106,9 +120,11 @@ def identify(
     N·m), a list of them (pooled data sets) or chunks of one data set; or joint angles with
     ``cop=`` (n, 2) m, optional ``sigma=`` per-pose CoP standard errors (n,) or (n, 2) m
     (a weighted fit) and ``gravity=`` per-pose gravity directions (n, 3) in the support frame.
-    ``method``: "ls" (least squares), "map" (Gaussian CAD prior) or "consistent" (physical
-    masses/CoMs). ``options``: ``IdentifyOptions``; keyword ``overrides`` replace its fields
-    (``rtol=``, ``robust=``, ``map_options=``, ``consistent_options=`` …).
+    ``method``: "auto" (the default: MAP with the CAD prior when the data leave directions
+    weakly determined, least squares when they determine every direction well; ``fit.choice``
+    says which and why), "ls" (least squares, the paper's), "map" (Gaussian CAD prior) or
+    "consistent" (physical masses/CoMs). ``options``: ``IdentifyOptions``; keyword
+    ``overrides`` replace its fields (``rtol=``, ``robust=``, ``map_options=`` …).
     ``progress(poses_done, total)`` is called while the normal equations are accumulated
     (total None for data read once). Data-quality warnings are stored in ``fit.warnings``.
     """
@@ -120,7 +136,7 @@ def identify(
     try:
         robust = opts.robust
         needs_memory = (
-            (method == "map" and opts.map.select == "cv")
+            (method in ("map", "auto") and opts.map.select == "cv")
             or opts.cv is not None
             or opts.joint_noise is not None
             or opts.online_step is not None
@@ -129,6 +145,15 @@ def identify(
         memory = in_memory(robot, sources) if needs_memory else None
         if robust == "auto" and memory is not None:
             robust = any(m.tau is not None and m.approach is None for m in memory)
+        choice = None
+        if method == "auto" and opts.online_step is not None:  # MAP online needs τ and σ given
+            known = opts.map.prior_scale is not None and opts.map.noise is not None
+            method = "map" if known else "ls"
+        elif method == "auto" and (opts.tau_gains or robust is True):  # a plain pass decides
+            plain = dataclasses.replace(opts, robust=False, tau_gains=False)
+            choice = run_method(robot, "auto", plain, _held(robot, sources, memory),
+                                memory).choice  # fmt: skip
+            method = choice.chosen if choice is not None else "map"
         if opts.online_step is not None:
             assert memory is not None
             fit = fit_online(robot, method, opts, memory)
@@ -140,7 +165,11 @@ def identify(
         else:
             fit = run_method(robot, method, opts, sources, memory, progress)
             if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
-                fit = _huber(robot, method, opts, sources, memory, start=fit)
+                choice = fit.choice
+                method = choice.chosen if choice is not None else method
+                fit = _huber(robot, method, opts, sources, memory)
+        if choice is not None:
+            fit = dataclasses.replace(fit, choice=choice)
         fit = with_extras(robot, method, opts, fit, memory)
     finally:
         for s in sources:

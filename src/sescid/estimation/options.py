@@ -13,7 +13,7 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
-from sescid.estimation.fit import METHODS, Fit
+from sescid.estimation.fit import METHOD_CHOICES, Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.measurements import COP, KINDS, TORQUE
 from sescid.estimation.robust import HUBER_K
@@ -26,9 +26,9 @@ class MapOptions:
     """MAP parameters: prior scale τ and noise σ (m; None = chosen by the data), how τ is
     chosen ("evidence" or "cv" with ``folds``), whether a constant CoP offset is fitted, and the
     prior's shape: "sesc" (each SESC component ±τ m), "bodies" (each body's mass ±τ and first
-    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction) or "auto" ("bodies"
-    for data with joint torques, whose many rows it suits — measured by tools/torque_study.py —
-    "sesc" for the CoP alone)."""
+    moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction) or "auto" ("bodies":
+    closer to the truth than "sesc" for the CoP and for joint torques alike, in every case of
+    docs/defaults.md)."""
 
     prior_scale: float | None = None
     noise: float | None = None
@@ -153,8 +153,10 @@ class IdentifyOptions:
 
     def check(self, method: str) -> None:
         """OptionError for a value out of range or an option another method owns."""
-        if method not in METHODS:
-            raise OptionError("method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        if method not in METHOD_CHOICES:
+            raise OptionError(
+                "method", f"must be one of {', '.join(METHOD_CHOICES)}, got {method!r}"
+            )
         check_rtol(self.rtol)
         self.consistent.check()
         for name, value in (("cop_noise", self.cop_noise), ("tau_noise", self.tau_noise)):
@@ -194,8 +196,8 @@ class IdentifyOptions:
             raise OptionError(
                 "gain_prior", f"must be a relative std in (0, 1], got {self.gain_prior}"
             )
-        if method != "map" and self.map != MapOptions():
-            raise OptionError("map_options", f"apply to method 'map' only, not {method!r}")
+        if method not in ("map", "auto") and self.map != MapOptions():
+            raise OptionError("map_options", f"apply to method 'map' (or auto), not {method!r}")
         if method != "consistent" and self.consistent != ConsistentOptions():
             raise OptionError(
                 "consistent_options", f"apply to method 'consistent' only, not {method!r}"
@@ -204,7 +206,7 @@ class IdentifyOptions:
     def _check_online(self, method: str) -> None:
         if self.online_step < 1:  # type: ignore[operator]
             raise OptionError("online_step", f"must be ≥ 1 pose, got {self.online_step}")
-        if method not in ("ls", "map"):
+        if method not in ("ls", "map", "auto"):
             raise OptionError("online", f"the recursive fit supports ls or map, not {method}")
         if self.robust is True or self.map.bias:
             raise OptionError("online", "the recursive fit cannot be robust or fit a bias")

@@ -137,12 +137,10 @@ def huber_sources(
     k: float = HUBER_K,
     max_iter: int = 50,
     tol: float = 1e-4,
-    start: Fit | None = None,
 ) -> Fit:
     """Huber IRLS around a fitting method ``run(sources, weighted)`` over data sources that can
     be read more than once (each ``.chunks()`` gives its chunks again, in the same order):
-    flat memory for any number of poses. ``start``: the unweighted-loss fit of the same data
-    and options, when already computed (else ``run(sources, weighted)``).
+    flat memory for any number of poses.
 
     Each step reads the data twice (the sizes under the current fit, spilled to a temporary
     file; then ``run`` on the data reweighted chunk by chunk) plus a few sequential reads of
@@ -155,7 +153,7 @@ def huber_sources(
     """
     if not k > 0:
         raise SescidError(f"Huber threshold k must be > 0, got {k}")
-    fit = start if start is not None else run(list(sources), weighted)
+    fit = run(list(sources), weighted)
     used: _Sizes | None = None  # the sizes behind the weights of the current fit
     used_scale: dict[str, float] = {}
     scale: dict[str, float] = {}
