@@ -158,7 +158,7 @@ def check_force_scale(log: RawLog, config: SensorConfig, mass: float) -> None:
             )
 
 
-def _uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
+def uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
     """Foot sensors give the CoP unless absent, or unloaded throughout a log with torques."""
     if config is None or not log.has_feet:
         return False
@@ -169,16 +169,20 @@ def _uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
     return bool(fs.loaded.any())
 
 
-def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 5) -> Measured:
+def measure(
+    robot, log: RawLog, config: SensorConfig | None, min_samples: int = 5, feet: bool | None = None
+) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
     Poses left with fewer than ``min_samples`` usable samples are listed in ``dropped`` with
     the reason. The foot poses come from ``robot.link_poses`` at each pose's mean read-backs.
+    ``feet``: whether the foot sensors give the CoP (None: ``uses_feet`` of this log; a part
+    of a longer log takes the whole log's answer).
     """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
     s = _start(log)
-    feet = _uses_feet(log, config)
+    feet = uses_feet(log, config) if feet is None else feet
     out = np.zeros(len(log.pose), dtype=bool)
     if feet:
         assert config is not None
