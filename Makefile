@@ -38,6 +38,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_commands.py
 	$(PY) benchmarks/bench_poses.py
 	$(PY) benchmarks/bench_consistent.py
+	$(PY) benchmarks/bench_first_run.py
 
 # refresh the lock file: the newest releases pyproject.toml's ranges allow, in a scratch venv
 lock:

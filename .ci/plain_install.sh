@@ -11,6 +11,19 @@ trap 'rm -rf "$work"' EXIT
 "$work/venv/bin/python" -m pip install -q . >"$work/pip.log" 2>&1 || { cat "$work/pip.log"; exit 1; }
 sescid="$work/venv/bin/sescid"
 cd "$work"
+# the wheel carries the kernels compiled when it was built (tools/build_backend): the first
+# command after the install loads them and compiles none
+"$work/venv/bin/python" - <<'PY'
+import sys
+from sescid.cli import cli
+from sescid.kinematics import counting_compiles
+with counting_compiles() as names:
+    cli.main(["poses", "--robot", "op2", "--count", "38", "--seed", "0", "--out", "first.csv"],
+             standalone_mode=False)
+if names:
+    sys.exit(f"the first poses after the install compiled {sorted(set(names))}")
+print("first poses after the install: every kernel loaded from the wheel's cache")
+PY
 set -x
 "$sescid" --version
 "$sescid" demo --out-dir demo_out

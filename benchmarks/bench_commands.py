@@ -10,6 +10,10 @@ Each figure is printed beside a reference measured in the same run:
   streamed CSV reader against pyarrow's own ``read_csv`` and the ``csv`` module, and the CSV
   writer against pyarrow's ``write_csv`` and the ``csv`` module writing ``repr`` (the same
   bytes), on 10⁵ rows of that file;
+- joint torques: ``identify`` on N poses with 20 torques each (its default: the Huber IRLS,
+  streamed), beside least squares on the same file (``--no-robust``: one pass); ``measure`` of N
+  raw samples with torques (chunks), beside the same log reduced whole in memory (the API's
+  ``sensors.fsr`` of ``read_table``): wall time and peak memory;
 - with ``--huge``: ``identify`` on 10 N poses (10 ``simulate`` runs joined: a 4.6 GB CSV for
   N = 10⁶, in the temporary folder, deleted after), beside the N-pose figure: time ×10 and the
   same peak memory mean linear time and flat memory. Not part of ``make bench`` (~2 min more).
@@ -134,13 +138,16 @@ def sample():
         time.sleep(0.005)
 if proc:
     threading.Thread(target=sample, daemon=True).start()
-from sescid.cli import main
-sys.argv = ["sescid", *sys.argv[1:]]
-try:
-    main()
-except SystemExit as exc:
-    if exc.code:
-        raise
+if sys.argv[1] == "--code":
+    exec(sys.argv[2])
+else:
+    from sescid.cli import main
+    sys.argv = ["sescid", *sys.argv[1:]]
+    try:
+        main()
+    except SystemExit as exc:
+        if exc.code:
+            raise
 kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 print(kb / 1024, *((peak[k] / 1024 for k in peak) if proc else (-1, -1)))
 """
@@ -159,7 +166,8 @@ class Peak(NamedTuple):
 
 
 def peak_of(args: list[str], cwd: Path) -> Peak:
-    """Wall time and memory of one run of ``sescid ARGS`` in a fresh process."""
+    """Wall time and memory of one run of ``sescid ARGS`` (or ``--code SOURCE``: Python) in a
+    fresh process."""
     t = time.perf_counter()
     out = subprocess.run([sys.executable, "-c", _MEMORY_CHILD, *args], cwd=cwd, check=True,
                          capture_output=True, text=True, env=_env())  # fmt: skip
@@ -263,6 +271,8 @@ def main() -> None:
         n = args.poses
         print(f"large files ({n} poses of the OP2, best of {r} fresh processes; {load()})")
         figures = large(n, d, r)
+        print(f"joint torques ({n} poses, {n} raw samples; {load()})")
+        torques(n, d)
         small = d / "rows1e5.csv"
         with (d / "big.csv").open() as src, small.open("w") as dst:
             for i, line in enumerate(src):
@@ -300,6 +310,44 @@ def huge_csv(n: int, d: Path) -> tuple[float, float]:
             part.unlink()
     fit = peak_of(["identify", "huge.csv", "--robot", "op2", "--out", "huge.json"], d)
     return fit.wall, fit.mb
+
+
+#: the whole-log reduction in memory (the reference of the chunked ``measure``)
+_MEASURE_WHOLE = """
+import sescid
+from sescid.io import read_table
+from sescid.sensors import fsr, load_sensors
+robot = sescid.load_robot("op2")
+fsr(robot, read_table("raw.csv"), load_sensors(None, robot.profile))
+"""
+
+
+def torques(n: int, d: Path) -> None:
+    """``identify`` of n poses with 20 joint torques (default: Huber IRLS, streamed) beside
+    least squares (``--no-robust``), and ``measure`` of n raw samples with torques (chunks)
+    beside the whole log reduced in memory: wall time and peak memory of one run each."""
+    run(["simulate", "--robot", "op2", "--poses", str(n), "--measure", "tau", "--seed", "0",
+         "--out", "tau.csv"], d)  # fmt: skip
+    fit = ["identify", "tau.csv", "--robot", "op2", "--out", "tau.json", "--force"]
+    poses = max(n // 100, 21)
+    run(["poses", "--robot", "op2", "--select", "random", "--count", str(poses), "--seed", "1",
+         "--out", "p.csv"], d)  # fmt: skip
+    run(["experiment", "--robot", "op2", "--poses", "p.csv", "--samples", str(n // poses),
+         "--torques", "all", "--seed", "2", "--out", "raw.csv"], d)  # fmt: skip
+    measure = ["measure", "raw.csv", "--robot", "op2", "--poses", "p.csv", "--out", "m.csv"]
+    for label, args, target in [
+        ("identify tau.csv (Huber IRLS, default)", fit, "≤ 500 MB"),
+        ("  reference: --no-robust (least squares)", [*fit, "--no-robust"], ""),
+        ("measure raw.csv (chunks)", measure, "≤ 1 GB"),
+        ("  reference: the whole log in memory", ["--code", _MEASURE_WHOLE], ""),
+    ]:
+        r = peak_of(args, d)
+        aim = f"   (target {target} for 10⁶)" if target else ""
+        print(
+            f"  {label:<40} {r.wall:6.2f} s  {r.mb:5.0f} MB peak (anonymous {r.anon:.0f} MB){aim}"
+        )
+    for name in ("tau.csv", "raw.csv"):
+        (d / name).unlink()
 
 
 def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:

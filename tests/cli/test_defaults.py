@@ -240,6 +240,10 @@ def _gravity(d) -> list:
     return [("imu_link", d["imu_link"], _arg(table_gravity, "link"))]
 
 
+def _no_options(d) -> list:
+    return []
+
+
 CHECKS: dict[str, Callable[[_Read], list]] = {
     "simulate": _simulate,
     "demo": _demo,
@@ -256,6 +260,7 @@ CHECKS: dict[str, Callable[[_Read], list]] = {
     "report": _gravity,
     "truth": _truth,
     "session": _session,
+    "precompile": _no_options,
 }
 
 

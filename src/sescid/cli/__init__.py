@@ -48,6 +48,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "report": ("report", "report", "Figures and one self-contained HTML page from a fit."),
     "truth": ("truth", "truth", "Compare a fit with a virtual experiment's truth file."),
     "session": ("session", "session", "Guided identification: next-best pose until converged."),
+    "precompile": (
+        "precompile",
+        "precompile",
+        "Compile the numba kernels into numba's cache now (pip install does it).",
+    ),
 }
 
 

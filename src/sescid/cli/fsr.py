@@ -15,9 +15,8 @@ from sescid.cli.common import (
     robot_options,
     sensors_option,
 )
-from sescid.io import read_table, write_table
-from sescid.sensors import REASONS, load_sensors
-from sescid.sensors import fsr as run_fsr
+from sescid.io import iter_table, read_table, write_table
+from sescid.sensors import REASONS, fsr_chunks, load_sensors
 
 
 def _sensors(sensors_file, profile):
@@ -55,7 +54,10 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     robot = load(robot_name, support)
     config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
-    res, unmeasured = run_fsr(robot, read_table(raw), config, min_samples, pose_list, imu_link)
+    res, unmeasured = fsr_chunks(
+        robot, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
+        whole=lambda: read_table(raw),
+    )  # fmt: skip
     with outs:
         write_table(outs.path(out), res.columns(robot.joint_names))
     total = res.rejected.sum(axis=0)

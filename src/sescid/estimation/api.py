@@ -43,20 +43,34 @@ def _unsided(fit: Fit) -> bool:
     return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
 
 
-def _huber(robot, method, opts, memory: list[Measurements]) -> Fit:
-    """Huber IRLS around ``method`` on data in memory."""
-    from sescid.estimation.robust import huber
+def _held(robot, sources, memory: list[Measurements] | None) -> list[Any]:
+    """The data as sources: in memory where they are held there, else the sources themselves
+    (re-read on each pass)."""
+    return sources if memory is None else [HeldSource(robot, m) for m in memory]
+
+
+def _huber(robot, method, opts, sources, memory: list[Measurements] | None) -> Fit:
+    """Huber IRLS around ``method``: over the sources, re-read each step (flat memory), or on
+    the data in memory where the method needs them there (cross-validation)."""
+    from sescid.estimation.robust import huber, huber_sources
 
     def run(data: list[Measurements], weighted: bool) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
         return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data,
                           compare=False)  # fmt: skip
 
-    fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+    def run_sources(srcs: list[Any], weighted: bool) -> Fit:
+        o = dataclasses.replace(opts, robust=False, weighted=weighted)
+        return run_method(robot, method, o, srcs, None, compare=False)
+
+    if memory is not None:
+        fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+    else:
+        fit = huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k)
     if method != "ls":
         return fit
     plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
-    first = run_method(robot, method, plain, [HeldSource(robot, m) for m in memory], memory)
+    first = run_method(robot, method, plain, _held(robot, sources, memory), memory)
     extra = tuple(w for w in first.warnings if w.startswith(WORSE_THAN_CAD))
     return dataclasses.replace(fit, warnings=fit.warnings + extra)
 
@@ -122,8 +136,7 @@ def identify(
     try:
         robust = opts.robust
         needs_memory = (
-            robust is True
-            or (method in ("map", "auto") and opts.map.select == "cv")
+            (method in ("map", "auto") and opts.map.select == "cv")
             or opts.cv is not None
             or opts.joint_noise is not None
             or opts.online_step is not None
@@ -137,9 +150,8 @@ def identify(
             known = opts.map.prior_scale is not None and opts.map.noise is not None
             method = "map" if known else "ls"
         elif method == "auto" and (opts.tau_gains or robust is True):  # a plain pass decides
-            assert memory is not None
             plain = dataclasses.replace(opts, robust=False, tau_gains=False)
-            choice = run_method(robot, "auto", plain, [HeldSource(robot, m) for m in memory],
+            choice = run_method(robot, "auto", plain, _held(robot, sources, memory),
                                 memory).choice  # fmt: skip
             method = choice.chosen if choice is not None else "map"
         if opts.online_step is not None:
@@ -149,15 +161,13 @@ def identify(
             assert memory is not None
             fit = fit_with_gains(robot, method, opts, memory, opts.robust is True)
         elif robust is True:
-            assert memory is not None
-            fit = _huber(robot, method, opts, memory)
+            fit = _huber(robot, method, opts, sources, memory)
         else:
             fit = run_method(robot, method, opts, sources, memory, progress)
             if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
-                memory = in_memory(robot, sources)
                 choice = fit.choice
                 method = choice.chosen if choice is not None else method
-                fit = _huber(robot, method, opts, memory)
+                fit = _huber(robot, method, opts, sources, memory)
         if choice is not None:
             fit = dataclasses.replace(fit, choice=choice)
         fit = with_extras(robot, method, opts, fit, memory)

@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any, Protocol
 
 import numpy as np
 
+from sescid.base.spill import Spill, median
 from sescid.errors import SescidError
 from sescid.estimation.fit import Fit, JointNoiseEffect, RobustInfo
 from sescid.estimation.least_squares import residuals
@@ -61,6 +63,127 @@ def _base_errors(m: Measurements, weighted: bool) -> dict[str, np.ndarray]:
     return out
 
 
+def _weights(u: np.ndarray, scale: float, k: float) -> np.ndarray:
+    """Huber weights of standardised sizes ``u`` at robust scale ``scale``: 1 within k, k/u̅
+    beyond."""
+    return np.where(u / scale <= k, 1.0, k / np.maximum(u / scale, 1e-300))
+
+
+class _Sources(Protocol):
+    def chunks(self) -> Iterable[Measurements]: ...
+
+
+#: sizes of one IRLS step: per source, per kind, the chunks' standardised sizes (spilled)
+_Sizes = list[dict[str, Spill]]
+
+
+class _Reweighted:
+    """A source's chunks with the IRLS step's errors (``base · scale / √w``) as their standard
+    errors: computed chunk by chunk from the spilled sizes, never held for the whole source."""
+
+    def __init__(self, source: _Sources, sizes: dict[str, Spill], scale, k, weighted):
+        self.source, self.sizes, self.scale, self.k = source, sizes, scale, k
+        self.weighted = weighted
+        self.name = getattr(source, "name", "data")
+
+    def chunks(self) -> Iterator[Measurements]:
+        """The reweighted chunks, in the source's order."""
+        per_kind = {kd: iter(sp) for kd, sp in self.sizes.items()}
+        for m in self.source.chunks():
+            base = _base_errors(m, self.weighted)
+            w = {kd: _weights(next(per_kind[kd]), self.scale[kd], self.k) for kd in base}
+            yield _with_errors(m, base, w, self.scale)
+
+    def close(self) -> None:
+        """The source is its caller's to close."""
+
+
+def _spill_sizes(fit: Fit, sources: Sequence[_Sources], weighted: bool) -> _Sizes:
+    """One pass: every chunk's standardised sizes under ``fit``, spilled per source and kind."""
+    out: _Sizes = []
+    for src in sources:
+        spills: dict[str, Spill] = {}
+        for m in src.chunks():
+            for kd, u in _standardised(fit, m, _base_errors(m, weighted)).items():
+                spills.setdefault(kd, Spill()).write(u)
+        out.append(spills)
+    return out
+
+
+def _close(sizes: _Sizes | None) -> None:
+    for spills in sizes or []:
+        for sp in spills.values():
+            sp.close()
+
+
+def _change(new: _Sizes, scale, old: _Sizes | None, old_scale, k: float) -> float:
+    """Largest change of a row's weight between two IRLS steps (the first from weights 1)."""
+    change = 0.0
+    for i, spills in enumerate(new):
+        for kd, sp in spills.items():
+            before = None if old is None else iter(old[i][kd])
+            for u in sp:
+                w = _weights(u, scale[kd], k)
+                w0 = 1.0 if before is None else _weights(next(before), old_scale[kd], k)
+                change = max(change, float(np.max(np.abs(w - w0), initial=0.0)))
+    return change
+
+
+def huber_sources(
+    run: Callable[[list[Any], bool], Fit],
+    sources: Sequence[_Sources],
+    *,
+    weighted: bool = False,
+    k: float = HUBER_K,
+    max_iter: int = 50,
+    tol: float = 1e-4,
+) -> Fit:
+    """Huber IRLS around a fitting method ``run(sources, weighted)`` over data sources that can
+    be read more than once (each ``.chunks()`` gives its chunks again, in the same order):
+    flat memory for any number of poses.
+
+    Each step reads the data twice (the sizes under the current fit, spilled to a temporary
+    file; then ``run`` on the data reweighted chunk by chunk) plus a few sequential reads of
+    the spilled sizes (the exact median, ``base.spill.median``): the result is the in-memory
+    IRLS's, bit for bit. Each kind's residuals are standardised by a robust scale (median of a
+    CoP pose's 2-D norm over √(2 ln 2), of a torque row's |e| over 0.6745) and by the given
+    errors when ``weighted``; rows beyond ``k`` get weight k/u. ``fit.robust`` lists the poses
+    whose weight fell (the lowest weight of their rows), lowest first; σ̂ and each kind's σ are
+    in the data's units again (or a scale on the given errors when ``weighted``).
+    """
+    if not k > 0:
+        raise SescidError(f"Huber threshold k must be > 0, got {k}")
+    fit = run(list(sources), weighted)
+    used: _Sizes | None = None  # the sizes behind the weights of the current fit
+    used_scale: dict[str, float] = {}
+    scale: dict[str, float] = {}
+    iterations = 0
+    try:
+        for iterations in range(1, max_iter + 1):  # noqa: B007 (reported after the loop)
+            sizes = _spill_sizes(fit, sources, weighted)
+            kinds = list(dict.fromkeys(kd for spills in sizes for kd in spills))
+            scale = {}
+            for kd in kinds:
+                pooled = [spills[kd] for spills in sizes if kd in spills]
+                scale[kd] = median(pooled) / (_MEDIAN_NORM if kd == COP else _MEDIAN_ABS)
+            if any(v <= 0 for v in scale.values()):
+                _close(sizes)
+                break
+            change = _change(sizes, scale, used, used_scale, k)
+            _close(used)
+            used, used_scale = sizes, scale
+            reweighted = [
+                _Reweighted(src, spills, scale, k, weighted)
+                for src, spills in zip(sources, sizes, strict=True)
+            ]
+            fit = run(reweighted, True)
+            if change < tol:
+                break
+        return _robust_fit(fit, used, used_scale, scale, k, iterations, weighted)
+    finally:
+        _close(used)
+
+
 def huber(
     run: Callable[[list[Measurements], bool], Fit],
     data: list[Measurements],
@@ -70,43 +193,25 @@ def huber(
     max_iter: int = 50,
     tol: float = 1e-4,
 ) -> Fit:
-    """Huber IRLS around a fitting method ``run(data, weighted)``; names the down-weighted poses.
+    """Huber IRLS around a fitting method ``run(data, weighted)`` on data in memory
+    (``huber_sources``, each data set one chunk)."""
 
-    Each kind's residuals are standardised by a robust scale (median of a CoP pose's 2-D norm
-    over √(2 ln 2), of a torque row's |e| over 0.6745) and by the given errors when
-    ``weighted``; rows beyond ``k`` get weight k/u. ``fit.robust`` lists the poses whose weight
-    fell (the lowest weight of their rows), lowest first; σ̂ and each kind's σ are in the data's
-    units again (or a scale on the given errors when ``weighted``).
-    """
-    if not k > 0:
-        raise SescidError(f"Huber threshold k must be > 0, got {k}")
-    bases = [_base_errors(m, weighted) for m in data]
-    fit = run(data, weighted)
-    weights = [{kd: np.ones(b.shape[0] if kd == COP else b.shape) for kd, b in base.items()}
-               for base in bases]  # fmt: skip
-    scale: dict[str, float] = {}
-    iterations = 0
-    for iterations in range(1, max_iter + 1):  # noqa: B007 (reported after the loop)
-        sizes = [_standardised(fit, m, base) for m, base in zip(data, bases, strict=True)]
-        scale = {}
-        for kd in sorted({kd for s in sizes for kd in s}):  # files may hold different kinds
-            pooled = np.concatenate([s[kd].reshape(-1) for s in sizes if kd in s])
-            scale[kd] = float(np.median(pooled)) / (_MEDIAN_NORM if kd == COP else _MEDIAN_ABS)
-        if any(v <= 0 for v in scale.values()):
-            break
-        change = 0.0
-        for w, size in zip(weights, sizes, strict=True):
-            for kd, u in size.items():
-                new = np.where(u / scale[kd] <= k, 1.0, k / np.maximum(u / scale[kd], 1e-300))
-                change = max(change, float(np.max(np.abs(new - w[kd]))))
-                w[kd] = new
-        reweighted = [
-            _with_errors(m, base, w, scale) for m, base, w in zip(data, bases, weights, strict=True)
-        ]
-        fit = run(reweighted, True)
-        if change < tol:
-            break
-    return _robust_fit(fit, data, weights, scale, k, iterations, weighted)
+    def run_held(sources: list[Any], w: bool) -> Fit:
+        return run([m for src in sources for m in src.chunks()], w)
+
+    held = [_Held(m) for m in data]
+    return huber_sources(run_held, held, weighted=weighted, k=k, max_iter=max_iter, tol=tol)
+
+
+class _Held:
+    """Measurements in memory as a source of one chunk."""
+
+    def __init__(self, m: Measurements):
+        self.m, self.name = m, m.source
+
+    def chunks(self) -> Iterator[Measurements]:
+        """The data, as one chunk."""
+        yield self.m
 
 
 def _with_errors(m: Measurements, base, w, scale) -> Measurements:
@@ -118,16 +223,19 @@ def _with_errors(m: Measurements, base, w, scale) -> Measurements:
     return dataclasses.replace(m, **changes)
 
 
-def _robust_fit(fit: Fit, data, weights, scale, k, iterations, weighted) -> Fit:
-    """The last IRLS fit in the data's units, with the down-weighted poses named."""
+def _robust_fit(fit: Fit, used: _Sizes | None, used_scale, scale, k, iterations, weighted) -> Fit:
+    """The last IRLS fit in the data's units, with the down-weighted poses named (from the
+    spilled sizes behind its weights; none when no step reweighted)."""
     low = []
     start = 0
-    for m, w in zip(data, weights, strict=True):
-        pose_w = np.ones(m.n)
-        for kd, wk in w.items():
-            pose_w = np.minimum(pose_w, wk if kd == COP else wk.min(axis=1))
-        low += [(start + int(i), float(pose_w[i])) for i in np.flatnonzero(pose_w < 1.0)]
-        start += m.n
+    for spills in used or []:
+        for chunk in zip(*spills.values(), strict=True):
+            pose_w = np.ones(chunk[0].shape[0])
+            for kd, u in zip(spills, chunk, strict=True):
+                wk = _weights(u, used_scale[kd], k)
+                pose_w = np.minimum(pose_w, wk if kd == COP else wk.min(axis=1))
+            low += [(start + int(j), float(pose_w[j])) for j in np.flatnonzero(pose_w < 1.0)]
+            start += pose_w.shape[0]
     low.sort(key=lambda t: (t[1], t[0]))
     kinds = tuple(
         dataclasses.replace(

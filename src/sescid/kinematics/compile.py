@@ -8,14 +8,24 @@ kernels. Where the numpy twin gives the kernel's bits (trig, chain, origins, red
 sums: the same operations in the same order, tested), kernels that are already loaded also run
 small jobs: only the speed differs. The normal equations' product uses fused multiply-adds and a
 fixed 8-lane order (``simd``) that numpy cannot reproduce, so there the job size alone decides.
+
+Compiled kernels are kept in numba's on-disk cache, keyed by the numba version, the source
+file's content, the kernel's signature and the CPU (its name and features). A wheel built by
+``pip install .`` carries the kernels compiled for the installing machine (``sescid
+precompile`` at build time); where none fit, the first call compiles (``seed_cache`` copies a
+cache the package carries into a cache folder of the user's; a terminal is told, once).
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import importlib
+import shutil
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 
@@ -56,12 +66,13 @@ def load_group(group: str) -> None:
     numba dispatcher, and every SIMD placeholder for its intrinsic, in every module of the group:
     kernels call each other through module globals, so all of them are swapped before any
     compiles. The dispatchers use numba's on-disk cache (``cache=True``) where one is writable
-    (beside the package, else ``NUMBA_CACHE_DIR`` or the user's cache folder), else compile in
-    memory, silently."""
+    (``NUMBA_CACHE_DIR``, else beside the package, else the user's cache folder, seeded from
+    the package's: ``seed_cache``), else compile in memory."""
     if not _LAZY.get(group):
         return
     import numba
 
+    _announce_compiles()
     with _SWAP_LOCK:  # a second thread's first call waits here, then finds the dispatchers
         kernels = _LAZY.pop(group, [])
         if not kernels:
@@ -91,7 +102,97 @@ def _dispatcher(kernel: _LazyKernel, numba: Any) -> Any:
         return numba.njit(**(kernel.options | {"cache": False}))(kernel.fn)
     if kernel.options.get("cache"):
         _drop_stale_index(dispatcher)
+        seed_cache(dispatcher)
     return dispatcher
+
+
+def seed_cache(dispatcher: Any) -> bool:
+    """Copy the kernel's compiled entries the package carries (its ``__pycache__``, written when
+    the wheel was built) into the cache folder numba chose instead, when that folder has none:
+    a package folder the user cannot write (numba then caches in the user's folder) or a
+    ``NUMBA_CACHE_DIR``. numba checks what it loads (its version, the source's content, the
+    CPU), so a copy that does not fit is only ignored. True when files were copied."""
+    cache: Any = getattr(dispatcher, "_cache", None)
+    index: Any = getattr(cache, "_cache_file", None)
+    impl: Any = getattr(cache, "_impl", None)
+    if index is None or impl is None or not hasattr(index, "_index_name"):
+        return False  # no cache, or a numba whose cache layout is not the one known here
+    try:
+        py_file = Path(impl.locator._py_file)
+        shipped = py_file.parent / "__pycache__"
+        target = Path(cache._cache_path)
+        if target.resolve() == shipped.resolve() or not (shipped / index._index_name).is_file():
+            return False
+        if (target / index._index_name).exists():
+            return False  # the user's cache has this kernel's index: numba keeps it up to date
+        base = impl.filename_base
+        for data in shipped.glob(f"{base}.*.nbc"):
+            shutil.copyfile(data, target / data.name)
+        shutil.copyfile(shipped / index._index_name, target / index._index_name)
+    except (OSError, AttributeError):
+        return False  # nothing copied that numba would trust more than a compile
+    return True
+
+
+#: what a terminal is told before the first kernel compiles in a process
+COMPILING = (
+    "sescid: compiling the numba kernels for this CPU (once: later runs load them; "
+    "`sescid precompile` does it ahead)"
+)
+#: the same where numba has no cache folder it can write
+COMPILING_NO_CACHE = (
+    "sescid: compiling the numba kernels (no writable cache folder, so every run compiles: "
+    "set NUMBA_CACHE_DIR to a folder of yours)"
+)
+
+
+@functools.cache
+def _announce_compiles() -> None:
+    """Register (once per process) a numba listener that tells a terminal, in one line on
+    stderr, before the first of sescid's kernels compiles instead of loading from the cache."""
+    from numba.core import event
+
+    lock = threading.Lock()
+    told: list[bool] = []
+
+    class Notice(event.Listener):
+        def on_start(self, ev: Any) -> None:
+            dispatcher = (ev.data or {}).get("dispatcher")
+            module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+            if told or not module.startswith("sescid.") or not sys.stderr.isatty():
+                return
+            with lock:
+                if told:
+                    return
+                told.append(True)
+            null = type(getattr(dispatcher, "_cache", None)).__name__ == "NullCache"
+            print(COMPILING_NO_CACHE if null else COMPILING, file=sys.stderr, flush=True)
+
+        def on_end(self, ev: Any) -> None:
+            pass
+
+    event.register("numba:compile", Notice())
+
+
+@contextlib.contextmanager
+def counting_compiles() -> Iterator[list[str]]:
+    """Collect the names of sescid's kernels that compile inside the block (not those loaded
+    from numba's cache): ``with counting_compiles() as names: ...``."""
+    from numba.core import event
+
+    names: list[str] = []
+
+    class Count(event.Listener):
+        def on_start(self, ev: Any) -> None:
+            fn = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
+            if fn is not None and (fn.__module__ or "").startswith("sescid."):
+                names.append(f"{fn.__module__}.{fn.__qualname__}")
+
+        def on_end(self, ev: Any) -> None:
+            pass
+
+    with event.install_listener("numba:compile", Count()):
+        yield names
 
 
 def _drop_stale_index(dispatcher: Any) -> None:
@@ -142,6 +243,16 @@ def loaded(group: str) -> bool:
 
 #: the group of the kinematics kernels (they call each other across this package's modules)
 GROUP = "sescid.kinematics"
+
+
+def cache_folder() -> str | None:
+    """The folder of numba's on-disk cache of the kinematics kernels (once loaded), or None
+    where they have none (no writable folder: they compile in every process)."""
+    from sescid.kinematics import chains
+
+    cache: Any = getattr(chains._chain_block, "_cache", None)
+    path = getattr(cache, "_cache_path", None)
+    return None if path is None or type(cache).__name__ == "NullCache" else str(path)
 
 
 def compiled() -> bool:

@@ -47,6 +47,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     )
     from sescid.sensors.raw import RawLog, read_raw, table_from_columns
     from sescid.sensors.reduce import Measured, fsr, measure, pose_list_ids, read_log
+    from sescid.sensors.stream import fsr_chunks
     from sescid.sensors.torque import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
     from sescid.sensors.wrench import (
         Plate,
@@ -87,6 +88,7 @@ __all__ = [
     "cop_from_wrench",
     "default_sensors_path",
     "fsr",
+    "fsr_chunks",
     "gravity_from_imu",
     "gravity_in_link",
     "load_plate",
@@ -133,6 +135,7 @@ _EXPORTS = {
     "cop_from_wrench": "sescid.sensors.wrench",
     "default_sensors_path": "sescid.sensors.pads",
     "fsr": "sescid.sensors.reduce",
+    "fsr_chunks": "sescid.sensors.stream",
     "gravity_from_imu": "sescid.sensors.imu",
     "gravity_in_link": "sescid.sensors.imu",
     "load_plate": "sescid.sensors.wrench",

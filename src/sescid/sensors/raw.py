@@ -65,13 +65,18 @@ class RawLog:
     tau: np.ndarray | None = None  #: (m, k) joint torques, N·m
     approach: np.ndarray | None = None  #: (m,) ±1 (NaN missing)
     first_row: int = 2  #: the file's row number of sample 0
-    #: sample i → where the log holds it ("row 7"; None: ``first_row`` + i)
+    #: in-memory samples: sample i → its name ("pose 3, sample 2" of a session)
     row_of: Callable[[int], str] | None = None
+    #: a file's data row (0-based over the file) → its row number (``base.columns.RowNumbers``)
+    numbers: Callable[[int], int] | None = None
 
     def where(self, i) -> str:
-        """Sample ``i`` as an error names it: the file's row (or the session's pose/sample)."""
+        """Sample ``i`` as an error names it: the file's row as a spreadsheet counts it (or the
+        session's pose and sample); parts of a log keep it (``first_row`` moves with them)."""
         if self.row_of is not None:
             return self.row_of(int(i))
+        if self.numbers is not None:
+            return f"row {self.numbers(int(i) + self.first_row - 2)}"
         return f"row {int(i) + self.first_row}"
 
     @property
@@ -149,7 +154,8 @@ def read_raw(
         tau=tau,
         approach=read_approach(table),
         first_row=table.first_row,
-        row_of=table.where,
+        row_of=table.label,
+        numbers=table.numbers,
     )
 
 

@@ -19,6 +19,7 @@ reduced on its torques alone (mode ``torque``), as is a log without foot-sensor 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -180,7 +181,7 @@ def check_force_scale(
             )
 
 
-def _uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
+def uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
     """Foot sensors give the CoP unless absent, or unloaded throughout a log with torques."""
     if config is None or not log.has_feet:
         return False
@@ -196,22 +197,25 @@ def measure(
     log: RawLog,
     config: SensorConfig | None,
     min_samples: int = 5,
+    feet: bool | None = None,
     whole_log: bool = True,
+    finish: bool = True,
 ) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
-    Poses left with fewer than ``min_samples`` usable samples, or whose torques, approach side
-    or gravity the samples do not determine, are listed in ``dropped`` with the reason (never
-    written as NaN). ``whole_log`` (the log holds every pose, not one of a session's): a torque
-    column without a usable value at any pose (a dead sensor) is left out, with a note, and a
-    dead or stuck foot pad is an error (a session's single pose keeps every column and drops
-    the pose instead; one pose can leave a pad unloaded). The foot poses come from
-    ``robot.link_poses`` at each pose's mean read-backs.
+    Poses left with fewer than ``min_samples`` usable samples are listed in ``dropped`` with
+    the reason. The foot poses come from ``robot.link_poses`` at each pose's mean read-backs.
+    ``feet``: whether the foot sensors give the CoP (None: ``uses_feet`` of this log; a part
+    of a longer log takes the whole log's answer). ``whole_log`` (not one of a session's
+    poses): a dead or stuck foot pad is an error, and ``finish_measured`` may leave out a
+    dead torque column. ``finish``: drop the poses whose torques, approach side or gravity the
+    samples do not determine (``finish_measured``; a part of a longer log is finished once
+    joined).
     """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
     s = _start(log)
-    feet = _uses_feet(log, config)
+    feet = uses_feet(log, config) if feet is None else feet
     out = np.zeros(len(log.pose), dtype=bool)
     if feet:
         assert config is not None
@@ -236,40 +240,13 @@ def measure(
     if feet:
         mean, se, fmean = _cop_means(log, config, fs, cop, force_n, s)
     tau = tau_se = None
-    joints = log.tau_joints
-    notes: list[str] = []
     if use is not None:
         tau, tau_se = _tau_means(log, s, use, min_samples)
-        dead = ~np.isfinite(tau[keep]).any(axis=0) if keep.any() else np.zeros(len(joints), bool)
-        if whole_log and dead.any():  # no usable value at any pose: the column is left out
-            gone = [j for j, d in zip(joints, dead, strict=True) if d]
-            notes.append(
-                f"no usable {', '.join(TAU_PREFIX + j for j in gone)} sample at any pose (a dead "
-                "sensor?): left out"
-            )
-            joints = tuple(j for j, d in zip(joints, dead, strict=True) if not d)
-            tau, tau_se = tau[:, ~dead], tau_se[:, ~dead]
-        if not joints:
-            tau = tau_se = None
     approach = None
     if log.approach is not None:
-        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)
-        if not np.isfinite(approach[keep]).any():
-            notes.append(f"no '{APPROACH_COLUMN}' value at any pose: left out")
-            approach = None
+        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)[keep]
     grav = _pose_gravity(log, s)
-    dropped = _dropped(groups.ids, n_used, rejected, keep, min_samples)
-    # a pose whose torques, approach side or gravity is not determined is dropped, not written
-    for what, values in (("joint torque", tau), (APPROACH_COLUMN, approach), ("gravity", grav)):
-        if values is None:
-            continue
-        finite = np.isfinite(values) if values.ndim == 1 else np.isfinite(values).all(axis=1)
-        lost = keep & ~finite
-        for i in np.flatnonzero(lost):
-            dropped.append((str(groups.ids[i]), _undetermined(what, values, int(i), joints)))
-        keep &= finite
-    approach = None if approach is None else approach[keep]
-    return Measured(
+    m = Measured(
         pose=groups.ids[keep],
         q=s.q_mean[keep],
         cop=mean[keep] if feet else None,
@@ -277,15 +254,57 @@ def measure(
         force=fmean[keep] if feet else np.full(int(keep.sum()), np.nan),
         n_used=n_used[keep],
         rejected=rejected[keep],
-        dropped=dropped,
+        dropped=_dropped(groups.ids, n_used, rejected, keep, min_samples),
         mode=mode,
         gravity=None if grav is None else grav[keep],
-        tau_joints=joints if tau is not None else log.tau_joints,
+        tau_joints=log.tau_joints,
         tau=None if tau is None else tau[keep],
         tau_se=None if tau_se is None else tau_se[keep],
         approach=approach,
-        notes=notes,
     )
+    return finish_measured(m, whole_log) if finish else m
+
+
+#: fields of ``Measured`` with one row per kept pose
+_POSE_FIELDS = ("pose", "q", "cop", "cop_se", "force", "n_used", "rejected", "gravity", "tau",
+                "tau_se", "approach")  # fmt: skip
+
+
+def finish_measured(m: Measured, whole_log: bool = True) -> Measured:
+    """Never a value the samples do not determine: with ``whole_log`` a torque column without
+    a value at any pose (a dead sensor) and an approach column without one are left out, with
+    a note; then a pose whose torques, approach side or gravity is not determined is dropped,
+    with the reason (a session's single pose is dropped, its columns kept)."""
+    notes = list(m.notes)
+    tau, tau_se, joints, approach = m.tau, m.tau_se, m.tau_joints, m.approach
+    if tau is not None and tau_se is not None and whole_log and len(m.pose):
+        dead = ~np.isfinite(tau).any(axis=0)
+        if dead.any():
+            gone = [j for j, d in zip(joints, dead, strict=True) if d]
+            notes.append(
+                f"no usable {', '.join(TAU_PREFIX + j for j in gone)} sample at any pose (a dead "
+                "sensor?): left out"
+            )
+            joints = tuple(j for j, d in zip(joints, dead, strict=True) if not d)
+            tau, tau_se = (tau[:, ~dead], tau_se[:, ~dead]) if joints else (None, None)
+    if approach is not None and whole_log and len(m.pose) and not np.isfinite(approach).any():
+        notes.append(f"no '{APPROACH_COLUMN}' value at any pose: left out")
+        approach = None
+    keep = np.ones(len(m.pose), dtype=bool)
+    dropped = list(m.dropped)
+    for what, values in (("joint torque", tau), (APPROACH_COLUMN, approach),
+                         ("gravity", m.gravity)):  # fmt: skip
+        if values is None:
+            continue
+        finite = np.isfinite(values) if values.ndim == 1 else np.isfinite(values).all(axis=1)
+        for i in np.flatnonzero(keep & ~finite):
+            dropped.append((str(m.pose[i]), _undetermined(what, values, int(i), joints)))
+        keep &= finite
+    fields = {"tau": tau, "tau_se": tau_se, "approach": approach}
+    rows = {f: fields.get(f, getattr(m, f)) for f in _POSE_FIELDS}
+    rows = {f: None if v is None else v[keep] for f, v in rows.items()}
+    return dataclasses.replace(m, **rows, tau_joints=joints if tau is not None else m.tau_joints,
+                               dropped=dropped, notes=notes)  # fmt: skip
 
 
 def _undetermined(what: str, values: np.ndarray, i: int, joints) -> str:
