@@ -36,7 +36,7 @@ from typing import NamedTuple
 
 from timing import best_of, environment
 
-CLI = "import sys; from sescid.cli import main; sys.argv[0] = 'sescid'; main()"
+CLI = "import sys; from _sescid_launch import main; sys.argv[0] = 'sescid'; main()"
 
 
 def _env() -> dict[str, str]:
@@ -134,7 +134,7 @@ def sample():
         time.sleep(0.005)
 if proc:
     threading.Thread(target=sample, daemon=True).start()
-from sescid.cli import main
+from _sescid_launch import main
 sys.argv = ["sescid", *sys.argv[1:]]
 try:
     main()

@@ -7,8 +7,6 @@ which ``reroot`` (the one walk) turns into the tree ``RobotModel``/``Body``; ``S
 geometry; ``inertia_parts`` the inertia tensors the file gives, per body. See docs/model.md.
 """
 
-from __future__ import annotations
-
 from pathlib import Path
 from xml.etree import ElementTree
 

@@ -5,8 +5,6 @@
 Table 1 (index → body) when it has one.
 """
 
-from __future__ import annotations
-
 import csv
 from pathlib import Path
 
