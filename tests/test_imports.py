@@ -69,7 +69,7 @@ def test_no_module_loads_names_at_run_time():
 
 
 #: names with two homes still, merged by the next commits
-_PENDING = {"identify", "check_total_mass"}
+_PENDING = {"identify"}
 
 
 def test_a_name_public_in_several_packages_is_one_object():

@@ -18,6 +18,7 @@ from sescid.bench import (
 from sescid.cli.common import (
     force_option,
     load,
+    model_input,
     robot_options,
     seed_option,
     sensors_option,
@@ -186,7 +187,7 @@ def experiment(**opts):
     sensor log that `sescid measure` reads."""
     out, truth = opts["out"], opts["truth"]
     outs = OutputSet(
-        [out, truth], [opts["poses_file"], opts["sensors_file"], opts["robot_name"]],
+        [out, truth], [opts["poses_file"], opts["sensors_file"], model_input(opts["robot_name"])],
         force=opts["force"],
     )  # fmt: skip
     robot = load(opts["robot_name"], opts["support"])

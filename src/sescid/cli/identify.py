@@ -13,11 +13,19 @@ import click
 
 from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress
-from sescid.cli.common import force_option, imu_link_option, load, mm, robot_options, seed_option
+from sescid.cli.common import (
+    force_option,
+    imu_link_option,
+    load,
+    model_input,
+    robot_options,
+    seed_option,
+)
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
 from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions, save_fit
 from sescid.io import rows_estimate
+from sescid.report import mm
 
 DEFAULTS = IdentifyOptions()
 MAP_DEFAULTS = MapOptions()
@@ -244,7 +252,7 @@ def identify(data, robot_name, support, out, method, force, **opts):
     sole), approach (±1: each pose reached moving up or down, for torque friction), cop_se_*,
     tau_se_* (standard errors, with --weighted).
     """
-    outs = OutputSet([out], [*data, robot_name], force=force)
+    outs = OutputSet([out], [*data, model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     options = options_from_flags(method, opts)
     size = sum(rows_estimate(d) or 0 for d in data) or None

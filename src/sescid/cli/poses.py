@@ -9,7 +9,7 @@ from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     load,
-    mm,
+    model_input,
     robot_options,
     seed_option,
 )
@@ -32,7 +32,7 @@ from sescid.planning import (
     sampling_limits,
 )
 from sescid.planning import paper_convention as robot_paper_convention
-from sescid.report import design_figure
+from sescid.report import design_figure, mm
 from sescid.simulation import PAPER_NOISE
 
 
@@ -217,7 +217,7 @@ def poses(
     <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m; not for
     a robot held in a gantry).
     """
-    outs = OutputSet([out, figure], [robot_name], force=force)
+    outs = OutputSet([out, figure], [model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     if n_candidates is None:
         n_candidates = default_candidates(robot, select, count, kinds)

@@ -6,7 +6,14 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, load, robot_options, seed_option, study_options
+from sescid.cli.common import (
+    force_option,
+    load,
+    model_input,
+    robot_options,
+    seed_option,
+    study_options,
+)
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 TORQUES = TorqueNoise()
@@ -74,7 +81,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
 
-    outs = OutputSet([out], [robot_name], force=force)
+    outs = OutputSet([out], [model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     measure = kinds["measure"]
     sim = run_simulate(

@@ -28,7 +28,7 @@ from sescid.report.inputs import (
 from sescid.report.live import LiveView
 from sescid.report.numbers import KindNumbers, MassRow, ResidualStats, mass_rows, residual_stats
 from sescid.report.parallel import can_fork, run_figures
-from sescid.report.text import KIND_TITLES, in_unit, with_unit
+from sescid.report.text import KIND_TITLES, in_unit, mm, with_unit
 from sescid.report.torque_figures import plot_leg_torques, plot_torque_residuals
 from sescid.report.view3d import scene_data, view3d_html
 
@@ -36,6 +36,7 @@ __all__ = [
     "KIND_TITLES",
     "in_unit",
     "with_unit",
+    "mm",
     "LiveView",
     "Coverage",
     "KindNumbers",

@@ -17,7 +17,7 @@ from sescid.report.text import (
     cell,
     esc,
     fixed,
-    mm,
+    in_mm,
     nm,
     table,
     with_unit,
@@ -61,11 +61,11 @@ def _cop_table(k: KindNumbers) -> str:
         rows.append(
             [
                 esc(model),
-                cell(mm(x.mean)),
-                cell(mm(y.mean)),
-                cell(mm(float(np.hypot(x.mean, y.mean)))),
-                cell(mm(all_.rms, 3)),
-                cell(mm(all_.mae, 3)),
+                cell(in_mm(x.mean)),
+                cell(in_mm(y.mean)),
+                cell(in_mm(float(np.hypot(x.mean, y.mean)))),
+                cell(in_mm(all_.rms, 3)),
+                cell(in_mm(all_.mae, 3)),
             ]
         )
     head = ["model", "mean x", "mean y", "|mean|", "RMS", "MAE"]
@@ -94,8 +94,8 @@ def cop_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     if c.data.cop_se is not None:
         s = c.data.cop_se
         se = (
-            f"<p>Mean standard error of a measured CoP: x {mm(float(s[:, 0].mean()), 3)} mm, "
-            f"y {mm(float(s[:, 1].mean()), 3)} mm.</p>"
+            f"<p>Mean standard error of a measured CoP: x {in_mm(float(s[:, 0].mean()), 3)} mm, "
+            f"y {in_mm(float(s[:, 1].mean()), 3)} mm.</p>"
         )
     return (
         "<h2>Centre of pressure</h2>\n"

@@ -4,10 +4,11 @@ Foot pads (the sensor layout and file: ``pads``; per-sample foot CoPs: ``feet``)
 force/torque sensors and force plates (``wrench``), joint torques (``torque``), the IMU's
 gravity direction (``imu``); a raw log read into SI arrays (``raw``) and reduced per pose
 (``reduce``: ``sescid measure``, alias ``fsr``) with per-pose statistics (``stats``); the
-calibration of pad gains and offsets together with the mass model (``calibration``); physical
-plausibility of user-given numbers (``checks``).
+calibration of pad gains and offsets together with the mass model (``calibration``). A weighed
+total mass is checked by ``sescid.estimation.check_total_mass``.
 """
 
+from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.calibration import (
     CalibrationOptions,
     KnownSensors,
@@ -22,7 +23,6 @@ from sescid.sensors.calibration import (
     calibrated_sensor_document,
     pad_session,
 )
-from sescid.sensors.checks import check_total_mass
 from sescid.sensors.feet import REASONS
 from sescid.sensors.imu import (
     IMU_COLUMNS,
@@ -40,7 +40,6 @@ from sescid.sensors.pads import (
 )
 from sescid.sensors.raw import RawLog, read_raw, table_from_columns
 from sescid.sensors.reduce import Measured, fsr, measure, pose_list_ids, read_log
-from sescid.sensors.torque import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.wrench import (
     Plate,
     cop_from_force_plate,
@@ -74,7 +73,6 @@ __all__ = [
     "calibrate_sensors",
     "calibrated_sensor_document",
     "check_sensors",
-    "check_total_mass",
     "cop_from_force_plate",
     "cop_from_plate",
     "cop_from_wrench",

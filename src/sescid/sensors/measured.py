@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.feet import REASONS
-from sescid.sensors.torque import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 
 
 @dataclass(frozen=True)
