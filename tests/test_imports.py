@@ -68,10 +68,6 @@ def test_no_module_loads_names_at_run_time():
     assert not bad, bad
 
 
-#: names with two homes still, merged by the next commits
-_PENDING = {"identify"}
-
-
 def test_a_name_public_in_several_packages_is_one_object():
     """A name exported by more than one package (a re-export: ``sescid.load_fit`` and
     ``sescid.estimation.load_fit``) is the same object: a concept has one home."""
@@ -83,7 +79,7 @@ def test_a_name_public_in_several_packages_is_one_object():
             value = getattr(pkg, name)
             if not isinstance(value, type | types.FunctionType):
                 continue
-            if name in seen and seen[name][1] is not value and name not in _PENDING:
+            if name in seen and seen[name][1] is not value:
                 clash.append(f"{name}: {seen[name][0]} and {package}")
             seen.setdefault(name, (package, value))
     assert not clash, clash

@@ -5,8 +5,9 @@ the compiled kernels — load inside the functions that need them):
 
 - robots: ``load_robot``, ``Robot``;
 - data: ``simulate``, ``read_table``, ``write_table``;
-- estimation: ``identify`` (any mix of CoP and joint-torque ``Measurements``; ``method`` =
-  "ls" | "map" | "consistent"; ``IdentifyOptions``, ``MapOptions``, ``ConsistentOptions``),
+- estimation: ``identify`` (files or arrays, any mix of CoP and joint-torque ``Measurements``;
+  ``method`` = "ls" | "map" | "consistent" or that method's options — ``LeastSquaresOptions``,
+  ``MapOptions``, ``ConsistentOptions``; what every method shares: ``IdentifyOptions``),
   ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
@@ -28,6 +29,7 @@ from sescid.estimation import (
     ConsistentOptions,
     Fit,
     IdentifyOptions,
+    LeastSquaresOptions,
     MapOptions,
     Measurements,
     OnlineEstimator,
@@ -50,6 +52,7 @@ __all__ = [
     "DataError",
     "Fit",
     "IdentifyOptions",
+    "LeastSquaresOptions",
     "Measurements",
     "MapOptions",
     "MissingExtraError",

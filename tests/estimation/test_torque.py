@@ -13,9 +13,10 @@ from oracle import PinStatics
 from urdf_gen import random_urdf
 
 import sescid
+from sescid import identify
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.estimation import IdentifyOptions, Measurements, identify, perturbed_sesc
+from sescid.estimation import IdentifyOptions, Measurements, perturbed_sesc
 from sescid.io import write_table
 from sescid.simulation import random_poses
 
@@ -319,9 +320,9 @@ def test_cli_identifies_from_a_torque_file(op2, tmp_path):
 
 def test_options_check_their_ranges(op2):
     with pytest.raises(sescid.OptionError, match="tau_noise"):
-        IdentifyOptions(tau_noise=-1.0).check("ls")
+        IdentifyOptions(tau_noise=-1.0)
     with pytest.raises(sescid.OptionError, match="gravity_accel"):
-        IdentifyOptions(gravity_accel=9810.0).check("ls")
+        IdentifyOptions(gravity_accel=9810.0)
 
 
 def test_body_prior_fits_torques_and_cop(op2):
@@ -344,9 +345,9 @@ def test_body_prior_fits_torques_and_cop(op2):
     tau = _tau(op2, q, r_true, total_mass=mass) + rng.normal(0, 0.05, (38, op2.nq))
     opts = MapOptions(prior="bodies")
     m = Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names))
-    fit = identify(op2, m, method="map", map_options=opts, total_mass=mass, gravity_accel=G0)
+    fit = identify(op2, m, method=opts, total_mass=mass, gravity_accel=G0)
     cop_fit = identify(op2, q, op2.cop(q, r_true) + rng.normal(0, 0.00493, (38, 2)),
-                       method="map", map_options=opts)  # fmt: skip
+                       method=opts)  # fmt: skip
     qf = random_poses(op2, 1000, 30, 32)
 
     def err(r):

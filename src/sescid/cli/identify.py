@@ -1,7 +1,7 @@
 """``sescid identify``: SESC vectors, sensor offsets (or masses) from poses and measurements.
 
-Parse the flags into ``IdentifyOptions`` (whose defaults the flags show), make one call to
-``sescid.identify`` on the files, print the fit.
+Parse the flags into the method's options and ``IdentifyOptions`` (whose defaults the flags
+show), make one call to ``sescid.identify`` on the files, print the fit.
 """
 
 from __future__ import annotations
@@ -23,7 +23,17 @@ from sescid.cli.common import (
 )
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
-from sescid.estimation import METHODS, ConsistentOptions, Fit, IdentifyOptions, MapOptions, save_fit
+from sescid.estimation import (
+    METHODS,
+    ConsistentOptions,
+    Fit,
+    IdentifyOptions,
+    LeastSquaresOptions,
+    MapOptions,
+    Method,
+    MethodOptions,
+    save_fit,
+)
 from sescid.io import rows_estimate
 from sescid.report import mm
 
@@ -31,8 +41,9 @@ DEFAULTS = IdentifyOptions()
 MAP_DEFAULTS = MapOptions()
 
 
-def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
-    """The typed options of ``identify`` from the command's flags."""
+def options_from_flags(method: Method, opts: dict) -> tuple[MethodOptions, IdentifyOptions]:
+    """The method's options and ``identify``'s shared options from the command's flags (a
+    method's flags with another method are an error naming them)."""
     if method != "map":
         given = [
             name
@@ -59,8 +70,18 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     consistent = dataclasses.replace(flags, total_mass=None)
     if method != "consistent" and consistent != ConsistentOptions():
         raise OptionError("method", f"the consistent options need --method consistent ({method})")
-    robust: bool | str = "auto" if opts["robust"] is None else bool(opts["robust"])
-    return IdentifyOptions(
+    chosen: MethodOptions = LeastSquaresOptions()
+    if method == "map":
+        chosen = MapOptions(
+            prior_scale=opts["prior_scale"],
+            noise=opts["noise"],
+            select=opts["prior_select"],
+            bias=opts["bias"],
+            prior=opts["prior"],
+        )
+    elif method == "consistent":
+        chosen = consistent
+    shared = IdentifyOptions(
         rtol=opts["rtol"],
         weighted=opts["weighted"],
         cop_noise=opts["cop_noise"],
@@ -73,24 +94,15 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         allow_exact=opts["allow_exact"],
         imu_link=opts["imu_link"],
         allow_outside_limits=opts["allow_outside_limits"],
-        robust=robust,
+        robust="auto" if opts["robust"] is None else bool(opts["robust"]),
         seed=opts["seed"],
         cv=opts["cv"],
         joint_noise=None if opts["joint_noise_deg"] is None else math.radians(
             opts["joint_noise_deg"]),
         mc_draws=opts["mc_draws"],
         online_step=_online_step(opts),
-        map=MapOptions(
-            prior_scale=opts["prior_scale"],
-            noise=opts["noise"],
-            select=opts["prior_select"],
-            bias=opts["bias"],
-            prior=opts["prior"],
-        )
-        if method == "map"
-        else MapOptions(),
-        consistent=consistent,
     )  # fmt: skip
+    return chosen, shared
 
 
 def _online_step(opts: dict) -> int | None:
@@ -254,13 +266,13 @@ def identify(data, robot_name, support, out, method, force, **opts):
     """
     outs = OutputSet([out], [*data, model_input(robot_name)], force=force)
     robot = load(robot_name, support)
-    options = options_from_flags(method, opts)
+    chosen, options = options_from_flags(method, opts)
     size = sum(rows_estimate(d) or 0 for d in data) or None
     with TerminalProgress("identifying poses") as bar:
         fit = run_identify(
             robot,
             list(data),
-            method=method,
+            method=chosen,
             options=options,
             progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
         )

@@ -1,16 +1,18 @@
 """Estimation: from static poses and what was measured there (CoP, joint torques) to the SESC
 vectors, sensor offsets, their uncertainty, and physical masses.
 
-- ``identify`` — the one entry: any mix of measurement kinds (``Measurements``) and sources,
-  ``method`` = "ls" | "map" | "consistent", options in ``IdentifyOptions`` (robust, weights,
-  noise, total mass, cross-validation, joint-noise Monte Carlo, online);
-  ``to_consistent`` — masses/CoMs for an existing fit; ``OnlineEstimator`` — pose by pose;
+- ``fit_measurements`` — the estimation behind ``sescid.identify``: any mix of measurement
+  kinds (``Measurements``) and sources; ``method`` = "ls" | "map" | "consistent" (``Method``)
+  or that method's options (``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``),
+  what every method shares in ``IdentifyOptions`` (robust, weights, noise, total mass,
+  cross-validation, joint-noise Monte Carlo, online); ``to_consistent`` — masses/CoMs for an
+  existing fit; ``OnlineEstimator`` — pose by pose;
 - ``Fit`` (frozen) and its typed records; ``save_fit`` / ``load_fit``;
 - identifiability (the rank rule, ``min_poses``), validation (intervals, error against a known
   truth), checks at the data boundary; ``accumulate`` (CoP normal equations, for planning).
 """
 
-from sescid.estimation.api import identify, to_consistent
+from sescid.estimation.api import fit_measurements, to_consistent
 from sescid.estimation.cad_check import cad_violations
 from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
 from sescid.estimation.consistent import body_boxes, fit_inertials
@@ -24,6 +26,7 @@ from sescid.estimation.fit import (
     JointNoiseEffect,
     KindFit,
     MapInfo,
+    Method,
     NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
@@ -38,7 +41,14 @@ from sescid.estimation.identifiability import (
 from sescid.estimation.measurements import KINDS, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
 from sescid.estimation.online import OnlineEstimator
-from sescid.estimation.options import ConsistentOptions, IdentifyOptions, MapOptions
+from sescid.estimation.options import (
+    ConsistentOptions,
+    IdentifyOptions,
+    LeastSquaresOptions,
+    MapOptions,
+    MethodOptions,
+    method_options,
+)
 from sescid.estimation.validation import (
     Interval,
     com_interval,
@@ -57,12 +67,15 @@ __all__ = [
     "Fit",
     "IdentifyOptions",
     "Interval",
+    "LeastSquaresOptions",
     "JointNoiseEffect",
     "KINDS",
     "KindFit",
     "METHODS",
     "MapInfo",
     "MapOptions",
+    "Method",
+    "MethodOptions",
     "Measurements",
     "NormalEquations",
     "NuisanceEstimate",
@@ -78,9 +91,10 @@ __all__ = [
     "fit_inertials",
     "fit_warnings",
     "identifiable_eigen",
-    "identify",
+    "fit_measurements",
     "MODEL_CHANGED",
     "load_fit",
+    "method_options",
     "min_poses",
     "outside_limits",
     "perturbed_sesc",

@@ -1,12 +1,14 @@
-"""One entry point, ``identify``, for every measurement kind and every estimation method.
+"""The estimation behind ``sescid.identify``: ``fit_measurements`` runs one method over
+measurements in memory or streamed, for every measurement kind.
 
-``identify(robot, data, method="ls" | "map" | "consistent", options=IdentifyOptions(…))``: ``data``
-is a ``Measurements`` (arrays: joint angles and a CoP and/or joint torques), a list of them
-(pooled data sets, e.g. two files), or chunks of one data set (a file read once); joint angles
-with ``cop=`` are accepted too. All kinds feed one system (``system``); least squares weighs them
-by their own noise (``solve``); MAP adds a CAD prior (``map``); "consistent" turns the fit into
-physical masses and CoMs (``consistent``); ``robust`` wraps any of them in Huber IRLS. The typed
-options are the API's and the CLI's defaults alike (a test compares them).
+``fit_measurements(robot, data, method=…, options=IdentifyOptions(…))``: ``data`` is a
+``Measurements`` (arrays: joint angles and a CoP and/or joint torques), a list of them (pooled
+data sets, e.g. two files), or chunks of one data set (a file read once). ``method`` is a
+name or a method's options object (``options.method_options``, the one dispatch). All kinds feed
+one system (``system``); least squares weighs them by their own noise (``solve``); MAP adds a
+CAD prior (``map``); "consistent" turns the fit into physical masses and CoMs (``consistent``);
+``robust`` wraps any of them in Huber IRLS. ``sescid.identify`` (files and arrays too) is the
+public entry; ``to_consistent`` makes masses for an existing fit.
 """
 
 from __future__ import annotations
@@ -15,14 +17,18 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from sescid.base.threads import one_blas_thread
-from sescid.errors import DataError, OptionError
+from sescid.errors import OptionError
 from sescid.estimation.consistent import consistent_from_fit
-from sescid.estimation.fit import Fit
+from sescid.estimation.fit import Fit, Method
 from sescid.estimation.measurements import TORQUE, Measurements
-from sescid.estimation.options import ConsistentOptions, IdentifyOptions
+from sescid.estimation.options import (
+    ConsistentOptions,
+    IdentifyOptions,
+    MapOptions,
+    MethodOptions,
+    method_options,
+)
 from sescid.estimation.runs import (
     HeldSource,
     fit_online,
@@ -42,7 +48,7 @@ def _unsided(fit: Fit) -> bool:
     return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
 
 
-def _huber(robot, method, opts, memory: list[Measurements]) -> Fit:
+def _huber(robot, method: MethodOptions, opts: IdentifyOptions, memory: list[Measurements]) -> Fit:
     """Huber IRLS around ``method`` on data in memory."""
     from sescid.estimation.robust import huber
 
@@ -53,67 +59,51 @@ def _huber(robot, method, opts, memory: list[Measurements]) -> Fit:
     return huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
 
 
-def _normalise(data, cop, sigma, gravity) -> Any:
-    """``identify``'s data as Measurements (or a list / stream of them)."""
-    if cop is None:
-        if sigma is not None or gravity is not None:
-            raise OptionError("sigma", "sigma= and gravity= go with joint angles and cop=")
-        return data
-    if isinstance(data, Measurements):
-        raise OptionError("cop", "give cop= with joint angles, not with Measurements")
-    return Measurements(
-        q=np.asarray(data, dtype=float),
-        cop=np.asarray(cop, dtype=float),
-        cop_se=None if sigma is None else _se(sigma, np.shape(data)[0]),
-        gravity=None if gravity is None else np.asarray(gravity, dtype=float),
-        source="data",
-    )
-
-
-def _se(sigma, n: int) -> np.ndarray:
-    s = np.asarray(sigma, dtype=float)
-    if s.ndim == 1:
-        if s.shape != (n,):
-            raise DataError(f"sigma: expected shape ({n},) or ({n}, 2) in metres, got {s.shape}")
-        s = np.repeat(s[:, None], 2, axis=1)
-    return s
+def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
+    """OptionError for a shared option the method cannot run with (each object has checked its
+    own values): the recursive fit and the torque gains run least squares or MAP only."""
+    if opts.online_step is not None:
+        if isinstance(method, ConsistentOptions):
+            raise OptionError("online", "the recursive fit supports ls or map, not consistent")
+        if opts.robust is True or (isinstance(method, MapOptions) and method.bias):
+            raise OptionError("online", "the recursive fit cannot be robust or fit a bias")
+        if isinstance(method, MapOptions) and (method.prior_scale is None or method.noise is None):
+            raise OptionError(
+                "online",
+                "a recursive MAP fit needs --prior-scale and --noise (m): its prior and noise",
+            )
+    if opts.tau_gains and (opts.robust is True or isinstance(method, ConsistentOptions)):
+        raise OptionError("tau_gains", "torque gains go with ls or map, not robust or consistent")
 
 
 @one_blas_thread()
-def identify(
+def fit_measurements(
     robot: Robot,
     data: Any,
-    cop: Any = None,
     *,
-    method: str = "ls",
+    method: Method | MethodOptions = "ls",
     options: IdentifyOptions | None = None,
-    sigma: Any = None,
-    gravity: Any = None,
     progress: Callable[[int, int | None], None] | None = None,
-    **overrides: Any,
 ) -> Fit:
     """Identify the SESC vectors (and sensor offsets) from static poses and what was measured.
 
     ``data``: a ``Measurements`` (q (n, nq) rad with a CoP (n, 2) m and/or joint torques (n, J)
-    N·m), a list of them (pooled data sets) or chunks of one data set; or joint angles with
-    ``cop=`` (n, 2) m, optional ``sigma=`` per-pose CoP standard errors (n,) or (n, 2) m
-    (a weighted fit) and ``gravity=`` per-pose gravity directions (n, 3) in the support frame.
-    ``method``: "ls" (least squares), "map" (Gaussian CAD prior) or "consistent" (physical
-    masses/CoMs). ``options``: ``IdentifyOptions``; keyword ``overrides`` replace its fields
-    (``rtol=``, ``robust=``, ``map_options=``, ``consistent_options=`` …).
-    ``progress(poses_done, total)`` is called while the normal equations are accumulated
-    (total None for data read once). Data-quality warnings are stored in ``fit.warnings``.
+    N·m), a list of them (pooled data sets) or chunks of one data set. ``method``: "ls" (least
+    squares), "map" (Gaussian CAD prior) or "consistent" (physical masses/CoMs), or that
+    method's options object (``MapOptions(…)``, ``ConsistentOptions(…)``). ``options``: what
+    every method shares (``IdentifyOptions``). ``progress(poses_done, total)`` is called while
+    the normal equations are accumulated (total None for data read once). Data-quality
+    warnings are stored in ``fit.warnings``.
     """
-    opts = (options or IdentifyOptions()).with_overrides(**overrides)
-    if sigma is not None:
-        opts = dataclasses.replace(opts, weighted=True)
-    opts.check(method)
-    sources = as_sources(robot, _normalise(data, cop, sigma, gravity), opts.kinds)
+    m = method_options(method)
+    opts = options or IdentifyOptions()
+    check_method(m, opts)
+    sources = as_sources(robot, data, opts.kinds)
     try:
         robust = opts.robust
         needs_memory = (
             robust is True
-            or (method == "map" and opts.map.select == "cv")
+            or (isinstance(m, MapOptions) and m.select == "cv")
             or opts.cv is not None
             or opts.joint_noise is not None
             or opts.online_step is not None
@@ -121,22 +111,22 @@ def identify(
         )
         memory = in_memory(robot, sources) if needs_memory else None
         if robust == "auto" and memory is not None:
-            robust = any(m.tau is not None and m.approach is None for m in memory)
+            robust = any(x.tau is not None and x.approach is None for x in memory)
         if opts.online_step is not None:
             assert memory is not None
-            fit = fit_online(robot, method, opts, memory)
+            fit = fit_online(robot, m, opts, memory)
         elif opts.tau_gains:
             assert memory is not None
-            fit = fit_with_gains(robot, method, opts, memory, opts.robust is True)
+            fit = fit_with_gains(robot, m, opts, memory)
         elif robust is True:
             assert memory is not None
-            fit = _huber(robot, method, opts, memory)
+            fit = _huber(robot, m, opts, memory)
         else:
-            fit = run_method(robot, method, opts, sources, memory, progress)
+            fit = run_method(robot, m, opts, sources, memory, progress)
             if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
                 memory = in_memory(robot, sources)
-                fit = _huber(robot, method, opts, memory)
-        fit = with_extras(robot, method, opts, fit, memory)
+                fit = _huber(robot, m, opts, memory)
+        fit = with_extras(robot, m, opts, fit, memory)
     finally:
         for s in sources:
             s.close()
@@ -149,6 +139,5 @@ def to_consistent(fit: Fit, options: ConsistentOptions | None = None) -> Fit:
     SESC vectors are reproduced, any other fit is weighed against an evidence-chosen CAD prior
     on the masses and CoMs (``ConsistentOptions.via``)."""
     opts = options or ConsistentOptions()
-    opts.check()
     src, kw = opts.resolved(fit)
     return consistent_from_fit(src, **kw)

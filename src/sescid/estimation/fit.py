@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -26,8 +26,12 @@ from sescid.kinematics import as_poses, regressor
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot
 
-#: the estimation methods, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
-METHODS = ("ls", "map", "consistent")
+#: an estimation method, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
+Method = Literal["ls", "map", "consistent"]
+METHODS: tuple[Method, ...] = get_args(Method)
+#: the shape of a MAP fit's CAD prior: each SESC component ±τ m, or each body's mass and first
+#: moment ±τ relative to CAD
+PriorShape = Literal["sesc", "bodies"]
 METHOD_TITLES = {
     "ls": "least squares",
     "map": "MAP with a CAD prior",
@@ -106,7 +110,8 @@ class MapInfo:
     #: directions of vec(r) the prior decided: unseen by the data, or where the data carry less
     #: than half of the posterior information
     prior_decided: int = 0
-    prior: str = "sesc"  #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
+    #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
+    prior: PriorShape = "sesc"
     #: "bodies": the first moments' prior std per unit mass, m (τ times the prior's CoM scale)
     prior_com_std: float | None = None
 
@@ -262,7 +267,7 @@ class Fit:
     rms: float  #: residual RMS per CoP component, m (nan when unknown)
     mae: float  #: mean absolute residual per CoP component, m (nan when unknown)
     rtol: float
-    method: str = "ls"  #: one of METHODS
+    method: Method = "ls"
     base: tuple[Combination, ...] = ()
     unidentifiable: tuple[Combination, ...] = ()
     weighted: bool = False  #: fitted with per-pose CoP standard errors (σ̂ is then a scale)

@@ -19,7 +19,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from sescid.estimation.fit import Fit, KindFit, NuisanceEstimate
+from sescid.estimation.fit import Fit, KindFit, Method, NuisanceEstimate
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     base_combinations,
@@ -110,7 +110,7 @@ def fit_from_solution(
     sol: Solution,
     *,
     rtol: float = DEFAULT_RTOL,
-    method: str = "ls",
+    method: Method = "ls",
 ) -> Fit:
     """The Fit of a least-squares solution (module docstring); residual MAE/RMS are nan until
     ``with_residuals``."""
@@ -231,7 +231,7 @@ def solve(
 def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     """Residuals per kind at validated data m: "cop" (n, 2) m net of a CoP offset, "tau"
     (n, J) N·m net of the sensor offsets and friction bands."""
-    out = {}
+    out: dict[str, np.ndarray] = {}
     if m.cop is not None:
         out[COP] = m.cop - fit.predict_cop(m.q, m.gravity) - fit.cop_bias
     if m.tau is not None and m.tau_joints:

@@ -13,7 +13,7 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -22,10 +22,11 @@ from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 
-#: the measurement kinds, as named in fits, files and options
-COP = "cop"
-TORQUE = "tau"
-KINDS = (COP, TORQUE)
+#: a measurement kind, as named in fits, files and options: the CoP, or joint torques
+Kind = Literal["cop", "tau"]
+COP: Kind = "cop"
+TORQUE: Kind = "tau"
+KINDS: tuple[Kind, ...] = get_args(Kind)
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,7 @@ def _torque_nuisance(fit: Fit, m: Measurements) -> tuple[np.ndarray, np.ndarray]
 
 def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, float, float, int]]:
     """(kind, Σ|e|, Σe², rows) of one block, and ("truth", 0, Σd², rows) for a simulation."""
-    out = []
+    out: list[tuple[str, float, float, int]] = []
     if m.cop is not None:
         y = m.cop - fit.cop_bias
         sums = None

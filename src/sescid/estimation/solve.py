@@ -29,8 +29,8 @@ from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.system import System
 
 #: unit of each kind's rows, and the noise a weighted-free multi-kind fit starts from
-UNITS = {COP: "m", TORQUE: "N·m"}
-START_NOISE = {COP: 0.005, TORQUE: 0.05}
+UNITS: dict[str, str] = {COP: "m", TORQUE: "N·m"}
+START_NOISE: dict[str, float] = {COP: 0.005, TORQUE: 0.05}
 #: a kind's estimated noise is never taken below this fraction of its measurements' RMS (a
 #: noise-free kind would otherwise outweigh the others by any factor and hide what only they
 #: determine below the rank tolerance)

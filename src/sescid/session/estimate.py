@@ -25,7 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation import Measurements, OnlineEstimator, identify
+from sescid.estimation import (
+    IdentifyOptions,
+    Measurements,
+    Method,
+    OnlineEstimator,
+    fit_measurements,
+)
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import concatenate
 from sescid.robot import Robot
@@ -150,7 +156,7 @@ class BatchEstimate:
         window: int,
         tol: float,
         total_mass: float | None = None,
-        method: str = "map",
+        method: Method = "map",
     ):
         self.robot, self.basis = robot, basis
         self.window, self.tol, self.total_mass = window, tol, total_mass
@@ -172,8 +178,10 @@ class BatchEstimate:
         return concatenate(self.parts)
 
     def _identify(self, allow_exact: bool = False) -> Fit:
-        return identify(self.robot, self.data(), method=self.method, weighted=True,
-                        allow_exact=allow_exact, total_mass=self.total_mass)  # fmt: skip
+        options = IdentifyOptions(
+            weighted=True, allow_exact=allow_exact, total_mass=self.total_mass
+        )
+        return fit_measurements(self.robot, self.data(), method=self.method, options=options)
 
     def update(self, m: Measurements) -> Status:
         """Add a measured pose; refit."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -45,7 +46,7 @@ class SessionOptions:
     total_mass: float | None = None
     #: how a session with joint torques fits: "map" (the CAD prior, as ``identify --method
     #: map``) or "ls"; a CoP session fits least squares (the online estimator)
-    torque_method: str = "map"
+    torque_method: Literal["ls", "map"] = "map"
 
 
 @dataclass
