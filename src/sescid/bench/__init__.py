@@ -16,8 +16,11 @@ from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 from sescid.bench.real_robot import (
     DEFAULT_EXTRA,
     NO_POSE_MEASURED,
+    Approach,
+    Engine,
     ExperimentConfig,
     ExtraMass,
+    Registers,
     SensorErrors,
     TorqueConfig,
     approach_sides,
@@ -32,6 +35,9 @@ from sescid.bench.truth import PhysicsTruth, PlacedMass, TorqueTruth, Truth, loa
 
 __all__ = [
     "DEFAULT_EXTRA",
+    "Approach",
+    "Engine",
+    "Registers",
     "FRESH_POSES",
     "FRESH_WITHIN_DEG",
     "MujocoBenchConfig",

@@ -3,14 +3,17 @@ raw log."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import click
 
 from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
+    Approach,
+    Engine,
     ExperimentConfig,
+    Registers,
     TorqueConfig,
     check_limits,
     run_experiment,
@@ -23,8 +26,9 @@ from sescid.cli.common import (
     seed_option,
     sensors_option,
 )
-from sescid.errors import DataError, OptionError
+from sescid.errors import DataError, OptionError, choices
 from sescid.io import read_poses, read_table, write_table
+from sescid.planning import Mount
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
 _EXP = ExperimentConfig()
@@ -54,7 +58,7 @@ def torque_options(f: Any) -> Any:
                          default=_TAU.friction, show_default=True, metavar="LO HI",
                          help="Static-friction band half-width f_j ~ U(LO, HI) per joint [N·m]: "
                          "a held pose reads τ ± f_j on the side it came from."),
-            click.option("--approach", type=click.Choice(["random", "up", "down", "alternate"]),
+            click.option("--approach", type=click.Choice(choices(Approach)),
                          default=_TAU.approach, show_default=True,
                          help="Side each pose is approached from (the approach column)."),
         ]
@@ -66,7 +70,7 @@ def torque_options(f: Any) -> Any:
 def torque_config(opts: dict) -> TorqueConfig:
     """The typed torque options from the flags of ``torque_options``."""
     spec = opts["torques"].strip()
-    joints: tuple[str, ...] | str
+    joints: tuple[str, ...] | Literal["all"]
     if spec == "all":
         joints = "all"
     elif spec in ("", "none"):
@@ -139,14 +143,14 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig):
 )
 @click.option(
     "--registers",
-    type=click.Choice(["forces", "centroid", "both"]),
+    type=click.Choice(choices(Registers)),
     default=_EXP.registers,
     show_default=True,
     help="Log the four forces, the centroid registers, or both.",
 )
 @click.option(
     "--mount",
-    type=click.Choice(["stand", "gantry"]),
+    type=click.Choice(choices(Mount)),
     default=_EXP.mount,
     show_default=True,
     help="stand: on the support foot; gantry: the support link (--support pelvis) held level "
@@ -155,7 +159,7 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig):
 @torque_options
 @click.option(
     "--engine",
-    type=click.Choice(["kinematic", "mujoco"]),
+    type=click.Choice(choices(Engine)),
     default="kinematic",
     show_default=True,
     help="kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "

@@ -22,16 +22,19 @@ from sescid.cli.common import (
     seed_option,
 )
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
-from sescid.errors import OptionError
+from sescid.errors import OptionError, choices
 from sescid.estimation import (
     METHODS,
     ConsistentOptions,
     Fit,
     IdentifyOptions,
+    Kind,
     LeastSquaresOptions,
     MapOptions,
     Method,
     MethodOptions,
+    PriorChoice,
+    PriorSelect,
     save_fit,
 )
 from sescid.io import rows_estimate
@@ -128,7 +131,7 @@ def _online_step(opts: dict) -> int | None:
 )
 @click.option(
     "--kinds",
-    type=click.Choice(["all", "cop", "tau"]),
+    type=click.Choice(["all", *choices(Kind)]),
     default="all",
     show_default=True,
     help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
@@ -193,7 +196,7 @@ def _online_step(opts: dict) -> int | None:
 )
 @click.option(
     "--prior",
-    type=click.Choice(["auto", "sesc", "bodies"]),
+    type=click.Choice(choices(PriorChoice)),
     default=MAP_DEFAULTS.prior,
     show_default=True,
     help="map: the CAD prior's shape: each SESC component ±τ m (sesc), or each body's mass ±τ "
@@ -202,7 +205,7 @@ def _online_step(opts: dict) -> int | None:
 )
 @click.option(
     "--prior-select",
-    type=click.Choice(["evidence", "cv"]),
+    type=click.Choice(choices(PriorSelect)),
     default=MAP_DEFAULTS.select,
     show_default=True,
     help="map: choose the prior scale by marginal likelihood or 5-fold cross-validation.",

@@ -13,14 +13,16 @@ from sescid.cli.common import (
     robot_options,
     seed_option,
 )
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError, SescidError, choices
 from sescid.estimation import min_poses
 from sescid.io import write_table
 from sescid.planning import (
     DEFAULT_CLEARANCE,
     DEFAULT_TAU_NOISE,
-    DESIGN_KINDS,
+    DesignKind,
+    Mount,
     PlanOptions,
+    Select,
     block_curve,
     cop_half_extents,
     default_candidates,
@@ -59,7 +61,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--select",
-    type=click.Choice(["d-optimal", "random"]),
+    type=click.Choice(choices(Select)),
     default="d-optimal",
     show_default=True,
     help="D-optimal (greedy + exchange) or K random candidates.",
@@ -139,7 +141,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--kinds",
-    type=click.Choice(list(DESIGN_KINDS)),
+    type=click.Choice(choices(DesignKind)),
     default="cop",
     show_default=True,
     help="What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
@@ -160,7 +162,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--mount",
-    type=click.Choice(["stand", "gantry"]),
+    type=click.Choice(choices(Mount)),
     default=None,
     help="stand: on the support foot (balance checked); gantry: the support link (a torso, "
     "pelvis) held level, the robot hanging free (joint limits, floor, self-collision only; "
@@ -187,7 +189,7 @@ def poses(
     robot_name,
     support,
     count,
-    select,
+    select: Select,
     seed,
     out,
     n_candidates,
@@ -202,10 +204,10 @@ def poses(
     figure,
     paper_convention: bool,
     rigid: bool,
-    kinds: str,
+    kinds: DesignKind,
     tau_noise: float,
     tau_joints: str,
-    mount: str | None,
+    mount: Mount | None,
     hang_height: float | None,
     check: str,
     force: bool,

@@ -14,6 +14,8 @@ from sescid.cli.common import (
     seed_option,
     study_options,
 )
+from sescid.errors import choices
+from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 TORQUES = TorqueNoise()
@@ -40,7 +42,7 @@ TORQUES = TorqueNoise()
 )
 @click.option(
     "--measure",
-    type=click.Choice(["cop", "tau", "both"]),
+    type=click.Choice(choices(DesignKind)),
     default="cop",
     show_default=True,
     help="What the robot measures: the CoP under its foot, its joint torques, or both.",
@@ -119,7 +121,7 @@ def torque_noise(kinds: dict) -> TorqueNoise | None:
     return TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
 
 
-def _columns(joint_names: list[str], sim, measure: str) -> dict[str, np.ndarray]:
+def _columns(joint_names: list[str], sim, measure: DesignKind) -> dict[str, np.ndarray]:
     """The written table: joints (rad), what is measured (noisy and true), gravity."""
     cols = {name: sim.q[:, j] for j, name in enumerate(joint_names)}
     if measure != "tau":

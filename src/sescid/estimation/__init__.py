@@ -38,7 +38,7 @@ from sescid.estimation.identifiability import (
     min_poses,
     structural_rank,
 )
-from sescid.estimation.measurements import KINDS, Measurements
+from sescid.estimation.measurements import KINDS, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
 from sescid.estimation.online import OnlineEstimator
 from sescid.estimation.options import (
@@ -47,6 +47,10 @@ from sescid.estimation.options import (
     LeastSquaresOptions,
     MapOptions,
     MethodOptions,
+    PriorChoice,
+    PriorSelect,
+    Robust,
+    Via,
     method_options,
 )
 from sescid.estimation.validation import (
@@ -70,6 +74,7 @@ __all__ = [
     "LeastSquaresOptions",
     "JointNoiseEffect",
     "KINDS",
+    "Kind",
     "KindFit",
     "METHODS",
     "MapInfo",
@@ -79,9 +84,13 @@ __all__ = [
     "Measurements",
     "NormalEquations",
     "NuisanceEstimate",
+    "PriorChoice",
+    "PriorSelect",
     "OnlineEstimator",
     "OnlineInfo",
+    "Robust",
     "RobustInfo",
+    "Via",
     "accumulate",
     "body_boxes",
     "cad_violations",

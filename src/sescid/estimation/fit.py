@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal, get_args
+from typing import TYPE_CHECKING, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.estimation.measurements import Kind
 from sescid.kinematics import as_poses, regressor
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -29,6 +30,10 @@ if TYPE_CHECKING:  # pragma: no cover
 #: an estimation method, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
 Method = Literal["ls", "map", "consistent"]
 METHODS: tuple[Method, ...] = get_args(Method)
+#: a nuisance parameter beside r: a sensor's offset, a torque's friction band, a torque gain
+NuisanceWhat = Literal["offset", "friction", "gain"]
+#: why a direction of vec(r) is not identified (``Combination.kind``; "" for a base combination)
+Unseen = Literal["", "support-vertical", "support-horizontal", "joint-axis", "not-excited"]
 #: the shape of a MAP fit's CAD prior: each SESC component ±τ m, or each body's mass and first
 #: moment ±τ relative to CAD
 PriorShape = Literal["sesc", "bodies"]
@@ -48,15 +53,15 @@ def _nan(x: float | None) -> float:
 class Combination:
     """A named linear combination of SESC components: Σ coef · r[body][axis] (m).
 
-    ``kind`` says why an unidentifiable direction is not seen (machine-readable; ``reason`` is
-    the prose): "support-vertical", "joint-axis" or "not-excited"; "" for a base combination.
+    ``kind`` says why an unidentifiable direction is not seen (machine-readable, ``Unseen``;
+    ``reason`` is the prose); "" for a base combination.
     """
 
     terms: list[tuple[str, str, float]]  #: (body, axis, coefficient)
     value: float = float("nan")  #: estimate, m
     std: float = float("nan")  #: standard error, m
     reason: str = ""
-    kind: str = ""
+    kind: Unseen = ""
 
     def label(self, digits: int = 3) -> str:
         """``r[A].x - 0.5·r[B].y`` style text."""
@@ -91,7 +96,7 @@ class Combination:
             value=_nan(d.get("value")),
             std=_nan(d.get("std")),
             reason=str(d.get("reason", "")),
-            kind=str(d.get("kind", "")),
+            kind=cast(Unseen, str(d.get("kind", ""))),
         )
 
 
@@ -102,7 +107,7 @@ class MapInfo:
     prior_scale: float  #: τ, m
     prior_scale_by: str  #: "given", "evidence" or "<k>-fold cv"
     noise: float  #: σ, m (a dimensionless scale for a weighted fit)
-    noise_by: str  #: "given" or "evidence"
+    noise_by: str  #: "given", "evidence" (a pad calibration: "per-session estimate")
     log_evidence: float
     effective_parameters: float
     cv_curve: list[list[float]] | None = None  #: [[τ/σ, held-out RMSE m], …] when chosen by CV
@@ -185,7 +190,7 @@ class CrossValidation:
     rmse_folds: list[float]
     noise: float  #: pooled σ̂ of the training fits, in the same units as rmse
     model_rmse: float  #: √max(rmse² − σ̂², 0): the model's share of the held-out error
-    kind: str = "cop"  #: the measurement kind scored: "cop" (m) or "tau" (N·m)
+    kind: Kind = "cop"  #: the measurement kind scored: "cop" (m) or "tau" (N·m)
 
 
 @dataclass
@@ -204,7 +209,7 @@ class JointNoiseEffect:
 class KindFit:
     """How one measurement kind fitted: its rows, noise and residuals (in its own unit)."""
 
-    kind: str  #: "cop" or "tau"
+    kind: Kind
     n_rows: int
     n_poses: int
     sigma: float  #: noise standard deviation (m, N·m; a dimensionless scale when weighted)
@@ -221,8 +226,8 @@ class NuisanceEstimate:
     """A nuisance parameter's estimate (a sensor offset, a friction band): value and standard
     error in ``unit``; both nan when the data do not determine it (``reason`` says why)."""
 
-    kind: str  #: "cop" or "tau"
-    what: str  #: "offset" or "friction"
+    kind: Kind
+    what: NuisanceWhat
     name: str  #: the axis of a CoP offset or the joint of a torque sensor
     unit: str
     value: float

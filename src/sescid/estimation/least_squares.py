@@ -28,7 +28,7 @@ from sescid.estimation.identifiability import (
     rank_of,
     unidentifiable,
 )
-from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.measurements import COP, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.residual_sums import residual_sums
 from sescid.estimation.solve import UNITS, Solution, solve_system
@@ -185,7 +185,7 @@ def fit_least_squares(
     *,
     rtol: float = DEFAULT_RTOL,
     r_prior: np.ndarray | None = None,
-    noise: dict[str, float] | None = None,
+    noise: dict[Kind, float] | None = None,
     allow_exact: bool = False,
 ) -> Fit:
     """Least-squares Fit of a pooled system (``solve.solve_system``, ``fit_from_solution``)."""
@@ -286,8 +286,8 @@ def refit_nuisance(fit: Fit, system: System) -> Fit:
         return fit
     from sescid.estimation.solve import weighted_sums
 
-    noise = {k.kind: (k.sigma if math.isfinite(k.sigma) and k.sigma > 0 else 1.0)
-             for k in fit.kinds}  # fmt: skip
+    noise: dict[Kind, float] = {k.kind: (k.sigma if math.isfinite(k.sigma) and k.sigma > 0
+                                        else 1.0) for k in fit.kinds}  # fmt: skip
     if len(system.kinds) == 1:
         noise = {system.kinds[0]: 1.0}
     ne = weighted_sums(system, noise)

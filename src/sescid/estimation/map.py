@@ -47,7 +47,7 @@ from sescid.estimation.least_squares import (
     nuisance_estimates,
     prior_theta,
 )
-from sescid.estimation.measurements import TORQUE
+from sescid.estimation.measurements import TORQUE, Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.options import MapOptions
 from sescid.estimation.solve import Solution, solve_system, weighted_sums
@@ -263,7 +263,7 @@ def fit_map(
     r_prior: np.ndarray | None = None,
     rtol: float = DEFAULT_RTOL,
     cv_folds: list[System] | None = None,
-    kind_noise: dict[str, float] | None = None,
+    kind_noise: dict[Kind, float] | None = None,
 ) -> Fit:
     """MAP ``Fit`` of a pooled system (module docstring). ``options.prior_scale`` τ [m] and
     ``options.noise`` σ (the kinds' common noise scale; m for one unweighted CoP kind) are chosen
@@ -315,7 +315,7 @@ def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) 
     return int(np.sum(share < PRIOR_DECIDED))
 
 
-def _noise_ratios(system: System, ls: Solution) -> dict[str, float]:
+def _noise_ratios(system: System, ls: Solution) -> dict[Kind, float]:
     """Each kind's noise relative to the others, from least squares (1 for a single kind)."""
     if len(system.kinds) == 1:
         return {system.kinds[0]: 1.0}

@@ -243,9 +243,9 @@ class IdentifyOptions:
             gravity_accel=self.gravity_accel,
         )
 
-    def noise(self) -> dict[str, float]:
+    def noise(self) -> dict[Kind, float]:
         """The kinds' given noise levels."""
-        out: dict[str, float] = {}
+        out: dict[Kind, float] = {}
         if self.cop_noise is not None:
             out[COP] = self.cop_noise
         if self.tau_noise is not None:

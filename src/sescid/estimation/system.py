@@ -23,7 +23,8 @@ import numpy as np
 from sescid.base.threads import ordered_map
 from sescid.errors import DataError
 from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
-from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.fit import NuisanceWhat
+from sescid.estimation.measurements import COP, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import use_kernels
@@ -40,8 +41,8 @@ NUISANCE_PRIOR_COP = 1.0
 class Nuisance:
     """A nuisance parameter: a column of the system beside the SESC vectors."""
 
-    kind: str  #: the measurement kind it belongs to ("cop", "tau")
-    what: str  #: "offset" or "friction"
+    kind: Kind  #: the measurement kind it belongs to
+    what: NuisanceWhat
     name: str  #: the axis ("x", "y") of a CoP offset, or the joint of a torque sensor
     unit: str  #: "m" or "N·m"
     prior_scale: float  #: MAP prior standard deviation (effectively flat), in ``unit``
@@ -69,7 +70,7 @@ def torque_nuisance(m: Measurements) -> tuple[Nuisance, ...]:
 class KindSums:
     """The normal equations of one kind over θ = [vec(r); the system's nuisance columns]."""
 
-    kind: str
+    kind: Kind
     ne: NormalEquations
     weighted: bool  #: rows weighted by the given standard errors (σ is then a scale)
 
@@ -93,7 +94,7 @@ class System:
         return self.n_x + len(self.nuisance)
 
     @property
-    def kinds(self) -> tuple[str, ...]:
+    def kinds(self) -> tuple[Kind, ...]:
         """The kinds with rows, in a fixed order."""
         return tuple(k for k in (COP, TORQUE) if k in self.parts)
 

@@ -14,12 +14,12 @@ from sescid.errors import ModelError
 from sescid.model.geometry import Shape, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.inertia import inertia_issue, inertia_parts
-from sescid.model.tree import Body, RobotModel, inv_transform, reroot, rot_axis
+from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
 from sescid.model.urdf import build_model as build_urdf_model
 from sescid.model.urdf_parse import load_urdf, parse_inertial
 
 
-def model_format(path: Path) -> str:
+def model_format(path: Path) -> ModelFormat:
     """The format, "urdf" or "mjcf", from the root element (ModelError if it is neither)."""
     if not path.is_file():
         kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
@@ -55,6 +55,7 @@ __all__ = [
     "Frame",
     "Graph",
     "LinkInertial",
+    "ModelFormat",
     "RobotModel",
     "Shape",
     "body_hulls",

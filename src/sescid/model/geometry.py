@@ -8,18 +8,24 @@ consistent-mass step (``shape_hull``) and self-collision capsules of pose planni
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
-#: shape kinds
-BOX, CYLINDER, CAPSULE, SPHERE, MESH = "box", "cylinder", "capsule", "sphere", "mesh"
+#: the kinds of collision/visual shape a model file gives
+ShapeKind = Literal["box", "cylinder", "capsule", "sphere", "mesh"]
+BOX: ShapeKind = "box"
+CYLINDER: ShapeKind = "cylinder"
+CAPSULE: ShapeKind = "capsule"
+SPHERE: ShapeKind = "sphere"
+MESH: ShapeKind = "mesh"
 
 
 @dataclass(frozen=True)
 class Shape:
     """One geometric primitive of a link, in the frame of the body that holds the link."""
 
-    kind: str  #: "box", "cylinder", "capsule", "sphere" or "mesh"
+    kind: ShapeKind
     role: str  #: "collision" or "visual"
     body: int  #: index of the sescid body
     link: str  #: model link (URDF link / MJCF body) it belongs to

@@ -15,7 +15,14 @@ without fast-math and breaks near-ties by index: the same poses on every CPU.
 """
 
 from sescid.planning.blocks import BlockDesign, schur_logdet, select_blocks
-from sescid.planning.candidates import CandidateOptions, Candidates, candidates
+from sescid.planning.candidates import (
+    MOUNTS,
+    CandidateOptions,
+    Candidates,
+    Mount,
+    Sampling,
+    candidates,
+)
 from sescid.planning.collision import (
     Capsules,
     box_capsules,
@@ -39,7 +46,6 @@ from sescid.planning.doptimal import (
 )
 from sescid.planning.gantry import (
     GANTRY_LIFT,
-    MOUNTS,
     GantryOptions,
     gantry_candidates,
     gantry_floor,
@@ -52,6 +58,7 @@ from sescid.planning.kinds import (
     DEFAULT_TAU_NOISE,
     DESIGN_KINDS,
     BlockRows,
+    DesignKind,
     DesignKinds,
     TorqueRows,
     block_rows,
@@ -73,7 +80,14 @@ from sescid.planning.limits import (
 from sescid.planning.ordering import order_poses, path_length
 from sescid.planning.plan import design_curve, plan_poses
 from sescid.planning.plan_kinds import block_curve, choose_blocks
-from sescid.planning.plan_types import PlanOptions, PoseCheck, PosePlan, default_candidates
+from sescid.planning.plan_types import (
+    PlanOptions,
+    PoseCheck,
+    PosePlan,
+    Quantity,
+    Select,
+    default_candidates,
+)
 from sescid.planning.stability import (
     DEFAULT_CLEARANCE,
     FALLBACK_COP_BOX,
@@ -98,14 +112,19 @@ __all__ = [
     "Capsules",
     "ComState",
     "Compliance",
+    "DesignKind",
     "DesignKinds",
     "GantryOptions",
     "GroundChecks",
+    "Mount",
     "TorqueRows",
     "PaperConvention",
     "PlanOptions",
     "PoseCheck",
     "PosePlan",
+    "Quantity",
+    "Sampling",
+    "Select",
     "Selection",
     "block_curve",
     "block_rows",

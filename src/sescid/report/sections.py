@@ -148,7 +148,7 @@ def nuisance_table(fit: Fit, joints: tuple[str, ...]) -> str:
     """Each torque sensor's estimated parameters (offset, friction band, and any other the fit
     carries, e.g. a gain) as value ± 1σ, or "not determined" with the reason."""
     tau = [e for e in fit.nuisance if e.kind == "tau"]
-    est = {(e.what, e.name): e for e in tau}
+    est: dict[tuple[str, str], NuisanceEstimate] = {(e.what, e.name): e for e in tau}
     whats = ["offset", "friction"] + list(dict.fromkeys(
         e.what for e in tau if e.what not in ("offset", "friction")
     ))  # fmt: skip
@@ -160,7 +160,7 @@ def nuisance_table(fit: Fit, joints: tuple[str, ...]) -> str:
             if e is not None and not e.determined
         ))  # fmt: skip
         rows.append([f"<code>{esc(j)}</code>", *(cell(_value(e)) for e in got)])
-    units = {e.what: e.unit for e in tau}
+    units: dict[str, str] = {e.what: e.unit for e in tau}
     head = ["joint"] + [
         NUISANCE_TITLES.get(w, f"{w} ± 1σ [{units.get(w, '')}]") for w in whats
     ]  # fmt: skip

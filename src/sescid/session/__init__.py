@@ -10,11 +10,18 @@ small protocol a session drives, the replay of a recorded log and a user's Pytho
 
 from sescid.session.adapters import ReplayAdapter, RobotAdapter, load_adapter_class
 from sescid.session.bench_adapters import KinematicAdapter, MujocoAdapter
-from sescid.session.design import SESSION_KINDS, SessionDesign, session_mount
+from sescid.session.design import SessionDesign, session_mount
 from sescid.session.estimate import BatchEstimate, CopEstimate
 from sescid.session.journal import JOURNAL_NAME, Journal
 from sescid.session.loop import check_options, run_session
-from sescid.session.records import SessionObserver, SessionOptions, SessionResult, SessionStep
+from sescid.session.records import (
+    SESSION_KINDS,
+    SessionKind,
+    SessionObserver,
+    SessionOptions,
+    SessionResult,
+    SessionStep,
+)
 
 __all__ = [
     "JOURNAL_NAME",
@@ -22,6 +29,7 @@ __all__ = [
     "BatchEstimate",
     "CopEstimate",
     "SessionDesign",
+    "SessionKind",
     "Journal",
     "KinematicAdapter",
     "MujocoAdapter",

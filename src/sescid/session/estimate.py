@@ -34,6 +34,7 @@ from sescid.estimation import (
 )
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import concatenate
+from sescid.planning import DesignKind, Quantity
 from sescid.robot import Robot
 from sescid.sensors import Measured
 from sescid.session.records import BODY_PRIOR_SCALE
@@ -77,7 +78,7 @@ def _prior_std(basis: np.ndarray, info: np.ndarray, n_bodies: int) -> np.ndarray
 class CopEstimate:
     """A CoP session's estimate (module docstring)."""
 
-    quantity = "CoP"
+    quantity: Quantity = "CoP"
 
     def __init__(self, robot: Robot, basis: np.ndarray, window: int, tol: float):
         self.robot, self.basis = robot, basis
@@ -121,7 +122,7 @@ class CopEstimate:
         return self.est.fit()
 
 
-def as_measurements(m: Measured, kinds: str, source: str) -> Measurements:
+def as_measurements(m: Measured, kinds: DesignKind, source: str) -> Measurements:
     """One reduced pose as ``Measurements`` of the session's ``kinds`` (DataError when a
     torque is not determined, or an approach side missing)."""
     cop = kinds in ("cop", "both")
@@ -147,7 +148,7 @@ def as_measurements(m: Measured, kinds: str, source: str) -> Measurements:
 class BatchEstimate:
     """A session with joint torques: ``identify`` on every pose so far (module docstring)."""
 
-    quantity = "CoM x/y"
+    quantity: Quantity = "CoM x/y"
 
     def __init__(
         self,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -22,11 +23,13 @@ START_NOISE_COP = 0.001
 NOISE_FLOOR_FORCE = 1e-3
 NOISE_FLOOR_COP = 1e-6
 
-UNLOADED_FOOT = "unloaded-foot"
-OFFSET_TWIST = "offset-twist"
-SUPPORT_CONFOUNDED = "support-confounded"
-SCALE = "scale"
-NOT_EXCITED = "not-excited"
+#: why a sensor direction is not determined (``SensorDirection.kind``; the package docstring)
+Unseen = Literal["unloaded-foot", "offset-twist", "support-confounded", "scale", "not-excited"]
+UNLOADED_FOOT: Unseen = "unloaded-foot"
+OFFSET_TWIST: Unseen = "offset-twist"
+SUPPORT_CONFOUNDED: Unseen = "support-confounded"
+SCALE: Unseen = "scale"
+NOT_EXCITED: Unseen = "not-excited"
 
 
 @dataclass(frozen=True)
@@ -115,7 +118,7 @@ class SensorDirection:
     """A sensor direction the sessions do not determine: terms (label, coefficient), why."""
 
     terms: list[tuple[str, float]]
-    kind: str
+    kind: Unseen
     reason: str
     #: SESC components that move with it (body, axis, coefficient), for support-confounded
     mass_terms: list[tuple[str, str, float]] = field(default_factory=list)
