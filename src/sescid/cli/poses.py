@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import click
 import numpy as np
 
@@ -209,7 +211,7 @@ def poses(
     tau_joints: str,
     mount: Mount | None,
     hang_height: float | None,
-    check: str,
+    check: Literal["none", "mujoco"],
     force: bool,
 ):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be

@@ -30,6 +30,9 @@ if TYPE_CHECKING:  # pragma: no cover
 #: an estimation method, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
 Method = Literal["ls", "map", "consistent"]
 METHODS: tuple[Method, ...] = get_args(Method)
+#: how a kind's noise level was set: estimated from the residuals, given, or not determined (no
+#: degrees of freedom left)
+NoiseSource = Literal["estimated", "given", "not determined"]
 #: a nuisance parameter beside r: a sensor's offset, a torque's friction band, a torque gain
 NuisanceWhat = Literal["offset", "friction", "gain"]
 #: why a direction of vec(r) is not identified (``Combination.kind``; "" for a base combination)
@@ -213,7 +216,7 @@ class KindFit:
     n_rows: int
     n_poses: int
     sigma: float  #: noise standard deviation (m, N·m; a dimensionless scale when weighted)
-    sigma_by: str  #: "estimated", "given" or "not determined"
+    sigma_by: NoiseSource
     dof: float  #: this kind's share of the residual degrees of freedom
     rms: float  #: residual RMS per row (nan when unknown)
     mae: float  #: mean absolute residual per row (nan when unknown)

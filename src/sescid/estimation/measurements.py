@@ -166,7 +166,7 @@ class Measurements:
             )
         return out
 
-    def without(self, kind: str) -> Measurements:
+    def without(self, kind: Kind) -> Measurements:
         """The same poses with one kind of measurement dropped."""
         if kind == COP:
             return dataclasses.replace(self, cop=None, cop_se=None, cop_true=None)

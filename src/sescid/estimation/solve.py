@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.estimation.fit import NoiseSource
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol, eigen_descending, rank_of
 from sescid.estimation.measurements import COP, TORQUE, Kind
 from sescid.estimation.normal_equations import NormalEquations
@@ -54,7 +55,7 @@ class Solution:
     n_rows: int
     scale: float  #: σ̂ of the weighted residuals (≈ 1 when the σ_k are right; m for one CoP kind)
     noise: dict[Kind, float]  #: σ_k per kind (nan: not determined)
-    noise_by: dict[Kind, str]  #: "estimated", "given" or "not determined"
+    noise_by: dict[Kind, NoiseSource]
     dof: dict[Kind, float]  #: each kind's share of the redundancy
     rss: dict[Kind, float]  #: each kind's residual sum of squares (its own weights)
 
@@ -157,7 +158,8 @@ def solve_system(
     rss = {k: _rss(system.parts[k].ne, theta) for k in kinds}
     shares = _dof_shares(system, sigma, lam, vecs, p) if len(kinds) > 1 else {kinds[0]: dof_total}
     scale = math.sqrt(_rss(ne, theta) / dof_total) if dof_total > 0 else math.nan
-    noise_out, noise_by = {}, {}
+    noise_out: dict[Kind, float] = {}
+    noise_by: dict[Kind, NoiseSource] = {}
     for k in kinds:
         if k in given:
             noise_out[k], noise_by[k] = given[k], "given"

@@ -11,7 +11,7 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 from sescid.errors import ModelError
-from sescid.model.geometry import Shape, body_hulls, shape_hull
+from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.inertia import inertia_issue, inertia_parts
 from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
@@ -58,6 +58,8 @@ __all__ = [
     "ModelFormat",
     "RobotModel",
     "Shape",
+    "ShapeKind",
+    "ShapeRole",
     "body_hulls",
     "build_urdf_model",
     "inertia_issue",

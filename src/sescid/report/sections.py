@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sescid.estimation import Fit, NuisanceEstimate
+from sescid.estimation import Fit, Kind, NuisanceEstimate
 from sescid.report.inputs import ReportContent
 from sescid.report.numbers import CAD, IDENTIFIED, KindNumbers
 from sescid.report.text import (
@@ -72,7 +72,7 @@ def _cop_table(k: KindNumbers) -> str:
     return table(head, rows)
 
 
-def _offsets_line(fit: Fit, kind: str) -> str:
+def _offsets_line(fit: Fit, kind: Kind) -> str:
     items = [e for e in fit.nuisance if e.kind == kind and e.what == "offset"]
     if kind != "cop" or not items:
         return ""

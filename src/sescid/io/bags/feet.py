@@ -109,7 +109,7 @@ def parse_foot(path: str, name: str, data, folder: Path) -> FootSource:
     )
 
 
-def _array_foot(f: Fields, source: str, prefix: str, fld) -> dict:
+def _array_foot(f: Fields, source: FootSourceKind, prefix: str, fld) -> dict:
     """Fields of a pads or plate source (columns, cells, array positions)."""
     kw: dict = {}
     cols = f.data.get("columns")
