@@ -20,7 +20,7 @@ from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
-__all__ = ["Robot", "load_robot"]
+__all__ = ["Robot", "line_direction", "load_robot"]
 
 
 class Robot:
@@ -30,13 +30,24 @@ class Robot:
     Everything returned is in the support frame (x forward, y left, z up for a sole), metres.
     """
 
-    def __init__(self, model: RobotModel, source: str, profile: RobotProfile | None = None):
+    def __init__(
+        self,
+        model: RobotModel,
+        source: str,
+        profile: RobotProfile | None = None,
+        line: ArrayLike | None = None,
+    ):
         self.model = model
         #: what ``load_robot`` was given: an embedded name (``"op2"``) or a model file path
         self.source = source
         #: robot-specific facts (sole, servo, sensors, …); generic for an arbitrary model file
         self.profile = profile or generic_profile(model.name)
         self.tree = kinematics.Tree.from_model(model)
+        if line is None:
+            line = self.profile.support_lines.get(model.support)
+        #: (3,) unit direction of the support line (a wheel axle, an edge) through the support
+        #: frame's origin, in that frame; None for a support that is a sole or a held link
+        self.line = None if line is None else line_direction(line, f"{model.path.name}: line")
 
     # --- description -------------------------------------------------------------------
     @property
@@ -90,8 +101,9 @@ class Robot:
         return self.tree.root_o.copy()
 
     def __repr__(self) -> str:
+        line = "" if self.line is None else f", line={self.line.round(6).tolist()}"
         return (
-            f"Robot({self.name!r}, support={self.support!r}, {self.nq} joints, "
+            f"Robot({self.name!r}, support={self.support!r}{line}, {self.nq} joints, "
             f"{len(self.body_names)} bodies, {self.total_mass:.4f} kg)"
         )
 
@@ -293,19 +305,48 @@ class Robot:
         return rb @ x[:3, :3], ob + rb @ x[:3, 3]
 
 
-def load_robot(name_or_path: str | Path = "op2", support: str | None = None) -> Robot:
+def line_direction(line: ArrayLike | str, what: str = "line") -> np.ndarray:
+    """A support line's unit direction (3,) from an axis name ("x", "-y", …) or 3 numbers
+    (a string "ax,ay,az" or an array); ModelError for anything else."""
+    axes = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+    if isinstance(line, str):
+        text = line.strip().lower()
+        sign = -1.0 if text.startswith("-") else 1.0
+        if text.lstrip("+-") in axes:
+            return sign * np.array(axes[text.lstrip("+-")])
+        try:
+            line = [float(v) for v in text.split(",")]
+        except ValueError:
+            raise ModelError(
+                f"{what}: {line!r} is not a direction (x, y, z, -y, … or ax,ay,az)"
+            ) from None
+    v = np.asarray(line, dtype=float).reshape(-1)
+    norm = float(np.linalg.norm(v)) if v.shape == (3,) and np.all(np.isfinite(v)) else 0.0
+    if norm < 1e-9:
+        raise ModelError(f"{what}: a direction needs 3 finite numbers, not all 0 (got {line!r})")
+    return v / norm
+
+
+def load_robot(
+    name_or_path: str | Path = "op2",
+    support: str | None = None,
+    line: ArrayLike | str | None = None,
+) -> Robot:
     """Load an embedded robot (``"op2"``) or any URDF/MJCF file, rooted at the frame ``support``.
 
     ``support`` defaults to the profile's (``r_sole`` for the OP2) and is required for other
     model files. Fixed-joint links are merged into their parents (their mass counts); revolute,
     continuous and mimic joints are supported; prismatic and planar joints raise ModelError.
+    ``line``: the robot balances on a line through the support frame's origin (a wheel axle, an
+    edge) with this direction in the support frame ("x", "-y", "ax,ay,az" or 3 numbers); None:
+    the profile's line for this support, if any (else a sole or a held link).
     """
     key = str(name_or_path)
     if key in EMBEDDED:
         profile = profile_for(key)
         assert profile.model_file is not None
         model = load_model(profile.model_file, support or profile.support or "")
-        return Robot(model, key, profile)
+        return Robot(model, key, profile, line)
     path = Path(key)
     if path.suffix.lower() in (".urdf", ".xml", ".mjcf") and not path.is_file():
         kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
@@ -317,4 +358,4 @@ def load_robot(name_or_path: str | Path = "op2", support: str | None = None) -> 
         )
     if support is None:
         raise ModelError(f"{path}: name the support frame (a sole link, foot link or site)")
-    return Robot(load_model(path, support), str(path.resolve()))
+    return Robot(load_model(path, support), str(path.resolve()), line=line)

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
-from sescid.kinematics import Tree, as_poses, com_one, com_rows
+from sescid.kinematics import Tree, as_poses, com_one, com_rows, regressor
 from sescid.kinematics.torque_values import torque_rows, torque_values
 from sescid.model import RobotModel
 
@@ -169,3 +169,63 @@ def torques(
     q = as_poses(q, tree.nq)
     g = gravity_vectors(gravity, q.shape[0], g0)
     return torque_values(tree, q, np.asarray(r, dtype=float), float(total_mass), cols, g)
+
+
+# --- balance on a line (a wheel axle, an edge) ---------------------------------------
+def line_across(line: np.ndarray, gravity: np.ndarray) -> np.ndarray:
+    """(n, 3) unit horizontal directions across the line (u × up) for gravity (n, 3)."""
+    up = -gravity / np.linalg.norm(gravity, axis=1, keepdims=True)
+    n = np.cross(line[None, :], up)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def line_distance(line: np.ndarray, com: np.ndarray) -> np.ndarray:
+    """(n,) distance of CoM points (n, 3) from the line through the origin, m."""
+    perp = com - np.outer(com @ line, line)
+    return np.linalg.norm(perp, axis=1)
+
+
+def _tilt_axes(line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e_up, e_side): the support frame's z axis perpendicular to the line, and line × e_up."""
+    z = np.array([0.0, 0.0, 1.0]) - line[2] * line
+    norm = float(np.linalg.norm(z))
+    if norm < 1e-6:
+        raise ValueError("a support line along the support frame's z axis has no balance tilt")
+    e_up = z / norm
+    return e_up, np.cross(line, e_up)
+
+
+def balance_tilt(
+    tree: Tree,
+    line: np.ndarray,
+    q: ArrayLike,
+    r: np.ndarray,
+    cov: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The tilt φ (n,) [rad] about the support line (right-handed about ``Robot.line``) that
+    balances the robot at poses q (n, nq) for SESC vectors r (N, 3): the support frame turned by
+    φ from upright (its z axis vertical) puts the CoM vertically above the line. For a base
+    whose IMU is aligned with the support frame and a line along its y axis, φ is the IMU's
+    pitch. With ``cov`` (3N, 3N) of vec(r): also its standard error (n,) [rad] (first order)."""
+    e_up, e_side = _tilt_axes(line)
+    q = as_poses(q, tree.nq)
+    com = com_from_sesc(tree, q, r, (0, 1, 2))
+    x, z = com @ e_side, com @ e_up
+    tilt = -np.arctan2(x, z)
+    if cov is None:
+        return tilt, None
+    phi = regressor(tree, q, (0, 1, 2))  # (n, 3, 3N)
+    d2 = np.maximum(x * x + z * z, 1e-300)
+    grad_c = (x[:, None] * e_up[None, :] - z[:, None] * e_side[None, :]) / d2[:, None]
+    grad = np.einsum("na,nap->np", grad_c, phi)
+    var = np.einsum("np,pk,nk->n", grad, cov, grad)
+    return tilt, np.sqrt(np.clip(var, 0, None))
+
+
+def balance_gravity(line: np.ndarray, tilt: ArrayLike) -> np.ndarray:
+    """(n, 3) unit gravity directions in the support frame of a robot on a line tilted by
+    ``tilt`` (n,) [rad] about it from upright (``balance_tilt``'s convention)."""
+    e_up, e_side = _tilt_axes(line)
+    t = np.asarray(tilt, dtype=float).reshape(-1)
+    up = np.cos(t)[:, None] * e_up[None, :] - np.sin(t)[:, None] * e_side[None, :]
+    return -up

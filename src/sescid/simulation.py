@@ -21,6 +21,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot
 
 __all__ = [
+    "BalanceData",
     "MAX_STABLE_DRAWS",
     "MEMORY_FACTOR",
     "PAPER_MAE",
@@ -33,6 +34,7 @@ __all__ = [
     "check_count",
     "random_poses",
     "simulate",
+    "simulate_balance",
     "simulate_torques",
 ]
 
@@ -243,3 +245,41 @@ def _stable_poses(robot: Robot, n, range_deg, rng, clip) -> tuple[np.ndarray, in
                 "stable", f"only {n_kept} of {n_drawn} poses have the CoP on the sole"
             )
     return np.concatenate(kept)[:n], n_drawn
+
+
+@dataclass(frozen=True)
+class BalanceData:
+    """Simulated balanced poses of a robot on a line: joint angles (n, nq) [rad], the gravity
+    direction (n, 3) in the support frame that an IMU with ``tilt_noise`` reports, and the true
+    and measured tilts about the line (n,) [rad] (``sesc.balance_tilt``)."""
+
+    q: np.ndarray
+    gravity: np.ndarray
+    tilt: np.ndarray
+    tilt_measured: np.ndarray
+    tilt_noise: float
+
+
+def simulate_balance(
+    robot: Robot,
+    n: int = 40,
+    range_deg: float = PAPER_RANGE_DEG,
+    tilt_noise: float = math.radians(0.5),
+    seed: int | None = 0,
+    r_true: np.ndarray | None = None,
+) -> BalanceData:
+    """Random poses (uniform in ±range_deg, clipped to the joint limits) of a robot balancing
+    on its support line (``Robot.line``), each at the tilt that balances the true robot
+    (``r_true``, default the model's), read with a tilt error ~ N(0, tilt_noise²) [rad]."""
+    from sescid.sesc import balance_gravity, balance_tilt
+
+    if robot.line is None:
+        raise OptionError("line", f"{robot.name}: the support '{robot.support}' is not a line")
+    if not (math.isfinite(tilt_noise) and 0 <= tilt_noise <= math.radians(20)):
+        raise OptionError("tilt_noise", f"must be in [0, 20°] (rad), got {tilt_noise}")
+    rng = np.random.default_rng(seed)
+    q = random_poses(robot, n, range_deg, rng, clip=True)
+    r = robot.sesc_vectors() if r_true is None else np.asarray(r_true, dtype=float)
+    tilt, _ = balance_tilt(robot.tree, robot.line, q, r)
+    measured = tilt + rng.normal(0.0, tilt_noise, size=n)
+    return BalanceData(q, balance_gravity(robot.line, measured), tilt, measured, tilt_noise)

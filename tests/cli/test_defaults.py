@@ -33,7 +33,7 @@ from sescid.report import LiveView
 from sescid.robot import load_robot
 from sescid.sensors import CalibrationOptions, PadSessionOptions, fsr, load_sensors, table_gravity
 from sescid.session import KinematicAdapter, SessionOptions
-from sescid.simulation import TorqueNoise, simulate
+from sescid.simulation import TorqueNoise, simulate, simulate_balance
 from sescid.study import paper_study
 
 #: options with no API counterpart, and why
@@ -150,6 +150,7 @@ def _simulate(d) -> list:
         ("tilt_deg", math.radians(d["tilt_deg"]), _arg(simulate, "tilt")),
         ("measure", torque_noise(d), _arg(simulate, "torques")),
         ("TorqueNoise", tau, TorqueNoise()),
+        ("tilt_noise_deg", math.radians(d["tilt_noise_deg"]), _arg(simulate_balance, "tilt_noise")),
     ]
 
 

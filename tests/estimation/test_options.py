@@ -48,8 +48,11 @@ def test_a_name_gives_its_method_with_default_options_and_an_object_is_its_own()
         (lambda: MapOptions(select="cv", bias=True), r"bias: .*cv does not fit a bias"),
         (lambda: ConsistentOptions(via="both"), r"via: must be one of 'auto', 'prior', 'fit'"),
         (lambda: IdentifyOptions(robust="yes"), r"robust: must be one of True, False, 'auto'"),
-        (lambda: IdentifyOptions(kinds=("cop", "force")), r"kinds: must be one of 'cop', 'tau'"),
-        (lambda: IdentifyOptions(kinds=()), r"kinds: must name cop and/or tau"),
+        (
+            lambda: IdentifyOptions(kinds=("cop", "force")),
+            r"kinds: must be one of 'cop', 'tau', 'balance'",
+        ),
+        (lambda: IdentifyOptions(kinds=()), r"kinds: must name some measurement kinds"),
         (lambda: IdentifyOptions(cv=1), r"cv: needs at least 2 folds"),
         (lambda: IdentifyOptions(online_step=0), r"online_step: must be ≥ 1"),
         (lambda: IdentifyOptions(gain_prior=2.0), r"gain_prior: must be a relative std"),

@@ -36,12 +36,12 @@ def test_documented_messages(tmp_path, op2):
     """The table error and the mass warning quoted in the page are the code's."""
     from sescid.io import read_cop, read_table
 
-    (tmp_path / "measured.csv").write_text("cop_x,cop_y\n" + "0,0\n" * 5 + "n/a,0\n")
+    (tmp_path / "measured.csv").write_text("cop_x,cop_y\n" + "0,0\n" * 5 + '"1,5",0\n')
     with pytest.raises(Exception) as exc:
         read_cop(read_table(tmp_path / "measured.csv"))
-    line = f"{tmp_path / 'measured.csv'}: row 7, column 'cop_x': 'n/a' is not a number"
+    line = f"{tmp_path / 'measured.csv'}: row 7, column 'cop_x': '1,5' is not a number"
     assert str(exc.value) == line
-    assert "measured.csv: row 7, column 'cop_x': 'n/a' is not a number" in DOC.read_text()
+    assert "measured.csv: row 7, column 'cop_x': '1,5' is not a number" in DOC.read_text()
     masses = np.array([b.mass for b in op2.model.bodies])
     masses[op2.body_names.index("MP_HEAD")] *= 3.34
     (warning,) = mass_warnings(op2.model, masses)

@@ -232,8 +232,22 @@ MAX_ANGLE_RAD = 2 * math.pi
 
 
 def read_cop(table: Table) -> np.ndarray:
-    """Measured CoP (n, 2) in metres from ``cop_x``, ``cop_y``."""
-    cop = np.column_stack([table.get("cop_x"), table.get("cop_y")])
+    """Measured CoP (n, 2) in metres from ``cop_x``, ``cop_y``: a coordinate not measured (its
+    column absent, or an empty cell) is nan; a row with neither is an error naming it."""
+    cols = []
+    for name in ("cop_x", "cop_y"):
+        if name in table.columns or name in table.text:
+            col = column_with_missing(table, name)
+            inf = np.flatnonzero(np.isinf(col))
+            if inf.size:
+                raise DataError(
+                    f"{table.path}: row {table.row(inf[0])}, column '{name}': value "
+                    f"{col[inf[0]]} is not finite"
+                )
+            cols.append(col)
+        else:
+            cols.append(np.full(table.n, np.nan))
+    cop = np.column_stack(cols)
     big = np.argwhere(np.abs(cop) > MAX_COP_M)
     if big.size:
         i, j = big[0]

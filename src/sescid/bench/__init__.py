@@ -17,6 +17,7 @@ from sescid.bench.real_robot import (
     DEFAULT_EXTRA,
     NO_POSE_MEASURED,
     Approach,
+    BenchMount,
     Engine,
     ExperimentConfig,
     ExtraMass,
@@ -36,6 +37,7 @@ from sescid.bench.truth import PhysicsTruth, PlacedMass, TorqueTruth, Truth, loa
 __all__ = [
     "DEFAULT_EXTRA",
     "Approach",
+    "BenchMount",
     "Engine",
     "Registers",
     "FRESH_POSES",

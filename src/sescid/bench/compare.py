@@ -20,7 +20,8 @@ from sescid.estimation import Fit
 
 @dataclass(frozen=True)
 class TruthComparison:
-    """RMS CoP errors (m) against the true robot, per model."""
+    """RMS errors against the true robot, per model: of the CoP (m), or for a robot balancing
+    on a line (``quantity`` "balance tilt") of the tilt that balances it (rad)."""
 
     n_poses: int
     rms_identified: float  #: at the poses actually taken
@@ -31,6 +32,9 @@ class TruthComparison:
     fresh_manufacturer: float
     true_mass_kg: float
     model_mass_kg: float
+    quantity: str = "CoP"  #: "CoP" (m) or "balance tilt" (rad)
+    #: line mount: the CoM's distance from the line at the zero pose, m (true, identified)
+    com_distance: tuple[float, float] | None = None
 
 
 def _rms(d: np.ndarray) -> float:
@@ -54,6 +58,8 @@ def compare_truth(
     t = Truth.load(truth_path)
     if list(t.joint_names) != robot.joint_names or list(t.body_names) != robot.body_names:
         raise DataError(f"{truth_path}: the truth is of another robot than the fit's")
+    if t.mount == "line":
+        return _compare_line(fit, t, n_fresh, within_deg, seed)
     if t.cop_true is None:
         raise DataError(f"{truth_path}: a {t.mount} run has no CoP truth to compare with")
     r_true, true_mass, model_mass = t.r_true, t.true_mass, t.model_mass
@@ -76,4 +82,43 @@ def compare_truth(
         fresh_manufacturer=_rms(robot.cop(fresh, fit.r_prior) - cop_fresh),
         true_mass_kg=true_mass,
         model_mass_kg=model_mass,
+    )
+
+
+def _fresh(q: np.ndarray, n_fresh: int, within_deg: float, seed: int) -> np.ndarray:
+    if not (n_fresh >= 1 and 0 < within_deg <= 180):
+        raise DataError("fresh poses: need n ≥ 1 and 0 < within_deg ≤ 180")
+    rng = np.random.default_rng(seed)
+    base = q[rng.integers(0, len(q), n_fresh)]
+    return base + rng.uniform(-1, 1, base.shape) * math.radians(within_deg)
+
+
+def _compare_line(fit: Fit, t: Truth, n_fresh: int, within_deg: float, seed: int):
+    """A robot balancing on its line: the tilt that balances it, per model (rad)."""
+    from sescid.estimation.anchor import com_distance
+    from sescid.sesc import balance_tilt
+
+    robot = fit.robot
+    if robot.line is None:
+        raise DataError("the truth is of a robot balancing on a line: the fit's support is not")
+    q = t.q_actual
+    fresh = _fresh(q, n_fresh, within_deg, seed)
+
+    def tilt(r, poses):
+        assert robot.line is not None
+        return balance_tilt(robot.tree, robot.line, poses, r)[0]
+
+    true_q, true_fresh = tilt(t.r_true, q), tilt(t.r_true, fresh)
+    return TruthComparison(
+        n_poses=len(q),
+        rms_identified=_rms(tilt(fit.r, q) - true_q),
+        rms_manufacturer=_rms(tilt(fit.r_prior, q) - true_q),
+        n_fresh=n_fresh,
+        within_deg=within_deg,
+        fresh_identified=_rms(tilt(fit.r, fresh) - true_fresh),
+        fresh_manufacturer=_rms(tilt(fit.r_prior, fresh) - true_fresh),
+        true_mass_kg=t.true_mass,
+        model_mass_kg=t.model_mass,
+        quantity="balance tilt",
+        com_distance=(com_distance(robot, t.r_true), com_distance(robot, fit.r)),
     )

@@ -15,6 +15,10 @@ pose with its joint play; rigid statics then gives what its sensors see, and the
   tip: it is not measured and is listed in ``skipped``;
 - in a gantry (``mount="gantry"``): the support link (pelvis, torso) is held level, the feet
   carry nothing, every pose is measured;
+- balancing on a line (``mount="line"``: a wheel axle, an edge, ``Robot.line``): each pose is
+  taken at the tilt about the line that puts the true CoM above it, and an IMU on
+  ``imu_link`` (the profile's, else the support frame) logs its roll and pitch with
+  ``imu_noise_deg`` of noise per sample;
 - joint torques (``TorqueConfig``): the true holding torques of rigid statics with the support
   fixed (``bench.statics``; in double support with the other foot's floor forces), read through
   the torque sensor model.
@@ -46,6 +50,7 @@ from sescid.bench.truth import Truth, common_fields, settings_of, torque_truth
 from sescid.errors import DataError
 from sescid.sensors.feet import OFF_FLOOR_M, OFF_FLOOR_TILT
 from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
+from sescid.sesc import balance_gravity, balance_tilt
 from sescid.simulation import check_count
 
 G = 9.80665  #: m/s², standard gravity
@@ -119,7 +124,7 @@ def _stance(robot, sensors, config, cop_true, q_act, weight) -> _Stance:
     """Pad forces of a standing robot (or none in a gantry) and the poses that would tip."""
     n = len(q_act)
     feet = sensors.feet if sensors is not None else ()
-    if config.mount == "gantry":
+    if config.mount in ("gantry", "line"):
         return _Stance({f.name: np.zeros((n, 4)) for f in feet}, np.zeros(n, bool), "")
     if config.double_support:
         forces, tips, where = two_foot_split(robot, sensors, q_act, cop_true, weight)
@@ -182,6 +187,17 @@ def _cop_expected(robot, sensors, forces, errors, q_act) -> np.ndarray | None:
         return num / den[:, None]
 
 
+def _imu_angles(robot, config, q: np.ndarray, grav: np.ndarray) -> np.ndarray:
+    """(n, 2) roll, pitch [rad] an IMU on the line mount's IMU link reads under gravity
+    (n, 3) (support frame): g_link = (sin θ, −cos θ sin φ, −cos θ cos φ)."""
+    link = config.imu_link or robot.profile.imu_link or robot.support
+    rot, _ = robot.link_poses(q, link)
+    g = np.einsum("nji,nj->ni", rot, grav)  # R_support←linkᵀ g
+    pitch = np.arcsin(np.clip(g[:, 0], -1.0, 1.0))
+    roll = np.arctan2(-g[:, 1], -g[:, 2])
+    return np.stack([roll, pitch], axis=1)
+
+
 def _check_inputs(robot, q_cmd, sensors, samples, config) -> None:
     if samples < 1:
         raise DataError(f"samples per pose must be ≥ 1, got {samples}")
@@ -191,6 +207,12 @@ def _check_inputs(robot, q_cmd, sensors, samples, config) -> None:
     check_limits(robot, q_cmd)
     if sensors is not None:
         check_sensors(robot, sensors)
+    if config.mount == "line":
+        if robot.line is None:
+            raise DataError(
+                f"a line mount needs a support line: '{robot.support}' is not one (--line)"
+            )
+        return
     if sensors is None and not config.torque.joints:
         raise DataError("the bench measures nothing: give foot sensors or joint torque sensors")
 
@@ -218,12 +240,15 @@ def run_experiment(
     delta = rng.uniform(-b, b, size=q_cmd.shape)
     q_act = q_cmd + delta
     grav = None
-    if config.tilt_deg > 0:  # roll φ, pitch θ of the support: (sin θ, −cos θ sin φ, −cos θ cos φ)
+    if config.mount == "line":  # balanced: the tilt about the line that puts the CoM above it
+        grav = balance_gravity(robot.line, balance_tilt(robot.tree, robot.line, q_act, r_true)[0])
+    elif config.tilt_deg > 0:  # roll φ, pitch θ of the support: (sin θ, −cos θ sin φ, −cos θ cos φ)
         roll, pitch = rng.normal(0.0, math.radians(config.tilt_deg), size=(2, n))
         grav = np.stack(
             [np.sin(pitch), -np.cos(pitch) * np.sin(roll), -np.cos(pitch) * np.cos(roll)], axis=1
         )
-    cop_true = robot.cop(q_act, r_true, grav)
+    line = config.mount == "line"
+    cop_true = np.zeros((n, 2)) if line else robot.cop(q_act, r_true, grav)
     st = _stance(robot, sensors, config, cop_true, q_act, mass_true * G)
     skipped = [
         (
@@ -250,14 +275,18 @@ def run_experiment(
         tau = holding_torques(robot, q_act, bodies, grav, ext)
         approach = approach_sides(config, len(q_act), seed)
     pose_of = np.repeat(np.arange(len(q_act)), samples)
+    imu = _imu_angles(robot, config, q_act, grav) if line and grav is not None else None
     readings = Readings(
         q=q_read[pose_of],
         pads={name: f[pose_of] for name, f in forces.items()},
         tau=None if tau is None else tau[pose_of],
         approach=None if approach is None else approach[pose_of],
-        gravity=None if grav is None else grav[pose_of],
+        gravity=None if grav is None or line else grav[pose_of],
+        imu=None if imu is None else imu[pose_of],
     )
-    cols = RawLogWriter(robot, sensors, config, errors).log(pose_ids[pose_of], readings, rng)
+    noise = math.radians(config.imu_noise_deg) if line else 0.0
+    writer = RawLogWriter(robot, sensors, config, errors, imu_noise=noise)
+    cols = writer.log(pose_ids[pose_of], readings, rng)
     truth = Truth(
         engine="kinematic",
         settings=settings_of(config, sensors),
@@ -265,7 +294,7 @@ def run_experiment(
         q_commanded=q_cmd,
         q_actual=q_act,
         q_readback=q_read,
-        cop_true=None if config.mount == "gantry" else cop_true,
+        cop_true=None if config.mount in ("gantry", "line") else cop_true,
         cop_expected=_cop_expected(robot, sensors, forces, errors, q_act),
         skipped=tuple(skipped),
         mount=config.mount,

@@ -15,7 +15,9 @@ run, each kind from its own random stream, so enabling one leaves every other dr
 
 ``mount``: ``"stand"`` (on the support foot, which must carry the sensor board; poses that
 would tip are not measured) or ``"gantry"`` (the support link, e.g. the pelvis, is held level in
-a fixture: no balance, the robot hangs free, the feet carry no load).
+a fixture: no balance, the robot hangs free, the feet carry no load) or ``"line"`` (the robot
+balances on its support line, ``Robot.line``: a wheel axle or an edge; each pose at the tilt
+that puts the true CoM above the line, read by an IMU).
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ APPROACHES: tuple[Approach, ...] = get_args(Approach)
 Registers = Literal["forces", "centroid", "both"]
 #: the bench that makes a raw log: rigid statics, or the MuJoCo physics bench
 Engine = Literal["kinematic", "mujoco"]
+#: how the bench holds the robot: a plan's mounts (``planning.Mount``), or balancing on a line
+BenchMount = Literal[Mount, "line"]
 
 
 @dataclass(frozen=True)
@@ -129,12 +133,18 @@ class ExperimentConfig:
     #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
     tilt_deg: float = 0.0
     torque: TorqueConfig = field(default_factory=TorqueConfig)  #: joint torque sensors
-    mount: Mount = "stand"  #: on the support foot, or the support held in a fixture
+    mount: BenchMount = "stand"  #: on the support foot, held in a fixture, or on a line
+    #: line mount: the IMU's link (None: the profile's, else the support frame) and its noise
+    #: per sample, degrees (roll and pitch)
+    imu_link: str | None = None
+    imu_noise_deg: float = 0.5
 
     def check(self) -> None:
         """DataError for a setting outside its range (the one check both benches use)."""
         check_choice("registers", self.registers, Registers)
-        check_choice("mount", self.mount, Mount)
+        check_choice("mount", self.mount, BenchMount)
+        if self.mount == "line" and self.double_support:
+            raise DataError("a robot balancing on a line stands on no foot: no double support")
         if self.mount == "gantry" and self.double_support:
             raise DataError("a robot held in a gantry stands on no foot: no double support")
         for name, v in (
@@ -144,6 +154,7 @@ class ExperimentConfig:
             ("FSR gain error", self.fsr_gain),
             ("read-back jitter", self.readback_jitter_ticks),
             ("support tilt", self.tilt_deg),
+            ("IMU noise", self.imu_noise_deg),
         ):
             if not (v >= 0 and math.isfinite(v)):
                 raise DataError(f"{name} must be a finite number ≥ 0, got {v}")

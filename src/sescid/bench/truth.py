@@ -20,9 +20,8 @@ import numpy as np
 
 from sescid.base.files import atomic_open, read_json
 from sescid.bench.log import expected_torques
-from sescid.bench.real_robot import Engine
+from sescid.bench.real_robot import BenchMount, Engine
 from sescid.errors import DataError, choices
-from sescid.planning import Mount
 
 TRUTH_FORMAT = "sescid-experiment-truth/1"
 
@@ -92,7 +91,7 @@ class Truth:
     cop_true: np.ndarray | None  #: (n, 2) flat-sole statics of the real robot, m (None: gantry)
     cop_expected: np.ndarray | None  #: (n, 2) noise-free CoP of the biased pads, m
     skipped: tuple[tuple[str, str], ...] = ()  #: (pose, why) not measured
-    mount: Mount = "stand"
+    mount: BenchMount = "stand"
     grav: np.ndarray | None = None  #: (n, 3) gravity direction, support frame
     torque: TorqueTruth | None = None
     physics: PhysicsTruth | None = None
@@ -249,7 +248,7 @@ def _from_json(d: dict) -> Truth:
         cop_true=_opt(d.get("cop_true")),
         cop_expected=_opt(d.get("cop_expected")),
         skipped=tuple((str(s["pose"]), str(s["reason"])) for s in d.get("skipped", [])),
-        mount=_choice(d, "mount", "stand", Mount),
+        mount=_choice(d, "mount", "stand", BenchMount),
         grav=_opt(d.get("grav")),
         torque=torque,
         physics=physics,

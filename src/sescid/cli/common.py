@@ -54,8 +54,22 @@ def run_guarded(invoke: Any, ctx: click.Context) -> Any:
         fail("not enough memory for this size (use fewer poses or samples)")
 
 
+def _keep_line(ctx: click.Context, _param: Any, value: str | None) -> None:
+    """Keep --line for ``load`` (every command that loads a robot takes it)."""
+    ctx.meta["sescid.line"] = value
+
+
 def robot_options(f: Any) -> Any:
-    """--robot/--support, shared by every command that loads a robot."""
+    """--robot/--support/--line, shared by every command that loads a robot."""
+    f = click.option(
+        "--line",
+        default=None,
+        expose_value=False,
+        callback=_keep_line,
+        help="The support is a line through the support frame's origin (a wheel axle, an "
+        "edge) with this direction in that frame: x, y, z, -y, … or ax,ay,az. Default: the "
+        "profile's, else none (a sole or a held link).",
+    )(f)
     f = click.option(
         "--support",
         default=None,
@@ -120,7 +134,9 @@ def load(robot_name: str, support: str | None) -> Any:
     """The robot named on the command line."""
     from sescid.robot import load_robot
 
-    return load_robot(robot_name, support)
+    ctx = click.get_current_context(silent=True)
+    line = None if ctx is None else ctx.meta.get("sescid.line")
+    return load_robot(robot_name, support, line)
 
 
 def model_input(robot_name: str) -> str | None:

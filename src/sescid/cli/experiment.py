@@ -11,6 +11,7 @@ from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
     Approach,
+    BenchMount,
     Engine,
     ExperimentConfig,
     Registers,
@@ -28,7 +29,6 @@ from sescid.cli.common import (
 )
 from sescid.errors import DataError, OptionError, choices
 from sescid.io import read_poses, read_table, write_table
-from sescid.planning import Mount
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
 _EXP = ExperimentConfig()
@@ -87,9 +87,12 @@ def torque_config(opts: dict) -> TorqueConfig:
     )
 
 
-def bench_sensors(sensors_file, profile, torques: TorqueConfig):
-    """The foot-sensor layout, or None for a robot with torque sensors and no layout."""
-    if sensors_file is None and profile.sensors_file is None and torques.joints:
+def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "stand"):
+    """The foot-sensor layout, or None for a robot with torque sensors and no layout (or one
+    balancing on a line, which stands on no foot)."""
+    if sensors_file is None and (
+        mount == "line" or (profile.sensors_file is None and torques.joints)
+    ):
         return None
     if sensors_file is None:
         default_sensors_path(profile)  # the one-line error naming the robot
@@ -150,11 +153,25 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig):
 )
 @click.option(
     "--mount",
-    type=click.Choice(choices(Mount)),
+    type=click.Choice(choices(BenchMount)),
     default=_EXP.mount,
     show_default=True,
     help="stand: on the support foot; gantry: the support link (--support pelvis) held level "
-    "in a fixture, the robot hanging free (no balance; the feet carry nothing).",
+    "in a fixture, the robot hanging free (no balance; the feet carry nothing); line: "
+    "balancing on its support line (--support axle --line y: a wheel axle, an edge), each "
+    "pose at the tilt that balances it, read by an IMU (kinematic engine).",
+)
+@click.option(
+    "--imu-noise-deg",
+    default=_EXP.imu_noise_deg,
+    show_default=True,
+    type=click.FloatRange(0, 20),
+    help="line mount: IMU roll/pitch noise per sample [degrees].",
+)
+@click.option(
+    "--imu-link",
+    default=None,
+    help="line mount: the link carrying the IMU (default: the profile's, else the support frame).",
 )
 @torque_options
 @click.option(
@@ -197,7 +214,7 @@ def experiment(**opts):
     robot = load(opts["robot_name"], opts["support"])
     cfg = experiment_config(opts)
     bench = mujoco_bench(opts, cfg)
-    sensors = bench_sensors(opts["sensors_file"], robot.profile, cfg.torque)
+    sensors = bench_sensors(opts["sensors_file"], robot.profile, cfg.torque, cfg.mount)
     table = read_table(opts["poses_file"])
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     check_limits(robot, q, str(opts["poses_file"]))
@@ -233,6 +250,8 @@ def experiment_config(opts: dict) -> ExperimentConfig:
         tilt_deg=opts["tilt_deg"],
         torque=torque_config(opts),
         mount=opts["mount"],
+        imu_link=opts["imu_link"],
+        imu_noise_deg=opts["imu_noise_deg"],
     )
 
 
@@ -240,6 +259,8 @@ def mujoco_bench(opts: dict, cfg: ExperimentConfig):
     """The physics bench's settings for ``--engine mujoco``, None for the kinematic bench;
     OptionError for a flag of the other engine."""
     engine, weld, kp = opts["engine"], opts["weld_foot"], opts["kp"]
+    if engine == "mujoco" and cfg.mount == "line":
+        raise OptionError("engine", "--mount line runs on --engine kinematic")
     if engine == "kinematic":
         if weld or kp is not None:
             raise OptionError("engine", "--weld-foot and --kp need --engine mujoco")
@@ -256,16 +277,22 @@ def mujoco_bench(opts: dict, cfg: ExperimentConfig):
 def _report(ex, n: int, opts) -> None:
     t = ex.truth
     tau = "" if t.torque is None else f", torques on {len(t.torque.joints)} joints"
+    sensors = (
+        f"IMU noise {opts['imu_noise_deg']:g}°"
+        if t.mount == "line"
+        else f"FSR noise {opts['fsr_noise']:g} N, bias {opts['fsr_bias']:g} N, gain error "
+        f"{opts['fsr_gain']:g}"
+    )
     click.echo(
         f"wrote {opts['out']}: {n - len(ex.skipped)} poses × {opts['samples']} samples "
         f"({t.mount}); real robot {t.true_mass:.4f} kg (model {t.model_mass:.4f} kg), "
-        f"backlash ±{opts['backlash_deg']:g}°, FSR noise {opts['fsr_noise']:g} N, "
-        f"bias {opts['fsr_bias']:g} N, gain error {opts['fsr_gain']:g}{tau}"
+        f"backlash ±{opts['backlash_deg']:g}°, {sensors}{tau}"
     )
     for pose, why in ex.skipped:
         click.echo(f"  pose {pose} skipped: {why}", err=True)
     if opts["truth"]:
         click.echo(
-            f"wrote {opts['truth']} (the truth: true SESC vectors, actual poses, true CoPs"
+            f"wrote {opts['truth']} (the truth: true SESC vectors, actual poses, "
+            + ("balancing tilts" if t.mount == "line" else "true CoPs")
             + (" and torques)" if t.torque is not None else ")")
         )

@@ -97,6 +97,7 @@ def options_from_flags(method: Method, opts: dict) -> tuple[MethodOptions, Ident
         allow_exact=opts["allow_exact"],
         imu_link=opts["imu_link"],
         allow_outside_limits=opts["allow_outside_limits"],
+        com_height=opts["com_height"],
         robust="auto" if opts["robust"] is None else bool(opts["robust"]),
         seed=opts["seed"],
         cv=opts["cv"],
@@ -136,6 +137,13 @@ def _online_step(opts: dict) -> int | None:
     show_default=True,
     help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
     "torques only.",
+)
+@click.option(
+    "--com-height",
+    default=None,
+    type=click.FloatRange(min=0, min_open=True),
+    help="Balance data (a robot on a line) carry no scale: the CoM's known distance from the "
+    "support line at the zero pose [m] (default: the model's).",
 )
 @click.option(
     "--weighted",

@@ -36,22 +36,29 @@ def predict(fit_file, poses, out, level, imu_link, force):
 
     With columns grav_x, grav_y, grav_z (or imu_roll, imu_pitch of the IMU link) the CoP is
     projected along that gravity direction; its interval then includes the CoM-height
-    uncertainty through g_xy/g_z.
+    uncertainty through g_xy/g_z. For a robot balancing on a line (a fit made with --line):
+    balance_tilt [rad], the tilt about the line that balances the robot at each pose (the
+    IMU's pitch for an axle along y), with its standard error, instead of the CoP.
     """
-    from sescid.estimation import cop_interval
+    from sescid.estimation import balance_interval, cop_interval
     from sescid.sensors import table_gravity
 
     outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
     table = read_table(poses)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
-    gravity = table_gravity(fit.robot, table, q, imu_link)
-    cop = fit.predict_cop(q, gravity)
+    line = fit.robot.line is not None  # no CoP on a line: the tilt that balances instead
+    gravity = None if line else table_gravity(fit.robot, table, q, imu_link)
     com = fit.predict_com(q)
     std = fit.predict_std(q)
-    cols = {
-        "cop_x": cop[:, 0],
-        "cop_y": cop[:, 1],
+    cols: dict[str, np.ndarray] = {}
+    if line:
+        cols["balance_tilt"] = fit.predict_balance(q)
+        cols["balance_tilt_std"] = fit.predict_balance_std(q)
+    else:
+        cop = fit.predict_cop(q, gravity)
+        cols |= {"cop_x": cop[:, 0], "cop_y": cop[:, 1]}
+    cols |= {
         "com_x": com[:, 0],
         "com_y": com[:, 1],
         "com_z": com[:, 2],
@@ -64,9 +71,13 @@ def predict(fit_file, poses, out, level, imu_link, force):
         iv = com_interval(fit, q, level)  # CoP = CoM x, y
         for j, name in enumerate(("com_x", "com_y", "com_z")):
             cols[f"{name}_lower"], cols[f"{name}_upper"] = iv.lower[:, j], iv.upper[:, j]
-        civ = cop_interval(fit, q, level, gravity=gravity)  # with g_xy/g_z · CoM-height error
-        for j, name in enumerate(("cop_x", "cop_y")):
-            cols[f"{name}_lower"], cols[f"{name}_upper"] = civ.lower[:, j], civ.upper[:, j]
+        if line:
+            biv = balance_interval(fit, q, level)
+            cols["balance_tilt_lower"], cols["balance_tilt_upper"] = biv.lower, biv.upper
+        else:
+            civ = cop_interval(fit, q, level, gravity=gravity)  # with g_xy/g_z · CoM-height
+            for j, name in enumerate(("cop_x", "cop_y")):
+                cols[f"{name}_lower"], cols[f"{name}_upper"] = civ.lower[:, j], civ.upper[:, j]
     with outs:
         write_table(outs.path(out), cols)
     lost = int(np.sum(np.isnan(std[:, 0])))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import click
 import numpy as np
 
@@ -19,6 +21,8 @@ from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 TORQUES = TorqueNoise()
+#: what ``simulate`` measures: a design's kinds, or the balancing tilts of a robot on a line
+Measure = Literal[DesignKind, "balance"]
 
 
 @click.command()
@@ -42,10 +46,18 @@ TORQUES = TorqueNoise()
 )
 @click.option(
     "--measure",
-    type=click.Choice(choices(DesignKind)),
-    default="cop",
+    type=click.Choice(choices(Measure)),
+    default=None,
+    help="What the robot measures: the CoP under its foot, its joint torques, or both; "
+    "balance: balanced poses of a robot on its support line (--line), read by an IMU "
+    "[default: balance on a line support, else cop].",
+)
+@click.option(
+    "--tilt-noise-deg",
+    default=0.5,
     show_default=True,
-    help="What the robot measures: the CoP under its foot, its joint torques, or both.",
+    type=click.FloatRange(0, 20),
+    help="--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
 )
 @click.option(
     "--tau-noise",
@@ -77,6 +89,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     Columns: one per joint (radians); cop_x, cop_y (noisy, m), cop_x_true, cop_y_true (m); with
     --measure tau or both, tau_<joint> (N·m, noisy, with the sensor offsets and friction) and
     true_tau_<joint>; with --tilt-deg also grav_x, grav_y, grav_z (gravity, support frame).
+    A robot balancing on a line (--line; --measure balance): joints, grav_x/y/z (the measured
+    gravity direction of each balanced pose) and balance_tilt_true [rad].
     """
     import math
 
@@ -85,7 +99,10 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
 
     outs = OutputSet([out], [model_input(robot_name)], force=force)
     robot = load(robot_name, support)
-    measure = kinds["measure"]
+    measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
+    if measure == "balance":
+        _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
+        return
     sim = run_simulate(
         robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
         torques=torque_noise(kinds),
@@ -114,9 +131,28 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         )
 
 
+def _balance(robot, poses: int, range_deg: float, seed: int, noise_deg: float, outs, out):
+    """Balanced poses of a robot on its line: joints, measured gravity, the true tilt."""
+    import math
+
+    from sescid.io import write_table
+    from sescid.simulation import simulate_balance
+
+    sim = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed)
+    cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
+    cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
+    cols["balance_tilt_true"] = sim.tilt
+    with outs:
+        write_table(outs.path(out), cols)
+    click.echo(
+        f"wrote {out}: {poses} balanced poses of {robot.name} on its line, tilt noise "
+        f"{noise_deg:g}°"
+    )
+
+
 def torque_noise(kinds: dict) -> TorqueNoise | None:
     """The torque sensors' errors from the flags (None when only the CoP is measured)."""
-    if kinds["measure"] == "cop":
+    if kinds["measure"] in (None, "cop", "balance"):
         return None
     return TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
 

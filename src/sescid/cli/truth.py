@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import click
 
 from sescid.bench import FRESH_POSES, FRESH_WITHIN_DEG
@@ -31,15 +33,22 @@ def truth(fit_file, truth_file, fresh, within_deg, seed):
     fit = load_fit(fit_file)
     echo_model_change(fit, fit_file)
     c = compare_truth(fit, truth_file, fresh, within_deg, seed)
+    unit = mm if c.quantity == "CoP" else (lambda x: f"{math.degrees(x):.3f}°")
     click.echo(
         f"truth: real robot {c.true_mass_kg:.3f} kg, model {c.model_mass_kg:.3f} kg; "
-        f"RMS CoP error vs the true robot"
+        f"RMS {c.quantity} error vs the true robot"
     )
     click.echo(
-        f"  at the {c.n_poses} actual poses: identified {mm(c.rms_identified)}, "
-        f"manufacturer {mm(c.rms_manufacturer)}"
+        f"  at the {c.n_poses} actual poses: identified {unit(c.rms_identified)}, "
+        f"manufacturer {unit(c.rms_manufacturer)}"
     )
     click.echo(
         f"  at {c.n_fresh} fresh poses within ±{c.within_deg:g}°: identified "
-        f"{mm(c.fresh_identified)}, manufacturer {mm(c.fresh_manufacturer)}"
+        f"{unit(c.fresh_identified)}, manufacturer {unit(c.fresh_manufacturer)}"
     )
+    if c.com_distance is not None:
+        true, fitted = c.com_distance
+        click.echo(
+            f"  CoM distance from the line at the zero pose: true {mm(true)}, identified "
+            f"{mm(fitted)} ({(fitted / true - 1) * 100:+.1f} %)"
+        )

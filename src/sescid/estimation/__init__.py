@@ -55,6 +55,7 @@ from sescid.estimation.options import (
 )
 from sescid.estimation.validation import (
     Interval,
+    balance_interval,
     com_interval,
     cop_interval,
     perturbed_sesc,
@@ -95,6 +96,7 @@ __all__ = [
     "body_boxes",
     "cad_violations",
     "check_total_mass",
+    "balance_interval",
     "com_interval",
     "cop_interval",
     "fit_inertials",

@@ -10,6 +10,7 @@ explicit rows with the same fixed-order product. Small jobs take numpy (``use_ke
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
@@ -17,6 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.estimation.balance_rows import balance_rows
 from sescid.estimation.measurements import Measurements, concatenate
 from sescid.estimation.normal_equations import (
     NormalEquations,
@@ -38,6 +40,7 @@ class BlockSums:
 
     cop_red: NormalEquations | None = None  #: level CoP, reduced coordinates
     cop_full: NormalEquations | None = None  #: tilted CoP, full coordinates
+    balance: NormalEquations | None = None  #: balance on a line, full coordinates
     tau_red: NormalEquations | None = None  #: torques: reduced coordinates, then nuisance
     #: the compiled passes' raw accumulators (``fused.reduced_order``, ``torque.fold_torque``
     #: read their sum over the blocks once) and their rows
@@ -73,15 +76,29 @@ class RowMaker:
         out = BlockSums()
         level = m.gravity is None
         cop_sw = _cop_weights(m) if (self.weighted and m.cop is not None) else None
+        missing = m.cop_missing
+        if missing:  # a coordinate not measured: a row of weight 0, not counted
+            assert m.cop is not None
+            mask = ~np.isnan(m.cop)
+            cop_sw = mask.astype(float) if cop_sw is None else np.where(mask, cop_sw, 0.0)
+            m = dataclasses.replace(m, cop=np.where(mask, m.cop, 0.0))
         has_tau = m.tau is not None and bool(m.tau_joints)
+        if m.balance is not None:
+            assert m.gravity is not None
+            x, y = balance_rows(self.robot, m.q, m.balance, m.gravity)
+            out.balance = NormalEquations.empty(x.shape[0])
+            add_columns(out.balance, x, y, None, self.kernels)
         if m.cop is not None and not level:
             out.cop_full = tilted_sums(self.robot, m.q, m.cop, cop_sw, m.gravity, self.kernels)
+            out.cop_full.n_rows -= missing
         if self.kernels and level and self._compiled(m, cop_sw, out):
+            out.cop_rows -= missing if out.cop_raw is not None else 0
             if not has_tau or out.tau_raw is not None:
                 return out
         elif m.cop is not None and level:
             y = m.cop - self.robot.d[:2]
             out.cop_red = reduced_sums(self.robot, m.q, y, cop_sw, self.kernels, None)
+            out.cop_red.n_rows -= missing
         if has_tau:
             x, y, sw = torque_columns(self.robot, m, self.mass, self.weighted, self.g0)
             out.tau_red = NormalEquations.empty(x.shape[0])
@@ -126,8 +143,9 @@ def _cop_weights(m: Measurements) -> np.ndarray:
 
 def work(robot: Robot, m: Measurements, n: int) -> int:
     """Work units (``kinematics.NUMPY_JOB``) of n poses measured like ``m``: the chain, and a row
-    of reduced columns per CoP axis and per measured torque."""
+    of reduced columns per CoP axis, per measured torque and per balance."""
     rows = 2 * (m.cop is not None) + len(m.tau_joints) * (m.tau is not None)
+    rows += m.balance is not None
     return n * (len(robot.body_names) + rows * robot.reduction.g.shape[0])
 
 

@@ -21,8 +21,10 @@ from typing import TYPE_CHECKING, Literal, cast, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.errors import DataError
 from sescid.estimation.measurements import Kind
 from sescid.kinematics import as_poses, regressor
+from sescid.sesc import balance_tilt
 
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot
@@ -122,6 +124,33 @@ class MapInfo:
     prior: PriorShape = "sesc"
     #: "bodies": the first moments' prior std per unit mass, m (τ times the prior's CoM scale)
     prior_com_std: float | None = None
+
+
+@dataclass(frozen=True)
+class ScaleAnchor:
+    """Where the scale of a fit to homogeneous data comes from (``estimation.anchor``).
+
+    Balanced poses on a line or a point have every target 0: the data fix the directions and
+    ratios of the first moments but not their scale, which is taken from the prior model
+    (``by`` = "prior") or from a known CoM height (``by`` = "com_height")."""
+
+    by: str  #: "prior" or "com_height"
+    com_distance: float  #: m, the fit's CoM distance from the support at the zero pose
+    prior_distance: float  #: m, the prior model's
+
+    def note(self) -> str:
+        """One line for the fit's summary."""
+        src = "the prior model's" if self.by == "prior" else "the known CoM height given"
+        return (
+            "the data carry no scale (every target is the support itself: the model with all "
+            "its mass at the support would meet them exactly): the CoM's distance from the "
+            f"support, {self.com_distance * 1e3:.1f} mm at the zero pose, is {src}"
+            + (
+                " (give the known height: com_height / --com-height)"
+                if self.by == "prior"
+                else f" (the prior model's: {self.prior_distance * 1e3:.1f} mm)"
+            )
+        )
 
 
 @dataclass
@@ -282,6 +311,7 @@ class Fit:
     sigma_dof: float | None = None  #: dof of σ̂ (None: n_rows − rank; inf: σ was given)
     map: MapInfo | None = None
     cop_offset: CopOffset | None = None
+    scale: ScaleAnchor | None = None  #: homogeneous data: where the scale came from
     inertials: BodyInertials | None = None
     robust: RobustInfo | None = None
     online: OnlineInfo | None = None
@@ -325,6 +355,26 @@ class Fit:
             gain = np.array([est.get(("gain", j), 0.0) for j in names])
             tau = (tau + off) * (1.0 + gain)
         return tau
+
+    def predict_balance(self, q: ArrayLike) -> np.ndarray:
+        """(n,) tilt [rad] about the support line that balances a robot on a line at poses q
+        (``balance_rows.balance_tilt``: the IMU's pitch for an axle along y)."""
+        line = self._line()
+        return balance_tilt(self.robot.tree, line, q, self.r)[0]
+
+    def predict_balance_std(self, q: ArrayLike) -> np.ndarray:
+        """(n,) standard error [rad] of ``predict_balance`` (first order, from ``cov``)."""
+        std = balance_tilt(self.robot.tree, self._line(), q, self.r, self.cov)[1]
+        assert std is not None
+        return std
+
+    def _line(self) -> np.ndarray:
+        if self.robot.line is None:
+            raise DataError(
+                f"{self.robot.name}: the support '{self.robot.support}' is not a line (a wheel "
+                "axle, an edge): no balance tilt to predict"
+            )
+        return self.robot.line
 
     def kind(self, name: str) -> KindFit | None:
         """The record of one measurement kind ("cop", "tau"), None when it had no rows."""
@@ -426,6 +476,8 @@ def _number(x: float, unit: str) -> str:
     """A value in a kind's display unit: mm for metres, N·m as is; "not determined" for nan."""
     if not math.isfinite(x):
         return "not determined"
+    if unit == "rad":  # an angle: degrees at the boundary
+        return f"{math.degrees(x):.3f}°"
     return f"{x * 1e3:.3f} mm" if unit == "m" else f"{x:.4f} {unit}"
 
 
@@ -437,7 +489,7 @@ def _kind_line(fit: Fit, k: KindFit | None) -> str:
         sigma, rms, mae, name = fit.sigma_hat, fit.rms, fit.mae, "" if k is None else k.kind
     else:
         unit, weighted, sigma, rms, mae, name = k.unit, k.weighted, k.sigma, k.rms, k.mae, k.kind
-    label = {"cop": "CoP", "tau": "joint torques"}.get(name, name)
+    label = {"cop": "CoP", "tau": "joint torques", "balance": "balance tilt"}.get(name, name)
     head = f"{label}: " if label else ""
     if weighted:
         scale = "not determined" if not math.isfinite(sigma) else f"{sigma:.3f}"

@@ -42,6 +42,7 @@ from sescid.estimation.fit import (
     NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
+    ScaleAnchor,
 )
 from sescid.robot import load_robot
 
@@ -52,6 +53,7 @@ FIT_FORMATS = (FIT_FORMAT_V1, FIT_FORMAT_V2, FIT_FORMAT)
 _RECORDS: dict[str, type] = {
     "map": MapInfo,
     "cop_offset": CopOffset,
+    "scale": ScaleAnchor,
     "inertials": BodyInertials,
     "robust": RobustInfo,
     "online": OnlineInfo,
@@ -108,6 +110,7 @@ def fit_to_json(fit: Fit) -> dict:
             "source": robot.source,
             "name": robot.name,
             "support": robot.support,
+            "line": None if robot.line is None else robot.line.tolist(),
             "joint_names": robot.joint_names,
             "body_names": bodies,
             "total_mass": robot.total_mass,
@@ -269,7 +272,7 @@ def load_fit(path: str | Path) -> Fit:
     v1 = data["format"] == FIT_FORMAT_V1
     try:
         meta = data["robot"]
-        robot = load_robot(meta["source"], meta["support"])
+        robot = load_robot(meta["source"], meta["support"], meta.get("line"))
         if robot.body_names != meta["body_names"] or robot.joint_names != meta["joint_names"]:
             raise DataError(
                 f"{path}: the robot '{meta['source']}' no longer has the bodies/joints this "

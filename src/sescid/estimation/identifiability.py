@@ -110,7 +110,21 @@ def structural_null_directions(
     out = []
     frame = robot.tree.root_r.T  # support-frame axes in the support body's frame (columns)
     cop = "cop" in kinds
-    for axis in (2, 0, 1) if not cop else (2,):
+    if "balance" in kinds and robot.line is not None:
+        v = np.zeros((n, 3))
+        v[0] = frame @ robot.line
+        reason = (
+            f"component of the support body {support} along the support line: it stays on the "
+            "line whatever the tilt, so it never moves the CoM across it"
+        )
+        out.append((v.reshape(-1), SUPPORT_HORIZONTAL, reason))
+        if not cop and "tau" not in kinds:
+            axes: tuple[int, ...] = ()
+        else:
+            axes = (2, 0, 1) if not cop else (2,)
+    else:
+        axes = (2, 0, 1) if not cop else (2,)
+    for axis in axes:
         v = np.zeros((n, 3))
         v[0] = frame @ np.eye(3)[axis]
         if axis == 2 and cop:

@@ -306,13 +306,19 @@ def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) 
     """Directions of vec(r) the prior decided: unseen by the data, or where the data carry less
     than ``PRIOR_DECIDED`` of the posterior information (generalised eigenvalues of the data's
     marginal information against the prior's)."""
-    import scipy.linalg
-
     lam, vecs, p = marginal_x(ls, n_x, rtol)
     data = (vecs[:, :p] * lam[:p]) @ vecs[:, :p].T
     pri = prior_info[:n_x, :n_x]
-    share = scipy.linalg.eigh(data, data + pri, eigvals_only=True)
-    return int(np.sum(share < PRIOR_DECIDED))
+    # the data's information relative to the prior's, μ = eig(L⁻¹ D L⁻ᵀ) with pri = L Lᵀ: a
+    # direction is the prior's where μ/(1 + μ) < PRIOR_DECIDED. The prior precision is positive
+    # definite by construction; its eigen-decomposition (clipped) stands in for the Cholesky
+    # factor, so a prior of very different scales (or bodies with zero SESC vectors) is no error.
+    w, v = np.linalg.eigh((pri + pri.T) / 2)
+    w = np.maximum(w, 1e-300 + 1e-15 * max(float(w.max()), 0.0))
+    half = v / np.sqrt(w)
+    mu = np.linalg.eigvalsh(half.T @ data @ half)
+    threshold = PRIOR_DECIDED / (1 - PRIOR_DECIDED)
+    return int(np.sum(mu < threshold))
 
 
 def _noise_ratios(system: System, ls: Solution) -> dict[Kind, float]:

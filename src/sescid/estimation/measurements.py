@@ -22,10 +22,12 @@ from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 
-#: a measurement kind, as named in fits, files and options: the CoP, or joint torques
-Kind = Literal["cop", "tau"]
+#: a measurement kind, as named in fits, files and options: the CoP, joint torques, or the
+#: balance of a robot on a support line
+Kind = Literal["cop", "tau", "balance"]
 COP: Kind = "cop"
 TORQUE: Kind = "tau"
+BALANCE: Kind = "balance"
 KINDS: tuple[Kind, ...] = get_args(Kind)
 
 
@@ -33,9 +35,12 @@ KINDS: tuple[Kind, ...] = get_args(Kind)
 class Measurements:
     """Poses and what was measured at them; every array has the poses first.
 
-    ``q`` (n, nq) rad in ``Robot.joint_names`` order; ``cop`` (n, 2) m and ``cop_se`` (n, 2) m
-    its standard errors; ``tau`` (n, J) N·m, the torque each actuator of ``tau_joints`` applies
-    to hold the pose (model sign convention) and ``tau_se`` (n, J) N·m; ``approach`` (n,) ±1:
+    ``q`` (n, nq) rad in ``Robot.joint_names`` order; ``cop`` (n, 2) m (nan where a coordinate
+    was not measured: each row fits the coordinates it has) and ``cop_se`` (n, 2) m its
+    standard errors; ``balance`` (n,) m: the CoM's measured horizontal offset from the robot's
+    support line (``Robot.line``; 0 for a pose balanced on it), which needs ``gravity``;
+    ``tau`` (n, J) N·m, the torque each actuator of ``tau_joints`` applies to hold the pose
+    (model sign convention) and ``tau_se`` (n, J) N·m; ``approach`` (n,) ±1:
     each pose was reached with the joints moving in their positive (+1) or negative (−1)
     direction last (static friction holds the torque on that side of the gravity torque);
     ``gravity`` (n, 3) the gravity direction in the support frame (None: level);
@@ -46,6 +51,7 @@ class Measurements:
     q: np.ndarray
     cop: np.ndarray | None = None
     cop_se: np.ndarray | None = None
+    balance: np.ndarray | None = None
     tau: np.ndarray | None = None
     tau_joints: tuple[str, ...] = ()
     tau_se: np.ndarray | None = None
@@ -67,11 +73,16 @@ class Measurements:
             out.append(COP)
         if self.tau is not None and len(self.tau_joints):
             out.append(TORQUE)
+        if self.balance is not None:
+            out.append(BALANCE)
         return tuple(out)
 
     def rows(self) -> int:
-        """Equations these poses give: 2 per CoP, 1 per measured torque."""
-        return self.n * (2 * (self.cop is not None) + len(self.tau_joints) * (self.tau is not None))
+        """Equations these poses give: 1 per measured CoP coordinate, 1 per measured torque,
+        1 per balance."""
+        cop = 0 if self.cop is None else int(np.count_nonzero(~np.isnan(self.cop)))
+        tau = len(self.tau_joints) * (self.tau is not None) * self.n
+        return cop + tau + self.n * (self.balance is not None)
 
     def checked(self, robot: Robot) -> Measurements:
         """A validated copy: float64 C-contiguous arrays of the right shapes, finite values,
@@ -88,8 +99,8 @@ class Measurements:
                 f"{where}: pose {row}, joint {robot.joint_names[col]}: {q[row, col]:g} rad looks "
                 "like degrees; joint angles are in radians"
             )
-        cop = _array(self.cop, (n, 2), f"{where}: cop", "m")
-        if cop is not None and np.any(np.abs(cop) > MAX_COP_M):
+        cop = _array(self.cop, (n, 2), f"{where}: cop", "m", missing=True)
+        if cop is not None and np.any(np.abs(cop) > MAX_COP_M):  # nan compares False
             row, col = np.argwhere(np.abs(cop) > MAX_COP_M)[0]
             raise DataError(
                 f"{where}: pose {row}, cop_{'xy'[col]} = {cop[row, col]:g} m is not a plausible "
@@ -124,11 +135,16 @@ class Measurements:
                 )
         gravity = _array(self.gravity, (n, 3), f"{where}: gravity", "direction")
         cop_true = _array(self.cop_true, (n, 2), f"{where}: cop_true", "m")
-        if cop is None and tau is None:
+        balance = _array(self.balance, (n,), f"{where}: balance", "m")
+        if balance is not None:
+            _check_balance(robot, balance, gravity, where)
+        if cop is None and tau is None and balance is None:
             raise DataError(
                 f"{where}: nothing measured: give cop_x, cop_y (centre of pressure) and/or "
                 "tau_<joint> columns (joint torques)"
             )
+        if cop is not None:
+            _check_cop_rows(cop, tau is not None or balance is not None, where)
         return dataclasses.replace(
             self,
             q=q,
@@ -140,6 +156,7 @@ class Measurements:
             approach=approach,
             gravity=gravity,
             cop_true=cop_true,
+            balance=balance,
         )
 
     def take(self, rows: slice | np.ndarray) -> Measurements:
@@ -170,10 +187,57 @@ class Measurements:
         """The same poses with one kind of measurement dropped."""
         if kind == COP:
             return dataclasses.replace(self, cop=None, cop_se=None, cop_true=None)
+        if kind == BALANCE:
+            return dataclasses.replace(self, balance=None)
         return dataclasses.replace(self, tau=None, tau_joints=(), tau_se=None, approach=None)
 
+    @property
+    def cop_missing(self) -> int:
+        """CoP coordinates not measured (nan) in these poses."""
+        return 0 if self.cop is None else int(np.count_nonzero(np.isnan(self.cop)))
 
-_ARRAYS = ("q", "cop", "cop_se", "tau", "tau_se", "approach", "gravity", "cop_true")
+
+_ARRAYS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
+
+
+#: a support line must not point closer to gravity than this (rad): the CoM's offset across it
+#: would be undefined
+MIN_LINE_GRAVITY_ANGLE = 0.1
+
+
+def _check_balance(robot: Robot, balance: np.ndarray, gravity: np.ndarray | None, where: str):
+    """A balance measurement needs a line support and the gravity direction of every pose."""
+    if robot.line is None:
+        raise DataError(
+            f"{where}: balance rows need a support line (a wheel axle, an edge): give its "
+            "direction (load_robot(…, line=…) / --line)"
+        )
+    if gravity is None:
+        raise DataError(
+            f"{where}: balance rows need the gravity direction of every pose (grav_x/y/z, or "
+            "the IMU's imu_roll/imu_pitch)"
+        )
+    g = gravity / np.linalg.norm(gravity, axis=1, keepdims=True)
+    bad = np.flatnonzero(np.abs(g @ robot.line) > math.cos(MIN_LINE_GRAVITY_ANGLE))
+    if bad.size:
+        raise DataError(
+            f"{where}: row {bad[0]}: gravity {gravity[bad[0]].round(4).tolist()} runs along the "
+            "support line: the CoM's offset across it is not defined (check the line's "
+            "direction or the IMU columns)"
+        )
+
+
+def _check_cop_rows(cop: np.ndarray, other_kinds: bool, where: str) -> None:
+    """Each pose must measure something: a CoP row with both coordinates missing needs
+    another kind in the same data."""
+    if other_kinds:
+        return
+    empty = np.flatnonzero(np.all(np.isnan(cop), axis=1))
+    if empty.size:
+        raise DataError(
+            f"{where}: row {empty[0]}: neither cop_x nor cop_y was measured (drop the row or "
+            "fill one of them)"
+        )
 
 
 def concatenate(parts: Sequence[Measurements]) -> Measurements:
@@ -193,7 +257,11 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
     return dataclasses.replace(first, **arrays)
 
 
-def _array(value, shape: tuple[int, ...], what: str, unit: str) -> np.ndarray | None:
+def _array(
+    value, shape: tuple[int, ...], what: str, unit: str, missing: bool = False
+) -> np.ndarray | None:
+    """A float64 C-contiguous copy of ``value`` shaped ``shape``; DataError for a wrong shape
+    or a non-finite value (nan marks a value not measured where ``missing`` allows it)."""
     if value is None:
         return None
     arr = np.asarray(value, dtype=float)
@@ -202,7 +270,7 @@ def _array(value, shape: tuple[int, ...], what: str, unit: str) -> np.ndarray | 
     if arr.shape != shape:
         raise DataError(f"{what}: expected shape {shape} ({unit}), got {arr.shape}")
     if arr.size and not math.isfinite(float(np.sum(arr))):
-        bad = np.argwhere(~np.isfinite(arr))
+        bad = np.argwhere(np.isinf(arr) if missing else ~np.isfinite(arr))
         if bad.size:
             idx = tuple(int(i) for i in bad[0])
             raise DataError(

@@ -12,6 +12,8 @@ if TYPE_CHECKING:  # pragma: no cover
 def fit_notes(fit: Fit) -> list[str]:
     """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
     notes = _identifiability_notes(fit)
+    if fit.scale is not None:
+        notes.append(fit.scale.note())
     notes += _map_notes(fit)
     notes += _sensor_notes(fit)
     if fit.map is not None and fit.map.prior_decided:
@@ -64,7 +66,7 @@ def _identifiability_notes(fit: Fit) -> list[str]:
         )
     from sescid.estimation.tilt import tilt_direction
 
-    tilt = tilt_direction(fit)
+    tilt = tilt_direction(fit) if fit.kind("cop") is not None else None
     if tilt is not None:
         notes.append(
             f"tilted support: the data determine a CoM-height offset of {tilt.value * 1e3:.2f} "

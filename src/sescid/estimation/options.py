@@ -172,10 +172,12 @@ class IdentifyOptions:
     ``r_prior`` (N, 3) [m]: SESC vectors that fill what the data do not determine and centre
     the MAP prior (None: the model's); ``tau_gains``: also a gain error per torque sensor, with
     a prior N(0, ``gain_prior``²) (only their ratios come from the data); ``kinds``: use only
-    these measurement kinds of the data ("cop", "tau"; None: all it has). Files only
+    these measurement kinds of the data (``Kind``; None: all it has). Files only
     (``sescid.identify`` on paths): ``imu_link``, the link whose ``imu_roll``/``imu_pitch``
     columns give gravity (None: the profile's); ``allow_outside_limits``, accept poses outside
-    the model's joint limits with a warning (else an error names the first).
+    the model's joint limits with a warning (else an error names the first). ``com_height``
+    [m]: for balance data, which carry no scale (``estimation.anchor``), the CoM's known
+    distance from the support (its line) at the zero pose (None: the prior model's).
     """
 
     rtol: float = DEFAULT_RTOL
@@ -198,6 +200,7 @@ class IdentifyOptions:
     kinds: tuple[Kind, ...] | None = None
     imu_link: str | None = None
     allow_outside_limits: bool = False
+    com_height: float | None = None
 
     def __post_init__(self) -> None:
         check_rtol(self.rtol)
@@ -218,9 +221,15 @@ class IdentifyOptions:
             )
         if self.online_step is not None and self.online_step < 1:
             raise OptionError("online_step", f"must be ≥ 1 pose, got {self.online_step}")
+        if self.com_height is not None and not (
+            math.isfinite(self.com_height) and 0 < self.com_height <= 10
+        ):
+            raise OptionError(
+                "com_height", f"must be a distance in m (0–10), got {self.com_height}"
+            )
         if self.kinds is not None:
             if not self.kinds:
-                raise OptionError("kinds", "must name cop and/or tau, got none")
+                raise OptionError("kinds", "must name some measurement kinds, got none")
             for k in self.kinds:
                 check_choice("kinds", k, Kind)
         _positive("gain_prior", self.gain_prior, "a relative std in (0, 1]", 1.0)

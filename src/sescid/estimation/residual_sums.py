@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sescid.base.threads import ordered_map, usable_cores
+from sescid.estimation.balance_rows import balance_residuals
 from sescid.estimation.block_sums import aligned
 from sescid.estimation.fit import Fit
-from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.kinematics import use_kernels
 from sescid.kinematics.residuals import cop_residual_sums, torque_residual_sums
 
@@ -56,7 +57,20 @@ def _torque_nuisance(fit: Fit, m: Measurements) -> tuple[np.ndarray, np.ndarray]
 def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, float, float, int]]:
     """(kind, Σ|e|, Σe², rows) of one block, and ("truth", 0, Σd², rows) for a simulation."""
     out: list[tuple[str, float, float, int]] = []
-    if m.cop is not None:
+    if m.balance is not None:
+        assert m.gravity is not None
+        e = balance_residuals(fit.robot, fit.r, m.q, m.balance, m.gravity)
+        out.append((BALANCE, float(np.sum(np.abs(e))), float(np.sum(e * e)), m.n))
+    if m.cop is not None and m.cop_missing:  # numpy over the measured coordinates
+        y = m.cop - fit.cop_bias
+        pred = fit.predict_cop(m.q, m.gravity)
+        e = (y - pred).reshape(-1)
+        e = e[~np.isnan(e)]
+        out.append((COP, float(np.sum(np.abs(e))), float(np.sum(e * e)), e.size))
+        if m.cop_true is not None:
+            d = (m.cop_true - pred).reshape(-1)
+            out.append(("truth", 0.0, float(np.sum(d * d)), d.size))
+    elif m.cop is not None:
         y = m.cop - fit.cop_bias
         sums = None
         if kernels and m.gravity is None:

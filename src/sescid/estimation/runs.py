@@ -10,6 +10,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from sescid.errors import OptionError
 from sescid.estimation.checks import check_total_mass, fit_warnings
 from sescid.estimation.consistent import consistent_from_fit
@@ -74,6 +76,7 @@ def run_method(
     system = accumulate_sources(robot, [s.chunks() for s in sources], rows, report)
     if rows.cop_offset and COP not in system.kinds:
         raise OptionError("bias", "a CoP offset needs CoP data (cop_x, cop_y)")
+    system, r_prior, scale = _anchor(robot, system, options)
     if isinstance(method, MapOptions):
         cv = None
         if method.select == "cv" and method.prior_scale is None:
@@ -82,13 +85,15 @@ def run_method(
             cv = fold_systems(robot, memory, method.folds, options.seed, rows)
         fit = fit_map(
             robot, system, method, rtol=options.rtol, cv_folds=cv, kind_noise=options.noise(),
-            r_prior=options.r_prior,
+            r_prior=r_prior,
         )  # fmt: skip
     else:
         fit = fit_least_squares(
-            robot, system, rtol=options.rtol, noise=options.noise(), r_prior=options.r_prior,
+            robot, system, rtol=options.rtol, noise=options.noise(), r_prior=r_prior,
             allow_exact=options.allow_exact,
         )  # fmt: skip
+    if scale is not None:
+        fit = with_scale(fit, scale)
     fit = with_residuals(fit, sources=[s.chunks() for s in sources])
     if isinstance(method, ConsistentOptions):
         copts = method
@@ -102,6 +107,59 @@ def run_method(
             sig = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
             fit = dataclasses.replace(fit, sigma_hat=sig)
     return fit
+
+
+def _anchor(robot: Robot, system: System, options: IdentifyOptions):
+    """Homogeneous data (``anchor``): the system pinned to the prior's scale — or to a known
+    CoM height (``options.com_height``), for which the prior model is scaled first — with the
+    prior SESC vectors used and the scale's source; the data as they are otherwise."""
+    from sescid.estimation import anchor
+
+    r0 = robot.sesc_vectors() if options.r_prior is None else np.asarray(options.r_prior)
+    theta0 = np.concatenate([r0.reshape(-1), np.zeros(len(system.nuisance))])
+    if not anchor.homogeneous(robot, system, theta0):
+        if options.com_height is not None:
+            raise OptionError(
+                "com_height", "a known CoM height anchors balance data only; these data carry "
+                "their own scale"
+            )  # fmt: skip
+        return system, options.r_prior, None
+    prior_distance = anchor.com_distance(robot, r0)
+    by = "prior"
+    if options.com_height is not None:
+        lam = anchor.rescale(robot, r0, options.com_height)
+        r_c = anchor.collapse_point(robot, system)[: system.n_x].reshape(-1, 3)
+        r0 = r_c + lam * (r0 - r_c)
+        theta0[: system.n_x] = r0.reshape(-1)
+        by = "com_height"
+    a = anchor.scale_functional(robot, system.size, r0)
+    return anchor.anchored(system, a, theta0), r0, (by, prior_distance, options.com_height)
+
+
+def with_scale(fit: Fit, scale: tuple) -> Fit:
+    """The fit of anchored data with its ``ScaleAnchor`` record; scaled about the collapse
+    point to the known CoM height exactly (the anchor held it along one direction)."""
+    from sescid.estimation import anchor
+    from sescid.estimation.fit import ScaleAnchor
+    from sescid.estimation.identifiability import combination_vector
+
+    by, prior_distance, height = scale
+    robot = fit.robot
+    if height is not None:
+        lam = anchor.rescale(robot, fit.r, height)
+        r_c = np.zeros_like(fit.r)
+        r_c[0] = -robot.tree.root_r.T @ robot.d
+        r = r_c + lam * (fit.r - r_c)
+        base = tuple(
+            dataclasses.replace(
+                c, value=float(combination_vector(robot, c.terms) @ r.reshape(-1)),
+                std=c.std * lam,
+            )
+            for c in fit.base
+        )  # fmt: skip
+        fit = dataclasses.replace(fit, r=r, cov=fit.cov * lam**2, base=base)
+    record = ScaleAnchor(by, anchor.com_distance(robot, fit.r), prior_distance)
+    return dataclasses.replace(fit, scale=record)
 
 
 def fold_systems(

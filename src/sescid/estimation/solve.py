@@ -25,13 +25,13 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation.fit import NoiseSource
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol, eigen_descending, rank_of
-from sescid.estimation.measurements import COP, TORQUE, Kind
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.system import System
 
 #: unit of each kind's rows, and the noise a weighted-free multi-kind fit starts from
-UNITS: dict[Kind, str] = {COP: "m", TORQUE: "N·m"}
-START_NOISE: dict[Kind, float] = {COP: 0.005, TORQUE: 0.05}
+UNITS: dict[Kind, str] = {COP: "m", TORQUE: "N·m", BALANCE: "rad"}
+START_NOISE: dict[Kind, float] = {COP: 0.005, TORQUE: 0.05, BALANCE: 0.01}
 #: a kind's estimated noise is never taken below this fraction of its measurements' RMS (a
 #: noise-free kind would otherwise outweigh the others by any factor and hide what only they
 #: determine below the rank tolerance)

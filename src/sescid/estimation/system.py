@@ -24,7 +24,7 @@ from sescid.base.threads import ordered_map
 from sescid.errors import DataError
 from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
 from sescid.estimation.fit import NuisanceWhat
-from sescid.estimation.measurements import COP, TORQUE, Kind, Measurements
+from sescid.estimation.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import use_kernels
@@ -96,7 +96,7 @@ class System:
     @property
     def kinds(self) -> tuple[Kind, ...]:
         """The kinds with rows, in a fixed order."""
-        return tuple(k for k in (COP, TORQUE) if k in self.parts)
+        return tuple(k for k in KINDS if k in self.parts)
 
     def labels(self) -> list[str]:
         """Labels of the nuisance columns (the SESC part is labelled by the robot)."""
@@ -171,6 +171,7 @@ class Accumulator:
         self.p_red = robot.reduction.g.shape[0]
         self.cop_red = NormalEquations.empty(self.p_red)
         self.cop_full: NormalEquations | None = None
+        self.balance: NormalEquations | None = None
         self.tau_red: NormalEquations | None = None
         self.cop_raw: np.ndarray | None = None  #: the compiled passes' raw sums (block order)
         self.tau_raw: np.ndarray | None = None
@@ -230,6 +231,8 @@ class Accumulator:
                 progress(self.n_poses)
             if blk.cop is not None:
                 self.cop_red.n_poses += blk.n
+            if blk.balance is not None and self.balance is not None:
+                self.balance.n_poses += blk.n
             if blk.tau is not None and blk.tau_joints:
                 self._torque_sums().n_poses += blk.n
 
@@ -251,6 +254,10 @@ class Accumulator:
             if self.cop_full is None:
                 self.cop_full = NormalEquations.empty(3 * len(self.robot.body_names))
             self.cop_full.add_sums(part.cop_full)
+        if part.balance is not None:
+            if self.balance is None:
+                self.balance = NormalEquations.empty(3 * len(self.robot.body_names))
+            self.balance.add_sums(part.balance)
         if part.tau_red is not None:
             self._torque_sums().add_sums(part.tau_red)
         if part.tau_raw is not None:
@@ -298,6 +305,8 @@ class Accumulator:
             ne.n_poses = self.cop_red.n_poses
             ne = _with_cop_offset(self.robot, ne) if self.options.cop_offset else ne
             parts[COP] = KindSums(COP, ne, self.options.weighted)
+        if self.balance is not None:
+            parts[BALANCE] = KindSums(BALANCE, self.balance, False)
         system = System(n_x, nuisance, parts, self.mass, self.options.total_mass is not None)
         if self.tau_red is not None:
             system = self._with_torques(system, parts)

@@ -120,6 +120,14 @@ def com_interval(fit: Fit, q, level: float = 0.95) -> Interval:
     return _interval(fit.predict_com(q), fit.predict_std(q), level, residual_dof(fit))
 
 
+def balance_interval(fit: Fit, q, level: float = 0.95) -> Interval:
+    """Interval for the balance tilt (n,) [rad] of a robot on a line (``Fit.predict_balance``)."""
+    q = as_poses(q, fit.robot.nq)
+    tilt = fit.predict_balance(q)
+    std = fit.predict_balance_std(q)
+    return _interval(tilt, std, level, residual_dof(fit))
+
+
 def rms(a) -> float:
     """Root mean square of all entries of ``a``."""
     return float(np.sqrt(np.mean(np.square(a))))

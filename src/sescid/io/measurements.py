@@ -50,7 +50,8 @@ class ReadReport:
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
     """One chunk of a measurement table as ``Measurements`` (not yet validated)."""
     q = read_poses(table, robot.joint_names, robot.profile.servo)
-    cop = read_cop(table) if ("cop_x" in table or "cop_y" in table) else None
+    has_cop = any(c in table.columns or c in table.text for c in ("cop_x", "cop_y"))
+    cop = read_cop(table) if has_cop else None
     cop_se = None
     if "cop_se_x" in table or "cop_se_y" in table:
         cop_se = np.column_stack([table.get("cop_se_x"), table.get("cop_se_y")])
@@ -62,23 +63,58 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
     truth = None
     if "cop_x_true" in table and "cop_y_true" in table:
         truth = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
-    if cop is None and not joints:
+    gravity = table_gravity(robot, table, q, imu_link)
+    balance = _balance(table, robot, has_cop, gravity)
+    if cop is None and not joints and balance is None:
         raise DataError(
             f"{table.path}: no measurement columns: give cop_x, cop_y (centre of pressure) "
             "and/or tau_<joint> (joint torques, N·m)"
         )
+    if cop is not None and not joints:
+        empty = np.flatnonzero(np.all(np.isnan(cop), axis=1))
+        if empty.size:
+            raise DataError(
+                f"{table.path}: row {table.row(empty[0])}: neither cop_x nor cop_y was "
+                "measured (drop the row or fill one of them)"
+            )
     return Measurements(
         q=q,
         cop=cop,
         cop_se=cop_se,
+        balance=balance,
         tau=tau,
         tau_joints=joints,
         tau_se=tau_se,
         approach=approach,
-        gravity=table_gravity(robot, table, q, imu_link),
+        gravity=gravity,
         cop_true=truth,
         source=str(table.path),
     )
+
+
+def _balance(table: Table, robot: Robot, has_cop: bool, gravity) -> np.ndarray | None:
+    """A line-support robot's balance rows: the ``balance`` column (the CoM's measured offset
+    across the line, m), else 0 for every row (balanced poses); None for another support."""
+    if robot.line is None:
+        if "balance" in table.columns or "balance" in table.text:
+            raise DataError(
+                f"{table.path}: a 'balance' column needs a support line (a wheel axle, an "
+                "edge): give its direction (--line, or load_robot(…, line=…))"
+            )
+        return None
+    if has_cop:
+        raise DataError(
+            f"{table.path}: a robot balancing on a line has no centre of pressure under a "
+            "sole: drop cop_x/cop_y (each row is a balanced pose) or give a sole support"
+        )
+    if gravity is None:
+        raise DataError(
+            f"{table.path}: balancing on a line needs the gravity direction of every pose: "
+            "grav_x/y/z columns, or imu_roll/imu_pitch with the IMU's link (--imu-link)"
+        )
+    if "balance" in table.columns or "balance" in table.text:
+        return table.get("balance")
+    return np.zeros(table.n)
 
 
 def read_measurements(

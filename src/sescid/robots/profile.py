@@ -97,6 +97,9 @@ class RobotProfile:
     pad_stiffness: float | None = None
     #: rad, a joint's play around its commanded angle (uniform in ±); None: unknown
     servo_backlash: float | None = None
+    #: support frame → direction (3,) of the line the robot balances on there (a wheel axle,
+    #: an edge), in that frame: a support named here is a line contact, not a sole
+    support_lines: dict[str, tuple[float, float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         check_choice("pose_sampler", self.pose_sampler, PoseSampler)

@@ -11,8 +11,9 @@ import numpy as np
 from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.feet import REASONS, FootMode
 
-#: what a measurement was reduced from: the feet's sources (``FootMode``), or joint torques only
-MeasuredFrom = Literal[FootMode, "torque"]
+#: what a measurement was reduced from: the feet's sources (``FootMode``), joint torques only,
+#: or an IMU only (a robot balancing on a line)
+MeasuredFrom = Literal[FootMode, "torque", "imu"]
 
 
 @dataclass(frozen=True)

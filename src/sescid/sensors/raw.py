@@ -111,7 +111,8 @@ def read_raw(
             _read_foot(table, foot, config, names, (forces, centroid, cop, cop_force))
     torques = read_torques(table, joint_names, allow_missing=True)
     tau = torques.tau if torques.joints else None
-    if not forces and not centroid and not cop and tau is None:
+    attitude = any(c in names for c in (*GRAVITY_COLUMNS, "imu_roll", "imu_pitch"))
+    if not forces and not centroid and not cop and tau is None and not attitude:
         if config is None:
             raise DataError(
                 f"{table.path}: no joint-torque columns (tau_<joint>) and no foot-sensor "

@@ -188,7 +188,7 @@ def measure(robot, log: RawLog, config: SensorConfig | None, min_samples: int = 
         cop, force_n, fs, out = _cop_part(robot, log, config, s)
         mode = fs.mode
     else:
-        mode = "torque"
+        mode = "torque" if log.tau is not None else "imu"
     use = None
     if log.tau is not None:
         check_torque_scale(log, robot.total_mass)
