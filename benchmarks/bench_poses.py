@@ -18,7 +18,13 @@ per robot, and the OP2's D-optimal choice from 10⁵ candidates against a naive 
    greedy and exchange against the CoP design's on the same pool (20 rows per pose against 2),
    the expected CoM error against random sets.
 
-Usage: ``python benchmarks/bench_poses.py [--repeat 3] [--skip-op2-pool] [--only-torque]``.
+0. The planning targets (issue 26): every ``poses`` the target names — the OP2's ``--kinds
+   cop``, ``tau``, ``both``, the G1 held by its pelvis, TALOS's minimum D-optimal set — against
+   2 s warm, beside ``sescid info`` (the floor of any command), and the session's next pose
+   against 0.2 s; with the CPU, versions and load.
+
+Usage: ``python benchmarks/bench_poses.py [--repeat 3] [--skip-op2-pool] [--only-torque]
+[--only-targets]``.
 """
 
 from __future__ import annotations
@@ -241,16 +247,84 @@ def torque_designs(repeat: int, tmp: Path, k: int = 38) -> None:
           )  # fmt: skip
 
 
+def planning_targets(repeat: int, tmp: Path) -> None:
+    """Every ``poses`` the planning target names (≤ 2 s warm) and the session's next pose
+    (≤ 0.2 s), beside the floor of any command (``sescid info`` on the same robot)."""
+    exe = str(Path(sys.executable).parent / "sescid")
+    g1 = str(erd("g1_description/urdf/g1_29dof_rev_1_0.urdf"))
+    talos = erd("talos_data/robots/talos_full_v2.urdf")
+    from sescid.estimation import min_poses
+
+    need = min_poses(sescid.load_robot(talos, "right_sole_link"))
+    rows = [
+        ("OP2 --kinds cop", [exe, "poses", "--kinds", "cop"]),
+        ("OP2 --kinds tau", [exe, "poses", "--kinds", "tau"]),
+        ("OP2 --kinds both", [exe, "poses", "--kinds", "both"]),
+        ("G1 held by its pelvis, --kinds tau",
+         [exe, "poses", "--robot", g1, "--support", "pelvis", "--mount", "gantry", "--kinds",
+          "tau"]),
+        (f"TALOS minimum D-optimal ({need} poses)",
+         [exe, "poses", "--robot", str(talos), "--support", "right_sole_link", "--count",
+          str(need)]),
+    ]  # fmt: skip
+    ref = run_timed([sys.executable, "-c", "import numpy"], repeat)
+    info = run_timed([exe, "info"], repeat)
+    print(f"0. planning targets: sescid poses, best wall of {repeat} fresh processes (warm caches)")
+    print(f"   reference: python -c 'import numpy'            {ref[0]:6.2f} s (CPU {ref[1]:.2f})")
+    print(
+        f"   reference: sescid info (OP2)                    {info[0]:6.2f} s (CPU {info[1]:.2f})"
+    )
+    for label, args in rows:
+        if "--count" not in args:
+            args = [*args, "--count", "38"]
+        args = [*args, "--seed", "0", "--out", str(tmp / "p.csv"), "--force"]
+        subprocess.run(args, check=True, capture_output=True)  # warm the kernel caches
+        wall, cpu = run_timed(args, repeat)
+        ok = "met" if wall <= TARGET else "NOT met"
+        print(f"   {label:52s} {wall:6.2f} s (CPU {cpu:.2f} s; target ≤ {TARGET:g} s: {ok})")
+    from sescid.session.design import SessionDesign
+    from sescid.session.records import SessionOptions
+
+    print("   the session's next pose (choice + adding the measured pose), 12 steps, CPU s:")
+    cases = [("op2", None, "cop"), ("op2", None, "tau"), ("op2", None, "both"),
+             (g1, "pelvis", "tau")]  # fmt: skip
+    for name, support, kinds in cases:
+        robot = sescid.load_robot(name, support)
+        plan = SessionDesign(robot, SessionOptions(kinds=kinds))
+        q, times = np.zeros(robot.nq), []
+        for _ in range(12):
+            t = time.process_time()
+            nxt = plan.design.next(plan.cand.q, q)
+            plan.design.add(nxt.index)
+            times.append(time.process_time() - t)
+            q = plan.cand.q[nxt.index]
+        label = f"{'OP2' if name == 'op2' else 'G1 held'} --kinds {kinds}"
+        ok = "met" if max(times) <= 0.2 else "NOT met"
+        print(f"   {label:52s} max {max(times):.3f} s, median {np.median(times):.3f} s "
+              f"(target ≤ 0.2 s: {ok})")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--search-candidates", type=int, default=1000)
     ap.add_argument("--skip-op2-pool", action="store_true")
     ap.add_argument("--only-torque", action="store_true", help="section 4 only")
+    ap.add_argument("--only-targets", action="store_true", help="section 0 only")
     args = ap.parse_args()
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    print(f"load average {load}; numpy {np.__version__}, sescid {sescid.__version__}")
+    import platform
+
+    versions = ", ".join(f"{m} {importlib.metadata.version(m)}" for m in ("numpy", "numba",
+                                                                          "mujoco"))  # fmt: skip
+    print(f"load average {load}; {_cpu()} ({os.cpu_count()} CPUs), Python "
+          f"{platform.python_version()}, {versions}, sescid {sescid.__version__}")  # fmt: skip
     with tempfile.TemporaryDirectory() as d:
+        if args.only_targets:
+            planning_targets(args.repeat, Path(d))
+            print(f"load average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+            return
+        planning_targets(args.repeat, Path(d))
         if not args.only_torque:
             commands(args.repeat, Path(d))
         torque_designs(args.repeat, Path(d))
@@ -259,6 +333,19 @@ def main() -> None:
         if not args.skip_op2_pool:
             op2_pool(args.repeat)
     print(f"load average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+
+
+def _cpu() -> str:
+    """The CPU's model name (Linux), else the platform's processor."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    import platform
+
+    return platform.processor() or "unknown CPU"
 
 
 if __name__ == "__main__":

@@ -9,15 +9,28 @@ from sescid.estimation import ConsistentOptions, MapOptions, Measurements
 
 
 def identify_ls(robot, q, cop, **kw):
-    """Least squares (``identify``'s default method)."""
-    return identify(robot, q, cop, **kw)
+    """Least squares (the paper's method)."""
+    return identify(robot, q, cop, method="ls", **kw)
 
 
 def identify_map(
-    robot, q, cop, *, prior_scale=None, noise=None, bias=False, select="evidence", folds=5, **kw
+    robot,
+    q,
+    cop,
+    *,
+    prior_scale=None,
+    noise=None,
+    bias=False,
+    select="evidence",
+    folds=5,
+    prior="sesc",
+    **kw,
 ):
-    """MAP with a Gaussian CAD prior."""
-    opts = MapOptions(prior_scale=prior_scale, noise=noise, select=select, folds=folds, bias=bias)
+    """MAP with a Gaussian CAD prior (per SESC component by default: τ in metres, the closed
+    forms these tests check; ``prior="bodies"`` for identify's default shape)."""
+    opts = MapOptions(
+        prior_scale=prior_scale, noise=noise, select=select, folds=folds, bias=bias, prior=prior
+    )
     return identify(robot, q, cop, method=opts, **kw)
 
 
@@ -41,4 +54,5 @@ def chunks_of(chunks):
 
 def identify_stream(robot, chunks, **kw):
     """Least squares over chunks read once."""
+    kw.setdefault("method", "ls")
     return identify(robot, chunks_of(chunks), **kw)

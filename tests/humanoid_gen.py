@@ -155,3 +155,6 @@ H1_STYLE = HumanoidSpec(
 )
 #: cannot stand on one foot: wide hips and almost no hip or ankle roll
 STUCK = HumanoidSpec(hip=0.25, roll=0.02)
+#: a 33 kg humanoid on a narrow sole (120 × 36 mm), its CoM 0.66 m up: contacts that sink a fixed
+#: 0.5 mm under its weight would let the sole tilt as far as the CoM leans (no pose kept)
+NARROW_33KG = HumanoidSpec(foot=(0.12, 0.036, 0.03), torso_mass=7.0, arm_mass=0.6)

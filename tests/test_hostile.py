@@ -213,7 +213,8 @@ def test_one_pose_repeated_is_not_determined(sim, tmp_path):
 
 
 def test_all_zero_cop_is_flagged(sim, tmp_path):
-    """An all-zero CoP (σ̂ = 0, an exact fit) is stored and printed as a warning."""
+    """An all-zero CoP (the collapsed model would fit it exactly) is anchored, never a fit of
+    σ̂ = 0, and the suspicion of a dead sensor is stored and printed as a warning."""
 
     def zero(header, row):
         for c in ("cop_x", "cop_y"):
@@ -222,7 +223,8 @@ def test_all_zero_cop_is_flagged(sim, tmp_path):
 
     fit = tmp_path / "fit.json"
     code, out = run("identify", _rewrite(sim, tmp_path / "z.csv", zero), "--out", fit)
-    assert code == 0 and "σ̂ = 0" in out
+    assert code == 0 and "dead or unplugged foot sensor" in out and "σ̂ = 0" not in out
+    assert "residual RMS 0.000 mm" not in out
 
 
 def test_cop_in_millimetres_is_refused(sim, tmp_path):

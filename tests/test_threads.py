@@ -44,7 +44,7 @@ def test_identify_runs_on_one_blas_thread(op2, rng, monkeypatch):
     import sescid
 
     sescid.identify(op2, q, op2.cop(q))
-    assert seen == [{1}]
+    assert seen and all(s == {1} for s in seen)  # LS and the MAP of auto: one thread each
 
 
 def test_the_command_line_pins_blas_before_numpy_loads():

@@ -6,8 +6,9 @@ the compiled kernels — load inside the functions that need them):
 - robots: ``load_robot``, ``Robot``;
 - data: ``simulate``, ``read_table``, ``write_table``;
 - estimation: ``identify`` (files or arrays, any mix of CoP and joint-torque ``Measurements``;
-  ``method`` = "ls" | "map" | "consistent" or that method's options — ``LeastSquaresOptions``,
-  ``MapOptions``, ``ConsistentOptions``; what every method shares: ``IdentifyOptions``),
+  ``method`` = "auto" (the default) | "ls" | "map" | "consistent" or that method's options —
+  ``AutoOptions``, ``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``; what every
+  method shares: ``IdentifyOptions``),
   ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
@@ -26,6 +27,7 @@ from sescid.errors import (
     SolverError,
 )
 from sescid.estimation import (
+    AutoOptions,
     ConsistentOptions,
     Fit,
     IdentifyOptions,
@@ -48,6 +50,7 @@ from sescid.study import paper_study
 __version__ = "0.1.0"
 
 __all__ = [
+    "AutoOptions",
     "ConsistentOptions",
     "DataError",
     "Fit",

@@ -24,7 +24,7 @@ from sescid.estimation import (
     Fit,
     IdentifyOptions,
     Measurements,
-    Method,
+    MethodName,
     MethodOptions,
     fit_measurements,
 )
@@ -70,7 +70,7 @@ def identify(
     data: Any,
     cop: Any = None,
     *,
-    method: Method | MethodOptions = "ls",
+    method: MethodName | MethodOptions = "auto",
     options: IdentifyOptions | None = None,
     sigma: Any = None,
     gravity: Any = None,
@@ -83,13 +83,15 @@ def identify(
     (n, 2) m and/or joint torques (n, J) N·m), a list of them, chunks of one data set; or joint
     angles with ``cop=`` (n, 2) m, optional ``sigma=`` per-pose CoP standard errors (n,) or
     (n, 2) m (a weighted fit) and ``gravity=`` per-pose gravity directions (n, 3) in the support
-    frame. ``method``: "ls" (least squares), "map" (Gaussian CAD prior) or "consistent"
-    (physical masses/CoMs) with their default options, or an options object naming its method
-    (``MapOptions(…)``, ``ConsistentOptions(…)``). ``options``: ``IdentifyOptions``; keyword
-    ``overrides`` replace its fields (``rtol=``, ``robust=``, ``total_mass=`` …).
-    ``progress(poses_done, total)`` is called while the normal equations are accumulated.
-    Warnings (data quality, poses outside the limits of a file that allows them or of simulated
-    data) are stored in ``fit.warnings``.
+    frame. ``method``: "auto" (the default: MAP with the CAD prior when the data leave
+    directions weakly determined, least squares when they determine every direction well;
+    ``fit.choice`` says which and why), "ls" (least squares, the paper's), "map" (Gaussian CAD
+    prior) or "consistent" (physical masses/CoMs) with their default options, or an options
+    object naming its method (``MapOptions(…)``, ``AutoOptions(…)``, ``ConsistentOptions(…)``).
+    ``options``: ``IdentifyOptions``; keyword ``overrides`` replace its fields (``rtol=``,
+    ``robust=``, ``total_mass=`` …). ``progress(poses_done, total)`` is called while the
+    normal equations are accumulated. Warnings (data quality, poses outside the limits of a
+    file that allows them or of simulated data) are stored in ``fit.warnings``.
     """
     opts = (options or IdentifyOptions()).with_overrides(**overrides)
     if sigma is not None:

@@ -357,5 +357,23 @@ def load_robot(
             "or a URDF/MJCF file"
         )
     if support is None:
-        raise ModelError(f"{path}: name the support frame (a sole link, foot link or site)")
+        raise ModelError(
+            f"{path}: name the support frame (--support: a sole link, foot link or site)"
+            + _feet_hint(path)
+        )
     return Robot(load_model(path, support), str(path.resolve()), line=line)
+
+
+def _feet_hint(path: Path) -> str:
+    """'; feet found …: a, b' naming the model's support candidates ('' when none are found or
+    the model cannot be read: its own error comes with loading it)."""
+    from sescid.errors import SescidError
+    from sescid.model.feet import support_candidates
+
+    try:
+        feet = support_candidates(path)
+    except SescidError:
+        return ""
+    if not feet:
+        return ""
+    return "; feet found from the tree and the geometry: " + ", ".join(f.support for f in feet)

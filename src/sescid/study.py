@@ -50,7 +50,7 @@ def paper_study(
     fresh = simulate(
         robot, n_fresh, range_deg, noise, None if seed is None else seed + 1, r_true=r_true
     )
-    fit = fit_measurements(robot, Measurements(q=sim.q, cop=sim.cop))
+    fit = fit_measurements(robot, Measurements(q=sim.q, cop=sim.cop), method="ls")  # the paper's
     p, rows = fit.rank, 2 * n
 
     def rms(a):

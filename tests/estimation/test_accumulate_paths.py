@@ -108,10 +108,10 @@ def test_the_paths_agree_on_a_fit(op2):
     """The same data below and above the budget (a copy of the poses, so the job is large):
     numpy's and the kernels' fits agree to rounding."""
     m = _data(op2, 2000, 4, kinds=("cop",), weighted=False)
-    small = sescid.identify(op2, m)
+    small = sescid.identify(op2, m, method="ls")
     k = NUMPY_JOB // work(op2, m, 1) // m.n + 1
     big = Measurements(q=np.tile(m.q, (k, 1)), cop=np.tile(m.cop, (k, 1))).checked(op2)
-    large = sescid.identify(op2, big)
+    large = sescid.identify(op2, big, method="ls")
     np.testing.assert_allclose(large.r, small.r, rtol=0, atol=1e-12)
     assert large.rms == pytest.approx(small.rms, rel=1e-10)
 
@@ -124,7 +124,7 @@ def test_residual_pass_kernel_equals_numpy_and_streams(op2):
 
     sim = simulate(op2, 30_000, seed=5)
     m = Measurements(q=sim.q, cop=sim.cop, cop_true=sim.cop_true).checked(op2)
-    fit = sescid.identify(op2, m)
+    fit = sescid.identify(op2, m, method="ls")
     fast = block_sums(fit, m, True)
     slow = block_sums(fit, m, False)
     for a, b in zip(fast, slow, strict=True):
@@ -132,7 +132,7 @@ def test_residual_pass_kernel_equals_numpy_and_streams(op2):
         assert a[1] == pytest.approx(b[1], rel=1e-12) and a[2] == pytest.approx(b[2], rel=1e-12)
     cuts = [0, 1001, 9000, 17777, 30_000]
     chunks = (m.take(slice(a, b)) for a, b in zip(cuts[:-1], cuts[1:], strict=True))
-    streamed = sescid.identify(op2, chunks)
+    streamed = sescid.identify(op2, chunks, method="ls")
     assert (streamed.mae, streamed.rms, streamed.truth_cop_rmse) == (
         fit.mae,
         fit.rms,
@@ -145,7 +145,7 @@ def test_torque_residual_pass_kernel_equals_numpy(op2):
     from sescid.estimation.residual_sums import block_sums
 
     m = _data(op2, 3000, 6, kinds=("tau",), approach=True, weighted=False)
-    fit = sescid.identify(op2, m, total_mass=3.0)
+    fit = sescid.identify(op2, m, total_mass=3.0, method="ls")
     fast, slow = block_sums(fit, m, True), block_sums(fit, m, False)
     assert fast[0][3] == slow[0][3] == m.tau.size
     assert fast[0][1] == pytest.approx(slow[0][1], rel=1e-12)

@@ -41,7 +41,7 @@ def fresh(robot, truth):
 @pytest.fixture(scope="module")
 def noisy(robot, truth):
     sim = sescid.simulate(robot, 1000, noise=0.00493, seed=1, r_true=truth[0])
-    return sim, sescid.identify(robot, sim.q, sim.cop)
+    return sim, sescid.identify(robot, sim.q, sim.cop, method="ls")
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +119,7 @@ def test_held_out_cop_as_good_as_least_squares(robot, noisy, truth, fresh):
 def test_without_active_constraints_the_cop_fit_equals_least_squares(robot, fresh):
     # low noise and boxes grown by 5 cm: the least-squares r is reachable inside the constraints
     sim = sescid.simulate(robot, 1000, noise=1e-4, seed=5)
-    ls = sescid.identify(robot, sim.q, sim.cop)
+    ls = sescid.identify(robot, sim.q, sim.cop, method="ls")
     fit = consistent_from_fit(ls, box_margin=0.05)
     assert fit.inertials.active_constraints == []
     assert abs(fit.rms - ls.rms) < 1e-9
@@ -128,7 +128,7 @@ def test_without_active_constraints_the_cop_fit_equals_least_squares(robot, fres
 
 def test_cad_prior_gives_plausible_masses_and_beats_ls_with_few_poses(robot, truth, fresh):
     sim = sescid.simulate(robot, 38, noise=0.00493, seed=4, r_true=truth[0])
-    ls = sescid.identify(robot, sim.q, sim.cop)
+    ls = sescid.identify(robot, sim.q, sim.cop, method="ls")
     fit = consistent_from_fit(ls, total_mass=truth[1], prior_std=0.05)
     true_m = np.array([b.mass * HEAVIER.get(b.name, 1.0) for b in robot.model.bodies])
     assert np.max(np.abs(_masses(fit) / true_m - 1)) < 0.15
@@ -230,7 +230,7 @@ def test_infeasible_constraints_raise_a_clear_error(noisy):
 @pytest.mark.parametrize("prior_std", [None, 0.05])
 def test_uniform_cop_weights_leave_the_fit_unchanged(robot, noisy, prior_std):
     sim, ls = noisy
-    weighted = sescid.identify(robot, sim.q, sim.cop, sigma=np.full(len(sim.q), 0.002))
+    weighted = sescid.identify(robot, sim.q, sim.cop, sigma=np.full(len(sim.q), 0.002), method="ls")
     a = consistent_from_fit(ls, prior_std=prior_std)
     b = consistent_from_fit(weighted, prior_std=prior_std)
     np.testing.assert_allclose(_masses(b), _masses(a), atol=1e-6 * robot.total_mass)

@@ -160,7 +160,8 @@ def test_cli_map_writes_fit_with_prior_scale(robot, tmp_path, write_dataset):
     assert res.exit_code == 0, res.output
     fit = load_fit(out)
     assert fit.method == "map" and fit.map.prior_scale == pytest.approx(1e-3)
-    res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--bias"])
+    res = CliRunner().invoke(cli, ["identify", str(data), "--out", str(out), "--method", "ls",
+                                   "--bias"])  # fmt: skip
     assert res.exit_code == 2 and "--bias needs --method map" in res.output
     args = [
         "identify",

@@ -13,12 +13,15 @@ import pytest
 import sescid
 from sescid.errors import OptionError, check_choice, choices
 from sescid.estimation import (
+    METHOD_CHOICES,
     METHODS,
+    AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
     LeastSquaresOptions,
     MapOptions,
     Method,
+    MethodName,
     method_options,
 )
 from sescid.simulation import simulate
@@ -30,10 +33,13 @@ def test_a_name_gives_its_method_with_default_options_and_an_object_is_its_own()
     assert method_options("ls") == LeastSquaresOptions()
     assert method_options("map") == MapOptions()
     assert method_options("consistent") == ConsistentOptions()
+    assert method_options("auto") == AutoOptions(MapOptions())
     given = MapOptions(prior_scale=1e-3, bias=True)
     assert method_options(given) is given
-    assert [method_options(m).method for m in METHODS] == list(METHODS)
-    with pytest.raises(OptionError, match=r"method: must be one of 'ls', 'map', 'consistent'"):
+    assert [method_options(m).method for m in METHOD_CHOICES] == list(METHOD_CHOICES)
+    assert AutoOptions(given).resolved("map") is given
+    assert AutoOptions(given).resolved("ls") == LeastSquaresOptions()
+    with pytest.raises(OptionError, match=r"method: must be one of 'auto', 'ls', 'map', 'cons"):
         method_options("lsq")  # type: ignore[arg-type]
 
 
@@ -78,6 +84,7 @@ def test_the_messages_list_the_choices_of_the_alias():
     """The allowed values come from the ``Literal`` alias (one home), nested aliases and
     ``bool`` flattened."""
     assert choices(Method) == METHODS == ("ls", "map", "consistent")
+    assert choices(MethodName) == METHOD_CHOICES == ("auto", "ls", "map", "consistent")
     from sescid.estimation.options import PriorChoice, Robust
 
     assert choices(PriorChoice) == ("auto", "sesc", "bodies")

@@ -30,7 +30,7 @@ def _offset(robot, d, r):
 def test_level_data_add_no_direction(op2):
     """A level sole: rank 42, no tilt direction, no tilt note."""
     q, _, r, _ = _data(op2, 200, 0.0, 0.0, 0)
-    fit = sescid.identify(op2, q, op2.cop(q, r))
+    fit = sescid.identify(op2, q, op2.cop(q, r), method="ls")
     assert fit.rank == 42 and tilt_direction(fit) is None
     assert level_basis(op2).shape == (63, 42)
 
@@ -38,7 +38,7 @@ def test_level_data_add_no_direction(op2):
 def test_noise_free_tilt_determines_the_height_offset(op2):
     """Noise-free tilted data: rank 43, the offset equals the truth's along that direction."""
     q, g, r, cop = _data(op2, 200, 0.01, 0.0, 1)
-    fit = sescid.identify(op2, q, cop, gravity=g)
+    fit = sescid.identify(op2, q, cop, gravity=g, method="ls")
     t = tilt_direction(fit)
     assert fit.rank == 43 and t is not None
     assert abs(t.value - _offset(op2, t.direction, r)) < 1e-9
@@ -49,7 +49,7 @@ def test_noise_free_tilt_determines_the_height_offset(op2):
 def test_ls_warns_map_does_not(op2):
     """Bench-like tilt (5 mrad) and CoP noise (1 mm): LS warns (rel. std > 10 %), MAP not."""
     q, g, r, cop = _data(op2, 60, 0.005, 0.001, 2)
-    ls = sescid.identify(op2, q, cop, gravity=g)
+    ls = sescid.identify(op2, q, cop, gravity=g, method="ls")
     t = tilt_direction(ls)
     assert t is not None and t.rel_std > 0.1
     assert abs(t.value - _offset(op2, t.direction, r)) < 4 * t.std
@@ -89,7 +89,9 @@ def test_cli_identify_warns_with_gravity_ls(op2, tmp_path):
     cols |= {f"grav_{a}": g[:, i] for i, a in enumerate("xyz")}
     write_table(tmp_path / "d.csv", cols)
     out = tmp_path / "f.json"
-    res = CliRunner().invoke(cli, ["identify", str(tmp_path / "d.csv"), "--out", str(out)])
+    res = CliRunner().invoke(
+        cli, ["identify", str(tmp_path / "d.csv"), "--method", "ls", "--out", str(out)]
+    )
     assert res.exit_code == 0, res.output
     assert "CoM-height offset only weakly" in res.output
     assert any("CoM-height" in w for w in sescid.load_fit(out).warnings)

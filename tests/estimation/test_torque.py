@@ -125,7 +125,7 @@ def test_what_torques_determine_by_name(op2):
     are the support body's own horizontal components, named so; pooled with a CoP: 42."""
     q = _poses(op2, 60, 2)
     m = Measurements(q=q, tau=_tau(op2, q), tau_joints=tuple(op2.joint_names))
-    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass)
+    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass, method="ls")
     assert fit.rank == 40
     kinds = {c.kind for c in fit.unidentifiable}
     assert "support-horizontal" in kinds and "not-excited" not in kinds
@@ -133,7 +133,7 @@ def test_what_torques_determine_by_name(op2):
     assert len(horizontal) == 2 and all(op2.body_names[0] in c.reason for c in horizontal)
     pooled = dataclasses.replace(m, cop=op2.cop(q) + 1e-4 * np.random.default_rng(3).normal(
         size=(60, 2)))  # fmt: skip
-    fit2 = identify(op2, pooled, gravity_accel=G0, total_mass=op2.total_mass)
+    fit2 = identify(op2, pooled, gravity_accel=G0, total_mass=op2.total_mass, method="ls")
     assert fit2.rank == 42 and {k.kind for k in fit2.kinds} == {"cop", "tau"}
 
 
@@ -144,7 +144,7 @@ def test_noise_free_torques_recover_the_truth_and_the_offsets(op2):
     offsets = np.random.default_rng(5).normal(0, 0.1, op2.nq)
     tau = _tau(op2, q, r_true) + offsets + 1e-12 * np.random.default_rng(6).normal(size=(50, 20))
     m = Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names))
-    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass)
+    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass, method="ls")
     est = np.array([e.value for e in fit.nuisance if e.what == "offset"])
     np.testing.assert_allclose(est, offsets, atol=1e-9)
     qf = _poses(op2, 200, 7)
@@ -168,13 +168,15 @@ def test_friction_band_and_offset_separate_with_approach_sides(op2):
     side = np.where(rng.random(60) < 0.5, 1.0, -1.0)
     tau = _tau(op2, q) + off + side[:, None] * f
     m = Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names), approach=side)
-    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass)
+    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass, method="ls")
     got = {(e.what, e.name): e for e in fit.nuisance}
     for j, name in enumerate(op2.joint_names):
         assert got["friction", name].value == pytest.approx(f[j], abs=1e-9)
         assert got["offset", name].value == pytest.approx(off[j], abs=1e-9)
     one_side = dataclasses.replace(m, approach=np.ones(60), tau=_tau(op2, q) + off + f)
-    fit1 = identify(op2, one_side, gravity_accel=G0, total_mass=op2.total_mass, allow_exact=True)
+    fit1 = identify(
+        op2, one_side, gravity_accel=G0, total_mass=op2.total_mass, allow_exact=True, method="ls"
+    )
     lost = [e for e in fit1.nuisance if not e.determined]
     assert len(lost) == 2 * op2.nq
     assert all(np.isnan(e.value) and np.isnan(e.std) and "confounded" in e.reason for e in lost)
@@ -190,7 +192,7 @@ def test_noisy_torques_estimate_their_noise_and_pool_with_the_cop(op2):
         tau=_tau(op2, q) + rng.normal(0, 0.05, (80, op2.nq)),
         tau_joints=tuple(op2.joint_names),
     )
-    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass)
+    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass, method="ls")
     cop, tau = fit.kind("cop"), fit.kind("tau")
     assert cop.sigma == pytest.approx(0.005, rel=0.2) and tau.sigma == pytest.approx(0.05, rel=0.1)
     assert cop.sigma_by == tau.sigma_by == "estimated"
@@ -209,7 +211,7 @@ def test_torques_beat_the_cop_on_a_perturbed_robot(op2):
     joints = tuple(op2.joint_names)
     mass = op2.total_mass
     ls = identify(op2, Measurements(q=q, tau=tau, tau_joints=joints), total_mass=mass,
-                  gravity_accel=G0, robust=False)  # fmt: skip
+                  gravity_accel=G0, robust=False, method="ls")  # fmt: skip
     phi = op2.torque_regressor(q, g0=G0) * mass
     a = np.zeros((38 * 20, 63 + 20))
     for j in range(20):
@@ -259,7 +261,7 @@ def test_gantry_beats_the_cad_model(op2):
 def test_without_a_weighed_mass_the_model_mass_is_used_with_a_warning(op2):
     q = _poses(op2, 40, 18)
     m = Measurements(q=q, tau=_tau(op2, q) + 1e-3, tau_joints=tuple(op2.joint_names))
-    fit = identify(op2, m, gravity_accel=G0)
+    fit = identify(op2, m, gravity_accel=G0, method="ls")
     assert not fit.mass_given and any("total mass was not given" in w for w in fit.warnings)
     assert fit.total_mass == pytest.approx(op2.total_mass)
 
@@ -268,10 +270,10 @@ def test_streamed_torques_equal_in_memory_bit_for_bit(op2):
     q = _poses(op2, 5000, 19)
     tau = _tau(op2, q) + np.random.default_rng(20).normal(0, 0.05, (5000, 20))
     joints = tuple(op2.joint_names)
-    whole = identify(op2, Measurements(q=q, tau=tau, tau_joints=joints))
+    whole = identify(op2, Measurements(q=q, tau=tau, tau_joints=joints), method="ls")
     parts = (Measurements(q=q[s : s + 777], tau=tau[s : s + 777], tau_joints=joints)
              for s in range(0, 5000, 777))  # fmt: skip
-    streamed = identify(op2, parts)
+    streamed = identify(op2, parts, method="ls")
     np.testing.assert_array_equal(whole.r, streamed.r)
     np.testing.assert_array_equal(whole.cov, streamed.cov)
     a, b = whole.kind("tau"), streamed.kind("tau")
@@ -282,16 +284,20 @@ def test_bad_torque_input_is_one_line(op2):
     q = _poses(op2, 30, 21)
     tau = _tau(op2, q)
     with pytest.raises(sescid.SescidError, match="no joint named 'knee'"):
-        identify(op2, Measurements(q=q, tau=tau[:, :1], tau_joints=("knee",)).checked(op2))
+        identify(
+            op2, Measurements(q=q, tau=tau[:, :1], tau_joints=("knee",)).checked(op2), method="ls"
+        )
     bad = tau.copy()
     bad[4, 2] = np.nan
     with pytest.raises(DataError, match="non-finite value at row 4, column 2"):
-        identify(op2, Measurements(q=q, tau=bad, tau_joints=tuple(op2.joint_names)))
+        identify(op2, Measurements(q=q, tau=bad, tau_joints=tuple(op2.joint_names)), method="ls")
     with pytest.raises(DataError, match="approach = 0"):
         identify(op2, Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names),
-                                   approach=np.zeros(30)))  # fmt: skip
+                                   approach=np.zeros(30)), method="ls")  # fmt: skip
     with pytest.raises(DataError, match="a unit slip"):
-        identify(op2, Measurements(q=q, tau=tau * 1e5, tau_joints=tuple(op2.joint_names)))
+        identify(
+            op2, Measurements(q=q, tau=tau * 1e5, tau_joints=tuple(op2.joint_names)), method="ls"
+        )
 
 
 def test_cli_identifies_from_a_torque_file(op2, tmp_path):
@@ -361,10 +367,12 @@ def test_body_prior_fits_torques_and_cop(op2):
 def test_few_or_no_degrees_of_freedom_are_flagged(op2):
     """22 poses (44 equations, 42 combinations): a warning; an exact fit: nan, said so."""
     q = random_poses(op2, 22, 30, 40)
-    fit = identify(op2, q, op2.cop(q) + np.random.default_rng(41).normal(0, 0.005, (22, 2)))
+    fit = identify(
+        op2, q, op2.cop(q) + np.random.default_rng(41).normal(0, 0.005, (22, 2)), method="ls"
+    )
     assert any("only 2 residual degrees of freedom" in w for w in fit.warnings)
     q = random_poses(op2, 21, 30, 42)
-    exact = identify(op2, q, op2.cop(q), allow_exact=True)
+    exact = identify(op2, q, op2.cop(q), allow_exact=True, method="ls")
     assert np.isnan(exact.sigma_hat) and any("no degrees of freedom" in w for w in exact.warnings)
     assert all(np.isnan(c.std) for c in exact.base)
     assert "not determined" in exact.summary()
@@ -413,7 +421,7 @@ def test_torque_gains_ratios_from_the_data(op2):
     exact = (1 + gains) * (_tau(op2, q) + off) + 3e-3 * rng.normal(size=(200, op2.nq))
     joints = tuple(op2.joint_names)
     fit = identify(op2, Measurements(q=q, tau=exact, tau_joints=joints), tau_gains=True,
-                   total_mass=op2.total_mass, gravity_accel=G0)  # fmt: skip
+                   total_mass=op2.total_mass, gravity_accel=G0, method="ls")  # fmt: skip
     est = np.array([e.value for e in fit.nuisance if e.what == "gain"])
     shift = np.log1p(est) - np.log1p(gains)
     moving = _tau(op2, q).std(axis=0) > 0.1  # a nearly constant torque's gain is its offset's
@@ -421,7 +429,7 @@ def test_torque_gains_ratios_from_the_data(op2):
     assert all("ratios" in e.reason for e in fit.nuisance if e.what == "gain")
     noisy = (1 + gains) * (_tau(op2, q) + off) + rng.normal(0, 0.03, (200, op2.nq))
     fit = identify(op2, Measurements(q=q, tau=noisy, tau_joints=joints), tau_gains=True,
-                   total_mass=op2.total_mass, gravity_accel=G0)  # fmt: skip
+                   total_mass=op2.total_mass, gravity_accel=G0, method="ls")  # fmt: skip
     est = np.array([e.value for e in fit.nuisance if e.what == "gain"])
     std = np.array([e.std for e in fit.nuisance if e.what == "gain"])
     z = (np.log1p(est) - np.log1p(gains) - np.mean(np.log1p(est) - np.log1p(gains))) / std

@@ -133,3 +133,36 @@ def test_supporting_leg_ends_at_the_pelvis(hum_path):
     toe = [*parents, 0]  # a light extra branch (a toe) on the support foot does not end the leg
     leg2, top2 = supporting_leg(toe, np.append(robot.masses, 0.05))
     assert top2 == top and leg2 == leg
+
+
+def test_support_candidates_found_from_the_geometry(hum_path):
+    """The synthetic humanoid (names follow no convention): two feet, each with its level sole
+    site first and the heel site (z backwards) ranked after it; the OP2's URDF: its sole links."""
+    from sescid.model.feet import support_candidates
+    from sescid.robots import profile_for
+
+    feet = support_candidates(hum_path)
+    assert [f.body for f in feet] == ["legA_foot", "legB_foot"]
+    assert feet[0].support == "legA_sole" and feet[1].support == "legB_sole"
+    names = [n for n, _, _ in feet[0].frames]
+    assert names.index("legA_sole") < names.index("legA_heel")
+    assert dict((n, lv) for n, _, lv in feet[0].frames)["legA_heel"] is False
+    assert feet[0].size == pytest.approx((0.2, 0.09), abs=1e-9)  # humanoid_gen's foot box
+    op2 = support_candidates(profile_for("op2").model_file)
+    assert sorted(f.support for f in op2) == ["l_sole", "r_sole"]
+
+
+def test_info_and_the_support_error_name_the_candidates(hum_path):
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+
+    res = CliRunner().invoke(cli, ["info", "--robot", str(hum_path)])
+    assert res.exit_code == 0, res.output
+    assert "no --support: rooted at the model's root" in res.output
+    assert "legA_foot: lowest face 0.200 x 0.090 m; frames: legA_sole (on the sole, level)" in (
+        res.output
+    )
+    bad = CliRunner().invoke(cli, ["poses", "--robot", str(hum_path), "--out", "x.csv"])
+    assert bad.exit_code != 0
+    assert "feet found from the tree and the geometry: legA_sole, legB_sole" in bad.output

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from refs import PinGeometry, erd
+from refs import PinGeometry, erd, write_humanoid
 
 import sescid
 from sescid import planning as design
@@ -133,3 +133,30 @@ def test_cli_gantry_writes_no_cop(tmp_path, op2):
     bad = CliRunner().invoke(cli, [*base, "--out", str(tmp_path / "b.csv")])  # --kinds cop
     assert bad.exit_code == 2 and "--kinds tau" in bad.output
     assert not (tmp_path / "b.csv").exists()
+
+
+def test_a_gantry_needs_no_sole(tmp_path):
+    """Held by a thigh (a capsule: no flat face, no sole to stand on): the CLI and the session's
+    design plan held poses, each clear of the floor; standing on it is refused, naming why."""
+    from sescid.session.design import SessionDesign
+    from sescid.session.records import SessionOptions
+
+    path = write_humanoid(tmp_path)
+    robot = sescid.load_robot(path, "legA_thigh")
+    with pytest.raises(SescidError, match="no sole to stand on"):
+        design.cop_half_extents(robot)
+    out = tmp_path / "g.csv"
+    res = CliRunner().invoke(cli, ["poses", "--robot", str(path), "--support", "legA_thigh",
+                                   "--mount", "gantry", "--kinds", "tau", "--count", "20",
+                                   "--candidates", "200", "--test-poses", "50",
+                                   "--out", str(out)])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "held by legA_thigh (gantry)" in res.output and "stability" not in res.output
+    q = np.column_stack([read_table(out).columns[j] for j in robot.joint_names])
+    rot, org = robot.forward(q)
+    floor, _ = design.gantry_floor(robot, None, design.DEFAULT_CLEARANCE)
+    from sescid.planning.ground import lowest_heights
+
+    assert np.all(lowest_heights(robot, rot, org, exempt=False) > floor + design.DEFAULT_CLEARANCE)
+    plan = SessionDesign(robot, SessionOptions(n_candidates=150, mount="gantry", kinds="tau"))
+    assert plan.mount == "gantry" and plan.half is None and len(plan.cand.q) == 150

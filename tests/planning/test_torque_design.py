@@ -132,7 +132,9 @@ def test_expected_com_error_is_the_fits_own_covariance(op2, tau_plan):
     assert plan.kinds == "tau" and plan.quantity == "CoM x/y" and plan.mount == "stand"
     tau = op2.torques(plan.q) + 0.3  # any readings: the covariance does not depend on them
     m = Measurements(q=plan.q, tau=tau, tau_joints=tuple(op2.joint_names))
-    fit = identify(op2, m, tau_noise=SIGMA_TAU, total_mass=op2.total_mass, robust=False)
+    fit = identify(
+        op2, m, tau_noise=SIGMA_TAU, total_mass=op2.total_mass, robust=False, method="ls"
+    )
     test_q = plan.candidates.q[400:]
     phi = op2.regressor(test_q, (0, 1)).reshape(-1, fit.cov.shape[0])
     ref = math.sqrt(np.trace(phi @ fit.cov @ phi.T) / len(phi))
@@ -159,7 +161,9 @@ def test_d_optimal_beats_random_expected_and_realised(op2, tau_plan):
     def error(q):
         data = simulate_torques(op2, q, sensor, rng, r_true)
         m = Measurements(q=q, tau=data.tau, tau_joints=data.joints)
-        fit = identify(op2, m, tau_noise=SIGMA_TAU, total_mass=op2.total_mass, robust=False)
+        fit = identify(
+            op2, m, tau_noise=SIGMA_TAU, total_mass=op2.total_mass, robust=False, method="ls"
+        )
         d = fit.predict_com(test_q)[:, :2] - op2.com(test_q, r_true)[:, :2]
         return float(np.sqrt(np.mean(np.sum(d**2, axis=1) / 2)))
 

@@ -52,7 +52,7 @@ def torque_case(op2, tmp_path_factory):
     """A torque-only fit (weighed mass) of 40 single-support poses and its report."""
     q = stable_poses(op2, 40, range_deg=20, seed=0)
     m, r_true, offsets, friction = _torque_data(op2, q)
-    fit = identify(op2, m, total_mass=op2.total_mass)
+    fit = identify(op2, m, total_mass=op2.total_mass, method="ls")
     out = tmp_path_factory.mktemp("torque_report")
     res = write_report(fit, m, out, ReportOptions(n_side=3))
     return m, fit, res, r_true, offsets, friction
@@ -125,7 +125,7 @@ def test_not_determined_is_said_never_zero(op2, tmp_path):
     full, *_ = _torque_data(op2, q, seed=1)
     cols = [op2.joint_names.index(j) for j in ("r_hip_pitch", "r_knee", "r_ank_pitch", "l_knee")]
     m = Measurements(q=q, tau=full.tau[:, cols], tau_joints=tuple(op2.joint_names[i] for i in cols))
-    fit = identify(op2, m, total_mass=op2.total_mass, allow_exact=True)
+    fit = identify(op2, m, total_mass=op2.total_mass, allow_exact=True, method="ls")
     lost = [e for e in fit.nuisance if not e.determined]
     assert lost and all(np.isnan(e.value) for e in lost)
     page = write_report(fit, m, tmp_path, ReportOptions(n_side=2)).html.read_text()
@@ -163,7 +163,7 @@ def test_what_each_kind_determines_matches_ranks_computed_here(op2, torque_case,
     m, *_ = torque_case
     rng = np.random.default_rng(5)
     both = dataclasses.replace(m, cop=op2.cop(m.q) + rng.normal(0, 5e-4, (m.n, 2)))
-    fit = identify(op2, both, total_mass=op2.total_mass)
+    fit = identify(op2, both, total_mass=op2.total_mass, method="ls")
     cov = {c.kinds: c for c in coverage(fit, both.checked(op2))}
     phi_c = op2.regressor(m.q).transpose(1, 0, 2).reshape(2 * m.n, -1)
     phi_t = op2.total_mass * op2.torque_regressor(m.q, m.tau_joints)  # (n, J, 3N)

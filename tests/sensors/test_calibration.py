@@ -182,7 +182,7 @@ def test_consistent_default_is_controller_ready():
     """Default consistent step on a noisy 38-pose LS fit: worst body-mass change ≤ 10 %."""
     robot = sescid.load_robot("op2")
     sim = sescid.simulate(robot, n=38, range_deg=30, noise=0.00493, seed=3)
-    ls = sescid.identify(robot, sim.q, sim.cop)
+    ls = sescid.identify(robot, sim.q, sim.cop, method="ls")
     fit = to_consistent(ls)
     _, worst = fit.inertials.worst_mass_change()
     assert worst <= 0.10

@@ -62,7 +62,18 @@ def test_mujoco_session_writes_the_step_by_step_files(recorded, op2, tmp_path):
     cols = read_table(out / "measured.csv").columns
     assert "grav_z" in cols
     fit_cli = tmp_path / "fit.json"
-    res = run(cli, ["identify", str(out / "measured.csv"), "--weighted", "--out", str(fit_cli)])
+    res = run(
+        cli,
+        [
+            "identify",
+            str(out / "measured.csv"),
+            "--method",
+            "ls",
+            "--weighted",
+            "--out",
+            str(fit_cli),
+        ],
+    )
     assert res.exit_code == 0, res.output
     batch, online = sescid.load_fit(fit_cli), sescid.load_fit(out / "fit.json")
     assert batch.rank == online.rank

@@ -87,8 +87,15 @@ def pinned() -> bool:
 
 
 @contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """Run the block with the loaded BLAS libraries limited to one thread (nests; restores)."""
+def one_blas_thread(preload: tuple[str, ...] = ()) -> Iterator[None]:
+    """Run the block with the loaded BLAS libraries limited to one thread (nests; restores);
+    ``preload``: modules the block will use that link a BLAS of their own (``scipy.linalg``),
+    imported first so that theirs is limited too."""
+    if preload and not pinned() and _state["depth"] == 0:
+        import importlib
+
+        for name in preload:
+            importlib.import_module(name)
     if _state["depth"] > 0 or pinned():
         _state["depth"] += 1
         try:

@@ -23,6 +23,8 @@ FLAG = {
     "samples": "--samples",
     "method": "--method",
     "format": "--format",
+    "total_mass": "--total-mass",
+    "prior_scale": "--prior-scale",
 }
 
 

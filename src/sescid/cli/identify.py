@@ -24,14 +24,15 @@ from sescid.cli.common import (
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError, choices
 from sescid.estimation import (
-    METHODS,
+    METHOD_CHOICES,
+    AutoOptions,
     ConsistentOptions,
     Fit,
     IdentifyOptions,
     Kind,
     LeastSquaresOptions,
     MapOptions,
-    Method,
+    MethodName,
     MethodOptions,
     PriorChoice,
     PriorSelect,
@@ -44,10 +45,10 @@ DEFAULTS = IdentifyOptions()
 MAP_DEFAULTS = MapOptions()
 
 
-def options_from_flags(method: Method, opts: dict) -> tuple[MethodOptions, IdentifyOptions]:
+def options_from_flags(method: MethodName, opts: dict) -> tuple[MethodOptions, IdentifyOptions]:
     """The method's options and ``identify``'s shared options from the command's flags (a
     method's flags with another method are an error naming them)."""
-    if method != "map":
+    if method not in ("map", "auto"):
         given = [
             name
             for name, on in (
@@ -74,14 +75,15 @@ def options_from_flags(method: Method, opts: dict) -> tuple[MethodOptions, Ident
     if method != "consistent" and consistent != ConsistentOptions():
         raise OptionError("method", f"the consistent options need --method consistent ({method})")
     chosen: MethodOptions = LeastSquaresOptions()
-    if method == "map":
-        chosen = MapOptions(
+    if method in ("map", "auto"):
+        settings = MapOptions(
             prior_scale=opts["prior_scale"],
             noise=opts["noise"],
             select=opts["prior_select"],
             bias=opts["bias"],
             prior=opts["prior"],
         )
+        chosen = settings if method == "map" else AutoOptions(settings)
     elif method == "consistent":
         chosen = consistent
     shared = IdentifyOptions(
@@ -124,11 +126,13 @@ def _online_step(opts: dict) -> int | None:
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Fit JSON.")
 @click.option(
     "--method",
-    type=click.Choice(list(METHODS)),
-    default="ls",
+    type=click.Choice(list(METHOD_CHOICES)),
+    default="auto",
     show_default=True,
-    help="ls: least squares (undetermined directions from the model file); map: Gaussian CAD "
-    "prior; consistent: body masses and CoMs (see --total-mass …).",
+    help="auto: MAP with the CAD prior when the data leave directions weakly determined, "
+    "least squares when they determine every direction well (the fit says which and why); "
+    "ls: least squares (the paper's; undetermined directions from the model file); map: "
+    "Gaussian CAD prior; consistent: body masses and CoMs (see --total-mass …).",
 )
 @click.option(
     "--kinds",

@@ -11,10 +11,24 @@ from sescid.cli.common import load, robot_options
 @click.command()
 @robot_options
 def info(robot_name, support):
-    """Print the robot's bodies, masses, joints and limits."""
-    robot = load(robot_name, support)
+    """Print the robot's bodies, masses, joints and limits, and, for a model file without
+    --support, its support candidates (its feet, found from the tree and the geometry)."""
+    from sescid.robots import EMBEDDED
+
+    feet = None
+    if support is None and robot_name not in EMBEDDED:
+        from sescid.model import root_frame, support_candidates
+
+        root, _ = root_frame(robot_name)
+        robot = load(robot_name, root)
+        feet = support_candidates(robot_name)
+    else:
+        robot = load(robot_name, support)
     click.echo(repr(robot))
     click.echo(f"model file: {robot.model_path}")
+    if feet is not None:
+        click.echo(f"no --support: rooted at the model's root '{robot.support}'")
+        _echo_feet(feet)
     for note in robot.model.notes:
         click.echo(f"note: {note}")
     click.echo("bodies (index 0 = support body):")
@@ -25,3 +39,14 @@ def info(robot_name, support):
     click.echo("joints (column order of q; limits in degrees):")
     for name, (lo, hi) in zip(robot.joint_names, np.degrees(robot.joint_limits), strict=True):
         click.echo(f"  {name:24s} [{lo:8.1f}, {hi:8.1f}]")
+
+
+def _echo_feet(feet) -> None:
+    """The support candidates, one foot a line, best frame first."""
+    if not feet:
+        click.echo("support candidates: no foot found (no body with a flat face near the floor)")
+        return
+    click.echo("support candidates (feet from the tree and the geometry; the first frame of each")
+    click.echo("  is the one to give as --support: level, on the sole plane if one is):")
+    for f in feet:
+        click.echo(f"  {f.describe()}")

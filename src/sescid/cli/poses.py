@@ -107,10 +107,12 @@ def _sole_notes(robot, capsules) -> list[str]:
     help="Sole rectangle length and width [m] for --margin (default: the profile's).",
 )
 @click.option(
-    "--clearance",
+    "--foot-clearance",
+    "clearance",
     default=DEFAULT_CLEARANCE,
     show_default=True,
-    help="Free sole corners above the ground by at least this [m].",
+    help="The free foot (all its geometry) above the floor by at least this [m]; on a gantry, "
+    "every body.",
 )
 @click.option(
     "--range-deg", default=None, type=float, help="Also limit every joint to ±this [degrees]."
@@ -225,14 +227,14 @@ def poses(
     robot = load(robot_name, support)
     if n_candidates is None:
         n_candidates = default_candidates(robot, select, count, kinds)
-    resolve_mount(robot, mount, kinds)  # a CoP design on a held trunk: say so first
+    held = resolve_mount(robot, mount, kinds) == "gantry"  # a CoP design held: said first
     need = min_poses(robot)
     if count < need and kinds == "cop":
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
     if n_candidates < count:
         raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
     if not noise > 0 or not clearance >= 0:
-        raise OptionError("noise", "must be > 0 and --clearance ≥ 0 (metres)")
+        raise OptionError("noise", "must be > 0 and --foot-clearance ≥ 0 (metres)")
     if not tau_noise > 0:
         raise OptionError("tau_noise", f"must be > 0 (N·m), got {tau_noise}")
     if hang_height is not None and not hang_height > 0:
@@ -240,7 +242,7 @@ def poses(
     pc = robot_paper_convention(robot)
     if paper_convention and pc is None:
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
-    half = cop_half_extents(robot, cop_box, margin, sole_size)
+    half = None if held else cop_half_extents(robot, cop_box, margin, sole_size)
     limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
     pose_check = None
     if check == "mujoco":
@@ -290,10 +292,10 @@ def poses(
     echo(f"candidates: {cand.summary()}")
     free = free_sole(robot)
     n_pairs = len(capsules.pairs) if capsules is not None else 0
-    if plan.mount == "stand":
+    if half is not None:
         echo(
             f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
-            + (f"{free} corners ≥ {clearance * 1e3:g} mm above ground; " if free else "")
+            + (f"free foot {free} ≥ {clearance * 1e3:g} mm above the floor; " if free else "")
             + f"{n_pairs} capsule pairs checked"
         )
     else:

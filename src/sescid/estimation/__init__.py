@@ -2,8 +2,9 @@
 vectors, sensor offsets, their uncertainty, and physical masses.
 
 - ``fit_measurements`` — the estimation behind ``sescid.identify``: any mix of measurement
-  kinds (``Measurements``) and sources; ``method`` = "ls" | "map" | "consistent" (``Method``)
-  or that method's options (``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``),
+  kinds (``Measurements``) and sources; ``method`` = "auto" | "ls" | "map" | "consistent"
+  (``MethodName``) or that method's options (``AutoOptions``, ``LeastSquaresOptions``,
+  ``MapOptions``, ``ConsistentOptions``),
   what every method shares in ``IdentifyOptions`` (robust, weights, noise, total mass,
   cross-validation, joint-noise Monte Carlo, online); ``to_consistent`` — masses/CoMs for an
   existing fit; ``OnlineEstimator`` — pose by pose;
@@ -17,6 +18,7 @@ from sescid.estimation.cad_check import cad_violations
 from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
 from sescid.estimation.consistent import body_boxes, fit_inertials
 from sescid.estimation.fit import (
+    METHOD_CHOICES,
     METHODS,
     BodyInertials,
     Combination,
@@ -27,6 +29,7 @@ from sescid.estimation.fit import (
     KindFit,
     MapInfo,
     Method,
+    MethodName,
     NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
@@ -42,6 +45,7 @@ from sescid.estimation.measurements import KINDS, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
 from sescid.estimation.online import OnlineEstimator
 from sescid.estimation.options import (
+    AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
     LeastSquaresOptions,
@@ -63,6 +67,7 @@ from sescid.estimation.validation import (
 )
 
 __all__ = [
+    "AutoOptions",
     "BodyInertials",
     "Combination",
     "ConsistentOptions",
@@ -77,10 +82,12 @@ __all__ = [
     "KINDS",
     "Kind",
     "KindFit",
+    "METHOD_CHOICES",
     "METHODS",
     "MapInfo",
     "MapOptions",
     "Method",
+    "MethodName",
     "MethodOptions",
     "Measurements",
     "NormalEquations",

@@ -19,13 +19,12 @@ direction, so every solver runs on them unchanged and fills that direction from 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
 from sescid.estimation.normal_equations import NormalEquations
-from sescid.estimation.system import System
+from sescid.estimation.system import System, pinned
 from sescid.robot import Robot
 
 #: the collapse point's residual below this share of the prior model's marks homogeneous data
@@ -71,21 +70,9 @@ def scale_functional(robot: Robot, n_params: int, r_prior: np.ndarray) -> np.nda
 
 
 def anchored(system: System, a: np.ndarray, theta0: np.ndarray) -> System:
-    """The system restricted to aᵀθ = aᵀθ0 (module docstring): each kind's sums with P = I −
-    ââᵀ, A' = PAP, b' = P(b − Aθ0) + A'θ0 and yᵀy' such that the residual of every θ in that
-    set is the data's."""
-    u = a / np.linalg.norm(a)
-    proj = np.eye(a.size) - np.outer(u, u)
-    parts = {}
-    for kind, part in system.parts.items():
-        ne = part.ne
-        ata = proj @ ne.ata @ proj
-        ata = (ata + ata.T) / 2
-        atb = proj @ (ne.atb - ne.ata @ theta0) + ata @ theta0
-        yty = _rss(ne, theta0) + 2 * theta0 @ atb - theta0 @ ata @ theta0
-        new = NormalEquations(ata, atb, yty, ne.n_rows, ne.n_poses)
-        parts[kind] = dataclasses.replace(part, ne=new)
-    return dataclasses.replace(system, parts=parts)
+    """The system restricted to aᵀθ = aᵀθ0 (``system.pinned`` along a): the residual of every
+    model in that set is the data's, and no solver moves along a."""
+    return pinned(system, a[:, None], theta0)
 
 
 def com_distance(robot: Robot, r: np.ndarray) -> float:

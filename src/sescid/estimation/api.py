@@ -3,12 +3,13 @@ measurements in memory or streamed, for every measurement kind.
 
 ``fit_measurements(robot, data, method=…, options=IdentifyOptions(…))``: ``data`` is a
 ``Measurements`` (arrays: joint angles and a CoP and/or joint torques), a list of them (pooled
-data sets, e.g. two files), or chunks of one data set (a file read once). ``method`` is a
-name or a method's options object (``options.method_options``, the one dispatch). All kinds feed
-one system (``system``); least squares weighs them by their own noise (``solve``); MAP adds a
-CAD prior (``map``); "consistent" turns the fit into physical masses and CoMs (``consistent``);
-``robust`` wraps any of them in Huber IRLS. ``sescid.identify`` (files and arrays too) is the
-public entry; ``to_consistent`` makes masses for an existing fit.
+data sets, e.g. two files), or chunks of one data set (a file read once). ``method`` is a name
+("auto", the default, "ls", "map", "consistent") or a method's options object
+(``options.method_options``, the one dispatch). All kinds feed one system (``system``); least
+squares weighs them by their own noise (``solve``); MAP adds a CAD prior (``map``); "auto"
+chooses between them (``runs.fit_auto``); "consistent" turns the fit into physical masses and
+CoMs (``consistent``); ``robust`` wraps any of them in Huber IRLS. ``sescid.identify`` (files
+and arrays too) is the public entry; ``to_consistent`` makes masses for an existing fit.
 """
 
 from __future__ import annotations
@@ -20,16 +21,20 @@ from typing import Any
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
 from sescid.estimation.consistent import consistent_from_fit
-from sescid.estimation.fit import Fit, Method
+from sescid.estimation.fit import Fit, MethodName
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.options import (
+    AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
+    LeastSquaresOptions,
     MapOptions,
     MethodOptions,
+    map_settings,
     method_options,
 )
 from sescid.estimation.runs import (
+    WORSE_THAN_CAD,
     HeldSource,
     fit_online,
     fit_with_gains,
@@ -54,18 +59,26 @@ def _huber(robot, method: MethodOptions, opts: IdentifyOptions, memory: list[Mea
 
     def run(data: list[Measurements], weighted: bool) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data)
+        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data,
+                          compare=False)  # fmt: skip
 
-    return huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+    fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+    if not isinstance(method, LeastSquaresOptions):
+        return fit
+    plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
+    first = run_method(robot, method, plain, [HeldSource(robot, m) for m in memory], memory)
+    extra = tuple(w for w in first.warnings if w.startswith(WORSE_THAN_CAD))
+    return dataclasses.replace(fit, warnings=fit.warnings + extra)
 
 
 def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
     """OptionError for a shared option the method cannot run with (each object has checked its
     own values): the recursive fit and the torque gains run least squares or MAP only."""
+    settings = map_settings(method)
     if opts.online_step is not None:
         if isinstance(method, ConsistentOptions):
             raise OptionError("online", "the recursive fit supports ls or map, not consistent")
-        if opts.robust is True or (isinstance(method, MapOptions) and method.bias):
+        if opts.robust is True or (settings is not None and settings.bias):
             raise OptionError("online", "the recursive fit cannot be robust or fit a bias")
         if isinstance(method, MapOptions) and (method.prior_scale is None or method.noise is None):
             raise OptionError(
@@ -76,24 +89,26 @@ def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
         raise OptionError("tau_gains", "torque gains go with ls or map, not robust or consistent")
 
 
-@one_blas_thread()
+@one_blas_thread(preload=("scipy.linalg",))  # the MAP of the default method uses scipy's
 def fit_measurements(
     robot: Robot,
     data: Any,
     *,
-    method: Method | MethodOptions = "ls",
+    method: MethodName | MethodOptions = "auto",
     options: IdentifyOptions | None = None,
     progress: Callable[[int, int | None], None] | None = None,
 ) -> Fit:
     """Identify the SESC vectors (and sensor offsets) from static poses and what was measured.
 
     ``data``: a ``Measurements`` (q (n, nq) rad with a CoP (n, 2) m and/or joint torques (n, J)
-    N·m), a list of them (pooled data sets) or chunks of one data set. ``method``: "ls" (least
-    squares), "map" (Gaussian CAD prior) or "consistent" (physical masses/CoMs), or that
-    method's options object (``MapOptions(…)``, ``ConsistentOptions(…)``). ``options``: what
-    every method shares (``IdentifyOptions``). ``progress(poses_done, total)`` is called while
-    the normal equations are accumulated (total None for data read once). Data-quality
-    warnings are stored in ``fit.warnings``.
+    N·m), a list of them (pooled data sets) or chunks of one data set. ``method``: "auto" (the
+    default: MAP with the CAD prior when the data leave directions weakly determined, least
+    squares when they determine every direction well; ``fit.choice`` says which and why), "ls"
+    (least squares, the paper's), "map" (Gaussian CAD prior) or "consistent" (physical
+    masses/CoMs), or that method's options object (``MapOptions(…)``, ``AutoOptions(…)``,
+    ``ConsistentOptions(…)``). ``options``: what every method shares (``IdentifyOptions``).
+    ``progress(poses_done, total)`` is called while the normal equations are accumulated
+    (total None for data read once). Data-quality warnings are stored in ``fit.warnings``.
     """
     m = method_options(method)
     opts = options or IdentifyOptions()
@@ -101,9 +116,10 @@ def fit_measurements(
     sources = as_sources(robot, data, opts.kinds)
     try:
         robust = opts.robust
+        settings = map_settings(m)
         needs_memory = (
             robust is True
-            or (isinstance(m, MapOptions) and m.select == "cv")
+            or (settings is not None and settings.select == "cv")
             or opts.cv is not None
             or opts.joint_noise is not None
             or opts.online_step is not None
@@ -112,6 +128,17 @@ def fit_measurements(
         memory = in_memory(robot, sources) if needs_memory else None
         if robust == "auto" and memory is not None:
             robust = any(x.tau is not None and x.approach is None for x in memory)
+        choice = None
+        if isinstance(m, AutoOptions) and opts.online_step is not None:
+            # a recursive MAP fit needs its prior scale and noise given
+            known = m.map.prior_scale is not None and m.map.noise is not None
+            m = m.resolved("map" if known else "ls")
+        elif isinstance(m, AutoOptions) and (opts.tau_gains or robust is True):
+            assert memory is not None  # a plain pass decides
+            plain = dataclasses.replace(opts, robust=False, tau_gains=False)
+            choice = run_method(robot, m, plain, [HeldSource(robot, x) for x in memory],
+                                memory).choice  # fmt: skip
+            m = m.resolved(choice.chosen if choice is not None else "map")
         if opts.online_step is not None:
             assert memory is not None
             fit = fit_online(robot, m, opts, memory)
@@ -125,7 +152,12 @@ def fit_measurements(
             fit = run_method(robot, m, opts, sources, memory, progress)
             if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
                 memory = in_memory(robot, sources)
+                choice = fit.choice
+                if isinstance(m, AutoOptions) and choice is not None:
+                    m = m.resolved(choice.chosen)
                 fit = _huber(robot, m, opts, memory)
+        if choice is not None:
+            fit = dataclasses.replace(fit, choice=choice)
         fit = with_extras(robot, m, opts, fit, memory)
     finally:
         for s in sources:

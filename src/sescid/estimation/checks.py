@@ -106,6 +106,20 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"the information matrix is ill-conditioned ({cond:.3g}): some combinations are "
             "barely excited, their intervals are wide"
         )
+    if fit.scale is not None and fit.kind("cop") is not None:
+        out.append(
+            "every measured CoP lies at the support frame's origin (all zero?): a dead or "
+            "unplugged foot sensor, or a robot balancing on a point there; fitted as balance "
+            "data, whose scale is not in the data"
+        )
+    if fit.weak:
+        names = "; ".join(c.label() for c in fit.weak[:3])
+        more = f" (and {len(fit.weak) - 3} more)" if len(fit.weak) > 3 else ""
+        whose = "taken from the prior model" if fit.map is None else "decided by the prior"
+        out.append(
+            f"{len(fit.weak)} combination(s) barely excited by these poses (information below "
+            f"10⁻⁷ of the largest), {whose}: {names}{more}; vary the joints that move them"
+        )
     from sescid.estimation.tilt import TILT_REL_STD_WARN, tilt_direction
 
     tilt = tilt_direction(fit) if fit.map is None else None

@@ -32,6 +32,9 @@ if TYPE_CHECKING:  # pragma: no cover
 #: an estimation method, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
 Method = Literal["ls", "map", "consistent"]
 METHODS: tuple[Method, ...] = get_args(Method)
+#: what ``identify`` can be asked for: a method, or "auto" (the data and the model choose one)
+MethodName = Literal["auto", Method]
+METHOD_CHOICES: tuple[MethodName, ...] = get_args(MethodName)
 #: how a kind's noise level was set: estimated from the residuals, given, or not determined (no
 #: degrees of freedom left)
 NoiseSource = Literal["estimated", "given", "not determined"]
@@ -124,6 +127,21 @@ class MapInfo:
     prior: PriorShape = "sesc"
     #: "bodies": the first moments' prior std per unit mass, m (τ times the prior's CoM scale)
     prior_com_std: float | None = None
+    #: the largest share of the posterior information the prior holds in a direction the data
+    #: see (nan: unknown, files of older versions)
+    prior_share: float = float("nan")
+
+
+@dataclass(frozen=True)
+class MethodChoice:
+    """What ``method="auto"`` chose and why (``Fit.choice``)."""
+
+    chosen: Literal["ls", "map"]
+    reason: str
+
+    def note(self) -> str:
+        """One line for the fit's summary."""
+        return f"method auto chose {METHOD_TITLES[self.chosen]}: {self.reason}"
 
 
 @dataclass(frozen=True)
@@ -307,11 +325,14 @@ class Fit:
     method: Method = "ls"
     base: tuple[Combination, ...] = ()
     unidentifiable: tuple[Combination, ...] = ()
+    #: directions the data barely excite, taken from the prior (least squares) or left to it
+    weak: tuple[Combination, ...] = ()
     weighted: bool = False  #: fitted with per-pose CoP standard errors (σ̂ is then a scale)
     sigma_dof: float | None = None  #: dof of σ̂ (None: n_rows − rank; inf: σ was given)
     map: MapInfo | None = None
     cop_offset: CopOffset | None = None
     scale: ScaleAnchor | None = None  #: homogeneous data: where the scale came from
+    choice: MethodChoice | None = None  #: method "auto": what it chose and why
     inertials: BodyInertials | None = None
     robust: RobustInfo | None = None
     online: OnlineInfo | None = None

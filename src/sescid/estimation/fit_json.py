@@ -39,6 +39,7 @@ from sescid.estimation.fit import (
     KindFit,
     MapInfo,
     Method,
+    MethodChoice,
     NuisanceEstimate,
     OnlineInfo,
     RobustInfo,
@@ -54,6 +55,7 @@ _RECORDS: dict[str, type] = {
     "map": MapInfo,
     "cop_offset": CopOffset,
     "scale": ScaleAnchor,
+    "choice": MethodChoice,
     "inertials": BodyInertials,
     "robust": RobustInfo,
     "online": OnlineInfo,
@@ -136,6 +138,7 @@ def fit_to_json(fit: Fit) -> dict:
         "singular_values": fit.singular_values.tolist(),
         "base_combinations": [c.to_json() for c in fit.base],
         "unidentifiable": [c.to_json() for c in fit.unidentifiable],
+        "weak": [c.to_json() for c in fit.weak],
         "notes": fit.notes,
         "warnings": list(fit.warnings),
         "kinds": [_record_to_json(k) for k in fit.kinds],
@@ -332,6 +335,7 @@ def load_fit(path: str | Path) -> Fit:
             method=method,
             base=tuple(Combination.from_json(c) for c in data["base_combinations"]),
             unidentifiable=tuple(Combination.from_json(c) for c in data["unidentifiable"]),
+            weak=tuple(Combination.from_json(c) for c in data.get("weak", [])),
             **fields,
         )
         changed = _model_change(path, meta, robot)

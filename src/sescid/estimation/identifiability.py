@@ -165,7 +165,9 @@ def structural_null_directions(
     return out
 
 
-def _sparse_terms(vec: np.ndarray, labels, tol: float = 1e-9) -> list[tuple[str, str, float]]:
+def sparse_terms(vec: np.ndarray, labels, tol: float = 1e-9) -> list[tuple[str, str, float]]:
+    """The (body, axis, coefficient) terms of a vec(r)-shaped vector above ``tol`` × its
+    largest, largest first."""
     big = np.flatnonzero(np.abs(vec) > tol * np.abs(vec).max())
     big = big[np.argsort(-np.abs(vec[big]), kind="stable")]
     return [(labels[i][0], labels[i][1], float(vec[i])) for i in big]
@@ -233,7 +235,7 @@ def base_combinations(sv, vecs, p, labels, r, cov) -> list[Combination]:
         value = float(g @ vec_r)
         std = float(np.sqrt(max(g @ cov @ g, 0.0)))
         terms = [(labels[piv[i]][0], labels[piv[i]][1], 1.0)]
-        terms += [t for t in _sparse_terms(g, labels) if (t[0], t[1]) != labels[piv[i]]]
+        terms += [t for t in sparse_terms(g, labels) if (t[0], t[1]) != labels[piv[i]]]
         out.append(Combination(terms, value, std))
     return out
 
@@ -248,7 +250,7 @@ def unidentifiable(
     found = np.zeros((n_par, 0))
     for v, kind, reason in structural_null_directions(robot, kinds):
         if np.linalg.norm(proj @ v) > 1 - 1e-6:  # v lies in the null space
-            out.append(Combination(_sparse_terms(v, labels), reason=reason, kind=kind))
+            out.append(Combination(sparse_terms(v, labels), reason=reason, kind=kind))
             found = np.column_stack([found, v])
     # Remaining null directions: not seen because these poses do not excite them.
     if found.shape[1]:
@@ -260,7 +262,7 @@ def unidentifiable(
     for k in np.flatnonzero(w > 0.5):
         out.append(
             Combination(
-                _sparse_terms(u[:, k], labels, tol=1e-3),
+                sparse_terms(u[:, k], labels, tol=1e-3),
                 reason="not excited by these poses (a joint that barely moves, or too few poses)",
                 kind=NOT_EXCITED,
             )

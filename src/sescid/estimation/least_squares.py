@@ -19,20 +19,22 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from sescid.estimation.fit import Fit, KindFit, Method, NuisanceEstimate
+from sescid.estimation.fit import Combination, Fit, KindFit, Method, NuisanceEstimate
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
+    NOT_EXCITED,
     base_combinations,
     eigen_descending,
     label_columns,
     rank_of,
+    sparse_terms,
     unidentifiable,
 )
 from sescid.estimation.measurements import COP, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.residual_sums import residual_sums
 from sescid.estimation.solve import UNITS, Solution, solve_system
-from sescid.estimation.system import KindSums, System
+from sescid.estimation.system import KindSums, System, pinned
 from sescid.robot import Robot
 
 #: a nuisance direction is determined when this much of it lies in the identifiable subspace
@@ -179,6 +181,47 @@ def _rms_from_sums(part: KindSums, sol: Solution) -> float:
     return math.sqrt(sol.rss[part.kind] / part.ne.n_rows)
 
 
+#: a direction whose information is below this share of the largest is barely excited: least
+#: squares takes it from the prior (a condition of 10⁷, a singular value 3000× below the largest)
+WEAK_SHARE = 1e-7
+
+
+def weak_directions(sol: Solution, system: System, rtol: float) -> np.ndarray:
+    """(n_x, k) the directions of vec(r) the data see but barely excite: their information
+    (nuisance marginalised) is below ``WEAK_SHARE`` of the largest, and so is every kind's own
+    (each against its own largest: a direction only one precise kind sees is not weak)."""
+    n_x = system.n_x
+    lam, vecs, p = marginal_x(sol, n_x, rtol)
+    if p == 0:
+        return np.zeros((n_x, 0))
+    cand = [i for i in range(p) if lam[i] < WEAK_SHARE * lam[0]]
+    if not cand:
+        return np.zeros((n_x, 0))
+    v = vecs[:, cand]
+    seen = np.zeros(len(cand), dtype=bool)
+    for part in system.parts.values():
+        a = part.ne.ata[:n_x, :n_x]
+        top = float(np.linalg.eigvalsh((a + a.T) / 2)[-1])
+        seen |= np.einsum("pi,pq,qi->i", v, a, v) >= WEAK_SHARE * top
+    return v[:, ~seen]
+
+
+def named(robot: Robot, directions: np.ndarray, reason: str) -> tuple[Combination, ...]:
+    """The directions (3N, k) of vec(r) as named combinations with a reason."""
+    labels = label_columns(robot)
+    return tuple(
+        Combination(sparse_terms(directions[:, i], labels, tol=1e-3), reason=reason,
+                    kind=NOT_EXCITED)
+        for i in range(directions.shape[1])
+    )  # fmt: skip
+
+
+WEAK_REASON = (
+    "barely excited by these poses (its information is below 10⁻⁷ of the largest): taken "
+    "from the prior model"
+)
+
+
 def fit_least_squares(
     robot: Robot,
     system: System,
@@ -188,13 +231,26 @@ def fit_least_squares(
     noise: dict[Kind, float] | None = None,
     allow_exact: bool = False,
 ) -> Fit:
-    """Least-squares Fit of a pooled system (``solve.solve_system``, ``fit_from_solution``)."""
+    """Least-squares Fit of a pooled system (``solve.solve_system``, ``fit_from_solution``).
+    Directions the data barely excite (``weak_directions``) are taken from the prior, not
+    from noise: the system is solved again with them pinned (``system.pinned``), and the fit
+    names them (``Fit.weak``)."""
     theta0 = prior_theta(robot, system, r_prior)
+    count = structural_count(robot, system)
     sol = solve_system(
-        system, theta0, rtol=rtol, noise=noise, allow_exact=allow_exact,
-        structural=structural_count(robot, system),
+        system, theta0, rtol=rtol, noise=noise, allow_exact=allow_exact, structural=count
+    )
+    weak = weak_directions(sol, system, rtol)
+    if weak.shape[1] == 0:
+        return fit_from_solution(robot, system, sol, rtol=rtol)
+    lifted = np.zeros((system.size, weak.shape[1]))
+    lifted[: system.n_x] = weak
+    sol = solve_system(
+        pinned(system, lifted, theta0), theta0, rtol=rtol, noise=noise,
+        allow_exact=allow_exact, structural=count,
     )  # fmt: skip
-    return fit_from_solution(robot, system, sol, rtol=rtol)
+    fit = fit_from_solution(robot, system, sol, rtol=rtol)
+    return dataclasses.replace(fit, weak=named(robot, weak, WEAK_REASON))
 
 
 def structural_count(robot: Robot, system: System) -> int:

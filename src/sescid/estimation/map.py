@@ -44,10 +44,12 @@ from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.least_squares import (
     fit_from_solution,
     marginal_x,
+    named,
     nuisance_estimates,
     prior_theta,
+    weak_directions,
 )
-from sescid.estimation.measurements import TORQUE, Kind
+from sescid.estimation.measurements import Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.options import MapOptions
 from sescid.estimation.solve import Solution, solve_system, weighted_sums
@@ -108,6 +110,11 @@ class Prior:
         return x - 2 * float(np.sum(np.log(self.nuisance_scales)))
 
 
+WEAK_REASON_MAP = (
+    "barely excited by these poses (its information is below 10⁻⁷ of the largest): the prior "
+    "decides it"
+)
+
 #: the "bodies" prior: a body's first moment per unit relative mass std, m (τ = 0.1 → ±5 mm)
 BODY_COM_SCALE = 0.05
 
@@ -153,15 +160,26 @@ def log_evidence(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, 
     return -0.5 * (m * math.log(2 * math.pi * s2) + logdet - prior_logdet + max(quad, 0.0))
 
 
-def posterior(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
-    """Posterior mean and covariance for the prior at scale τ and noise σ."""
+def _inverse(m: np.ndarray) -> np.ndarray:
+    """The inverse of a symmetric positive definite matrix (Cholesky; when round-off makes it
+    lose definiteness — a tiny noise next to unseen directions — its eigen-decomposition with
+    the eigenvalues held above round-off)."""
     import scipy.linalg
 
-    p = ne.ata.shape[0]
-    cf = scipy.linalg.cho_factor(ne.ata + noise**2 * prior.matrix(tau), check_finite=False)
+    try:
+        cf = scipy.linalg.cho_factor(m, check_finite=False)
+        return scipy.linalg.cho_solve(cf, np.eye(m.shape[0]), check_finite=False)
+    except np.linalg.LinAlgError:
+        w, v = np.linalg.eigh((m + m.T) / 2)
+        w = np.maximum(w, 1e-14 * max(float(w.max()), 1e-300))
+        return (v / w) @ v.T
+
+
+def posterior(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
+    """Posterior mean and covariance for the prior at scale τ and noise σ."""
+    minv = _inverse(ne.ata + noise**2 * prior.matrix(tau))
     b, _ = _terms(ne, x0)
-    x = x0 + scipy.linalg.cho_solve(cf, b, check_finite=False)
-    minv = scipy.linalg.cho_solve(cf, np.eye(p), check_finite=False)
+    x = x0 + minv @ b
     return Posterior(
         x=x,
         cov=noise**2 * minv,
@@ -278,12 +296,15 @@ def fit_map(
     theta0 = prior_theta(robot, system, r_prior)
     ls = solve_system(system, theta0, rtol=rtol, noise=kind_noise, allow_exact=True)
     base = fit_from_solution(robot, system, ls, rtol=rtol)
+    weak = weak_directions(ls, system, rtol)
+    if weak.shape[1]:
+        base = dataclasses.replace(base, weak=named(robot, weak, WEAK_REASON_MAP))
     ratios = _noise_ratios(system, ls)
     ne = weighted_sums(system, ratios)
     n_x = system.n_x
     scales = np.array([n.prior_scale for n in system.nuisance], dtype=float)
-    if prior == "auto":
-        prior = "bodies" if TORQUE in system.kinds else "sesc"
+    if prior == "auto":  # per body: it serves the CoP and the torques best (docs/defaults.md)
+        prior = "bodies"
     pri = body_prior(robot, n_x, scales) if prior == "bodies" else Prior(n_x, scales)
 
     chosen = "given" if prior_scale is not None else "evidence"
@@ -302,10 +323,13 @@ def fit_map(
     return _map_fit(base, system, post, ls, _Choice(chosen, noise is not None, curve), pri)
 
 
-def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) -> int:
+def _prior_decided(
+    ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray
+) -> tuple[int, float]:
     """Directions of vec(r) the prior decided: unseen by the data, or where the data carry less
     than ``PRIOR_DECIDED`` of the posterior information (generalised eigenvalues of the data's
-    marginal information against the prior's)."""
+    marginal information against the prior's); and the largest share of the information the
+    prior holds in a direction the data see (0 when they see none)."""
     lam, vecs, p = marginal_x(ls, n_x, rtol)
     data = (vecs[:, :p] * lam[:p]) @ vecs[:, :p].T
     pri = prior_info[:n_x, :n_x]
@@ -316,9 +340,10 @@ def _prior_decided(ls: Solution, n_x: int, rtol: float, prior_info: np.ndarray) 
     w, v = np.linalg.eigh((pri + pri.T) / 2)
     w = np.maximum(w, 1e-300 + 1e-15 * max(float(w.max()), 0.0))
     half = v / np.sqrt(w)
-    mu = np.linalg.eigvalsh(half.T @ data @ half)
+    mu = np.linalg.eigvalsh(half.T @ data @ half)[::-1]  # descending
     threshold = PRIOR_DECIDED / (1 - PRIOR_DECIDED)
-    return int(np.sum(mu < threshold))
+    share = float(1.0 / (1.0 + max(mu[p - 1], 0.0))) if p else 0.0
+    return int(np.sum(mu < threshold)), share
 
 
 def _noise_ratios(system: System, ls: Solution) -> dict[Kind, float]:
@@ -349,7 +374,9 @@ def _map_fit(
         for c in base.base
         for g in [combination_vector(robot, c.terms)]
     )
-    decided = _prior_decided(ls, n_x, base.rtol, post.noise**2 * pri.matrix(post.prior_scale))
+    decided, share = _prior_decided(
+        ls, n_x, base.rtol, post.noise**2 * pri.matrix(post.prior_scale)
+    )
     info = MapInfo(
         prior_scale=post.prior_scale,
         prior_scale_by=choice.prior_scale_by,
@@ -363,6 +390,7 @@ def _map_fit(
         prior_decided=decided,
         prior=pri.kind,
         prior_com_std=post.prior_scale * BODY_COM_SCALE if pri.kind == "bodies" else None,
+        prior_share=share,
     )
     mapped = dataclasses.replace(
         ls,

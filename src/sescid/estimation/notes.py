@@ -11,7 +11,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 def fit_notes(fit: Fit) -> list[str]:
     """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
-    notes = _identifiability_notes(fit)
+    notes = [fit.choice.note()] if fit.choice is not None else []
+    notes += _identifiability_notes(fit)
     if fit.scale is not None:
         notes.append(fit.scale.note())
     notes += _map_notes(fit)

@@ -177,7 +177,7 @@ class OnlineEstimator:
             fit = fit_map(
                 self.robot,
                 system,
-                MapOptions(prior_scale=self.prior_scale, noise=self.noise),
+                MapOptions(prior_scale=self.prior_scale, noise=self.noise, prior="sesc"),
                 r_prior=self.r_prior,
                 rtol=self.rtol,
             )

@@ -1,15 +1,16 @@
 """The typed options of ``identify``: what every method shares (``IdentifyOptions``) and one
-object per method (``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``), each naming
-its method by its type. Each object checks its own values when it is made (``__post_init__``,
-also after ``dataclasses.replace``); ``method_options`` is the one dispatch from a method's name
-to its options. Their defaults are the API's and the CLI's alike (a test compares them).
+object per method (``AutoOptions``, ``LeastSquaresOptions``, ``MapOptions``,
+``ConsistentOptions``), each naming its method by its type. Each object checks its own values
+when it is made (``__post_init__``, also after ``dataclasses.replace``); ``method_options`` is
+the one dispatch from a method's name to its options. Their defaults are the API's and the
+CLI's alike (a test compares them).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -17,7 +18,7 @@ import numpy as np
 from sescid.errors import OptionError, check_choice
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
-from sescid.estimation.fit import Fit, Method, PriorShape
+from sescid.estimation.fit import Fit, MethodName, PriorShape
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.measurements import COP, TORQUE, Kind
 from sescid.estimation.robust import HUBER_K
@@ -50,7 +51,7 @@ class LeastSquaresOptions:
     (``IdentifyOptions.r_prior``). It has no options of its own: what it is told is shared by
     every method (``IdentifyOptions``)."""
 
-    method: ClassVar[Method] = "ls"
+    method: ClassVar[MethodName] = "ls"
 
 
 @dataclass(frozen=True)
@@ -59,10 +60,10 @@ class MapOptions:
     ``MAX_SCALE``), how τ is chosen (``select``, with ``folds`` for "cv"), whether a constant
     CoP offset is fitted (``bias``), and the prior's shape: "sesc" (each SESC component ±τ m),
     "bodies" (each body's mass ±τ and first moment ±τ·5 cm per unit mass, relative to CAD: τ is
-    then a fraction) or "auto" ("bodies" for data with joint torques, whose many rows it suits —
-    measured by tools/torque_study.py — "sesc" for the CoP alone)."""
+    then a fraction) or "auto" ("bodies": closer to the truth than "sesc" for the CoP and for
+    joint torques alike, in every case of docs/defaults.md)."""
 
-    method: ClassVar[Method] = "map"
+    method: ClassVar[MethodName] = "map"
 
     prior_scale: float | None = None
     noise: float | None = None
@@ -96,7 +97,7 @@ class ConsistentOptions:
     noise of a least-squares fit); "auto" (default) — "fit" for a MAP fit (it already weighs
     data against CAD), "prior" otherwise. With ``prior_std`` given, that scale is used."""
 
-    method: ClassVar[Method] = "consistent"
+    method: ClassVar[MethodName] = "consistent"
 
     total_mass: float | None = None
     mass_floor: float = 0.0
@@ -135,22 +136,46 @@ class ConsistentOptions:
         return fit, kw
 
 
+@dataclass(frozen=True)
+class AutoOptions:
+    """Method "auto" (``identify``'s default): least squares when the data determine every
+    direction they see well, else MAP with ``map``'s settings (the CAD prior per body, its scale
+    chosen by the data unless given); ``fit.choice`` says which and why."""
+
+    method: ClassVar[MethodName] = "auto"
+
+    map: MapOptions = field(default_factory=MapOptions)
+
+    def resolved(self, chosen: Literal["ls", "map"]) -> LeastSquaresOptions | MapOptions:
+        """The method "auto" runs once it has chosen (``MethodChoice.chosen``)."""
+        return self.map if chosen == "map" else LeastSquaresOptions()
+
+
 #: a method's options: the object names the method by its type
-MethodOptions = LeastSquaresOptions | MapOptions | ConsistentOptions
+MethodOptions = LeastSquaresOptions | MapOptions | ConsistentOptions | AutoOptions
 _METHOD_TYPES: tuple[type[MethodOptions], ...] = (
+    AutoOptions,
     LeastSquaresOptions,
     MapOptions,
     ConsistentOptions,
 )
 
 
-def method_options(method: Method | MethodOptions) -> MethodOptions:
-    """The one dispatch of ``identify``'s ``method``: a name ("ls", "map", "consistent") gives
-    that method with its default options; an options object is its own method."""
+def method_options(method: MethodName | MethodOptions) -> MethodOptions:
+    """The one dispatch of ``identify``'s ``method``: a name ("auto", "ls", "map",
+    "consistent") gives that method with its default options; an options object is its own
+    method."""
     if isinstance(method, _METHOD_TYPES):
         return method
-    check_choice("method", method, Method)
+    check_choice("method", method, MethodName)
     return next(t for t in _METHOD_TYPES if t.method == method)()
+
+
+def map_settings(method: MethodOptions) -> MapOptions | None:
+    """The MAP settings a method fits with (MAP's own, or those "auto" would use), else None."""
+    if isinstance(method, MapOptions):
+        return method
+    return method.map if isinstance(method, AutoOptions) else None
 
 
 @dataclass(frozen=True)
@@ -245,10 +270,11 @@ class IdentifyOptions:
 
     def rows(self, method: MethodOptions) -> RowOptions:
         """How rows are made from the data (a CoP offset column for MAP with ``bias``)."""
+        settings = map_settings(method)
         return RowOptions(
             weighted=self.weighted,
             total_mass=self.total_mass,
-            cop_offset=isinstance(method, MapOptions) and method.bias,
+            cop_offset=settings is not None and settings.bias,
             gravity_accel=self.gravity_accel,
         )
 

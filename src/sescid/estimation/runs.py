@@ -20,8 +20,10 @@ from sescid.estimation.least_squares import fit_least_squares, refit_nuisance, w
 from sescid.estimation.map import fit_map
 from sescid.estimation.measurements import COP, TORQUE, Measurements
 from sescid.estimation.options import (
+    AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
+    LeastSquaresOptions,
     MapOptions,
     MethodOptions,
 )
@@ -64,9 +66,12 @@ def run_method(
     sources,
     memory: list[Measurements] | None,
     progress=None,
+    compare: bool = True,
 ) -> Fit:
     """One method over sources (the system accumulated once), residuals on a second pass;
-    ``progress(done, total)`` while accumulating (total None for data read once)."""
+    ``progress(done, total)`` while accumulating (total None for data read once);
+    ``compare``: judge least squares against the CAD model (``_against_cad``; off inside a
+    refit loop)."""
     check_total_mass(robot, options.total_mass)
     total = None
     if all(not isinstance(s, StreamSource) for s in sources):
@@ -77,7 +82,9 @@ def run_method(
     if rows.cop_offset and COP not in system.kinds:
         raise OptionError("bias", "a CoP offset needs CoP data (cop_x, cop_y)")
     system, r_prior, scale = _anchor(robot, system, options)
-    if isinstance(method, MapOptions):
+    if isinstance(method, AutoOptions):
+        fit = fit_auto(robot, system, options, method.map, r_prior)
+    elif isinstance(method, MapOptions):
         cv = None
         if method.select == "cv" and method.prior_scale is None:
             if memory is None:
@@ -92,6 +99,8 @@ def run_method(
             robot, system, rtol=options.rtol, noise=options.noise(), r_prior=r_prior,
             allow_exact=options.allow_exact,
         )  # fmt: skip
+        if isinstance(method, LeastSquaresOptions) and compare:
+            fit = _against_cad(robot, system, options, r_prior, fit)
     if scale is not None:
         fit = with_scale(fit, scale)
     fit = with_residuals(fit, sources=[s.chunks() for s in sources])
@@ -107,6 +116,98 @@ def run_method(
             sig = math.sqrt(fit.rms**2 * fit.n_rows / dof) if dof > 0 else math.nan
             fit = dataclasses.replace(fit, sigma_hat=sig)
     return fit
+
+
+#: method "auto" takes least squares when the prior holds less than this share of the
+#: information in every direction the data see (MAP and least squares then agree)
+AUTO_LS_SHARE = 0.01
+
+
+def fit_auto(
+    robot: Robot, system: System, options: IdentifyOptions, settings: MapOptions, r_prior
+) -> Fit:
+    """Method "auto": MAP with the CAD prior (``settings``: per body, its scale chosen by
+    evidence unless given), or least squares when the data determine every direction they see
+    well (``AUTO_LS_SHARE``)."""
+    from sescid.estimation.fit import MethodChoice
+
+    # least squares first: it refuses data without residual degrees of freedom (no noise level
+    # to weigh a prior against either), and it is the answer when the data determine enough
+    fit = fit_least_squares(
+        robot, system, rtol=options.rtol, noise=options.noise(), r_prior=r_prior,
+        allow_exact=options.allow_exact,
+    )  # fmt: skip
+    mapped = fit_map(
+        robot, system, settings, rtol=options.rtol, kind_noise=options.noise(), r_prior=r_prior
+    )
+    assert mapped.map is not None
+    share = mapped.map.prior_share
+    if settings.bias:
+        why = "a constant CoP offset is separated from the support body's r by the prior only"
+        return dataclasses.replace(mapped, choice=MethodChoice("map", why))
+    if share < AUTO_LS_SHARE:
+        why = (
+            f"the data determine every direction they see (the prior would hold at most "
+            f"{share:.2%} of the information in any)"
+        )
+        return dataclasses.replace(fit, choice=MethodChoice("ls", why))
+    seen = mapped.rank
+    why = (
+        f"the data leave directions weakly determined (the prior holds up to {share:.0%} of the "
+        f"information in one of the {seen} they see): the CAD prior, per body, its scale chosen "
+        "by the data, keeps what the data show and not their noise"
+    )
+    return dataclasses.replace(mapped, choice=MethodChoice("map", why))
+
+
+#: the start of the warning of a least-squares fit expected to be worse than the CAD model
+WORSE_THAN_CAD = (
+    "least squares is expected to predict these data worse than the CAD model it would replace"
+)
+
+
+def expected_errors(ls: Fit, mapped: Fit) -> tuple[float, float]:
+    """(least squares, CAD) expected error of the data's predicted measurements per row, in
+    the rows' weighted units, both judged by a MAP fit: least squares' own variance
+    tr(S C_ls) / n, the CAD model's distance from the MAP estimate and its variance,
+    (δᵀSδ + tr(S C_map)) / n, with S the data's information about vec(r) (``Fit.basis``,
+    ``Fit.singular_values``) and δ = r_map − r_cad."""
+    s = (ls.basis * ls.singular_values[: ls.rank] ** 2) @ ls.basis.T
+    n = max(ls.n_rows, 1)
+    delta = (mapped.r - mapped.r_prior).reshape(-1)
+    ls_var = float(np.sum(s * ls.cov)) / n
+    cad = (float(delta @ s @ delta) + float(np.sum(s * mapped.cov))) / n
+    return math.sqrt(max(ls_var, 0.0)), math.sqrt(max(cad, 0.0))
+
+
+def _against_cad(robot: Robot, system: System, options: IdentifyOptions, r_prior, ls: Fit) -> Fit:
+    """Least squares with a warning when it is expected to predict the data's measurements
+    worse than the CAD model it would replace (judged by a MAP fit of the same data)."""
+    if not np.all(np.isfinite(ls.cov)):
+        return ls
+    mapped = fit_map(
+        robot, system, MapOptions(), rtol=options.rtol, kind_noise=options.noise(),
+        r_prior=r_prior,
+    )  # fmt: skip
+    ls_err, cad_err = expected_errors(ls, mapped)
+    if not ls_err > cad_err:
+        return ls
+    (kind,) = ls.kinds if len(ls.kinds) == 1 else (None,)
+    if kind is not None and not kind.weighted:
+        size = f"{_length(ls_err, kind.unit)} against {_length(cad_err, kind.unit)}"
+    else:
+        size = f"{ls_err:.3g} against {cad_err:.3g} in units of the noise"
+    warning = (
+        f"{WORSE_THAN_CAD} (its error per row ≈ {size} for the CAD model, judged with the CAD "
+        "prior): "
+        "the data are too few or too noisy for it; the default method (auto) or --method map "
+        "keeps what they show without their noise"
+    )
+    return dataclasses.replace(ls, warnings=(*ls.warnings, warning))
+
+
+def _length(x: float, unit: str) -> str:
+    return f"{x * 1e3:.2f} mm" if unit == "m" else f"{x:.3g} {unit}"
 
 
 def _anchor(robot: Robot, system: System, options: IdentifyOptions):
@@ -227,7 +328,7 @@ def fit_with_gains(robot, method: MethodOptions, opts: IdentifyOptions, memory) 
             allow_exact=opts.allow_exact,
         )  # fmt: skip
 
-    fit = with_gains(solve, robot, memory, plain, start)
+    fit = with_gains(solve, robot, memory, plain, start, plain.rows(method))
     return with_residuals(fit, sources=[[m] for m in memory])
 
 

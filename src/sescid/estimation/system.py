@@ -338,6 +338,27 @@ class Accumulator:
         return tau_sys
 
 
+def pinned(system: System, directions: np.ndarray, theta0: np.ndarray) -> System:
+    """The system restricted to the models that equal θ0 along ``directions`` (P, k): each
+    kind's sums with P = I − UUᵀ (U an orthonormal basis of the directions), A' = PAP,
+    b' = P(b − Aθ0) + A'θ0 and yᵀy' such that every such model's residual is the data's. The
+    restricted sums see nothing along the directions, so any solver fills them from θ0 (least
+    squares) or keeps them at θ0 with the prior's uncertainty (MAP)."""
+    u, _ = np.linalg.qr(np.asarray(directions, dtype=float).reshape(theta0.size, -1))
+    proj = np.eye(theta0.size) - u @ u.T
+    parts = {}
+    for kind, part in system.parts.items():
+        ne = part.ne
+        ata = proj @ ne.ata @ proj
+        ata = (ata + ata.T) / 2
+        atb = proj @ (ne.atb - ne.ata @ theta0) + ata @ theta0
+        rss0 = float(ne.yty - 2 * theta0 @ ne.atb + theta0 @ ne.ata @ theta0)
+        yty = rss0 + 2 * theta0 @ atb - theta0 @ ata @ theta0
+        new = NormalEquations(ata, atb, yty, ne.n_rows, ne.n_poses)
+        parts[kind] = dataclasses.replace(part, ne=new)
+    return dataclasses.replace(system, parts=parts)
+
+
 def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
     """The CoP sums with two offset columns appended. A constant offset b shifts every CoP row
     as the support body's r would by Δr0 = R_rootᵀ (b_x, b_y, 0) (its row is constant, level or

@@ -4,13 +4,15 @@ the support frame, with its collision/visual shapes.
 ``load_model(path, support)`` reads either format: the file becomes a format-neutral ``Graph``
 (``urdf_parse`` → ``urdf_check`` → ``urdf``, or ``mjcf_compile`` → ``mjcf_joints`` → ``mjcf``),
 which ``reroot`` (the one walk) turns into the tree ``RobotModel``/``Body``; ``Shape`` is the
-geometry; ``inertia_parts`` the inertia tensors the file gives, per body. See docs/model.md.
+geometry; ``inertia_parts`` the inertia tensors the file gives, per body; ``support_candidates``
+the feet a robot can stand on (``feet``). See docs/model.md.
 """
 
 from pathlib import Path
 from xml.etree import ElementTree
 
 from sescid.errors import ModelError
+from sescid.model.feet import FootCandidate, root_frame, support_candidates
 from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.inertia import inertia_issue, inertia_parts
@@ -52,6 +54,7 @@ def load_model(path: str | Path, support: str) -> RobotModel:
 __all__ = [
     "Body",
     "Edge",
+    "FootCandidate",
     "Frame",
     "Graph",
     "LinkInertial",
@@ -70,6 +73,8 @@ __all__ = [
     "model_format",
     "parse_inertial",
     "reroot",
+    "root_frame",
     "rot_axis",
     "shape_hull",
+    "support_candidates",
 ]

@@ -14,7 +14,10 @@ ankle frame) gets the derived floor below it.
 The free foot (``free_foot``) is found from the tree and the geometry, not from names: of the
 bodies off the supporting leg, the one whose geometry reaches lowest at the zero pose, when that
 is within ``FREE_FOOT_SHARE`` of the robot's height of the floor (a humanoid's other foot
-stands beside the support foot at the zero pose; hands and knees are far higher).
+stands beside the support foot at the zero pose; hands and knees are far higher); else (a
+motion-capture model whose zero pose lifts a leg) the supporting leg's mirror: on the branch
+off the trunk that weighs most like the supporting leg, the body as many joints from the trunk
+as the support foot (``mirror_foot``).
 """
 
 from __future__ import annotations
@@ -36,6 +39,11 @@ LEVEL_SHARE = 0.5
 FREE_FOOT_SHARE = 0.1
 #: the supporting leg goes on past side branches lighter than this share of the robot's mass
 LEG_SIDE_SHARE = 0.05
+#: ... and ends where what lies beyond weighs less than this share (a chain robot: the legs
+#: hang from a trunk that carries nothing else, so the mass never splits into branches)
+TRUNK_SHARE = 0.5
+#: a mirror leg weighs within this factor of the supporting leg
+MIRROR_MASS = 2.0
 
 
 @dataclass(frozen=True)
@@ -210,6 +218,13 @@ def _turns(rot: np.ndarray) -> list[np.ndarray]:
                                          (z, x, y), (x, z, -y))]  # fmt: skip
 
 
+def largest_footprint(shapes: list[Shape], body: int, rotations: list[np.ndarray]) -> float:
+    """Area [m²] of a body's largest flat face: the largest ``footprint`` along ±x, ±y, ±z of
+    each rotation (3, 3) in ``rotations`` and of each of its shapes."""
+    dirs = [*rotations, *(s.pose[:3, :3] for s in shapes if s.body == body)]
+    return max((footprint(shapes, body, t) for r in dirs for t in _turns(r)), default=0.0)
+
+
 def level_check(
     shapes: list[Shape], body: int, frame: np.ndarray, frames: dict[str, np.ndarray]
 ) -> LevelCheck:
@@ -219,8 +234,7 @@ def level_check(
     frame in ``frames`` (name → 4×4 in the same body) and of every shape of the body; the
     frames whose own footprint passes are listed as fixes."""
     dirs = [frame[:3, :3], *(f[:3, :3] for f in frames.values())]
-    dirs += [s.pose[:3, :3] for s in shapes if s.body == body]
-    largest = max(footprint(shapes, body, t) for r in dirs for t in _turns(r))
+    largest = largest_footprint(shapes, body, dirs)
     if not largest > 0:
         return LevelCheck(True, math.nan)
     own = [footprint(shapes, body, t) for t in _turns(frame[:3, :3])]
@@ -233,26 +247,67 @@ def level_check(
 
 
 # --- the free foot -------------------------------------------------------------------------
+def _subtree_mass(parents: list[int], masses: np.ndarray) -> np.ndarray:
+    """(N,) mass [kg] of each body and everything beyond it (away from the support)."""
+    sub = np.asarray(masses, dtype=float).copy()
+    for i in range(len(parents) - 1, 0, -1):  # children follow their parents
+        sub[parents[i]] += sub[i]
+    return sub
+
+
+def _children(parents: list[int]) -> dict[int, list[int]]:
+    out: dict[int, list[int]] = {}
+    for i, p in enumerate(parents):
+        out.setdefault(p, []).append(i)
+    return out
+
+
 def supporting_leg(parents: list[int], masses: np.ndarray) -> tuple[list[int], int]:
     """(bodies of the supporting leg, the body it ends at): from the support body (0) up the
     tree while the other branches are light (each below ``LEG_SIDE_SHARE`` of the mass: a toe,
-    a sensor board), to the first body where the mass splits (the pelvis of a humanoid)."""
-    n = len(parents)
-    sub = np.asarray(masses, dtype=float).copy()
-    for i in range(n - 1, 0, -1):  # children follow their parents
-        sub[parents[i]] += sub[i]
-    children: dict[int, list[int]] = {}
-    for i, p in enumerate(parents):
-        children.setdefault(p, []).append(i)
+    a sensor board), to the first body where the mass splits (the pelvis of a humanoid), or
+    beyond which less than ``TRUNK_SHARE`` of the mass lies (the trunk of a chain robot: two
+    legs and a torso, nothing else)."""
+    sub = _subtree_mass(parents, masses)
+    children = _children(parents)
     total = sub[0] if sub[0] > 0 else 1.0
     leg, cur = [0], 0
     while children.get(cur):
         kids = sorted(children[cur], key=lambda c: (-sub[c], c))
         if any(sub[c] >= LEG_SIDE_SHARE * total for c in kids[1:]):
             break
+        if sub[kids[0]] < TRUNK_SHARE * total:
+            break
         cur = kids[0]
         leg.append(cur)
     return leg[:-1] if len(leg) > 1 else leg, cur
+
+
+def mirror_foot(parents: list[int], masses: np.ndarray) -> int | None:
+    """The supporting leg's mirror (None without one): of the branches leaving the end of the
+    supporting leg, the one whose mass is nearest the supporting leg's (within a factor
+    ``MIRROR_MASS``), followed down its heaviest bodies as many joints as the support foot lies
+    from the trunk."""
+    leg, top = supporting_leg(parents, masses)
+    if top == 0:
+        return None
+    sub = _subtree_mass(parents, masses)
+    children = _children(parents)
+    leg_mass = sub[0] - sub[top]
+    kids = [c for c in children.get(top, []) if sub[c] > 0]
+    if not kids or not leg_mass > 0:
+        return None
+    ratio = {c: abs(math.log(sub[c] / leg_mass)) for c in kids}
+    best = min(kids, key=lambda c: (ratio[c], c))
+    if ratio[best] > math.log(MIRROR_MASS):
+        return None
+    cur = best
+    for _ in range(len(leg) - 1):
+        below = sorted(children.get(cur, []), key=lambda c: (-sub[c], c))
+        if not below:
+            break
+        cur = below[0]
+    return cur
 
 
 def _descendants(parents: list[int], top: int) -> list[int]:
@@ -295,6 +350,12 @@ def free_foot(
     best = min(cand, key=lambda b: (low[b], b))
     gap = low[best] - floor
     if not gap <= FREE_FOOT_SHARE * height:
+        mirror = mirror_foot(parents, masses)
+        if mirror is not None:
+            return mirror, (
+                "the supporting leg's mirror: no body beyond the supporting leg comes within "
+                f"{FREE_FOOT_SHARE:.0%} of the robot's height of the floor at the zero pose"
+            )
         return None, (
             f"no body beyond the supporting leg comes within {FREE_FOOT_SHARE:.0%} of the robot's "
             f"height of the floor at the zero pose (lowest: {gap * 1e3:.0f} mm above it)"

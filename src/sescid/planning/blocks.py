@@ -1,8 +1,9 @@
 """D-optimal choice of poses that give r rows each (joint torques, or torques and the CoP), the
 torque offsets as nuisance columns (``kinds``).
 
-As ``doptimal`` for the CoP's two rows: greedy from a tiny ridge δI, then Fedorov exchange
-passes over a shortlist of the most informative candidates. Each candidate's
+As ``doptimal`` for the CoP's two rows: greedy from a tiny ridge δI over the candidates most
+informative about k average ones (``prescreen``), then Fedorov exchange passes over a shortlist
+of the most informative candidates of a working set three times as large. Each candidate's
 S_j = A_j M⁻¹ A_jᵀ (r × r) is kept current by rank-r Woodbury updates in one compiled pass
 (``block_kernels``); while the chosen rows are fewer than the parameters (the ridge still
 matters, where a Woodbury chain would lose digits) every S_j is recomputed from M itself.
@@ -127,53 +128,94 @@ def schur_logdet(rows: BlockRows, idx) -> float:
     return float(ld) if sign > 0 else -math.inf
 
 
+#: the greedy runs over this many candidates per pose chosen (at least ``PRESCREEN_MIN``) of
+#: the largest gain on the pool's average information (``prescreen``) ...
+PRESCREEN_PER_POSE = 10
+PRESCREEN_MIN = 300
+#: ... and the exchange passes over ``WORKING_FACTOR`` times as many
+WORKING_FACTOR = 3
+#: candidates of largest gain an exchange pass offers for each chosen pose
+SHORTLIST = 100
+
+
+def prescreen(rows: BlockRows, k: int) -> np.ndarray:
+    """Every candidate ranked (ties by index) by log det(I + A_j M₀⁻¹ A_jᵀ), its gain on M₀ the
+    information of k average candidates (k/n Σ A_iᵀA_i): a candidate that adds little to k
+    typical poses is rarely worth its place. A pool no larger than the greedy's keeps its
+    order (no ranking needed)."""
+    n = rows.x.shape[0]
+    if n <= max(PRESCREEN_MIN, PRESCREEN_PER_POSE * k):
+        return np.arange(n)
+    m0 = rows.information(np.arange(n)) * (k / n)
+    m0[np.diag_indices_from(m0)] += _ridge(rows)
+    gain = _gains(rows, np.arange(n), _pd_inverse(m0))
+    return np.lexsort((np.arange(n), -gain))
+
+
+def _gains(rows: BlockRows, idx: np.ndarray, minv: np.ndarray) -> np.ndarray:
+    """(len(idx),) log det(I + A_j M⁻¹ A_jᵀ) of the candidates ``idx`` (−inf: not finite)."""
+    sub = rows.take(idx)
+    r = sub.x.shape[1]
+    out = Sandwiches(np.empty((len(idx), r, r)), np.empty(len(idx)))
+    sandwich_blocks(Rows(sub.x, sub.col, sub.val), minv, out)
+    return np.where(np.isfinite(out.gain), out.gain, -np.inf)
+
+
 @one_blas_thread()
 def select_blocks(
     rows: BlockRows,
     k: int,
     seed: int | np.random.Generator = 0,
     max_passes: int = 20,
-    shortlist: int = 300,
+    shortlist: int | None = None,
 ) -> Selection:
-    """Choose ``k`` distinct candidates maximising log det Σ A_iᵀA_i: greedy from δI, then
-    Fedorov exchange passes (each chosen pose in turn swapped for the best of the
-    ``shortlist`` candidates of largest gain given the current choice, refreshed every pass)
-    until a pass improves nothing."""
+    """Choose ``k`` distinct candidates maximising log det Σ A_iᵀA_i: greedy from δI over the
+    ``prescreen``'s first ``max(PRESCREEN_MIN, PRESCREEN_PER_POSE k)``, then Fedorov exchange
+    passes over ``WORKING_FACTOR`` times as many (each chosen pose in turn swapped for the best
+    of the ``shortlist`` candidates of largest gain given the current choice, ranked again
+    every pass; the first pass with the ridge, as the greedy) until a pass improves nothing."""
     n = rows.x.shape[0]
     if not 1 <= k <= n:
         raise SescidError(f"cannot choose {k} poses from {n} candidates")
+    shortlist = SHORTLIST if shortlist is None else shortlist
     rng = np.random.default_rng(seed)
-    design = BlockDesign(rows)
+    ridge = _ridge(rows)
+    ranked = prescreen(rows, k)
+    keep = max(PRESCREEN_MIN, PRESCREEN_PER_POSE * k)
+    pre = np.sort(ranked[:keep])
+    design = BlockDesign(rows.take(pre), ridge)
     order: list[int] = []
     for _ in range(k):
         i = design.best()
         if i < 0:
             raise SescidError("no candidate adds information")
-        order.append(i)
+        order.append(int(pre[i]))
         design.add(i)
+    work = np.sort(ranked[: WORKING_FACTOR * keep])
+    wrows = rows.take(work)
+    at = {int(c): w for w, c in enumerate(work)}
     exchanges = passes = 0
-    full = design  # the first pass ranks by the greedy's own S_j (current, ridge included)
     for passes in range(1, max_passes + 1):  # noqa: B007
-        if passes > 1:
-            full = BlockDesign.__new__(BlockDesign)
-            full.rows, full.ridge = rows, design.ridge
-            full.s, full.gain = design.s, design.gain  # reused: the greedy's are not needed
-            full.chosen = np.zeros(n, dtype=bool)
-            full.chosen[order] = True
-            if schur_logdet(rows, order) > -math.inf:  # drop the ridge once non-singular
-                full.ridge = 0.0
-            full.refresh()
+        full = BlockDesign.__new__(BlockDesign)
+        full.rows, full.ridge = wrows, ridge
+        r, m = rows.x.shape[1], len(work)
+        full.s, full.gain = np.empty((m, r, r)), np.empty(m)
+        full.chosen = np.zeros(m, dtype=bool)
+        full.chosen[[at[i] for i in order]] = True
+        if passes > 1 and schur_logdet(rows, order) > -math.inf:  # then drop the ridge
+            full.ridge = 0.0
+        full.refresh()
         score = full.gains()
-        top = np.lexsort((np.arange(n), -score))[: min(shortlist, n - k)]
-        idx = np.concatenate([np.asarray(order), top])
+        top = np.lexsort((np.arange(m), -score))[: min(shortlist, m - k)]
+        idx = np.concatenate([np.asarray([at[i] for i in order]), top])
         sub = BlockDesign.__new__(BlockDesign)
-        sub.rows, sub.ridge, sub.minv = rows.take(idx), full.ridge, full.minv
+        sub.rows, sub.ridge, sub.minv = wrows.take(idx), full.ridge, full.minv
         sub.s, sub.gain = full.s[idx].copy(), full.gain[idx].copy()
         sub.chosen = np.zeros(len(idx), dtype=bool)
         sub.chosen[:k] = True
         pos_sub, swaps = exchange_pass(sub, k, rng)
         exchanges += swaps
-        order = [int(idx[i]) for i in pos_sub]
+        order = [int(work[idx[i]]) for i in pos_sub]
         if swaps == 0:
             break
     return Selection(

@@ -279,7 +279,8 @@ def _nothing(run: _Run) -> str:
             f"±{run.half[1] * 1e3:.1f} mm around the sole centre) within its joint limits: "
             f"moved by the CoM Jacobian, {c[0]} draws came no nearer than "
             f"{run.closest:.2f} times the box's half-size — it cannot stand on '{r.support}' "
-            "alone (widen the joint limits, or stand it on another foot)"
+            "alone: hold it in a gantry (--mount gantry --kinds tau, by its pelvis or torso), "
+            "widen the joint limits, or stand it on another foot"
         )
     stage = (
         "the compliant-robot margin (stiffer servos or a stiffer sole in the profile, or --rigid)"

@@ -1,9 +1,10 @@
 """Self-collision: collision shapes covered by capsules, capsule pairs checked per pose.
 
 Every collision box, cylinder, capsule and sphere of the model (``RobotModel.shapes``) is covered by
-capsules fixed in its body frame; pairs of parent/child bodies and pairs that already overlap at
-the zero pose are skipped. The per-pose check is a compiled loop with early exit
-(``collision_free_mask``); ``collision_free_mask_numpy`` is the plain-numpy reference.
+capsules fixed in its body frame; pairs of parent/child bodies (through bodies without shapes:
+a joint split into several bodies) and pairs that already overlap at the zero pose are skipped.
+The per-pose check is a compiled loop with early exit (``collision_free_mask``);
+``collision_free_mask_numpy`` is the plain-numpy reference.
 """
 
 from __future__ import annotations
@@ -136,7 +137,7 @@ def collision_capsules(robot: Robot) -> Capsules:
     if not len(cap.body):
         cap.notes.append("no collision shapes: self-collision is not checked")
         return cap
-    parent = np.array([bd.parent for bd in robot.model.bodies])
+    parent = shape_parents([bd.parent for bd in robot.model.bodies], cap.body)
     i, j = np.triu_indices(len(cap.body), k=1)
     bi, bj = cap.body[i], cap.body[j]
     keep = (bi != bj) & (parent[bi] != bj) & (parent[bj] != bi)
@@ -156,6 +157,20 @@ def collision_capsules(robot: Robot) -> Capsules:
         )
     cap.pairs = np.column_stack([i[~touch], j[~touch]])
     return cap
+
+
+def shape_parents(parents: list[int], shaped: np.ndarray) -> np.ndarray:
+    """(N,) each body's nearest ancestor that has collision capsules (−1: none). Bodies without
+    shapes are passed through: a joint split into several bodies (an MJCF body with three hinges,
+    a URDF hip of three massless links) joins the bodies on either side, which MuJoCo's parent
+    filter also lets overlap."""
+    has = np.zeros(len(parents), dtype=bool)
+    has[np.asarray(shaped, dtype=np.int64)] = True
+    out = np.full(len(parents), -1, dtype=np.int64)
+    for b, p in enumerate(parents):  # parents come before their children
+        if p >= 0:
+            out[b] = p if has[p] else out[p]
+    return out
 
 
 def _whole_mesh_pairs(cap: Capsules, i, j, touch) -> np.ndarray:

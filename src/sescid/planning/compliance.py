@@ -21,7 +21,14 @@ commanded pose q, with the support foot the base and W = M g the weight:
 A pose is stable when e_dyn lies inside the contacts' rectangle shrunk by the backlash term
 and ``EDGE_MARGIN``. The stiffnesses, contacts and backlash come from the robot profile
 (``servo_gains.kp``, ``pad_stiffness``, the support foot's pads in ``sensors_file``,
-``servo_backlash``), else the generic defaults below. Measured on the OP2 physics bench
+``servo_backlash``), else generic values scaled by the robot's weight and size, stated in the
+output: servos that sag ``GENERIC_SAG`` under the weight at the CoM height, contacts that sink
+``GENERIC_SINK`` under the weight — stiffened, on a tall robot with a narrow foot, until the
+sole's tilt stiffness is ``GENERIC_TILT`` times the toppling moment W h (a foot that tilts by
+its own softness as far as the CoM leans is no real robot's; the MuJoCo bench's contacts stiffen
+with the robot's inertia the same way). Without a sole the contacts are the CoP box's rectangle
+widened to a sole (1 / ``SOLE_BOX_FRACTION``), so box and margin agree. Measured on the OP2
+physics bench
 (``bench.mujoco``, 600 candidate poses of the paper's ±23 mm box, 106 of which topple): with
 these rules none of those kept topples, 65 % are kept.
 """
@@ -34,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.planning.com import ComState
+from sescid.planning.stability import FALLBACK_COP_BOX, SOLE_BOX_FRACTION
 from sescid.robot import Robot
 
 G = 9.80665  #: m/s²
@@ -45,6 +53,10 @@ GENERIC_SAG = 0.02  #: rad
 #: generic contact stiffness: the sole's four corners sink this much under the robot's weight
 GENERIC_SINK = 0.0005  #: m
 GENERIC_BACKLASH = math.radians(0.5)  #: rad
+#: generic contacts: the sole's tilt stiffness k Σ (pᵢ − p̄)(pᵢ − p̄)ᵀ at least this many times
+#: the toppling moment per unit lean W h (the tilt then adds under 1 / (GENERIC_TILT − 1) of
+#: the CoM's lean to the CoP)
+GENERIC_TILT = 4.0
 
 
 @dataclass(frozen=True)
@@ -92,19 +104,22 @@ def compliance(robot: Robot) -> Compliance:
     if pads is not None:
         contacts = pads
         said.append(f"contacts: the {len(pads)} support-foot pads of the sensor layout")
-    elif sole is not None:
+    elif sole is not None and min(sole.size) > 0:
         corners = sole.corners @ robot.model.root_rotation.T + robot.model.root_origin
         contacts = corners[:, :2]
         said.append("contacts: the support sole's corners")
     else:
-        contacts = np.array([[-1.0, -1.0], [1.0, 1.0]]) * 0.01
-        said.append("contacts: none known, a 20 mm square")
+        box = np.broadcast_to(np.asarray(robot.profile.cop_box or FALLBACK_COP_BOX, float), (2,))
+        half = box / SOLE_BOX_FRACTION
+        contacts = robot.sole_centre + np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]]) * half
+        said.append(f"contacts: no sole known, the corners of a {2e3 * half[0]:.0f} x "
+                    f"{2e3 * half[1]:.0f} mm sole around the CoP box")  # fmt: skip
+    h = max(float(robot.com(np.zeros(robot.nq))[0, 2]) - robot.floor, 0.0)
     gains = robot.profile.servo_gains
     if gains is not None:
         kp = gains.kp
         said.append(f"servo {kp:g} N·m/rad (profile)")
     else:
-        h = float(robot.com(np.zeros(robot.nq))[0, 2]) - robot.floor
         kp = max(weight * h, 1e-6) / GENERIC_SAG
         said.append(f"servo {kp:.3g} N·m/rad (generic: the weight at the CoM height sags "
                     f"{GENERIC_SAG:g} rad)")  # fmt: skip
@@ -112,9 +127,8 @@ def compliance(robot: Robot) -> Compliance:
     if k is not None:
         said.append(f"contacts {k:g} N/m each (profile)")
     else:
-        k = weight / (len(contacts) * GENERIC_SINK)
-        said.append(f"contacts {k:.3g} N/m each (generic: they sink {GENERIC_SINK * 1e3:g} mm "
-                    "under the weight)")  # fmt: skip
+        k, how = generic_contact_stiffness(contacts, weight, h)
+        said.append(f"contacts {k:.3g} N/m each (generic: {how})")
     b = robot.profile.servo_backlash
     if b is not None:
         said.append(f"backlash ±{math.degrees(b):g}° (profile)")
@@ -123,6 +137,23 @@ def compliance(robot: Robot) -> Compliance:
         said.append(f"backlash ±{math.degrees(b):g}° (generic)")
     return Compliance(float(kp), float(k), contacts, robot.floor, float(b), weight,
                       "; ".join(said))  # fmt: skip
+
+
+def generic_contact_stiffness(contacts: np.ndarray, weight: float, h: float) -> tuple[float, str]:
+    """(N/m per contact, how it was set): the contacts (k, 2) [m] sink ``GENERIC_SINK`` under
+    the weight [N], or, when that leaves the sole's tilt stiffness under ``GENERIC_TILT`` W h
+    (h [m]: the CoM height at the zero pose), stiff enough to reach it."""
+    k = weight / (len(contacts) * GENERIC_SINK)
+    how = f"they sink {GENERIC_SINK * 1e3:g} mm under the weight"
+    d = contacts - contacts.mean(axis=0)
+    low = float(np.linalg.eigvalsh(d.T @ d)[0])
+    if low > 0 and k * low < GENERIC_TILT * weight * h:
+        k = GENERIC_TILT * weight * h / low
+        how = (
+            f"the sole's tilt stiffness {GENERIC_TILT:g} × weight × CoM height: they sink "
+            f"{weight / (len(contacts) * k) * 1e3:.2g} mm under the weight"
+        )
+    return k, how
 
 
 def dynamic_cop(model: Compliance, st: ComState) -> np.ndarray:

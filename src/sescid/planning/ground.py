@@ -1,4 +1,4 @@
-"""Ground clearance for any robot: every body above the floor, the free sole above it by a
+"""Ground clearance for any robot: every body above the floor, the free foot above it by a
 clearance.
 
 Every body but the support body is checked, on the best geometry it has: its collision shapes;
@@ -10,7 +10,10 @@ mesh its hull vertices (checked only in the poses where the capsules that cover 
 the floor, ``collision.mesh_capsules``). The floor is ``Robot.floor`` (z = 0 of a sole frame, or
 the plane under a foot frame derived from the foot's geometry). A body other than the free foot
 that already reaches below the floor at the zero pose (a conservative covering of an ankle link)
-is not checked, with a note — as self-collision skips pairs that touch at the zero pose.
+is not checked, with a note — as self-collision skips pairs that touch at the zero pose. The
+free foot (``Robot.free_sole``) and the bodies beyond it (toes) must clear the floor by the
+foot clearance on all of their geometry, and its sole's corners too: a foot that grazes the
+floor is not single support on a real robot.
 """
 
 from __future__ import annotations
@@ -72,6 +75,9 @@ class GroundChecks:
     source: dict[str, str] = field(default_factory=dict)  #: body → collision/visual/origin
     exempt: list[str] = field(default_factory=list)  #: bodies below the floor at q = 0
     notes: list[str] = field(default_factory=list)
+    #: the free foot and the bodies beyond it, checked above the floor by the foot clearance
+    free: GroundChecks | None = None
+    free_bodies: list[str] = field(default_factory=list)  #: their names
 
 
 def _body_shapes(robot: Robot, b: int) -> tuple[list, str]:
@@ -140,14 +146,23 @@ def ground_checks(robot: Robot, cap: Capsules | None = None, exempt: bool = True
     if cached is not None and cached[0] is robot:
         return cached[1]
     names = robot.body_names
+    feet = _free_foot_bodies(robot) if exempt else set()
     shapes, source, origins = [], {}, []
+    foot_shapes, foot_origins = [], []
     for b in range(1, len(names)):
         use, role = _body_shapes(robot, b)
-        shapes += use
         source[names[b]] = role
+        if b in feet:
+            foot_shapes += use
+            foot_origins += [b] if role == "origin" else []
+            continue
+        shapes += use
         if role == "origin":
             origins.append(b)
     g = _build(shapes, origins)
+    if feet:
+        g.free = _build(foot_shapes, foot_origins)
+        g.free_bodies = [names[b] for b in sorted(feet)]
     below = _exempt(robot, g) if exempt else set()
     if below:
         out = list(below)
@@ -161,6 +176,19 @@ def ground_checks(robot: Robot, cap: Capsules | None = None, exempt: bool = True
     if cap is not None:
         setattr(cap, key, (robot, g))
     return g
+
+
+def _free_foot_bodies(robot: Robot) -> set[int]:
+    """The free foot's body and the bodies beyond it (away from the support); empty when the
+    free foot is unknown."""
+    free = robot.free_sole
+    if free is None or free.body <= 0:
+        return set()
+    out = {free.body}
+    for i, bd in enumerate(robot.model.bodies):  # children follow their parents
+        if bd.parent in out:
+            out.add(i)
+    return out
 
 
 def _exempt(robot: Robot, g: GroundChecks) -> set[int]:
@@ -193,7 +221,7 @@ def _notes(robot: Robot, g: GroundChecks) -> list[str]:
             f"against it: {', '.join(g.exempt)}"
         )
     if robot.free_sole is None:
-        notes.append("free foot unknown: its sole is not checked against the floor")
+        notes.append("free foot unknown: no body is held above the floor by the foot clearance")
     return notes
 
 
@@ -222,6 +250,15 @@ def lowest_heights(
     (every mesh vertex, no pre-check); ``exempt=False``: over every body but the support."""
     g = ground_checks(robot, exempt=exempt)
     low = np.full(rot.shape[0], np.inf)
+    for part in (g, g.free):
+        if part is not None:
+            low = np.minimum(low, _lowest(part, rot, org))
+    return low
+
+
+def _lowest(g: GroundChecks, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
+    """(n,) the lowest point [m] ``g`` checks (every mesh vertex), per pose."""
+    low = np.full(rot.shape[0], np.inf)
     if len(g.segments.body):
         low = np.minimum(low, g.segments.lowest(rot, org).min(axis=1))
     for body, pts in ((g.corner_body, g.corners), (g.vert_body, g.vertices)):
@@ -229,6 +266,19 @@ def lowest_heights(
             z = org[:, body, 2] + np.einsum("nvj,vj->nv", rot[:, body, 2, :], pts)
             low = np.minimum(low, z.min(axis=1))
     return low
+
+
+def free_foot_heights(robot: Robot, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
+    """(n,) the free foot's lowest point [m] above the floor (its bodies' geometry and its sole's
+    corners), per pose; nan when the free foot is unknown."""
+    g = ground_checks(robot)
+    low = np.full(rot.shape[0], np.inf)
+    if g.free is not None:
+        low = _lowest(g.free, rot, org)
+    corners = free_sole_corners(robot, rot, org)
+    if corners is not None:
+        low = np.minimum(low, corners[..., 2].min(axis=1))
+    return np.where(np.isfinite(low), low - robot.floor, np.nan)
 
 
 def ground_clear(
@@ -239,9 +289,12 @@ def ground_clear(
     clearance: float,
     sole_size: ArrayLike | None = None,
 ) -> np.ndarray:
-    """(n,) True where every checked body is above the floor and the free sole's corners are
-    above it by ``clearance`` [m]; ``rot``, ``org`` from ``robot.forward``."""
-    ok = clear_above(ground_checks(robot, cap), rot, org, robot.floor)
+    """(n,) True where every checked body is above the floor and the free foot (its bodies and
+    its sole's corners) above it by ``clearance`` [m]; ``rot``, ``org`` from ``robot.forward``."""
+    g = ground_checks(robot, cap)
+    ok = clear_above(g, rot, org, robot.floor)
+    if g.free is not None:
+        ok &= clear_above(g.free, rot, org, robot.floor + clearance)
     corners = free_sole_corners(robot, rot, org, sole_size)
     if corners is not None:
         ok &= np.all(corners[..., 2] > robot.floor + clearance, axis=1)

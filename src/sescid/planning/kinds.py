@@ -150,7 +150,8 @@ def pool_information(
             if shift is None:  # about the first block's mean: no cancellation in the sums
                 shift = x.mean(axis=0)
             d = x - shift
-            scatter += np.einsum("mja,mjb->ab", d, d)
+            flat = d.reshape(-1, n3)
+            scatter += flat.T @ flat
             total += d.sum(axis=0)
         info += scatter - total.T @ total / len(q)
     return (info + info.T) / 2
@@ -203,9 +204,21 @@ class BlockRows:
         return out
 
     def information(self, idx) -> np.ndarray:
-        """(p + K, p + K) F = Σ A_iᵀA_i over the candidates ``idx``."""
-        a = self.dense(idx).reshape(-1, self.size)
-        return a.T @ a
+        """(p + K, p + K) F = Σ A_iᵀA_i over the candidates ``idx``: the SESC block from the
+        rows, the nuisance blocks written out (row a adds ``val[a]`` in column ``col[a]``)."""
+        x = self.x[idx]
+        m, p = len(x), self.p
+        flat = x.reshape(-1, p)
+        out = np.zeros((self.size, self.size))
+        out[:p, :p] = flat.T @ flat
+        for a in np.flatnonzero(self.col >= 0):
+            c = p + int(self.col[a])
+            v = float(self.val[a])
+            cross = x[:, a, :].sum(axis=0) * v
+            out[:p, c] += cross
+            out[c, :p] += cross
+            out[c, c] += m * v * v
+        return out
 
 
 def block_rows(

@@ -63,9 +63,8 @@ class SessionDesign:
     def __init__(self, robot: Robot, opt: SessionOptions, progress: Callable | None = None):
         self.robot, self.opt = robot, opt
         self.mount, self.kinds = session_mount(robot, opt)
-        self.half = (
-            cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents)
-        )
+        #: (2,) m, the CoP box (None: held in a gantry, no sole needed)
+        self.half: np.ndarray | None = None
         if self.mount == "gantry":
             held = GantryOptions(limits=opt.limits, hang_height=opt.hang_height)
             self.cand = gantry_candidates(
@@ -74,6 +73,11 @@ class SessionDesign:
         else:
             if opt.hang_height is not None:
                 raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
+            self.half = (
+                cop_half_extents(robot)
+                if opt.half_extents is None
+                else np.asarray(opt.half_extents, dtype=float)
+            )
             draw = CandidateOptions(limits=opt.limits, half_extents=self.half)
             self.cand = candidates(robot, opt.n_candidates, opt.seed, draw, progress=progress)
         self.basis, self.design, self.min_rows = self._design(self.kinds)

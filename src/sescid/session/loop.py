@@ -198,9 +198,8 @@ class _Run:
         need = self.min_measured if kinds == "cop" else max(self.min_measured, self.plan.min_rows)
         step.converged = st.converged and self.est.n_poses >= need
         step.body_std = self.est.body_std()
-        if self.est.identified(
-            st.rank, self.half
-        ):  # identified: check stability on the estimate too
+        # identified: check stability on the estimate too (held in a gantry: no box to keep)
+        if self.est.identified(st.rank, _box(self.half)):
             self.r_est = self.est.estimate()
         return True
 
@@ -291,26 +290,36 @@ def run_session(
     return result
 
 
+def _box(half: np.ndarray | None) -> np.ndarray:
+    """The stability box's half-sizes (2,) [m]; unbounded for a robot held in a gantry."""
+    return np.full(2, np.inf) if half is None else half
+
+
 def _unsafe(
-    robot: Robot, q: np.ndarray, half: np.ndarray, r_est: np.ndarray | None, held: bool = False
+    robot: Robot,
+    q: np.ndarray,
+    half: np.ndarray | None,
+    r_est: np.ndarray | None,
+    held: bool = False,
 ) -> str:
     """Why ``q`` must not be commanded ('' when it is within limits and statically stable).
 
     Stable: the model's CoP, and once every identifiable combination is determined the current
-    estimate's CoP too, strictly inside the stability box ``half``; a robot ``held`` in a gantry
-    has no balance to keep (its candidates already clear the floor and themselves).
+    estimate's CoP too, strictly inside the stability box ``half`` around the sole's centre; a
+    robot ``held`` in a gantry has no balance to keep (its candidates already clear the floor
+    and themselves).
     """
     try:
         check_limits(robot, q[None], "command")
     except DataError as exc:
         return str(exc)
-    if held:
+    if held or half is None:
         return ""
     for what, r in (("model", None), ("identified", r_est)):
         if what == "identified" and r is None:
             continue
         cop = robot.cop(q[None], r)[0]
-        if np.any(np.abs(cop) >= half):
+        if np.any(np.abs(cop - robot.sole_centre) >= half):
             return (
                 f"unstable: {what} CoP ({cop[0] * 1e3:.1f}, {cop[1] * 1e3:.1f}) mm outside "
                 f"±({half[0] * 1e3:.1f}, {half[1] * 1e3:.1f}) mm; not commanded"

@@ -17,7 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.bench.mujoco.spec import build_spec, mujoco_module, standing_feet
+from sescid.bench.mujoco.spec import (
+    build_spec,
+    mujoco_module,
+    standing_feet,
+    support_sole_plane,
+)
 from sescid.bench.real_robot import ExperimentConfig
 from sescid.errors import OptionError
 from sescid.sensors.pads import SensorConfig
@@ -79,6 +84,8 @@ class Simulation:
         self.sole_site = {f.name: m.site(f"sole_{f.name}").id for f in feet}
         self.floor = m.geom("floor").id if config.mount != "gantry" else -1
         self.standing = standing_feet(robot, sensors, config, bench)
+        #: m, the support foot's sole plane in the support frame (its pads sit on it)
+        self.sole_plane = support_sole_plane(robot, robot.support) if feet else 0.0
         self.geom_name = [m.geom(i).name for i in range(m.ngeom)]
 
     def _contacts(self):
@@ -104,7 +111,7 @@ class Simulation:
         mj.mj_resetData(m, d)
         d.qpos[self.qadr] = target
         if not self.weld:
-            d.qpos[0:3] = [0.0, 0.0, bench.pad_radius]
+            d.qpos[0:3] = [0.0, 0.0, bench.pad_radius - self.sole_plane]
             d.qpos[3:7] = [1.0, 0.0, 0.0, 0.0]
         d.ctrl[:] = target
         steps_still = int(round(bench.still_time / bench.timestep))

@@ -7,11 +7,13 @@ mass); a body without one gets a sphere-like diagonal inertia ``0.4 m ρ²`` (``
 ρ). Statics does not depend on inertias.
 
 Contact: each foot touches the floor only through its four pads, spheres of radius
-``pad_radius`` centred on the sole plane at the pad positions of the ``SensorConfig``; the other
-bodies carry the model's collision capsules (``planning.collision_capsules``), which collide
-with the floor only. Servos: a position actuator per joint, torque ``kp (target − q) − kv q̇``,
-plus the joint's ``armature``. In a gantry (``mount="gantry"``) the root is welded level and
-there is no floor (the robot hangs free).
+``pad_radius`` centred on the sole plane at the pad positions of the ``SensorConfig`` (the support
+foot's sole plane lies at ``Robot.floor`` of its frame when the sole is derived); the other
+bodies carry the model's collision capsules (``planning.collision_capsules``) and, for its
+collision meshes, their convex hulls, which collide with the floor only (bodies in
+``floor_exempt`` carry none). Servos: a position actuator per joint, torque
+``kp (target − q) − kv q̇``, plus the joint's ``armature``. In a gantry (``mount="gantry"``)
+the root is welded level and there is no floor (the robot hangs free).
 """
 
 from __future__ import annotations
@@ -55,6 +57,9 @@ class MujocoBenchConfig:
     friction: float = 1.0  #: sliding friction coefficient, pads on the floor
     contact_timeconst: float = 0.02  #: s, pad contact stiffness (MuJoCo solref; its default)
     contact_dampratio: float = 1.0  #: pad contact damping ratio (MuJoCo solref)
+    #: 1/s², pad contact stiffness given directly (MuJoCo's negative solref: reference
+    #: acceleration per metre of penetration, critically damped); None: ``contact_timeconst``
+    contact_stiffness: float | None = None
     inertia_radius: float = 0.02  #: m, fallback inertia 0.4 m ρ² for bodies without one
     #: link whose orientation the IMU reports; None: the profile's ``imu_link``, else the
     #: heaviest body
@@ -62,6 +67,9 @@ class MujocoBenchConfig:
     imu_noise: float = 0.0  #: rad, per sample (std)
     weld_foot: bool = False  #: fix the support body level to the world (statics check)
     double_support: bool = False  #: both feet stand on the floor
+    #: bodies that carry no floor contact (the planner's exempt bodies: already below the floor
+    #: at the zero pose, as a support foot's toes)
+    floor_exempt: tuple[str, ...] = ()
 
     def check(self) -> None:
         """OptionError naming the first setting outside its range."""
@@ -214,15 +222,37 @@ def _add_bodies(mujoco, spec, robot, config, bench, standing_bodies: set[int]) -
             j.type = mujoco.mjtJoint.mjJNT_HINGE
             j.axis = (b.sign * b.axis).tolist()
             j.armature = gains.armature
-        if i not in standing_bodies:
+        if i not in standing_bodies and b.name not in bench.floor_exempt:
             _add_capsules(mujoco, body, caps, i, b.name)
+            _add_meshes(mujoco, spec, body, robot, i, b.name)
         mj_bodies.append(body)
     return mj_bodies
 
 
+def _add_meshes(mujoco, spec, body, robot, i: int, name: str) -> None:
+    """Body ``i``'s collision meshes whose vertices are loaded, as MuJoCo meshes (their convex
+    hulls: exactly the points the planner's floor check uses; they touch the floor only)."""
+    from sescid.model.geometry import MESH
+
+    shapes = [s for s in robot.shapes if s.body == i and s.role == "collision"]
+    for k, shape in enumerate(s for s in shapes if s.kind == MESH and s.vertices is not None):
+        mesh = spec.add_mesh()
+        mesh.name = f"hull_{name}_{k}"
+        mesh.uservert = np.ascontiguousarray(shape.vertices, dtype=np.float32).ravel().tolist()
+        g = body.add_geom()
+        g.name = f"mesh_{name}_{k}"
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = mesh.name
+        g.contype = 1
+        g.conaffinity = 0
+        g.mass = 0.0
+
+
 def _add_capsules(mujoco, body, caps, i: int, name: str) -> None:
-    """Body ``i``'s collision capsules (they touch the floor only)."""
-    for k in np.flatnonzero(caps.body == i):
+    """Body ``i``'s collision capsules but those covering a mesh (``_add_meshes``); they touch
+    the floor only."""
+    meshy = caps.from_mesh if caps.from_mesh is not None else np.zeros(len(caps.body), bool)
+    for k in np.flatnonzero((caps.body == i) & ~meshy):
         g = body.add_geom()
         g.name = f"cap_{name}_{k}"
         if np.linalg.norm(caps.p1[k] - caps.p0[k]) > 1e-9:
@@ -237,12 +267,22 @@ def _add_capsules(mujoco, body, caps, i: int, name: str) -> None:
         g.mass = 0.0
 
 
+def support_sole_plane(robot, sole_frame: str) -> float:
+    """Height [m] of the sole plane in the frame ``sole_frame``: the floor under the support
+    frame derived from the foot's geometry (``Robot.floor``: a foot frame above its sole, as
+    the G1's ankle frame) when it is the support, else 0 (a sole frame)."""
+    if sole_frame != robot.support or robot.sole is None or not robot.sole.derived:
+        return 0.0
+    return float(robot.floor)
+
+
 def _add_pads(mujoco, robot, sensors: SensorConfig | None, bench, mj_bodies: list) -> None:
     """Each board's four pad spheres on its sole plane and a site at its sole frame."""
     for f in sensors.feet if sensors is not None else ():
         b, x = sole_body(robot, f.sole_frame)
+        dz = support_sole_plane(robot, f.sole_frame)
         for k in range(4):
-            p = x[:3, :3] @ np.array([f.sensors[k, 0], f.sensors[k, 1], 0.0]) + x[:3, 3]
+            p = x[:3, :3] @ np.array([f.sensors[k, 0], f.sensors[k, 1], dz]) + x[:3, 3]
             g = mj_bodies[b].add_geom()
             g.name = f"pad_{f.name}_{k + 1}"
             g.type = mujoco.mjtGeom.mjGEOM_SPHERE
@@ -252,7 +292,11 @@ def _add_pads(mujoco, robot, sensors: SensorConfig | None, bench, mj_bodies: lis
             g.conaffinity = 0
             g.condim = 3
             g.friction = [bench.friction, 0.005, 0.0001]
-            g.solref = [bench.contact_timeconst, bench.contact_dampratio]
+            if bench.contact_stiffness is not None:
+                k = float(bench.contact_stiffness)
+                g.solref = [-k, -2.0 * math.sqrt(k)]
+            else:
+                g.solref = [bench.contact_timeconst, bench.contact_dampratio]
             g.mass = 0.0
         site = mj_bodies[b].add_site()
         site.name = f"sole_{f.name}"

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.estimation.identifiability import _sparse_terms, label_columns
+from sescid.estimation.identifiability import label_columns, sparse_terms
 from sescid.sensors.calibration.model import (
     NOT_EXCITED,
     OFFSET_TWIST,
@@ -202,7 +202,7 @@ def unseen_directions(robot, sessions, pb: Problem, sw: np.ndarray) -> list[Sens
                 "these offsets shift the CoP by a constant in their foot's frame, as the SESC "
                 "components of the body fixed to that sole do; poses on the other foot "
                 "separate them",
-                _sparse_terms(xcomp, mass_labels, tol=1e-2),
+                sparse_terms(xcomp, mass_labels, tol=1e-2),
             )
         )
     return namer.out
