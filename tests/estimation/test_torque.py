@@ -438,3 +438,20 @@ def test_torque_gains_ratios_from_the_data(op2):
     reading = fit.predict_torque(qf, reading=True)
     truth = (1 + gains) * (_tau(op2, qf) + off)
     assert np.sqrt(np.mean((reading - truth) ** 2)) < 0.03
+
+
+def test_torque_gains_beside_a_cop_use_the_methods_rows(op2):
+    """Torque gains with a CoP in the same data: the gains' system takes its CoP rows as the
+    method makes them (a MAP fit with a CoP offset keeps that column), and every measured joint
+    gets a gain."""
+    rng = np.random.default_rng(60)
+    q = random_poses(op2, 300, 30, 61)
+    gains = rng.normal(0, 0.05, op2.nq)
+    tau = (1 + gains) * _tau(op2, q) + 1e-3 * rng.normal(size=(300, op2.nq))
+    cop = op2.cop(q) + 1e-4 * rng.normal(size=(300, 2))
+    data = Measurements(q=q, cop=cop, tau=tau, tau_joints=tuple(op2.joint_names))
+    for method in ("ls", sescid.MapOptions(bias=True)):
+        fit = identify(op2, data, tau_gains=True, total_mass=op2.total_mass, gravity_accel=G0,
+                       method=method)  # fmt: skip
+        assert sum(e.what == "gain" for e in fit.nuisance) == op2.nq
+        assert (fit.cop_offset is not None) == (method != "ls")
