@@ -86,3 +86,17 @@ def test_other_sesc_vectors_move_the_cop(op2, rng):
     r2[6, 0] += 0.001  # torso x component: +1 mm
     rot, _ = op2.forward(q)
     np.testing.assert_allclose(op2.cop(q, r2) - op2.cop(q), 0.001 * rot[:, 6, :2, 0], atol=1e-16)
+
+
+def test_stances_share_the_body_parameters(op2, icub_path):
+    """The SESC vectors of every stance (left sole, a held torso) are a linear image of the
+    reference stance's body parameters: r_s = E θ / M to round-off (OP2 and iCub)."""
+    for robot in (op2, sescid.load_robot(icub_path, "r_sole")):
+        theta = robot.body_parameters()
+        mass = theta[: len(robot.body_names)].sum()
+        assert mass == pytest.approx(robot.total_mass, rel=1e-15)
+        others = ("l_sole", "MP_BODY") if robot is op2 else ("l_sole", "root_link")
+        for support in others:
+            other = robot.at(support)
+            r = other.sesc_matrix(robot) @ theta / mass
+            np.testing.assert_allclose(r, other.sesc_vectors().reshape(-1), atol=1e-15)

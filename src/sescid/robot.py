@@ -20,7 +20,10 @@ from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
-__all__ = ["Robot", "line_direction", "load_robot"]
+__all__ = ["DOUBLE", "Robot", "line_direction", "load_robot"]
+
+#: the stance of a robot on both feet: the CoP of the whole robot in its support foot's frame
+DOUBLE = "double"
 
 
 class Robot:
@@ -192,6 +195,65 @@ class Robot:
         mass = self.total_mass if total_mass is None else float(total_mass)
         cols = self.joint_columns(joints)
         return sesc.torques(self.tree, q, rr, mass, cols, gravity, g0)
+
+    # --- stances: the same robot rooted elsewhere ----------------------------------------
+    def at(self, support: str, line: ArrayLike | str | None = None) -> Robot:
+        """The same model and profile rooted at another support frame (a stance: the other
+        foot, a held link, a line); ``line`` as in ``load_robot``."""
+        if support == self.support and line is None:
+            return self
+        key = self.source if self.source in EMBEDDED else self.model_path
+        return load_robot(key, support, line)
+
+    def stance(self, support: str | None) -> Robot:
+        """The robot of a measurement's stance (``Measurements.support``): itself for None,
+        its own support or "double" (both feet, the CoP in this support's frame), else this
+        model rooted at that frame (kept for the next call); ModelError naming an unknown
+        frame."""
+        if support is None or support == self.support or support == DOUBLE:
+            return self
+        cache = self.__dict__.setdefault("_stances", {})
+        if support not in cache:
+            if support not in self.model.link_frames:
+                raise ModelError(
+                    f"{self.model_path.name}: unknown support '{support}' (a stance is a frame "
+                    f"of the model, or '{DOUBLE}' for both feet)"
+                )
+            cache[support] = self.at(support, self.profile.support_lines.get(support))
+        return cache[support]
+
+    def body_parameters(self) -> np.ndarray:
+        """θ (4N,) = [m (N) kg; vec(m c) (3N) kg·m]: each body's mass and first moment about
+        its frame's origin, in its frame (the parameters every stance shares)."""
+        bodies = self.model.bodies
+        first = np.array([b.mass * b.com for b in bodies]).reshape(-1)
+        return np.concatenate([[b.mass for b in bodies], first])
+
+    def sesc_matrix(self, reference: Robot | None = None) -> np.ndarray:
+        """E (3N, 4N) with vec(r) = E θ / M: this support's SESC vectors from the body
+        parameters θ of ``reference`` (the same model rooted elsewhere: its bodies, its body
+        frames; default this robot), M = Σ m. Bodies are matched by the model links they
+        hold; ModelError when the two are not the same model."""
+        from sescid.model.tree import inv_transform
+
+        ref = reference or self
+        mine, theirs = self.model.bodies, ref.model.bodies
+        n = len(mine)
+        where = {lk: j for j, b in enumerate(theirs) for lk in b.links}
+        if len(theirs) != n or any(b.links[0] not in where for b in mine):
+            raise ModelError(
+                f"{self.model_path.name}: the stances '{self.support}' and '{ref.support}' are "
+                "not the same model (different bodies)"
+            )
+        p = np.zeros((4 * n, 4 * n))  # own-frame parameters from the reference's
+        for i, b in enumerate(mine):
+            link = b.links[0]
+            j = where[link]
+            x = self.model.link_frames[link][1] @ inv_transform(ref.model.link_frames[link][1])
+            p[i, j] = 1.0
+            p[n + 3 * i : n + 3 * i + 3, j] = x[:3, 3]
+            p[n + 3 * i : n + 3 * i + 3, n + 3 * j : n + 3 * j + 3] = x[:3, :3]
+        return sesc.sesc_matrix(self.model) @ p
 
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property

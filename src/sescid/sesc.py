@@ -58,6 +58,23 @@ def sesc_vectors(model: RobotModel) -> np.ndarray:
     return r / total
 
 
+def sesc_matrix(model: RobotModel) -> np.ndarray:
+    """K (3N, 4N) with vec(r) = K θ / M for the body parameters θ = [m (N); vec(m c) (3N)]
+    (kg, kg·m, each body's frame) and M = Σ m: the first moments directly, plus each body's
+    mass times its joint offsets for every ancestor that carries it."""
+    bodies = model.bodies
+    n = len(bodies)
+    k = np.zeros((3 * n, 4 * n))
+    k[:, n:] = np.eye(3 * n)
+    for j in range(n):  # the mass of j moves r[parent(a)] by t_a for every ancestor-or-self a
+        a = j
+        while bodies[a].parent >= 0:
+            par = bodies[a].parent
+            k[3 * par : 3 * par + 3, j] += bodies[a].trans_const
+            a = par
+    return k
+
+
 def com_from_sesc(
     tree: Tree, q: ArrayLike, r: np.ndarray, rows: tuple[int, ...] = (0, 1, 2)
 ) -> np.ndarray:

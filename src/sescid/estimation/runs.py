@@ -27,8 +27,9 @@ from sescid.estimation.options import (
     MapOptions,
     MethodOptions,
 )
+from sescid.estimation.pooled import accumulate_sources
 from sescid.estimation.sources import StreamSource
-from sescid.estimation.system import RowOptions, System, accumulate_sources
+from sescid.estimation.system import RowOptions, System
 from sescid.estimation.validation import folds as split_folds
 from sescid.robot import Robot
 
@@ -215,9 +216,10 @@ def _anchor(robot: Robot, system: System, options: IdentifyOptions):
     CoM height (``options.com_height``), for which the prior model is scaled first — with the
     prior SESC vectors used and the scale's source; the data as they are otherwise."""
     from sescid.estimation import anchor
+    from sescid.estimation.least_squares import prior_theta
 
     r0 = robot.sesc_vectors() if options.r_prior is None else np.asarray(options.r_prior)
-    theta0 = np.concatenate([r0.reshape(-1), np.zeros(len(system.nuisance))])
+    theta0 = prior_theta(robot, system, options.r_prior)
     if not anchor.homogeneous(robot, system, theta0):
         if options.com_height is not None:
             raise OptionError(
@@ -227,6 +229,16 @@ def _anchor(robot: Robot, system: System, options: IdentifyOptions):
         return system, options.r_prior, None
     prior_distance = anchor.com_distance(robot, r0)
     by = "prior"
+    if system.space == "bodies":  # pooled stances: the prior's scale, on the shared parameters
+        from sescid.estimation.pooled import stance_map
+
+        if options.com_height is not None:
+            raise OptionError("com_height", "a known CoM height anchors one stance's data")
+        lmap = stance_map(robot, robot.support)
+        a_r = anchor.scale_functional(robot, lmap.shape[0], r0)
+        a = np.zeros(system.size)
+        a[: system.n_x] = lmap.T @ a_r
+        return anchor.anchored(system, a, theta0), None, (by, prior_distance, None)
     if options.com_height is not None:
         lam = anchor.rescale(robot, r0, options.com_height)
         r_c = anchor.collapse_point(robot, system)[: system.n_x].reshape(-1, 3)

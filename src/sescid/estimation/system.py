@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -35,6 +36,11 @@ from sescid.sesc import STANDARD_GRAVITY
 
 #: MAP prior standard deviation of a constant CoP offset: effectively flat, m
 NUISANCE_PRIOR_COP = 1.0
+
+
+#: what a system's parameters are: one stance's SESC vectors, or the body parameters that
+#: several stances share (``System.space``)
+Space = Literal["sesc", "bodies"]
 
 
 @dataclass(frozen=True)
@@ -87,6 +93,11 @@ class System:
     n_poses: int = 0
     sources: list[str] = field(default_factory=list)
     gravity_accel: float = STANDARD_GRAVITY  #: |g| behind the torque rows, m/s²
+    #: the parameters: "sesc" (vec(r) of the robot's support, 3N) or "bodies" (the body
+    #: parameters x = [m/M; vec(m c)/(M ℓ)], 4N, that several stances share: ``pooled``)
+    space: Space = "sesc"
+    #: a pooled system: each stance's own sums over the same x (support → System)
+    stances: dict[str, System] = field(default_factory=dict)
 
     @property
     def size(self) -> int:
@@ -371,22 +382,28 @@ def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
     return NormalEquations(ata, atb, ne.yty, ne.n_rows, ne.n_poses)
 
 
-def accumulate_sources(
+def accumulate_stances(
     robot: Robot, sources, options: RowOptions = RowOptions(), progress=None
-) -> System:
-    """The pooled system of several sources, each an iterable of ``Measurements`` chunks
-    (validated); ``progress(poses_done)`` counts the poses of all sources."""
-    system: System | None = None
+) -> dict[str, System]:
+    """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
+    (validated): support → System over that stance's SESC vectors, each summed with its own
+    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
+    sources. ``pooled.accumulate_sources`` makes one system of them."""
+    systems: dict[str, System] = {}
     before = 0
     for chunks in sources:
-        acc = Accumulator(robot, options)
+        accs: dict[str, Accumulator] = {}
         start = before
         report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
         for m in chunks:
-            acc.add(m, report)
-        part = acc.finish()
-        before += part.n_poses
-        system = part if system is None else system.merged(part)
-    if system is None:
+            key = m.support or robot.support
+            if key not in accs:
+                accs[key] = Accumulator(robot.stance(m.support), options)
+            accs[key].add(m, report)
+        for key, acc in accs.items():
+            part = acc.finish()
+            before += part.n_poses
+            systems[key] = part if key not in systems else systems[key].merged(part)
+    if not systems:
         raise DataError("no data to identify from")
-    return system
+    return systems

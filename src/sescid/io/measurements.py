@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from sescid.base.columns import Table, read_approach, read_cop, read_poses, read_torques
-from sescid.errors import DataError
+from sescid.errors import DataError, ModelError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
@@ -141,7 +141,38 @@ def read_measurements(
                 f"{path}: {rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
+        yield from by_support(table, robot, m)
+
+
+#: the column naming each row's stance (a frame of the model, or "double")
+SUPPORT_COLUMN = "support"
+
+
+def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:
+    """The rows of a chunk grouped by their ``support`` column (each group in file order, the
+    groups in order of first appearance); the chunk as it is without the column. An unknown
+    support is an error naming the row."""
+    if SUPPORT_COLUMN not in table.text and SUPPORT_COLUMN not in table.columns:
         yield m
+        return
+    if SUPPORT_COLUMN in table.columns:  # all numbers: no frame is named so
+        raise DataError(
+            f"{table.path}: row {table.row(0)}, column '{SUPPORT_COLUMN}': "
+            f"'{table.columns[SUPPORT_COLUMN][0]:g}' is not a frame of the model"
+        )
+    names = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    for name in dict.fromkeys(names.tolist()):
+        rows = np.flatnonzero(names == name)
+        if not name:
+            raise DataError(f"{table.path}: row {table.row(rows[0])}, column 'support' is empty")
+        try:
+            robot.stance(name)
+        except ModelError as exc:
+            raise DataError(
+                f"{table.path}: row {table.row(rows[0])}, column 'support': {exc}"
+            ) from None
+        support = None if name == robot.support else name
+        yield dataclasses.replace(m.take(rows), support=support)
 
 
 def rows_estimate(path: str | Path) -> int | None:
