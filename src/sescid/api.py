@@ -31,7 +31,7 @@ from sescid.estimation import (
 from sescid.io.measurements import ReadReport, read_measurements
 from sescid.robot import Robot
 
-__all__ = ["identify"]
+__all__ = ["file_stance", "identify"]
 
 
 def _is_path(x: Any) -> bool:
@@ -65,6 +65,17 @@ def _se(sigma: Any, n: int) -> np.ndarray:
     return s
 
 
+def file_stance(path: str | Path) -> tuple[Path, str | None]:
+    """A data file and the stance its rows were measured in: ``FILE@FRAME`` (the file
+    ``FILE``, rows without a ``support`` column in the stance ``FRAME``: the other foot, a held
+    link) unless a file of that whole name exists; (path, None) otherwise."""
+    p = Path(path)
+    if "@" in p.name and not p.exists():
+        name, frame = p.name.rsplit("@", 1)
+        return p.with_name(name), frame
+    return p, None
+
+
 def identify(
     robot: Robot,
     data: Any,
@@ -79,7 +90,9 @@ def identify(
 ) -> Fit:
     """Identify the SESC vectors (and sensor offsets) from static poses and what was measured.
 
-    ``data``: a path or a list of paths (pooled), a ``Measurements`` (q (n, nq) rad with a CoP
+    ``data``: a path or a list of paths (pooled; ``FILE@FRAME`` reads FILE as measured in the
+    stance FRAME, ``file_stance``, and a ``support`` column names each row's stance), a
+    ``Measurements`` (q (n, nq) rad with a CoP
     (n, 2) m and/or joint torques (n, J) N·m), a list of them, chunks of one data set; or joint
     angles with ``cop=`` (n, 2) m, optional ``sigma=`` per-pose CoP standard errors (n,) or
     (n, 2) m (a weighted fit) and ``gravity=`` per-pose gravity directions (n, 3) in the support
@@ -104,13 +117,14 @@ def identify(
         raise OptionError("cop", "cop=, sigma= and gravity= go with joint angles, not with files")
     got: list[ReadReport] = []
     streams = []
-    for p in paths:
+    for given in paths:
+        p, stance = file_stance(given)
         rep = ReadReport(str(p))
         got.append(rep)
         streams.append(
             read_measurements(
                 p, robot, imu_link=opts.imu_link,
-                allow_outside_limits=opts.allow_outside_limits, report=rep,
+                allow_outside_limits=opts.allow_outside_limits, report=rep, support=stance,
             )
         )  # fmt: skip
     fit = fit_measurements(robot, streams, method=method, options=opts, progress=progress)

@@ -142,3 +142,43 @@ def test_double_support_rows_are_the_robots_cop_and_refuse_torques(op2, rng):
     m = Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names), support="double")
     with pytest.raises(DataError, match="joint torques on both feet"):
         identify(op2, [Measurements(q=q, cop=cop), m], total_mass=op2.total_mass)
+
+
+def test_pooled_fit_on_the_command_line_and_in_its_file(tmp_path):
+    """simulate on each sole (a support column), identify pools them, the fit file keeps the body
+    parameters, predict --support answers in the other stance, FILE@FRAME reads a file without
+    the column."""
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+    from sescid.io import read_table
+
+    def run(*args):
+        res = CliRunner().invoke(cli, [str(a) for a in args])
+        assert res.exit_code == 0, res.output
+        return res.output
+
+    op2 = sescid.load_robot("op2")
+    run("simulate", "--poses", 60, "--seed", 1, "--out", tmp_path / "r.csv")
+    run("simulate", "--support", "l_sole", "--poses", 60, "--seed", 2, "--out", tmp_path / "l.csv")
+    assert set(read_table(tmp_path / "l.csv").text["support"]) == {"l_sole"}
+    out = run("identify", tmp_path / "r.csv", tmp_path / "l.csv", "--method", "ls",
+              "--allow-outside-limits", "--out", tmp_path / "f.json")  # fmt: skip
+    assert "stances pooled over the 84 body parameters" in out
+    fit = sescid.load_fit(tmp_path / "f.json")
+    assert fit.bodies is not None and fit.bodies.rank == 44
+    run("predict", tmp_path / "f.json", tmp_path / "l.csv", "--support", "l_sole",
+        "--out", tmp_path / "p.csv")  # fmt: skip
+    table = read_table(tmp_path / "p.csv")
+    data = read_table(tmp_path / "l.csv")
+    ql = np.column_stack([data.get(j) for j in op2.joint_names])
+    seen = for_support(fit, "l_sole")
+    np.testing.assert_allclose(table.get("cop_x"), seen.predict_cop(ql)[:, 0], atol=1e-15)
+    # a file without the column, named with its stance
+    cols = {c: data.get(c) for c in op2.joint_names + ["cop_x", "cop_y"]}
+    from sescid.io import write_table
+
+    write_table(tmp_path / "bare.csv", cols)
+    run("identify", tmp_path / "r.csv", f"{tmp_path / 'bare.csv'}@l_sole", "--method", "ls",
+        "--allow-outside-limits", "--out", tmp_path / "g.json")  # fmt: skip
+    np.testing.assert_allclose(sescid.load_fit(tmp_path / "g.json").r, fit.r, atol=1e-12)

@@ -11,6 +11,7 @@ import math
 
 import click
 
+from sescid.api import file_stance
 from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import (
@@ -277,12 +278,15 @@ def identify(data, robot_name, support, out, method, force, **opts):
 
     Optional columns: grav_x, grav_y, grav_z (gravity direction in the support frame; a tilted
     sole), approach (±1: each pose reached moving up or down, for torque friction), cop_se_*,
-    tau_se_* (standard errors, with --weighted).
+    tau_se_* (standard errors, with --weighted), support (each row's stance: a frame of the
+    model such as the other sole or a held link, or "double"; stances are pooled over the body
+    parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
-    outs = OutputSet([out], [*data, model_input(robot_name)], force=force)
+    files = [file_stance(d)[0] for d in data]
+    outs = OutputSet([out], [*files, model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     chosen, options = options_from_flags(method, opts)
-    size = sum(rows_estimate(d) or 0 for d in data) or None
+    size = sum(rows_estimate(f) or 0 for f in files) or None
     with TerminalProgress("identifying poses") as bar:
         fit = run_identify(
             robot,

@@ -57,6 +57,7 @@ from sescid.estimation.options import (
     Via,
     method_options,
 )
+from sescid.estimation.pooled import BodyFit, StanceRank, for_support
 from sescid.estimation.validation import (
     Interval,
     balance_interval,
@@ -68,6 +69,7 @@ from sescid.estimation.validation import (
 
 __all__ = [
     "AutoOptions",
+    "BodyFit",
     "BodyInertials",
     "Combination",
     "ConsistentOptions",
@@ -98,6 +100,7 @@ __all__ = [
     "OnlineInfo",
     "Robust",
     "RobustInfo",
+    "StanceRank",
     "Via",
     "accumulate",
     "body_boxes",
@@ -108,6 +111,7 @@ __all__ = [
     "cop_interval",
     "fit_inertials",
     "fit_warnings",
+    "for_support",
     "identifiable_eigen",
     "fit_measurements",
     "MODEL_CHANGED",

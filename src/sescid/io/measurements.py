@@ -124,9 +124,14 @@ def read_measurements(
     imu_link: str | None = None,
     allow_outside_limits: bool = False,
     report: ReadReport | None = None,
+    support: str | None = None,
 ) -> Iterator[Measurements]:
     """The file's chunks as ``Measurements``, read once, as they are parsed (module docstring).
-    ``report`` collects the poses outside the limits and whether the data are simulated."""
+    ``report`` collects the poses outside the limits and whether the data are simulated;
+    ``support``: the stance of rows without a ``support`` column (None: the robot's own)."""
+    if support is not None:
+        robot.stance(support)  # an unknown frame: the one-line error now
+        support = None if support == robot.support else support
     rep = report if report is not None else ReadReport(str(path))
     for table in read_ahead(iter_table(path)):
         m = measurements_of(table, robot, imu_link)
@@ -141,7 +146,7 @@ def read_measurements(
                 f"{path}: {rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
-        yield from by_support(table, robot, m)
+        yield from by_support(table, robot, dataclasses.replace(m, support=support))
 
 
 #: the column naming each row's stance (a frame of the model, or "double")
@@ -150,8 +155,8 @@ SUPPORT_COLUMN = "support"
 
 def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:
     """The rows of a chunk grouped by their ``support`` column (each group in file order, the
-    groups in order of first appearance); the chunk as it is without the column. An unknown
-    support is an error naming the row."""
+    groups in order of first appearance); the chunk as it is (its ``support``) without the
+    column. An unknown support is an error naming the row."""
     if SUPPORT_COLUMN not in table.text and SUPPORT_COLUMN not in table.columns:
         yield m
         return
