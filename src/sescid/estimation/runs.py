@@ -158,12 +158,12 @@ def fit_auto(
         )
         return dataclasses.replace(fit, choice=MethodChoice("ls", why))
     seen = mapped.rank
-    if options.map.prior_scale is None and mapped.map.prior_scale_by == "evidence":
+    if settings.prior_scale is None and mapped.map.prior_scale_by == "evidence":
         # the CAD model stays unless the data show it is off: the evidence of the best prior
         # scale against (almost) none, a Bayes factor of at least e^AUTO_EVIDENCE
         from sescid.estimation.map import TAU_RANGE
 
-        pinned = dataclasses.replace(options.map, prior_scale=TAU_RANGE[0])
+        pinned = dataclasses.replace(settings, prior_scale=TAU_RANGE[0])
         cad = fit_map(
             robot, system, pinned, rtol=options.rtol, kind_noise=options.noise(),
             r_prior=r_prior,
