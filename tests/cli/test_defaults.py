@@ -115,7 +115,7 @@ def _robot(d) -> list:
 def _identify(d: _Read) -> list:
     from sescid.cli.identify import options_from_flags
 
-    options = options_from_flags(d["method"], d)
+    _, options = options_from_flags(d["method"], d)
     mine = [(f.name, getattr(options, f.name)) for f in dataclasses.fields(IdentifyOptions)]
     api = IdentifyOptions()
     names = {"robust": "robust", "joint_noise": "joint_noise_deg", "online_step": "online"}
@@ -123,7 +123,7 @@ def _identify(d: _Read) -> list:
         *_robot(d),
         ("method", d["method"], _arg(identify, "method")),
         *[(names.get(n, f"IdentifyOptions.{n}"), v, getattr(api, n)) for n, v in mine],
-        ("MapOptions", options_from_flags("map", d).map, MapOptions()),  # read for --method map
+        ("MapOptions", options_from_flags("map", d)[0], MapOptions()),  # read for --method map
     ]
 
 

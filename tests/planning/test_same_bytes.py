@@ -20,7 +20,7 @@ def _poses(out, robot_args, extra_env) -> bytes:
     env = {k: v for k, v in os.environ.items() if k not in GENERIC} | extra_env
     args = [*robot_args, "--count", "21", "--candidates", "300", "--test-poses", "100",
             "--seed", "0", "--out", str(out)]  # fmt: skip
-    code = "import sys; from sescid.cli import main; sys.argv[:1] = ['sescid', 'poses']; main()"
+    code = "import sys; from _sescid_launch import main; sys.argv[:1] = ['sescid', 'poses']; main()"
     res = subprocess.run([sys.executable, "-c", code, *args], env=env, capture_output=True,
                          text=True, timeout=600)  # fmt: skip
     assert res.returncode == 0, res.stderr + res.stdout

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import click
 import numpy as np
 
@@ -9,18 +11,20 @@ from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     load,
-    mm,
+    model_input,
     robot_options,
     seed_option,
 )
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError, SescidError, choices
 from sescid.estimation import min_poses
 from sescid.io import write_table
 from sescid.planning import (
     DEFAULT_CLEARANCE,
     DEFAULT_TAU_NOISE,
-    DESIGN_KINDS,
+    DesignKind,
+    Mount,
     PlanOptions,
+    Select,
     block_curve,
     cop_half_extents,
     default_candidates,
@@ -32,7 +36,7 @@ from sescid.planning import (
     sampling_limits,
 )
 from sescid.planning import paper_convention as robot_paper_convention
-from sescid.report import design_figure
+from sescid.report import design_figure, mm
 from sescid.simulation import PAPER_NOISE
 
 
@@ -59,7 +63,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--select",
-    type=click.Choice(["d-optimal", "random"]),
+    type=click.Choice(choices(Select)),
     default="d-optimal",
     show_default=True,
     help="D-optimal (greedy + exchange) or K random candidates.",
@@ -141,7 +145,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--kinds",
-    type=click.Choice(list(DESIGN_KINDS)),
+    type=click.Choice(choices(DesignKind)),
     default="cop",
     show_default=True,
     help="What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
@@ -162,7 +166,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--mount",
-    type=click.Choice(["stand", "gantry"]),
+    type=click.Choice(choices(Mount)),
     default=None,
     help="stand: on the support foot (balance checked); gantry: the support link (a torso, "
     "pelvis) held level, the robot hanging free (joint limits, floor, self-collision only; "
@@ -189,7 +193,7 @@ def poses(
     robot_name,
     support,
     count,
-    select,
+    select: Select,
     seed,
     out,
     n_candidates,
@@ -204,12 +208,12 @@ def poses(
     figure,
     paper_convention: bool,
     rigid: bool,
-    kinds: str,
+    kinds: DesignKind,
     tau_noise: float,
     tau_joints: str,
-    mount: str | None,
+    mount: Mount | None,
     hang_height: float | None,
-    check: str,
+    check: Literal["none", "mujoco"],
     force: bool,
 ):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
@@ -219,7 +223,7 @@ def poses(
     <joint>_ticks (when the robot profile knows its servo), cop_x, cop_y (model CoP, m; not for
     a robot held in a gantry).
     """
-    outs = OutputSet([out, figure], [robot_name], force=force)
+    outs = OutputSet([out, figure], [model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     if n_candidates is None:
         n_candidates = default_candidates(robot, select, count, kinds)

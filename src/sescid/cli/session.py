@@ -14,13 +14,14 @@ from sescid.cli.common import (
     SEED_HELP,
     force_option,
     load,
-    mm,
+    model_input,
     robot_options,
     sensors_option,
 )
 from sescid.cli.experiment import bench_sensors, torque_config, torque_options
 from sescid.errors import OptionError
 from sescid.planning import MOUNTS
+from sescid.report import mm
 from sescid.session import SESSION_KINDS, SessionOptions, session_mount
 
 _OPT = SessionOptions()
@@ -287,7 +288,11 @@ def _adapter(robot, opts, opt):
     from sescid.sensors import load_sensors
 
     adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
-    inputs = [opts["robot_name"], opts["sensors_file"], *_replay_files(adapter, replay_path)]
+    inputs = [
+        model_input(opts["robot_name"]),
+        opts["sensors_file"],
+        *_replay_files(adapter, replay_path),
+    ]
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
     outputs = [Path(out_dir) / name for name in SESSION_FILES]

@@ -24,19 +24,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError, SescidError, check_choice
 from sescid.model.sole import supporting_leg
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
-from sescid.planning.candidates import Candidates
+from sescid.planning.candidates import Candidates, Mount, Sampling
 from sescid.planning.collision import collision_capsules
 from sescid.planning.ground import clear_above, ground_checks, lowest_heights
+from sescid.planning.kinds import DesignKind
 from sescid.planning.limits import sampling_limits
 from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
 
-#: the mounts a plan knows
-MOUNTS = ("stand", "gantry")
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
 #: draws without one accepted pose after which the gantry search gives up
@@ -62,13 +61,12 @@ def held_trunk(robot: Robot) -> bool:
     return supporting_leg(parents, robot.masses)[1] == 0
 
 
-def resolve_mount(robot: Robot, mount: str | None, kinds: str) -> str:
+def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
     """The plan's mount: ``mount``, or from the support (``held_trunk``: gantry, else stand);
     OptionError for a CoP design on a gantry (a held robot loads no foot)."""
     if mount is None:
         mount = "gantry" if held_trunk(robot) else "stand"
-    if mount not in MOUNTS:
-        raise OptionError("mount", f"must be one of {', '.join(MOUNTS)}, got {mount!r}")
+    check_choice("mount", mount, Mount)
     if mount == "gantry" and kinds != "tau":
         raise OptionError(
             "kinds",
@@ -134,7 +132,8 @@ def gantry_candidates(
     width = lim[:, 1] - lim[:, 0]
     qs: list[np.ndarray] = []
     counts = np.zeros(3, dtype=np.int64)  # drawn, clear of the floor, free of self-collision
-    sampler, size = "uniform", chunk
+    sampler: Sampling = "uniform"
+    size = chunk
     while counts[2] < n:
         if sampler == "uniform":
             q = rng.random((size, robot.nq)) * width + lim[:, 0]

@@ -18,9 +18,10 @@ import numpy as np
 
 from sescid.errors import DataError, OptionError
 from sescid.planning import (
-    MOUNTS,
     CandidateOptions,
+    DesignKind,
     GantryOptions,
+    Mount,
     TorqueRows,
     block_rows,
     candidates,
@@ -38,25 +39,20 @@ from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.session.records import SessionOptions
 
-#: the kinds a session may be asked for
-SESSION_KINDS = ("auto", "cop", "tau", "both")
 
-
-def session_mount(robot: Robot, opt: SessionOptions) -> tuple[str, str]:
+def session_mount(robot: Robot, opt: SessionOptions) -> tuple[Mount, DesignKind]:
     """(mount, kinds planned for before the first measurement); OptionError for kinds a mount
     cannot give (a CoP in a gantry)."""
-    if opt.kinds not in SESSION_KINDS:
-        raise OptionError("kinds", f"must be one of {', '.join(SESSION_KINDS)}, got {opt.kinds}")
-    if opt.mount is not None and opt.mount not in MOUNTS:
-        raise OptionError("mount", f"must be one of {', '.join(MOUNTS)}, got {opt.mount!r}")
-    mount = opt.mount or ("gantry" if held_trunk(robot) else "stand")
-    kinds = opt.kinds
-    if kinds == "auto":
+    mount: Mount = opt.mount or ("gantry" if held_trunk(robot) else "stand")
+    kinds: DesignKind
+    if opt.kinds == "auto":
         kinds = "tau" if mount == "gantry" else "cop"
+    else:
+        kinds = opt.kinds
     return resolve_mount(robot, mount, kinds), kinds
 
 
-def kinds_of(cop: bool, tau: bool) -> str:
+def kinds_of(cop: bool, tau: bool) -> DesignKind:
     """The design kinds of a measurement with a CoP and/or joint torques."""
     return "both" if cop and tau else "cop" if cop else "tau"
 
@@ -86,7 +82,7 @@ class SessionDesign:
             self.cand = candidates(robot, opt.n_candidates, opt.seed, draw, progress=progress)
         self.basis, self.design, self.min_rows = self._design(self.kinds)
 
-    def _design(self, kinds: str) -> tuple[np.ndarray, SequentialDesign, int]:
+    def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:
         """(basis, sequential design, fewest poses that determine it) for ``kinds``."""
         q = self.cand.q
         if kinds == "cop":
@@ -100,7 +96,7 @@ class SessionDesign:
         need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
         return basis, SequentialDesign(rows, self.opt.near), need
 
-    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> str:
+    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> DesignKind:
         """The kinds a measurement gives for this session (``auto``: all of them); DataError
         when it lacks what the session was asked for."""
         asked = self.opt.kinds
@@ -121,7 +117,7 @@ class SessionDesign:
             )
         return kinds_of(cop, tau) if asked == "auto" else asked
 
-    def switch(self, kinds: str, measured: list[int]) -> None:
+    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
         """Plan for ``kinds`` from now on: a new design holding the poses ``measured`` (pool
         indices) and never proposing one already commanded."""
         if kinds == self.kinds:

@@ -43,6 +43,7 @@ from sescid.base.columns import Table
 from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
+from sescid.planning import DesignKind
 from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
@@ -96,8 +97,6 @@ def check_options(robot: Robot, opt: SessionOptions) -> int:
             raise OptionError(name, f"must be a positive noise level, got {v}")
     if opt.total_mass is not None:
         check_total_mass(robot, opt.total_mass)
-    if opt.torque_method not in ("ls", "map"):
-        raise OptionError("torque_method", f"must be ls or map, got {opt.torque_method!r}")
     return need if opt.min_measured is None else opt.min_measured
 
 
@@ -148,7 +147,7 @@ class _Run:
             c: np.asarray(cols[c]) for c in self.names
         }
 
-    def _kinds(self, meas, step: SessionStep) -> str:
+    def _kinds(self, meas, step: SessionStep) -> DesignKind:
         """The kinds this pose measured for the session; at the first measured pose the
         estimator is made and the design switched to them (``SessionDesign.switch``)."""
         has_cop = meas.cop is not None and meas.cop_se is not None

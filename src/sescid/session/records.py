@@ -5,16 +5,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 
+from sescid.errors import check_choice
 from sescid.estimation.fit import Fit
-from sescid.planning import DEFAULT_TAU_NOISE, Candidates
+from sescid.planning import DEFAULT_TAU_NOISE, Candidates, DesignKind, Mount, Quantity
 from sescid.sensors import Measured
 from sescid.simulation import PAPER_NOISE
 
 #: m, prior scale of a body's SESC components, for the per-body uncertainty shown (0..1 scale)
 BODY_PRIOR_SCALE = 0.005
+#: what a session chooses its poses for: a design's kinds, or "auto" (what the robot reports)
+SessionKind = Literal["auto", DesignKind]
+SESSION_KINDS: tuple[SessionKind, ...] = get_args(SessionKind)
+#: how a session with joint torques fits (``identify``'s method)
+TorqueMethod = Literal["ls", "map"]
 
 
 @dataclass(frozen=True)
@@ -36,16 +43,22 @@ class SessionOptions:
     #: what the poses are chosen for: "cop", "tau", "both", or "auto" — what the robot reports
     #: (decided at the first measured pose; planned for the CoP before it, joint torques when
     #: the robot is held in a gantry)
-    kinds: str = "auto"
+    kinds: SessionKind = "auto"
     cop_noise: float = PAPER_NOISE  #: m, CoP noise per pose the design weighs CoP rows by
     tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose the design assumes
-    mount: str | None = None  #: "stand" or "gantry" (None: from the support, ``planning.gantry``)
+    mount: Mount | None = None  #: None: from the support (``planning.resolve_mount``)
     hang_height: float | None = None  #: m, gantry: held link above the floor (None: the rule)
     #: kg, the weighed mass that scales joint torques (None: the model's, with a warning)
     total_mass: float | None = None
     #: how a session with joint torques fits: "map" (the CAD prior, as ``identify --method
     #: map``) or "ls"; a CoP session fits least squares (the online estimator)
-    torque_method: str = "map"
+    torque_method: TorqueMethod = "map"
+
+    def __post_init__(self) -> None:
+        check_choice("kinds", self.kinds, SessionKind)
+        if self.mount is not None:
+            check_choice("mount", self.mount, Mount)
+        check_choice("torque_method", self.torque_method, TorqueMethod)
 
 
 @dataclass
@@ -57,7 +70,7 @@ class SessionStep:
     q: np.ndarray  #: (nq,) commanded, rad
     gain: float  #: log det rise expected from this pose
     distance: float  #: rad, joint-space distance from the previous pose
-    status: str  #: "measured" or "skipped"
+    status: Literal["measured", "skipped"]
     reason: str = ""  #: why skipped
     q_measured: np.ndarray | None = None  #: (nq,) mean read-backs, rad
     cop: np.ndarray | None = None  #: (2,) measured CoP, m
@@ -69,7 +82,7 @@ class SessionStep:
     rank: int = 0
     converged: bool = False
     body_std: np.ndarray | None = None  #: (N,) per-body SESC std after this pose, m
-    quantity: str = "CoP"  #: what ``cop_std`` is the std of: "CoP" or "CoM x/y"
+    quantity: Quantity = "CoP"  #: what ``cop_std`` is the std of
     tau: np.ndarray | None = None  #: (J,) measured joint torques, N·m (sessions with torques)
 
 
@@ -102,7 +115,7 @@ class SessionResult:
         return done[-1] if done else math.inf
 
     @property
-    def quantity(self) -> str:
+    def quantity(self) -> Quantity:
         """What ``cop_std`` is the std of: "CoP" or "CoM x/y" (a session with torques)."""
         done = [s.quantity for s in self.steps if s.status == "measured"]
         return done[-1] if done else "CoP"
