@@ -10,7 +10,10 @@ choice and its expected CoP error (``doptimal``), optionally checked on a physic
 for joint torques, alone or with the CoP (``PlanOptions.kinds``): each pose's rows of those
 kinds with a torque offset per joint as nuisance (``kinds``), chosen D-optimally in blocks
 (``blocks``), the expected CoM x/y error (``plan_kinds``); a robot held in a fixture
-(``gantry``): no balance, only joint limits, the floor and self-collision. Every kernel runs
+(``gantry``): no balance, only joint limits, the floor and self-collision. On both feet
+(``double``): the other foot's sole closed onto the floor by inverse kinematics (``closure``),
+the CoP inside both feet's support. Over a set of stances (``stances``, ``plan_stances``): one
+design over the body parameters they share, a cost per stance change. Every kernel runs
 without fast-math and breaks near-ties by index: the same poses on every CPU.
 """
 
@@ -44,6 +47,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
         random_cop_error,
         select_d_optimal,
     )
+    from sescid.planning.double import double_candidates
     from sescid.planning.gantry import (
         GANTRY_LIFT,
         MOUNTS,
@@ -80,6 +84,12 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.planning.ordering import order_poses, path_length
     from sescid.planning.plan import design_curve, plan_poses
     from sescid.planning.plan_kinds import block_curve, choose_blocks
+    from sescid.planning.plan_stances import (
+        DEFAULT_STANCE_COST,
+        StancePlan,
+        StanceReport,
+        plan_stances,
+    )
     from sescid.planning.plan_types import PlanOptions, PoseCheck, PosePlan, default_candidates
     from sescid.planning.stability import (
         DEFAULT_CLEARANCE,
@@ -90,9 +100,12 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
         sole_corners,
         stable_mask,
     )
+    from sescid.planning.stances import DOUBLE, Stance, parse_stances, stance_robot
 
 __all__ = [
     "DEFAULT_CLEARANCE",
+    "DEFAULT_STANCE_COST",
+    "DOUBLE",
     "DEFAULT_TAU_NOISE",
     "DESIGN_KINDS",
     "FALLBACK_COP_BOX",
@@ -114,6 +127,9 @@ __all__ = [
     "PoseCheck",
     "PosePlan",
     "Selection",
+    "Stance",
+    "StancePlan",
+    "StanceReport",
     "block_curve",
     "block_rows",
     "box_capsules",
@@ -129,6 +145,7 @@ __all__ = [
     "default_candidates",
     "design_curve",
     "design_kinds",
+    "double_candidates",
     "dynamic_cop",
     "expected_com_error",
     "expected_cop_error",
@@ -147,9 +164,11 @@ __all__ = [
     "min_block_poses",
     "order_poses",
     "paper_convention",
+    "parse_stances",
     "path_length",
     "per_row_information",
     "plan_poses",
+    "plan_stances",
     "pool_information",
     "projected_regressor",
     "random_com_error",
@@ -160,6 +179,7 @@ __all__ = [
     "schur_logdet",
     "segment_distance",
     "select_blocks",
+    "stance_robot",
     "select_d_optimal",
     "sole_corners",
     "stable_mask",
@@ -179,6 +199,15 @@ _EXPORTS = {
     "ComState": "sescid.planning.com",
     "Compliance": "sescid.planning.compliance",
     "DEFAULT_CLEARANCE": "sescid.planning.stability",
+    "DEFAULT_STANCE_COST": "sescid.planning.plan_stances",
+    "DOUBLE": "sescid.planning.stances",
+    "Stance": "sescid.planning.stances",
+    "StancePlan": "sescid.planning.plan_stances",
+    "StanceReport": "sescid.planning.plan_stances",
+    "double_candidates": "sescid.planning.double",
+    "parse_stances": "sescid.planning.stances",
+    "plan_stances": "sescid.planning.plan_stances",
+    "stance_robot": "sescid.planning.stances",
     "DEFAULT_TAU_NOISE": "sescid.planning.kinds",
     "DESIGN_KINDS": "sescid.planning.kinds",
     "DesignKinds": "sescid.planning.kinds",

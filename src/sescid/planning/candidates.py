@@ -59,7 +59,10 @@ class Candidates:
     n_box: int = 0  #: raw poses whose CoP is in the box
     compliance: Compliance | None = None  #: the compliant-stability model checked (None: rigid)
     notes: list[str] = field(default_factory=list)
-    mount: str = "stand"  #: "stand" on the support foot, or "gantry" (held: no balance)
+    #: "stand" on the support foot, "gantry" (held: no balance) or "double" (on both feet)
+    mount: str = "stand"
+    #: (n, 4) double support: the free sole's placement x, y [m], cos ψ, sin ψ on the floor
+    placement: np.ndarray | None = None
 
     @property
     def acceptance(self) -> float:
@@ -75,6 +78,14 @@ class Candidates:
             return (
                 f"{self.n_sampled} {drawn}, held: {self.n_ground / s:.2%} clear of the floor, "
                 f"{self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
+            )
+        if self.mount == "double":
+            return (
+                f"{self.n_sampled} draws on both feet: {self.n_box / s:.2%} closed onto the "
+                f"floor within the limits, {self.n_stable / s:.2%} stable (CoP inside both "
+                f"feet){' and compliant' if self.compliance is not None else ''}, "
+                f"{self.n_ground / s:.2%} also ground-clear, {self.n_free / s:.2%} also free of "
+                f"self-collision ({self.n_free} accepted)"
             )
         kind = {
             "uniform": "uniform poses",

@@ -35,8 +35,8 @@ from sescid.planning.limits import sampling_limits
 from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
 
-#: the mounts a plan knows
-MOUNTS = ("stand", "gantry")
+#: the mounts a plan knows: on the support foot, held in a gantry, on both feet (``double``)
+MOUNTS = ("stand", "gantry", "double")
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
 #: draws without one accepted pose after which the gantry search gives up
@@ -64,11 +64,18 @@ def held_trunk(robot: Robot) -> bool:
 
 def resolve_mount(robot: Robot, mount: str | None, kinds: str) -> str:
     """The plan's mount: ``mount``, or from the support (``held_trunk``: gantry, else stand);
-    OptionError for a CoP design on a gantry (a held robot loads no foot)."""
+    OptionError for a CoP design on a gantry (a held robot loads no foot) and for torques on
+    both feet."""
     if mount is None:
         mount = "gantry" if held_trunk(robot) else "stand"
     if mount not in MOUNTS:
         raise OptionError("mount", f"must be one of {', '.join(MOUNTS)}, got {mount!r}")
+    if mount == "double" and kinds != "cop":
+        raise OptionError(
+            "kinds",
+            "on both feet the joint torques depend on how the load splits between the feet (a "
+            "closed chain), not on the mass model alone: plan the CoP on both feet (--kinds cop)",
+        )
     if mount == "gantry" and kinds != "tau":
         raise OptionError(
             "kinds",
