@@ -18,15 +18,20 @@ on the floor plane, z up, at the placement, to ``closure.CLOSE_TOL``). A closed 
    ``compliance.EDGE_MARGIN``;
 3. every body but the two feet clears the floor (as on one foot, ``ground``), and the bodies
    beyond the free foot (toes) do not reach below it;
-4. no two collision capsules touch (``collision``; the feet against each other too).
+4. no two collision capsules touch (``collision``; the feet against each other too); pairs that
+   closing the loop cannot move apart (both hanging from one body of the loop: head and arms
+   on the trunk) are checked on the draws first (``rigid_pairs``).
 
-The uniform draws hand over to draws near accepted poses (``adjust.draw``) when fewer than
-``SWITCH_RATE`` are kept. The candidates' ``cop`` is the CoM's projection, the CoP of the whole
-robot on both feet: the same rows as on one foot, in the reference foot's frame.
+The draws are uniform within the limits when the profile asks for them (the OP2), handing over
+to draws near accepted poses (``adjust.draw``) when fewer than ``SWITCH_RATE`` are kept; else
+(a humanoid whose uniform draws almost never clear themselves) draws near the zero pose and
+near accepted ones from the start. The candidates' ``cop`` is the CoM's projection, the CoP of
+the whole robot on both feet: the same rows as on one foot, in the reference foot's frame.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -34,10 +39,10 @@ import numpy as np
 
 from sescid.errors import SescidError
 from sescid.planning.adjust import draw
-from sescid.planning.broadphase import collision_free_mask_broad
+from sescid.planning.broadphase import collision_free_mask_broad, collision_free_poses
 from sescid.planning.candidates import CandidateOptions, Candidates
 from sescid.planning.closure import Loop, close_chain, free_sole_frame, loop_of, placements
-from sescid.planning.collision import collision_capsules
+from sescid.planning.collision import Capsules, collision_capsules
 from sescid.planning.com import com_state, level_cop
 from sescid.planning.compliance import (
     BACKLASH_SIGMAS,
@@ -56,8 +61,8 @@ PLACE_SHARE = (0.5, 0.5)
 #: ... and turned within ± this about the vertical
 PLACE_YAW = math.radians(15.0)
 START_SHARE = 0.5  #: the loop's joints start at this share of their drawn angles
-SWITCH_AFTER = 100_000  #: uniform draws before the draws near accepted poses may take over
-SWITCH_RATE = 0.01  #: accepted share of uniform draws below which they do
+SWITCH_AFTER = 20_000  #: uniform draws before the draws near accepted poses may take over
+SWITCH_RATE = 0.02  #: accepted share of uniform draws below which they do
 GIVE_UP = 200_000  #: draws without one accepted pose
 _CHUNK = 20_000  #: draws per batch at most
 
@@ -153,6 +158,21 @@ def double_margin(
     return np.where(stable, out, -np.inf)
 
 
+def rigid_pairs(robot: Robot, loop: Loop, cap: Capsules) -> Capsules | None:
+    """The capsules with only the pairs whose relative pose the loop's joints do not change
+    (both bodies hang from the same body of the loop, or from the support side), so a draw
+    that collides there collides after closing the loop too; None without such pairs."""
+    on_path = set(loop.path.tolist()) | {0}
+    anchor = np.zeros(len(robot.model.bodies), dtype=np.int64)
+    for b, body in enumerate(robot.model.bodies):  # parents come first
+        anchor[b] = b if b in on_path else anchor[body.parent]
+    a = anchor[cap.body[cap.pairs[:, 0]]]
+    keep = a == anchor[cap.body[cap.pairs[:, 1]]]
+    if not keep.any():
+        return None
+    return dataclasses.replace(cap, pairs=cap.pairs[keep])
+
+
 class _Double:
     """State of one double-support candidate search."""
 
@@ -170,6 +190,7 @@ class _Double:
         self.box_free = box  # around the free sole frame's origin, its sole's centre
         self.contacts_free = free_contacts(robot, self.loop)
         self.cap = collision_capsules(robot)
+        self.rigid = rigid_pairs(robot, self.loop, self.cap)
         self.ground = ground_checks(robot, self.cap)
         self.toes, self.toe_floor = beyond_free_foot(robot)
         size = self.loop.size
@@ -183,6 +204,9 @@ class _Double:
         """Close the draws ``q`` onto the placements ``target``; keep those that pass."""
         robot, lim, c = self.robot, self.lim, self.counts
         c[0] += len(q)
+        if self.rigid is not None:  # collisions closing the loop cannot undo: before it
+            ok = collision_free_poses(robot, self.rigid, q)
+            q, target = q[ok], target[ok]
         q, closed = close_chain(robot, self.loop, q, target)
         ok = closed & np.all((q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
         q, target = q[ok], target[ok]
@@ -260,13 +284,15 @@ def double_candidates(
     run = _Double(robot, opt, lim)
     cols = run.loop.cols
     width = lim[:, 1] - lim[:, 0]
-    sampler, size = "uniform", min(_CHUNK, max(1_000, 4 * n))
+    # the profile's uniform draws (the OP2), else draws near the zero pose and accepted ones
+    sampler = "uniform" if (opt.sampler or robot.profile.pose_sampler) == "uniform" else "near"
+    size = min(_CHUNK, max(1_000, 4 * n))
     while run.counts[4] < n:
         if sampler == "uniform":
             q = rng.random((size, robot.nq)) * width + lim[:, 0]
             q[:, cols] *= START_SHARE
         else:
-            q = draw(lim, size, rng, np.concatenate(run.qs))
+            q = draw(lim, size, rng, np.concatenate(run.qs) if run.counts[4] else None)
         run.keep(q, placements(run.loop, size, rng, run.reach))
         done, drawn = int(run.counts[4]), int(run.counts[0])
         if progress is not None:
@@ -274,7 +300,7 @@ def double_candidates(
         if not done and drawn >= GIVE_UP:
             raise SescidError(run.nothing())
         if sampler == "uniform" and done and drawn >= SWITCH_AFTER and done < SWITCH_RATE * drawn:
-            sampler = "uniform+near"
+            sampler = "uniform+near"  # the draws near accepted poses take over
         rate = done / drawn
         want = 1.05 * (n - done) / rate + 500 if rate > 0 else _CHUNK
         size = int(min(_CHUNK, max(1_000, want)))
