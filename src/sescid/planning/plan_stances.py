@@ -105,6 +105,7 @@ class StancePlan:
     path_length: float  #: rad, joint-space path summed over the stance groups
     subsets: list[tuple[tuple[str, ...], int, float]]  #: (labels, poses, log det) tried
     selection: Selection
+    test_q: np.ndarray = field(repr=False)  #: (n, nq) rad, the fresh poses of the errors
     notes: list[str] = field(default_factory=list)
     n_checked: int = 0  #: poses the physics check ran
     n_check_failed: int = 0  #: of which did not stand (replaced)
@@ -354,6 +355,7 @@ def _result(pool: _Pool, sel: Selection, chosen, subsets, checked) -> StancePlan
         path_length=path,
         subsets=subsets,
         selection=sel,
+        test_q=pool.test_q,
         notes=notes,
         n_checked=checked[0],
         n_check_failed=checked[1],
