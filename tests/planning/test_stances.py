@@ -51,8 +51,8 @@ def test_rows_over_theta_against_pinocchio(op2):
         y = x[:, :, : len(theta)] @ theta
         tau = PinStatics(op2.model_path, support, op2.joint_names, STANDARD_GRAVITY).torques(q)
         np.testing.assert_allclose(y[:, 2:] * spec.tau_noise, tau, atol=1e-12)
-        np.testing.assert_allclose(x[:, 2:, len(theta):] * spec.tau_noise,
-                                   np.broadcast_to(np.eye(op2.nq), (6, op2.nq, op2.nq)))  # fmt: skip
+        eye = np.broadcast_to(np.eye(op2.nq), (6, op2.nq, op2.nq))
+        np.testing.assert_allclose(x[:, 2:, len(theta) :] * spec.tau_noise, eye)
         if mount == "gantry":
             assert not np.any(x[:, :2])
             continue
@@ -119,8 +119,8 @@ def test_expected_error_is_a_simulated_map_fit(op2, tau_plan):
     h = a.T @ a + np.diag(prior)
     err3, err2 = [], []
     for _ in range(400):
-        dtheta = np.concatenate([PRIOR_TAU * rng.standard_normal(n4),
-                                 rng.standard_normal(a.shape[1] - n4) / spec.tau_noise])  # fmt: skip
+        offsets = rng.standard_normal(a.shape[1] - n4) / spec.tau_noise
+        dtheta = np.concatenate([PRIOR_TAU * rng.standard_normal(n4), offsets])
         y = a @ dtheta + rng.standard_normal(len(a))
         est = np.linalg.solve(h, a.T @ y)  # MAP about the CAD values (the deviations)
         d = phi @ (est[:n4] - dtheta[:n4])  # (n, 3) CoM errors
@@ -139,8 +139,8 @@ def test_gantry_and_a_foot_pooled(op2):
     labels = list(dict.fromkeys(plan.stance))
     assert labels == ["MP_BODY", "r_sole"] and len(plan.q) == 25
     assert np.all(np.isnan(plan.cop[plan.stance == "MP_BODY"]))
-    np.testing.assert_allclose(plan.cop[plan.stance == "r_sole"],
-                               op2.com(plan.q[plan.stance == "r_sole"])[:, :2], atol=1e-12)  # fmt: skip
+    right = plan.stance == "r_sole"
+    np.testing.assert_allclose(plan.cop[right], op2.com(plan.q[right])[:, :2], atol=1e-12)
 
 
 def test_a_stance_that_adds_nothing_must_pay_for_its_change(op2):

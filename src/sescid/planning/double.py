@@ -87,7 +87,7 @@ def free_contacts(robot: Robot, loop: Loop) -> np.ndarray:
     return ((pts - loop.centre) @ loop.rot)[:, :2]
 
 
-def _place(points: np.ndarray, target: np.ndarray) -> np.ndarray:
+def place_points(points: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(n, k, 2) sole-frame points (k, 2) [m] at the placements ``target`` (n, 4)."""
     c, s = target[:, 2:3], target[:, 3:4]
     x = target[:, 0:1] + c * points[None, :, 0] - s * points[None, :, 1]
@@ -216,14 +216,14 @@ class _Double:
         model = self.opt.compliance
         st = com_state(robot, q, jacobian=model is not None)
         boxes = np.concatenate(
-            [np.broadcast_to(self.box_ref, (len(q), 4, 2)), _place(self.box_free, target)], 1
+            [np.broadcast_to(self.box_ref, (len(q), 4, 2)), place_points(self.box_free, target)], 1
         )
         ok = hull_margin(boxes, st.com[:, :2]) > 0
         if model is not None:
             feet = np.concatenate(
                 [
                     np.broadcast_to(model.contacts, (len(q), len(model.contacts), 2)),
-                    _place(self.contacts_free, target),
+                    place_points(self.contacts_free, target),
                 ],
                 axis=1,
             )

@@ -128,21 +128,25 @@ class StanceRows:
         """Rows per pose (the layout every stance shares)."""
         return self.spec.rows
 
-    def blocks(self, q: np.ndarray):
-        """(start, rows (m, r, 4N + J)) of poses q (n, nq) [rad], ``ROW_BLOCK`` poses at a time."""
+    def blocks(self, q: np.ndarray, gravity: np.ndarray | None = None):
+        """(start, rows (m, r, 4N + J)) of poses q (n, nq) [rad], ``ROW_BLOCK`` poses at a time;
+        ``gravity`` (n, 3): its direction in the stance's frame (None: level), the CoP rows
+        then those of ``Robot.regressor_tilted`` (the constant ``Robot.d_tilted``)."""
         spec, nj = self.spec, len(self.spec.tau_joints)
         n4 = self.e.shape[1]
         for s in range(0, len(q), ROW_BLOCK):
             qb = q[s : s + ROW_BLOCK]
+            gb = None if gravity is None else gravity[s : s + ROW_BLOCK]
             out = np.zeros((len(qb), self.n_rows, self.width))
             t = 0
             if spec.has_cop:
-                if self.cop:
-                    phi = self.robot.regressor(qb, (0, 1))  # (m, 2, 3N)
+                if self.cop:  # (m, 2, 3N)
+                    rb = self.robot
+                    phi = rb.regressor(qb, (0, 1)) if gb is None else rb.regressor_tilted(qb, gb)
                     out[:, :2, :n4] = phi @ self.e / (self.mass * spec.cop_noise)
                 t = 2
             if self.tau:
-                phi = self.robot.torque_regressor(qb, spec.tau_joints)  # (m, J, 3N)
+                phi = self.robot.torque_regressor(qb, spec.tau_joints, gb)  # (m, J, 3N)
                 out[:, t:, :n4] = phi @ self.e / spec.tau_noise
                 out[:, t + np.arange(nj), n4 + np.arange(nj)] = 1.0 / spec.tau_noise
             yield s, out
