@@ -309,8 +309,8 @@ def session_options(opts: dict) -> SessionOptions:
         mount=opts["mount"],
         hang_height=opts["hang_height"],
         total_mass=opts["total_mass"],
-        stances=tuple(opts.get("stances") or ()),
-        stance_cost=opts.get("stance_cost", _OPT.stance_cost),
+        stances=tuple(opts["stances"] or ()),
+        stance_cost=opts["stance_cost"],
     )
 
 

@@ -40,14 +40,13 @@ from collections.abc import Callable
 import numpy as np
 
 from sescid.base.columns import Table
-from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
 from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
 from sescid.session.adapters import RobotAdapter
-from sescid.session.design import SessionDesign, session_mount
+from sescid.session.design import SessionDesign, session_mount, unsafe_pose
 from sescid.session.estimate import BatchEstimate, CopEstimate, as_measurements
 from sescid.session.journal import Journal, JournalEntry, ResumingAdapter
 from sescid.session.records import (
@@ -155,7 +154,9 @@ class _Run:
                 nxt = self.design.next(self.cand.q, self.q_cur)
                 self.design.mark_tried(nxt.index)
                 q = self.cand.q[nxt.index]
-                unsafe = _unsafe(self.robot, q, self.half, self.r_est, self.plan.mount == "gantry")
+                unsafe = unsafe_pose(
+                    self.robot, q, self.half, self.r_est, self.plan.mount == "gantry"
+                )
             if not unsafe:
                 return nxt
             self.rejected.append((nxt.index, unsafe))
@@ -364,35 +365,3 @@ def run_session(
 def _box(half: np.ndarray | None) -> np.ndarray:
     """The stability box's half-sizes (2,) [m]; unbounded for a robot held in a gantry."""
     return np.full(2, np.inf) if half is None else half
-
-
-def _unsafe(
-    robot: Robot,
-    q: np.ndarray,
-    half: np.ndarray | None,
-    r_est: np.ndarray | None,
-    held: bool = False,
-) -> str:
-    """Why ``q`` must not be commanded ('' when it is within limits and statically stable).
-
-    Stable: the model's CoP, and once every identifiable combination is determined the current
-    estimate's CoP too, strictly inside the stability box ``half`` around the sole's centre; a
-    robot ``held`` in a gantry has no balance to keep (its candidates already clear the floor
-    and themselves).
-    """
-    try:
-        check_limits(robot, q[None], "command")
-    except DataError as exc:
-        return str(exc)
-    if held or half is None:
-        return ""
-    for what, r in (("model", None), ("identified", r_est)):
-        if what == "identified" and r is None:
-            continue
-        cop = robot.cop(q[None], r)[0]
-        if np.any(np.abs(cop - robot.sole_centre) >= half):
-            return (
-                f"unstable: {what} CoP ({cop[0] * 1e3:.1f}, {cop[1] * 1e3:.1f}) mm outside "
-                f"±({half[0] * 1e3:.1f}, {half[1] * 1e3:.1f}) mm; not commanded"
-            )
-    return ""

@@ -52,6 +52,7 @@ from sescid.planning.sequential import NextPose, SequentialDesign
 from sescid.planning.stances import StanceRows, theta_information, theta_scale
 from sescid.robot import Robot
 from sescid.sensors import Measured
+from sescid.session.design import unsafe_pose
 from sescid.session.estimate import (
     REFERENCE_POSES,
     REFERENCE_RANGE_DEG,
@@ -196,13 +197,11 @@ class StanceDesign:
         """Why union candidate ``i`` must not be commanded ('' when it stands): its stance's
         robot within the limits, the model's (and an identified estimate's) CoP inside its
         support — the CoP box of a foot, the hull of both feet's boxes."""
-        from sescid.session.loop import _unsafe
-
         k = self.stance_of(i)
         st, rb, half = self.stances[k], self.robots[k], self.halves[k]
         q = self.cand.q[i]
         if st.mount != "double":
-            return _unsafe(rb, q, half, r_est, st.mount == "gantry")
+            return unsafe_pose(rb, q, half, r_est, st.mount == "gantry")
         part = self.parts[k]
         assert part.placement is not None and half is not None
         box = np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]]) * half
