@@ -31,9 +31,8 @@ def test_simulate_identify_predict(sim_csv, tmp_path):
     table = io.read_table(sim_csv)
     op2 = sescid.load_robot("op2")
     assert table.n == 300
-    assert set(op2.joint_names + ["cop_x", "cop_y", "cop_x_true", "cop_y_true"]) == set(
-        table.names()
-    )
+    columns = ["cop_x", "cop_y", "cop_x_true", "cop_y_true", "support"]
+    assert set(op2.joint_names + columns) == set(table.names())
     q = io.read_poses(table, op2.joint_names)
     np.testing.assert_allclose(
         np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")]), op2.cop(q), atol=0

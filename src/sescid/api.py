@@ -19,11 +19,22 @@ from sescid.estimation import identify as _identify
 from sescid.io.measurements import ReadReport, read_measurements
 from sescid.robot import Robot
 
-__all__ = ["identify"]
+__all__ = ["file_stance", "identify"]
 
 
 def _is_path(x: Any) -> bool:
     return isinstance(x, str | Path)
+
+
+def file_stance(path: str | Path) -> tuple[Path, str | None]:
+    """A data file and the stance its rows were measured in: ``FILE@FRAME`` (the file
+    ``FILE``, rows without a ``support`` column in the stance ``FRAME``: the other foot, a held
+    link) unless a file of that whole name exists; (path, None) otherwise."""
+    p = Path(path)
+    if "@" in p.name and not p.exists():
+        name, frame = p.name.rsplit("@", 1)
+        return p.with_name(name), frame
+    return p, None
 
 
 def identify(
@@ -38,7 +49,9 @@ def identify(
 ) -> Fit:
     """Identify from files or arrays (see ``sescid.estimation.identify`` for the rest).
 
-    ``data``: a path, a list of paths (pooled), or anything ``estimation.identify`` takes.
+    ``data``: a path, a list of paths (pooled), or anything ``estimation.identify`` takes; a
+    path ``FILE@FRAME`` reads FILE as measured in the stance FRAME (``file_stance``), a
+    ``support`` column names each row's stance.
     Poses outside the limits of a file that allows them (or of simulated data) are a warning
     stored in the fit.
     """
@@ -52,13 +65,14 @@ def identify(
     opts = (options or IdentifyOptions()).with_overrides(**overrides)
     got: list[ReadReport] = []
     streams = []
-    for p in paths:
+    for given in paths:
+        p, stance = file_stance(given)
         rep = ReadReport(str(p))
         got.append(rep)
         streams.append(
             read_measurements(
                 p, robot, imu_link=opts.imu_link,
-                allow_outside_limits=opts.allow_outside_limits, report=rep,
+                allow_outside_limits=opts.allow_outside_limits, report=rep, support=stance,
             )
         )  # fmt: skip
     fit = _identify(robot, streams, method=method, options=opts, progress=progress)

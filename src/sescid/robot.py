@@ -20,7 +20,10 @@ from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
 
-__all__ = ["Robot", "line_direction", "load_robot"]
+__all__ = ["DOUBLE", "Robot", "line_direction", "load_robot"]
+
+#: the stance of a robot on both feet: the CoP of the whole robot in its support foot's frame
+DOUBLE = "double"
 
 
 class Robot:
@@ -201,6 +204,23 @@ class Robot:
             return self
         key = self.source if self.source in EMBEDDED else self.model_path
         return load_robot(key, support, line)
+
+    def stance(self, support: str | None) -> Robot:
+        """The robot of a measurement's stance (``Measurements.support``): itself for None,
+        its own support or "double" (both feet, the CoP in this support's frame), else this
+        model rooted at that frame (kept for the next call); ModelError naming an unknown
+        frame."""
+        if support is None or support == self.support or support == DOUBLE:
+            return self
+        cache = self.__dict__.setdefault("_stances", {})
+        if support not in cache:
+            if support not in self.model.link_frames:
+                raise ModelError(
+                    f"{self.model_path.name}: unknown support '{support}' (a stance is a frame "
+                    f"of the model, or '{DOUBLE}' for both feet)"
+                )
+            cache[support] = self.at(support, self.profile.support_lines.get(support))
+        return cache[support]
 
     def body_parameters(self) -> np.ndarray:
         """θ (4N,) = [m (N) kg; vec(m c) (3N) kg·m]: each body's mass and first moment about

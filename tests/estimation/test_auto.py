@@ -15,15 +15,27 @@ SIGMA = 0.00493
 
 
 def test_auto_is_the_default_and_chooses_map_for_38_noisy_poses(op2):
+    """A CAD model 15 % of the mass off: the data show it, auto is the evidence's MAP."""
     q = random_poses(op2, 38, 30, 1)
-    r_true = perturbed_sesc(op2, seed=2)
+    r_true = perturbed_sesc(op2, fraction=0.15, offset=0.05, seed=1)
     cop = op2.cop(q, r_true) + np.random.default_rng(0).normal(0, SIGMA, (38, 2))
     fit = sescid.identify(op2, q, cop)
     assert fit.method == "map" and fit.choice is not None and fit.choice.chosen == "map"
     assert fit.map is not None and fit.map.prior == "bodies" and fit.map.prior_share > 0.01
+    assert fit.map.prior_scale_by == "evidence"
     assert fit.notes[0].startswith("method auto chose MAP")
     explicit = sescid.identify(op2, q, cop, method="map")
     np.testing.assert_array_equal(fit.r, explicit.r)
+
+
+def test_auto_keeps_the_cad_model_when_the_data_do_not_show_it_off(op2):
+    """Data of the CAD model itself: no evidence against it, the model is kept (its prior
+    holding every direction), and the fit says why."""
+    q = random_poses(op2, 38, 30, 1)
+    cop = op2.cop(q) + np.random.default_rng(0).normal(0, SIGMA, (38, 2))
+    fit = sescid.identify(op2, q, cop)
+    assert fit.choice is not None and "do not show the CAD model to be off" in fit.choice.reason
+    assert np.abs(fit.r - op2.sesc_vectors()).max() < 1e-6
 
 
 def test_auto_takes_least_squares_when_the_data_determine_everything(op2):

@@ -15,7 +15,7 @@ from sescid.errors import DataError
 from sescid.estimation import MapOptions, Measurements, identify
 from sescid.estimation.anchor import com_distance, homogeneous
 from sescid.estimation.balance_rows import balance_rows
-from sescid.estimation.system import accumulate_sources
+from sescid.estimation.pooled import accumulate_sources
 from sescid.sesc import balance_gravity, balance_tilt, sesc_vectors
 from sescid.simulation import simulate_balance
 

@@ -259,12 +259,16 @@ def identify(data, robot_name, support, out, method, force, **opts):
 
     Optional columns: grav_x, grav_y, grav_z (gravity direction in the support frame; a tilted
     sole), approach (±1: each pose reached moving up or down, for torque friction), cop_se_*,
-    tau_se_* (standard errors, with --weighted).
+    tau_se_* (standard errors, with --weighted), support (each row's stance: a frame of the
+    model such as the other sole or a held link, or "double"; stances are pooled over the body
+    parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
-    outs = OutputSet([out], [*data, robot_name], force=force)
+    from sescid.api import file_stance
+
+    outs = OutputSet([out], [*(file_stance(d)[0] for d in data), robot_name], force=force)
     robot = load(robot_name, support)
     options = options_from_flags(method, opts)
-    size = sum(rows_estimate(d) or 0 for d in data) or None
+    size = sum(rows_estimate(file_stance(d)[0]) or 0 for d in data) or None
     with TerminalProgress("identifying poses") as bar:
         fit = run_identify(
             robot,

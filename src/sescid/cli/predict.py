@@ -9,6 +9,7 @@ from sescid.base import OutputSet
 from sescid.cli.common import force_option, imu_link_option
 from sescid.estimation import (
     com_interval,
+    for_support,
     load_fit,
 )
 from sescid.io import (
@@ -29,9 +30,16 @@ from sescid.io import (
     help="Add <col>_lower/<col>_upper interval columns at this confidence (e.g. 0.95). "
     "The CoM-z interval omits the error of its prior-filled part (com_z_from_prior).",
 )
+@click.option(
+    "--support",
+    "stance",
+    default=None,
+    help="Predict in another stance of a fit pooled over stances (the other foot, a held "
+    "link): its frame name (default: the fit's support).",
+)
 @imu_link_option
 @force_option
-def predict(fit_file, poses, out, level, imu_link, force):
+def predict(fit_file, poses, out, level, stance, imu_link, force):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
 
     With columns grav_x, grav_y, grav_z (or imu_roll, imu_pitch of the IMU link) the CoP is
@@ -45,6 +53,8 @@ def predict(fit_file, poses, out, level, imu_link, force):
 
     outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
+    if stance is not None:
+        fit = for_support(fit, stance)
     table = read_table(poses)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
     line = fit.robot.line is not None  # no CoP on a line: the tilt that balances instead

@@ -77,7 +77,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     --measure tau or both, tau_<joint> (N·m, noisy, with the sensor offsets and friction) and
     true_tau_<joint>; with --tilt-deg also grav_x, grav_y, grav_z (gravity, support frame).
     A robot balancing on a line (--line; --measure balance): joints, grav_x/y/z (the measured
-    gravity direction of each balanced pose) and balance_tilt_true [rad].
+    gravity direction of each balanced pose) and balance_tilt_true [rad]. Every file has a
+    support column (the stance: files of several stances pool in identify).
     """
     import math
 
@@ -95,6 +96,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         torques=torque_noise(kinds),
     )  # fmt: skip
     cols = _columns(robot.joint_names, sim, measure)
+    cols["support"] = np.full(sim.q.shape[0], robot.support)  # the stance, for pooling
     with outs:
         write_table(outs.path(out), cols)
     what = {
@@ -129,6 +131,7 @@ def _balance(robot, poses: int, range_deg: float, seed: int, noise_deg: float, o
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
     cols["balance_tilt_true"] = sim.tilt
+    cols["support"] = np.full(poses, robot.support)
     with outs:
         write_table(outs.path(out), cols)
     click.echo(

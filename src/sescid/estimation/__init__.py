@@ -47,6 +47,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     from sescid.estimation.normal_equations import NormalEquations, accumulate
     from sescid.estimation.online import OnlineEstimator
     from sescid.estimation.options import ConsistentOptions, IdentifyOptions, MapOptions
+    from sescid.estimation.pooled import BodyFit, StanceRank, for_support
     from sescid.estimation.validation import (
         Interval,
         balance_interval,
@@ -57,6 +58,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
     )
 
 __all__ = [
+    "BodyFit",
     "BodyInertials",
     "Combination",
     "ConsistentOptions",
@@ -79,6 +81,7 @@ __all__ = [
     "OnlineEstimator",
     "OnlineInfo",
     "RobustInfo",
+    "StanceRank",
     "accumulate",
     "body_boxes",
     "cad_violations",
@@ -88,6 +91,7 @@ __all__ = [
     "cop_interval",
     "fit_inertials",
     "fit_warnings",
+    "for_support",
     "identifiable_eigen",
     "identify",
     "MODEL_CHANGED",
@@ -126,6 +130,9 @@ _EXPORTS = {
     "OnlineEstimator": "sescid.estimation.online",
     "OnlineInfo": "sescid.estimation.fit",
     "RobustInfo": "sescid.estimation.fit",
+    "BodyFit": "sescid.estimation.pooled",
+    "StanceRank": "sescid.estimation.pooled",
+    "for_support": "sescid.estimation.pooled",
     "accumulate": "sescid.estimation.normal_equations",
     "body_boxes": "sescid.estimation.consistent",
     "cad_violations": "sescid.estimation.cad_check",

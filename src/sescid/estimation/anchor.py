@@ -32,9 +32,18 @@ HOMOGENEOUS_RSS = 1e-20
 
 
 def collapse_point(robot: Robot, system: System) -> np.ndarray:
-    """θ_c = [vec(r_c); 0]: all the mass at the support frame's origin (CoM ≡ 0)."""
+    """θ_c = [vec(r_c); 0]: all the mass at the support frame's origin (CoM ≡ 0); for a pooled
+    system (``pooled``) the body parameters of all the mass in the support body, there."""
     theta = np.zeros(system.size)
-    theta[:3] = -robot.tree.root_r.T @ robot.d  # d + B_0 r_0 = 0, every other r_i = 0
+    r0 = -robot.tree.root_r.T @ robot.d  # d + B_0 r_0 = 0, every other r_i = 0
+    if system.space == "bodies":
+        from sescid.estimation.pooled import PARAM_UNIT
+
+        n = len(robot.body_names)
+        theta[0] = 1.0
+        theta[n : n + 3] = r0 / PARAM_UNIT
+        return theta
+    theta[:3] = r0
     return theta
 
 

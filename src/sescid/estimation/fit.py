@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -319,6 +319,8 @@ class Fit:
     cop_offset: CopOffset | None = None
     scale: ScaleAnchor | None = None  #: homogeneous data: where the scale came from
     choice: MethodChoice | None = None  #: method "auto": what it chose and why
+    #: stances pooled: the body parameters every stance shares (``estimation.pooled``)
+    bodies: Any = None
     inertials: BodyInertials | None = None
     robust: RobustInfo | None = None
     online: OnlineInfo | None = None

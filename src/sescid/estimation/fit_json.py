@@ -151,7 +151,38 @@ def fit_to_json(fit: Fit) -> dict:
             out[key] = _record_to_json(rec)
     if fit.truth_cop_rmse is not None:
         out["truth_cop_rmse"] = fit.truth_cop_rmse
+    if fit.bodies is not None:
+        b = fit.bodies
+        out["bodies"] = {
+            "x": b.x.tolist(),
+            "x_prior": b.x_prior.tolist(),
+            "cov": _plain(b.cov),
+            "information": b.information.tolist(),
+            "rank": b.rank,
+            "stances": [_record_to_json(st) for st in b.stances],
+            "added": list(b.added),
+            "total_mass": b.total_mass,
+        }
     return out
+
+
+def _bodies_from_json(d: dict, n: int, path: Path):
+    """The ``BodyFit`` of a pooled fit's file."""
+    from sescid.estimation.pooled import BodyFit, StanceRank
+
+    size = 4 * n
+    return BodyFit(
+        x=_matrix(d, "x", (size,), path),
+        x_prior=_matrix(d, "x_prior", (size,), path),
+        cov=_matrix(d, "cov", (size, size), path, nullable=True),
+        information=_matrix(d, "information", (size, size), path),
+        rank=int(d["rank"]),
+        stances=tuple(
+            _record_from_json(StanceRank, st, f"{path}: field 'bodies'") for st in d["stances"]
+        ),
+        added=tuple(str(a) for a in d.get("added", [])),
+        total_mass=float(d["total_mass"]),
+    )
 
 
 def save_fit(fit: Fit, path: str | Path) -> None:
@@ -309,6 +340,8 @@ def load_fit(path: str | Path) -> Fit:
                     fields[key] = _record_from_json(cls, data[key], f"{path}: field '{key}'")
             if data.get("truth_cop_rmse") is not None:
                 fields["truth_cop_rmse"] = float(data["truth_cop_rmse"])
+            if data.get("bodies") is not None:
+                fields["bodies"] = _bodies_from_json(data["bodies"], len(bodies), path)
         fit = Fit(
             robot=robot,
             r=r,

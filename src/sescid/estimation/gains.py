@@ -23,7 +23,8 @@ import numpy as np
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.normal_equations import NormalEquations
-from sescid.estimation.system import KindSums, Nuisance, System, accumulate_sources, torque_nuisance
+from sescid.estimation.pooled import accumulate_sources
+from sescid.estimation.system import KindSums, Nuisance, System, torque_nuisance
 from sescid.robot import Robot
 
 #: Gauss–Newton stops when no gain moved by more than this

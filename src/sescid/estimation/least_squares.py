@@ -19,21 +19,21 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from sescid.errors import DataError
 from sescid.estimation.fit import Combination, Fit, KindFit, NuisanceEstimate
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     NOT_EXCITED,
     base_combinations,
-    eigen_descending,
     label_columns,
-    rank_of,
     sparse_terms,
     unidentifiable,
 )
-from sescid.estimation.measurements import COP, TORQUE, Measurements
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.estimation.normal_equations import NormalEquations
+from sescid.estimation.pooled import body_fit, prior_x, stance_map, view, x_labels
 from sescid.estimation.residual_sums import residual_sums
-from sescid.estimation.solve import UNITS, Solution, solve_system
+from sescid.estimation.solve import UNITS, Solution, marginal_x, solve_system
 from sescid.estimation.system import KindSums, System, pinned
 from sescid.robot import Robot
 
@@ -42,21 +42,23 @@ DETERMINED = 1 - 1e-6
 
 
 def prior_theta(robot: Robot, system: System, r_prior: np.ndarray | None) -> np.ndarray:
-    """θ0 = [vec(r_prior); 0]: the model's SESC vectors (or ``r_prior``), no sensor errors."""
+    """θ0 = [vec(r_prior); 0]: the model's SESC vectors (or ``r_prior``), no sensor errors; for
+    a pooled system (``pooled``) the model's body parameters x."""
+    if system.space == "bodies":
+        if r_prior is not None:
+            raise DataError("r_prior is one stance's: a pooled fit's prior is the model file's")
+        return np.concatenate([prior_x(robot), np.zeros(len(system.nuisance))])
     r0 = robot.sesc_vectors() if r_prior is None else np.asarray(r_prior, dtype=float)
     return np.concatenate([r0.reshape(-1), np.zeros(len(system.nuisance))])
 
 
-def marginal_x(sol: Solution, n_x: int, rtol: float):
-    """(λ, V, p) of the information about vec(r) with the nuisance marginalised (the Schur
-    complement of A); A's own eigen-decomposition when there is no nuisance."""
-    if sol.ata.shape[0] == n_x:
-        return sol.lam, sol.vecs, sol.rank
-    a = sol.ata
-    axx, axn, ann = a[:n_x, :n_x], a[:n_x, n_x:], a[n_x:, n_x:]
-    schur = axx - axn @ np.linalg.pinv(ann, rcond=1e-12, hermitian=True) @ axn.T
-    lam, vecs = eigen_descending((schur + schur.T) / 2)
-    return lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+def reference_view(robot: Robot, system: System, sol: Solution, rtol: float):
+    """(system, solution) over [vec(r); nuisance] of the robot's support: a pooled system's
+    x-space solution seen through r = L_ref x (``pooled.view``); a one-stance system as it is."""
+    if system.space != "bodies":
+        return system, sol
+    lmap = stance_map(robot, robot.support)
+    return dataclasses.replace(system, n_x=lmap.shape[0]), view(sol, lmap, system.n_x, rtol)
 
 
 def nuisance_estimates(system: System, sol: Solution) -> tuple[NuisanceEstimate, ...]:
@@ -241,16 +243,31 @@ def fit_least_squares(
         system, theta0, rtol=rtol, noise=noise, allow_exact=allow_exact, structural=count
     )
     weak = weak_directions(sol, system, rtol)
-    if weak.shape[1] == 0:
-        return fit_from_solution(robot, system, sol, rtol=rtol)
-    lifted = np.zeros((system.size, weak.shape[1]))
-    lifted[: system.n_x] = weak
-    sol = solve_system(
-        pinned(system, lifted, theta0), theta0, rtol=rtol, noise=noise,
-        allow_exact=allow_exact, structural=count,
-    )  # fmt: skip
-    fit = fit_from_solution(robot, system, sol, rtol=rtol)
-    return dataclasses.replace(fit, weak=named(robot, weak, WEAK_REASON))
+    if weak.shape[1]:
+        lifted = np.zeros((system.size, weak.shape[1]))
+        lifted[: system.n_x] = weak
+        sol = solve_system(
+            pinned(system, lifted, theta0), theta0, rtol=rtol, noise=noise,
+            allow_exact=allow_exact, structural=count,
+        )  # fmt: skip
+    view_system, view_sol = reference_view(robot, system, sol, rtol)
+    fit = fit_from_solution(robot, view_system, view_sol, rtol=rtol)
+    if system.space == "bodies":
+        n_x = system.n_x
+        bodies = body_fit(robot, system, sol, sol.theta[:n_x], sol.cov[:n_x, :n_x], rtol)
+        fit = dataclasses.replace(fit, bodies=bodies, nuisance=nuisance_estimates(system, sol))
+        if weak.shape[1]:  # named by their body parameters
+            labels = x_labels(robot)
+            fit = dataclasses.replace(fit, weak=tuple(
+                Combination([(lab, "", c) for lab, _, c in sparse_terms(
+                    weak[:, i], [(x, "") for x in labels], tol=1e-3)], reason=WEAK_REASON,
+                    kind=NOT_EXCITED)
+                for i in range(weak.shape[1])
+            ))  # fmt: skip
+        return fit
+    if weak.shape[1]:
+        fit = dataclasses.replace(fit, weak=named(robot, weak, WEAK_REASON))
+    return fit
 
 
 def structural_count(robot: Robot, system: System) -> int:
@@ -286,8 +303,17 @@ def solve(
 
 def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     """Residuals per kind at validated data m: "cop" (n, 2) m net of a CoP offset, "tau"
-    (n, J) N·m net of the sensor offsets and friction bands."""
+    (n, J) N·m net of the sensor offsets and friction bands, "balance" (n,) rad; data of
+    another stance with the fit seen there (``pooled.for_support``)."""
+    if m.support is not None and m.support != fit.robot.support:
+        from sescid.estimation.pooled import for_support
+
+        fit = for_support(fit, m.support)
     out = {}
+    if m.balance is not None and m.gravity is not None:
+        from sescid.estimation.balance_rows import balance_residuals
+
+        out[BALANCE] = balance_residuals(fit.robot, fit.r, m.q, m.balance, m.gravity)
     if m.cop is not None:
         out[COP] = m.cop - fit.predict_cop(m.q, m.gravity) - fit.cop_bias
     if m.tau is not None and m.tau_joints:
@@ -348,7 +374,7 @@ def refit_nuisance(fit: Fit, system: System) -> Fit:
         noise = {system.kinds[0]: 1.0}
     ne = weighted_sums(system, noise)
     n_x = system.n_x
-    x = fit.r.reshape(-1)
+    x = fit.bodies.x if system.space == "bodies" else fit.r.reshape(-1)
     a_nn = ne.ata[n_x:, n_x:]
     b_n = ne.atb[n_x:] - ne.ata[n_x:, :n_x] @ x
     values = np.linalg.pinv(a_nn, rcond=1e-10, hermitian=True) @ b_n

@@ -47,10 +47,12 @@ from sescid.estimation.least_squares import (
     named,
     nuisance_estimates,
     prior_theta,
+    reference_view,
     weak_directions,
 )
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.options import MapOptions
+from sescid.estimation.pooled import body_fit, check_pooled_prior, stance_map
 from sescid.estimation.solve import Solution, solve_system, weighted_sums
 from sescid.estimation.system import System
 from sescid.robot import Robot
@@ -306,9 +308,9 @@ def fit_map(
         raise SescidError("no poses to identify from")
     theta0 = prior_theta(robot, system, r_prior)
     ls = solve_system(system, theta0, rtol=rtol, noise=kind_noise, allow_exact=True)
-    base = fit_from_solution(robot, system, ls, rtol=rtol)
+    base = fit_from_solution(robot, *reference_view(robot, system, ls, rtol), rtol=rtol)
     weak = weak_directions(ls, system, rtol)
-    if weak.shape[1]:
+    if weak.shape[1] and system.space != "bodies":
         base = dataclasses.replace(base, weak=named(robot, weak, WEAK_REASON_MAP))
     ratios = _noise_ratios(system, ls)
     ne = weighted_sums(system, ratios)
@@ -316,7 +318,10 @@ def fit_map(
     scales = np.array([n.prior_scale for n in system.nuisance], dtype=float)
     if prior == "auto":  # per body: it serves the CoP and the torques best (docs/defaults.md)
         prior = "bodies"
-    if prior == "bodies":
+    if system.space == "bodies":
+        check_pooled_prior(prior)
+        pri = pooled_body_prior(robot, scales)
+    elif prior == "bodies":
         pri = body_prior(robot, n_x, scales)
     elif prior == "sesc":
         pri = Prior(n_x, scales)
@@ -336,7 +341,24 @@ def fit_map(
         chosen = f"{len(cv_folds)}-fold cv"
     tau, sig = maximise_evidence(ne, theta0, pri, prior_scale=prior_scale, noise=noise)
     post = posterior(ne, theta0, pri, tau, sig)
-    return _map_fit(base, system, post, ls, _Choice(chosen, noise is not None, curve), pri)
+    fit = _map_fit(base, system, post, ls, _Choice(chosen, noise is not None, curve), pri)
+    if system.space == "bodies":
+        bodies = body_fit(robot, system, ls, post.x[:n_x], post.cov[:n_x, :n_x], rtol)
+        fit = dataclasses.replace(fit, bodies=bodies)
+    return fit
+
+
+def pooled_body_prior(robot: Robot, nuisance_scales: np.ndarray) -> Prior:
+    """The per-body prior (``body_prior``) over a pooled system's body parameters x
+    (``pooled``): each body's mass ±τ m̄ and first moment ±τ·``BODY_COM_SCALE``·m̄ per axis,
+    independent, m̄ = (m + M/(10 N)) / M."""
+    from sescid.estimation.pooled import PARAM_UNIT
+
+    masses = robot.masses
+    big_m = float(masses.sum())
+    m_bar = (masses + big_m / (10 * masses.size)) / big_m
+    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / PARAM_UNIT) ** 2, 3)])
+    return Prior(d.size, nuisance_scales, np.diag(1.0 / d), float(-np.sum(np.log(d))), "bodies")
 
 
 def _prior_decided(
@@ -385,6 +407,9 @@ def _map_fit(
     n_x = system.n_x
     x, cov = post.x[:n_x], post.cov[:n_x, :n_x]
     robot = base.robot
+    if system.space == "bodies":  # reported for the robot's support: r = L_ref x
+        lmap = stance_map(robot, robot.support)
+        x, cov = lmap @ x, lmap @ cov @ lmap.T
     combos = tuple(
         dataclasses.replace(c, value=float(g @ x), std=float(np.sqrt(max(g @ cov @ g, 0.0))))
         for c in base.base

@@ -42,8 +42,10 @@ class Measurements:
     each pose was reached with the joints moving in their positive (+1) or negative (−1)
     direction last (static friction holds the torque on that side of the gravity torque);
     ``gravity`` (n, 3) the gravity direction in the support frame (None: level);
-    ``cop_true`` (n, 2) m the noise-free CoP of simulated data; ``source`` names the data
-    (a file) in error messages.
+    ``cop_true`` (n, 2) m the noise-free CoP of simulated data; ``support`` the stance these
+    poses were measured in (a frame of the model: the other foot, a held link; "double": both
+    feet, the CoP of the whole robot in the robot's support frame; None: the robot's own
+    support); ``source`` names the data (a file) in error messages.
     """
 
     q: np.ndarray
@@ -56,6 +58,7 @@ class Measurements:
     approach: np.ndarray | None = None
     gravity: np.ndarray | None = None
     cop_true: np.ndarray | None = None
+    support: str | None = None
     source: str = "data"
 
     @property

@@ -18,10 +18,17 @@ def fit_notes(fit: Fit) -> list[str]:
     notes += _map_notes(fit)
     notes += _sensor_notes(fit)
     if fit.map is not None and fit.map.prior_decided:
+        total, what = (
+            (fit.r.size, "directions")
+            if fit.bodies is None
+            else (fit.bodies.x.size, "body-parameter directions")
+        )
         notes.append(
-            f"the prior, not the data, decided {fit.map.prior_decided} of {fit.r.size} directions "
+            f"the prior, not the data, decided {fit.map.prior_decided} of {total} {what} "
             "(unseen by the data, or where they carry less than half of the information)"
         )
+    if fit.bodies is not None:
+        notes.append(_stance_note(fit))
     if fit.cop_offset is not None:
         bv, bs = fit.cop_offset.value, fit.cop_offset.std
         notes.append(
@@ -32,6 +39,18 @@ def fit_notes(fit: Fit) -> list[str]:
     notes += _consistent_notes(fit)
     notes += _modifier_notes(fit)
     return notes
+
+
+def _stance_note(fit: Fit) -> str:
+    """What each stance determines alone and what pooling them adds."""
+    b = fit.bodies
+    each = ", ".join(f"{s.support} {s.rank} ({s.n_poses} poses)" for s in b.stances)
+    added = "; ".join(b.added[:3]) + (f" (and {len(b.added) - 3} more)" if len(b.added) > 3 else "")
+    gain = f"; pooling adds {len(b.added)}: {added}" if b.added else ""
+    return (
+        f"stances pooled over the {b.x.size} body parameters (masses, first moments): each "
+        f"alone determines {each} combinations, together {b.rank}{gain}"
+    )
 
 
 def _identifiability_notes(fit: Fit) -> list[str]:
@@ -143,9 +162,14 @@ def _modifier_notes(fit: Fit) -> list[str]:
     notes: list[str] = []
     if fit.robust is not None:
         r = fit.robust
-        shown = (
-            f"{r.scale:.3f} × the given errors" if r.weighted_input else f"{r.scale * 1e3:.3f} mm"
-        )
+        if r.weighted_input:
+            shown = f"{r.scale:.3f} × the given errors"
+        else:  # per kind, in its unit
+            unit = {"cop": (1e3, "mm"), "tau": (1.0, "N·m")}
+            shown = ", ".join(
+                f"{kind} {v * unit.get(kind, (1.0, ''))[0]:.3f} {unit.get(kind, (1.0, ''))[1]}"
+                for kind, v in (r.scales or {"cop": r.scale}).items()
+            )
         notes.append(
             f"Huber IRLS (k = {r.k:g}, robust scale {shown}): {len(r.downweighted)} of "
             f"{fit.n_poses} poses down-weighted"

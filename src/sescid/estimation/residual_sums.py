@@ -22,6 +22,7 @@ from sescid.estimation.balance_rows import balance_residuals
 from sescid.estimation.block_sums import aligned
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
+from sescid.estimation.pooled import for_support
 from sescid.kinematics import use_kernels
 from sescid.kinematics.residuals import cop_residual_sums, torque_residual_sums
 
@@ -55,7 +56,10 @@ def _torque_nuisance(fit: Fit, m: Measurements) -> tuple[np.ndarray, np.ndarray]
 
 
 def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, float, float, int]]:
-    """(kind, Σ|e|, Σe², rows) of one block, and ("truth", 0, Σd², rows) for a simulation."""
+    """(kind, Σ|e|, Σe², rows) of one block, and ("truth", 0, Σd², rows) for a simulation;
+    a block of another stance (``Measurements.support``) with the fit seen there."""
+    if m.support is not None and m.support != fit.robot.support:
+        fit = _stance_fit(fit, m.support)
     out = []
     if m.balance is not None:
         assert m.gravity is not None
@@ -102,6 +106,14 @@ def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, floa
         flat = e.reshape(-1)
         out.append((TORQUE, float(np.sum(np.abs(flat))), float(np.sum(flat * flat)), flat.size))
     return out
+
+
+def _stance_fit(fit: Fit, support: str) -> Fit:
+    """``pooled.for_support(fit, support)``, kept on the fit's body record for the next block."""
+    cache = fit.bodies.__dict__.setdefault("_stance_fits", {}) if fit.bodies is not None else {}
+    if support not in cache:
+        cache[support] = for_support(fit, support)
+    return cache[support]
 
 
 def _blocks(chunks: Iterable[Measurements]) -> Iterable[Measurements]:

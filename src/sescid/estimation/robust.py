@@ -44,8 +44,8 @@ def _standardised(fit: Fit, m: Measurements, base: dict[str, np.ndarray]) -> dic
     a torque row's absolute value (n, J)."""
     res = residuals(fit, m)
     out = {}
-    if COP in res:
-        out[COP] = np.linalg.norm(res[COP] / base[COP], axis=1)
+    if COP in res:  # a coordinate not measured (nan) does not count
+        out[COP] = np.sqrt(np.nansum((res[COP] / base[COP]) ** 2, axis=1))
     if TORQUE in res:
         out[TORQUE] = np.abs(res[TORQUE] / base[TORQUE])
     return out

@@ -202,3 +202,15 @@ def _dof_shares(system: System, sigma, lam, vecs, p) -> dict[str, float]:
         used = float(np.sum((vp.T @ ne.ata @ vp).diagonal() / lp)) / sigma[k] ** 2
         out[k] = ne.n_rows - used
     return out
+
+
+def marginal_x(sol: Solution, n_x: int, rtol: float):
+    """(λ, V, p) of the information about vec(r) with the nuisance marginalised (the Schur
+    complement of A); A's own eigen-decomposition when there is no nuisance."""
+    if sol.ata.shape[0] == n_x:
+        return sol.lam, sol.vecs, sol.rank
+    a = sol.ata
+    axx, axn, ann = a[:n_x, :n_x], a[:n_x, n_x:], a[n_x:, n_x:]
+    schur = axx - axn @ np.linalg.pinv(ann, rcond=1e-12, hermitian=True) @ axn.T
+    lam, vecs = eigen_descending((schur + schur.T) / 2)
+    return lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)

@@ -22,14 +22,14 @@ from sescid.errors import DataError
 from sescid.estimation.measurements import Measurements
 from sescid.robot import Robot
 
-_FIELDS = ("q", "cop", "cop_se", "tau", "tau_se", "approach", "gravity", "cop_true")
+_FIELDS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
 
 
 class MemorySource:
     """Measurements held in memory (validated once)."""
 
     def __init__(self, robot: Robot, data: Measurements):
-        self.data = data.checked(robot)
+        self.data = data.checked(robot.stance(data.support))
         self.name = data.source
 
     def chunks(self) -> Iterator[Measurements]:
@@ -72,7 +72,7 @@ class StreamSource:
         source, self._chunks = self._chunks, None
         self._spill = tempfile.TemporaryFile(prefix="sescid-")
         for chunk in source:
-            m = chunk.checked(self.robot)
+            m = chunk.checked(self.robot.stance(chunk.support))
             shapes = []
             for f in _FIELDS:
                 a = getattr(m, f)

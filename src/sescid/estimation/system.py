@@ -86,6 +86,11 @@ class System:
     n_poses: int = 0
     sources: list[str] = field(default_factory=list)
     gravity_accel: float = STANDARD_GRAVITY  #: |g| behind the torque rows, m/s²
+    #: the parameters: "sesc" (vec(r) of the robot's support, 3N) or "bodies" (the body
+    #: parameters x = [m/M; vec(m c)/(M ℓ)], 4N, that several stances share: ``pooled``)
+    space: str = "sesc"
+    #: a pooled system: each stance's own sums over the same x (support → System)
+    stances: dict[str, System] = field(default_factory=dict)
 
     @property
     def size(self) -> int:
@@ -370,22 +375,28 @@ def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
     return NormalEquations(ata, atb, ne.yty, ne.n_rows, ne.n_poses)
 
 
-def accumulate_sources(
+def accumulate_stances(
     robot: Robot, sources, options: RowOptions = RowOptions(), progress=None
-) -> System:
-    """The pooled system of several sources, each an iterable of ``Measurements`` chunks
-    (validated); ``progress(poses_done)`` counts the poses of all sources."""
-    system: System | None = None
+) -> dict[str, System]:
+    """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
+    (validated): support → System over that stance's SESC vectors, each summed with its own
+    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
+    sources. ``pooled.accumulate_sources`` makes one system of them."""
+    systems: dict[str, System] = {}
     before = 0
     for chunks in sources:
-        acc = Accumulator(robot, options)
+        accs: dict[str, Accumulator] = {}
         start = before
         report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
         for m in chunks:
-            acc.add(m, report)
-        part = acc.finish()
-        before += part.n_poses
-        system = part if system is None else system.merged(part)
-    if system is None:
+            key = m.support or robot.support
+            if key not in accs:
+                accs[key] = Accumulator(robot.stance(m.support), options)
+            accs[key].add(m, report)
+        for key, acc in accs.items():
+            part = acc.finish()
+            before += part.n_poses
+            systems[key] = part if key not in systems else systems[key].merged(part)
+    if not systems:
         raise DataError("no data to identify from")
-    return system
+    return systems

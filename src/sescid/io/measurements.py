@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from sescid.base.columns import Table, read_approach, read_cop, read_poses, read_torques
-from sescid.errors import DataError
+from sescid.errors import DataError, ModelError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
@@ -124,9 +124,14 @@ def read_measurements(
     imu_link: str | None = None,
     allow_outside_limits: bool = False,
     report: ReadReport | None = None,
+    support: str | None = None,
 ) -> Iterator[Measurements]:
     """The file's chunks as ``Measurements``, read once, as they are parsed (module docstring).
-    ``report`` collects the poses outside the limits and whether the data are simulated."""
+    ``report`` collects the poses outside the limits and whether the data are simulated;
+    ``support``: the stance of rows without a ``support`` column (None: the robot's own)."""
+    if support is not None:
+        robot.stance(support)  # an unknown frame: the one-line error now
+        support = None if support == robot.support else support
     rep = report if report is not None else ReadReport(str(path))
     for table in read_ahead(iter_table(path)):
         m = measurements_of(table, robot, imu_link)
@@ -141,7 +146,38 @@ def read_measurements(
                 f"{path}: {rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
+        yield from by_support(table, robot, dataclasses.replace(m, support=support))
+
+
+#: the column naming each row's stance (a frame of the model, or "double")
+SUPPORT_COLUMN = "support"
+
+
+def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:
+    """The rows of a chunk grouped by their ``support`` column (each group in file order, the
+    groups in order of first appearance); the chunk as it is (its ``support``) without the
+    column. An unknown support is an error naming the row."""
+    if SUPPORT_COLUMN not in table.text and SUPPORT_COLUMN not in table.columns:
         yield m
+        return
+    if SUPPORT_COLUMN in table.columns:  # all numbers: no frame is named so
+        raise DataError(
+            f"{table.path}: row {table.row(0)}, column '{SUPPORT_COLUMN}': "
+            f"'{table.columns[SUPPORT_COLUMN][0]:g}' is not a frame of the model"
+        )
+    names = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    for name in dict.fromkeys(names.tolist()):
+        rows = np.flatnonzero(names == name)
+        if not name:
+            raise DataError(f"{table.path}: row {table.row(rows[0])}, column 'support' is empty")
+        try:
+            robot.stance(name)
+        except ModelError as exc:
+            raise DataError(
+                f"{table.path}: row {table.row(rows[0])}, column 'support': {exc}"
+            ) from None
+        support = None if name == robot.support else name
+        yield dataclasses.replace(m.take(rows), support=support)
 
 
 def rows_estimate(path: str | Path) -> int | None:

@@ -109,6 +109,14 @@ def make_fit(src: Fit, r, masses, coms, layout: tuple, d_rss: float, info: dict)
         grown_boxes=[names[i] for i, b in enumerate(box_list) if b.grown],
         **info,
     )
+    bodies = src.bodies
+    if bodies is not None:  # pooled stances: the body parameters are these masses' now
+        from sescid.estimation.pooled import PARAM_UNIT
+
+        m = np.asarray(masses, dtype=float)
+        first = (m[:, None] * np.asarray(coms, dtype=float)).reshape(-1)
+        x = np.concatenate([m, first / PARAM_UNIT]) / bodies.total_mass
+        bodies = dataclasses.replace(bodies, x=x)
     return dataclasses.replace(
         src,
         r=r,
@@ -118,6 +126,7 @@ def make_fit(src: Fit, r, masses, coms, layout: tuple, d_rss: float, info: dict)
         rms=rms,
         sigma_hat=sigma_hat,
         mae=math.nan,
+        bodies=bodies,
     )
 
 

@@ -84,6 +84,13 @@ def data_term(fit: Fit, kmat: np.ndarray) -> DataTerm:
         w_bar = fit.sigma_hat**2 * dof / (fit.rms**2 * n_rows)
         w_bar = w_bar if math.isfinite(w_bar) and w_bar > 0 else 1.0
     scale_u = 1e3 / math.sqrt(n_rows * w_bar)
+    if fit.bodies is not None:  # pooled stances: the data's information about x itself
+        lam, vecs = np.linalg.eigh(fit.bodies.information)
+        keep = lam > 1e-12 * max(float(lam.max()), 1e-300)
+        s_x, v_x = np.sqrt(lam[keep]), vecs[:, keep]
+        d_mat = scale_u * (s_x[:, None] * v_x.T)
+        e_vec = scale_u * s_x * (v_x.T @ fit.bodies.x)
+        return DataTerm(d_mat, e_vec, scale_u, w_bar, n_rows)
     d_mat = scale_u * (sv[:, None] * basis.T) @ kmat
     e_vec = scale_u * sv * (basis.T @ fit.r.reshape(-1))
     return DataTerm(d_mat, e_vec, scale_u, w_bar, n_rows)
