@@ -57,8 +57,9 @@ def test_session_changes_foot_when_worth_it_and_pools(op2):
 
 def test_session_over_stances_cli_and_replay(tmp_path):
     """`sescid session --stances` prints each change it asks for; poses.csv, measured.csv and
-    raw.csv carry each pose's stance, session.json the pooled body parameters; replaying the
-    folder makes the same decisions (the same files)."""
+    raw.csv carry each pose's stance, session.json the pooled body parameters, fit.json the pooled
+    fit `identify measured.csv --weighted` gives; replaying the folder makes the same decisions
+    (the same files)."""
     out, rep = tmp_path / "s", tmp_path / "r"
     args = ["session", "--stances", "r_sole,l_sole", "--kinds", "cop", "--budget", "45",
             "--samples", "8", "--candidates", "300", "--window", "3", "--no-view"]  # fmt: skip
@@ -72,6 +73,14 @@ def test_session_over_stances_cli_and_replay(tmp_path):
     assert set(read_table(out / "raw.csv").text["support"]) == {"r_sole", "l_sole"}
     doc = json.loads((out / "session.json").read_text())
     assert doc["stances"] == ["r_sole", "l_sole"] and len(doc["pooled"]["bodies"]) == 21
+    fit = tmp_path / "fit.json"
+    res = CliRunner().invoke(cli, ["identify", str(out / "measured.csv"), "--weighted",
+                                   "--method", "ls", "--out", str(fit)])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    a, b = json.loads((out / "fit.json").read_text()), json.loads(fit.read_text())
+    ra, rb = (np.array(list(d["r"].values())) for d in (a, b))
+    np.testing.assert_allclose(ra, rb, atol=1e-12)  # the pooled fit of its files
+    assert a["bodies"] is not None
     res = CliRunner().invoke(cli, [*args, "--adapter", "replay", "--replay", str(out),
                                    "--out-dir", str(rep)])  # fmt: skip
     assert res.exit_code == 0, res.output

@@ -6,7 +6,8 @@ model ``cop_x``/``cop_y``; what ``sescid poses`` writes), ``raw.csv`` (the raw l
 ``sescid identify --weighted``, with the online record) and ``session.json`` (each step's
 decision, status, reason and predicted CoP std, and why the session stopped). Over stances:
 ``poses.csv``, ``measured.csv`` and ``raw.csv`` carry each pose's ``support``, ``fit.json`` is
-the first stance's poses' fit and ``session.json`` adds the pooled body parameters.
+the pooled fit (``identify --weighted`` of ``measured.csv``) and ``session.json`` adds the
+session's own pooled estimate of the body parameters.
 """
 
 from __future__ import annotations

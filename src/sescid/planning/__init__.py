@@ -100,12 +100,11 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
         sole_corners,
         stable_mask,
     )
-    from sescid.planning.stances import DOUBLE, Stance, parse_stances, stance_robot
+    from sescid.planning.stances import Stance, parse_stances, stance_robot
 
 __all__ = [
     "DEFAULT_CLEARANCE",
     "DEFAULT_STANCE_COST",
-    "DOUBLE",
     "DEFAULT_TAU_NOISE",
     "DESIGN_KINDS",
     "FALLBACK_COP_BOX",
@@ -200,7 +199,6 @@ _EXPORTS = {
     "Compliance": "sescid.planning.compliance",
     "DEFAULT_CLEARANCE": "sescid.planning.stability",
     "DEFAULT_STANCE_COST": "sescid.planning.plan_stances",
-    "DOUBLE": "sescid.planning.stances",
     "Stance": "sescid.planning.stances",
     "StancePlan": "sescid.planning.plan_stances",
     "StanceReport": "sescid.planning.plan_stances",

@@ -33,10 +33,8 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.planning.gantry import held_trunk
 from sescid.planning.kinds import DesignKinds
-from sescid.robot import Robot
+from sescid.robot import DOUBLE, Robot
 
-#: the pose file's ``support`` value of a pose on both feet (the CoP in the reference frame)
-DOUBLE = "double"
 #: the mounts a stance can have
 STANCE_MOUNTS = ("stand", "double", "gantry")
 #: poses per block of rows (bounds the memory of Φ_τ: block × J × 4N)
@@ -53,7 +51,8 @@ class Stance:
 
     @property
     def label(self) -> str:
-        """Its name in a pose file's ``support`` column: the frame, or ``double``."""
+        """Its name in a pose file's ``support`` column: the frame, or ``double``
+        (``sescid.robot.DOUBLE``, as ``Measurements.support``)."""
         return DOUBLE if self.mount == "double" else self.support
 
     def describe(self) -> str:
@@ -97,8 +96,9 @@ def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, 
 
 
 def stance_robot(reference: Robot, stance: Stance) -> Robot:
-    """The reference robot rooted at the stance's frame (on both feet: the reference itself)."""
-    return reference if stance.mount == "double" else reference.at(stance.support)
+    """The reference robot rooted at the stance's frame (on both feet: the reference itself;
+    ``Robot.stance``)."""
+    return reference.stance(stance.label)
 
 
 def theta_scale(robot: Robot) -> np.ndarray:

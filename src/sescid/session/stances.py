@@ -343,33 +343,33 @@ def concat_measured(parts: list[Measured]) -> Measured:
 
 def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tuple[Measured, Fit]:
     """(measured, fit) of a session over stances: each stance's poses of the raw log (its
-    ``support`` column) reduced with its robot, in the stances' order; the fit of the first
-    stance's poses in its frame (``identify --weighted``: least squares for the CoP, the
-    session's torque method with torques), the pooled fit being ``identify`` of measured.csv."""
+    ``support`` column) reduced with its robot, in the stances' order; the pooled fit of them
+    all (``identify --weighted`` of the measurements, each with its ``support``: least squares
+    for the CoP alone, the session's torque method with torques), reported for the robot's
+    support."""
     from sescid.estimation import identify
     from sescid.sensors import measure, read_log, table_from_columns
     from sescid.session.estimate import as_measurements
 
     labels = np.asarray(raw["support"])
-    parts, first = [], None
-    for k, (st, rb) in enumerate(zip(plan.stances, plan.robots, strict=True)):
+    parts, data = [], []
+    for st, rb in zip(plan.stances, plan.robots, strict=True):
         rows = labels == st.label
         if not rows.any():
             continue
         log = read_log(rb, table_from_columns({c: v[rows] for c, v in raw.items()}), sensors)
         meas = measure(rb, log, sensors, plan.opt.min_samples)
-        if len(meas.pose):
-            parts.append(meas)
-            first = first or (k, meas)
-    if first is None:
+        if not len(meas.pose):
+            continue
+        parts.append(meas)
+        kinds = "cop" if st.mount == "double" else "tau" if st.mount == "gantry" else plan.kinds
+        if kinds == "both" and meas.tau is None:
+            kinds = "cop"
+        m = as_measurements(meas, kinds, f"{st.label} poses")
+        data.append(dataclasses.replace(m, support=st.label))
+    if not data:
         raise DataError("the session measured no pose")
-    k, meas = first
-    st = plan.stances[k]
-    kinds = "cop" if st.mount == "double" else "tau" if st.mount == "gantry" else plan.kinds
-    if kinds == "both" and meas.tau is None:
-        kinds = "cop"
-    data = as_measurements(meas, kinds, f"{st.label} poses")
-    method = "ls" if kinds == "cop" else plan.opt.torque_method
-    fit = identify(plan.robots[k], data, method=method, weighted=True, allow_exact=True,
-                   total_mass=plan.opt.total_mass)  # fmt: skip
+    torques = any(m.tau is not None for m in data)
+    fit = identify(plan.robot, data, method=plan.opt.torque_method if torques else "ls",
+                   weighted=True, allow_exact=True, total_mass=plan.opt.total_mass)  # fmt: skip
     return concat_measured(parts), fit
