@@ -23,9 +23,9 @@ from sescid.planning.double import PLACE_SHARE, PLACE_YAW, hull_margin
 
 @pytest.fixture(scope="module")
 def op2_double(op2):
-    """200 OP2 candidates on both feet (compliant margin)."""
+    """120 OP2 candidates on both feet (compliant margin)."""
     opt = design.CandidateOptions(compliance=design.compliance(op2))
-    return design.double_candidates(op2, 200, seed=1, options=opt)
+    return design.double_candidates(op2, 120, seed=1, options=opt)
 
 
 def _pin_frames(oracle: PinOracle, q, frames):
@@ -45,7 +45,7 @@ def test_op2_soles_flat_and_cop_over_both_feet(op2, op2_double):
     placement range; the candidates' CoP is Pinocchio's CoM x/y, inside the hull of both
     feet's ±23 mm CoP boxes (scipy); the legs stay within the limits."""
     c = op2_double
-    assert c.mount == "double" and len(c.q) == 200
+    assert c.mount == "double" and len(c.q) == 120
     oracle = PinOracle(op2.model_path, "r_sole", op2.joint_names)
     lim = design.sampling_limits(op2)
     assert np.all((c.q >= lim[:, 0]) & (c.q <= lim[:, 1]))
@@ -190,3 +190,29 @@ def test_check_mujoco_on_both_feet(tmp_path):
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
     assert "MuJoCo bench check: " in res.output and "poses simulated" in res.output
+
+
+def test_double_support_measured_and_fitted(op2):
+    """Planned poses on both feet on the kinematic bench (the real OP2: unmodelled mass, ±1°
+    play, noisy pads on both feet): `measure` combines both feet's pads into the whole robot's
+    CoP in r_sole's frame, and the fit of those rows (support "double") predicts the true CoP
+    of fresh poses on both feet better than the CAD model does."""
+    from sescid.bench import ExperimentConfig, run_experiment
+    from sescid.bench.real_robot import real_robot
+    from sescid.estimation import Measurements, identify
+    from sescid.sensors import load_sensors, measure, read_log, table_from_columns
+
+    sensors = load_sensors(None, op2.profile)
+    plan = design.plan_poses(op2, 40, mount="double", n_candidates=600, n_test=200, seed=2)
+    config = ExperimentConfig(double_support=True)
+    ex = run_experiment(op2, plan.q, sensors, samples=20, seed=0, config=config)
+    assert len(ex.skipped) <= 2
+    meas = measure(op2, read_log(op2, table_from_columns(ex.columns), sensors), sensors)
+    data = Measurements(q=meas.q, cop=meas.cop, cop_se=meas.cop_se, support="double")
+    fit = identify(op2, data, method="ls", weighted=True)
+    fresh = plan.candidates.q[-150:]
+    r_true, _, _ = real_robot(op2, config)
+    truth = op2.cop(fresh, r_true)
+    err_fit = np.sqrt(np.mean(np.sum((fit.predict_cop(fresh) - truth) ** 2, axis=1)))
+    err_cad = np.sqrt(np.mean(np.sum((op2.cop(fresh) - truth) ** 2, axis=1)))
+    assert err_fit < 0.5 * err_cad
