@@ -130,3 +130,44 @@ def test_session_over_stances_needs_an_adapter_that_changes_stance(op2):
     with pytest.raises(OptionError, match="mount"):
         run_session(op2, bot, sensors, SessionOptions(budget=30, mount="stand",
                                                       stances=("r_sole", "l_sole")))  # fmt: skip
+
+
+class _Crashing(KinematicAdapter):
+    """The kinematic bench, stopped by the operator at its ``crash_after``-th move."""
+
+    def __init__(self, *a, crash_after: int | None = None, **k):
+        super().__init__(*a, **k)
+        self.crash_after, self.moves, self.stances = crash_after, 0, []
+
+    def change_stance(self, support, mount):
+        self.stances.append(support)
+        super().change_stance(support, mount)
+
+    def move(self, pose, q):
+        if self.crash_after is not None and self.moves >= self.crash_after:
+            raise KeyboardInterrupt
+        self.moves += 1
+        super().move(pose, q)
+
+
+def test_interrupted_session_over_stances_resumes(op2, tmp_path):
+    """Stopped after the stance change, resumed on the same folder: the journaled poses replay,
+    the live robot is told the current stance before its first pose, and the result is the
+    uninterrupted session's."""
+    from sescid.session import Journal
+
+    sensors = load_sensors(None, op2.profile)
+    opt = SessionOptions(budget=45, kinds="cop", stances=("r_sole", "l_sole"), **SMALL)
+    whole = run_session(op2, _Crashing(op2, sensors, seed=0), sensors, opt)
+    k = next(i for i, s in enumerate(whole.steps) if s.stance == "l_sole")
+    header = {"robot": "op2", "adapter": "kinematic"}
+    journal = Journal.open(tmp_path / "s", header)
+    with pytest.raises(KeyboardInterrupt):
+        run_session(op2, _Crashing(op2, sensors, seed=0, crash_after=k + 2), sensors, opt,
+                    journal=journal)  # fmt: skip
+    bot = _Crashing(op2, sensors, seed=0)
+    bot.rng = np.random.default_rng(12345)  # its noise differs from here on: not replayed
+    res = run_session(op2, bot, sensors, opt, journal=Journal.open(tmp_path / "s", header))
+    assert bot.stances == ["l_sole"] and bot.moves == len(res.steps) - (k + 2)
+    assert [s.candidate for s in res.steps[: k + 2]] == [s.candidate for s in whole.steps[: k + 2]]
+    assert [s.stance for s in res.steps[: k + 2]] == [s.stance for s in whole.steps[: k + 2]]
