@@ -37,6 +37,7 @@ def methods(robot):
         return lambda q, c: sescid.identify(robot, q, c, method=method, **kw)
 
     return {
+        "auto (the default)": fit("auto"),
         "ls (least squares)": fit(),
         "map, τ by evidence": fit("map"),
         "map, τ by 5-fold cv": fit("map", map_options=MapOptions(select="cv")),

@@ -44,7 +44,7 @@ from sescid.study import paper_study
 
 #: options with no API counterpart, and why
 CLI_ONLY = {
-    "stance": "predict: the stance of a pooled fit to predict in (estimation.for_support)",
+    "stance": "predict, report: the stance of a pooled fit to answer in (estimation.for_support)",
     "check": "poses: a physics bench to check the chosen poses on (PlanOptions.check takes "
     "the check itself)",
     "out": "the output file",

@@ -126,9 +126,19 @@ def read_report_data(
     ``tau_<joint>``, ``approach``, gravity or IMU columns) and its pose ids (``pose`` column,
     else row numbers). Errors name the file and the column."""
     from sescid.io import read_table
-    from sescid.io.measurements import measurements_of
+    from sescid.io.measurements import SUPPORT_COLUMN, measurements_of
     from sescid.sensors import pose_list_ids
 
     table = read_table(path)
     data = measurements_of(table, fit.robot, imu_link)
-    return data.checked(fit.robot), tuple(str(i) for i in pose_list_ids(table))
+    ids = pose_list_ids(table)
+    if SUPPORT_COLUMN in table.text:  # the rows of the fit's stance (the others: --support)
+        stance = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+        mine = np.flatnonzero(stance == fit.robot.support)
+        if mine.size == 0:
+            raise DataError(
+                f"{path}: no row of the stance '{fit.robot.support}' (column 'support' names "
+                f"{', '.join(sorted(set(stance.tolist())))}): report the fit in one of those"
+            )
+        data, ids = data.take(mine), ids[mine]
+    return data.checked(fit.robot), tuple(str(i) for i in ids)

@@ -95,11 +95,14 @@ def identifiability_section(c: ReportContent) -> str:
     words = "".join(f"<li>{esc(s)}</li>" for s in coverage_words(c.coverage, support))
     prior = ""
     if fit.map is not None:
+        total = fit.r.size if fit.bodies is None else fit.bodies.x.size
         prior = (
             f"<p>MAP fit: the prior (CAD model), not the data, decided {fit.map.prior_decided} "
-            f"of {fit.r.size} directions (unseen, or where the data carry less than half of "
+            f"of {total} directions (unseen, or where the data carry less than half of "
             "the information).</p>"
         )
+    if fit.bodies is not None:
+        prior += _stances_table(fit.bodies)
     base = "".join(
         f"<tr><td><code>{esc(b.label())}</code></td><td>{cell(mm(b.value, 3))}</td>"
         f"<td>{cell(mm(b.std, 3))}</td></tr>"
@@ -123,6 +126,21 @@ def identifiability_section(c: ReportContent) -> str:
         f"<th>value [mm]</th><th>±1σ [mm]</th></tr>{base}</table></details>\n"
         "<details><summary>Unidentifiable directions</summary>\n<table><tr><th>direction</th>"
         f"<th>kind</th><th>reason</th></tr>{null}</table></details>"
+    )
+
+
+def _stances_table(b) -> str:
+    """A pooled fit: what each stance determines alone, pooled, and what pooling adds."""
+    rows = [[esc(st.support), str(st.n_poses), str(st.n_rows), f"{st.rank} of {b.x.size}"]
+            for st in b.stances]  # fmt: skip
+    rows.append(["pooled", str(sum(st.n_poses for st in b.stances)),
+                 str(sum(st.n_rows for st in b.stances)), f"{b.rank} of {b.x.size}"])  # fmt: skip
+    added = "".join(f"<li><code>{esc(a)}</code></li>" for a in b.added)
+    return (
+        "<p>Stances pooled over the body parameters they share (each body's mass and first "
+        "moment): combinations determined by each stance alone and together.</p>\n"
+        f"{table(['stance', 'poses', 'rows', 'body-parameter combinations'], rows)}\n"
+        + (f"<p>Pooling adds, beyond the best single stance:</p><ul>{added}</ul>" if added else "")
     )
 
 
