@@ -28,7 +28,13 @@ from sescid.bench import (
 from sescid.cli import COMMANDS, cli
 from sescid.estimation import ConsistentOptions, IdentifyOptions, MapOptions
 from sescid.io import export_model
-from sescid.planning import PlanOptions, cop_half_extents, plan_poses, sampling_limits
+from sescid.planning import (
+    PlanOptions,
+    cop_half_extents,
+    plan_poses,
+    plan_stances,
+    sampling_limits,
+)
 from sescid.report import LiveView
 from sescid.robot import load_robot
 from sescid.sensors import CalibrationOptions, PadSessionOptions, fsr, load_sensors, table_gravity
@@ -177,6 +183,8 @@ def _poses(d) -> list:
         ("urdf_limits", not d["urdf_limits"], _arg(sampling_limits, "paper")),
         ("range_deg", d["range_deg"], _arg(sampling_limits, "range_deg")),
         *[(n, d[n], _arg(cop_half_extents, n)) for n in ("cop_box", "margin", "sole_size")],
+        ("stance_cost", d["stance_cost"], _arg(plan_stances, "cost")),
+        ("stances", d["stances"], None),  # none: the support alone (plan_poses)
     ]
 
 

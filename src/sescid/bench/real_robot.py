@@ -182,6 +182,21 @@ def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
     return generic_extra(robot)
 
 
+def stance_config(reference, robot, config: ExperimentConfig) -> ExperimentConfig:
+    """``config`` for the same real robot in another stance: its unmodelled masses (those of
+    ``extra_masses(reference, config)``, offsets in the reference robot's body frames) carried
+    into the body frames of ``robot`` (the same model rooted elsewhere, ``Robot.at``) through
+    each body's first link, so every stance stands the same physical robot."""
+    out = []
+    for e in extra_masses(reference, config):
+        link = reference.model.bodies[reference.body_names.index(e.body)].links[0]
+        b, x = robot.model.link_frames[link]
+        x_ref = reference.model.link_frames[link][1]
+        p = x[:3, :3] @ (x_ref[:3, :3].T @ (np.asarray(e.offset, float) - x_ref[:3, 3])) + x[:3, 3]
+        out.append(ExtraMass(robot.body_names[b], e.share, (float(p[0]), float(p[1]), float(p[2]))))
+    return dataclasses.replace(config, extra=tuple(out))
+
+
 def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
     """The real robot's bodies (the model's plus the unmodelled masses) and the masses placed."""
     if not (0 <= config.extra_mass_fraction < 1):

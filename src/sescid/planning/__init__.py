@@ -44,6 +44,7 @@ from sescid.planning.doptimal import (
     random_cop_error,
     select_d_optimal,
 )
+from sescid.planning.double import double_candidates
 from sescid.planning.gantry import (
     GANTRY_LIFT,
     GantryOptions,
@@ -80,6 +81,12 @@ from sescid.planning.limits import (
 from sescid.planning.ordering import order_poses, path_length
 from sescid.planning.plan import design_curve, plan_poses
 from sescid.planning.plan_kinds import block_curve, choose_blocks
+from sescid.planning.plan_stances import (
+    DEFAULT_STANCE_COST,
+    StancePlan,
+    StanceReport,
+    plan_stances,
+)
 from sescid.planning.plan_types import (
     PlanOptions,
     PoseCheck,
@@ -97,6 +104,7 @@ from sescid.planning.stability import (
     sole_corners,
     stable_mask,
 )
+from sescid.planning.stances import Stance, parse_stances, stance_robot
 
 __all__ = [
     "DEFAULT_CLEARANCE",
@@ -177,4 +185,12 @@ __all__ = [
     "stable_mask",
     "standing_height",
     "unlimited_joints",
+    "DEFAULT_STANCE_COST",
+    "Stance",
+    "StancePlan",
+    "StanceReport",
+    "double_candidates",
+    "parse_stances",
+    "plan_stances",
+    "stance_robot",
 ]

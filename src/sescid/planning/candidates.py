@@ -44,11 +44,13 @@ GIVE_UP = 200_000  #: adjusted draws without one accepted pose: something else s
 
 #: how the robot is held: standing on its support foot, or its support link held in a fixture
 #: (no balance: only the joint limits, the floor and self-collision)
-Mount = Literal["stand", "gantry"]
+Mount = Literal["stand", "gantry", "double"]
 MOUNTS: tuple[Mount, ...] = get_args(Mount)
+#: a candidate pool's mount: one of ``Mount``, or "stances" for the union of several
+PoolMount = Literal[Mount, "stances"]
 #: how candidates were drawn: uniform, adjusted (``planning.adjust``), or uniform draws that
 #: handed over to adjusted ones when too few were accepted
-Sampling = Literal[PoseSampler, "uniform+adjusted"]
+Sampling = Literal[PoseSampler, "uniform+adjusted", "near", "uniform+near"]
 
 
 @dataclass
@@ -69,7 +71,9 @@ class Candidates:
     n_box: int = 0  #: raw poses whose CoP is in the box
     compliance: Compliance | None = None  #: the compliant-stability model checked (None: rigid)
     notes: list[str] = field(default_factory=list)
-    mount: Mount = "stand"
+    mount: PoolMount = "stand"  #: on the support foot, held, on both feet, or several stances
+    #: (n, 4) double support: the free sole's placement x, y [m], cos ψ, sin ψ on the floor
+    placement: np.ndarray | None = None
 
     @property
     def acceptance(self) -> float:
@@ -85,6 +89,14 @@ class Candidates:
             return (
                 f"{self.n_sampled} {drawn}, held: {self.n_ground / s:.2%} clear of the floor, "
                 f"{self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
+            )
+        if self.mount == "double":
+            return (
+                f"{self.n_sampled} draws on both feet: {self.n_box / s:.2%} closed onto the "
+                f"floor within the limits, {self.n_stable / s:.2%} stable (CoP inside both "
+                f"feet){' and compliant' if self.compliance is not None else ''}, "
+                f"{self.n_ground / s:.2%} also ground-clear, {self.n_free / s:.2%} also free of "
+                f"self-collision ({self.n_free} accepted)"
             )
         kind = {
             "uniform": "uniform poses",

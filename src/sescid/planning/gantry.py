@@ -63,10 +63,17 @@ def held_trunk(robot: Robot) -> bool:
 
 def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
     """The plan's mount: ``mount``, or from the support (``held_trunk``: gantry, else stand);
-    OptionError for a CoP design on a gantry (a held robot loads no foot)."""
+    OptionError for a CoP design on a gantry (a held robot loads no foot) and for torques on
+    both feet."""
     if mount is None:
         mount = "gantry" if held_trunk(robot) else "stand"
     check_choice("mount", mount, Mount)
+    if mount == "double" and kinds != "cop":
+        raise OptionError(
+            "kinds",
+            "on both feet the joint torques depend on how the load splits between the feet (a "
+            "closed chain), not on the mass model alone: plan the CoP on both feet (--kinds cop)",
+        )
     if mount == "gantry" and kinds != "tau":
         raise OptionError(
             "kinds",

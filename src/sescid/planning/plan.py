@@ -79,7 +79,7 @@ def plan_poses(
         opt = dataclasses.replace(opt, n_candidates=n_cand)
     assert opt.n_candidates is not None
     mount = resolve_mount(robot, opt.mount, opt.kinds)
-    if opt.kinds != "cop" or mount != "stand":
+    if opt.kinds != "cop" or mount == "gantry":
         from sescid.planning.plan_kinds import plan_kinds
 
         return plan_kinds(robot, count, select, seed, opt, mount, progress)
@@ -93,7 +93,9 @@ def plan_poses(
     if count > opt.n_candidates:
         raise SescidError(f"cannot choose {count} poses from {opt.n_candidates} candidates")
     lim, free, free_range = sampling_range(robot, opt)
-    cand = standing_candidates(robot, opt.n_candidates + opt.n_test, seed, opt, lim, progress)
+    cand = standing_candidates(
+        robot, opt.n_candidates + opt.n_test, seed, opt, lim, progress, mount == "double"
+    )
     model = cand.compliance
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
@@ -127,7 +129,8 @@ def plan_poses(
         compliance=model,
         n_checked=n_checked,
         n_check_failed=n_failed,
-        notes=plan_notes(free, free_range, opt, model, (n_checked, n_failed)),
+        notes=plan_notes(free, free_range, opt, model, (n_checked, n_failed)) + cand.notes,
+        mount=mount,
     )
 
 

@@ -53,7 +53,8 @@ class PlanOptions:
     kinds: DesignKind = "cop"  #: the measured kinds the design counts
     tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose and joint
     tau_joints: tuple[str, ...] | None = None  #: joints whose torque is measured (None: all)
-    mount: Mount | None = None  #: None: from the support (``gantry.resolve_mount``)
+    #: None: from the support (``gantry.resolve_mount``); "double": both feet
+    mount: Mount | None = None
     hang_height: float | None = None  #: m, gantry: held link above the floor (None: ``gantry``)
 
 
@@ -87,7 +88,7 @@ class PosePlan:
     notes: list[str] = field(default_factory=list)
     kinds: DesignKind = "cop"  #: the kinds the design counts
     quantity: Quantity = "CoP"  #: what ``expected_error`` is the error of
-    mount: Mount = "stand"
+    mount: Mount = "stand"  #: "stand", "gantry" or "double"
     rows: BlockRows | None = field(default=None, repr=False)  #: the pool's rows (kinds ≠ cop)
 
 
@@ -114,20 +115,24 @@ def options_with(options: PlanOptions | None, overrides: dict) -> PlanOptions:
 
 
 def checked_choice(
-    choose: Callable[[np.ndarray], Selection], q: np.ndarray, opt: PlanOptions
+    choose: Callable[[np.ndarray], Selection],
+    q: np.ndarray,
+    opt: PlanOptions,
+    by_index: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[Selection, int, int]:
     """(selection, poses checked, failed): ``choose(keep)`` among the pool poses ``q`` where
-    ``keep``, run ``opt.check`` on the chosen poses not checked yet, drop those that fail from
-    the pool and choose again, until all stand."""
+    ``keep``, run ``opt.check`` (or ``by_index``, given the pool indices) on the chosen poses
+    not checked yet, drop those that fail from the pool and choose again, until all stand."""
     keep = np.ones(len(q), dtype=bool)
     sel = choose(keep)
-    if opt.check is None:
+    if opt.check is None and by_index is None:
         return sel, 0, 0
+    check = by_index or (lambda idx: opt.check(q[idx]))  # type: ignore[misc]
     stands: dict[int, bool] = {}
     for _ in range(opt.max_check_rounds):
         new = [int(i) for i in sel.index if int(i) not in stands]
         if new:
-            ok = np.asarray(opt.check(q[new]), dtype=bool)
+            ok = np.asarray(check(np.asarray(new, dtype=np.int64)), dtype=bool)
             stands |= dict(zip(new, ok.tolist(), strict=True))
         bad = [int(i) for i in sel.index if not stands[int(i)]]
         if not bad:
@@ -181,15 +186,26 @@ def sampling_range(robot: Robot, opt: PlanOptions) -> tuple[np.ndarray, list[str
 
 
 def standing_candidates(
-    robot: Robot, n: int, seed: int, opt: PlanOptions, lim: np.ndarray, progress
+    robot: Robot,
+    n: int,
+    seed: int,
+    opt: PlanOptions,
+    lim: np.ndarray,
+    progress,
+    double: bool = False,
 ) -> Candidates:
-    """``n`` candidates for a robot standing on its support foot: a level support checked, the
-    compliant-robot margin unless ``opt.rigid``, the floor and self-collision."""
+    """``n`` candidates for a robot standing on its support foot (``double``: on both feet,
+    ``planning.double``): a level support checked, the compliant-robot margin unless
+    ``opt.rigid``, the floor and self-collision."""
     robot.check_support_level()
     model = None if opt.rigid else compliance(robot)
     draw = CandidateOptions(
         limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
     )
+    if double:
+        from sescid.planning.double import double_candidates
+
+        return double_candidates(robot, n, seed, draw, progress=progress)
     return candidates(robot, n, seed, draw, progress=progress)
 
 

@@ -16,6 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError
 from sescid.planning import (
     CandidateOptions,
@@ -128,3 +129,35 @@ class SessionDesign:
         for i in measured:
             self.design.add(i)
         self.design.tried |= tried
+
+
+def unsafe_pose(
+    robot: Robot,
+    q: np.ndarray,
+    half: np.ndarray | None,
+    r_est: np.ndarray | None,
+    held: bool = False,
+) -> str:
+    """Why ``q`` must not be commanded ('' when it is within limits and statically stable).
+
+    Stable: the model's CoP, and once every identifiable combination is determined the current
+    estimate's CoP too, strictly inside the stability box ``half`` around the sole's centre; a
+    robot ``held`` in a gantry has no balance to keep (its candidates already clear the floor
+    and themselves).
+    """
+    try:
+        check_limits(robot, q[None], "command")
+    except DataError as exc:
+        return str(exc)
+    if held or half is None:
+        return ""
+    for what, r in (("model", None), ("identified", r_est)):
+        if what == "identified" and r is None:
+            continue
+        cop = robot.cop(q[None], r)[0]
+        if np.any(np.abs(cop - robot.sole_centre) >= half):
+            return (
+                f"unstable: {what} CoP ({cop[0] * 1e3:.1f}, {cop[1] * 1e3:.1f}) mm outside "
+                f"±({half[0] * 1e3:.1f}, {half[1] * 1e3:.1f}) mm; not commanded"
+            )
+    return ""

@@ -11,7 +11,14 @@ import numpy as np
 
 from sescid.errors import check_choice
 from sescid.estimation.fit import Fit
-from sescid.planning import DEFAULT_TAU_NOISE, Candidates, DesignKind, Mount, Quantity
+from sescid.planning import (
+    DEFAULT_STANCE_COST,
+    DEFAULT_TAU_NOISE,
+    Candidates,
+    DesignKind,
+    Mount,
+    Quantity,
+)
 from sescid.sensors import Measured
 from sescid.simulation import PAPER_NOISE
 
@@ -53,6 +60,12 @@ class SessionOptions:
     #: how a session with joint torques fits: "map" (the CAD prior, as ``identify --method
     #: map``) or "ls"; a CoP session fits least squares (the online estimator)
     torque_method: TorqueMethod = "map"
+    #: stances to choose poses from (``planning.parse_stances``: sole frames, "double",
+    #: "gantry:<link>"), two or more; empty: the support alone (``session.stances``)
+    stances: tuple[str, ...] = ()
+    #: poses a stance change costs: proposed when the other stance's best gain exceeds 1 + this
+    #: times the current one's
+    stance_cost: float = DEFAULT_STANCE_COST
 
     def __post_init__(self) -> None:
         check_choice("kinds", self.kinds, SessionKind)
@@ -84,6 +97,7 @@ class SessionStep:
     body_std: np.ndarray | None = None  #: (N,) per-body SESC std after this pose, m
     quantity: Quantity = "CoP"  #: what ``cop_std`` is the std of
     tau: np.ndarray | None = None  #: (J,) measured joint torques, N·m (sessions with torques)
+    stance: str = ""  #: the pose's stance (``Stance.label``; "" without stances)
 
 
 @dataclass
@@ -102,6 +116,10 @@ class SessionResult:
     body_names: list[str] = field(default_factory=list)
     #: (candidate, why) chosen but found unsafe before commanding (not counted in the budget)
     rejected: list[tuple[int, str]] = field(default_factory=list)
+    #: over stances: the pooled body parameters θ [kg, kg·m] and their standard deviations
+    #: (``session.stances.PooledEstimate``); None in one stance
+    pooled: tuple[np.ndarray, np.ndarray] | None = None
+    stances: tuple = ()  #: the session's stances (``planning.Stance``; empty in one stance)
 
     @property
     def n_measured(self) -> int:
@@ -134,6 +152,9 @@ class SessionObserver:
 
     def finished_pose(self, step: SessionStep, steps: list[SessionStep]) -> None:
         """A pose was measured or skipped."""
+
+    def stance(self, step_no: int, label: str, describe: str) -> None:
+        """The session asks for a stance change before pose ``step_no`` (over stances)."""
 
     def stopped(self, result: SessionResult) -> None:
         """The session ended."""
