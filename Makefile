@@ -21,7 +21,7 @@ demo: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks examples tools
 	$(VENV)/bin/ruff format --check src tests benchmarks examples tools
-	$(VENV)/bin/mypy src/sescid
+	$(VENV)/bin/mypy src/sescid src/_sescid_launch.py
 
 test: lint
 	$(PY) -m pytest -q -n auto

@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 from timing import best_of, environment
 
-CLI = "import sys; from sescid.cli import main; sys.argv[0] = 'sescid'; main()"
+CLI = "import sys; from _sescid_launch import main; sys.argv[0] = 'sescid'; main()"
 
 
 def _env() -> dict[str, str]:
@@ -141,7 +141,7 @@ if proc:
 if sys.argv[1] == "--code":
     exec(sys.argv[2])
 else:
-    from sescid.cli import main
+    from _sescid_launch import main
     sys.argv = ["sescid", *sys.argv[1:]]
     try:
         main()

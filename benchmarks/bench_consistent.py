@@ -27,11 +27,7 @@ def main() -> None:
     consistent_from_fit(ls)
     t_ls = best_of(lambda: sescid.identify(robot, sim.q, sim.cop))
     via_fit = ConsistentOptions(via="fit")
-    t_all = best_of(
-        lambda: sescid.identify(
-            robot, sim.q, sim.cop, method="consistent", consistent_options=via_fit
-        )
-    )
+    t_all = best_of(lambda: sescid.identify(robot, sim.q, sim.cop, method=via_fit))
     t_qp = best_of(lambda: consistent_from_fit(ls))
     t_sym = best_of(lambda: consistent_from_fit(ls, symmetric=True, mass_floor=0.01))
     t_map = best_of(lambda: consistent_from_fit(ls, prior_std=0.05))

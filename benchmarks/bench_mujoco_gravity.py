@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 
 import sescid
+from sescid import identify
 from sescid.base.columns import Table
 from sescid.bench import ExperimentConfig, real_robot
 from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
-from sescid.estimation import identify
 from sescid.planning import candidates
 from sescid.sensors import load_sensors, measure, read_raw
 

@@ -40,16 +40,12 @@ def methods(robot):
         "auto (the default)": fit("auto"),
         "ls (least squares)": fit(),
         "map, τ by evidence": fit("map"),
-        "map, τ by 5-fold cv": fit("map", map_options=MapOptions(select="cv")),
+        "map, τ by 5-fold cv": fit(MapOptions(select="cv")),
         "ls + huber (robust)": fit(robust=True),
         f"online, τ = {ONLINE_TAU * 1e3:g} mm, σ known": online,
         "consistent (default: CAD prior by evidence)": fit("consistent"),
-        "consistent `--via fit` (masses ≥ 0, CoM in box)": fit(
-            "consistent", consistent_options=ConsistentOptions(via="fit")
-        ),
-        "consistent `--cad-std 0.05`": fit(
-            "consistent", consistent_options=ConsistentOptions(via="fit", prior_std=0.05)
-        ),
+        "consistent `--via fit` (masses ≥ 0, CoM in box)": fit(ConsistentOptions(via="fit")),
+        "consistent `--cad-std 0.05`": fit(ConsistentOptions(via="fit", prior_std=0.05)),
     }
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.estimation import ConsistentOptions, MapOptions, Measurements, identify
+from sescid import identify
+from sescid.estimation import ConsistentOptions, MapOptions, Measurements
 
 
 def identify_ls(robot, q, cop, **kw):
@@ -30,14 +31,14 @@ def identify_map(
     opts = MapOptions(
         prior_scale=prior_scale, noise=noise, select=select, folds=folds, bias=bias, prior=prior
     )
-    return identify(robot, q, cop, method="map", map_options=opts, **kw)
+    return identify(robot, q, cop, method=opts, **kw)
 
 
 def identify_consistent(robot, q, cop, *, sigma=None, gravity=None, rtol=None, **ckw):
     """Least squares, then masses that reproduce it closest to CAD (``via="fit"``)."""
     opts = ConsistentOptions(via="fit", **ckw)
     return identify(
-        robot, q, cop, method="consistent", consistent_options=opts, sigma=sigma,
+        robot, q, cop, method=opts, sigma=sigma,
         gravity=gravity, rtol=rtol,
     )  # fmt: skip
 

@@ -143,16 +143,6 @@ print("ok")
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr
 
 
-def test_help_needs_no_numerics():
-    """`import sescid` and the CLI group import neither numpy nor numba (fast --help)."""
-    code = (
-        "import sys, sescid, sescid.cli; "
-        "print(sorted(m for m in ('numpy', 'numba', 'scipy', 'matplotlib') if m in sys.modules))"
-    )
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert res.stdout.strip() == "[]"
-
-
 def _cli_imports() -> list[tuple[str, int, str, str]]:
     """(cli module, line, imported-from module, name) of every sescid import in the CLI."""
     out = []

@@ -101,7 +101,7 @@ def test_demo_runs_without_numba_and_prints_the_readme_numbers(tmp_path):
     """`sescid demo` in a fresh process stays on the numpy path (numba is never imported) and
     prints the figures the README's §3 table quotes."""
     code = (
-        "import sys\nfrom sescid.cli import main\nsys.argv[0] = 'sescid'\n"
+        "import sys\nfrom _sescid_launch import main\nsys.argv[0] = 'sescid'\n"
         "try:\n    main()\nfinally:\n    print('numba imported:', 'numba' in sys.modules)\n"
     )
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))

@@ -26,6 +26,8 @@ def _blocked_copy(tmp_path: Path) -> Path:
     shutil.copytree(
         Path(sescid.__file__).parent, site / "sescid", ignore=shutil.ignore_patterns("__pycache__")
     )
+    launcher = Path(sescid.__file__).parents[1] / "_sescid_launch.py"  # the script's entry
+    shutil.copy(launcher, site / launcher.name)
     for folder in [site / "sescid", *(p for p in (site / "sescid").rglob("*") if p.is_dir())]:
         (folder / "__pycache__").write_text("not a folder\n")
     return site
@@ -52,7 +54,7 @@ def test_kernels_compile_in_memory_when_no_cache_is_writable(tmp_path):
     expected = float(sescid.load_robot("op2").cop(np.zeros((1, 20)))[0, 0])
     assert float(res.stdout) == expected
     version = subprocess.run(
-        [sys.executable, "-c", "from sescid.cli import main; main()", "--version"],
+        [sys.executable, "-c", "from _sescid_launch import main; main()", "--version"],
         env=env,
         cwd=tmp_path,
         capture_output=True,

@@ -48,22 +48,49 @@ def test_identify_runs_on_one_blas_thread(op2, rng, monkeypatch):
 
 
 def test_the_command_line_pins_blas_before_numpy_loads():
-    """``sescid`` sets the thread variables (keeping the user's) before numpy is imported."""
+    """The ``sescid`` script's entry (``_sescid_launch``) sets the thread variables (keeping the
+    user's) before ``sescid``, and so numpy, is imported; the package then knows BLAS is pinned."""
     code = (
         "import os, sys\n"
-        "from sescid.base.threads import pin_process\n"
-        "pin_process()\n"
-        "import numpy\n"
+        "import _sescid_launch\n"
+        "_sescid_launch.pin_blas()\n"
+        "assert 'numpy' not in sys.modules\n"
+        "import sescid\n"
+        "from sescid.base.threads import pinned\n"
         "from threadpoolctl import threadpool_info\n"
         "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['MKL_NUM_THREADS'],\n"
-        "      sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'}))\n"
+        "      sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'}),\n"
+        "      pinned())\n"
     )
     env = {k: v for k, v in os.environ.items() if k not in threads.THREAD_VARIABLES}
-    env["MKL_NUM_THREADS"] = "3"  # the user's own choice survives
+    env.pop(threads.PINNED_VARIABLE, None)
+    env["MKL_NUM_THREADS"] = "3"  # the user's own choice survives (and then nothing is pinned)
     out = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
     )
-    assert out.stdout.split() == ["1", "3", "[1]"]
+    assert out.stdout.split() == ["1", "3", "[1]", "False"]
+    del env["MKL_NUM_THREADS"]
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.split() == ["1", "1", "[1]", "True"]
+
+
+def test_pinning_after_numpy_loaded_is_not_taken_for_pinned():
+    """``pin_process`` once numpy is loaded (``import sescid`` loads it) sets the variables for
+    libraries loaded later, but ``one_blas_thread`` still limits the ones already loaded."""
+    code = (
+        "import sescid\n"
+        "from sescid.base.threads import pin_process, pinned\n"
+        "pin_process()\n"
+        "print(pinned())\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in threads.THREAD_VARIABLES}
+    env.pop(threads.PINNED_VARIABLE, None)
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.split() == ["False"]
 
 
 def test_ordered_map_keeps_the_order_and_runs_alone_on_one_core(monkeypatch):

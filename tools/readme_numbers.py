@@ -113,8 +113,8 @@ def _physics_figures(fit, table, q, cop) -> dict[str, str]:
 
     import numpy as np
 
+    from sescid import identify
     from sescid.bench import load_truth
-    from sescid.estimation import identify
     from sescid.estimation.tilt import tilt_direction
     from sescid.io import read_cop_se
     from sescid.sensors.imu import table_gravity

@@ -33,8 +33,9 @@ from pathlib import Path
 import numpy as np
 
 import sescid
+from sescid import identify
 from sescid.bench import load_truth
-from sescid.estimation import MapOptions, Measurements, identify
+from sescid.estimation import MapOptions, Measurements
 from sescid.estimation.measurements import concatenate
 from sescid.io.measurements import read_measurements
 
@@ -117,13 +118,13 @@ def one_seed(seed: int, args) -> dict[str, float]:
         out["torques, least squares"] = com_error(robot, ls.r, r_true, fresh)
         ref = lstsq_reference(robot, tau, mass, friction=False)
         out["independent lstsq, same rows"] = com_error(robot, ref, r_true, fresh)
-        tmap = identify(robot, tau, method="map", map_options=MapOptions(prior="sesc"), **opts)
+        tmap = identify(robot, tau, method=MapOptions(prior="sesc"), **opts)
         out["torques, MAP"] = com_error(robot, tmap.r, r_true, fresh)
-        body = identify(robot, tau, method="map", map_options=MapOptions(prior="bodies"), **opts)
+        body = identify(robot, tau, method=MapOptions(prior="bodies"), **opts)
         out["torques, MAP (per-body prior)"] = com_error(robot, body.r, r_true, fresh)
         cmap = identify(robot, cop, method="map")
         out["CoP only, MAP"] = com_error(robot, cmap.r, r_true, fresh)
-        cbody = identify(robot, cop, method="map", map_options=MapOptions(prior="bodies"))
+        cbody = identify(robot, cop, method=MapOptions(prior="bodies"))
         out["CoP only, MAP (per-body prior)"] = com_error(robot, cbody.r, r_true, fresh)
         both = identify(robot, data, method="map", **opts)
         out["CoP + torques, MAP"] = com_error(robot, both.r, r_true, fresh)
@@ -155,10 +156,10 @@ def one_seed(seed: int, args) -> dict[str, float]:
         held = sescid.load_robot("op2", support=torso)
         gantry_poses(folder, held, seed)
         held, data, truth = bench(folder, seed, args, ["--mount", "gantry"], support=torso)
-        gfit = identify(held, data.without("cop"), method="map", total_mass=truth.true_mass,
-                        robust=False, map_options=MapOptions(prior="sesc"))  # fmt: skip
-        gbody = identify(held, data.without("cop"), method="map", total_mass=truth.true_mass,
-                         robust=False, map_options=MapOptions(prior="bodies"))  # fmt: skip
+        gfit = identify(held, data.without("cop"), total_mass=truth.true_mass,
+                        robust=False, method=MapOptions(prior="sesc"))  # fmt: skip
+        gbody = identify(held, data.without("cop"), total_mass=truth.true_mass,
+                         robust=False, method=MapOptions(prior="bodies"))  # fmt: skip
         rng = np.random.default_rng(2000 + seed)
         lim = np.clip(held.joint_limits, -np.pi / 4, np.pi / 4)
         qg = rng.uniform(lim[:, 0], lim[:, 1], (1000, held.nq))

@@ -1,22 +1,34 @@
-"""``sescid.identify``: the estimation entry point, reading measurement files too.
+"""``sescid.identify``: the one entry point of an identification, from files or arrays.
 
-``identify(robot, data, …)`` accepts everything ``sescid.estimation.identify`` does (arrays,
-``Measurements``, lists of them, chunks) and also a file path or a list of paths (CSV or
-Parquet, see ``sescid.io.measurements``): each file is one source, streamed once (flat memory
-for any number of poses) and pooled with the others. The options are the same typed
-``IdentifyOptions``, whose ``imu_link`` names the IMU link when the files carry its roll and
-pitch, and whose ``allow_outside_limits`` accepts poses outside the model's joint limits (else an
-error names the first one; simulated data only warn).
+``identify(robot, data, …)`` takes a file path or a list of paths (CSV or Parquet, see
+``sescid.io.measurements``: each file is one source, streamed once — flat memory for any number
+of poses — and pooled with the others), a ``Measurements``, a list of them, chunks of one data
+set, or joint angles with ``cop=``. ``method`` names the method or is its options object;
+``options`` holds what every method shares (``IdentifyOptions``, whose ``imu_link`` names the IMU
+link when files carry its roll and pitch, and whose ``allow_outside_limits`` accepts poses
+outside the model's joint limits, else an error names the first one; simulated data only warn).
+The estimation itself is ``sescid.estimation.fit_measurements``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from sescid.base.files import check_distinct
-from sescid.estimation import Fit, IdentifyOptions
-from sescid.estimation import identify as _identify
+from sescid.errors import DataError, OptionError
+from sescid.estimation import (
+    Fit,
+    IdentifyOptions,
+    Measurements,
+    MethodName,
+    MethodOptions,
+    fit_measurements,
+)
 from sescid.io.measurements import ReadReport, read_measurements
 from sescid.robot import Robot
 
@@ -25,6 +37,33 @@ __all__ = ["file_stance", "identify"]
 
 def _is_path(x: Any) -> bool:
     return isinstance(x, str | Path)
+
+
+def _arrays(data: Any, cop: Any, sigma: Any, gravity: Any) -> Any:
+    """Joint angles with ``cop=`` (and ``sigma=``, ``gravity=``) as Measurements; anything
+    else as given."""
+    if cop is None:
+        if sigma is not None or gravity is not None:
+            raise OptionError("sigma", "sigma= and gravity= go with joint angles and cop=")
+        return data
+    if isinstance(data, Measurements):
+        raise OptionError("cop", "give cop= with joint angles, not with Measurements")
+    return Measurements(
+        q=np.asarray(data, dtype=float),
+        cop=np.asarray(cop, dtype=float),
+        cop_se=None if sigma is None else _se(sigma, np.shape(data)[0]),
+        gravity=None if gravity is None else np.asarray(gravity, dtype=float),
+        source="data",
+    )
+
+
+def _se(sigma: Any, n: int) -> np.ndarray:
+    s = np.asarray(sigma, dtype=float)
+    if s.ndim == 1:
+        if s.shape != (n,):
+            raise DataError(f"sigma: expected shape ({n},) or ({n}, 2) in metres, got {s.shape}")
+        s = np.repeat(s[:, None], 2, axis=1)
+    return s
 
 
 def file_stance(path: str | Path) -> tuple[Path, str | None]:
@@ -43,28 +82,41 @@ def identify(
     data: Any,
     cop: Any = None,
     *,
-    method: str = "auto",
+    method: MethodName | MethodOptions = "auto",
     options: IdentifyOptions | None = None,
-    progress: Any = None,
+    sigma: Any = None,
+    gravity: Any = None,
+    progress: Callable[[int, int | None], None] | None = None,
     **overrides: Any,
 ) -> Fit:
-    """Identify from files or arrays (see ``sescid.estimation.identify`` for the rest).
+    """Identify the SESC vectors (and sensor offsets) from static poses and what was measured.
 
-    ``data``: a path, a list of paths (pooled), or anything ``estimation.identify`` takes; a
-    path ``FILE@FRAME`` reads FILE as measured in the stance FRAME (``file_stance``), a
-    ``support`` column names each row's stance.
-    Poses outside the limits of a file that allows them (or of simulated data) are a warning
-    stored in the fit.
+    ``data``: a path or a list of paths (pooled; ``FILE@FRAME`` reads FILE as measured in the
+    stance FRAME, ``file_stance``, and a ``support`` column names each row's stance), a
+    ``Measurements`` (q (n, nq) rad with a CoP
+    (n, 2) m and/or joint torques (n, J) N·m), a list of them, chunks of one data set; or joint
+    angles with ``cop=`` (n, 2) m, optional ``sigma=`` per-pose CoP standard errors (n,) or
+    (n, 2) m (a weighted fit) and ``gravity=`` per-pose gravity directions (n, 3) in the support
+    frame. ``method``: "auto" (the default: MAP with the CAD prior when the data leave
+    directions weakly determined, least squares when they determine every direction well;
+    ``fit.choice`` says which and why), "ls" (least squares, the paper's), "map" (Gaussian CAD
+    prior) or "consistent" (physical masses/CoMs) with their default options, or an options
+    object naming its method (``MapOptions(…)``, ``AutoOptions(…)``, ``ConsistentOptions(…)``).
+    ``options``: ``IdentifyOptions``; keyword ``overrides`` replace its fields (``rtol=``,
+    ``robust=``, ``total_mass=`` …). ``progress(poses_done, total)`` is called while the
+    normal equations are accumulated. Warnings (data quality, poses outside the limits of a
+    file that allows them or of simulated data) are stored in ``fit.warnings``.
     """
+    opts = (options or IdentifyOptions()).with_overrides(**overrides)
+    if sigma is not None:
+        opts = dataclasses.replace(opts, weighted=True)
     paths = [data] if _is_path(data) else data
     if not (isinstance(paths, list | tuple) and paths and all(_is_path(p) for p in paths)):
-        return _identify(
-            robot, data, cop, method=method, options=options, progress=progress, **overrides
-        )
-    if cop is not None:
-        raise TypeError("cop= goes with joint angles, not with files")
-    opts = (options or IdentifyOptions()).with_overrides(**overrides)
-    check_distinct(list(paths), "data")
+        data = _arrays(data, cop, sigma, gravity)
+        return fit_measurements(robot, data, method=method, options=opts, progress=progress)
+    if cop is not None or sigma is not None or gravity is not None:
+        raise OptionError("cop", "cop=, sigma= and gravity= go with joint angles, not with files")
+    check_distinct([file_stance(g)[0] for g in paths], "data")
     got: list[ReadReport] = []
     streams = []
     for given in paths:
@@ -77,10 +129,8 @@ def identify(
                 allow_outside_limits=opts.allow_outside_limits, report=rep, support=stance,
             )
         )  # fmt: skip
-    fit = _identify(robot, streams, method=method, options=opts, progress=progress)
+    fit = fit_measurements(robot, streams, method=method, options=opts, progress=progress)
     notes = [m for m in (r.limit_message() for r in got) if m is not None]
     if notes:
-        import dataclasses
-
         fit = dataclasses.replace(fit, warnings=tuple(notes) + fit.warnings)
     return fit

@@ -1,10 +1,13 @@
 """The exceptions sescid raises for input a user can act on; the CLI prints each as one line.
 
 Every message names what is wrong and where (file, row, column, field, body or joint); none
-speaks of command-line flags, which only the CLI knows.
+speaks of command-line flags, which only the CLI knows. ``check_choice`` refuses a value outside
+a ``Literal`` alias (the typed choices of every option), listing the alias's values.
 """
 
 from __future__ import annotations
+
+from typing import Any, get_args
 
 
 class SescidError(ValueError):
@@ -42,6 +45,24 @@ class MissingExtraError(SescidError):
         self.extra = extra
 
 
+def choices(alias: Any) -> tuple[Any, ...]:
+    """The values a ``Literal`` alias allows (nested aliases and unions flattened, ``bool`` as
+    True, False), in their order."""
+    out: list[Any] = []
+    for a in get_args(alias):
+        out += [True, False] if a is bool else choices(a) if get_args(a) else [a]
+    return tuple(out)
+
+
+def check_choice(name: str, value: Any, alias: Any) -> None:
+    """OptionError naming ``name`` unless ``value`` is one of the values of the ``Literal`` alias
+    ``alias`` (the message lists them from the alias: one home for the choices)."""
+    allowed = choices(alias)
+    if not any(value == a and type(value) is type(a) for a in allowed):
+        listed = ", ".join(repr(a) for a in allowed)
+        raise OptionError(name, f"must be one of {listed}, got {value!r}")
+
+
 __all__ = [
     "DataError",
     "MissingExtraError",
@@ -49,4 +70,6 @@ __all__ = [
     "OptionError",
     "SescidError",
     "SolverError",
+    "check_choice",
+    "choices",
 ]

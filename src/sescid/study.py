@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.estimation import Fit, identify
+from sescid.estimation import Fit, Measurements, fit_measurements
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, SimData, simulate
 
@@ -50,7 +50,7 @@ def paper_study(
     fresh = simulate(
         robot, n_fresh, range_deg, noise, None if seed is None else seed + 1, r_true=r_true
     )
-    fit = identify(robot, sim.q, sim.cop, method="ls")  # the paper's method
+    fit = fit_measurements(robot, Measurements(q=sim.q, cop=sim.cop), method="ls")  # the paper's
     p, rows = fit.rank, 2 * n
 
     def rms(a):

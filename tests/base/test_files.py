@@ -172,9 +172,13 @@ def test_sensor_file_with_infinity_is_one_line(tmp_path, op2):
 
 
 def test_a_folder_named_like_the_robot_is_not_an_input(tmp_path, monkeypatch):
-    """`--robot op2` (the default) beside a folder called op2: outputs may go into it."""
+    """`--robot op2` (the default) beside a folder called op2: the option names the robot, so
+    outputs may go into the folder; a folder given as an input is one."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "op2").mkdir()
-    check_outputs([Path("op2") / "sim.csv"], ["op2"])
+    args = ["simulate", "--robot", "op2", "--poses", "3", "--out", "op2/sim.csv"]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "op2" / "sim.csv").is_file()
     with pytest.raises(DataError, match="inside the input"):
-        check_outputs([Path("op2") / "sim.csv"], ["./op2"])  # a path: the folder itself
+        check_outputs([Path("op2") / "sim.csv"], ["op2"])  # a folder among the inputs

@@ -184,7 +184,7 @@ def tilted(op2, sensors):
 
 def test_gravity_aware_identify_beats_flat(op2, tilted):
     """On free-standing bench data the tilted-gravity fit predicts the pad CoP better."""
-    from sescid.estimation import identify
+    from sescid import identify
 
     ex, res = tilted
     t = ex.truth

@@ -152,7 +152,7 @@ def test_torque_options_are_checked(op2, sensors):
         (TorqueConfig("some"), "expected 'all'"),
         (TorqueConfig("all", friction=(0.3, 0.1)), "friction band"),
         (TorqueConfig("all", noise=-1.0), "torque noise"),
-        (TorqueConfig("all", approach="sideways"), "approach must be"),
+        (TorqueConfig("all", approach="sideways"), "approach: must be one of"),
     ):
         with pytest.raises(SescidError, match=match):
             run_experiment(op2, q, sensors, config=ExperimentConfig(torque=tc))

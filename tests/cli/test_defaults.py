@@ -28,7 +28,13 @@ from sescid.bench import (
 from sescid.cli import COMMANDS, cli
 from sescid.estimation import ConsistentOptions, IdentifyOptions, MapOptions
 from sescid.io import export_model
-from sescid.planning import PlanOptions, cop_half_extents, plan_poses, sampling_limits
+from sescid.planning import (
+    PlanOptions,
+    cop_half_extents,
+    plan_poses,
+    plan_stances,
+    sampling_limits,
+)
 from sescid.report import LiveView
 from sescid.robot import load_robot
 from sescid.sensors import CalibrationOptions, PadSessionOptions, fsr, load_sensors, table_gravity
@@ -115,7 +121,7 @@ def _robot(d) -> list:
 def _identify(d: _Read) -> list:
     from sescid.cli.identify import options_from_flags
 
-    options = options_from_flags(d["method"], d)
+    _, options = options_from_flags(d["method"], d)
     mine = [(f.name, getattr(options, f.name)) for f in dataclasses.fields(IdentifyOptions)]
     api = IdentifyOptions()
     names = {"robust": "robust", "joint_noise": "joint_noise_deg", "online_step": "online"}
@@ -123,7 +129,7 @@ def _identify(d: _Read) -> list:
         *_robot(d),
         ("method", d["method"], _arg(identify, "method")),
         *[(names.get(n, f"IdentifyOptions.{n}"), v, getattr(api, n)) for n, v in mine],
-        ("MapOptions", options_from_flags("map", d).map, MapOptions()),  # read for --method map
+        ("MapOptions", options_from_flags("map", d)[0], MapOptions()),  # read for --method map
     ]
 
 
@@ -177,6 +183,8 @@ def _poses(d) -> list:
         ("urdf_limits", not d["urdf_limits"], _arg(sampling_limits, "paper")),
         ("range_deg", d["range_deg"], _arg(sampling_limits, "range_deg")),
         *[(n, d[n], _arg(cop_half_extents, n)) for n in ("cop_box", "margin", "sole_size")],
+        ("stance_cost", d["stance_cost"], _arg(plan_stances, "cost")),
+        ("stances", d["stances"], None),  # none: the support alone (plan_poses)
     ]
 
 

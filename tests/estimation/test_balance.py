@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 import sescid
+from sescid import identify
 from sescid.errors import DataError
-from sescid.estimation import MapOptions, Measurements, identify
+from sescid.estimation import MapOptions, Measurements
 from sescid.estimation.anchor import com_distance, homogeneous
 from sescid.estimation.balance_rows import balance_rows
 from sescid.estimation.pooled import accumulate_sources
@@ -151,7 +152,7 @@ def test_map_on_zero_sesc_bodies_never_traces_back(wheeled):
     se = np.column_stack([np.full(40, 1e-3), np.full(40, 1e3)])
     m = Measurements(q=sim.q, cop=np.zeros((40, 2)), cop_se=se, gravity=sim.gravity)
     for prior in ("sesc", "bodies"):
-        fit = identify(wheeled, m, method="map", weighted=True, map_options=MapOptions(prior=prior))
+        fit = identify(wheeled, m, weighted=True, method=MapOptions(prior=prior))
         assert fit.scale is not None  # all targets 0: anchored, not collapsed
         assert com_distance(wheeled, fit.r) > 0.1
 

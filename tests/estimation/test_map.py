@@ -144,7 +144,7 @@ def test_least_squares_absorbs_bias_into_the_model(robot):
 
 def test_bad_prior_scale_raises(robot):
     sim = simulate(robot, 40, 30.0, SIGMA, 0)
-    with pytest.raises(SescidError, match="prior scale"):
+    with pytest.raises(SescidError, match="prior_scale"):
         identify_map(robot, sim.q, sim.cop, prior_scale=-1.0)
 
 

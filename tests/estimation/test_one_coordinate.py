@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import sescid
+from sescid import identify
 from sescid.errors import DataError
-from sescid.estimation import Measurements, identify
+from sescid.estimation import Measurements
 
 
 def reference(robot, q, cop, rtol=1e-6):

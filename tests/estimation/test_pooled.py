@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import sescid
+from sescid import identify
 from sescid.errors import DataError
-from sescid.estimation import Measurements, identify
+from sescid.estimation import Measurements
 from sescid.estimation.pooled import PARAM_UNIT, for_support, prior_x
 from sescid.simulation import random_poses
 

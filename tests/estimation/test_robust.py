@@ -7,9 +7,10 @@ import pytest
 from click.testing import CliRunner
 from fitting import identify_ls
 
+from sescid import identify
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import IdentifyOptions, Measurements, identify, load_fit
+from sescid.estimation import IdentifyOptions, LeastSquaresOptions, Measurements, load_fit
 from sescid.estimation.robust import joint_noise_mc
 from sescid.estimation.runs import make_fitter
 from sescid.estimation.validation import truth_error
@@ -29,12 +30,12 @@ def corrupted(robot):
 
 def _ls(robot):
     """A (q, cop) → least-squares fit function."""
-    fitter = make_fitter(robot, "ls", IdentifyOptions())
+    fitter = make_fitter(robot, LeastSquaresOptions(), IdentifyOptions())
     return lambda q, c: fitter([Measurements(q=q, cop=c).checked(robot)])
 
 
 def _mfit(robot):
-    return make_fitter(robot, "ls", IdentifyOptions())
+    return make_fitter(robot, LeastSquaresOptions(), IdentifyOptions())
 
 
 def huber(robot, q, cop, sigma=None, **kw):

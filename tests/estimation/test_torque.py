@@ -13,9 +13,10 @@ from oracle import PinStatics
 from urdf_gen import random_urdf
 
 import sescid
+from sescid import identify
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.estimation import IdentifyOptions, Measurements, identify, perturbed_sesc
+from sescid.estimation import IdentifyOptions, Measurements, perturbed_sesc
 from sescid.io import write_table
 from sescid.simulation import random_poses
 
@@ -327,9 +328,9 @@ def test_cli_identifies_from_a_torque_file(op2, tmp_path):
 
 def test_options_check_their_ranges(op2):
     with pytest.raises(sescid.OptionError, match="tau_noise"):
-        IdentifyOptions(tau_noise=-1.0).check("ls")
+        IdentifyOptions(tau_noise=-1.0)
     with pytest.raises(sescid.OptionError, match="gravity_accel"):
-        IdentifyOptions(gravity_accel=9810.0).check("ls")
+        IdentifyOptions(gravity_accel=9810.0)
 
 
 def test_body_prior_fits_torques_and_cop(op2):
@@ -352,9 +353,9 @@ def test_body_prior_fits_torques_and_cop(op2):
     tau = _tau(op2, q, r_true, total_mass=mass) + rng.normal(0, 0.05, (38, op2.nq))
     opts = MapOptions(prior="bodies")
     m = Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names))
-    fit = identify(op2, m, method="map", map_options=opts, total_mass=mass, gravity_accel=G0)
+    fit = identify(op2, m, method=opts, total_mass=mass, gravity_accel=G0)
     cop_fit = identify(op2, q, op2.cop(q, r_true) + rng.normal(0, 0.00493, (38, 2)),
-                       method="map", map_options=opts)  # fmt: skip
+                       method=opts)  # fmt: skip
     qf = random_poses(op2, 1000, 30, 32)
 
     def err(r):
@@ -439,3 +440,20 @@ def test_torque_gains_ratios_from_the_data(op2):
     reading = fit.predict_torque(qf, reading=True)
     truth = (1 + gains) * (_tau(op2, qf) + off)
     assert np.sqrt(np.mean((reading - truth) ** 2)) < 0.03
+
+
+def test_torque_gains_beside_a_cop_use_the_methods_rows(op2):
+    """Torque gains with a CoP in the same data: the gains' system takes its CoP rows as the
+    method makes them (a MAP fit with a CoP offset keeps that column), and every measured joint
+    gets a gain."""
+    rng = np.random.default_rng(60)
+    q = random_poses(op2, 300, 30, 61)
+    gains = rng.normal(0, 0.05, op2.nq)
+    tau = (1 + gains) * _tau(op2, q) + 1e-3 * rng.normal(size=(300, op2.nq))
+    cop = op2.cop(q) + 1e-4 * rng.normal(size=(300, 2))
+    data = Measurements(q=q, cop=cop, tau=tau, tau_joints=tuple(op2.joint_names))
+    for method in ("ls", sescid.MapOptions(bias=True)):
+        fit = identify(op2, data, tau_gains=True, total_mass=op2.total_mass, gravity_accel=G0,
+                       method=method)  # fmt: skip
+        assert sum(e.what == "gain" for e in fit.nuisance) == op2.nq
+        assert (fit.cop_offset is not None) == (method != "ls")

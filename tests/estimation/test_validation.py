@@ -5,9 +5,10 @@ import pytest
 from click.testing import CliRunner
 from fitting import identify_ls, identify_map
 
+from sescid import identify
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.estimation import identify, load_fit
+from sescid.estimation import load_fit
 from sescid.estimation.validation import (
     com_interval,
     cop_interval,

@@ -124,7 +124,7 @@ def test_version_1_fit_files_are_read(tmp_path):
 
     robot = sescid.load_robot("op2")
     sim = sescid.simulate(robot, 60, noise=0.004, seed=3)
-    fit = sescid.identify(robot, sim.q, sim.cop, method="map", map_options=MapOptions(bias=True))
+    fit = sescid.identify(robot, sim.q, sim.cop, method=MapOptions(bias=True))
     save_fit(fit, tmp_path / "v2.json")
     data = json.loads((tmp_path / "v2.json").read_text())
     v1 = {k: v for k, v in data.items() if k not in ("map", "cop_offset", "weighted")}

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from fitting import identify_ls, identify_stream
 
+from sescid import identify
 from sescid.base.columns import read_cop, read_poses
 from sescid.errors import DataError
-from sescid.estimation import Measurements, identify
+from sescid.estimation import Measurements
 from sescid.io import iter_table, read_table, tables, write_table
 from sescid.io.tables import read_ahead
 from sescid.simulation import simulate

@@ -85,7 +85,7 @@ def test_the_command_line_pins_openblas_to_its_baseline_kernels(core):
     from sescid.base import threads
 
     code = (
-        "import os\nfrom sescid.base.threads import pin_process\npin_process()\n"
+        "import os, _sescid_launch\n_sescid_launch.pin_blas()\n"
         "print(os.environ.get('OPENBLAS_CORETYPE'))\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}

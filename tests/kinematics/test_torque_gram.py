@@ -15,7 +15,7 @@ from sescid.estimation.measurements import Measurements
 from sescid.estimation.torque_rows import torque_columns
 from sescid.kinematics import gram_reduced
 from sescid.kinematics.torque_plan import torque_plan
-from sescid.kinematics.torque_sums import TorqueRows, gram_fused
+from sescid.kinematics.torque_sums import TorqueBlock, gram_fused
 
 G0 = 9.81
 
@@ -31,7 +31,7 @@ def _explicit(robot, m, mass, weighted):
 def _fused(robot, m, mass, weighted, cop=None):
     plan = torque_plan(robot.tree, robot.joint_columns(m.tau_joints), m.approach is not None, 2)
     assert plan is not None
-    rows = TorqueRows(m.tau, 1.0 / m.tau_se if weighted else None, m.approach, mass * G0)
+    rows = TorqueBlock(m.tau, 1.0 / m.tau_se if weighted else None, m.approach, mass * G0)
     out = gram_fused(robot.tree, robot.reduction, plan, m.q, rows, cop)
     assert out is not None
     return out

@@ -13,9 +13,10 @@ import pytest
 from click.testing import CliRunner
 
 import sescid
+from sescid import identify
 from sescid import planning as design
 from sescid.cli import cli
-from sescid.estimation import Measurements, identify, perturbed_sesc
+from sescid.estimation import Measurements, perturbed_sesc
 from sescid.io import read_table
 from sescid.planning.blocks import BlockDesign
 from sescid.simulation import PAPER_NOISE, TorqueNoise, simulate_torques

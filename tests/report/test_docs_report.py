@@ -9,8 +9,9 @@ from pathlib import Path
 from click.testing import CliRunner
 from op2_stance import stable_poses
 
+from sescid import identify
 from sescid.cli import cli
-from sescid.estimation import Measurements, identify
+from sescid.estimation import Measurements
 from sescid.report import ReportOptions, report_content
 from sescid.report.figure_jobs import figure_jobs
 from sescid.report.text import RESIDUAL_DEFINITION

@@ -18,8 +18,9 @@ from op2_stance import stable_poses
 from test_html import _browse, _chromium
 
 import sescid
+from sescid import identify
 from sescid.cli import cli
-from sescid.estimation import Measurements, identify
+from sescid.estimation import Measurements
 from sescid.io import write_table
 from sescid.report import ReportOptions, coverage, write_report
 from sescid.report.numbers import support_leg_joints

@@ -149,7 +149,7 @@ def test_torque_columns_in_other_units_or_joints(op2, tmp_path):
     n = len(base["pose"])
     cases = (
         ({"tau_r_knee": np.full(n, 1500.0)}, r"row 2, column 'tau_r_knee': 1500 N·m"),
-        ({"tau_r_kne": np.zeros(n)}, r"column 'tau_r_kne': no joint 'r_kne'"),
+        ({"tau_r_kne": np.zeros(n)}, r"column 'tau_r_kne': 'r_kne' is not a joint of the model"),
         ({"tau_r_knee": np.zeros(n), "approach": np.full(n, 2)}, r"column 'approach': 2 is not"),
     )
     config = load_sensors(None, op2.profile)

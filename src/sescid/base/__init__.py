@@ -5,27 +5,30 @@ the thread policy of the dense algebra and of the block workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from __future__ import annotations
+from sescid.base.columns import MODEL_COP_COLUMNS, Table
+from sescid.base.files import (
+    OutputSet,
+    atomic_open,
+    atomic_path,
+    check_distinct,
+    check_outputs,
+    read_json,
+)
+from sescid.base.progress import TerminalProgress
+from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usable_cores
 
-from sescid.base.lazy import lazy_exports
-
-#: public name → module (loaded on first use: ``threads`` must load before numpy does)
-_EXPORTS = {
-    "MODEL_COP_COLUMNS": "columns",
-    "OutputSet": "files",
-    "Table": "columns",
-    "TerminalProgress": "progress",
-    "atomic_open": "files",
-    "atomic_path": "files",
-    "check_distinct": "files",
-    "check_outputs": "files",
-    "one_blas_thread": "threads",
-    "ordered_map": "threads",
-    "pin_process": "threads",
-    "read_json": "files",
-    "usable_cores": "threads",
-}
-
-__all__ = sorted(_EXPORTS)
-
-__getattr__, __dir__ = lazy_exports(__name__, {k: f"{__name__}.{m}" for k, m in _EXPORTS.items()})
+__all__ = [
+    "MODEL_COP_COLUMNS",
+    "OutputSet",
+    "Table",
+    "TerminalProgress",
+    "atomic_open",
+    "atomic_path",
+    "check_distinct",
+    "check_outputs",
+    "one_blas_thread",
+    "ordered_map",
+    "pin_process",
+    "read_json",
+    "usable_cores",
+]

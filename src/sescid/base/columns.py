@@ -14,11 +14,12 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
-from sescid.robots import ServoEncoding
 
 #: cell texts read as a missing value
 MISSING_TEXT = {"", "nan", "na", "n/a", "none", "null"}
@@ -59,6 +60,25 @@ def _record_starts(path: Path) -> list[int]:
     except (OSError, csv.Error):
         return []
     return starts
+
+
+class TickEncoding(Protocol):
+    """What the reader needs of a servo encoder to read ``<joint>_ticks`` columns (a robot
+    profile's ``ServoEncoding``): its name, its largest tick, ticks → rad."""
+
+    @property
+    def name(self) -> str:
+        """The encoder's name, for messages."""
+        ...
+
+    @property
+    def max_tick(self) -> int:
+        """The largest tick it reads."""
+        ...
+
+    def to_rad(self, ticks: ArrayLike) -> np.ndarray:
+        """Ticks → angles [rad]."""
+        ...
 
 
 class Table:
@@ -177,7 +197,7 @@ def pose_ids(table: Table, name: str = "pose") -> np.ndarray:
 def read_joint_columns(
     table: Table,
     joint_names: list[str],
-    servo: ServoEncoding | None = None,
+    servo: TickEncoding | None = None,
     allow_missing: bool = True,
 ) -> tuple[np.ndarray, dict[str, str]]:
     """Joint angles (m, nq) in rad from ``<j>`` (rad), ``<j>_deg`` or ``<j>_ticks`` columns.
@@ -251,7 +271,7 @@ def read_joint_columns(
 COPY_TOL_DEG = 1e-6
 
 
-def _check_copies(table: Table, joint: str, found, servo: ServoEncoding | None) -> None:
+def _check_copies(table: Table, joint: str, found, servo: TickEncoding | None) -> None:
     """DataError when a pose list's ``<j>_deg``/``<j>_ticks`` copy disagrees with its radians
     (an edited column: which one holds the pose?), naming the row and both columns."""
     rad = table.get(joint, "joint column")
@@ -262,8 +282,8 @@ def _check_copies(table: Table, joint: str, found, servo: ServoEncoding | None) 
             shown = "{:g}°"
         elif servo is not None:
             copy = table.get(name, "joint column")
-            ticks = servo.zero_tick + rad * servo.ticks_per_turn / (2 * math.pi)
-            bad = np.flatnonzero(~(np.abs(ticks - copy) <= 0.5 + 1e-6))
+            tick = float(np.abs(np.diff(servo.to_rad(np.array([0.0, 1.0])))[0]))  # rad per tick
+            bad = np.flatnonzero(~(np.abs(servo.to_rad(copy) - rad) <= 0.5 * tick + 1e-9))
             shown = "{:g} ticks"
         else:
             continue
@@ -277,7 +297,7 @@ def _check_copies(table: Table, joint: str, found, servo: ServoEncoding | None) 
 
 
 def read_poses(
-    table: Table, joint_names: list[str], servo: ServoEncoding | None = None
+    table: Table, joint_names: list[str], servo: TickEncoding | None = None
 ) -> np.ndarray:
     """Joint angles (n, nq) in rad; every cell present and finite (see ``read_joint_columns``)."""
     return read_joint_columns(table, joint_names, servo, allow_missing=False)[0]
@@ -389,7 +409,9 @@ def read_gravity(table: Table) -> np.ndarray | None:
 
 
 #: joint torque columns: ``tau_<joint>`` N·m, optional ``tau_se_<joint>`` N·m (standard error)
-TORQUE_PREFIX, TORQUE_SE_PREFIX = "tau_", "tau_se_"
+TAU_PREFIX, TAU_SE_PREFIX = "tau_", "tau_se_"
+#: the side each pose was reached from: +1 from below, −1 from above (joint torques' friction)
+APPROACH_COLUMN = "approach"
 #: N·m beyond which a torque is taken for a unit mistake (mN·m, N·mm)
 MAX_TORQUE_NM = 1e4
 #: m, a lever no humanoid's gravity torque exceeds: a holding torque beyond the whole robot's
@@ -420,12 +442,12 @@ def torque_joints(table: Table, joint_names: list[str]) -> list[str]:
     known = set(joint_names)
     have = set()
     for name in table.names():
-        if not name.startswith(TORQUE_PREFIX):
+        if not name.startswith(TAU_PREFIX):
             continue
-        rest = name[len(TORQUE_PREFIX) :]
+        rest = name[len(TAU_PREFIX) :]
         if rest in known:
             have.add(rest)
-        elif not (name.startswith(TORQUE_SE_PREFIX) and name[len(TORQUE_SE_PREFIX) :] in known):
+        elif not (name.startswith(TAU_SE_PREFIX) and name[len(TAU_SE_PREFIX) :] in known):
             raise DataError(
                 f"{table.path}: column '{name}': '{rest}' is not a joint of the model "
                 "(torque columns are tau_<joint>, joint names as in the model file)"
@@ -437,13 +459,14 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
     """The ``tau_<joint>`` columns (any subset of the joints) and their ``tau_se_<joint>``.
 
     With ``allow_missing`` (a raw log) empty cells become NaN, otherwise they are errors.
-    Torques beyond ±MAX_TORQUE_NM and negative or non-finite standard errors are errors naming
-    the file, row and column; standard errors come for every torque column or for none.
+    Torques beyond ±MAX_TORQUE_NM (or infinite) and negative or non-finite standard errors are
+    errors naming the file, row and column; standard errors come for every torque column or
+    for none.
     """
     joints = torque_joints(table, joint_names)
     cols = []
     for j in joints:
-        name = f"{TORQUE_PREFIX}{j}"
+        name = f"{TAU_PREFIX}{j}"
         v = column_with_missing(table, name) if allow_missing else table.get(name, "column")
         big = np.flatnonzero(np.abs(v) > MAX_TORQUE_NM)
         if big.size:
@@ -454,21 +477,21 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
         cols.append(v)
     n = table.n
     tau = np.column_stack(cols) if cols else np.zeros((n, 0))
-    se_names = [c for c in table.names() if c.startswith(TORQUE_SE_PREFIX)]
-    orphan = next((c for c in se_names if c[len(TORQUE_SE_PREFIX) :] not in joints), None)
+    se_names = [c for c in table.names() if c.startswith(TAU_SE_PREFIX)]
+    orphan = next((c for c in se_names if c[len(TAU_SE_PREFIX) :] not in joints), None)
     if orphan is not None:
         raise DataError(f"{table.path}: column '{orphan}' has no torque column beside it")
     if not se_names:
         return Torques(tuple(joints), tau, None)
     se = np.empty_like(tau)
     for k, j in enumerate(joints):
-        name = f"{TORQUE_SE_PREFIX}{j}"
+        name = f"{TAU_SE_PREFIX}{j}"
         if name not in se_names:
             raise DataError(
                 f"{table.path}: missing column '{name}' (a standard error for every torque "
                 "column, or none)"
             )
-        v = table.get(name, "column")
+        v = column_with_missing(table, name) if allow_missing else table.get(name, "column")
         bad = np.flatnonzero(v < 0)
         if bad.size:
             raise DataError(
@@ -479,18 +502,19 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
     return Torques(tuple(joints), tau, se)
 
 
-def read_approach(table: Table, name: str = "approach") -> np.ndarray | None:
+def read_approach(
+    table: Table, name: str = APPROACH_COLUMN, allow_missing: bool = False
+) -> np.ndarray | None:
     """The side each pose was reached from (n,): +1 from below, −1 from above; None without
-    the column. Any other value is a DataError naming the row."""
-    if name not in table:
-        if name in table.text:
-            table.get(name)  # raises: names the row and the text
+    the column. Any other value is a DataError naming the row. With ``allow_missing`` (a raw
+    log) empty cells are NaN and the column stays float; otherwise it is ±1 as int."""
+    if name not in table.names():
         return None
-    v = table.get(name)
-    bad = np.flatnonzero((v != 1) & (v != -1))
+    v = column_with_missing(table, name) if allow_missing else table.get(name)
+    bad = np.flatnonzero(~np.isnan(v) & (v != 1) & (v != -1))
     if bad.size:
         raise DataError(
             f"{table.path}: {table.where(bad[0])}, column '{name}': {v[bad[0]]:g} is not +1 "
             "or -1 (the side the joints came from: +1 below, -1 above)"
         )
-    return v.astype(int)
+    return v if allow_missing else v.astype(int)

@@ -156,7 +156,7 @@ def check_outputs(
     """
     seen: dict[tuple[int, int] | Path, Path] = {}
     ins: dict[tuple[int, int] | Path, Path] = {}
-    in_folders = [Path(p) for p in inputs if p is not None and _data_folder(p)]
+    in_folders = [Path(p) for p in inputs if p is not None and Path(p).is_dir()]
     for p in inputs:
         if p is not None and Path(p).exists():
             ins[_identity(Path(p))] = Path(p)
@@ -195,14 +195,6 @@ def check_outputs(
             raise DataError(f"{path}: output folder '{path.parent}' does not exist")
         if parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
             raise DataError(f"{path}: output folder '{path.parent}' is not writable")
-
-
-def _data_folder(p: str | Path) -> bool:
-    """An input folder (a rosbag2 recording, a session): a directory that is not the name of an
-    embedded robot (``--robot op2`` names the robot even beside a folder called op2)."""
-    from sescid.robots import EMBEDDED
-
-    return Path(p).is_dir() and str(p) not in EMBEDDED
 
 
 def _not_inside(path: Path, in_folders: list[Path]) -> None:

@@ -6,7 +6,9 @@ process loading the cores they wait for each other: a 63 × 63 ``eigh`` measured
 against 0.3 ms on one thread. So:
 
 - the ``sescid`` command pins the whole process to one BLAS thread before numpy loads
-  (``pin_process``: environment variables, honouring any the user set);
+  (``pin_process``: environment variables, honouring any the user set). Importing ``sescid``
+  loads numpy, so the command's entry point (``_sescid_launch``, outside the package) runs this
+  file on its own first; ``PINNED_VARIABLE`` then tells the package that BLAS loaded pinned;
 - API entry points that do dense algebra run inside ``one_blas_thread()``, which limits the
   BLAS libraries already loaded (threadpoolctl) for the duration of the call and restores the
   caller's setting after.
@@ -41,7 +43,11 @@ THREAD_VARIABLES = (
     "OMP_NUM_THREADS",
 )
 
-_state: dict[str, Any] = {"pinned": False, "controller": None, "key": None, "depth": 0}
+#: set to "1" by ``pin_process`` when it ran before numpy loaded: every BLAS of this process (and
+#: of its children, which inherit the variables) loads with the thread variables above
+PINNED_VARIABLE = "SESCID_BLAS_PINNED"
+
+_state: dict[str, Any] = {"controller": None, "key": None, "depth": 0}
 
 
 def _linalg_modules() -> frozenset[str]:
@@ -69,8 +75,14 @@ def pin_process() -> None:
         os.environ.setdefault(name, "1")
     if platform.machine().lower() in ("x86_64", "amd64"):
         os.environ.setdefault("OPENBLAS_CORETYPE", BLAS_CORE)
-    _state["pinned"] = "numpy" not in sys.modules and all(
-        os.environ[name] == "1" for name in THREAD_VARIABLES
+    if "numpy" not in sys.modules and all(os.environ[name] == "1" for name in THREAD_VARIABLES):
+        os.environ[PINNED_VARIABLE] = "1"
+
+
+def pinned() -> bool:
+    """Whether the BLAS libraries loaded pinned to one thread (``pin_process`` before numpy)."""
+    return os.environ.get(PINNED_VARIABLE) == "1" and all(
+        os.environ.get(name) == "1" for name in THREAD_VARIABLES
     )
 
 
@@ -79,12 +91,12 @@ def one_blas_thread(preload: tuple[str, ...] = ()) -> Iterator[None]:
     """Run the block with the loaded BLAS libraries limited to one thread (nests; restores);
     ``preload``: modules the block will use that link a BLAS of their own (``scipy.linalg``),
     imported first so that theirs is limited too."""
-    if preload and not _state["pinned"] and _state["depth"] == 0:
+    if preload and not pinned() and _state["depth"] == 0:
         import importlib
 
         for name in preload:
             importlib.import_module(name)
-    if _state["pinned"] or _state["depth"] > 0:
+    if _state["depth"] > 0 or pinned():
         _state["depth"] += 1
         try:
             yield
@@ -137,9 +149,11 @@ def ordered_map(fn: Callable[[T], R], items: Sequence[T]) -> Iterator[R]:
 __all__ = [
     "BLAS_CORE",
     "MAX_WORKERS",
+    "PINNED_VARIABLE",
     "THREAD_VARIABLES",
     "one_blas_thread",
     "ordered_map",
     "pin_process",
+    "pinned",
     "usable_cores",
 ]

@@ -10,7 +10,8 @@ pose with its joint play; rigid statics then gives what its sensors see, and the
   (1 − readback_seen)·b;
 - standing (``mount="stand"``): the four pads of the support foot carry the true weight ``M g``
   spread by the bilinear weights of the true CoP in the pad rectangle (their centroid is exactly
-  the CoP; with ``double_support`` the elastic split over every foot on the floor); the lifted
+  the CoP; with ``double_support`` the elastic split over the pads of every foot on the floor
+  that press, a pad that would pull lifted); the lifted
   foot reads 0. A pose whose CoP leaves the pads (or the sole, without a sensor board) would
   tip: it is not measured and is listed in ``skipped``;
 - in a gantry (``mount="gantry"``): the support link (pelvis, torso) is held level, the feet
@@ -87,11 +88,14 @@ def pads_in_support(robot, foot, q: np.ndarray) -> np.ndarray:
 
 
 def two_foot_split(robot, sensors: SensorConfig, q: np.ndarray, cop: np.ndarray, weight: float):
-    """Pad forces of every foot on the floor: the least-squares (elastic) split of the weight.
+    """Pad forces of every foot on the floor: the elastic split of the weight over the pads
+    that press (unilateral: a pad does not pull).
 
     Feet count as on the floor where the model puts their sole within 10 mm of the ground and
-    5° of level at q (``sensors.feet.OFF_FLOOR_*``). Returns forces {foot: (n, 4)} N, a mask of
-    poses whose CoP needs a pulling pad (outside the support), and its description.
+    5° of level at q (``sensors.feet.OFF_FLOOR_*``). The split is the least-squares one (a rigid
+    body on equal springs) over the pads in contact, the most pulling pad of a pose lifted and
+    the rest split again until none pulls. Returns forces {foot: (n, 4)} N, a mask of poses
+    that cannot stand so (the CoP outside the pads' support), and its description.
     """
     n = q.shape[0]
     pts, on = [], []
@@ -100,15 +104,35 @@ def two_foot_split(robot, sensors: SensorConfig, q: np.ndarray, cop: np.ndarray,
         tilt = np.arccos(np.clip(rot[:, 2, 2], -1.0, 1.0))
         on.append((np.abs(org[:, 2]) <= OFF_FLOOR_M) & (tilt <= OFF_FLOOR_TILT))
         pts.append(pads_in_support(robot, f, q))
-    mask = np.repeat(np.stack(on, axis=1), 4, axis=1)  # (n, 4·feet)
+    mask = np.repeat(np.stack(on, axis=1), 4, axis=1)  # (n, 4·feet) pads in contact
     p = np.concatenate(pts, axis=1)  # (n, 4·feet, 2)
-    a = np.concatenate([np.ones(p.shape[:2] + (1,)), p], axis=2) * mask[:, :, None]
     rhs = weight * np.concatenate([np.ones((n, 1)), cop], axis=1)
-    lam = np.linalg.solve(np.einsum("nki,nkj->nij", a, a), rhs[:, :, None])[:, :, 0]
-    forces = np.einsum("nki,ni->nk", a, lam)
-    bad = np.any(forces < 0, axis=1)
+    tol = 1e-9 * weight
+    forces = np.zeros(mask.shape)
+    bad = np.zeros(n, dtype=bool)
+    todo = np.arange(n)
+    for _ in range(mask.shape[1]):
+        a = np.concatenate([np.ones(p[todo].shape[:2] + (1,)), p[todo]], axis=2)
+        a = a * mask[todo, :, None]
+        ata = np.einsum("nki,nkj->nij", a, a)
+        ok = np.linalg.det(ata) > 1e-12 * np.maximum(np.einsum("nii->n", ata), 1.0) ** 3
+        bad[todo[~ok]] = True
+        todo, a, ata = todo[ok], a[ok], ata[ok]
+        if not len(todo):
+            break
+        lam = np.linalg.solve(ata, rhs[todo][:, :, None])[:, :, 0]
+        f = np.einsum("nki,ni->nk", a, lam)
+        forces[todo] = f
+        pull = np.any(f < -tol, axis=1)
+        if not pull.any():
+            break
+        worst = np.argmin(f[pull], axis=1)
+        mask[todo[pull], worst] = False  # that pad lifts
+        todo = todo[pull]
+    bad |= np.any(forces < -tol, axis=1)
+    forces = np.clip(forces, 0.0, None)
     out = {f.name: forces[:, 4 * i : 4 * i + 4] for i, f in enumerate(sensors.feet)}
-    return out, bad, "the pads of the feet on the floor (a pad would pull)"
+    return out, bad, "the pads of the feet on the floor"
 
 
 @dataclass(frozen=True)
@@ -154,7 +178,7 @@ def _support_foot(robot, sensors: SensorConfig):
     return support[0]
 
 
-def _floor_forces(robot, sensors, forces: dict, q_act, grav) -> tuple[ExternalForce, ...]:
+def floor_forces(robot, sensors, forces: dict, q_act, grav) -> tuple[ExternalForce, ...]:
     """The floor's push on the pads of feet other than the support (double support)."""
     out = []
     up = -(np.tile([0.0, 0.0, -1.0], (len(q_act), 1)) if grav is None else grav)
@@ -271,7 +295,7 @@ def run_experiment(
     tau = approach = None
     if errors.tau_joints:
         bodies, _ = real_bodies(robot, config)
-        ext = _floor_forces(robot, sensors, forces, q_act, grav)
+        ext = floor_forces(robot, sensors, forces, q_act, grav)
         tau = holding_torques(robot, q_act, bodies, grav, ext)
         approach = approach_sides(config, len(q_act), seed)
     pose_of = np.repeat(np.arange(len(q_act)), samples)

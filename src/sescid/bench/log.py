@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sescid.bench.real_robot import ExperimentConfig, SensorErrors
+from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX
+from sescid.bench.real_robot import ExperimentConfig, Registers, SensorErrors
 from sescid.sensors.pads import Foot, SensorConfig
-from sescid.sensors.torque import APPROACH_COLUMN, TAU_PREFIX
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,7 @@ class Readings:
 
 
 def pad_columns(
-    foot: Foot, counts: np.ndarray, registers: str, sensors: SensorConfig
+    foot: Foot, counts: np.ndarray, registers: Registers, sensors: SensorConfig
 ) -> dict[str, np.ndarray]:
     """Raw-log columns of one foot board from its force counts (m, 4): the four forces, the
     centroid registers the board computes from them, or both (``registers``)."""

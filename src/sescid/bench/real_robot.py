@@ -25,10 +25,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 
-from sescid.errors import DataError
+from sescid.errors import DataError, check_choice
+from sescid.planning import Mount
 from sescid.sensors.pads import SensorConfig
 from sescid.sesc import sesc_vectors
 
@@ -36,10 +38,18 @@ from sescid.sesc import sesc_vectors
 PAD_GAIN_STREAM = 11
 TORQUE_STREAM = 13
 APPROACH_STREAM = 17
-MOUNTS = ("stand", "gantry", "line")
 #: the start of the error a bench raises when every pose fails (a caller may name its file)
 NO_POSE_MEASURED = "no pose can be measured"
-APPROACHES = ("random", "up", "down", "alternate")
+#: the side each pose is approached from: random, always from below (+1), from above (−1), or
+#: alternating
+Approach = Literal["random", "up", "down", "alternate"]
+APPROACHES: tuple[Approach, ...] = get_args(Approach)
+#: what the bench logs of a pad foot: the four forces, the board's centroid registers, or both
+Registers = Literal["forces", "centroid", "both"]
+#: the bench that makes a raw log: rigid statics, or the MuJoCo physics bench
+Engine = Literal["kinematic", "mujoco"]
+#: how the bench holds the robot: a plan's mounts (``planning.Mount``), or balancing on a line
+BenchMount = Literal[Mount, "line"]
 
 
 @dataclass(frozen=True)
@@ -68,12 +78,12 @@ DEFAULT_EXTRA = (
 class TorqueConfig:
     """Joint torque sensors of the real robot (N·m); ``joints`` () logs no torque."""
 
-    joints: tuple[str, ...] | str = ()  #: measured joints, "all", or () for none
+    joints: tuple[str, ...] | Literal["all"] = ()  #: measured joints, "all", or () for none
     noise: float = 0.05  #: N·m, per sample (std)
     offset: float = 0.05  #: N·m, std of the per-joint constant offsets
     gain: float = 0.0  #: relative std of the per-joint gain errors
     friction: tuple[float, float] = (0.0, 0.0)  #: N·m, f_j ~ U(lo, hi) per joint
-    approach: str = "random"  #: per pose: "random", "up" (+1), "down" (−1) or "alternate"
+    approach: Approach = "random"  #: per pose
 
     def resolve(self, joint_names: list[str]) -> list[str]:
         """The measured joints in model order; DataError for a name the model lacks."""
@@ -98,8 +108,7 @@ class TorqueConfig:
                 raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
         if lo > hi:
             raise DataError(f"friction band: lower {lo:g} above upper {hi:g} N·m")
-        if self.approach not in APPROACHES:
-            raise DataError(f"approach must be one of {', '.join(APPROACHES)}, got {self.approach}")
+        check_choice("approach", self.approach, Approach)
 
 
 @dataclass
@@ -121,12 +130,12 @@ class ExperimentConfig:
     #: poses); the split over all their pads is the elastic one (least squares, as a rigid
     #: body on equal springs): statics fixes only the total force and its moments
     double_support: bool = False
-    registers: str = "forces"  #: "forces", "centroid" or "both"
+    registers: Registers = "forces"
     #: kinematic bench: the support stands tilted by a random roll and pitch ~ N(0, tilt_deg²)
     #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
     tilt_deg: float = 0.0
     torque: TorqueConfig = field(default_factory=TorqueConfig)  #: joint torque sensors
-    mount: str = "stand"  #: "stand" on the support foot, "gantry" (held) or "line" (balancing)
+    mount: BenchMount = "stand"  #: on the support foot, held in a fixture, or on a line
     #: line mount: the IMU's link (None: the profile's, else the support frame) and its noise
     #: per sample, degrees (roll and pitch)
     imu_link: str | None = None
@@ -134,10 +143,8 @@ class ExperimentConfig:
 
     def check(self) -> None:
         """DataError for a setting outside its range (the one check both benches use)."""
-        if self.registers not in ("forces", "centroid", "both"):
-            raise DataError(f"registers must be forces, centroid or both, got {self.registers}")
-        if self.mount not in MOUNTS:
-            raise DataError(f"mount must be one of {', '.join(MOUNTS)}, got {self.mount}")
+        check_choice("registers", self.registers, Registers)
+        check_choice("mount", self.mount, BenchMount)
         if self.mount == "line" and self.double_support:
             raise DataError("a robot balancing on a line stands on no foot: no double support")
         if self.mount == "gantry" and self.double_support:
@@ -175,6 +182,21 @@ def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
     if all(e.body in robot.body_names for e in DEFAULT_EXTRA):
         return DEFAULT_EXTRA
     return generic_extra(robot)
+
+
+def stance_config(reference, robot, config: ExperimentConfig) -> ExperimentConfig:
+    """``config`` for the same real robot in another stance: its unmodelled masses (those of
+    ``extra_masses(reference, config)``, offsets in the reference robot's body frames) carried
+    into the body frames of ``robot`` (the same model rooted elsewhere, ``Robot.at``) through
+    each body's first link, so every stance stands the same physical robot."""
+    out = []
+    for e in extra_masses(reference, config):
+        link = reference.model.bodies[reference.body_names.index(e.body)].links[0]
+        b, x = robot.model.link_frames[link]
+        x_ref = reference.model.link_frames[link][1]
+        p = x[:3, :3] @ (x_ref[:3, :3].T @ (np.asarray(e.offset, float) - x_ref[:3, 3])) + x[:3, 3]
+        out.append(ExtraMass(robot.body_names[b], e.share, (float(p[0]), float(p[1]), float(p[2]))))
+    return dataclasses.replace(config, extra=tuple(out))
 
 
 def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:

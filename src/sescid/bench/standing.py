@@ -11,7 +11,8 @@ floor, or it does not settle within ``settle_time``).
 
 Contacts: the support foot's pads of the profile's sensor layout, else pads at the corners of
 the support sole (``Robot.sole``), on its plane (z = 0 of a sole frame; below a foot frame, at
-``Robot.floor``). Servos: the profile's gains, else
+``Robot.floor``); on both feet (``double``) the free foot's pads too (the profile's, else its
+sole's corners in its level link frame, ``free_pads``). Servos: the profile's gains, else
 ``GENERIC_KV`` and ``GENERIC_ARMATURE`` scaled from the compliant model's stiffness
 (``planning.compliance``: the OP2 profile's ratios), the damping raised to ``SWAY_DAMPING`` of
 the whole robot's sway where that is more. Pads: MuJoCo's default contact (they sink
@@ -56,28 +57,65 @@ class Standing:
     reasons: dict[int, str]  #: pose index → why it was skipped
 
 
-def _sensors(robot: Robot):
-    """The bench's foot pads: the profile's layout, else the support sole's corners."""
+def _sensors(robot: Robot, double: bool = False):
+    """The bench's foot pads: the profile's layout, else the support sole's corners (and, on
+    both feet, the free sole's corners in its link's frame: ``free_pads``)."""
     from sescid.sensors.pads import Foot, SensorConfig, load_sensors
 
     if robot.profile.sensors_file is not None:
-        return load_sensors(robot.profile.sensors_file)
+        config = load_sensors(robot.profile.sensors_file)
+        free = robot.free_sole
+        if not double or any(f.sole_frame == (free and free.link) for f in config.feet):
+            return config
+        raise ModelError(
+            f"{robot.model_path.name}: the sensor layout has no board on the free foot "
+            f"'{free.link if free else '?'}': the physics check on both feet needs one"
+        )
     sole = robot.sole
     if sole is None:
         raise ModelError(f"{robot.model_path.name}: the physics check needs a support sole")
     corners = sole.corners @ robot.model.root_rotation.T + robot.model.root_origin
     pads = corners[[0, 1, 2, 3], :2]
-    return SensorConfig(feet=(Foot("support", robot.support, "support_pad", pads),))
+    feet = [Foot("support", robot.support, "support_pad", pads)]
+    if double:
+        feet.append(Foot("free", *free_pads(robot)))
+    return SensorConfig(feet=tuple(feet))
 
 
-def _bench(robot: Robot):
+def free_pads(robot: Robot) -> tuple[str, str, np.ndarray]:
+    """(sole link, column prefix, pads (4, 2) [m]) of the free foot for the physics bench on
+    both feet: its sole's corners in its link's frame, which must be level at the zero pose
+    (z up) with the sole in its x/y plane (ModelError otherwise)."""
+    from sescid.model.sole import CONTACT_TOL
+
+    sole = robot.free_sole
+    if sole is None or min(sole.size) <= 0:
+        raise ModelError(f"{robot.model_path.name}: the physics check on both feet needs the "
+                         "free foot's sole")  # fmt: skip
+    b, x = robot.model.link_frames[sole.link]
+    rot, _ = robot.link_poses(np.zeros((1, robot.nq)), sole.link)
+    local = (sole.corners - x[:3, 3]) @ x[:3, :3]  # corners in the link's frame
+    if abs(rot[0, 2, 2] - 1.0) > 1e-9 or np.ptp(local[:, 2]) > CONTACT_TOL:
+        raise ModelError(
+            f"{robot.model_path.name}: the free foot's frame '{sole.link}' is not level at the "
+            "zero pose: the physics check on both feet needs a level sole frame on it (a profile "
+            "sensor layout)"
+        )
+    return sole.link, "free_pad", local[:, :2]
+
+
+def _bench(robot: Robot, double: bool = False):
     """The bench settings: the profile's servo gains, else scaled from the compliant model."""
     from sescid.bench.mujoco import MujocoBenchConfig
     from sescid.planning.ground import ground_checks
 
     exempt = tuple(ground_checks(robot).exempt)
     bench = MujocoBenchConfig(
-        vel_tol=STILL_VEL, min_settle=MIN_SETTLE, settle_time=SETTLE_TIME, floor_exempt=exempt
+        vel_tol=STILL_VEL,
+        min_settle=MIN_SETTLE,
+        settle_time=SETTLE_TIME,
+        floor_exempt=exempt,
+        double_support=double,
     )
     model = compliance(robot)
     if robot.profile.pad_stiffness is None:
@@ -93,8 +131,9 @@ def _bench(robot: Robot):
     return dataclasses.replace(bench, kp=kp, kv=kv, armature=GENERIC_ARMATURE * kp)
 
 
-def stands(robot: Robot, q: np.ndarray) -> Standing:
-    """Run poses q (n, nq) [rad] on the MuJoCo bench; which stand (see the module docstring)."""
+def stands(robot: Robot, q: np.ndarray, double: bool = False) -> Standing:
+    """Run poses q (n, nq) [rad] on the MuJoCo bench (``double``: on both feet); which stand
+    (see the module docstring)."""
     if importlib.util.find_spec("mujoco") is None:
         raise MissingExtraError("the physics check (--check mujoco)", "mujoco")
     from sescid.bench.mujoco import run_mujoco_experiment
@@ -104,7 +143,8 @@ def stands(robot: Robot, q: np.ndarray) -> Standing:
     ids = np.array([str(i) for i in range(len(q))])
     try:
         ex = run_mujoco_experiment(
-            robot, q, _sensors(robot), samples=1, seed=0, config=config, bench=_bench(robot)
+            robot, q, _sensors(robot, double), samples=1, seed=0, config=config,
+            bench=_bench(robot, double),
         )  # fmt: skip
         skipped = ex.skipped
     except DataError as exc:  # no pose stood at all
@@ -117,16 +157,17 @@ def stands(robot: Robot, q: np.ndarray) -> Standing:
     return Standing(mask, reasons)
 
 
-def standing_check(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
-    """A ``planning.PlanOptions.check``: poses (k, nq) → (k,) True where they stand.
+def standing_check(robot: Robot, double: bool = False) -> Callable[[np.ndarray], np.ndarray]:
+    """A ``planning.PlanOptions.check``: poses (k, nq) → (k,) True where they stand (``double``:
+    on both feet).
 
     MissingExtraError at once when MuJoCo is not installed; ModelError when the bench cannot
     stand this robot (no sole, or a support frame off the sole plane without sensor pads)."""
     if importlib.util.find_spec("mujoco") is None:
         raise MissingExtraError("the physics check (--check mujoco)", "mujoco")
-    _sensors(robot)
+    _sensors(robot, double)
 
     def check(q: np.ndarray) -> np.ndarray:
-        return stands(robot, q).mask
+        return stands(robot, q, double).mask
 
     return check

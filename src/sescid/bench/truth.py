@@ -14,13 +14,14 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from sescid.base.files import atomic_open, read_json
 from sescid.bench.log import expected_torques
-from sescid.errors import DataError
+from sescid.bench.real_robot import BenchMount, Engine
+from sescid.errors import DataError, choices
 
 TRUTH_FORMAT = "sescid-experiment-truth/1"
 
@@ -68,7 +69,7 @@ class PhysicsTruth:
 class Truth:
     """The truth of one bench run (n measured poses; SI units, radians)."""
 
-    engine: str  #: "kinematic" or "mujoco"
+    engine: Engine
     robot: str  #: the model's source
     support: str
     seed: int | None
@@ -90,7 +91,7 @@ class Truth:
     cop_true: np.ndarray | None  #: (n, 2) flat-sole statics of the real robot, m (None: gantry)
     cop_expected: np.ndarray | None  #: (n, 2) noise-free CoP of the biased pads, m
     skipped: tuple[tuple[str, str], ...] = ()  #: (pose, why) not measured
-    mount: str = "stand"  #: "stand" or "gantry"
+    mount: BenchMount = "stand"
     grav: np.ndarray | None = None  #: (n, 3) gravity direction, support frame
     torque: TorqueTruth | None = None
     physics: PhysicsTruth | None = None
@@ -197,6 +198,15 @@ def _to_json(t: Truth) -> dict:
     return doc
 
 
+def _choice(d: dict, key: str, default: str, alias: Any) -> Any:
+    """A field of a fixed set (``alias``, a Literal; ``default`` when absent); DataError for
+    another value (``load`` names the file)."""
+    value = str(d.get(key, default))
+    if value not in choices(alias):
+        raise DataError(f"field '{key}': {value!r} is not one of {', '.join(choices(alias))}")
+    return cast(Any, value)
+
+
 def _from_json(d: dict) -> Truth:
     bodies = tuple(d["r_true"])
     torque = None
@@ -213,7 +223,7 @@ def _from_json(d: dict) -> Truth:
                 "cop_pads", "settle_s", "wall_s")  # fmt: skip
         physics = PhysicsTruth(**{k: _arr(d[k]) for k in keys}, cop_ft=_opt(d.get("cop_ft")))
     return Truth(
-        engine=str(d.get("engine", "kinematic")),
+        engine=_choice(d, "engine", "kinematic", Engine),
         robot=str(d["robot"]),
         support=str(d["support"]),
         seed=d.get("seed"),
@@ -238,7 +248,7 @@ def _from_json(d: dict) -> Truth:
         cop_true=_opt(d.get("cop_true")),
         cop_expected=_opt(d.get("cop_expected")),
         skipped=tuple((str(s["pose"]), str(s["reason"])) for s in d.get("skipped", [])),
-        mount=str(d.get("mount", "stand")),
+        mount=_choice(d, "mount", "stand", BenchMount),
         grav=_opt(d.get("grav")),
         torque=torque,
         physics=physics,

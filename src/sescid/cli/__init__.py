@@ -2,11 +2,9 @@
 
 Each command parses its options, calls the API, prints. Every error a user can cause is one
 line ``sescid: error: …`` with exit code 2; outputs are written atomically. Commands live in one
-module per command (``cli/<command>.py``) and are imported only
-when run, so ``--help`` and ``--version`` answer without loading numpy or the compiled kernels.
+module per command (``cli/<command>.py``) and are imported only when run, so ``--help`` and
+``--version`` answer without loading scipy, matplotlib or the compiled kernels.
 """
-
-from __future__ import annotations
 
 import importlib
 from typing import Any
@@ -95,7 +93,9 @@ def cli() -> None:
 
 
 def main() -> None:
-    """Entry point of the ``sescid`` script (one BLAS thread: see ``sescid.base.threads``)."""
+    """Run the command line. The ``sescid`` script enters through ``_sescid_launch.main``, which
+    pins BLAS before numpy loads; here, numpy loaded, only libraries loaded later (scipy's
+    BLAS) follow the thread variables (``sescid.base.threads``)."""
     from sescid.base import pin_process
 
     pin_process()

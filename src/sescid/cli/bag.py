@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, load, robot_options
+from sescid.cli.common import force_option, load, model_input, robot_options
 from sescid.errors import DataError
 from sescid.io import read_bag, read_poses, read_table, write_table
 from sescid.sensors import pose_list_ids
@@ -46,7 +46,7 @@ def bag(bag, map_file, robot_name, support, poses_file, out, force):
     the recording. Needs the bags extra: pip install 'sescid[bags]' (in a clone: pip install
     '.[bags]').
     """
-    outs = OutputSet([out], [*bag, map_file, poses_file, robot_name], force=force)
+    outs = OutputSet([out], [*bag, map_file, poses_file, model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     poses = None
     if poses_file is not None:

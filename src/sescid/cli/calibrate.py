@@ -13,19 +13,18 @@ from sescid.cli.common import (
     force_option,
     load,
     min_samples_option,
-    mm,
     robot_options,
     sensors_option,
 )
 from sescid.errors import OptionError
-from sescid.estimation import save_fit
+from sescid.estimation import check_total_mass, save_fit
 from sescid.io import read_table
+from sescid.report import mm
 from sescid.sensors import (
     CalibrationOptions,
     PadSessionOptions,
     calibrate_sensors,
     calibrated_sensor_document,
-    check_total_mass,
     default_sensors_path,
     load_sensors,
     pad_session,

@@ -1,12 +1,11 @@
-"""What every command shares: one-line errors, the robot options, unit formatting.
+"""What every command shares: one-line errors, the robot options and the robot as an input.
 
-Only click and the exception types are imported here, so ``sescid --help`` stays fast.
+Lengths are printed by ``sescid.report.mm`` (the one home of number wording).
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 import sys
 from typing import Any
 
@@ -25,6 +24,8 @@ FLAG = {
     "samples": "--samples",
     "method": "--method",
     "format": "--format",
+    "total_mass": "--total-mass",
+    "prior_scale": "--prior-scale",
 }
 
 
@@ -277,6 +278,15 @@ def load(robot_name: str, support: str | None) -> Any:
     return load_robot(robot_name, support, line)
 
 
+def model_input(robot_name: str) -> str | None:
+    """The robot option as an input of a command: the model file it names, or None for an
+    embedded robot (``--robot op2`` beside a folder called op2 names the robot, not the folder,
+    so outputs may go into that folder)."""
+    from sescid.robots import EMBEDDED
+
+    return None if robot_name in EMBEDDED else robot_name
+
+
 def echo_model_change(fit: Any, fit_file: str) -> None:
     """The warnings of a fit read back (its model file changed since it was made, an older
     file format), on stderr."""
@@ -285,11 +295,6 @@ def echo_model_change(fit: Any, fit_file: str) -> None:
     for w in fit.warnings:
         if w.startswith((MODEL_CHANGED, OLD_FORMAT)):
             click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
-
-
-def mm(x: float | None) -> str:
-    """A length in m shown in mm, or n/a."""
-    return "n/a" if x is None or math.isnan(x) else f"{x * 1e3:.3f} mm"
 
 
 def sensors_option(f: Any) -> Any:

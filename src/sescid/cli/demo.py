@@ -8,8 +8,16 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, load, mm, robot_options, seed_option, study_options
+from sescid.cli.common import (
+    force_option,
+    load,
+    model_input,
+    robot_options,
+    seed_option,
+    study_options,
+)
 from sescid.estimation import save_fit
+from sescid.report import mm
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 
@@ -31,7 +39,12 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     from sescid.study import paper_study
 
     names = ["fit.json", "fig3a_r_magnitudes.png", "fig3b_cop.png", "summary.csv"]
-    OutputSet([Path(out_dir) / f for f in names], [robot_name], folders=[out_dir], force=force)
+    OutputSet(
+        [Path(out_dir) / f for f in names],
+        [model_input(robot_name)],
+        folders=[out_dir],
+        force=force,
+    )
     robot = load(robot_name, support)
     st = paper_study(robot, poses, range_deg, noise, seed)
     fit = st.fit
@@ -69,7 +82,7 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
             f"    {labels[i]:>3s} {robot.body_names[i]:16s} {r_prior_mm[i]:9.3f}"
             f"   {fit.r_magnitudes[i] * 1e3:9.3f} ± {std_mm[i]:.3f}"
         )
-    outs = OutputSet([], [robot_name], folders=[out_dir], force=force)
+    outs = OutputSet([], [model_input(robot_name)], folders=[out_dir], force=force)
     with outs:
         out = outs.folder(out_dir)
         _demo_files(robot, st, out)

@@ -3,14 +3,18 @@ raw log."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import click
 
 from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
+    Approach,
+    BenchMount,
+    Engine,
     ExperimentConfig,
+    Registers,
     TorqueConfig,
     check_limits,
     run_experiment,
@@ -18,12 +22,13 @@ from sescid.bench import (
 from sescid.cli.common import (
     force_option,
     load,
+    model_input,
     refuse_idle,
     robot_options,
     seed_option,
     sensors_option,
 )
-from sescid.errors import DataError, OptionError
+from sescid.errors import DataError, OptionError, choices
 from sescid.io import read_poses, read_table, write_table
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
@@ -54,7 +59,7 @@ def torque_options(f: Any) -> Any:
                          default=_TAU.friction, show_default=True, metavar="LO HI",
                          help="Static-friction band half-width f_j ~ U(LO, HI) per joint [N·m]: "
                          "a held pose reads τ ± f_j on the side it came from."),
-            click.option("--approach", type=click.Choice(["random", "up", "down", "alternate"]),
+            click.option("--approach", type=click.Choice(choices(Approach)),
                          default=_TAU.approach, show_default=True,
                          help="Side each pose is approached from (the approach column)."),
         ]
@@ -70,7 +75,7 @@ TORQUE_FLAGS = ("torque_noise", "torque_offset", "torque_gain", "friction", "app
 def torque_config(opts: dict) -> TorqueConfig:
     """The typed torque options from the flags of ``torque_options``."""
     spec = opts["torques"].strip()
-    joints: tuple[str, ...] | str
+    joints: tuple[str, ...] | Literal["all"]
     if spec == "all":
         joints = "all"
     elif spec in ("", "none"):
@@ -147,14 +152,14 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "st
 )
 @click.option(
     "--registers",
-    type=click.Choice(["forces", "centroid", "both"]),
+    type=click.Choice(choices(Registers)),
     default=_EXP.registers,
     show_default=True,
     help="Log the four forces, the centroid registers, or both.",
 )
 @click.option(
     "--mount",
-    type=click.Choice(["stand", "gantry", "line"]),
+    type=click.Choice(choices(BenchMount)),
     default=_EXP.mount,
     show_default=True,
     help="stand: on the support foot; gantry: the support link (--support pelvis) held level "
@@ -177,7 +182,7 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "st
 @torque_options
 @click.option(
     "--engine",
-    type=click.Choice(["kinematic", "mujoco"]),
+    type=click.Choice(choices(Engine)),
     default="kinematic",
     show_default=True,
     help="kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "
@@ -209,7 +214,7 @@ def experiment(**opts):
     sensor log that `sescid measure` reads."""
     out, truth = opts["out"], opts["truth"]
     outs = OutputSet(
-        [out, truth], [opts["poses_file"], opts["sensors_file"], opts["robot_name"]],
+        [out, truth], [opts["poses_file"], opts["sensors_file"], model_input(opts["robot_name"])],
         force=opts["force"],
     )  # fmt: skip
     robot = load(opts["robot_name"], opts["support"])

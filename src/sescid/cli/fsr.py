@@ -11,11 +11,12 @@ from sescid.cli.common import (
     imu_link_option,
     load,
     min_samples_option,
-    mm,
+    model_input,
     robot_options,
     sensors_option,
 )
 from sescid.io import iter_table, read_table, write_table
+from sescid.report import mm
 from sescid.sensors import REASONS, fsr_chunks, load_sensors
 
 
@@ -50,7 +51,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are
     logged. A log with torques and no foot sensors needs no sensor file.
     """
-    outs = OutputSet([out], [raw, poses_file, sensors_file, robot_name], force=force)
+    outs = OutputSet([out], [raw, poses_file, sensors_file, model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None

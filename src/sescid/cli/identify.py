@@ -1,7 +1,7 @@
 """``sescid identify``: SESC vectors, sensor offsets (or masses) from poses and measurements.
 
-Parse the flags into ``IdentifyOptions`` (whose defaults the flags show), make one call to
-``sescid.identify`` on the files, print the fit.
+Parse the flags into the method's options and ``IdentifyOptions`` (whose defaults the flags
+show), make one call to ``sescid.identify`` on the files, print the fit.
 """
 
 from __future__ import annotations
@@ -11,37 +11,46 @@ import math
 
 import click
 
+from sescid.api import file_stance
 from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     imu_link_option,
     load,
-    mm,
+    model_input,
     refuse_idle,
     robot_options,
     seed_option,
 )
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
-from sescid.errors import DataError, OptionError
+from sescid.errors import DataError, OptionError, choices
 from sescid.estimation import (
     COP_ON_TRUNK,
     METHOD_CHOICES,
+    AutoOptions,
     ConsistentOptions,
     Fit,
     IdentifyOptions,
+    Kind,
+    LeastSquaresOptions,
     MapOptions,
+    MethodName,
+    MethodOptions,
+    PriorChoice,
+    PriorSelect,
     save_fit,
 )
 from sescid.io import rows_estimate
+from sescid.report import mm
 
 DEFAULTS = IdentifyOptions()
 MAP_DEFAULTS = MapOptions()
 
 
-def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
-    """The typed options of ``identify`` from the command's flags (an error for a flag that
-    does nothing with the others)."""
+def options_from_flags(method: MethodName, opts: dict) -> tuple[MethodOptions, IdentifyOptions]:
+    """The method's options and ``identify``'s shared options from the command's flags (a
+    method's flags with another method are an error naming them)."""
     refuse_idle("gain_prior", opts["tau_gains"], "without --tau-gains")
     refuse_idle("mc_draws", opts["joint_noise_deg"] is not None, "without --joint-noise-deg")
     refuse_idle("noise", method in ("map", "auto") or opts["online"],
@@ -72,8 +81,19 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
     consistent = dataclasses.replace(flags, total_mass=None)
     if method != "consistent" and consistent != ConsistentOptions():
         raise OptionError("method", f"the consistent options need --method consistent ({method})")
-    robust: bool | str = "auto" if opts["robust"] is None else bool(opts["robust"])
-    return IdentifyOptions(
+    chosen: MethodOptions = LeastSquaresOptions()
+    if method in ("map", "auto"):
+        settings = MapOptions(
+            prior_scale=opts["prior_scale"],
+            noise=opts["noise"],
+            select=opts["prior_select"],
+            bias=opts["bias"],
+            prior=opts["prior"],
+        )
+        chosen = settings if method == "map" else AutoOptions(settings)
+    elif method == "consistent":
+        chosen = consistent
+    shared = IdentifyOptions(
         rtol=opts["rtol"],
         weighted=opts["weighted"],
         cop_noise=opts["cop_noise"],
@@ -87,24 +107,15 @@ def options_from_flags(method: str, opts: dict) -> IdentifyOptions:
         imu_link=opts["imu_link"],
         allow_outside_limits=opts["allow_outside_limits"],
         com_height=opts["com_height"],
-        robust=robust,
+        robust="auto" if opts["robust"] is None else bool(opts["robust"]),
         seed=opts["seed"],
         cv=opts["cv"],
         joint_noise=None if opts["joint_noise_deg"] is None else math.radians(
             opts["joint_noise_deg"]),
         mc_draws=opts["mc_draws"],
         online_step=_online_step(opts),
-        map=MapOptions(
-            prior_scale=opts["prior_scale"],
-            noise=opts["noise"],
-            select=opts["prior_select"],
-            bias=opts["bias"],
-            prior=opts["prior"],
-        )
-        if method in ("map", "auto")
-        else MapOptions(),
-        consistent=consistent,
     )  # fmt: skip
+    return chosen, shared
 
 
 def _online_step(opts: dict) -> int | None:
@@ -132,7 +143,7 @@ def _online_step(opts: dict) -> int | None:
 )
 @click.option(
     "--kinds",
-    type=click.Choice(["all", "cop", "tau", "balance"]),
+    type=click.Choice(["all", *choices(Kind)]),
     default="all",
     show_default=True,
     help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
@@ -204,7 +215,7 @@ def _online_step(opts: dict) -> int | None:
 )
 @click.option(
     "--prior",
-    type=click.Choice(["auto", "sesc", "bodies"]),
+    type=click.Choice(choices(PriorChoice)),
     default=MAP_DEFAULTS.prior,
     show_default=True,
     help="map: the CAD prior's shape: each SESC component ±τ m (sesc), or each body's mass ±τ "
@@ -213,7 +224,7 @@ def _online_step(opts: dict) -> int | None:
 )
 @click.option(
     "--prior-select",
-    type=click.Choice(["evidence", "cv"]),
+    type=click.Choice(choices(PriorSelect)),
     default=MAP_DEFAULTS.select,
     show_default=True,
     help="map: choose the prior scale by marginal likelihood or 5-fold cross-validation.",
@@ -277,17 +288,16 @@ def identify(data, robot_name, support, out, method, force, **opts):
     model such as the other sole or a held link, or "double"; stances are pooled over the body
     parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
-    from sescid.api import file_stance
-
-    outs = OutputSet([out], [*(file_stance(d)[0] for d in data), robot_name], force=force)
+    files = [file_stance(d)[0] for d in data]
+    outs = OutputSet([out], [*files, model_input(robot_name)], force=force)
     robot = load(robot_name, support)
-    options = options_from_flags(method, opts)
-    size = sum(rows_estimate(file_stance(d)[0]) or 0 for d in data) or None
+    chosen, options = options_from_flags(method, opts)
+    size = sum(rows_estimate(f) or 0 for f in files) or None
     with TerminalProgress("identifying poses") as bar:
         fit = run_identify(
             robot,
             list(data),
-            method=method,
+            method=chosen,
             options=options,
             progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
         )

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from sescid.estimation import ConsistentOptions, Fit
+from sescid.errors import choices
+from sescid.estimation import ConsistentOptions, Fit, Via
 
 DEFAULT_CONSISTENT = ConsistentOptions()
 
@@ -37,7 +38,7 @@ def consistent_options(f):
             ),
             click.option(
                 "--via",
-                type=click.Choice(["auto", "prior", "fit"]),
+                type=click.Choice(choices(Via)),
                 default=DEFAULT_CONSISTENT.via,
                 show_default=True,
                 help="consistent: 'prior' weighs the data against a CAD prior on masses/CoMs "

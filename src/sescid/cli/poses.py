@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+from typing import Literal
+
 import click
 import numpy as np
 
@@ -9,31 +12,37 @@ from sescid.base import MODEL_COP_COLUMNS, OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     load,
-    mm,
+    model_input,
     refuse_idle,
     robot_options,
     seed_option,
 )
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError, SescidError, choices
 from sescid.estimation import min_poses
 from sescid.io import write_table
 from sescid.planning import (
     DEFAULT_CLEARANCE,
+    DEFAULT_STANCE_COST,
     DEFAULT_TAU_NOISE,
-    DESIGN_KINDS,
+    DesignKind,
+    Mount,
     PlanOptions,
+    Select,
     block_curve,
     cop_half_extents,
     default_candidates,
     design_curve,
     free_sole,
     min_block_poses,
+    parse_stances,
     plan_poses,
+    plan_stances,
     resolve_mount,
     sampling_limits,
+    stance_robot,
 )
 from sescid.planning import paper_convention as robot_paper_convention
-from sescid.report import design_figure
+from sescid.report import design_figure, mm
 from sescid.simulation import PAPER_NOISE
 
 
@@ -60,7 +69,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--select",
-    type=click.Choice(["d-optimal", "random"]),
+    type=click.Choice(choices(Select)),
     default="d-optimal",
     show_default=True,
     help="D-optimal (greedy + exchange) or K random candidates.",
@@ -142,7 +151,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--kinds",
-    type=click.Choice(list(DESIGN_KINDS)),
+    type=click.Choice(choices(DesignKind)),
     default="cop",
     show_default=True,
     help="What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
@@ -163,11 +172,29 @@ def _sole_notes(robot, capsules) -> list[str]:
 )
 @click.option(
     "--mount",
-    type=click.Choice(["stand", "gantry"]),
+    type=click.Choice(choices(Mount)),
     default=None,
     help="stand: on the support foot (balance checked); gantry: the support link (a torso, "
     "pelvis) held level, the robot hanging free (joint limits, floor, self-collision only; "
-    "--kinds tau). Default: gantry when the robot's mass splits at the support (a trunk).",
+    "--kinds tau); double: on both feet, the other foot's sole flat on the floor (CoP of the "
+    "whole robot in the support foot's frame; --kinds cop). Default: gantry when the robot's "
+    "mass splits at the support (a trunk), else stand.",
+)
+@click.option(
+    "--stances",
+    default=None,
+    help="Plan over these stances, comma-separated: a sole frame (standing on it), double "
+    "(both feet, the CoP in the --support frame), gantry:<link> (held by it), stand:<frame>. "
+    "One stance: as --support/--mount; several: one D-optimal design over the body parameters "
+    "they share, visited stance by stance, with a 'support' column naming each pose's stance.",
+)
+@click.option(
+    "--stance-cost",
+    default=DEFAULT_STANCE_COST,
+    show_default=True,
+    type=click.FloatRange(min=0),
+    help="Poses a stance change costs (several --stances): a plan with m stances chooses "
+    "--count minus this times (m - 1) poses.",
 )
 @click.option(
     "--hang-height",
@@ -190,7 +217,7 @@ def poses(
     robot_name,
     support,
     count,
-    select,
+    select: Select,
     seed,
     out,
     n_candidates,
@@ -205,27 +232,37 @@ def poses(
     figure,
     paper_convention: bool,
     rigid: bool,
-    kinds: str,
+    kinds: DesignKind,
     tau_noise: float,
     tau_joints: str,
-    mount: str | None,
+    mount: Mount | None,
+    stances: str | None,
+    stance_cost: float,
     hang_height: float | None,
-    check: str,
+    check: Literal["none", "mujoco"],
     force: bool,
 ):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
     informative, ordered to keep consecutive poses close.
 
-    Columns: pose (id), one per joint in radians (servo convention), <joint>_deg,
-    <joint>_ticks (when the robot profile knows its servo), cop_x_model, cop_y_model (the
-    model's CoP, m: a prediction, not a measurement; not for a robot held in a gantry).
+    Columns: pose (id), support (each pose's stance: with --stances, or on both feet), one per
+    joint in radians (servo convention), <joint>_deg, <joint>_ticks (when the robot profile
+    knows its servo), cop_x_model, cop_y_model (the model's CoP in the stance's frame, m: a
+    prediction, not a measurement; empty for a robot held in a gantry).
     """
+    outs = OutputSet([out, figure], [model_input(robot_name)], force=force)
     refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
-    outs = OutputSet([out, figure], [robot_name], force=force)
     robot = load(robot_name, support)
+    chosen = parse_stances(stances, robot) if stances is not None else ()
+    if chosen and mount is not None:
+        raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
+    if len(chosen) == 1:  # one stance: as --support and --mount
+        robot, mount = stance_robot(robot, chosen[0]), chosen[0].mount
+    if n_candidates is None and len(chosen) > 1:
+        n_candidates = default_candidates(robot, select, count, kinds) // len(chosen)
     if n_candidates is None:
         n_candidates = default_candidates(robot, select, count, kinds)
-    held = resolve_mount(robot, mount, kinds) == "gantry"  # a CoP design held: said first
+    held = len(chosen) < 2 and resolve_mount(robot, mount, kinds) == "gantry"  # said first
     need = min_poses(robot)
     if count < need and kinds == "cop":
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
@@ -241,10 +278,10 @@ def poses(
     half = None if held else cop_half_extents(robot, cop_box, margin, sole_size)
     limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
     pose_check = None
-    if check == "mujoco":
+    if check == "mujoco" and len(chosen) < 2:
         from sescid.bench import standing_check
 
-        pose_check = standing_check(robot)
+        pose_check = standing_check(robot, mount == "double")
     opt = PlanOptions(
         n_candidates=n_candidates,
         n_test=test_poses,
@@ -261,34 +298,38 @@ def poses(
         mount=mount,
         hang_height=hang_height,
     )
+    if len(chosen) > 1:
+        if select != "d-optimal" or figure is not None:
+            raise OptionError("stances", "several stances are planned D-optimally, no figure")
+        opt = dataclasses.replace(opt, half_extents=None if cop_box is None and margin is None
+                                  else half, mount=None)  # fmt: skip
+        checks = (lambda st, rb: _stance_check(st, rb)) if check == "mujoco" else None
+        sp = plan_stances(robot, chosen, count, seed, opt, stance_cost, check=checks,
+                          progress=TerminalProgress("candidates"))  # fmt: skip
+        _write_stance_plan(robot, sp, out, outs, pc if paper_convention else None)
+        return
     plan = plan_poses(robot, count, select, seed, opt, progress=TerminalProgress("candidates"))
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
-    if plan.mount == "stand":
+    if plan.mount != "gantry":
         notes += _sole_notes(robot, capsules)
     notes += plan.notes
-    cols: dict[str, np.ndarray] = {"pose": np.arange(count)}
-    names = robot.joint_names
-    cols |= {j: plan.q[:, k] for k, j in enumerate(names)}
-    cols |= {f"{j}_deg": np.degrees(plan.q[:, k]) for k, j in enumerate(names)}
-    servo = robot.profile.servo
-    if servo is not None:
-        try:
-            ticks = servo.to_ticks(plan.q)
-            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
-        except SescidError:
-            notes.append(f"no _ticks columns: some angles are outside the {servo.name} range")
-    if paper_convention and pc is not None:
-        qp = np.degrees(pc.to_paper(plan.q))
-        cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
-    if plan.mount == "stand":
+    label = chosen[0].label if chosen else "double" if plan.mount == "double" else None
+    first = {} if label is None else {"support": np.full(count, label)}
+    cols = _pose_columns(robot, plan.q, first, pc if paper_convention else None, notes)
+    if plan.mount != "gantry":
         cols |= {MODEL_COP_COLUMNS[k]: plan.cop[:, k] for k in range(2)}
     echo = click.echo
     cand = plan.candidates
     echo(f"candidates: {cand.summary()}")
     free = free_sole(robot)
     n_pairs = len(capsules.pairs) if capsules is not None else 0
-    if half is not None:
+    if half is not None and plan.mount == "double":
+        echo(
+            f"  stability: CoP inside both feet's ±{half[0] * 1e3:.1f} mm (x) "
+            f"±{half[1] * 1e3:.1f} mm (y) boxes; {n_pairs} capsule pairs checked"
+        )
+    elif half is not None:
         echo(
             f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
             + (f"free foot {free} ≥ {clearance * 1e3:g} mm above the floor; " if free else "")
@@ -314,6 +355,64 @@ def poses(
     echo(f"wrote {out}: {count} poses ({len(cols)} columns)")
     if curve is not None:
         echo(f"wrote {figure}")
+
+
+def _pose_columns(robot, q, first: dict, pc, notes: list[str]) -> dict[str, np.ndarray]:
+    """The pose table: ``pose``, the ``first`` columns, one per joint (rad), ``<joint>_deg``,
+    ``<joint>_ticks`` (a profile servo), ``<joint>_paper_deg`` (``pc``: the paper's convention)."""
+    cols: dict[str, np.ndarray] = {"pose": np.arange(len(q))} | first
+    names = robot.joint_names
+    cols |= {j: q[:, k] for k, j in enumerate(names)}
+    cols |= {f"{j}_deg": np.degrees(q[:, k]) for k, j in enumerate(names)}
+    servo = robot.profile.servo
+    if servo is not None:
+        try:
+            ticks = servo.to_ticks(q)
+            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
+        except SescidError:
+            notes.append(f"no _ticks columns: some angles are outside the {servo.name} range")
+    if pc is not None:
+        qp = np.degrees(pc.to_paper(q))
+        cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
+    return cols
+
+
+def _stance_check(stance, robot):
+    """The MuJoCo standing check of a stance on its foot or feet (None held in a gantry)."""
+    from sescid.bench import standing_check
+
+    return None if stance.mount == "gantry" else standing_check(robot, stance.mount == "double")
+
+
+def _write_stance_plan(robot, sp, out: str, outs: OutputSet, pc) -> None:
+    """Print a plan over several stances and write its pose table (with ``support``)."""
+    echo = click.echo
+    for rep in sp.reports:
+        echo(f"{rep.stance.label}: {rep.stance.describe()}: {rep.candidates.summary()}")
+        for note in rep.candidates.notes:
+            echo(f"  note: {note}")
+    notes: list[str] = []
+    for note in sp.notes:
+        echo(f"note: {note}")
+    echo(f"rank over the {sp.n_theta} body parameters (data alone): pooled {sp.rank}")
+    for rep in sp.reports:
+        echo(f"  {rep.stance.label}: alone {rep.rank}, adds {rep.adds} to the others; "
+             f"{rep.poses} poses chosen")  # fmt: skip
+    ref = sp.reference.label
+    echo(f"expected CoM error on fresh poses (MAP, CAD prior): pooled {mm(sp.expected_com)} 3-D, "
+         f"{mm(sp.expected_com_xy)} x/y; {ref} alone with {len(sp.q) + int(sp.cost * sp.changes)}"
+         f" poses {mm(sp.reference_com)} 3-D, {mm(sp.reference_com_xy)} x/y")  # fmt: skip
+    if sp.n_checked:
+        echo(f"MuJoCo bench check: {sp.n_checked} poses simulated, {sp.n_check_failed} did not "
+             "stand and were replaced")  # fmt: skip
+    echo(f"{sp.changes} stance change(s); joint-space path {sp.path_length:.2f} rad")
+    cols = _pose_columns(robot, sp.q, {"support": sp.stance}, pc, notes)
+    cols |= {MODEL_COP_COLUMNS[k]: sp.cop[:, k] for k in range(2)}
+    for note in notes:
+        echo(f"note: {note}")
+    with outs:
+        write_table(outs.path(out), cols)
+    echo(f"wrote {out}: {len(sp.q)} poses ({len(cols)} columns)")
 
 
 def _joint_list(spec: str) -> tuple[str, ...] | None:

@@ -14,14 +14,15 @@ from sescid.cli.common import (
     SEED_HELP,
     force_option,
     load,
-    mm,
+    model_input,
     refuse_idle,
     robot_options,
     sensors_option,
 )
 from sescid.cli.experiment import TORQUE_FLAGS, bench_sensors, torque_config, torque_options
 from sescid.errors import OptionError
-from sescid.planning import MOUNTS
+from sescid.planning import MOUNTS, parse_stances, stance_robot
+from sescid.report import mm
 from sescid.session import SESSION_KINDS, SessionOptions, session_mount
 
 _OPT = SessionOptions()
@@ -63,6 +64,9 @@ class _Printer:
             + (" — converged" if step.converged else "")
         )
 
+    def stance(self, step_no, label, describe):
+        click.echo(f"stance change before pose {step_no}: put the robot {describe} [{label}]")
+
     def stopped(self, result):
         pass
 
@@ -83,6 +87,9 @@ class _CopView:
     def stopped(self, *a):
         self.view.stopped(*a)
 
+    def stance(self, *a):
+        pass
+
 
 class _Both:
     def __init__(self, *observers):
@@ -99,6 +106,10 @@ class _Both:
     def stopped(self, *a):
         for o in self.observers:
             o.stopped(*a)
+
+    def stance(self, *a):
+        for o in self.observers:
+            o.stance(*a)
 
 
 @click.command()
@@ -179,6 +190,21 @@ class _Both:
     "free (joint torques only). Default: gantry when the robot's mass splits at the support.",
 )
 @click.option(
+    "--stances",
+    default=None,
+    help="Choose poses over these stances, comma-separated: sole frames, double (both feet), "
+    "gantry:<link>; the session asks for a stance change when a pose of another stance is "
+    "worth it (--stance-cost). One stance: as --support/--mount.",
+)
+@click.option(
+    "--stance-cost",
+    default=_OPT.stance_cost,
+    show_default=True,
+    type=click.FloatRange(min=0),
+    help="Poses a stance change costs: asked for when the other stance's best information gain "
+    "exceeds 1 + this times the current one's.",
+)
+@click.option(
     "--hang-height",
     default=None,
     type=float,
@@ -235,6 +261,13 @@ def session(**opts):
     _refuse_idle(opts)
     robot = load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
+    stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
+    if stances and opts["mount"] is not None:
+        raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
+    if len(stances) == 1:  # one stance: as --support and --mount
+        robot, opts["mount"], stances = stance_robot(robot, stances[0]), stances[0].mount, ()
+    opts["stances"] = tuple(s.label if s.mount != "gantry" else f"gantry:{s.support}"
+                            for s in stances)  # fmt: skip
     opt = session_options(opts)
     check_options(robot, opt)
     bot, sensors, header = _adapter(robot, opts, opt)
@@ -290,6 +323,8 @@ def session_options(opts: dict) -> SessionOptions:
         mount=opts["mount"],
         hang_height=opts["hang_height"],
         total_mass=opts["total_mass"],
+        stances=tuple(opts["stances"] or ()),
+        stance_cost=opts["stance_cost"],
     )
 
 
@@ -300,7 +335,11 @@ def _adapter(robot, opts, opt):
     from sescid.sensors import load_sensors
 
     adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
-    inputs = [opts["robot_name"], opts["sensors_file"], *_replay_files(adapter, replay_path)]
+    inputs = [
+        model_input(opts["robot_name"]),
+        opts["sensors_file"],
+        *_replay_files(adapter, replay_path),
+    ]
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
     outputs = [Path(out_dir) / name for name in SESSION_FILES]
@@ -347,8 +386,9 @@ def _bot(robot, opts, sensors, opt: SessionOptions):
     if adapter in ("mujoco", "kinematic"):
         from sescid.bench import ExperimentConfig
 
-        mount, _ = session_mount(robot, opt)
-        cfg = ExperimentConfig(torque=torque_config(opts), mount=mount)
+        mount = "stand" if opt.stances else session_mount(robot, opt)[0]
+        cfg = ExperimentConfig(torque=torque_config(opts), mount="stand" if mount == "double"
+                               else mount, double_support=mount == "double")  # fmt: skip
         cls = MujocoAdapter if adapter == "mujoco" else KinematicAdapter
         return cls(robot, sensors, cfg, seed=opt.seed, feet=opts["foot_sensors"])
     if adapter == "replay":

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import click
 import numpy as np
 
@@ -9,14 +11,19 @@ from sescid.base import OutputSet
 from sescid.cli.common import (
     force_option,
     load,
+    model_input,
     refuse_idle,
     robot_options,
     seed_option,
     study_options,
 )
+from sescid.errors import choices
+from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 TORQUES = TorqueNoise()
+#: what ``simulate`` measures: a design's kinds, or the balancing tilts of a robot on a line
+Measure = Literal[DesignKind, "balance"]
 
 
 @click.command()
@@ -40,7 +47,7 @@ TORQUES = TorqueNoise()
 )
 @click.option(
     "--measure",
-    type=click.Choice(["cop", "tau", "both", "balance"]),
+    type=click.Choice(choices(Measure)),
     default=None,
     help="What the robot measures: the CoP under its foot, its joint torques, or both; "
     "balance: balanced poses of a robot on its support line (--line), read by an IMU "
@@ -92,7 +99,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
 
-    outs = OutputSet([out], [robot_name], force=force)
+    outs = OutputSet([out], [model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
     refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
@@ -158,7 +165,7 @@ def torque_noise(kinds: dict) -> TorqueNoise | None:
     return TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
 
 
-def _columns(joint_names: list[str], sim, measure: str) -> dict[str, np.ndarray]:
+def _columns(joint_names: list[str], sim, measure: DesignKind) -> dict[str, np.ndarray]:
     """The written table: joints (rad), what is measured (noisy and true), gravity."""
     cols = {name: sim.q[:, j] for j, name in enumerate(joint_names)}
     if measure != "tau":

@@ -7,7 +7,8 @@ import math
 import click
 
 from sescid.bench import FRESH_POSES, FRESH_WITHIN_DEG
-from sescid.cli.common import echo_model_change, mm, seed_option
+from sescid.cli.common import echo_model_change, seed_option
+from sescid.report import mm
 
 
 @click.command()

@@ -30,7 +30,7 @@ from sescid.estimation.torque_rows import torque_columns
 from sescid.kinematics import augmented_size
 from sescid.kinematics.fused import add_gram_reduced
 from sescid.kinematics.torque_plan import TorquePlan, torque_plan
-from sescid.kinematics.torque_sums import TorqueRows, add_gram_fused, torque_size
+from sescid.kinematics.torque_sums import TorqueBlock, add_gram_fused, torque_size
 from sescid.robot import Robot
 
 
@@ -125,7 +125,7 @@ class RowMaker:
             if m.tau_se is None:
                 raise DataError(f"{m.source}: weighted torques need tau_se_<joint> columns")
             tau_sw = 1.0 / m.tau_se
-        rows = TorqueRows(m.tau, tau_sw, m.approach, self.mass * self.g0)
+        rows = TorqueBlock(m.tau, tau_sw, m.approach, self.mass * self.g0)
         raw_t = np.zeros((torque_size(self.plan),) * 2)
         if not add_gram_fused(self.robot.tree, red, self.plan, m.q, rows, cop, (raw_t, raw_c)):
             return False

@@ -3,7 +3,8 @@
 ``outside_limits`` finds poses outside the model's joint limits; ``fit_warnings`` says when the
 data do not excite the identifiable subspace (rank and condition of the information matrix),
 when σ̂ = 0 (a constant or noise-free CoP), and ``check_total_mass`` refuses a weighed mass
-implausible against the model's (grams for kilograms).
+implausible against the model's (grams or pounds for kilograms): the one rule for every mass a
+user gives (identify, the consistent masses, the pad calibration, the guided session).
 """
 
 from __future__ import annotations
@@ -15,13 +16,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.errors import SescidError
+from sescid.errors import OptionError
 from sescid.estimation.fit import Fit
 from sescid.model.sole import splits_at_support
 from sescid.robot import Robot
 
-#: a weighed total mass outside [1/x, x] × the model's is refused (unit slip, wrong robot)
-MASS_RATIO_LIMIT = 3.0
+#: a weighed total mass must lie within this factor range of the model's (outside: a unit slip
+#: — grams, pounds — or another robot)
+TOTAL_MASS_RANGE = (0.5, 2.0)
 #: information matrix worse conditioned than this (on the excited combinations) is flagged
 CONDITION_WARN = 1e8
 #: σ̂ below this (m, or a weighted scale) is an exact fit: constant CoP or noise-free data
@@ -194,18 +196,22 @@ def _structural(fit: Fit) -> int:
     return p
 
 
-def check_total_mass(robot: Robot, total_mass: float | None) -> None:
-    """SescidError when a given total mass [kg] is implausible against the model's."""
+def check_total_mass(robot: Robot, total_mass: float | None, name: str = "total_mass") -> None:
+    """OptionError naming ``name`` unless a given total mass [kg] is a positive number within
+    ``TOTAL_MASS_RANGE`` × the model's (None: nothing given, nothing to check)."""
     if total_mass is None:
         return
     m = float(total_mass)
     model = robot.total_mass
     if not (math.isfinite(m) and m > 0):
-        raise SescidError(f"total mass must be a positive number of kg, got {total_mass}")
+        raise OptionError(name, f"total mass must be a positive number of kg, got {total_mass}")
+    lo, hi = TOTAL_MASS_RANGE
     ratio = m / model
-    if not 1 / MASS_RATIO_LIMIT <= ratio <= MASS_RATIO_LIMIT:
+    if not lo <= ratio <= hi:
         unit = " (grams? the unit is kg)" if 500 < ratio < 2000 else ""
-        raise SescidError(
-            f"total mass {m:g} kg is {ratio:.3g} × the model's {model:.4f} kg{unit}: "
-            f"expected within {1 / MASS_RATIO_LIMIT:.2g}–{MASS_RATIO_LIMIT:g} ×"
+        unit = unit or (" (pounds? the unit is kg)" if 2.0 < ratio < 2.5 else "")
+        raise OptionError(
+            name,
+            f"{m:g} kg is not this robot's mass: {ratio:.3g} × the model's {model:.4g} kg, "
+            f"expected within {lo:g}–{hi:g} ×{unit}",
         )

@@ -16,22 +16,35 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
+from sescid.estimation.measurements import Kind
 from sescid.kinematics import as_poses, regressor
 from sescid.sesc import balance_tilt
 
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot
 
-#: the estimation methods, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
-METHODS = ("ls", "map", "consistent")
-#: what identify can be asked for: a method, or "auto" (the data and the model choose one)
-METHOD_CHOICES = ("auto", *METHODS)
+#: an estimation method, as named everywhere (CLI --method, Fit.method, fit JSON, docs)
+Method = Literal["ls", "map", "consistent"]
+METHODS: tuple[Method, ...] = get_args(Method)
+#: what ``identify`` can be asked for: a method, or "auto" (the data and the model choose one)
+MethodName = Literal["auto", Method]
+METHOD_CHOICES: tuple[MethodName, ...] = get_args(MethodName)
+#: how a kind's noise level was set: estimated from the residuals, given, or not determined (no
+#: degrees of freedom left)
+NoiseSource = Literal["estimated", "given", "not determined"]
+#: a nuisance parameter beside r: a sensor's offset, a torque's friction band, a torque gain
+NuisanceWhat = Literal["offset", "friction", "gain"]
+#: why a direction of vec(r) is not identified (``Combination.kind``; "" for a base combination)
+Unseen = Literal["", "support-vertical", "support-horizontal", "joint-axis", "not-excited"]
+#: the shape of a MAP fit's CAD prior: each SESC component ±τ m, or each body's mass and first
+#: moment ±τ relative to CAD
+PriorShape = Literal["sesc", "bodies"]
 METHOD_TITLES = {
     "ls": "least squares",
     "map": "MAP with a CAD prior",
@@ -48,15 +61,15 @@ def _nan(x: float | None) -> float:
 class Combination:
     """A named linear combination of SESC components: Σ coef · r[body][axis] (m).
 
-    ``kind`` says why an unidentifiable direction is not seen (machine-readable; ``reason`` is
-    the prose): "support-vertical", "joint-axis" or "not-excited"; "" for a base combination.
+    ``kind`` says why an unidentifiable direction is not seen (machine-readable, ``Unseen``;
+    ``reason`` is the prose); "" for a base combination.
     """
 
     terms: list[tuple[str, str, float]]  #: (body, axis, coefficient)
     value: float = float("nan")  #: estimate, m
     std: float = float("nan")  #: standard error, m
     reason: str = ""
-    kind: str = ""
+    kind: Unseen = ""
 
     def label(self, digits: int = 3) -> str:
         """``r[A].x - 0.5·r[B].y`` style text."""
@@ -91,7 +104,7 @@ class Combination:
             value=_nan(d.get("value")),
             std=_nan(d.get("std")),
             reason=str(d.get("reason", "")),
-            kind=str(d.get("kind", "")),
+            kind=cast(Unseen, str(d.get("kind", ""))),
         )
 
 
@@ -102,7 +115,7 @@ class MapInfo:
     prior_scale: float  #: τ, m
     prior_scale_by: str  #: "given", "evidence" or "<k>-fold cv"
     noise: float  #: σ, m (a dimensionless scale for a weighted fit)
-    noise_by: str  #: "given" or "evidence"
+    noise_by: str  #: "given", "evidence" (a pad calibration: "per-session estimate")
     log_evidence: float
     effective_parameters: float
     cv_curve: list[list[float]] | None = None  #: [[τ/σ, held-out RMSE m], …] when chosen by CV
@@ -110,7 +123,8 @@ class MapInfo:
     #: directions of vec(r) the prior decided: unseen by the data, or where the data carry less
     #: than half of the posterior information
     prior_decided: int = 0
-    prior: str = "sesc"  #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
+    #: "sesc" (±τ m per SESC component) or "bodies" (±τ per body, relative)
+    prior: PriorShape = "sesc"
     #: "bodies": the first moments' prior std per unit mass, m (τ times the prior's CoM scale)
     prior_com_std: float | None = None
     #: the largest share of the posterior information the prior holds in a direction the data
@@ -122,7 +136,7 @@ class MapInfo:
 class MethodChoice:
     """What ``method="auto"`` chose and why (``Fit.choice``)."""
 
-    chosen: str  #: "ls" or "map"
+    chosen: Literal["ls", "map"]
     reason: str
 
     def note(self) -> str:
@@ -226,7 +240,7 @@ class CrossValidation:
     rmse_folds: list[float]
     noise: float  #: pooled σ̂ of the training fits, in the same units as rmse
     model_rmse: float  #: √max(rmse² − σ̂², 0): the model's share of the held-out error
-    kind: str = "cop"  #: the measurement kind scored: "cop" (m) or "tau" (N·m)
+    kind: Kind = "cop"  #: the measurement kind scored: "cop" (m) or "tau" (N·m)
 
 
 @dataclass
@@ -245,11 +259,11 @@ class JointNoiseEffect:
 class KindFit:
     """How one measurement kind fitted: its rows, noise and residuals (in its own unit)."""
 
-    kind: str  #: "cop" or "tau"
+    kind: Kind
     n_rows: int
     n_poses: int
     sigma: float  #: noise standard deviation (m, N·m; a dimensionless scale when weighted)
-    sigma_by: str  #: "estimated", "given" or "not determined"
+    sigma_by: NoiseSource
     dof: float  #: this kind's share of the residual degrees of freedom
     rms: float  #: residual RMS per row (nan when unknown)
     mae: float  #: mean absolute residual per row (nan when unknown)
@@ -262,8 +276,8 @@ class NuisanceEstimate:
     """A nuisance parameter's estimate (a sensor offset, a friction band): value and standard
     error in ``unit``; both nan when the data do not determine it (``reason`` says why)."""
 
-    kind: str  #: "cop" or "tau"
-    what: str  #: "offset" or "friction"
+    kind: Kind
+    what: NuisanceWhat
     name: str  #: the axis of a CoP offset or the joint of a torque sensor
     unit: str
     value: float
@@ -308,7 +322,7 @@ class Fit:
     rms: float  #: residual RMS per CoP component, m (nan when unknown)
     mae: float  #: mean absolute residual per CoP component, m (nan when unknown)
     rtol: float
-    method: str = "ls"  #: one of METHODS
+    method: Method = "ls"
     base: tuple[Combination, ...] = ()
     unidentifiable: tuple[Combination, ...] = ()
     #: directions the data barely excite, taken from the prior (least squares) or left to it

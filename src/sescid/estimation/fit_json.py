@@ -22,13 +22,14 @@ import dataclasses
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from sescid.base.files import atomic_open, read_json
 from sescid.errors import DataError, SescidError
 from sescid.estimation.fit import (
+    METHODS,
     BodyInertials,
     Combination,
     CopOffset,
@@ -37,6 +38,7 @@ from sescid.estimation.fit import (
     JointNoiseEffect,
     KindFit,
     MapInfo,
+    Method,
     MethodChoice,
     NuisanceEstimate,
     OnlineInfo,
@@ -258,6 +260,13 @@ def _v1_method(method: str) -> str:
     return {"least-squares": "ls"}.get(base, base)
 
 
+def _method(text: str, path: Path) -> Method:
+    """The fit's method, one of ``METHODS`` (DataError naming the file otherwise)."""
+    if text not in METHODS:
+        raise DataError(f"{path}: field 'method': {text!r} is not one of {', '.join(METHODS)}")
+    return cast(Method, text)
+
+
 def _matrix(
     data: dict, key: str, shape: tuple[int, ...], path: Path, nullable: bool = False
 ) -> np.ndarray:
@@ -315,10 +324,10 @@ def load_fit(path: str | Path) -> Fit:
         nan = float("nan")
         fields: dict[str, Any] = {}
         if v1:
-            method = _v1_method(str(data["method"]))
+            method = _method(_v1_method(str(data["method"])), path)
             fields = _v1_records(dict(data.get("extra") or {}), method)
         else:
-            method = str(data["method"])
+            method = _method(str(data["method"]), path)
             fields["weighted"] = bool(data.get("weighted", False))
             dof = data.get("sigma_dof")
             fields["sigma_dof"] = math.inf if dof == "inf" else (None if dof is None else dof)

@@ -24,7 +24,7 @@ from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.pooled import accumulate_sources
-from sescid.estimation.system import KindSums, Nuisance, System, torque_nuisance
+from sescid.estimation.system import KindSums, Nuisance, RowOptions, System, torque_nuisance
 from sescid.robot import Robot
 
 #: Gauss–Newton stops when no gain moved by more than this
@@ -76,9 +76,11 @@ def _gain(joint: str, nuisance) -> Nuisance:
     return next(n for n in nuisance if n.what == "gain" and n.name == joint)
 
 
-def gain_system(robot: Robot, data: list[Measurements], gains, base, options, sigma) -> System:
+def gain_system(
+    robot: Robot, data: list[Measurements], gains, base, options, sigma, rows: RowOptions
+) -> System:
     """The pooled system linearised at the current gains (module docstring): the CoP rows as
-    accumulated, the torque rows dense with one gain column per joint."""
+    accumulated (``rows``: the method's), the torque rows dense with one gain column per joint."""
     joints = [j for j in robot.joint_names if j in gains]
     cop = [dataclasses.replace(m.without(TORQUE)) for m in data if m.cop is not None]
     first = next(m for m in data if m.tau is not None)
@@ -93,7 +95,7 @@ def gain_system(robot: Robot, data: list[Measurements], gains, base, options, si
         gravity_accel=options.gravity_accel,
     )  # fmt: skip
     if cop:
-        part = accumulate_sources(robot, [[m] for m in cop], options.rows())
+        part = accumulate_sources(robot, [[m] for m in cop], rows)
         system = part.merged(dataclasses.replace(system, n_poses=0))
         system.n_poses = sum(m.n for m in data)
     return system
@@ -117,15 +119,18 @@ def predicted_readings(fit: Fit, m: Measurements) -> np.ndarray:
     return p
 
 
-def with_gains(solve, robot: Robot, data: list[Measurements], options, start: Fit) -> Fit:
+def with_gains(
+    solve, robot: Robot, data: list[Measurements], options, start: Fit, rows: RowOptions
+) -> Fit:
     """Gauss–Newton over (θ, γ) from a fit without gains (``start``); ``solve(system)`` fits a
-    system (least squares or MAP). The result's nuisance holds the gains."""
+    system (least squares or MAP), whose CoP rows are made as ``rows`` says. The result's
+    nuisance holds the gains."""
     joints = sorted({j for m in data for j in m.tau_joints})
     gains = dict.fromkeys(joints, 0.0)
     fit = start
     for _ in range(GAIN_MAX_ITER):
         base = [predicted_readings(fit, m) if m.tau is not None else None for m in data]
-        system = gain_system(robot, data, gains, base, options, _row_noise(fit))
+        system = gain_system(robot, data, gains, base, options, _row_noise(fit), rows)
         fit = solve(system)
         new = {e.name: e.value for e in fit.nuisance if e.what == "gain"}
         moved = max(abs(new[j] - gains[j]) for j in joints)

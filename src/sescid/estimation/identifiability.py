@@ -17,16 +17,16 @@ from pathlib import Path
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.fit import AXES, Combination
+from sescid.estimation.fit import AXES, Combination, Unseen
 from sescid.robot import Robot
 
 DEFAULT_RTOL = 1e-6
 
-#: kinds of unidentifiable direction (Combination.kind)
-SUPPORT_VERTICAL = "support-vertical"
-SUPPORT_HORIZONTAL = "support-horizontal"
-JOINT_AXIS = "joint-axis"
-NOT_EXCITED = "not-excited"
+#: kinds of unidentifiable direction (``Combination.kind``)
+SUPPORT_VERTICAL: Unseen = "support-vertical"
+SUPPORT_HORIZONTAL: Unseen = "support-horizontal"
+JOINT_AXIS: Unseen = "joint-axis"
+NOT_EXCITED: Unseen = "not-excited"
 
 
 def check_rtol(rtol: float) -> float:
@@ -95,7 +95,7 @@ def combination_vector(robot: Robot, terms) -> np.ndarray:
 
 def structural_null_directions(
     robot: Robot, kinds: tuple[str, ...] = ("cop",)
-) -> list[tuple[np.ndarray, str, str]]:
+) -> list[tuple[np.ndarray, Unseen, str]]:
     """Directions of vec(r) that no data of these kinds can see, for any poses: (vector, kind,
     reason).
 

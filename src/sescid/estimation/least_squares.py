@@ -20,7 +20,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.fit import Combination, Fit, KindFit, NuisanceEstimate
+from sescid.estimation.fit import Combination, Fit, KindFit, Method, NuisanceEstimate
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     NOT_EXCITED,
@@ -29,7 +29,7 @@ from sescid.estimation.identifiability import (
     sparse_terms,
     unidentifiable,
 )
-from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.pooled import body_fit, prior_x, stance_map, view, x_labels
 from sescid.estimation.residual_sums import residual_sums
@@ -114,7 +114,7 @@ def fit_from_solution(
     sol: Solution,
     *,
     rtol: float = DEFAULT_RTOL,
-    method: str = "ls",
+    method: Method = "ls",
 ) -> Fit:
     """The Fit of a least-squares solution (module docstring); residual MAE/RMS are nan until
     ``with_residuals``."""
@@ -230,7 +230,7 @@ def fit_least_squares(
     *,
     rtol: float = DEFAULT_RTOL,
     r_prior: np.ndarray | None = None,
-    noise: dict[str, float] | None = None,
+    noise: dict[Kind, float] | None = None,
     allow_exact: bool = False,
 ) -> Fit:
     """Least-squares Fit of a pooled system (``solve.solve_system``, ``fit_from_solution``).
@@ -309,7 +309,7 @@ def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
         from sescid.estimation.pooled import for_support
 
         fit = for_support(fit, m.support)
-    out = {}
+    out: dict[str, np.ndarray] = {}
     if m.balance is not None and m.gravity is not None:
         from sescid.estimation.balance_rows import balance_residuals
 
@@ -368,8 +368,8 @@ def refit_nuisance(fit: Fit, system: System) -> Fit:
         return fit
     from sescid.estimation.solve import weighted_sums
 
-    noise = {k.kind: (k.sigma if math.isfinite(k.sigma) and k.sigma > 0 else 1.0)
-             for k in fit.kinds}  # fmt: skip
+    noise: dict[Kind, float] = {k.kind: (k.sigma if math.isfinite(k.sigma) and k.sigma > 0
+                                        else 1.0) for k in fit.kinds}  # fmt: skip
     if len(system.kinds) == 1:
         noise = {system.kinds[0]: 1.0}
     ne = weighted_sums(system, noise)

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.fit import CopOffset, Fit, MapInfo
+from sescid.estimation.fit import CopOffset, Fit, MapInfo, PriorShape
 from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.least_squares import (
     fit_from_solution,
@@ -50,6 +50,7 @@ from sescid.estimation.least_squares import (
     reference_view,
     weak_directions,
 )
+from sescid.estimation.measurements import Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.options import MapOptions
 from sescid.estimation.pooled import body_fit, check_pooled_prior, stance_map
@@ -63,8 +64,6 @@ TAU_RANGE = (1e-6, 1.0)
 #: widened to ``SIGMA_HEADROOM`` × the RMS residual of the prior model (a weighted scale may be ≫ 1)
 SIGMA_RANGE = (1e-7, 1.0)
 SIGMA_HEADROOM = 10.0
-#: largest prior scale or noise accepted, m (1 m on a SESC component is already a flat prior)
-MAX_SCALE = 100.0
 #: a direction is "decided by the prior" when the data carry less than this share of its
 #: posterior information
 PRIOR_DECIDED = 0.5
@@ -93,7 +92,7 @@ class Prior:
     nuisance_scales: np.ndarray  #: (K,) prior std of each nuisance parameter
     x_precision: np.ndarray | None = None  #: Σ₀⁻¹ (3N, 3N); None: the identity
     x_logdet: float = 0.0  #: log det Σ₀⁻¹
-    kind: str = "sesc"
+    kind: PriorShape = "sesc"
 
     def matrix(self, tau: float) -> np.ndarray:
         """(P, P) prior precision for scale τ."""
@@ -244,14 +243,6 @@ def sigma_range(ne: NormalEquations, x0: np.ndarray) -> tuple[float, float]:
     return SIGMA_RANGE[0], max(SIGMA_RANGE[1], SIGMA_HEADROOM * rms0)
 
 
-def check_scale(value, what: str) -> None:
-    """SescidError unless ``value`` is None or a positive number of metres ≤ ``MAX_SCALE``."""
-    if value is not None and not (math.isfinite(value) and 0 < value <= MAX_SCALE):
-        raise SescidError(
-            f"{what} must be a positive number of metres ≤ {MAX_SCALE:g}, got {value}"
-        )
-
-
 def profiled_noise(ne: NormalEquations, x0: np.ndarray, prec: np.ndarray) -> float:
     """Maximum-likelihood σ for a fixed ridge σ²·P, ``prec`` = σ²P (P, P): √((zᵀz − bᵀM⁻¹b)/m)."""
     import scipy.linalg
@@ -292,7 +283,7 @@ def fit_map(
     r_prior: np.ndarray | None = None,
     rtol: float = DEFAULT_RTOL,
     cv_folds: list[System] | None = None,
-    kind_noise: dict[str, float] | None = None,
+    kind_noise: dict[Kind, float] | None = None,
 ) -> Fit:
     """MAP ``Fit`` of a pooled system (module docstring). ``options.prior_scale`` τ [m] and
     ``options.noise`` σ (the kinds' common noise scale; m for one unweighted CoP kind) are chosen
@@ -302,8 +293,6 @@ def fit_map(
     ("bodies" with torque rows, else "sesc")."""
     options = options or MapOptions()
     prior_scale, noise, prior = options.prior_scale, options.noise, options.prior
-    check_scale(prior_scale, "prior scale")
-    check_scale(noise, "noise")
     if system.n_poses == 0:
         raise SescidError("no poses to identify from")
     theta0 = prior_theta(robot, system, r_prior)
@@ -323,10 +312,8 @@ def fit_map(
         pri = pooled_body_prior(robot, scales)
     elif prior == "bodies":
         pri = body_prior(robot, n_x, scales)
-    elif prior == "sesc":
-        pri = Prior(n_x, scales)
     else:
-        raise SescidError(f"MAP prior must be 'sesc' or 'bodies', got {prior!r}")
+        pri = Prior(n_x, scales)
 
     chosen = "given" if prior_scale is not None else "evidence"
     curve = None
@@ -384,7 +371,7 @@ def _prior_decided(
     return int(np.sum(mu < threshold)), share
 
 
-def _noise_ratios(system: System, ls: Solution) -> dict[str, float]:
+def _noise_ratios(system: System, ls: Solution) -> dict[Kind, float]:
     """Each kind's noise relative to the others, from least squares (1 for a single kind)."""
     if len(system.kinds) == 1:
         return {system.kinds[0]: 1.0}

@@ -13,7 +13,7 @@ import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -32,11 +32,13 @@ SIGN_SHARE = 0.75
 #: N·m, RMS variation of the model's torque below which a column's sign is not judged
 SIGN_SPREAD_NM = 0.02
 
-#: the measurement kinds, as named in fits, files and options
-COP = "cop"
-TORQUE = "tau"
-BALANCE = "balance"
-KINDS = (COP, TORQUE, BALANCE)
+#: a measurement kind, as named in fits, files and options: the CoP, joint torques, or the
+#: balance of a robot on a support line
+Kind = Literal["cop", "tau", "balance"]
+COP: Kind = "cop"
+TORQUE: Kind = "tau"
+BALANCE: Kind = "balance"
+KINDS: tuple[Kind, ...] = get_args(Kind)
 
 
 @dataclass(frozen=True)
@@ -300,7 +302,7 @@ class Measurements:
             )
         return out
 
-    def without(self, kind: str) -> Measurements:
+    def without(self, kind: Kind) -> Measurements:
         """The same poses with one kind of measurement dropped."""
         if kind == COP:
             return dataclasses.replace(self, cop=None, cop_se=None, cop_true=None)

@@ -82,7 +82,7 @@ def lift(system: System, lmap: np.ndarray) -> System:
         ata = matmul_fixed(matmul_fixed(tt, ne.ata), t)
         ne2 = NormalEquations((ata + ata.T) / 2, matmul_fixed(tt, ne.atb), ne.yty, ne.n_rows,
                               ne.n_poses)  # fmt: skip
-        parts[kind] = KindSums(kind, ne2, part.weighted)
+        parts[kind] = KindSums(part.kind, ne2, part.weighted)
     return dataclasses.replace(system, n_x=n_x, parts=parts, space="bodies", stances={})
 
 

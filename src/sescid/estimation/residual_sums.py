@@ -60,7 +60,7 @@ def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, floa
     a block of another stance (``Measurements.support``) with the fit seen there."""
     if m.support is not None and m.support != fit.robot.support:
         fit = _stance_fit(fit, m.support)
-    out = []
+    out: list[tuple[str, float, float, int]] = []
     if m.balance is not None:
         assert m.gravity is not None
         e = balance_residuals(fit.robot, fit.r, m.q, m.balance, m.gravity)

@@ -45,7 +45,7 @@ def _standardised(fit: Fit, m: Measurements, base: dict[str, np.ndarray]) -> dic
     """Per kind, the residual size in units of the given errors: a CoP pose's 2-D norm (n,),
     a torque row's absolute value (n, J)."""
     res = residuals(fit, m)
-    out = {}
+    out: dict[str, np.ndarray] = {}
     if COP in res:  # a coordinate not measured (nan) does not count
         out[COP] = np.sqrt(np.nansum((res[COP] / base[COP]) ** 2, axis=1))
     if TORQUE in res:
@@ -54,7 +54,7 @@ def _standardised(fit: Fit, m: Measurements, base: dict[str, np.ndarray]) -> dic
 
 
 def _base_errors(m: Measurements, weighted: bool) -> dict[str, np.ndarray]:
-    out = {}
+    out: dict[str, np.ndarray] = {}
     if m.cop is not None:
         out[COP] = m.cop_se if (weighted and m.cop_se is not None) else np.ones((m.n, 2))
     if m.tau is not None:

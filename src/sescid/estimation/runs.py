@@ -19,10 +19,17 @@ from sescid.estimation.fit import Fit
 from sescid.estimation.least_squares import fit_least_squares, refit_nuisance, with_residuals
 from sescid.estimation.map import fit_map
 from sescid.estimation.measurements import COP, TORQUE, Measurements
-from sescid.estimation.options import IdentifyOptions
+from sescid.estimation.options import (
+    AutoOptions,
+    ConsistentOptions,
+    IdentifyOptions,
+    LeastSquaresOptions,
+    MapOptions,
+    MethodOptions,
+)
 from sescid.estimation.pooled import accumulate_sources
 from sescid.estimation.sources import StreamSource
-from sescid.estimation.system import System
+from sescid.estimation.system import RowOptions, System
 from sescid.estimation.validation import folds as split_folds
 from sescid.robot import Robot
 
@@ -30,9 +37,8 @@ from sescid.robot import Robot
 Fitter = Callable[[list[Measurements]], Fit]
 
 
-def make_fitter(robot: Robot, method: str, options: IdentifyOptions) -> Fitter:
+def make_fitter(robot: Robot, method: MethodOptions, options: IdentifyOptions) -> Fitter:
     """The function data → Fit that ``identify`` runs for ``method`` (robust excluded)."""
-    options.check(method)
 
     def fitter(data: list[Measurements]) -> Fit:
         return run_method(robot, method, options, [HeldSource(robot, m) for m in data], data)
@@ -55,9 +61,9 @@ class HeldSource:
 
 
 def run_method(
-    robot,
-    method,
-    options,
+    robot: Robot,
+    method: MethodOptions,
+    options: IdentifyOptions,
     sources,
     memory: list[Measurements] | None,
     progress=None,
@@ -72,39 +78,35 @@ def run_method(
     if all(not isinstance(s, StreamSource) for s in sources):
         total = sum(m.n for s in sources for m in s.chunks())
     report = None if progress is None else (lambda d: progress(d, total))
-    system = accumulate_sources(robot, [s.chunks() for s in sources], options.rows(), report)
-    if options.map.bias and COP not in system.kinds:
+    rows = options.rows(method)
+    system = accumulate_sources(robot, [s.chunks() for s in sources], rows, report)
+    if rows.cop_offset and COP not in system.kinds:
         raise OptionError("bias", "a CoP offset needs CoP data (cop_x, cop_y)")
     system, r_prior, scale = _anchor(robot, system, options)
-    if method == "auto":
-        fit = fit_auto(robot, system, options, r_prior)
-    elif method == "ls" or method == "consistent":
+    if isinstance(method, AutoOptions):
+        fit = fit_auto(robot, system, options, method.map, r_prior)
+    elif isinstance(method, MapOptions):
+        cv = None
+        if method.select == "cv" and method.prior_scale is None:
+            if memory is None:
+                raise OptionError("select", "cross-validation needs the data in memory")
+            cv = fold_systems(robot, memory, method.folds, options.seed, rows)
+        fit = fit_map(
+            robot, system, method, rtol=options.rtol, cv_folds=cv, kind_noise=options.noise(),
+            r_prior=r_prior,
+        )  # fmt: skip
+    else:
         fit = fit_least_squares(
             robot, system, rtol=options.rtol, noise=options.noise(), r_prior=r_prior,
             allow_exact=options.allow_exact,
         )  # fmt: skip
-        if method == "ls" and compare:
+        if isinstance(method, LeastSquaresOptions) and compare:
             fit = _against_cad(robot, system, options, r_prior, fit)
-    else:
-        m = options.map
-        cv = None
-        if m.select == "cv" and m.prior_scale is None:
-            if m.bias:
-                raise OptionError("bias", "choosing the prior scale by cv does not fit a bias")
-            if memory is None:
-                raise OptionError("select", "cross-validation needs the data in memory")
-            cv = fold_systems(robot, memory, m.folds, options)
-        elif m.select not in ("evidence", "cv"):
-            raise OptionError("select", f"must be 'evidence' or 'cv', got {m.select!r}")
-        fit = fit_map(
-            robot, system, m, rtol=options.rtol, cv_folds=cv, kind_noise=options.noise(),
-            r_prior=r_prior,
-        )  # fmt: skip
     if scale is not None:
         fit = with_scale(fit, scale)
     fit = with_residuals(fit, sources=[s.chunks() for s in sources])
-    if method == "consistent":
-        copts = options.consistent
+    if isinstance(method, ConsistentOptions):
+        copts = method
         if copts.total_mass is None and options.total_mass is not None:
             copts = dataclasses.replace(copts, total_mass=options.total_mass)
         src, kw = copts.resolved(fit)
@@ -127,9 +129,12 @@ AUTO_LS_SHARE = 0.01
 AUTO_EVIDENCE = 2.0
 
 
-def fit_auto(robot: Robot, system: System, options: IdentifyOptions, r_prior) -> Fit:
-    """Method "auto": MAP with the CAD prior (per body, its scale chosen by evidence), or least
-    squares when the data determine every direction they see well (``AUTO_LS_SHARE``)."""
+def fit_auto(
+    robot: Robot, system: System, options: IdentifyOptions, settings: MapOptions, r_prior
+) -> Fit:
+    """Method "auto": MAP with the CAD prior (``settings``: per body, its scale chosen by
+    evidence unless given), or least squares when the data determine every direction they see
+    well (``AUTO_LS_SHARE``)."""
     from sescid.estimation.fit import MethodChoice
 
     # least squares first: it refuses data without residual degrees of freedom (no noise level
@@ -139,12 +144,11 @@ def fit_auto(robot: Robot, system: System, options: IdentifyOptions, r_prior) ->
         allow_exact=options.allow_exact,
     )  # fmt: skip
     mapped = fit_map(
-        robot, system, options.map, rtol=options.rtol, kind_noise=options.noise(),
-        r_prior=r_prior,
-    )  # fmt: skip
+        robot, system, settings, rtol=options.rtol, kind_noise=options.noise(), r_prior=r_prior
+    )
     assert mapped.map is not None
     share = mapped.map.prior_share
-    if options.map.bias:
+    if settings.bias:
         why = "a constant CoP offset is separated from the support body's r by the prior only"
         return dataclasses.replace(mapped, choice=MethodChoice("map", why))
     if share < AUTO_LS_SHARE:
@@ -154,12 +158,12 @@ def fit_auto(robot: Robot, system: System, options: IdentifyOptions, r_prior) ->
         )
         return dataclasses.replace(fit, choice=MethodChoice("ls", why))
     seen = mapped.rank
-    if options.map.prior_scale is None and mapped.map.prior_scale_by == "evidence":
+    if settings.prior_scale is None and mapped.map.prior_scale_by == "evidence":
         # the CAD model stays unless the data show it is off: the evidence of the best prior
         # scale against (almost) none, a Bayes factor of at least e^AUTO_EVIDENCE
         from sescid.estimation.map import TAU_RANGE
 
-        pinned = dataclasses.replace(options.map, prior_scale=TAU_RANGE[0])
+        pinned = dataclasses.replace(settings, prior_scale=TAU_RANGE[0])
         cad = fit_map(
             robot, system, pinned, rtol=options.rtol, kind_noise=options.noise(),
             r_prior=r_prior,
@@ -207,7 +211,7 @@ def _against_cad(robot: Robot, system: System, options: IdentifyOptions, r_prior
     if not np.all(np.isfinite(ls.cov)):
         return ls
     mapped = fit_map(
-        robot, system, options.map, rtol=options.rtol, kind_noise=options.noise(),
+        robot, system, MapOptions(), rtol=options.rtol, kind_noise=options.noise(),
         r_prior=r_prior,
     )  # fmt: skip
     ls_err, cad_err = expected_errors(ls, mapped)
@@ -295,19 +299,21 @@ def with_scale(fit: Fit, scale: tuple) -> Fit:
     return dataclasses.replace(fit, scale=record)
 
 
-def fold_systems(robot, memory: list[Measurements], k: int, options) -> list[System]:
+def fold_systems(
+    robot: Robot, memory: list[Measurements], k: int, seed: int, rows: RowOptions
+) -> list[System]:
     """The systems of k folds of the poses (pooled sources split alike)."""
     if len(memory) != 1:
         raise OptionError("select", "cross-validation takes one data set, not pooled ones")
     m = memory[0]
     out = []
-    for f in split_folds(m.n, k, options.seed):
+    for f in split_folds(m.n, k, seed):
         part = m.take(f)
-        out.append(accumulate_sources(robot, [[part]], options.rows()))
+        out.append(accumulate_sources(robot, [[part]], rows))
     return out
 
 
-def with_extras(robot, method, opts: IdentifyOptions, fit: Fit, memory) -> Fit:
+def with_extras(robot, method: MethodOptions, opts: IdentifyOptions, fit: Fit, memory) -> Fit:
     """Cross-validation and the joint-noise Monte Carlo of the fitted method."""
     if opts.cv is None and opts.joint_noise is None:
         return fit
@@ -338,32 +344,33 @@ def with_extras(robot, method, opts: IdentifyOptions, fit: Fit, memory) -> Fit:
     return dataclasses.replace(fit, **changes)
 
 
-def fit_with_gains(robot, method, opts: IdentifyOptions, memory, robust: bool) -> Fit:
+def fit_with_gains(robot, method: MethodOptions, opts: IdentifyOptions, memory) -> Fit:
     """The fit with a gain per torque sensor (``gains.with_gains``, Gauss–Newton)."""
     from sescid.estimation.gains import with_gains
 
     if not any(m.tau is not None for m in memory):
         raise OptionError("tau_gains", "torque gains need torque data (tau_<joint> columns)")
-    if robust or method == "consistent":
-        raise OptionError("tau_gains", "torque gains go with ls or map, not robust or consistent")
     plain = dataclasses.replace(opts, robust=False, tau_gains=False)
     start = run_method(robot, method, plain, [HeldSource(robot, m) for m in memory], memory)
 
     def solve(system: System) -> Fit:
-        if method == "ls":
-            return fit_least_squares(
-                robot, system, rtol=opts.rtol, noise=opts.noise(), r_prior=opts.r_prior,
-                allow_exact=opts.allow_exact,
+        if isinstance(method, MapOptions):
+            return fit_map(
+                robot, system, method, rtol=opts.rtol, kind_noise=opts.noise(),
+                r_prior=opts.r_prior,
             )  # fmt: skip
-        return fit_map(
-            robot, system, opts.map, rtol=opts.rtol, kind_noise=opts.noise(), r_prior=opts.r_prior
-        )
+        return fit_least_squares(
+            robot, system, rtol=opts.rtol, noise=opts.noise(), r_prior=opts.r_prior,
+            allow_exact=opts.allow_exact,
+        )  # fmt: skip
 
-    fit = with_gains(solve, robot, memory, plain, start)
+    fit = with_gains(solve, robot, memory, plain, start, plain.rows(method))
     return with_residuals(fit, sources=[[m] for m in memory])
 
 
-def fit_online(robot, method, opts: IdentifyOptions, memory: list[Measurements]) -> Fit:
+def fit_online(
+    robot, method: MethodOptions, opts: IdentifyOptions, memory: list[Measurements]
+) -> Fit:
     """The recursive estimator over the poses in order, ``online_step`` per update."""
     from sescid.estimation.online import OnlineEstimator
 
@@ -372,8 +379,8 @@ def fit_online(robot, method, opts: IdentifyOptions, memory: list[Measurements])
     m = memory[0]
     if m.gravity is not None:
         raise OptionError("online", "the recursive fit does not use gravity columns")
-    prior = opts.map.prior_scale if method == "map" else None
-    noise = opts.map.noise if method == "map" else None
+    prior = method.prior_scale if isinstance(method, MapOptions) else None
+    noise = method.noise if isinstance(method, MapOptions) else None
     est = OnlineEstimator(
         robot, prior_scale=prior, noise=noise, rtol=opts.rtol, r_prior=opts.r_prior
     )

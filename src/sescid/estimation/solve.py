@@ -23,14 +23,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.estimation.fit import NoiseSource
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol, eigen_descending, rank_of
-from sescid.estimation.measurements import BALANCE, COP, TORQUE
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.system import System
 
 #: unit of each kind's rows, and the noise a weighted-free multi-kind fit starts from
-UNITS = {COP: "m", TORQUE: "N·m", BALANCE: "rad"}
-START_NOISE = {COP: 0.005, TORQUE: 0.05, BALANCE: 0.01}
+UNITS: dict[Kind, str] = {COP: "m", TORQUE: "N·m", BALANCE: "rad"}
+START_NOISE: dict[Kind, float] = {COP: 0.005, TORQUE: 0.05, BALANCE: 0.01}
 #: a kind's estimated noise is never taken below this fraction of its measurements' RMS (a
 #: noise-free kind would otherwise outweigh the others by any factor and hide what only they
 #: determine below the rank tolerance)
@@ -53,10 +54,10 @@ class Solution:
     rank: int
     n_rows: int
     scale: float  #: σ̂ of the weighted residuals (≈ 1 when the σ_k are right; m for one CoP kind)
-    noise: dict[str, float]  #: σ_k per kind (nan: not determined)
-    noise_by: dict[str, str]  #: "estimated", "given" or "not determined"
-    dof: dict[str, float]  #: each kind's share of the redundancy
-    rss: dict[str, float]  #: each kind's residual sum of squares (its own weights)
+    noise: dict[Kind, float]  #: σ_k per kind (nan: not determined)
+    noise_by: dict[Kind, NoiseSource]
+    dof: dict[Kind, float]  #: each kind's share of the redundancy
+    rss: dict[Kind, float]  #: each kind's residual sum of squares (its own weights)
 
     @property
     def basis(self) -> np.ndarray:
@@ -69,7 +70,7 @@ class Solution:
         return np.sqrt(np.clip(self.lam, 0, None))
 
 
-def weighted_sums(system: System, noise: dict[str, float]) -> NormalEquations:
+def weighted_sums(system: System, noise: dict[Kind, float]) -> NormalEquations:
     """Σ_k (A_k, b_k, yᵀy_k) / σ_k²: one kind with σ = 1 is its own sums, unscaled (the same
     bits as before kinds existed)."""
     kinds = system.kinds
@@ -104,7 +105,7 @@ def solve_system(
     theta0: np.ndarray,
     *,
     rtol: float = DEFAULT_RTOL,
-    noise: dict[str, float] | None = None,
+    noise: dict[Kind, float] | None = None,
     allow_exact: bool = False,
     structural: int = 0,
 ) -> Solution:
@@ -157,7 +158,8 @@ def solve_system(
     rss = {k: _rss(system.parts[k].ne, theta) for k in kinds}
     shares = _dof_shares(system, sigma, lam, vecs, p) if len(kinds) > 1 else {kinds[0]: dof_total}
     scale = math.sqrt(_rss(ne, theta) / dof_total) if dof_total > 0 else math.nan
-    noise_out, noise_by = {}, {}
+    noise_out: dict[Kind, float] = {}
+    noise_by: dict[Kind, NoiseSource] = {}
     for k in kinds:
         if k in given:
             noise_out[k], noise_by[k] = given[k], "given"
@@ -193,7 +195,7 @@ def solve_system(
     )
 
 
-def _dof_shares(system: System, sigma, lam, vecs, p) -> dict[str, float]:
+def _dof_shares(system: System, sigma, lam, vecs, p) -> dict[Kind, float]:
     """r_k = n_k − tr(A_k/σ_k² A⁺): each kind's share of the redundancy n − p."""
     vp, lp = vecs[:, :p], lam[:p]
     out = {}

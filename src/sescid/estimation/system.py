@@ -17,13 +17,15 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from sescid.base.threads import ordered_map
 from sescid.errors import DataError
 from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
-from sescid.estimation.measurements import BALANCE, COP, KINDS, TORQUE, Measurements
+from sescid.estimation.fit import NuisanceWhat
+from sescid.estimation.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import use_kernels
@@ -36,12 +38,17 @@ from sescid.sesc import STANDARD_GRAVITY
 NUISANCE_PRIOR_COP = 1.0
 
 
+#: what a system's parameters are: one stance's SESC vectors, or the body parameters that
+#: several stances share (``System.space``)
+Space = Literal["sesc", "bodies"]
+
+
 @dataclass(frozen=True)
 class Nuisance:
     """A nuisance parameter: a column of the system beside the SESC vectors."""
 
-    kind: str  #: the measurement kind it belongs to ("cop", "tau")
-    what: str  #: "offset" or "friction"
+    kind: Kind  #: the measurement kind it belongs to
+    what: NuisanceWhat
     name: str  #: the axis ("x", "y") of a CoP offset, or the joint of a torque sensor
     unit: str  #: "m" or "N·m"
     prior_scale: float  #: MAP prior standard deviation (effectively flat), in ``unit``
@@ -69,7 +76,7 @@ def torque_nuisance(m: Measurements) -> tuple[Nuisance, ...]:
 class KindSums:
     """The normal equations of one kind over θ = [vec(r); the system's nuisance columns]."""
 
-    kind: str
+    kind: Kind
     ne: NormalEquations
     weighted: bool  #: rows weighted by the given standard errors (σ is then a scale)
 
@@ -88,7 +95,7 @@ class System:
     gravity_accel: float = STANDARD_GRAVITY  #: |g| behind the torque rows, m/s²
     #: the parameters: "sesc" (vec(r) of the robot's support, 3N) or "bodies" (the body
     #: parameters x = [m/M; vec(m c)/(M ℓ)], 4N, that several stances share: ``pooled``)
-    space: str = "sesc"
+    space: Space = "sesc"
     #: a pooled system: each stance's own sums over the same x (support → System)
     stances: dict[str, System] = field(default_factory=dict)
 
@@ -98,7 +105,7 @@ class System:
         return self.n_x + len(self.nuisance)
 
     @property
-    def kinds(self) -> tuple[str, ...]:
+    def kinds(self) -> tuple[Kind, ...]:
         """The kinds with rows, in a fixed order."""
         return tuple(k for k in KINDS if k in self.parts)
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sescid.estimation.fit import NuisanceWhat
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.robot import Robot
 from sescid.sesc import torque_regressor
@@ -26,10 +27,10 @@ from sescid.sesc import torque_regressor
 NUISANCE_PRIOR_TORQUE = 100.0
 
 
-def nuisance_names(m: Measurements) -> list[tuple[str, str]]:
+def nuisance_names(m: Measurements) -> list[tuple[NuisanceWhat, str]]:
     """(what, joint) of the torque kind's nuisance columns for these data: an offset per
     measured joint, then a friction band per joint when the approach side is known."""
-    out = [("offset", j) for j in m.tau_joints]
+    out: list[tuple[NuisanceWhat, str]] = [("offset", j) for j in m.tau_joints]
     if m.approach is not None:
         out += [("friction", j) for j in m.tau_joints]
     return out

@@ -22,6 +22,7 @@ import numpy as np
 
 from sescid.errors import SescidError
 from sescid.estimation.fit import CrossValidation, Fit
+from sescid.estimation.measurements import Kind
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.sesc import sesc_vectors
@@ -158,7 +159,7 @@ def cross_validate(
     from sescid.estimation.least_squares import residuals
 
     n = data.n
-    kind = "cop" if data.cop is not None else "tau"
+    kind: Kind = "cop" if data.cop is not None else "tau"
     sq, count, per_fold, noise2 = 0.0, 0, [], []
     for i, test in enumerate(folds(n, k, seed)):
         train = np.setdiff1d(np.arange(n), test)

@@ -8,10 +8,6 @@ joints, joint torques, foot forces; ``sescid.io.bags``, the ``bags`` extra). Out
 written over an input nor inside an input folder (``sescid.base.files``).
 """
 
-from __future__ import annotations
-
-from typing import TYPE_CHECKING
-
 from sescid.base.columns import (
     Table,
     read_cop,
@@ -21,17 +17,27 @@ from sescid.base.columns import (
     read_poses,
 )
 from sescid.base.files import atomic_open, atomic_path, read_json
-from sescid.base.lazy import lazy_exports
 from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
-
-if TYPE_CHECKING:  # pragma: no cover - for type checkers; at run time: _EXPORTS
-    from sescid.io.export.assets import model_files
-    from sescid.io.export.mjcf import export_mjcf
-    from sescid.io.export.model import FORMATS, export_model
-    from sescid.io.export.urdf import export_urdf
-    from sescid.io.measurements import rows_estimate
-    from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
-    from sescid.io.tables import iter_table, read_table, write_table
+from sescid.io.bags import (
+    MAPPING_FORMAT,
+    BagMapping,
+    FootSource,
+    JointSource,
+    PoseSource,
+    RawLogTable,
+    Segment,
+    TorqueSource,
+    load_mapping,
+    parse_mapping,
+    read_bag,
+)
+from sescid.io.export.assets import model_files
+from sescid.io.export.mjcf import export_mjcf
+from sescid.io.export.model import FORMATS, export_model
+from sescid.io.export.urdf import export_urdf
+from sescid.io.measurements import rows_estimate
+from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
+from sescid.io.tables import iter_table, read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
@@ -70,31 +76,3 @@ __all__ = [
     "write_session",
     "write_table",
 ]
-
-#: public name → the module that defines it, imported on first use (``base.lazy``)
-_EXPORTS = {
-    "BagMapping": "sescid.io.bags",
-    "FootSource": "sescid.io.bags",
-    "JointSource": "sescid.io.bags",
-    "MAPPING_FORMAT": "sescid.io.bags",
-    "PoseSource": "sescid.io.bags",
-    "RawLogTable": "sescid.io.bags",
-    "Segment": "sescid.io.bags",
-    "TorqueSource": "sescid.io.bags",
-    "load_mapping": "sescid.io.bags",
-    "parse_mapping": "sescid.io.bags",
-    "read_bag": "sescid.io.bags",
-    "FORMATS": "sescid.io.export.model",
-    "SESSION_FILES": "sescid.io.session_files",
-    "export_mjcf": "sescid.io.export.mjcf",
-    "export_model": "sescid.io.export.model",
-    "export_urdf": "sescid.io.export.urdf",
-    "model_files": "sescid.io.export.assets",
-    "iter_table": "sescid.io.tables",
-    "read_session_reasons": "sescid.io.session_files",
-    "read_table": "sescid.io.tables",
-    "rows_estimate": "sescid.io.measurements",
-    "write_session": "sescid.io.session_files",
-    "write_table": "sescid.io.tables",
-}
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

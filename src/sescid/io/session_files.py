@@ -4,7 +4,10 @@
 model ``cop_x``/``cop_y``; what ``sescid poses`` writes), ``raw.csv`` (the raw log, as
 ``sescid experiment``/a robot writes it), ``measured.csv`` (as ``sescid fsr``), ``fit.json`` (as
 ``sescid identify --weighted``, with the online record) and ``session.json`` (each step's
-decision, status, reason and predicted CoP std, and why the session stopped).
+decision, status, reason and predicted CoP std, and why the session stopped). Over stances:
+``poses.csv``, ``measured.csv`` and ``raw.csv`` carry each pose's ``support``, ``fit.json`` is
+the pooled fit (``identify --weighted`` of ``measured.csv``) and ``session.json`` adds the
+session's own pooled estimate of the body parameters.
 """
 
 from __future__ import annotations
@@ -63,6 +66,9 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
     names = robot.joint_names
     q = result.poses
     cols: dict[str, np.ndarray] = {"pose": result.pose_ids}
+    stance = {s.pose: s.stance for s in result.steps}
+    if result.stances:  # over stances: each pose's stance, its model CoP in that frame
+        cols["support"] = np.array([stance[p] for p in result.pose_ids])
     cols |= {j: q[:, k] for k, j in enumerate(names)}
     cols |= {f"{j}_deg": np.degrees(q[:, k]) for k, j in enumerate(names)}
     servo = robot.profile.servo
@@ -72,11 +78,18 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
             cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
         except SescidError:
             pass  # angles beyond the servo's range: the radians are still there
-    cop = robot.cop(q)
+    cop = robot.cop(q) if not result.stances else _stance_cops(robot, result, cols["support"])
     cols |= {MODEL_COP_COLUMNS[k]: cop[:, k] for k in range(2)}
     write_table(paths["poses"], cols)
     write_table(paths["raw"], result.raw)
-    write_table(paths["measured"], result.measured.columns(names))
+    measured = result.measured.columns(names)
+    if result.stances:
+        measured = (
+            {"pose": measured["pose"]}
+            | {"support": np.array([stance[str(p)] for p in measured["pose"]])}
+            | measured
+        )
+    write_table(paths["measured"], measured)
     save_fit(result.fit, paths["fit"])
     doc = {
         "format": SESSION_FORMAT,
@@ -92,6 +105,8 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
         "n_commanded": len(result.steps),
         "n_measured": result.n_measured,
         "cop_std_m": _num(result.cop_std),
+        "stances": [s.label for s in result.stances],
+        "pooled": None if result.pooled is None else _pooled(result),
         "steps": [
             {
                 "pose": s.pose,
@@ -103,6 +118,7 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
                 "cop_std_m": _num(s.cop_std),
                 "rank": s.rank,
                 "converged": s.converged,
+                "stance": s.stance,
             }
             for s in result.steps
         ],
@@ -114,3 +130,33 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
         json.dump(doc, fh, indent=1)
         fh.write("\n")
     return paths
+
+
+def _stance_cops(robot, result, labels: np.ndarray) -> np.ndarray:
+    """(k, 2) each commanded pose's model CoP [m] in its stance's frame (nan: held)."""
+    out = np.full((len(labels), 2), np.nan)
+    for st in result.stances:
+        rows = labels == st.label
+        if rows.any() and st.mount != "gantry":
+            rb = robot if st.mount == "double" else robot.at(st.support)
+            out[rows] = rb.cop(result.poses[rows])
+    return out
+
+
+def _pooled(result) -> dict:
+    """The pooled body parameters of a session over stances, per body (reference frames)."""
+    theta, sd = result.pooled
+    n = len(result.body_names)
+    return {
+        "units": "kg, kg·m (first moments in each body's frame of the reference robot)",
+        "bodies": [
+            {
+                "body": name,
+                "mass": float(theta[i]),
+                "mass_sd": float(sd[i]),
+                "first_moment": theta[n + 3 * i : n + 3 * i + 3].tolist(),
+                "first_moment_sd": sd[n + 3 * i : n + 3 * i + 3].tolist(),
+            }
+            for i, name in enumerate(result.body_names)
+        ],
+    }

@@ -17,8 +17,6 @@ same pass), ``torque_values`` (holding torques and their regressor rows) and ``r
 fit's residual pass).
 """
 
-from __future__ import annotations
-
 from sescid.kinematics.chains import (
     CHAIN_BLOCK,
     Workspace,

@@ -1,4 +1,4 @@
-"""The torque kind's fused sums from Python: the data of a block (``TorqueRows``), the pass
+"""The torque kind's fused sums from Python: the data of a block (``TorqueBlock``), the pass
 (``gram_fused``: torques alone or with a level CoP), and the raw accumulator read once
 (``fold_torque``: the symmetric sums in ``Reduction`` order). The kernels are ``torque``'s.
 """
@@ -21,7 +21,7 @@ Sums = tuple[np.ndarray, np.ndarray, float]
 
 
 @dataclass(frozen=True)
-class TorqueRows:
+class TorqueBlock:
     """Validated torque data of a block: tau (n, J) N·m, square-root weights sw (n, J) or None,
     approach sides (n,) or None, and M·g0 [kg·m/s²] (total mass × |g|)."""
 
@@ -41,7 +41,7 @@ def gram_fused(
     red: Reduction,
     plan: TorquePlan,
     q: np.ndarray,
-    torque: TorqueRows,
+    torque: TorqueBlock,
     cop: tuple[np.ndarray, np.ndarray | None] | None = None,
 ) -> tuple[Sums | None, Sums] | None:
     """The torque rows' sums (ΦᵀWΦ, ΦᵀWy, yᵀWy) over [reduced columns; nuisance] of validated
@@ -63,7 +63,7 @@ def add_gram_fused(
     red: Reduction,
     plan: TorquePlan,
     q: np.ndarray,
-    torque: TorqueRows,
+    torque: TorqueBlock,
     cop: tuple[np.ndarray, np.ndarray | None] | None,
     out: tuple[np.ndarray, np.ndarray | None],
 ) -> bool:

@@ -8,22 +8,20 @@ geometry; ``inertia_parts`` the inertia tensors the file gives, per body; ``supp
 the feet a robot can stand on (``feet``). See docs/model.md.
 """
 
-from __future__ import annotations
-
 from pathlib import Path
 from xml.etree import ElementTree
 
 from sescid.errors import ModelError
 from sescid.model.feet import FootCandidate, root_frame, support_candidates
-from sescid.model.geometry import Shape, body_hulls, shape_hull
+from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.inertia import inertia_issue, inertia_parts
-from sescid.model.tree import Body, RobotModel, inv_transform, reroot, rot_axis
+from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
 from sescid.model.urdf import build_model as build_urdf_model
 from sescid.model.urdf_parse import load_urdf, parse_inertial
 
 
-def model_format(path: Path) -> str:
+def model_format(path: Path) -> ModelFormat:
     """The format, "urdf" or "mjcf", from the root element (ModelError if it is neither)."""
     if not path.is_file():
         kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
@@ -60,8 +58,11 @@ __all__ = [
     "Frame",
     "Graph",
     "LinkInertial",
+    "ModelFormat",
     "RobotModel",
     "Shape",
+    "ShapeKind",
+    "ShapeRole",
     "body_hulls",
     "build_urdf_model",
     "inertia_issue",

@@ -8,19 +8,27 @@ consistent-mass step (``shape_hull``) and self-collision capsules of pose planni
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
-#: shape kinds
-BOX, CYLINDER, CAPSULE, SPHERE, MESH = "box", "cylinder", "capsule", "sphere", "mesh"
+#: the kinds of collision/visual shape a model file gives
+ShapeKind = Literal["box", "cylinder", "capsule", "sphere", "mesh"]
+BOX: ShapeKind = "box"
+CYLINDER: ShapeKind = "cylinder"
+CAPSULE: ShapeKind = "capsule"
+SPHERE: ShapeKind = "sphere"
+MESH: ShapeKind = "mesh"
+#: what a shape is for in the model file
+ShapeRole = Literal["collision", "visual"]
 
 
 @dataclass(frozen=True)
 class Shape:
     """One geometric primitive of a link, in the frame of the body that holds the link."""
 
-    kind: str  #: "box", "cylinder", "capsule", "sphere" or "mesh"
-    role: str  #: "collision" or "visual"
+    kind: ShapeKind
+    role: ShapeRole
     body: int  #: index of the sescid body
     link: str  #: model link (URDF link / MJCF body) it belongs to
     pose: np.ndarray  #: (4, 4) shape frame in the body frame, m
@@ -53,7 +61,7 @@ def shape_hull(shape: Shape) -> tuple[np.ndarray, np.ndarray] | None:
     return org - half, org + half
 
 
-def body_hulls(shapes: list[Shape], role: str) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+def body_hulls(shapes: list[Shape], role: ShapeRole) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """Per body index, the axis-aligned hull of its shapes of one role (body frame, m)."""
     out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for s in shapes:

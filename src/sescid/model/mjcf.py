@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import ModelError
-from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
+from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape, ShapeRole
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 from sescid.model.mjcf_joints import MjcfJoints, robot_joints
@@ -233,7 +233,7 @@ def _shapes(spec, m, body_names, in_robot: set[int], link_frames) -> list[Shape]
         b, x = link_frames[body_names[bid]]
         pose = x @ _pose(m.geom_pos[g], m.geom_quat[g])
         collides = m.geom_contype[g] or m.geom_conaffinity[g] or g in paired
-        role = "collision" if collides else "visual"
+        role: ShapeRole = "collision" if collides else "visual"
         size = np.asarray(m.geom_size[g], dtype=float)
         kind, mesh, verts = None, "", None
         t = m.geom_type[g]

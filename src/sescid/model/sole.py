@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -181,6 +182,10 @@ def profile_sole(
 
 
 # --- is the support frame level? ----------------------------------------------------------
+#: an axis of a frame with its sign, in the order the level check tries them
+Axis = Literal["+z", "-z", "+x", "-x", "+y", "-y"]
+
+
 @dataclass(frozen=True)
 class LevelCheck:
     """Whether a frame's z is along the normal of its foot's sole (the foot's largest flat face)."""
@@ -188,7 +193,7 @@ class LevelCheck:
     level: bool  #: True when level, or when it cannot be told (``share`` nan)
     share: float  #: footprint under −z / the largest footprint (nan: no flat face to compare)
     frames: list[str] = field(default_factory=list)  #: frames on the foot's body that are level
-    up: str = "+z"  #: the checked frame's axis nearest the sole's normal (pointing up)
+    up: Axis = "+z"  #: the checked frame's axis nearest the sole's normal (pointing up)
 
 
 def footprint(shapes: list[Shape], body: int, rot: np.ndarray) -> float:
@@ -203,7 +208,7 @@ def footprint(shapes: list[Shape], body: int, rot: np.ndarray) -> float:
     return float(ext[0] * ext[1])
 
 
-_UP = ("+z", "-z", "+x", "-x", "+y", "-y")  #: the axis of ``rot`` pointing up in each turn
+_UP: tuple[Axis, ...] = get_args(Axis)  #: the axis of ``rot`` pointing up in each turn
 
 
 def _turns(rot: np.ndarray) -> list[np.ndarray]:

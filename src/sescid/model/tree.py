@@ -23,6 +23,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -53,13 +54,17 @@ class Body:
     frame_only: bool = False
 
 
+#: the model file formats sescid reads and exports
+ModelFormat = Literal["urdf", "mjcf"]
+
+
 @dataclass
 class RobotModel:
     """The body tree and the map from every model link (or site) to its body frame."""
 
     name: str
     path: Path  #: the model file (URDF or MJCF)
-    format: str  #: "urdf" or "mjcf"
+    format: ModelFormat
     support: str
     joint_names: list[str]
     joint_limits: np.ndarray  #: (nq, 2) lower/upper in rad (±inf for continuous joints)

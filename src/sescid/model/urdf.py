@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sescid.errors import ModelError
-from sescid.model.geometry import BOX, CYLINDER, MESH, SPHERE, Shape
+from sescid.model.geometry import BOX, CYLINDER, MESH, SPHERE, Shape, ShapeRole
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.tree import RobotModel, reroot
 from sescid.model.urdf_check import UrdfTree, check_urdf, finite
@@ -95,7 +95,11 @@ def _shapes(path: Path, links: dict[str, Link], link_frames: dict) -> list[Shape
     out = []
     for name, link in links.items():
         b, x = link_frames[name]
-        for role, items in (("collision", link.collisions), ("visual", link.visuals)):
+        roles: tuple[tuple[ShapeRole, list], ...] = (
+            ("collision", link.collisions),
+            ("visual", link.visuals),
+        )
+        for role, items in roles:
             for el in items or []:
                 g = el.geometry
                 if g is None:

@@ -14,10 +14,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 
-from sescid.errors import SescidError
+from sescid.errors import SescidError, check_choice
 from sescid.kinematics import cop_xy, reducible
 from sescid.planning.collision import Capsules, collision_capsules
 from sescid.planning.com import com_state
@@ -33,12 +34,23 @@ from sescid.planning.stability import (
     stable_subset,
 )
 from sescid.robot import Robot
+from sescid.robots import PoseSampler
 
 SWITCH_AFTER = 400_000  #: uniform draws before the adjusted draws may take over
 SWITCH_RATE = 1e-4  #: accepted share of uniform draws below which they do
 #: adjusted draws without one CoP in the box: the robot cannot put its CoM over the foot
 GIVE_UP_BOX = 30_000
 GIVE_UP = 200_000  #: adjusted draws without one accepted pose: something else stops them all
+
+#: how the robot is held: standing on its support foot, or its support link held in a fixture
+#: (no balance: only the joint limits, the floor and self-collision)
+Mount = Literal["stand", "gantry", "double"]
+MOUNTS: tuple[Mount, ...] = get_args(Mount)
+#: a candidate pool's mount: one of ``Mount``, or "stances" for the union of several
+PoolMount = Literal[Mount, "stances"]
+#: how candidates were drawn: uniform, adjusted (``planning.adjust``), or uniform draws that
+#: handed over to adjusted ones when too few were accepted
+Sampling = Literal[PoseSampler, "uniform+adjusted", "near", "uniform+near"]
 
 
 @dataclass
@@ -54,12 +66,14 @@ class Candidates:
     n_ground: int  #: of which also clear of the ground
     n_free: int  #: of which also free of self-collision (= accepted, before truncation)
     capsules: Capsules | None = None
-    sampler: str = "uniform"  #: "uniform", "adjusted" or "uniform+adjusted"
+    sampler: Sampling = "uniform"
     centre: np.ndarray | None = None  #: (2,) centre of the CoP rectangle, m (None: 0)
     n_box: int = 0  #: raw poses whose CoP is in the box
     compliance: Compliance | None = None  #: the compliant-stability model checked (None: rigid)
     notes: list[str] = field(default_factory=list)
-    mount: str = "stand"  #: "stand" on the support foot, or "gantry" (held: no balance)
+    mount: PoolMount = "stand"  #: on the support foot, held, on both feet, or several stances
+    #: (n, 4) double support: the free sole's placement x, y [m], cos ψ, sin ψ on the floor
+    placement: np.ndarray | None = None
 
     @property
     def acceptance(self) -> float:
@@ -75,6 +89,14 @@ class Candidates:
             return (
                 f"{self.n_sampled} {drawn}, held: {self.n_ground / s:.2%} clear of the floor, "
                 f"{self.n_free / s:.2%} also free of self-collision ({self.n_free} accepted)"
+            )
+        if self.mount == "double":
+            return (
+                f"{self.n_sampled} draws on both feet: {self.n_box / s:.2%} closed onto the "
+                f"floor within the limits, {self.n_stable / s:.2%} stable (CoP inside both "
+                f"feet){' and compliant' if self.compliance is not None else ''}, "
+                f"{self.n_ground / s:.2%} also ground-clear, {self.n_free / s:.2%} also free of "
+                f"self-collision ({self.n_free} accepted)"
             )
         kind = {
             "uniform": "uniform poses",
@@ -101,9 +123,13 @@ class CandidateOptions:
     compliance: Compliance | None = None  #: compliant-stability model to check (None: CoP box)
     #: "uniform" (only uniform draws, at most ``max_sampled``) or "adjusted"; None: the
     #: profile's, whose "uniform" hands over to the adjusted draws when too few are accepted
-    sampler: str | None = None
+    sampler: PoseSampler | None = None
     max_sampled: int = 200_000_000  #: uniform draws at most, with ``sampler="uniform"``
     chunk: int = 100_000  #: uniform draws per batch
+
+    def __post_init__(self) -> None:
+        if self.sampler is not None:
+            check_choice("sampler", self.sampler, PoseSampler)
 
 
 @dataclass
@@ -164,8 +190,6 @@ def candidates(
     opt = options or CandidateOptions()
     only = opt.sampler is not None
     sampler = opt.sampler or robot.profile.pose_sampler
-    if sampler not in ("uniform", "adjusted"):
-        raise SescidError(f"unknown pose sampler '{sampler}' (uniform or adjusted)")
     if n < 1:
         raise SescidError(f"number of candidates must be ≥ 1, got {n}")
     rng = np.random.default_rng(seed)
@@ -174,7 +198,7 @@ def candidates(
         cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents, float)
     )
     run = _Run(robot, lim, half, cop_centre(robot), collision_capsules(robot), opt)
-    used = sampler
+    used: Sampling = sampler
     if sampler == "uniform":
         _uniform(run, n, rng, progress, opt.max_sampled if only else None)
         if run.counts[4] < n:

@@ -25,19 +25,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError, SescidError, check_choice
 from sescid.model.sole import splits_at_support
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
-from sescid.planning.candidates import Candidates
+from sescid.planning.candidates import Candidates, Mount, Sampling
 from sescid.planning.collision import collision_capsules
 from sescid.planning.ground import clear_above, ground_checks, lowest_heights
+from sescid.planning.kinds import DesignKind
 from sescid.planning.limits import sampling_limits
 from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
 
-#: the mounts a plan knows
-MOUNTS = ("stand", "gantry")
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
 #: draws without one accepted pose after which the gantry search gives up
@@ -62,13 +61,19 @@ def held_trunk(robot: Robot) -> bool:
     return splits_at_support([b.parent for b in robot.model.bodies], robot.masses)
 
 
-def resolve_mount(robot: Robot, mount: str | None, kinds: str) -> str:
+def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
     """The plan's mount: ``mount``, or from the support (``held_trunk``: gantry, else stand);
-    OptionError for a CoP design on a gantry (a held robot loads no foot)."""
+    OptionError for a CoP design on a gantry (a held robot loads no foot) and for torques on
+    both feet."""
     if mount is None:
         mount = "gantry" if held_trunk(robot) else "stand"
-    if mount not in MOUNTS:
-        raise OptionError("mount", f"must be one of {', '.join(MOUNTS)}, got {mount!r}")
+    check_choice("mount", mount, Mount)
+    if mount == "double" and kinds != "cop":
+        raise OptionError(
+            "kinds",
+            "on both feet the joint torques depend on how the load splits between the feet (a "
+            "closed chain), not on the mass model alone: plan the CoP on both feet (--kinds cop)",
+        )
     if mount == "gantry" and kinds != "tau":
         raise OptionError(
             "kinds",
@@ -136,7 +141,8 @@ def gantry_candidates(
     width = lim[:, 1] - lim[:, 0]
     qs: list[np.ndarray] = []
     counts = np.zeros(3, dtype=np.int64)  # drawn, clear of the floor, free of self-collision
-    sampler, size = "uniform", chunk
+    sampler: Sampling = "uniform"
+    size = chunk
     while counts[2] < n:
         if sampler == "uniform":
             q = rng.random((size, robot.nq)) * width + lim[:, 0]

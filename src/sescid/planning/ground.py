@@ -321,3 +321,24 @@ def clear_above(g: GroundChecks, rot: np.ndarray, org: np.ndarray, floor: float)
         z = org[idx, b, 2:3] + rot[idx, b, 2, :] @ v.T
         ok[idx] = z.min(axis=1) > floor
     return ok
+
+
+def beyond_free_foot(robot: Robot) -> tuple[GroundChecks | None, float]:
+    """(checks, floor [m]): the bodies beyond the free foot (toes), when the free foot stands on
+    the floor beside the support foot (double support), and the plane they must stay above: the
+    floor, or their lowest point at the zero pose where that lies below it, less ``_TOUCH``.
+    None when the free foot has no body beyond it."""
+    free = robot.free_sole
+    feet = _free_foot_bodies(robot)
+    beyond = sorted(feet - {free.body}) if free is not None else []
+    if not beyond:
+        return None, robot.floor
+    shapes, origins = [], []
+    for b in beyond:
+        use, role = _body_shapes(robot, b)
+        shapes += use
+        origins += [b] if role == "origin" else []
+    g = _build(shapes, origins)
+    rot, org = robot.forward(np.zeros((1, robot.nq)))
+    low = float(_lowest(g, rot, org)[0])
+    return g, min(robot.floor, low) - _TOUCH

@@ -21,17 +21,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
-from sescid.errors import OptionError
+from sescid.errors import OptionError, check_choice
 from sescid.estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
-#: the design kinds of ``sescid poses --kinds``
-DESIGN_KINDS = ("cop", "tau", "both")
+#: what a design counts: CoP rows, joint-torque rows, or both (``sescid poses --kinds``)
+DesignKind = Literal["cop", "tau", "both"]
+DESIGN_KINDS: tuple[DesignKind, ...] = get_args(DesignKind)
 #: N·m, torque noise a design assumes unless told (a current-based servo torque, per pose)
 DEFAULT_TAU_NOISE = 0.05
 #: poses per block of the torque regressor (bounds the memory of Φ_τ: n × J × 3N)
@@ -42,7 +44,7 @@ ROW_CHUNK = 2_000
 class DesignKinds:
     """The measurement kinds a design plans for, their noise and the measured joints."""
 
-    kinds: str = "cop"  #: "cop", "tau" or "both"
+    kinds: DesignKind = "cop"
     cop_noise: float = PAPER_NOISE  #: m, per pose
     tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, per pose and joint
     tau_joints: tuple[str, ...] = ()  #: measured joints (names)
@@ -71,14 +73,13 @@ class DesignKinds:
 
 def design_kinds(
     robot: Robot,
-    kinds: str = "cop",
+    kinds: DesignKind = "cop",
     cop_noise: float = PAPER_NOISE,
     tau_noise: float = DEFAULT_TAU_NOISE,
     tau_joints: tuple[str, ...] | None = None,
 ) -> DesignKinds:
     """Checked ``DesignKinds`` (``tau_joints`` None: every joint); OptionError naming a bad one."""
-    if kinds not in DESIGN_KINDS:
-        raise OptionError("kinds", f"must be one of {', '.join(DESIGN_KINDS)}, got {kinds!r}")
+    check_choice("kinds", kinds, DesignKind)
     for name, value, unit in (("noise", cop_noise, "m"), ("tau_noise", tau_noise, "N·m")):
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
             raise OptionError(name, f"must be a positive noise level [{unit}], got {value}")

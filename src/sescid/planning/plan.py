@@ -10,7 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from sescid.base.threads import one_blas_thread
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError, SescidError, check_choice
 from sescid.estimation import min_poses, structural_rank
 from sescid.planning.com import level_cop
 from sescid.planning.doptimal import (
@@ -28,6 +28,7 @@ from sescid.planning.limits import UNLIMITED_RANGE
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,
+    Select,
     checked_choice,
     default_candidates,
     options_with,
@@ -40,7 +41,7 @@ from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
 
-def _choose(a: np.ndarray, count: int, select: str, seed: int, keep: np.ndarray) -> Selection:
+def _choose(a: np.ndarray, count: int, select: Select, seed: int, keep: np.ndarray) -> Selection:
     """``count`` of the pool rows where ``keep``: D-optimal, or random (seeded)."""
     idx = np.flatnonzero(keep)
     if len(idx) < count:
@@ -57,7 +58,7 @@ def _choose(a: np.ndarray, count: int, select: str, seed: int, keep: np.ndarray)
 def plan_poses(
     robot: Robot,
     count: int = 38,
-    select: str = "d-optimal",
+    select: Select = "d-optimal",
     seed: int = 0,
     options: PlanOptions | None = None,
     *,
@@ -72,14 +73,13 @@ def plan_poses(
     ModelError when the support frame is not level (``Robot.check_support_level``).
     """
     opt = options_with(options, overrides)
-    if select not in ("d-optimal", "random"):
-        raise SescidError(f"unknown selection '{select}' (d-optimal or random)")
+    check_choice("select", select, Select)
     if opt.n_candidates is None:
         n_cand = default_candidates(robot, select, count, opt.kinds)
         opt = dataclasses.replace(opt, n_candidates=n_cand)
     assert opt.n_candidates is not None
     mount = resolve_mount(robot, opt.mount, opt.kinds)
-    if opt.kinds != "cop" or mount != "stand":
+    if opt.kinds != "cop" or mount == "gantry":
         from sescid.planning.plan_kinds import plan_kinds
 
         return plan_kinds(robot, count, select, seed, opt, mount, progress)
@@ -93,7 +93,9 @@ def plan_poses(
     if count > opt.n_candidates:
         raise SescidError(f"cannot choose {count} poses from {opt.n_candidates} candidates")
     lim, free, free_range = sampling_range(robot, opt)
-    cand = standing_candidates(robot, opt.n_candidates + opt.n_test, seed, opt, lim, progress)
+    cand = standing_candidates(
+        robot, opt.n_candidates + opt.n_test, seed, opt, lim, progress, mount == "double"
+    )
     model = cand.compliance
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
@@ -127,7 +129,8 @@ def plan_poses(
         compliance=model,
         n_checked=n_checked,
         n_check_failed=n_failed,
-        notes=plan_notes(free, free_range, opt, model, (n_checked, n_failed)),
+        notes=plan_notes(free, free_range, opt, model, (n_checked, n_failed)) + cand.notes,
+        mount=mount,
     )
 
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from sescid.errors import OptionError, SescidError
 from sescid.planning.blocks import schur_logdet, select_blocks
-from sescid.planning.candidates import Candidates
+from sescid.planning.candidates import Candidates, Mount
 from sescid.planning.com import level_cop
 from sescid.planning.doptimal import Selection, per_row_information, projected_regressor
 from sescid.planning.gantry import GantryOptions, gantry_candidates
@@ -31,6 +31,7 @@ from sescid.planning.limits import UNLIMITED_RANGE
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,
+    Select,
     checked_choice,
     plan_notes,
     sampling_range,
@@ -41,7 +42,7 @@ from sescid.robot import Robot
 
 
 def choose_blocks(
-    rows: BlockRows, count: int, select: str, seed: int, keep: np.ndarray
+    rows: BlockRows, count: int, select: Select, seed: int, keep: np.ndarray
 ) -> Selection:
     """``count`` of the candidates where ``keep``: D-optimal over their rows, or random
     (seeded, as ``plan._choose``)."""
@@ -56,7 +57,7 @@ def choose_blocks(
 
 
 def _candidates(
-    robot: Robot, n: int, seed: int, opt: PlanOptions, mount: str, lim: np.ndarray, progress
+    robot: Robot, n: int, seed: int, opt: PlanOptions, mount: Mount, lim: np.ndarray, progress
 ) -> Candidates:
     """The pool and the test poses: held in a gantry, or standing as for a CoP design."""
     if mount == "gantry":
@@ -72,10 +73,10 @@ def _candidates(
 def plan_kinds(
     robot: Robot,
     count: int,
-    select: str,
+    select: Select,
     seed: int,
     opt: PlanOptions,
-    mount: str,
+    mount: Mount,
     progress: Callable[[int, int], None] | None = None,
 ) -> PosePlan:
     """``plan_poses`` for torque rows (module docstring); ``opt.n_candidates`` is set."""
@@ -140,7 +141,7 @@ def plan_kinds(
     )
 
 
-def _kind_notes(spec: DesignKinds, mount: str) -> list[str]:
+def _kind_notes(spec: DesignKinds, mount: Mount) -> list[str]:
     """What the torque design assumed, one line each."""
     joints = spec.tau_joints
     out = [

@@ -8,14 +8,15 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from sescid.errors import OptionError, SescidError
-from sescid.planning.candidates import CandidateOptions, Candidates, candidates
+from sescid.planning.candidates import CandidateOptions, Candidates, Mount, candidates
 from sescid.planning.compliance import Compliance, compliance
 from sescid.planning.doptimal import Selection
-from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows
+from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
 from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
 from sescid.planning.ordering import order_poses, path_length
 from sescid.planning.stability import DEFAULT_CLEARANCE
@@ -24,6 +25,13 @@ from sescid.simulation import PAPER_NOISE
 
 #: (k, nq) poses [rad] → (k,) True where the pose stands (a physics bench, ``bench.standing``)
 PoseCheck = Callable[[np.ndarray], np.ndarray]
+
+
+#: how a plan chooses its poses from the candidates: D-optimally, or at random (a reference)
+Select = Literal["d-optimal", "random"]
+#: what a design's expected error is the error of: the CoP (a CoP design on a standing robot),
+#: else the CoM's x and y (designs with torque rows, a held robot)
+Quantity = Literal["CoP", "CoM x/y"]
 
 
 @dataclass(frozen=True)
@@ -42,10 +50,11 @@ class PlanOptions:
     check: PoseCheck | None = None  #: keeps only chosen poses it passes (a physics bench)
     check_name: str = ""  #: what ``check`` is, for the notes
     max_check_rounds: int = 20  #: choose again at most this often after failed checks
-    kinds: str = "cop"  #: the measured kinds the design counts: "cop", "tau" or "both"
+    kinds: DesignKind = "cop"  #: the measured kinds the design counts
     tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose and joint
     tau_joints: tuple[str, ...] | None = None  #: joints whose torque is measured (None: all)
-    mount: str | None = None  #: "stand" or "gantry" (None: from the support, ``gantry``)
+    #: None: from the support (``gantry.resolve_mount``); "double": both feet
+    mount: Mount | None = None
     hang_height: float | None = None  #: m, gantry: held link above the floor (None: ``gantry``)
 
 
@@ -55,7 +64,7 @@ class PosePlan:
 
     q: np.ndarray  #: (K, nq) rad, ordered
     cop: np.ndarray  #: (K, 2) model CoP on a level floor, m (CPU-independent bits; nan: gantry)
-    method: str  #: "d-optimal" or "random"
+    method: Select
     #: m, expected noise-free error of least squares on these poses: of the CoP (a CoP design),
     #: else of the CoM x/y (``quantity``) on fresh poses
     expected_error: float
@@ -77,13 +86,13 @@ class PosePlan:
     n_checked: int = 0  #: poses the physics check ran
     n_check_failed: int = 0  #: of which did not stand (replaced)
     notes: list[str] = field(default_factory=list)
-    kinds: str = "cop"  #: the kinds the design counts
-    quantity: str = "CoP"  #: what ``expected_error`` is the error of: "CoP" or "CoM x/y"
-    mount: str = "stand"  #: "stand" or "gantry"
+    kinds: DesignKind = "cop"  #: the kinds the design counts
+    quantity: Quantity = "CoP"  #: what ``expected_error`` is the error of
+    mount: Mount = "stand"  #: "stand", "gantry" or "double"
     rows: BlockRows | None = field(default=None, repr=False)  #: the pool's rows (kinds ≠ cop)
 
 
-def default_candidates(robot: Robot, select: str, count: int, kinds: str = "cop") -> int:
+def default_candidates(robot: Robot, select: Select, count: int, kinds: DesignKind = "cop") -> int:
     """The pool a choice draws from by default: D-optimal, 20 000 candidates when the profile asks
     for uniform draws (the OP2), 5 000 for the CoM-Jacobian search (dearer per candidate) and for
     designs with torque rows (a pose's J rows cost J²/4 times a CoP pose's two); random,
@@ -106,20 +115,24 @@ def options_with(options: PlanOptions | None, overrides: dict) -> PlanOptions:
 
 
 def checked_choice(
-    choose: Callable[[np.ndarray], Selection], q: np.ndarray, opt: PlanOptions
+    choose: Callable[[np.ndarray], Selection],
+    q: np.ndarray,
+    opt: PlanOptions,
+    by_index: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[Selection, int, int]:
     """(selection, poses checked, failed): ``choose(keep)`` among the pool poses ``q`` where
-    ``keep``, run ``opt.check`` on the chosen poses not checked yet, drop those that fail from
-    the pool and choose again, until all stand."""
+    ``keep``, run ``opt.check`` (or ``by_index``, given the pool indices) on the chosen poses
+    not checked yet, drop those that fail from the pool and choose again, until all stand."""
     keep = np.ones(len(q), dtype=bool)
     sel = choose(keep)
-    if opt.check is None:
+    if opt.check is None and by_index is None:
         return sel, 0, 0
+    check = by_index or (lambda idx: opt.check(q[idx]))  # type: ignore[misc]
     stands: dict[int, bool] = {}
     for _ in range(opt.max_check_rounds):
         new = [int(i) for i in sel.index if int(i) not in stands]
         if new:
-            ok = np.asarray(opt.check(q[new]), dtype=bool)
+            ok = np.asarray(check(np.asarray(new, dtype=np.int64)), dtype=bool)
             stands |= dict(zip(new, ok.tolist(), strict=True))
         bad = [int(i) for i in sel.index if not stands[int(i)]]
         if not bad:
@@ -173,15 +186,26 @@ def sampling_range(robot: Robot, opt: PlanOptions) -> tuple[np.ndarray, list[str
 
 
 def standing_candidates(
-    robot: Robot, n: int, seed: int, opt: PlanOptions, lim: np.ndarray, progress
+    robot: Robot,
+    n: int,
+    seed: int,
+    opt: PlanOptions,
+    lim: np.ndarray,
+    progress,
+    double: bool = False,
 ) -> Candidates:
-    """``n`` candidates for a robot standing on its support foot: a level support checked, the
-    compliant-robot margin unless ``opt.rigid``, the floor and self-collision."""
+    """``n`` candidates for a robot standing on its support foot (``double``: on both feet,
+    ``planning.double``): a level support checked, the compliant-robot margin unless
+    ``opt.rigid``, the floor and self-collision."""
     robot.check_support_level()
     model = None if opt.rigid else compliance(robot)
     draw = CandidateOptions(
         limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
     )
+    if double:
+        from sescid.planning.double import double_candidates
+
+        return double_candidates(robot, n, seed, draw, progress=progress)
     return candidates(robot, n, seed, draw, progress=progress)
 
 

@@ -67,9 +67,14 @@ class SequentialDesign:
         g[self.tried] = -np.inf
         return g
 
-    def next(self, q_pool: np.ndarray, q_current: np.ndarray) -> NextPose:
-        """The next pose by the module's rule (raises SescidError when none is left)."""
+    def next(
+        self, q_pool: np.ndarray, q_current: np.ndarray, among: np.ndarray | None = None
+    ) -> NextPose:
+        """The next pose by the module's rule (raises SescidError when none is left), among the
+        candidates where ``among`` (n,) when given (a stance's)."""
         g = self.gains()
+        if among is not None:
+            g = np.where(among, g, -np.inf)
         best = float(np.max(g)) if g.size else -np.inf
         if not np.isfinite(best):
             raise SescidError("every candidate pose has been commanded")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.estimation import Combination, Fit, Measurements, identifiable_eigen
+from sescid.estimation import Combination, Fit, Kind, Measurements, identifiable_eigen
 from sescid.estimation.identifiability import label_columns, unidentifiable
 from sescid.report.numbers import project_out, sensor_columns
 
@@ -83,7 +83,7 @@ def torque_information(fit: Fit, data: Measurements) -> np.ndarray:
     return ata
 
 
-def _weight(fit: Fit, kind: str, ata: np.ndarray) -> float:
+def _weight(fit: Fit, kind: Kind, ata: np.ndarray) -> float:
     """1/σ² of a kind for pooling (the fit's noise of that kind; else its information's scale)."""
     k = fit.kind(kind)
     if k is not None and math.isfinite(k.sigma) and k.sigma > 0:
@@ -97,7 +97,7 @@ def coverage(fit: Fit, data: Measurements) -> tuple[Coverage, ...]:
     there are several."""
     robot = fit.robot
     labels = label_columns(robot)
-    infos: dict[str, np.ndarray] = {}
+    infos: dict[Kind, np.ndarray] = {}
     if data.cop is not None:
         infos["cop"] = cop_information(fit, data)
     if data.tau is not None and data.tau_joints:

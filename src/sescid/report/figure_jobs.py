@@ -23,7 +23,7 @@ from sescid.report.figures import (
 )
 from sescid.report.inputs import ReportContent, ReportOptions
 from sescid.report.numbers import CAD, IDENTIFIED
-from sescid.report.text import mm
+from sescid.report.text import in_mm
 from sescid.report.torque_figures import plot_leg_torques, plot_torque_residuals
 
 
@@ -41,7 +41,7 @@ def com_caveat(c: ReportContent) -> str:
     frac, from_prior = c.com.prior_fraction, c.com.from_prior
     return (
         f"{np.mean(frac):.0%} of the CoM-height regressor row is outside the identifiable "
-        f"subspace: {mm(float(np.mean(from_prior)), 1)} mm of the identified height comes from "
+        f"subspace: {in_mm(float(np.mean(from_prior)), 1)} mm of the identified height comes from "
         "the prior model"
     )
 

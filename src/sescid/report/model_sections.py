@@ -10,7 +10,7 @@ import numpy as np
 from sescid.report.coverage import Coverage
 from sescid.report.figures import body_labels, paper_order, r_magnitude_std
 from sescid.report.inputs import ReportContent
-from sescid.report.text import KIND_TITLES, cell, esc, kg, mm, percent, table
+from sescid.report.text import KIND_TITLES, cell, esc, in_mm, kg, percent, table
 
 #: what each kind of unseen direction is, in a reader's words
 UNSEEN_WORDS = {
@@ -104,8 +104,8 @@ def identifiability_section(c: ReportContent) -> str:
     if fit.bodies is not None:
         prior += _stances_table(fit.bodies)
     base = "".join(
-        f"<tr><td><code>{esc(b.label())}</code></td><td>{cell(mm(b.value, 3))}</td>"
-        f"<td>{cell(mm(b.std, 3))}</td></tr>"
+        f"<tr><td><code>{esc(b.label())}</code></td><td>{cell(in_mm(b.value, 3))}</td>"
+        f"<td>{cell(in_mm(b.std, 3))}</td></tr>"
         for b in fit.base
     )
     null = "".join(
@@ -154,11 +154,11 @@ def masses_section(c: ReportContent) -> str:
         )
     rows = []
     for m in c.masses:
-        com = [cell(mm(float(v), 1)) for v in m.com_link]
+        com = [cell(in_mm(float(v), 1)) for v in m.com_link]
         active = esc("; ".join(m.active) or "none")
         rows.append(
             [f"<code>{esc(m.body)}</code>", cell(kg(m.cad_mass)), cell(kg(m.mass)),
-             cell(percent(m.change)), *com, cell(mm(m.com_shift, 1)), active]
+             cell(percent(m.change)), *com, cell(in_mm(m.com_shift, 1)), active]
         )  # fmt: skip
     cad = sum(m.cad_mass for m in c.masses)
     total = sum(m.mass for m in c.masses)
@@ -198,8 +198,8 @@ def sesc_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     std = r_magnitude_std(fit)
     std = np.where(std > 0, std, np.nan)
     rows = [
-        [esc(labels[i]), esc(robot.body_names[i]), mm(r0[i]), cell(mm(fit.r_magnitudes[i])),
-         cell(mm(std[i]))]
+        [esc(labels[i]), esc(robot.body_names[i]), in_mm(r0[i]), cell(in_mm(fit.r_magnitudes[i])),
+         cell(in_mm(std[i]))]
         for i in paper_order(robot)
     ]  # fmt: skip
     head = ["#", "body", "R_i manufacturer [mm]", "R_i identified [mm]",
@@ -216,8 +216,8 @@ def com_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     caveat = (
         f"On these poses {np.mean(frac):.0%} (range {frac.min():.0%}–{frac.max():.0%}) of the "
         "CoM-height regressor row lies outside the identifiable subspace: that part of the "
-        f"identified CoM height (mean {mm(float(np.mean(c.com.from_prior)), 1)} mm of "
-        f"{mm(float(np.mean(c.com.fit[:, 2])), 1)} mm) comes from the prior (manufacturer) "
+        f"identified CoM height (mean {in_mm(float(np.mean(c.com.from_prior)), 1)} mm of "
+        f"{in_mm(float(np.mean(c.com.fit[:, 2])), 1)} mm) comes from the prior (manufacturer) "
         "model, not from the data. The band counts the identified directions only."
     )
     return (

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.estimation import Fit, Measurements
+from sescid.estimation import Fit, Kind, Measurements
 from sescid.estimation.least_squares import residuals
 
 #: the two models every residual is shown for
@@ -54,7 +54,7 @@ class KindNumbers:
     """One measurement kind at the report's poses: measured (n, k), what each model predicts
     (what the sensor would read: sensor terms included), residuals and their statistics."""
 
-    kind: str  #: "cop" (m) or "tau" (N·m)
+    kind: Kind  #: "cop" (m) or "tau" (N·m)
     unit: str
     columns: tuple[str, ...]  #: ("x", "y") or the measured joints
     measured: np.ndarray  #: (n, k)

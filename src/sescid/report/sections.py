@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sescid.estimation import Fit, NuisanceEstimate
+from sescid.estimation import Fit, Kind, NuisanceEstimate
 from sescid.report.inputs import ReportContent
 from sescid.report.numbers import CAD, IDENTIFIED, KindNumbers
 from sescid.report.text import (
@@ -17,7 +17,7 @@ from sescid.report.text import (
     cell,
     esc,
     fixed,
-    mm,
+    in_mm,
     nm,
     table,
     with_unit,
@@ -61,18 +61,18 @@ def _cop_table(k: KindNumbers) -> str:
         rows.append(
             [
                 esc(model),
-                cell(mm(x.mean)),
-                cell(mm(y.mean)),
-                cell(mm(float(np.hypot(x.mean, y.mean)))),
-                cell(mm(all_.rms, 3)),
-                cell(mm(all_.mae, 3)),
+                cell(in_mm(x.mean)),
+                cell(in_mm(y.mean)),
+                cell(in_mm(float(np.hypot(x.mean, y.mean)))),
+                cell(in_mm(all_.rms, 3)),
+                cell(in_mm(all_.mae, 3)),
             ]
         )
     head = ["model", "mean x", "mean y", "|mean|", "RMS", "MAE"]
     return table(head, rows)
 
 
-def _offsets_line(fit: Fit, kind: str) -> str:
+def _offsets_line(fit: Fit, kind: Kind) -> str:
     items = [e for e in fit.nuisance if e.kind == kind and e.what == "offset"]
     if kind != "cop" or not items:
         return ""
@@ -94,8 +94,8 @@ def cop_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     if c.data.cop_se is not None:
         s = c.data.cop_se
         se = (
-            f"<p>Mean standard error of a measured CoP: x {mm(float(s[:, 0].mean()), 3)} mm, "
-            f"y {mm(float(s[:, 1].mean()), 3)} mm.</p>"
+            f"<p>Mean standard error of a measured CoP: x {in_mm(float(s[:, 0].mean()), 3)} mm, "
+            f"y {in_mm(float(s[:, 1].mean()), 3)} mm.</p>"
         )
     return (
         "<h2>Centre of pressure</h2>\n"
@@ -148,7 +148,7 @@ def nuisance_table(fit: Fit, joints: tuple[str, ...]) -> str:
     """Each torque sensor's estimated parameters (offset, friction band, and any other the fit
     carries, e.g. a gain) as value ± 1σ, or "not determined" with the reason."""
     tau = [e for e in fit.nuisance if e.kind == "tau"]
-    est = {(e.what, e.name): e for e in tau}
+    est: dict[tuple[str, str], NuisanceEstimate] = {(e.what, e.name): e for e in tau}
     whats = ["offset", "friction"] + list(dict.fromkeys(
         e.what for e in tau if e.what not in ("offset", "friction")
     ))  # fmt: skip
@@ -160,7 +160,7 @@ def nuisance_table(fit: Fit, joints: tuple[str, ...]) -> str:
             if e is not None and not e.determined
         ))  # fmt: skip
         rows.append([f"<code>{esc(j)}</code>", *(cell(_value(e)) for e in got)])
-    units = {e.what: e.unit for e in tau}
+    units: dict[str, str] = {e.what: e.unit for e in tau}
     head = ["joint"] + [
         NUISANCE_TITLES.get(w, f"{w} ± 1σ [{units.get(w, '')}]") for w in whats
     ]  # fmt: skip

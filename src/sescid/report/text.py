@@ -1,4 +1,5 @@
-"""How the report writes numbers and tables: one home for units, "not determined" and escaping.
+"""How sescid writes numbers (the report's page and the command line's lines) and the report's
+tables: one home for units, "not determined" and escaping.
 
 Lengths are shown in mm, torques in N·m, masses in kg; a quantity the data do not determine
 (nan) is written "not determined", never 0 or ±0.
@@ -39,8 +40,8 @@ def fixed(x: float, digits: int) -> str:
     return text[1:] if text.startswith("-") and float(text) == 0 else text
 
 
-def mm(x: float | None, digits: int = 2) -> str:
-    """A length in m written in mm; "not determined" for nan."""
+def in_mm(x: float | None, digits: int = 2) -> str:
+    """A length in m written in mm, without the unit; "not determined" for nan."""
     return fixed(x * 1e3, digits) if finite(x) else NOT_DETERMINED  # type: ignore[operator]
 
 
@@ -65,7 +66,7 @@ def percent(x: float | None, digits: int = 1) -> str:
 def in_unit(x: float | None, unit: str, digits: int | None = None) -> str:
     """A value of a kind's unit ("m" or "N·m") in its display unit, without the unit."""
     if unit == "m":
-        return mm(x, 3 if digits is None else digits)
+        return in_mm(x, 3 if digits is None else digits)
     return nm(x, 4 if digits is None else digits)
 
 
@@ -73,6 +74,11 @@ def with_unit(x: float | None, unit: str) -> str:
     """``in_unit`` followed by the display unit (nothing after "not determined")."""
     text = in_unit(x, unit)
     return text if text == NOT_DETERMINED else f"{text} {SHOWN_UNIT.get(unit, unit)}"
+
+
+def mm(x: float | None) -> str:
+    """A length in m as "1.234 mm" (three decimals); "not determined" for nan or None."""
+    return with_unit(x, "m")
 
 
 def table(head: Sequence[str], rows: Iterable[Sequence[str]], align: str = "") -> str:

@@ -5,14 +5,19 @@
 Table 1 (index → body) when it has one.
 """
 
-from __future__ import annotations
-
 import csv
 from pathlib import Path
 
 from sescid.errors import ModelError
 from sescid.robots.op2 import PROFILE as _OP2
-from sescid.robots.profile import MX28, RobotProfile, ServoEncoding, ServoGains, generic_profile
+from sescid.robots.profile import (
+    MX28,
+    PoseSampler,
+    RobotProfile,
+    ServoEncoding,
+    ServoGains,
+    generic_profile,
+)
 
 #: embedded robot name → its profile
 EMBEDDED: dict[str, RobotProfile] = {"op2": _OP2}
@@ -46,6 +51,7 @@ def body_table(profile: RobotProfile) -> list[dict[str, str]] | None:
 __all__ = [
     "EMBEDDED",
     "MX28",
+    "PoseSampler",
     "RobotProfile",
     "ServoEncoding",
     "ServoGains",

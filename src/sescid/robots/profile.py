@@ -8,11 +8,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.errors import DataError
+from sescid.errors import DataError, check_choice
+
+#: how pose candidates are drawn: plain uniform draws within the limits, or draws moved toward a
+#: stable CoP by a few steps of the CoM Jacobian (``planning.adjust``)
+PoseSampler = Literal["uniform", "adjusted"]
 
 
 @dataclass(frozen=True)
@@ -84,7 +89,7 @@ class RobotProfile:
     #: pose candidates: "adjusted" (draws moved toward a stable CoP by a few steps of the CoM
     #: Jacobian, ``planning.adjust``) or "uniform" (plain uniform draws, the paper's study;
     #: the adjusted draws take over when uniform ones are too rarely accepted)
-    pose_sampler: str = "adjusted"
+    pose_sampler: PoseSampler = "adjusted"
     #: link carrying the IMU whose roll/pitch (``imu_roll``, ``imu_pitch``) give the gravity
     #: direction; None: unknown (``--imu-link`` names it)
     imu_link: str | None = None
@@ -95,6 +100,9 @@ class RobotProfile:
     #: support frame → direction (3,) of the line the robot balances on there (a wheel axle,
     #: an edge), in that frame: a support named here is a line contact, not a sole
     support_lines: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check_choice("pose_sampler", self.pose_sampler, PoseSampler)
 
 
 def generic_profile(name: str) -> RobotProfile:

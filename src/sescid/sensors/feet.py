@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -44,6 +45,11 @@ class Status:
         return self.code < 0
 
 
+#: what the feet's sources give: forces (every source has its force), the centroid registers,
+#: or a logged CoP without its force
+FootMode = Literal["forces", "centroid", "cop"]
+
+
 @dataclass(frozen=True)
 class FootSamples:
     """Per-sample CoP of each foot with a source (sole frame), its weight and load."""
@@ -52,10 +58,10 @@ class FootSamples:
     local: tuple[np.ndarray, ...]  #: per foot (m, 2) CoP in the sole frame, m
     weight: np.ndarray  #: (m, feet) force N (mode "forces") or 1 per loaded foot
     loaded: np.ndarray  #: (m, feet) bool
-    mode: str  #: "forces", "centroid" or "cop"
+    mode: FootMode
 
 
-def source_mode(log: RawLog, feet: list[Foot]) -> str:
+def source_mode(log: RawLog, feet: list[Foot]) -> FootMode:
     """The source mode: centroid (registers), cop (a logged CoP, no force) or forces."""
     if log.centroid:
         return "centroid"

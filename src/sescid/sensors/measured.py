@@ -4,11 +4,16 @@ columns of its table (``sescid measure --out``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
-from sescid.sensors.feet import REASONS
-from sescid.sensors.torque import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
+from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
+from sescid.sensors.feet import REASONS, FootMode
+
+#: what a measurement was reduced from: the feet's sources (``FootMode``), joint torques only,
+#: or an IMU only (a robot balancing on a line)
+MeasuredFrom = Literal[FootMode, "torque", "imu"]
 
 
 @dataclass(frozen=True)
@@ -23,9 +28,7 @@ class Measured:
     n_used: np.ndarray  #: (k,) samples averaged
     rejected: np.ndarray  #: (k, len(REASONS)) samples rejected, per reason
     dropped: list[tuple[str, str]] = field(default_factory=list)  #: (pose, why) not kept
-    #: "forces" (every source has a force), "centroid" (registers), "cop" (a logged CoP
-    #: without its force) or "torque" (joint torques only)
-    mode: str = "forces"
+    mode: MeasuredFrom = "forces"
     gravity: np.ndarray | None = None  #: (k, 3) mean gravity direction (unit), support frame
     tau_joints: tuple[str, ...] = ()  #: joints with torques, model order
     tau: np.ndarray | None = None  #: (k, len(tau_joints)) mean torque, N·m

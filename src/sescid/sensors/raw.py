@@ -32,13 +32,14 @@ from sescid.base.columns import (
     Table,
     column_with_missing,
     pose_ids,
+    read_approach,
     read_gravity,
     read_joint_columns,
+    read_torques,
 )
 from sescid.errors import DataError
 from sescid.robots import ServoEncoding
 from sescid.sensors.pads import Foot, SensorConfig
-from sescid.sensors.torque import read_approach, read_torques
 
 #: a logged CoP farther than this from its sole origin is not in metres
 COP_MAX_M = 2.0
@@ -122,7 +123,8 @@ def read_raw(
     if config is not None:
         for foot in config.feet:
             _read_foot(table, foot, config, names, (forces, centroid, cop, cop_force))
-    joints, tau = read_torques(table, joint_names)
+    torques = read_torques(table, joint_names, allow_missing=True)
+    tau = torques.tau if torques.joints else None
     attitude = any(c in names for c in (*GRAVITY_COLUMNS, "imu_roll", "imu_pitch"))
     if not forces and not centroid and not cop and tau is None and not attitude:
         if config is None:
@@ -150,9 +152,9 @@ def read_raw(
         cop=cop,
         cop_force=cop_force,
         gravity=gravity,
-        tau_joints=tuple(joints),
+        tau_joints=torques.joints,
         tau=tau,
-        approach=read_approach(table),
+        approach=read_approach(table, allow_missing=True),
         first_row=table.first_row,
         row_of=table.label,
         numbers=table.numbers,

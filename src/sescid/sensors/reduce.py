@@ -27,7 +27,7 @@ import numpy as np
 from sescid.base.columns import Table, pose_ids
 from sescid.errors import DataError
 from sescid.sensors.feet import REASONS, Status, check_pads, foot_samples, support_cop
-from sescid.sensors.measured import Measured
+from sescid.sensors.measured import Measured, MeasuredFrom
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
 from sescid.sensors.stats import PoseGroups
@@ -217,6 +217,7 @@ def measure(
     s = _start(log)
     feet = uses_feet(log, config) if feet is None else feet
     out = np.zeros(len(log.pose), dtype=bool)
+    mode: MeasuredFrom
     if feet:
         assert config is not None
         check_sensors(robot, config)

@@ -1,4 +1,5 @@
-"""Joint torques in a raw log: ``tau_<joint>`` samples and the ``approach`` side of each pose.
+"""Joint torques in a raw log: ``tau_<joint>`` samples and the ``approach`` side of each pose
+(read by ``base.columns.read_torques``/``read_approach``, the one reader of those columns).
 
 Columns (the data contract): ``tau_<joint>`` [N·m], the torque the actuator applies to hold the
 pose, about the joint's axis with the model's sign, for any subset of the model's joints (named
@@ -16,60 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.base.columns import TORQUE_REACH_M, Table, column_with_missing, torque_bound
+from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TORQUE_REACH_M, torque_bound
 from sescid.errors import DataError
 
-TAU_PREFIX = "tau_"
-TAU_SE_PREFIX = "tau_se_"
-APPROACH_COLUMN = "approach"
 #: N·m, smallest robust scale of a torque in the outlier rule
 TORQUE_OUTLIER_FLOOR = 1e-3
 #: N·m, smallest standard error of a pose's mean torque (identical samples: a resolution)
 TORQUE_SE_FLOOR = 1e-6
-
-
-def torque_joints(names: list[str] | set[str], joint_names: list[str], where: str) -> list[str]:
-    """Joints (model order) that have a ``tau_<joint>`` column; an error for one of no joint."""
-    have = set(names)
-    joints = [j for j in joint_names if TAU_PREFIX + j in have]
-    known = {TAU_PREFIX + j for j in joint_names}
-    for c in sorted(have):
-        if c.startswith(TAU_PREFIX) and not c.startswith(TAU_SE_PREFIX) and c not in known:
-            raise DataError(
-                f"{where}: column '{c}': no joint '{c[len(TAU_PREFIX) :]}' in the model "
-                "(torque columns are tau_<joint>, named as in the model file)"
-            )
-    return joints
-
-
-def read_torques(table: Table, joint_names: list[str]) -> tuple[list[str], np.ndarray | None]:
-    """The measured joints and their torque samples (m, k) [N·m] (NaN where missing)."""
-    joints = torque_joints(table.names(), joint_names, str(table.path))
-    if not joints:
-        return [], None
-    tau = np.column_stack([column_with_missing(table, TAU_PREFIX + j) for j in joints])
-    bad = np.argwhere(np.isinf(tau))
-    if bad.size:
-        i, k = bad[0]
-        raise DataError(
-            f"{table.path}: {table.where(i)}, column '{TAU_PREFIX}{joints[k]}': "
-            f"{tau[i, k]} is not a torque"
-        )
-    return joints, tau
-
-
-def read_approach(table: Table) -> np.ndarray | None:
-    """The ``approach`` column (m,) of ±1 (NaN where missing), or None when absent."""
-    if APPROACH_COLUMN not in table.names():
-        return None
-    a = column_with_missing(table, APPROACH_COLUMN)
-    bad = np.flatnonzero(~np.isnan(a) & (np.abs(a) != 1))
-    if bad.size:
-        raise DataError(
-            f"{table.path}: {table.where(bad[0])}, column '{APPROACH_COLUMN}': {a[bad[0]]:g} "
-            "is not +1 (reached from below) or -1 (from above)"
-        )
-    return a
 
 
 def check_torque_scale(log, mass: float) -> None:

@@ -17,6 +17,11 @@ A session talks to a robot through four calls (``RobotAdapter``):
     column names.
 ``stop()``
     release the robot (end of the session, or an error).
+``change_stance(support, mount)`` (a session over stances only)
+    put the robot in another stance before the next ``move``: standing on the sole ``support``
+    (``mount`` "stand"), on both feet ("double", ``support`` the reference foot) or held in a
+    gantry by the link ``support`` ("gantry"); returns when it is done (an operator's prompt,
+    a fixture). The session asks for it when the change is worth its cost.
 
 The session checks joint limits and static stability of the model before every ``move``.
 
@@ -89,7 +94,12 @@ class ReplayAdapter:
         self.rows: dict[str, np.ndarray] = {}
         for p in dict.fromkeys(ids.tolist()):
             self.rows[p] = np.flatnonzero(ids == p)
-        skip = {"pose", "sample"}
+        skip = {"pose", "sample", "support"}
+        self.support = {}  #: pose → its recorded stance (the raw log's support column)
+        if "support" in raw.text:
+            sup = np.asarray(raw.text["support"])
+            self.support = {p: str(sup[r[0]]) for p, r in self.rows.items()}
+        self._stance = ""
         self.columns = {k: v for k, v in raw.columns.items() if k not in skip}
         self.text = {k: np.asarray(v) for k, v in raw.text.items() if k not in skip}
         q, _ = read_joint_columns(raw, joint_names, servo)
@@ -104,10 +114,18 @@ class ReplayAdapter:
         self._pose = ""
         self._served = ""  #: the recorded pose that serves the current command
 
+    def change_stance(self, support: str, mount: str) -> None:
+        """See the module docstring: the recorded poses of that stance serve from now on."""
+        self._stance = "double" if mount == "double" else support
+
     def move(self, pose: str, q: np.ndarray) -> None:
         """See ``RobotAdapter.move``."""
         q = np.asarray(q, dtype=float)
         self._pose = pose
+        had = self.support.get(pose)
+        if had is not None and self._stance and had != self._stance:
+            raise DataError(f"{self.path}: replay diverged at pose {pose}: recorded in stance "
+                            f"{had}, commanded in {self._stance}")  # fmt: skip
         rec = self.commanded.get(pose)
         if rec is not None:
             dev = float(np.max(np.abs(rec - q)))

@@ -20,11 +20,13 @@ foot is loaded.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sescid.bench.kinematic import floor_forces, two_foot_split
 from sescid.bench.log import RawLogWriter, Readings
 from sescid.bench.real_robot import (
     ExperimentConfig,
@@ -32,6 +34,7 @@ from sescid.bench.real_robot import (
     draw_errors,
     real_bodies,
     real_robot,
+    stance_config,
 )
 from sescid.bench.statics import holding_torques
 from sescid.errors import DataError, OptionError
@@ -63,6 +66,8 @@ class _BenchAdapter:
         logged = sensors if feet else None  # feet=False: the pads carry it, nothing logs them
         self.writer = RawLogWriter(robot, logged, self.config, self.errors, imu)
         self.r_true, self.mass_true, _ = real_robot(robot, self.config)
+        self.reference, self.base_config = robot, self.config
+        self.stance = ("", "")  #: (support, mount) asked by ``change_stance`` ("": as built)
         self.truth: dict[str, dict[str, Any]] = {}
         self._pose = ""
         self._count = 0
@@ -86,6 +91,25 @@ class _BenchAdapter:
     def _unseen(self) -> np.ndarray:
         return (1.0 - self.config.readback_seen) * self._delta
 
+    def change_stance(self, support: str, mount: str) -> None:
+        """Put the real robot in another stance (a session over stances): standing on the sole
+        ``support`` (``mount`` "stand"), on both feet ("double": the CoP in the frame of the
+        robot this adapter was made with) or held by the link ``support`` ("gantry"); the same
+        physical robot (``bench.stance_config``) and the same sensors (their errors kept)."""
+        robot = self.reference if mount == "double" else self.reference.at(support)
+        cfg = stance_config(self.reference, robot, self.base_config)
+        cfg = dataclasses.replace(
+            cfg, mount="gantry" if mount == "gantry" else "stand", double_support=mount == "double"
+        )
+        cfg.check()
+        self.robot, self.config, self.stance = robot, cfg, (support, mount)
+        self.r_true, self.mass_true, _ = real_robot(robot, cfg)
+        self._settled = False
+        self._restand()
+
+    def _restand(self) -> None:
+        """What a bench rebuilds for a new stance."""
+
     def stop(self) -> None:
         """See ``RobotAdapter.stop``."""
         self._settled = False
@@ -106,7 +130,14 @@ class KinematicAdapter(_BenchAdapter):
             raise DataError(f"no foot sensor board sits on the support link '{robot.support}'")
         self.bodies, _ = real_bodies(robot, self.config)
         self._pads = np.zeros(4)
+        self._feet: dict[str, np.ndarray] | None = None  #: on both feet: pad forces per foot
         self._tau = np.zeros(robot.nq)
+
+    def _restand(self) -> None:
+        boards = self.sensors.feet if self.sensors is not None else ()
+        self.foot = next((f for f in boards if f.sole_frame == self.robot.support), None)
+        self.held = self.config.mount == "gantry"
+        self.bodies, _ = real_bodies(self.robot, self.config)
 
     def _tipped(self, cop: np.ndarray) -> str:
         """Why the true CoP (2,) [m] tips the robot over ('' when it stands): off the pads of
@@ -130,9 +161,18 @@ class KinematicAdapter(_BenchAdapter):
         over; a held robot always holds."""
         q = self._target[None]
         cop = self.robot.cop(q, self.r_true)
-        if not self.held and (why := self._tipped(cop[0])):
+        ext: tuple = ()
+        self._feet = None
+        if self.config.double_support and self.sensors is not None:
+            forces, tips, _ = two_foot_split(self.robot, self.sensors, q, cop, self.mass_true * G)
+            if tips[0]:
+                c = cop[0] * 1e3
+                return f"toppled: the CoP ({c[0]:.1f}, {c[1]:.1f}) mm left both feet"
+            self._feet = {k: v[0] for k, v in forces.items()}
+            ext = floor_forces(self.robot, self.sensors, forces, q, None)
+        elif not self.held and (why := self._tipped(cop[0])):
             return why
-        self._tau = holding_torques(self.robot, q, self.bodies)[0]
+        self._tau = holding_torques(self.robot, q, self.bodies, None, ext)[0]
         truth: dict[str, Any] = {"q_actual": self._target, "tau": self._tau}
         if not self.held:
             truth["cop_true"] = cop[0]
@@ -145,7 +185,9 @@ class KinematicAdapter(_BenchAdapter):
         if not self._settled:
             raise DataError(f"pose {self._pose}: read before the robot settled")
         pads = {f.name: np.zeros((n, 4)) for f in (self.sensors.feet if self.sensors else ())}
-        if self.foot is not None and not self.held:
+        if self._feet is not None:
+            pads |= {k: np.tile(v, (n, 1)) for k, v in self._feet.items()}
+        elif self.foot is not None and not self.held:
             pads[self.foot.name] = np.tile(self._pads, (n, 1))
         r = Readings(
             q=np.tile(self._target - self._unseen(), (n, 1)),
@@ -178,6 +220,12 @@ class MujocoAdapter(_BenchAdapter):
         self.bench = bench
         self.sim = Simulation(robot, sensors, self.config, bench)
         self._res: PoseResult | None = None
+
+    def _restand(self) -> None:
+        from sescid.bench.mujoco import Simulation
+
+        bench = dataclasses.replace(self.bench, double_support=self.config.double_support)
+        self.sim = Simulation(self.robot, self.sensors, self.config, bench)
 
     def wait_settled(self) -> str:
         """See ``RobotAdapter.wait_settled``."""

@@ -16,11 +16,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError
 from sescid.planning import (
-    MOUNTS,
     CandidateOptions,
+    DesignKind,
     GantryOptions,
+    Mount,
     TorqueRows,
     block_rows,
     candidates,
@@ -38,25 +40,20 @@ from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.session.records import SessionOptions
 
-#: the kinds a session may be asked for
-SESSION_KINDS = ("auto", "cop", "tau", "both")
 
-
-def session_mount(robot: Robot, opt: SessionOptions) -> tuple[str, str]:
+def session_mount(robot: Robot, opt: SessionOptions) -> tuple[Mount, DesignKind]:
     """(mount, kinds planned for before the first measurement); OptionError for kinds a mount
     cannot give (a CoP in a gantry)."""
-    if opt.kinds not in SESSION_KINDS:
-        raise OptionError("kinds", f"must be one of {', '.join(SESSION_KINDS)}, got {opt.kinds}")
-    if opt.mount is not None and opt.mount not in MOUNTS:
-        raise OptionError("mount", f"must be one of {', '.join(MOUNTS)}, got {opt.mount!r}")
-    mount = opt.mount or ("gantry" if held_trunk(robot) else "stand")
-    kinds = opt.kinds
-    if kinds == "auto":
+    mount: Mount = opt.mount or ("gantry" if held_trunk(robot) else "stand")
+    kinds: DesignKind
+    if opt.kinds == "auto":
         kinds = "tau" if mount == "gantry" else "cop"
+    else:
+        kinds = opt.kinds
     return resolve_mount(robot, mount, kinds), kinds
 
 
-def kinds_of(cop: bool, tau: bool) -> str:
+def kinds_of(cop: bool, tau: bool) -> DesignKind:
     """The design kinds of a measurement with a CoP and/or joint torques."""
     return "both" if cop and tau else "cop" if cop else "tau"
 
@@ -86,7 +83,7 @@ class SessionDesign:
             self.cand = candidates(robot, opt.n_candidates, opt.seed, draw, progress=progress)
         self.basis, self.design, self.min_rows = self._design(self.kinds)
 
-    def _design(self, kinds: str) -> tuple[np.ndarray, SequentialDesign, int]:
+    def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:
         """(basis, sequential design, fewest poses that determine it) for ``kinds``."""
         q = self.cand.q
         if kinds == "cop":
@@ -100,7 +97,7 @@ class SessionDesign:
         need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
         return basis, SequentialDesign(rows, self.opt.near), need
 
-    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> str:
+    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> DesignKind:
         """The kinds a measurement gives for this session (``auto``: all of them); DataError
         when it lacks what the session was asked for."""
         asked = self.opt.kinds
@@ -121,7 +118,7 @@ class SessionDesign:
             )
         return kinds_of(cop, tau) if asked == "auto" else asked
 
-    def switch(self, kinds: str, measured: list[int]) -> None:
+    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
         """Plan for ``kinds`` from now on: a new design holding the poses ``measured`` (pool
         indices) and never proposing one already commanded."""
         if kinds == self.kinds:
@@ -132,3 +129,35 @@ class SessionDesign:
         for i in measured:
             self.design.add(i)
         self.design.tried |= tried
+
+
+def unsafe_pose(
+    robot: Robot,
+    q: np.ndarray,
+    half: np.ndarray | None,
+    r_est: np.ndarray | None,
+    held: bool = False,
+) -> str:
+    """Why ``q`` must not be commanded ('' when it is within limits and statically stable).
+
+    Stable: the model's CoP, and once every identifiable combination is determined the current
+    estimate's CoP too, strictly inside the stability box ``half`` around the sole's centre; a
+    robot ``held`` in a gantry has no balance to keep (its candidates already clear the floor
+    and themselves).
+    """
+    try:
+        check_limits(robot, q[None], "command")
+    except DataError as exc:
+        return str(exc)
+    if held or half is None:
+        return ""
+    for what, r in (("model", None), ("identified", r_est)):
+        if what == "identified" and r is None:
+            continue
+        cop = robot.cop(q[None], r)[0]
+        if np.any(np.abs(cop - robot.sole_centre) >= half):
+            return (
+                f"unstable: {what} CoP ({cop[0] * 1e3:.1f}, {cop[1] * 1e3:.1f}) mm outside "
+                f"±({half[0] * 1e3:.1f}, {half[1] * 1e3:.1f}) mm; not commanded"
+            )
+    return ""

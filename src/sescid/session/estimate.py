@@ -25,9 +25,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation import Measurements, OnlineEstimator, identify
+from sescid.estimation import (
+    IdentifyOptions,
+    Measurements,
+    Method,
+    OnlineEstimator,
+    fit_measurements,
+)
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import concatenate
+from sescid.planning import DesignKind, Quantity
 from sescid.robot import Robot
 from sescid.sensors import Measured
 from sescid.session.records import BODY_PRIOR_SCALE
@@ -71,7 +78,7 @@ def _prior_std(basis: np.ndarray, info: np.ndarray, n_bodies: int) -> np.ndarray
 class CopEstimate:
     """A CoP session's estimate (module docstring)."""
 
-    quantity = "CoP"
+    quantity: Quantity = "CoP"
 
     def __init__(self, robot: Robot, basis: np.ndarray, window: int, tol: float):
         self.robot, self.basis = robot, basis
@@ -115,7 +122,7 @@ class CopEstimate:
         return self.est.fit()
 
 
-def as_measurements(m: Measured, kinds: str, source: str) -> Measurements:
+def as_measurements(m: Measured, kinds: DesignKind, source: str) -> Measurements:
     """One reduced pose as ``Measurements`` of the session's ``kinds`` (DataError when a
     torque is not determined, or an approach side missing)."""
     cop = kinds in ("cop", "both")
@@ -141,7 +148,7 @@ def as_measurements(m: Measured, kinds: str, source: str) -> Measurements:
 class BatchEstimate:
     """A session with joint torques: ``identify`` on every pose so far (module docstring)."""
 
-    quantity = "CoM x/y"
+    quantity: Quantity = "CoM x/y"
 
     def __init__(
         self,
@@ -150,7 +157,7 @@ class BatchEstimate:
         window: int,
         tol: float,
         total_mass: float | None = None,
-        method: str = "map",
+        method: Method = "map",
     ):
         self.robot, self.basis = robot, basis
         self.window, self.tol, self.total_mass = window, tol, total_mass
@@ -172,8 +179,10 @@ class BatchEstimate:
         return concatenate(self.parts)
 
     def _identify(self, allow_exact: bool = False) -> Fit:
-        return identify(self.robot, self.data(), method=self.method, weighted=True,
-                        allow_exact=allow_exact, total_mass=self.total_mass)  # fmt: skip
+        options = IdentifyOptions(
+            weighted=True, allow_exact=allow_exact, total_mass=self.total_mass
+        )
+        return fit_measurements(self.robot, self.data(), method=self.method, options=options)
 
     def update(self, m: Measurements) -> Status:
         """Add a measured pose; refit."""

@@ -245,6 +245,19 @@ class ResumingAdapter:
         self.resumed = len(journal.entries)  #: poses the journal held at the start
         self.done = 0  #: journaled poses served
         self._entry: JournalEntry | None = None
+        self._stance: tuple[str, str] | None = None  #: the stance asked last (over stances)
+        self._told: tuple[str, str] | None = None  #: the stance the live robot was told
+
+    def change_stance(self, support: str, mount: str) -> None:
+        """Remembered while journaled poses replay; the live robot is told when it takes over."""
+        self._stance = (support, mount)
+        if self.done >= self.resumed:
+            self._tell()
+
+    def _tell(self) -> None:
+        if self._stance is not None and self._stance != self._told:
+            self.live.change_stance(*self._stance)
+            self._told = self._stance
 
     @property
     def replaying(self) -> bool:
@@ -266,6 +279,7 @@ class ResumingAdapter:
             self.done += 1
             return
         self._entry = None
+        self._tell()
         self.live.move(pose, q)
 
     def wait_settled(self) -> str:

@@ -41,14 +41,14 @@ from collections.abc import Callable
 import numpy as np
 
 from sescid.base.columns import Table
-from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
+from sescid.planning import DesignKind
 from sescid.planning.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
 from sescid.session.adapters import RobotAdapter
-from sescid.session.design import SessionDesign, session_mount
+from sescid.session.design import SessionDesign, session_mount, unsafe_pose
 from sescid.session.estimate import BatchEstimate, CopEstimate, as_measurements
 from sescid.session.journal import Journal, JournalEntry, ResumingAdapter
 from sescid.session.records import (
@@ -58,6 +58,7 @@ from sescid.session.records import (
     SessionResult,
     SessionStep,
 )
+from sescid.session.stances import PooledEstimate, StanceDesign, stance_result
 
 __all__ = [
     "BODY_PRIOR_SCALE",
@@ -91,7 +92,17 @@ def _read_log(
 
 def check_options(robot: Robot, opt: SessionOptions) -> int:
     """OptionError for options no session can run with; the least measured poses to stop."""
-    mount, kinds = session_mount(robot, opt)
+    if opt.stances:
+        if len(opt.stances) < 2:
+            raise OptionError("stances", "a session over stances needs two or more (one stance "
+                              "is the support and its mount)")  # fmt: skip
+        if opt.mount is not None:
+            raise OptionError("mount", "over stances each stance names its mount")
+        if not (math.isfinite(opt.stance_cost) and opt.stance_cost >= 0):
+            raise OptionError("stance_cost", f"must be ≥ 0 poses, got {opt.stance_cost}")
+        mount, kinds = "stances", "both"
+    else:
+        mount, kinds = session_mount(robot, opt)
     need = min_poses(robot) if kinds == "cop" else 2
     if opt.budget < need:
         raise OptionError("budget", f"{opt.budget} poses cannot identify {robot.name}: ≥ {need}")
@@ -106,8 +117,6 @@ def check_options(robot: Robot, opt: SessionOptions) -> int:
             raise OptionError(name, f"must be a positive noise level, got {v}")
     if opt.total_mass is not None:
         check_total_mass(robot, opt.total_mass)
-    if opt.torque_method not in ("ls", "map"):
-        raise OptionError("torque_method", f"must be ls or map, got {opt.torque_method!r}")
     return need if opt.min_measured is None else opt.min_measured
 
 
@@ -117,9 +126,15 @@ class _Run:
     def __init__(self, robot: Robot, sensors, opt: SessionOptions, progress):
         self.robot, self.sensors, self.opt = robot, sensors, opt
         self.min_measured = check_options(robot, opt)
-        self.plan = SessionDesign(robot, opt, progress)
+        self.multi = bool(opt.stances)
+        self.plan: SessionDesign | StanceDesign = (
+            StanceDesign(robot, opt, progress)
+            if self.multi
+            else SessionDesign(robot, opt, progress)
+        )
         self.cand, self.half = self.plan.cand, self.plan.half
-        self.est: CopEstimate | BatchEstimate | None = None
+        self.est: CopEstimate | BatchEstimate | PooledEstimate | None = None
+        self.stance: int | None = None  #: over stances: the stance the robot is in
         self.measured: list[int] = []  #: pool indices of the measured poses
         self.steps: list[SessionStep] = []
         self.raw_parts: list[dict[str, np.ndarray]] = []
@@ -137,13 +152,30 @@ class _Run:
     def next_safe(self):
         """The next safe candidate (unsafe ones are logged and never commanded)."""
         while True:
-            nxt = self.design.next(self.cand.q, self.q_cur)
-            self.design.mark_tried(nxt.index)
-            q = self.cand.q[nxt.index]
-            unsafe = _unsafe(self.robot, q, self.half, self.r_est, self.plan.mount == "gantry")
+            if isinstance(self.plan, StanceDesign):
+                nxt = self.plan.next(self.q_cur, self.stance)
+                k = self.plan.stance_of(nxt.index)
+                r = None
+                if isinstance(self.est, PooledEstimate) and self.r_est is not None:
+                    r = self.est.estimate(k)
+                self.design.mark_tried(nxt.index)
+                unsafe = self.plan.unsafe(nxt.index, r)
+            else:
+                nxt = self.design.next(self.cand.q, self.q_cur)
+                self.design.mark_tried(nxt.index)
+                q = self.cand.q[nxt.index]
+                unsafe = unsafe_pose(
+                    self.robot, q, self.half, self.r_est, self.plan.mount == "gantry"
+                )
             if not unsafe:
                 return nxt
             self.rejected.append((nxt.index, unsafe))
+
+    def robot_at(self, i: int) -> Robot:
+        """The robot as it stands for candidate ``i`` (its stance's, over stances)."""
+        if isinstance(self.plan, StanceDesign):
+            return self.plan.robots[self.plan.stance_of(i)]
+        return self.robot
 
     def columns(self, pose: str, cols: dict, source: str) -> dict[str, np.ndarray]:
         """The pose's raw part (pose, sample, the adapter's columns), checked; ``source``
@@ -177,14 +209,22 @@ class _Run:
         if m == 0:
             raise DataError(f"{where}: read() returned no samples")
         self.source = source
-        return {"pose": np.full(m, pose), "sample": np.arange(m)} | {
-            c: arrays[c] for c in self.names
-        }
+        out = {"pose": np.full(m, pose), "sample": np.arange(m)}
+        if isinstance(self.plan, StanceDesign) and self.stance is not None:
+            out["support"] = np.full(m, self.plan.stances[self.stance].label)
+        return out | {c: arrays[c] for c in self.names}
 
-    def _kinds(self, meas, step: SessionStep) -> str:
+    def _kinds(self, meas, step: SessionStep) -> DesignKind:
         """The kinds this pose measured for the session; at the first measured pose the
         estimator is made and the design switched to them (``SessionDesign.switch``)."""
         has_cop = meas.cop is not None and meas.cop_se is not None
+        if isinstance(self.plan, StanceDesign):
+            assert self.stance is not None
+            kinds = self.plan.measured_kinds(has_cop, meas.tau is not None, step.pose, self.stance)
+            if self.est is None:
+                self.plan.switch(kinds, self.measured)
+                self.est = PooledEstimate(self.plan, self.plan.kinds, self.opt.window, self.opt.tol)
+            return self.plan.kinds
         kinds = self.plan.measured_kinds(has_cop, meas.tau is not None, step.pose)
         if self.est is None:
             self.plan.switch(kinds, self.measured)
@@ -197,15 +237,15 @@ class _Run:
                                          o.torque_method)  # fmt: skip
         return self.plan.kinds
 
-    def reduce(self, part: dict):
+    def reduce(self, part: dict, robot: Robot):
         """The pose's samples read and reduced as ``sescid measure`` does (DataError for
         samples that cannot be read: such a pose is never journaled)."""
-        log = _read_log(self.robot, part, self.sensors, self.source)
-        return measure(self.robot, log, self.sensors, self.opt.min_samples, whole_log=False)
+        log = _read_log(robot, part, self.sensors, self.source)
+        return measure(robot, log, self.sensors, self.opt.min_samples, whole_log=False)
 
     def measure(self, step: SessionStep, part: dict, meas) -> bool:
         """Update the estimate with the pose's reduced samples; False when it gave nothing."""
-        robot = self.robot
+        robot = self.robot_at(step.candidate)
         kinds = self._kinds(meas, step)
         if len(meas.pose) == 0:
             none = "no usable CoP" if kinds == "cop" else "no usable samples"
@@ -216,9 +256,18 @@ class _Run:
             return False
         assert self.est is not None
         pred = None
+        k = self.stance if self.stance is not None else 0
         if meas.cop is not None and self.est.n_poses:
-            pred = robot.cop(meas.q, self.est.estimate(), meas.gravity)[0]
-        if isinstance(self.est, CopEstimate):
+            r = (
+                self.est.estimate(k)
+                if isinstance(self.est, PooledEstimate)
+                else self.est.estimate()
+            )
+            pred = robot.cop(meas.q, r, meas.gravity)[0]
+        if isinstance(self.est, PooledEstimate):
+            st = self.est.update(meas, k, kinds)
+            step.tau = None if meas.tau is None else meas.tau[0]
+        elif isinstance(self.est, CopEstimate):
             st = self.est.update(meas)
         else:
             try:
@@ -261,12 +310,20 @@ class _Run:
             why = self.steps[0].reason if self.steps else "no pose commanded"
             raise DataError(f"the session measured no pose (first: {why})")
         raw = {k: np.concatenate([p[k] for p in self.raw_parts]) for k in self.raw_parts[0]}
-        log = _read_log(self.robot, raw, self.sensors, "session raw log")
+        pooled = None
+        if isinstance(self.plan, StanceDesign) and isinstance(self.est, PooledEstimate):
+            measured, fit = stance_result(self.plan, raw, self.sensors)
+            pooled = self.est.body_parameters()
+        else:
+            log = _read_log(self.robot, raw, self.sensors, "session raw log")
+            measured = measure(self.robot, log, self.sensors, self.opt.min_samples)
+            assert not isinstance(self.est, PooledEstimate)
+            fit = self.est.fit()
         return SessionResult(
             steps=self.steps,
             stop_reason=stop,
-            fit=self.est.fit(),
-            measured=measure(self.robot, log, self.sensors, self.opt.min_samples),
+            fit=fit,
+            measured=measured,
             raw=raw,
             poses=np.array([s.q for s in self.steps]),
             pose_ids=np.array([s.pose for s in self.steps]),
@@ -274,6 +331,8 @@ class _Run:
             options=self.opt,
             body_names=list(self.robot.body_names),
             rejected=self.rejected,
+            pooled=pooled,
+            stances=self.plan.stances if isinstance(self.plan, StanceDesign) else (),
         )
 
 
@@ -295,6 +354,9 @@ def run_session(
     opt = options or SessionOptions()
     obs = observer or SessionObserver()
     run = _Run(robot, sensors, opt, progress)
+    if run.multi and not callable(getattr(adapter, "change_stance", None)):
+        raise OptionError("adapter", "a session over stances asks the robot to change stance: "
+                          "the adapter needs change_stance(support, mount)")  # fmt: skip
     bot = ResumingAdapter(journal, adapter) if journal is not None else adapter
     stop = f"budget of {opt.budget} poses spent"
     try:
@@ -306,6 +368,15 @@ def run_session(
                 break
             q, pose = run.cand.q[nxt.index], str(k)
             step = SessionStep(pose, nxt.index, q, nxt.gain, nxt.distance, "skipped")
+            if isinstance(run.plan, StanceDesign):
+                ks = run.plan.stance_of(nxt.index)
+                st = run.plan.stances[ks]
+                if ks != run.stance:  # ask for the change (the first stance too)
+                    obs.stance(k, st.label, st.describe())
+                    with _adapter_call(bot, pose, journal):
+                        bot.change_stance(st.support, st.mount)  # type: ignore[attr-defined]
+                    run.stance = ks
+                step.stance = st.label
             obs.planned(k, pose, q, run.q_cur)
             with _adapter_call(bot, pose, journal):
                 bot.move(pose, q)
@@ -318,7 +389,7 @@ def run_session(
             if cols is not None:
                 with _kept_on_error(journal):
                     part = run.columns(pose, cols, _source(bot, journal))
-                    meas = run.reduce(part)
+                    meas = run.reduce(part, run.robot_at(nxt.index))
             if journal is not None and not getattr(bot, "replaying", False):
                 journal.append(JournalEntry(pose, q, why, cols))
             step.reason = why
@@ -398,35 +469,3 @@ def _source(bot, journal: Journal | None) -> str:
 def _box(half: np.ndarray | None) -> np.ndarray:
     """The stability box's half-sizes (2,) [m]; unbounded for a robot held in a gantry."""
     return np.full(2, np.inf) if half is None else half
-
-
-def _unsafe(
-    robot: Robot,
-    q: np.ndarray,
-    half: np.ndarray | None,
-    r_est: np.ndarray | None,
-    held: bool = False,
-) -> str:
-    """Why ``q`` must not be commanded ('' when it is within limits and statically stable).
-
-    Stable: the model's CoP, and once every identifiable combination is determined the current
-    estimate's CoP too, strictly inside the stability box ``half`` around the sole's centre; a
-    robot ``held`` in a gantry has no balance to keep (its candidates already clear the floor
-    and themselves).
-    """
-    try:
-        check_limits(robot, q[None], "command")
-    except DataError as exc:
-        return str(exc)
-    if held or half is None:
-        return ""
-    for what, r in (("model", None), ("identified", r_est)):
-        if what == "identified" and r is None:
-            continue
-        cop = robot.cop(q[None], r)[0]
-        if np.any(np.abs(cop - robot.sole_centre) >= half):
-            return (
-                f"unstable: {what} CoP ({cop[0] * 1e3:.1f}, {cop[1] * 1e3:.1f}) mm outside "
-                f"±({half[0] * 1e3:.1f}, {half[1] * 1e3:.1f}) mm; not commanded"
-            )
-    return ""

@@ -5,16 +5,30 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 
+from sescid.errors import check_choice
 from sescid.estimation.fit import Fit
-from sescid.planning import DEFAULT_TAU_NOISE, Candidates
+from sescid.planning import (
+    DEFAULT_STANCE_COST,
+    DEFAULT_TAU_NOISE,
+    Candidates,
+    DesignKind,
+    Mount,
+    Quantity,
+)
 from sescid.sensors import Measured
 from sescid.simulation import PAPER_NOISE
 
 #: m, prior scale of a body's SESC components, for the per-body uncertainty shown (0..1 scale)
 BODY_PRIOR_SCALE = 0.005
+#: what a session chooses its poses for: a design's kinds, or "auto" (what the robot reports)
+SessionKind = Literal["auto", DesignKind]
+SESSION_KINDS: tuple[SessionKind, ...] = get_args(SessionKind)
+#: how a session with joint torques fits (``identify``'s method)
+TorqueMethod = Literal["ls", "map"]
 
 
 @dataclass(frozen=True)
@@ -36,16 +50,28 @@ class SessionOptions:
     #: what the poses are chosen for: "cop", "tau", "both", or "auto" — what the robot reports
     #: (decided at the first measured pose; planned for the CoP before it, joint torques when
     #: the robot is held in a gantry)
-    kinds: str = "auto"
+    kinds: SessionKind = "auto"
     cop_noise: float = PAPER_NOISE  #: m, CoP noise per pose the design weighs CoP rows by
     tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose the design assumes
-    mount: str | None = None  #: "stand" or "gantry" (None: from the support, ``planning.gantry``)
+    mount: Mount | None = None  #: None: from the support (``planning.resolve_mount``)
     hang_height: float | None = None  #: m, gantry: held link above the floor (None: the rule)
     #: kg, the weighed mass that scales joint torques (None: the model's, with a warning)
     total_mass: float | None = None
     #: how a session with joint torques fits: "map" (the CAD prior, as ``identify --method
     #: map``) or "ls"; a CoP session fits least squares (the online estimator)
-    torque_method: str = "map"
+    torque_method: TorqueMethod = "map"
+    #: stances to choose poses from (``planning.parse_stances``: sole frames, "double",
+    #: "gantry:<link>"), two or more; empty: the support alone (``session.stances``)
+    stances: tuple[str, ...] = ()
+    #: poses a stance change costs: proposed when the other stance's best gain exceeds 1 + this
+    #: times the current one's
+    stance_cost: float = DEFAULT_STANCE_COST
+
+    def __post_init__(self) -> None:
+        check_choice("kinds", self.kinds, SessionKind)
+        if self.mount is not None:
+            check_choice("mount", self.mount, Mount)
+        check_choice("torque_method", self.torque_method, TorqueMethod)
 
 
 @dataclass
@@ -57,7 +83,7 @@ class SessionStep:
     q: np.ndarray  #: (nq,) commanded, rad
     gain: float  #: log det rise expected from this pose
     distance: float  #: rad, joint-space distance from the previous pose
-    status: str  #: "measured" or "skipped"
+    status: Literal["measured", "skipped"]
     reason: str = ""  #: why skipped
     q_measured: np.ndarray | None = None  #: (nq,) mean read-backs, rad
     cop: np.ndarray | None = None  #: (2,) measured CoP, m
@@ -69,8 +95,9 @@ class SessionStep:
     rank: int = 0
     converged: bool = False
     body_std: np.ndarray | None = None  #: (N,) per-body SESC std after this pose, m
-    quantity: str = "CoP"  #: what ``cop_std`` is the std of: "CoP" or "CoM x/y"
+    quantity: Quantity = "CoP"  #: what ``cop_std`` is the std of
     tau: np.ndarray | None = None  #: (J,) measured joint torques, N·m (sessions with torques)
+    stance: str = ""  #: the pose's stance (``Stance.label``; "" without stances)
 
 
 @dataclass
@@ -89,6 +116,10 @@ class SessionResult:
     body_names: list[str] = field(default_factory=list)
     #: (candidate, why) chosen but found unsafe before commanding (not counted in the budget)
     rejected: list[tuple[int, str]] = field(default_factory=list)
+    #: over stances: the pooled body parameters θ [kg, kg·m] and their standard deviations
+    #: (``session.stances.PooledEstimate``); None in one stance
+    pooled: tuple[np.ndarray, np.ndarray] | None = None
+    stances: tuple = ()  #: the session's stances (``planning.Stance``; empty in one stance)
 
     @property
     def n_measured(self) -> int:
@@ -102,7 +133,7 @@ class SessionResult:
         return done[-1] if done else math.inf
 
     @property
-    def quantity(self) -> str:
+    def quantity(self) -> Quantity:
         """What ``cop_std`` is the std of: "CoP" or "CoM x/y" (a session with torques)."""
         done = [s.quantity for s in self.steps if s.status == "measured"]
         return done[-1] if done else "CoP"
@@ -121,6 +152,9 @@ class SessionObserver:
 
     def finished_pose(self, step: SessionStep, steps: list[SessionStep]) -> None:
         """A pose was measured or skipped."""
+
+    def stance(self, step_no: int, label: str, describe: str) -> None:
+        """The session asks for a stance change before pose ``step_no`` (over stances)."""
 
     def stopped(self, result: SessionResult) -> None:
         """The session ended."""

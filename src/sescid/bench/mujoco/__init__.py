@@ -16,8 +16,6 @@ the sole frame, the noise-free pad CoP (``cop_pads``), the flat-sole statics
 g_z`` (``cop_gravity``) and, with torque sensors, the servos' mean torques at rest.
 """
 
-from __future__ import annotations
-
 from sescid.bench.mujoco.run import pose_readings, run_mujoco_experiment
 from sescid.bench.mujoco.sim import PoseResult, Simulation
 from sescid.bench.mujoco.spec import MujocoBenchConfig, build_spec, servo_gains

@@ -270,10 +270,17 @@ def _add_capsules(mujoco, body, caps, i: int, name: str) -> None:
 def support_sole_plane(robot, sole_frame: str) -> float:
     """Height [m] of the sole plane in the frame ``sole_frame``: the floor under the support
     frame derived from the foot's geometry (``Robot.floor``: a foot frame above its sole, as
-    the G1's ankle frame) when it is the support, else 0 (a sole frame)."""
-    if sole_frame != robot.support or robot.sole is None or not robot.sole.derived:
-        return 0.0
-    return float(robot.floor)
+    the G1's ankle frame) when it is the support; the free foot's derived sole below its
+    frame (``Robot.free_sole``) when it is the free foot's; else 0 (a sole frame)."""
+    if sole_frame == robot.support:
+        if robot.sole is None or not robot.sole.derived:
+            return 0.0
+        return float(robot.floor)
+    free = robot.free_sole
+    if free is not None and free.derived and free.link == sole_frame:
+        _, x = robot.model.link_frames[sole_frame]
+        return float(np.mean((free.corners - x[:3, 3]) @ x[:3, 2]))
+    return 0.0
 
 
 def _add_pads(mujoco, robot, sensors: SensorConfig | None, bench, mj_bodies: list) -> None:

@@ -45,8 +45,6 @@ else a fallback: the hull of the body's joint points (its own joint, its childre
 merged links' frame origins) and its CAD CoM, grown by ``box_margin`` (default 0.02 m).
 """
 
-from __future__ import annotations
-
 from sescid.estimation.consistent.boxes import FALLBACK_MARGIN, Box, body_boxes, mirror_pairs
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
 from sescid.estimation.consistent.qp import COM_SCALE, FIT_TOL, H_UNIT, sesc_map

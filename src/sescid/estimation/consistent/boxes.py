@@ -5,15 +5,21 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.model import body_hulls
+from sescid.model import ShapeRole, body_hulls
 from sescid.robot import Robot
 
 #: default growth of the fallback box (joint points + CAD CoM), m
 FALLBACK_MARGIN = 0.02
+
+
+#: where a CoM box came from: the body's collision or visual shapes, the fallback hull of its
+#: joint points, or the caller
+BoxSource = Literal[ShapeRole, "fallback", "given"]
 
 
 @dataclass(frozen=True)
@@ -22,7 +28,7 @@ class Box:
 
     lo: np.ndarray  #: (3,) m
     hi: np.ndarray  #: (3,) m
-    source: str  #: "collision", "visual", "fallback" or "given"
+    source: BoxSource
     grown: bool = False  #: grown to contain the body's CAD CoM
 
 
@@ -66,6 +72,7 @@ def body_boxes(
         if body.parent >= 0:
             children[body.parent].append(i)
     out = []
+    source: BoxSource
     for b, body in enumerate(model.bodies):
         if b in given:
             (lo, hi), source, margin = given[b], "given", box_margin or 0.0

@@ -5,10 +5,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, fields
+from typing import Literal
 
 import numpy as np
 
-from sescid.errors import SescidError
+from sescid.errors import SescidError, check_choice
 from sescid.estimation.checks import check_total_mass
 from sescid.estimation.consistent.boxes import Box, body_boxes, mirror_pairs, mirror_plane
 from sescid.estimation.consistent.qp import COM_SCALE, FIT_TOL, H_UNIT, sesc_map, solve_qp
@@ -16,6 +17,10 @@ from sescid.estimation.consistent.record import consistent_model, make_fit, mode
 from sescid.estimation.fit import Fit
 from sescid.robot import Robot
 from sescid.sesc import sesc_vectors
+
+#: how the CAD masses meet a weighed total: scaled uniformly to it, or kept as the data put them
+#: (``consistent.prior``)
+Spread = Literal["uniform", "data"]
 
 
 @dataclass(frozen=True)
@@ -30,7 +35,7 @@ class MassSettings:
     com_scale: float = COM_SCALE
     fit_tol: float = FIT_TOL
     prior_std: float | None = None
-    spread: str = "uniform"
+    spread: Spread = "uniform"
     extra: dict = field(default_factory=dict)
 
     def check(self, robot: Robot) -> float:
@@ -54,8 +59,7 @@ class MassSettings:
             raise SescidError(f"prior std must be a positive relative deviation, got {std}")
         if not (math.isfinite(self.fit_tol) and self.fit_tol > 0):
             raise SescidError(f"fit_tol must be a positive length in m, got {self.fit_tol}")
-        if self.spread not in ("uniform", "data"):
-            raise SescidError(f"spread must be 'uniform' or 'data', got {self.spread!r}")
+        check_choice("spread", self.spread, Spread)
         return big_m
 
 
@@ -198,7 +202,7 @@ def _solve(fit: Fit, term: DataTerm, constraints, cad, settings: MassSettings):
     return x2, [status1, status2], [it1, it2]
 
 
-def consistent_from_fit(fit: Fit, *, spread: str = "uniform", **settings) -> Fit:
+def consistent_from_fit(fit: Fit, *, spread: Spread = "uniform", **settings) -> Fit:
     """Masses and CoMs that reproduce ``fit``'s identified directions (see the package doc).
 
     Keywords (``MassSettings``): ``total_mass`` kg (default: the model's), ``mass_floor`` kg

@@ -14,8 +14,6 @@ joint, torque and pose sources), ``feet`` (force sources), ``recording`` (topics
 ``assemble`` (the raw log).
 """
 
-from __future__ import annotations
-
 from sescid.io.bags.assemble import DROP_REASONS, RawLogTable, Segment, read_bag
 from sescid.io.bags.feet import FootSource
 from sescid.io.bags.mapping import (

@@ -19,6 +19,7 @@ import numpy as np
 
 from sescid.errors import DataError, SescidError
 from sescid.io.bags.feet import FORCE_N, LENGTH_M, FootSource
+from sescid.io.bags.fields import Stamp
 from sescid.io.bags.joints import check_joint_values, joint_angles, joint_torques
 from sescid.io.bags.mapping import BagMapping, load_mapping
 from sescid.io.bags.messages import foot_values, pose_ids
@@ -109,7 +110,7 @@ def _joint_names(mp: BagMapping, joint_names, robot) -> list[str]:
 def _clocks(mp: BagMapping, topics: dict, tol: int, notes: list[str]) -> dict[str, Clocked]:
     """Mapping section → its topic's stamps (types checked; one time line for all)."""
     src = mp.source
-    sections: list[tuple[str, str, str, str | None, tuple[str, ...]]] = [
+    sections: list[tuple[str, str, Stamp, str | None, tuple[str, ...]]] = [
         (
             "joints",
             mp.joints.topic,

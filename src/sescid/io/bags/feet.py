@@ -10,16 +10,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal, get_args
 
 import numpy as np
 
-from sescid.io.bags.fields import Fields
+from sescid.io.bags.fields import Fields, Stamp
 from sescid.sensors.wrench import load_plate, rpy_matrix
 
 #: N per unit of a force; m per unit of a length
 FORCE_N = {"N": 1.0, "mN": 1e-3, "kgf": 9.80665}
 LENGTH_M = {"m": 1.0, "mm": 1e-3}
-SOURCES = ("pads", "wrench", "plate", "cop")
+#: a foot's force source: four pads, an ankle F/T wrench, a force plate, or a ready CoP
+FootSourceKind = Literal["pads", "wrench", "plate", "cop"]
+SOURCES: tuple[FootSourceKind, ...] = get_args(FootSourceKind)
 _DEFAULT_FIELD = {"pads": "data", "plate": "data", "wrench": "wrench", "cop": "point"}
 _PREFIX = {"right": "r", "left": "l"}
 _COMMON = {"source", "topic", "type", "prefix", "field", "unit", "scale", "stamp"}
@@ -36,7 +39,7 @@ class FootSource:
     """One foot's force source and the columns it writes."""
 
     name: str
-    source: str  #: "pads", "wrench", "plate" or "cop"
+    source: FootSourceKind
     topic: str
     prefix: str  #: output prefix: <prefix>_fsr1.., <prefix>_cop_x, <prefix>_cop_y, <prefix>_fz
     field: str | tuple[str, ...]  #: array field, or one scalar field per column (dotted paths)
@@ -44,7 +47,7 @@ class FootSource:
     columns: tuple[str, ...] = ()  #: pad column names (source "pads")
     unit: str = "N"  #: forces N, mN or kgf (torques in that unit × m); CoP m or mm
     scale: float = 1.0  #: extra factor on the raw values
-    stamp: str = "auto"
+    stamp: Stamp = "auto"
     type: str | None = None
     sole_frame: str | None = None  #: URDF link of the sole (wrench with sensor_link)
     sensor_link: str | None = None  #: URDF link of the F/T sensor frame
@@ -77,7 +80,7 @@ def _field_spec(f: Fields, default: str) -> str | tuple[str, ...]:
 def parse_foot(path: str, name: str, data, folder: Path) -> FootSource:
     """The foot ``name`` of the ``feet`` section."""
     f0 = Fields(path, f"feet.{name}", data, set(data) if isinstance(data, dict) else set())
-    source = f0.text("source", None, SOURCES)
+    source: FootSourceKind | None = f0.choice("source", None, FootSourceKind)
     if source is None:
         f0.fail("source", f"missing (one of {', '.join(SOURCES)})")
     f = Fields(path, f"feet.{name}", data, _COMMON | _EXTRA[source], folder)
@@ -106,7 +109,7 @@ def parse_foot(path: str, name: str, data, folder: Path) -> FootSource:
     )
 
 
-def _array_foot(f: Fields, source: str, prefix: str, fld) -> dict:
+def _array_foot(f: Fields, source: FootSourceKind, prefix: str, fld) -> dict:
     """Fields of a pads or plate source (columns, cells, array positions)."""
     kw: dict = {}
     cols = f.data.get("columns")

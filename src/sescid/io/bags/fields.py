@@ -4,11 +4,15 @@ path (``feet.right.unit``)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import NoReturn, overload
+from typing import Any, Literal, NoReturn, overload
 
 import numpy as np
 
-from sescid.errors import DataError
+from sescid.errors import DataError, choices
+
+#: which time a message is filed under: its header stamp if it has one, the header (required),
+#: or when the recorder received it
+Stamp = Literal["auto", "header", "receive"]
 
 
 def normalize_type(name: str) -> str:
@@ -107,9 +111,13 @@ class Fields:
         """The nested section ``key``."""
         return Fields(self.path, self.name(key), self.data[key], allowed, self.folder)
 
-    def stamp(self) -> str:
+    def choice(self, key: str, default: str | None, alias: Any) -> Any:
+        """A field that is one of the values of the ``Literal`` alias ``alias``."""
+        return self.text(key, default, choices(alias))
+
+    def stamp(self) -> Stamp:
         """The ``stamp`` field: auto (header if any), header or receive."""
-        return self.text("stamp", "auto", ("auto", "header", "receive"))
+        return self.choice("stamp", "auto", Stamp)
 
     def msgtype(self) -> str | None:
         """The optional ``type`` field, normalised."""

@@ -14,15 +14,20 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from sescid.base.files import read_document
 from sescid.errors import DataError
 from sescid.io.bags.feet import FootSource, parse_foot
-from sescid.io.bags.fields import Fields, normalize_type
+from sescid.io.bags.fields import Fields, Stamp, normalize_type
 
 MAPPING_FORMAT = "sescid-bag-mapping/1"
 #: N·m per unit of a joint torque
 TORQUE_NM = {"N.m": 1.0, "mN.m": 1e-3}
+#: how a source message carries its values: a JointState (by name) or a float array (by index)
+MessageKind = Literal["joint_state", "array"]
+#: the unit of logged joint angles
+AngleUnit = Literal["rad", "deg"]
 _SOURCE_FIELDS = {"topic", "kind", "rename", "field", "index", "names", "stamp", "type"}
 _TOP = {"format", "joints", "torques", "feet", "pose", "stationary", "tolerance", "typestore"}
 _TOP |= {"types", "notes"}
@@ -33,12 +38,12 @@ class JointSource:
     """Where the joint read-backs are: a JointState topic (by name) or an array (by index)."""
 
     topic: str
-    kind: str = "joint_state"  #: "joint_state" or "array"
-    unit: str = "rad"  #: "rad" or "deg"
+    kind: MessageKind = "joint_state"
+    unit: AngleUnit = "rad"
     rename: dict[str, str] = dataclasses.field(default_factory=dict)  #: bag name → model name
     field: str = "data"  #: value field (dotted path; "position" for a JointState)
     index: dict[str, int] = dataclasses.field(default_factory=dict)  #: model joint → position
-    stamp: str = "auto"  #: "auto" (header if any), "header" or "receive"
+    stamp: Stamp = "auto"
     type: str | None = None  #: expected message type (checked when given)
 
 
@@ -48,13 +53,13 @@ class TorqueSource:
     ``effort`` by name, or an array by index (any subset of the joints)."""
 
     topic: str
-    kind: str = "joint_state"  #: "joint_state" or "array"
-    unit: str = "N.m"  #: "N.m" or "mN.m"
+    kind: MessageKind = "joint_state"
+    unit: str = "N.m"  #: a key of ``TORQUE_NM``
     scale: float = 1.0  #: extra factor on the raw values
     rename: dict[str, str] = dataclasses.field(default_factory=dict)  #: bag name → model name
     field: str = "effort"  #: value field (dotted path)
     index: dict[str, int] = dataclasses.field(default_factory=dict)  #: model joint → position
-    stamp: str = "auto"
+    stamp: Stamp = "auto"
     type: str | None = None
 
 
@@ -64,7 +69,7 @@ class PoseSource:
 
     topic: str
     field: str = "data"
-    stamp: str = "auto"
+    stamp: Stamp = "auto"
 
 
 @dataclass(frozen=True)
@@ -93,7 +98,7 @@ class BagMapping:
         return self.torques.topic
 
 
-def _positions(f: Fields, kind: str, need: bool) -> dict[str, int]:
+def _positions(f: Fields, kind: MessageKind, need: bool) -> dict[str, int]:
     """Array positions by model joint, from ``index`` (a table) or ``names`` (a list whose
     i-th entry names the joint at position i; null or "" skips a position)."""
     if kind != "array":
@@ -124,11 +129,11 @@ def _positions(f: Fields, kind: str, need: bool) -> dict[str, int]:
 
 
 def _joints(f: Fields) -> JointSource:
-    kind = f.text("kind", "joint_state", ("joint_state", "array"))
+    kind: MessageKind = f.choice("kind", "joint_state", MessageKind)
     return JointSource(
         topic=f.required("topic"),
         kind=kind,
-        unit=f.text("unit", "rad", ("rad", "deg")),
+        unit=f.choice("unit", "rad", AngleUnit),
         rename=f.table("rename", "bag_name: model_joint_name"),
         field=f.text("field", "position" if kind == "joint_state" else "data"),
         index=_positions(f, kind, need=True),
@@ -138,7 +143,7 @@ def _joints(f: Fields) -> JointSource:
 
 
 def _torques(f: Fields, joints: JointSource) -> TorqueSource:
-    kind = f.text("kind", "joint_state", ("joint_state", "array"))
+    kind: MessageKind = f.choice("kind", "joint_state", MessageKind)
     rename = f.table("rename", "bag_name: model_joint_name")
     return TorqueSource(
         topic=f.required("topic"),

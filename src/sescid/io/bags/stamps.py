@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.io.bags.fields import Stamp
 from sescid.io.bags.recording import Topic
 
 
@@ -25,13 +26,13 @@ class Clocked:
     """One mapped topic's stamps in the bag's order (int64 ns) and how they were chosen."""
 
     topic: Topic
-    mode: str  #: the mapping's stamp field: auto, header or receive
+    mode: Stamp  #: the mapping's stamp field
     where: str  #: "map.yaml: joints" (for messages)
     header: bool  #: the stamps are header stamps (else receive times)
     stamps: np.ndarray  #: (m,) int64 ns
 
 
-def topic_stamps(topic: Topic, mode: str, where: str, notes: list[str]) -> Clocked:
+def topic_stamps(topic: Topic, mode: Stamp, where: str, notes: list[str]) -> Clocked:
     """The stamps of ``topic`` for stamp mode ``mode`` (auto: the header's if it has one)."""
     has_header = bool(topic.msgs) and hasattr(topic.msgs[0], "header")
     if mode == "header" and not has_header:

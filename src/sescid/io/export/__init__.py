@@ -6,8 +6,6 @@ inertial gets: merged parts, valid tensors, mass warnings), ``assets`` (MJCF inc
 relative asset paths rewritten), ``urdf``, ``mjcf``, ``model`` (the dispatch).
 """
 
-from __future__ import annotations
-
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf

@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import get_args
 
-from sescid.errors import OptionError
+from sescid.errors import OptionError, check_choice
 from sescid.estimation import Fit
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.urdf import export_urdf
+from sescid.model import ModelFormat
 
 #: model formats ``export_model`` writes
-FORMATS = ("urdf", "mjcf")
+FORMATS: tuple[ModelFormat, ...] = get_args(ModelFormat)
 
 
-def export_model(fit: Fit, path: str | Path, format: str | None = None) -> list[str]:
+def export_model(fit: Fit, path: str | Path, format: ModelFormat | None = None) -> list[str]:
     """Write ``fit.robot``'s model file with the fit's masses and CoMs to ``path``; warnings.
 
     ``format``: "urdf" or "mjcf" (default: the model's own, ``RobotModel.format``). Export
@@ -22,10 +24,7 @@ def export_model(fit: Fit, path: str | Path, format: str | None = None) -> list[
     """
     own = fit.robot.model.format
     fmt = own if format is None else str(format).lower()
-    if fmt not in FORMATS:
-        raise OptionError(
-            "format", f"unknown model format '{format}' (one of {', '.join(FORMATS)})"
-        )
+    check_choice("format", fmt, ModelFormat)
     if fmt != own:
         raise OptionError(
             "format",

@@ -19,8 +19,6 @@ gear play is not published either. Both set the planner's compliant-stability ma
 (``planning.compliance``).
 """
 
-from __future__ import annotations
-
 import math
 from importlib import resources
 from pathlib import Path

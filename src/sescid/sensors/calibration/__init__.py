@@ -53,8 +53,6 @@ offsets), while the spacing trades against the gains; without a measured prior o
 poorly determined, so they stay a given of the sensor file (measure them).
 """
 
-from __future__ import annotations
-
 from sescid.sensors.calibration.model import (
     GAIN_PRIOR,
     OFFSET_PRIOR,

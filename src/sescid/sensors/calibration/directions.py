@@ -21,6 +21,7 @@ from sescid.sensors.calibration.model import (
     UNLOADED_FOOT,
     SensorDirection,
     SensorParameter,
+    Unseen,
 )
 from sescid.sensors.calibration.rows import Column, Rows
 
@@ -114,7 +115,7 @@ class _Namer:
         self.found: list[np.ndarray] = []
         self.out: list[SensorDirection] = []
 
-    def take(self, v: np.ndarray, kind: str, reason: str) -> None:
+    def take(self, v: np.ndarray, kind: Unseen, reason: str) -> None:
         v = v / np.linalg.norm(v)
         if np.linalg.norm(self.proj @ v) > 1 - 1e-6:
             self.found.append(v)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -22,11 +23,15 @@ START_NOISE_COP = 0.001
 NOISE_FLOOR_FORCE = 1e-3
 NOISE_FLOOR_COP = 1e-6
 
-UNLOADED_FOOT = "unloaded-foot"
-OFFSET_TWIST = "offset-twist"
-SUPPORT_CONFOUNDED = "support-confounded"
-SCALE = "scale"
-NOT_EXCITED = "not-excited"
+#: a pad parameter: a sensor set's gain, or a session's offset
+ParameterKind = Literal["gain", "offset"]
+#: why a sensor direction is not determined (``SensorDirection.kind``; the package docstring)
+Unseen = Literal["unloaded-foot", "offset-twist", "support-confounded", "scale", "not-excited"]
+UNLOADED_FOOT: Unseen = "unloaded-foot"
+OFFSET_TWIST: Unseen = "offset-twist"
+SUPPORT_CONFOUNDED: Unseen = "support-confounded"
+SCALE: Unseen = "scale"
+NOT_EXCITED: Unseen = "not-excited"
 
 
 @dataclass(frozen=True)
@@ -95,7 +100,7 @@ class KnownSensors:
 class SensorParameter:
     """A pad's gain (dimensionless) or offset (N, reading units) with its standard error."""
 
-    kind: str  #: "gain" or "offset"
+    kind: ParameterKind
     owner: str  #: sensor set (gains) or session (offsets)
     foot: str
     pad: int  #: 1-based
@@ -115,7 +120,7 @@ class SensorDirection:
     """A sensor direction the sessions do not determine: terms (label, coefficient), why."""
 
     terms: list[tuple[str, float]]
-    kind: str
+    kind: Unseen
     reason: str
     #: SESC components that move with it (body, axis, coefficient), for support-confounded
     mass_terms: list[tuple[str, str, float]] = field(default_factory=list)
@@ -138,7 +143,7 @@ class SessionContribution:
     double_support_poses: int
     noise_force: float  #: N
     noise_cop: float  #: m
-    noise_by: str  #: "given" or "estimated"
+    noise_by: Literal["given", "estimated"]
     share: float  #: its rows' share of the fit's effective parameters (leverage), 0–1
     rms_force: float  #: N, residual RMS of its force rows
     rms_cop: float  #: m, residual RMS of its moment rows (as CoP)
@@ -154,9 +159,9 @@ class SensorCalibration:
     sessions: list[SessionContribution]
     unidentifiable: list[SensorDirection]
     total_mass: float  #: kg, the weight's mass
-    total_mass_by: str  #: "given" or "model"
+    total_mass_by: Literal["given", "model"]
     prior_scale: float  #: τ of the SESC prior, m
-    prior_scale_by: str  #: "given" or "evidence"
+    prior_scale_by: Literal["given", "evidence"]
     gain_prior: float
     offset_prior: float
     iterations: int

@@ -15,14 +15,14 @@ import numpy as np
 from sescid.errors import DataError, OptionError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
-from sescid.sensors.calibration.model import PadSession
+from sescid.sensors.calibration.model import PadSession, ParameterKind
 
 
 @dataclass
 class Column:
     """One sensor column of the system: a pad's gain or a session's offset."""
 
-    kind: str  #: "gain" | "offset"
+    kind: ParameterKind
     owner: str
     foot: str
     pad: int

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError, OptionError
+from sescid.estimation.checks import check_total_mass
 from sescid.estimation.fit import Fit
 from sescid.estimation.least_squares import cop_system
 from sescid.estimation.map import TAU_RANGE, fit_map
@@ -37,7 +38,6 @@ from sescid.sensors.calibration.model import (
     SessionContribution,
 )
 from sescid.sensors.calibration.rows import Rows, build_rows, check_sessions, sensor_columns
-from sescid.sensors.checks import check_total_mass
 
 
 def spd_inverse(mat: np.ndarray) -> np.ndarray:
