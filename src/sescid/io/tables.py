@@ -23,8 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import RowNumbers, Table
+from sescid.base.columns import Table
 from sescid.base.files import atomic_open, atomic_path
+from sescid.base.rows import RowNumbers
 from sescid.errors import DataError
 from sescid.io.file_kinds import refuse_other_content
 
