@@ -144,7 +144,7 @@ def test_poses_on_both_feet_cli(tmp_path):
     assert set(t.text["support"]) == {"double"}
     op2 = sescid.load_robot("op2")
     q = np.column_stack([t.columns[j] for j in op2.joint_names])
-    np.testing.assert_allclose(np.column_stack([t.columns["cop_x"], t.columns["cop_y"]]),
+    np.testing.assert_allclose(np.column_stack([t.columns["cop_x_model"], t.columns["cop_y_model"]]),
                                op2.com(q)[:, :2], atol=1e-12)  # fmt: skip
     out2 = tmp_path / "d2.csv"
     res = CliRunner().invoke(cli, [*args, "--stances", "double", "--out", str(out2)])
