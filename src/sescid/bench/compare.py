@@ -15,7 +15,7 @@ import numpy as np
 
 from sescid.bench.truth import Truth
 from sescid.errors import DataError
-from sescid.estimation import Fit
+from sescid.estimation import Fit, for_support
 
 
 @dataclass(frozen=True)
@@ -56,8 +56,10 @@ def compare_truth(
 ) -> TruthComparison:
     """Compare ``fit`` with the truth file at the actual poses and ``n_fresh`` fresh poses;
     ``fit_path`` names the fit in the error of a fit and truth of different robots."""
-    robot = fit.robot
     t = Truth.load(truth_path)
+    if t.support != fit.robot.support and fit.bodies is not None:  # a pooled fit, seen there
+        fit = for_support(fit, t.support)
+    robot = fit.robot
     if list(t.joint_names) != robot.joint_names or list(t.body_names) != robot.body_names:
         raise DataError(
             f"{fit_path or 'the fit'}: a fit of {robot.name} on '{robot.support}' "
