@@ -24,6 +24,7 @@ from sescid.cli.common import (
     force_option,
     load,
     model_input,
+    refuse_idle,
     robot_options,
     seed_option,
     sensors_option,
@@ -69,6 +70,10 @@ def torque_options(f: Any) -> Any:
     return f
 
 
+#: the parameters of ``torque_options`` that describe the torque sensors (idle without them)
+TORQUE_FLAGS = ("torque_noise", "torque_offset", "torque_gain", "friction", "approach")
+
+
 def torque_config(opts: dict) -> TorqueConfig:
     """The typed torque options from the flags of ``torque_options``."""
     spec = opts["torques"].strip()
@@ -79,6 +84,7 @@ def torque_config(opts: dict) -> TorqueConfig:
         joints = ()
     else:
         joints = tuple(j.strip() for j in spec.split(",") if j.strip())
+    refuse_idle(TORQUE_FLAGS, bool(joints), "without --torques (no joint torque is measured)")
     return TorqueConfig(
         joints=joints,
         noise=opts["torque_noise"],
@@ -243,7 +249,17 @@ def experiment(**opts):
 
 
 def experiment_config(opts: dict) -> ExperimentConfig:
-    """The real robot and its sensors' errors from the flags."""
+    """The real robot and its sensors' errors from the flags (an error for a flag that does
+    nothing: foot-sensor settings on a robot held in a gantry, a gantry without torques)."""
+    torque = torque_config(opts)
+    if opts["mount"] == "gantry":
+        if not torque.joints:
+            raise OptionError(
+                "mount", "a robot held in a gantry loads no foot: nothing is measured without "
+                "--torques (the joints with a torque sensor)",
+            )  # fmt: skip
+        feet = ("fsr_noise", "fsr_bias", "fsr_gain", "registers", "sensors_file")
+        refuse_idle(feet, False, "on a robot held in a gantry (no foot carries its weight)")
     return ExperimentConfig(
         extra_mass_fraction=opts["extra_mass"],
         backlash_deg=opts["backlash_deg"],
@@ -253,7 +269,7 @@ def experiment_config(opts: dict) -> ExperimentConfig:
         double_support=opts["double_support"],
         registers=opts["registers"],
         tilt_deg=opts["tilt_deg"],
-        torque=torque_config(opts),
+        torque=torque,
         mount=opts["mount"],
         imu_link=opts["imu_link"],
         imu_noise_deg=opts["imu_noise_deg"],

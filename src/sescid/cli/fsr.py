@@ -109,9 +109,10 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
             f"  torques of {len(res.tau_joints)} joints: mean standard error "
             f"{float(np.mean(res.tau_se)):.4g} N·m{side}"
         )
+    for note in res.notes:
+        click.echo(f"  note: {note}", err=True)
     for pose, reason in res.dropped:
-        what = "CoP" if res.cop is not None else "measurement"
-        click.echo(f"  pose {pose} has no {what}: {reason}", err=True)
+        click.echo(f"  pose {pose} dropped: {reason}", err=True)
     if unmeasured:
         more = f" (and {len(unmeasured) - 5} more)" if len(unmeasured) > 5 else ""
         click.echo(
