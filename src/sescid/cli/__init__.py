@@ -11,19 +11,31 @@ from typing import Any
 
 import click
 
-from sescid.cli.common import run_guarded
+from sescid.cli.common import fail, run_guarded, usage_message
 
 #: command → (module, function, one-line help shown by ``sescid --help``)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "simulate": ("simulate", "simulate", "Simulate poses and CoP measurements (paper §3)."),
+    "simulate": (
+        "simulate",
+        "simulate",
+        "Simulate poses and what they give: CoP, joint torques (paper §3).",
+    ),
     "demo": ("demo", "demo", "Reproduce the paper's §3 simulation study."),
     "info": ("info", "info", "Print the robot's bodies, masses, joints and limits."),
-    "identify": ("identify", "identify", "Identify the SESC vectors from poses and CoPs."),
+    "identify": (
+        "identify",
+        "identify",
+        "Identify the SESC vectors from poses with CoPs and/or joint torques.",
+    ),
     "predict": ("predict", "predict", "Predict CoP and CoM at poses from a fit."),
     "export": ("export", "export_cmd", "Write the model file with identified masses and CoMs."),
     "poses": ("poses", "poses", "Plan stable, collision-free, informative bench poses."),
     "experiment": ("experiment", "experiment", "Virtual bench experiment: a raw sensor log."),
-    "bag": ("bag", "bag", "Read a ROS bag into the raw foot-sensor log (mapping file)."),
+    "bag": (
+        "bag",
+        "bag",
+        "Read a ROS bag into the raw log: foot sensors, joint torques (mapping file).",
+    ),
     "measure": ("fsr", "fsr", "Reduce a raw log to one measurement (CoP, torques) per pose."),
     "fsr": ("fsr", "fsr", "The same as measure (its former name)."),
     "calibrate": (
@@ -62,11 +74,22 @@ class LazyGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         return run_guarded(super().invoke, ctx)
 
+    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
+        """The group's own options parsed; a mistyped one is one line (``run_guarded``)."""
+        try:
+            return super().make_context(info_name, args, parent=parent, **extra)
+        except click.UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":
+                raise
+            fail(usage_message(exc))
+            raise  # unreachable: fail exits
+
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="sescid")
 def cli() -> None:
-    """Identify a humanoid robot's mass distribution from centre-of-pressure measurements."""
+    """Identify a humanoid robot's mass distribution from what it measures while held still:
+    the centre of pressure under its foot and/or its joint torques."""
 
 
 def main() -> None:

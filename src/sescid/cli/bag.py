@@ -43,7 +43,8 @@ def bag(bag, map_file, robot_name, support, poses_file, out, force):
     Writes pose, t (s), the joint columns (rad), the joint torques the mapping names
     (tau_<joint>, N·m) and per foot the pad forces (<p>_fsr1..4, mN) or a CoP in its sole frame
     (<p>_cop_x, <p>_cop_y, m) with its normal force (<p>_fz, N). The output may not lie inside
-    the recording. Needs the bags extra: pip install 'sescid[bags]'.
+    the recording. Needs the bags extra: pip install 'sescid[bags]' (in a clone: pip install
+    '.[bags]').
     """
     outs = OutputSet([out], [*bag, map_file, poses_file, model_input(robot_name)], force=force)
     robot = load(robot_name, support)

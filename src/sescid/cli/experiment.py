@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import click
+import numpy as np
 
 from sescid.base import OutputSet
 from sescid.bench import (
@@ -23,12 +24,14 @@ from sescid.cli.common import (
     force_option,
     load,
     model_input,
+    refuse_idle,
     robot_options,
     seed_option,
     sensors_option,
 )
 from sescid.errors import DataError, OptionError, choices
 from sescid.io import read_poses, read_table, write_table
+from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
 _EXP = ExperimentConfig()
@@ -67,6 +70,10 @@ def torque_options(f: Any) -> Any:
     return f
 
 
+#: the parameters of ``torque_options`` that describe the torque sensors (idle without them)
+TORQUE_FLAGS = ("torque_noise", "torque_offset", "torque_gain", "friction", "approach")
+
+
 def torque_config(opts: dict) -> TorqueConfig:
     """The typed torque options from the flags of ``torque_options``."""
     spec = opts["torques"].strip()
@@ -77,6 +84,7 @@ def torque_config(opts: dict) -> TorqueConfig:
         joints = ()
     else:
         joints = tuple(j.strip() for j in spec.split(",") if j.strip())
+    refuse_idle(TORQUE_FLAGS, bool(joints), "without --torques (no joint torque is measured)")
     return TorqueConfig(
         joints=joints,
         noise=opts["torque_noise"],
@@ -230,15 +238,28 @@ def experiment(**opts):
         if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
             raise DataError(f"{opts['poses_file']}: {exc}") from None
         raise
+    stance = DOUBLE if cfg.double_support else robot.support  # carried through measure
     with outs:
-        write_table(outs.path(out), ex.columns)
+        write_table(
+            outs.path(out), ex.columns | {"support": np.full(len(ex.columns["pose"]), stance)}
+        )
         if truth:
             ex.truth.save(outs.path(truth))
     _report(ex, len(q), opts)
 
 
 def experiment_config(opts: dict) -> ExperimentConfig:
-    """The real robot and its sensors' errors from the flags."""
+    """The real robot and its sensors' errors from the flags (an error for a flag that does
+    nothing: foot-sensor settings on a robot held in a gantry, a gantry without torques)."""
+    torque = torque_config(opts)
+    if opts["mount"] == "gantry":
+        if not torque.joints:
+            raise OptionError(
+                "mount", "a robot held in a gantry loads no foot: nothing is measured without "
+                "--torques (the joints with a torque sensor)",
+            )  # fmt: skip
+        feet = ("fsr_noise", "fsr_bias", "fsr_gain", "registers", "sensors_file")
+        refuse_idle(feet, False, "on a robot held in a gantry (no foot carries its weight)")
     return ExperimentConfig(
         extra_mass_fraction=opts["extra_mass"],
         backlash_deg=opts["backlash_deg"],
@@ -248,7 +269,7 @@ def experiment_config(opts: dict) -> ExperimentConfig:
         double_support=opts["double_support"],
         registers=opts["registers"],
         tilt_deg=opts["tilt_deg"],
-        torque=torque_config(opts),
+        torque=torque,
         mount=opts["mount"],
         imu_link=opts["imu_link"],
         imu_noise_deg=opts["imu_noise_deg"],

@@ -8,11 +8,12 @@ from typing import Literal
 import click
 import numpy as np
 
-from sescid.base import OutputSet, TerminalProgress
+from sescid.base import MODEL_COP_COLUMNS, OutputSet, TerminalProgress
 from sescid.cli.common import (
     force_option,
     load,
     model_input,
+    refuse_idle,
     robot_options,
     seed_option,
 )
@@ -246,10 +247,11 @@ def poses(
 
     Columns: pose (id), support (each pose's stance: with --stances, or on both feet), one per
     joint in radians (servo convention), <joint>_deg, <joint>_ticks (when the robot profile
-    knows its servo), cop_x, cop_y (model CoP in the stance's frame, m; empty for a robot held
-    in a gantry).
+    knows its servo), cop_x_model, cop_y_model (the model's CoP in the stance's frame, m: a
+    prediction, not a measurement; empty for a robot held in a gantry).
     """
     outs = OutputSet([out, figure], [model_input(robot_name)], force=force)
+    refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
     robot = load(robot_name, support)
     chosen = parse_stances(stances, robot) if stances is not None else ()
     if chosen and mount is not None:
@@ -270,8 +272,6 @@ def poses(
         raise OptionError("noise", "must be > 0 and --foot-clearance ≥ 0 (metres)")
     if not tau_noise > 0:
         raise OptionError("tau_noise", f"must be > 0 (N·m), got {tau_noise}")
-    if hang_height is not None and not hang_height > 0:
-        raise OptionError("hang_height", f"must be > 0 (metres), got {hang_height}")
     pc = robot_paper_convention(robot)
     if paper_convention and pc is None:
         raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
@@ -318,7 +318,7 @@ def poses(
     first = {} if label is None else {"support": np.full(count, label)}
     cols = _pose_columns(robot, plan.q, first, pc if paper_convention else None, notes)
     if plan.mount != "gantry":
-        cols |= {"cop_x": plan.cop[:, 0], "cop_y": plan.cop[:, 1]}
+        cols |= {MODEL_COP_COLUMNS[k]: plan.cop[:, k] for k in range(2)}
     echo = click.echo
     cand = plan.candidates
     echo(f"candidates: {cand.summary()}")
@@ -407,7 +407,7 @@ def _write_stance_plan(robot, sp, out: str, outs: OutputSet, pc) -> None:
              "stand and were replaced")  # fmt: skip
     echo(f"{sp.changes} stance change(s); joint-space path {sp.path_length:.2f} rad")
     cols = _pose_columns(robot, sp.q, {"support": sp.stance}, pc, notes)
-    cols |= {"cop_x": sp.cop[:, 0], "cop_y": sp.cop[:, 1]}
+    cols |= {MODEL_COP_COLUMNS[k]: sp.cop[:, k] for k in range(2)}
     for note in notes:
         echo(f"note: {note}")
     with outs:

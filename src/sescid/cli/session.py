@@ -15,10 +15,11 @@ from sescid.cli.common import (
     force_option,
     load,
     model_input,
+    refuse_idle,
     robot_options,
     sensors_option,
 )
-from sescid.cli.experiment import bench_sensors, torque_config, torque_options
+from sescid.cli.experiment import TORQUE_FLAGS, bench_sensors, torque_config, torque_options
 from sescid.errors import OptionError
 from sescid.planning import MOUNTS, parse_stances, stance_robot
 from sescid.report import mm
@@ -257,6 +258,7 @@ def session(**opts):
     from sescid.base import TerminalProgress
     from sescid.session import Journal, check_options, run_session
 
+    _refuse_idle(opts)
     robot = load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
     stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
@@ -275,12 +277,12 @@ def session(**opts):
     elif journal.entries:
         click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
     view = None
-    if not opts["no_view"]:
-        from sescid.report import LiveView
-
-        view = LiveView(robot, port=opts["view_port"])
-        click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
     try:
+        if not opts["no_view"]:
+            from sescid.report import LiveView
+
+            view = LiveView(robot, port=opts["view_port"])
+            click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
         res = run_session(
             robot, bot, sensors, opt,
             _Both(_Printer(opt.budget), None if view is None else _CopView(view)),
@@ -289,9 +291,20 @@ def session(**opts):
     except BaseException:
         if view is not None:
             view.close()
+        journal.discard_if_empty()  # a session that measured nothing leaves nothing behind
         raise
     _write(res, robot, out_dir, view, opts)
     journal.finish(res.stop_reason)
+
+
+def _refuse_idle(opts: dict) -> None:
+    """An error for flags that would do nothing: the bench's sensors with your own adapter,
+    the live view's settings with --no-view."""
+    # a replay may repeat the recorded session's command line: its bench flags are kept
+    bench = opts["adapter"] in ("mujoco", "kinematic", "replay")
+    why = f"with --adapter {opts['adapter']} (your robot logs what it logs)"
+    refuse_idle(("torques", *TORQUE_FLAGS, "foot_sensors"), bench, why)
+    refuse_idle(("view_port", "view_linger"), not opts["no_view"], "with --no-view")
 
 
 def session_options(opts: dict) -> SessionOptions:

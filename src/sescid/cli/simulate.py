@@ -12,6 +12,7 @@ from sescid.cli.common import (
     force_option,
     load,
     model_input,
+    refuse_idle,
     robot_options,
     seed_option,
     study_options,
@@ -101,6 +102,10 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     outs = OutputSet([out], [model_input(robot_name)], force=force)
     robot = load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
+    refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
+                f"with --measure {measure}")  # fmt: skip
+    refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
+    refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
     if measure == "balance":
         _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
         return

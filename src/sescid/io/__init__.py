@@ -31,6 +31,7 @@ from sescid.io.bags import (
     parse_mapping,
     read_bag,
 )
+from sescid.io.export.assets import model_files
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
@@ -58,6 +59,7 @@ __all__ = [
     "export_urdf",
     "load_fit",
     "load_mapping",
+    "model_files",
     "parse_mapping",
     "read_cop",
     "read_bag",

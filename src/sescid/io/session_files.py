@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sescid.base.columns import MODEL_COP_COLUMNS
 from sescid.base.files import atomic_open, check_outputs, read_json
 from sescid.errors import SescidError
 from sescid.estimation.fit_json import save_fit
@@ -78,7 +79,7 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
         except SescidError:
             pass  # angles beyond the servo's range: the radians are still there
     cop = robot.cop(q) if not result.stances else _stance_cops(robot, result, cols["support"])
-    cols |= {"cop_x": cop[:, 0], "cop_y": cop[:, 1]}
+    cols |= {MODEL_COP_COLUMNS[k]: cop[:, k] for k in range(2)}
     write_table(paths["poses"], cols)
     write_table(paths["raw"], result.raw)
     measured = result.measured.columns(names)

@@ -99,6 +99,8 @@ class BlockDesign:
             return
         update_blocks(self._rows(), u, g, -1.0, self._out())
         self.minv = self.minv - u @ g @ u.T
+        if not np.isfinite(self.gain[~self.chosen]).all():  # the Woodbury chain lost digits
+            self.refresh()
 
     def remove(self, i: int) -> None:
         """Remove chosen candidate i (the design without it must be non-singular)."""
@@ -118,8 +120,24 @@ class BlockDesign:
         if j < 0 or not ratio[j] > tol:
             return None
         self.add(j)
-        self.remove(i_out)
+        try:
+            self.remove(i_out)
+        except np.linalg.LinAlgError:  # i_out alone saw a direction (round-off hid it): keep it
+            self.chosen[j], self.chosen[i_out] = False, True
+            self.refresh()  # M⁻¹ and every S_j from the chosen rows again
+            return None
         return j
+
+
+#: smallest eigenvalue, relative to the largest, of an information matrix that determines every
+#: coordinate (below it, as when a few joints' torques leave coordinates unseen, the ridge stays)
+WELL_POSED = 1e-10
+
+
+def _well_posed(info: np.ndarray) -> bool:
+    """True when ``info`` (symmetric) determines every coordinate, in floating point too."""
+    w = np.linalg.eigvalsh(info)
+    return bool(w[-1] > 0 and w[0] > WELL_POSED * w[-1])
 
 
 def schur_logdet(rows: BlockRows, idx) -> float:
@@ -202,7 +220,7 @@ def select_blocks(
         full.s, full.gain = np.empty((m, r, r)), np.empty(m)
         full.chosen = np.zeros(m, dtype=bool)
         full.chosen[[at[i] for i in order]] = True
-        if passes > 1 and schur_logdet(rows, order) > -math.inf:  # then drop the ridge
+        if passes > 1 and _well_posed(schur_information(rows, order)):  # then drop the ridge
             full.ridge = 0.0
         full.refresh()
         score = full.gains()

@@ -33,7 +33,9 @@ class Measured:
     tau_joints: tuple[str, ...] = ()  #: joints with torques, model order
     tau: np.ndarray | None = None  #: (k, len(tau_joints)) mean torque, N·m
     tau_se: np.ndarray | None = None  #: (k, len(tau_joints)) its standard error, N·m
-    approach: np.ndarray | None = None  #: (k,) ±1 (NaN where not logged)
+    approach: np.ndarray | None = None  #: (k,) ±1
+    #: what the reduction left out beside whole poses (a dead torque sensor's column, …)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def n_rejected(self) -> np.ndarray:

@@ -30,6 +30,7 @@ from sescid.sensors.pads import SensorConfig
 from sescid.sensors.raw import RawLog
 from sescid.sensors.reduce import (
     check_pose_ids,
+    finish_measured,
     fsr,
     measure,
     pose_list_ids,
@@ -107,7 +108,7 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
         if any(i in seen for i in ids):
             raise _Revisited
         seen.update(ids)
-        parts.append(measure(robot, log, config, min_samples, feet=decided))
+        parts.append(measure(robot, log, config, min_samples, feet=decided, finish=False))
 
     for table in chunks:
         log = read_log(robot, table, config, imu_link)
@@ -152,7 +153,7 @@ def fsr_chunks(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(np.array(ids), pose_list_ids(pose_list), where)
-    res = _joined(parts) if parts else None
+    res = finish_measured(_joined(parts)) if parts else None
     if res is None or len(res.pose) == 0:
         dropped = [] if res is None else res.dropped
         reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])

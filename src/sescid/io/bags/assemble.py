@@ -20,12 +20,13 @@ import numpy as np
 from sescid.errors import DataError, SescidError
 from sescid.io.bags.feet import FORCE_N, LENGTH_M, FootSource
 from sescid.io.bags.fields import Stamp
-from sescid.io.bags.joints import joint_angles, joint_torques
+from sescid.io.bags.joints import check_joint_values, joint_angles, joint_torques
 from sescid.io.bags.mapping import BagMapping, load_mapping
 from sescid.io.bags.messages import foot_values, pose_ids
 from sescid.io.bags.recording import bag_paths, check_type, read_topics
 from sescid.io.bags.segments import segment_labels, topic_labels
 from sescid.io.bags.stamps import Clocked, fill_recent, nearest, one_clock, topic_stamps
+from sescid.sensors.raw import reversed_force
 from sescid.sensors.wrench import cop_from_plate, cop_from_wrench
 
 #: reasons a clock sample is left out, in the order they are counted
@@ -184,6 +185,7 @@ def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> Raw
     clocks = _clocks(mp, topics, tol, notes)
     tj, q = _sorted(clocks["joints"], joint_angles(clocks["joints"], mp, joint_names, notes))
     q = fill_recent(tj, q, tol)
+    check_joint_values(clocks["joints"], tj, q, joint_names, notes)
     streams = _streams(mp, clocks, joint_names, notes)
     clock = f"feet.{mp.feet[0].name}" if mp.feet else "torques"
     t_clock = streams[clock][0]
@@ -244,6 +246,9 @@ def _foot_columns(foot: FootSource, v: np.ndarray, q: np.ndarray, robot, source:
             foot_com=foot.foot_com,
             min_force=foot.min_force,
         )
+    why = reversed_force(fz, max(foot.min_force, 1e-9))
+    if why is not None:
+        raise DataError(f"{source}: feet.{foot.name} ({foot.topic}): {why}")
     p = foot.prefix
     return {f"{p}_cop_x": cop[:, 0], f"{p}_cop_y": cop[:, 1], f"{p}_fz": fz}
 
