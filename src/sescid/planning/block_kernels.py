@@ -80,17 +80,87 @@ def _times(xb, r, p, ut, uo, col, val, lower, wb):  # pragma: no cover - compile
     """W = A_j U for the block's 8 candidates (lanes): wb[(a c + e) 8 + l], U = [ux; uo]
     ((p + K) × c) given as ``ut`` = uxᵀ (c, p) and ``uo`` (K, c). Each W[a, e] is summed as
     the scalar product's loops did: from 0, over t ascending, the nuisance term last;
-    ``lower``: U lower triangular, its zero terms (t < e) skipped, not added."""
+    ``lower``: U lower triangular, its zero terms (t < e) skipped, not added. Four columns e
+    at a time (four independent sums in flight, each in its own order)."""
     c = ut.shape[0]
     for a in range(r):
         k = col[a]
-        for e in range(c):
+        top = (p + k if lower else c - 1) if k >= 0 else -1  # last e with a nuisance term
+        e = 0
+        while e + 4 <= c:
+            a0 = a1 = a2 = a3 = vzero()
+            t0 = 0
+            if lower:  # column e + i starts at t = e + i
+                for t in range(e, min(e + 3, p)):
+                    xv = vload(xb, (a * p + t) * LANES)
+                    a0 = vadd(a0, vmul(xv, vsplat(ut[e, t])))
+                    if t >= e + 1:
+                        a1 = vadd(a1, vmul(xv, vsplat(ut[e + 1, t])))
+                    if t >= e + 2:
+                        a2 = vadd(a2, vmul(xv, vsplat(ut[e + 2, t])))
+                t0 = e + 3
+            for t in range(t0, p):
+                xv = vload(xb, (a * p + t) * LANES)
+                a0 = vadd(a0, vmul(xv, vsplat(ut[e, t])))
+                a1 = vadd(a1, vmul(xv, vsplat(ut[e + 1, t])))
+                a2 = vadd(a2, vmul(xv, vsplat(ut[e + 2, t])))
+                a3 = vadd(a3, vmul(xv, vsplat(ut[e + 3, t])))
+            if e <= top:
+                a0 = vadd(a0, vsplat(val[a] * uo[k, e]))
+            if e + 1 <= top:
+                a1 = vadd(a1, vsplat(val[a] * uo[k, e + 1]))
+            if e + 2 <= top:
+                a2 = vadd(a2, vsplat(val[a] * uo[k, e + 2]))
+            if e + 3 <= top:
+                a3 = vadd(a3, vsplat(val[a] * uo[k, e + 3]))
+            at = (a * c + e) * LANES
+            vstore(wb, at, a0)
+            vstore(wb, at + LANES, a1)
+            vstore(wb, at + 2 * LANES, a2)
+            vstore(wb, at + 3 * LANES, a3)
+            e += 4
+        for e in range(e, c):
             acc = vzero()
             for t in range(e if lower else 0, p):
                 acc = vadd(acc, vmul(vload(xb, (a * p + t) * LANES), vsplat(ut[e, t])))
-            if k >= 0 and (not lower or e <= p + k):
+            if e <= top:
                 acc = vadd(acc, vsplat(val[a] * uo[k, e]))
             vstore(wb, (a * c + e) * LANES, acc)
+
+
+@lazy_njit(cache=True, nogil=True)
+def _dots(u, ua, us, v, vb, vo, vs, count, n_out, init, out, ob):  # pragma: no cover - compiled
+    """Up to four sums of lane-wise products (flat offsets into arrays of 8-lane vectors):
+    out[ob + 8 i] = init[8 i] + Σ_{t < count} u[ua + t us] · v[vb + i vo + t vs], i < n_out,
+    each from its start over t ascending (the scalar loops' order), four in flight."""
+    a0 = vload(init, 0)
+    a1 = vload(init, LANES)
+    a2 = vload(init, 2 * LANES)
+    a3 = vload(init, 3 * LANES)
+    if n_out == 4:
+        for t in range(count):
+            x = vload(u, ua + t * us)
+            at = vb + t * vs
+            a0 = vadd(a0, vmul(x, vload(v, at)))
+            a1 = vadd(a1, vmul(x, vload(v, at + vo)))
+            a2 = vadd(a2, vmul(x, vload(v, at + 2 * vo)))
+            a3 = vadd(a3, vmul(x, vload(v, at + 3 * vo)))
+    else:
+        for t in range(count):
+            x = vload(u, ua + t * us)
+            at = vb + t * vs
+            a0 = vadd(a0, vmul(x, vload(v, at)))
+            if n_out > 1:
+                a1 = vadd(a1, vmul(x, vload(v, at + vo)))
+            if n_out > 2:
+                a2 = vadd(a2, vmul(x, vload(v, at + 2 * vo)))
+    vstore(out, ob, a0)
+    if n_out > 1:
+        vstore(out, ob + LANES, a1)
+    if n_out > 2:
+        vstore(out, ob + 2 * LANES, a2)
+    if n_out > 3:
+        vstore(out, ob + 3 * LANES, a3)
 
 
 @lazy_njit(cache=True, nogil=True)
@@ -165,16 +235,14 @@ def _sandwich(rows, low, out):  # pragma: no cover - compiled
     sb = np.empty(r * r * LANES)
     cb = np.empty(r * r * LANES)
     tmp, g8 = np.empty(LANES), np.empty(LANES)
+    zero = np.zeros(4 * LANES)
     for j0 in range(0, n, LANES):
         _gather(x, j0, xb)
         _times(xb, r, p, ut, low.o, col, val, True, wb)
-        for a in range(r):
-            for b in range(a, r):
-                acc = vzero()
-                for e in range(c):
-                    acc = vadd(acc, vmul(vload(wb, (a * c + e) * LANES),
-                                         vload(wb, (b * c + e) * LANES)))  # fmt: skip
-                vstore(sb, (a * r + b) * LANES, acc)
+        for a in range(r):  # S = W Wᵀ, upper triangle, each sum over e ascending from 0
+            for b in range(a, r, 4):
+                _dots(wb, a * c * LANES, LANES, wb, b * c * LANES, c * LANES, LANES, c,
+                      min(4, r - b), zero, sb, (a * r + b) * LANES)  # fmt: skip
         _plus_identity(sb, r, cb)
         _chol_logdet(cb, r, tmp, g8)
         _scatter(sb, r, j0, s, gain, g8)
@@ -195,27 +263,30 @@ def _update(rows, u, g, sign, out):  # pragma: no cover - compiled
     sb = np.empty(r * r * LANES)
     cb = np.empty(r * r * LANES)
     tmp, g8 = np.empty(LANES), np.empty(LANES)
+    zero, init = np.zeros(4 * LANES), np.empty(4 * LANES)
     sv = vsplat(sign)
+    swb = np.empty(r * r * LANES)  # sign · W
+    gb = np.empty(r * r * LANES)  # G, each entry in every lane
+    for t in range(r):
+        for e in range(r):
+            vstore(gb, (t * r + e) * LANES, vsplat(g[t, e]))
     for j0 in range(0, n, LANES):
         m = min(LANES, n - j0)
         _gather(x, j0, xb)
         _times(xb, r, p, ut, u.o, col, val, False, wb)
-        for a in range(r):
-            for e in range(r):
-                acc = vzero()
-                for t in range(r):
-                    sw = vmul(sv, vload(wb, (a * r + t) * LANES))
-                    acc = vadd(acc, vmul(sw, vsplat(g[t, e])))
-                vstore(vb, (a * r + e) * LANES, acc)
-        for a in range(r):
-            for b in range(a, r):
-                for lane in range(m):
-                    tmp[lane] = s[j0 + lane, a, b]
-                acc = vload(tmp, 0)
-                for t in range(r):
-                    acc = vadd(acc, vmul(vload(vb, (a * r + t) * LANES),
-                                         vload(wb, (b * r + t) * LANES)))  # fmt: skip
-                vstore(sb, (a * r + b) * LANES, acc)
+        for i in range(r * r):
+            vstore(swb, i * LANES, vmul(sv, vload(wb, i * LANES)))
+        for a in range(r):  # V = (sign W) G, each sum over t ascending from 0
+            for e in range(0, r, 4):
+                _dots(swb, a * r * LANES, LANES, gb, e * LANES, LANES, r * LANES, r,
+                      min(4, r - e), zero, vb, (a * r + e) * LANES)  # fmt: skip
+        for a in range(r):  # S_j += V Wᵀ, upper triangle, each from S_j over t ascending
+            for b in range(a, r, 4):
+                for i in range(min(4, r - b)):
+                    for lane in range(m):
+                        init[i * LANES + lane] = s[j0 + lane, a, b + i]
+                _dots(vb, a * r * LANES, LANES, wb, b * r * LANES, r * LANES, LANES, r,
+                      min(4, r - b), init, sb, (a * r + b) * LANES)  # fmt: skip
         _plus_identity(sb, r, cb)
         _chol_logdet(cb, r, tmp, g8)
         _scatter(sb, r, j0, s, gain, g8)
@@ -235,6 +306,7 @@ def _swap(rows, u, s, s_o, chosen, out):  # pragma: no cover - compiled
     cb = np.empty(r * r * LANES)
     qb = np.empty(r * r * LANES)
     tmp, f8, q8 = np.empty(LANES), np.empty(LANES), np.empty(LANES)
+    init = np.zeros(4 * LANES)
     for j0 in range(0, n, LANES):
         m = min(LANES, n - j0)
         live = False
@@ -263,16 +335,15 @@ def _swap(rows, u, s, s_o, chosen, out):  # pragma: no cover - compiled
                 for e in range(r):
                     at = (i * r + e) * LANES
                     vstore(yb, at, vsub(vload(yb, at), vmul(f, vload(yb, (a * r + e) * LANES))))
-        for a in range(r):  # q = I − S_o + yᵀy (upper triangle), over t ascending
-            for b in range(a, r):
-                q0 = -s_o[a, b]
-                if a == b:
-                    q0 += 1.0
-                acc = vsplat(q0)
-                for t in range(r):
-                    acc = vadd(acc, vmul(vload(yb, (t * r + a) * LANES),
-                                         vload(yb, (t * r + b) * LANES)))  # fmt: skip
-                vstore(qb, (a * r + b) * LANES, acc)
+        for a in range(r):  # q = I − S_o + yᵀy (upper triangle), each over t ascending
+            for b in range(a, r, 4):
+                for i in range(min(4, r - b)):
+                    q0 = -s_o[a, b + i]
+                    if b + i == a:
+                        q0 += 1.0
+                    vstore(init, i * LANES, vsplat(q0))
+                _dots(yb, a * LANES, r * LANES, yb, b * LANES, LANES, r * LANES, r,
+                      min(4, r - b), init, qb, (a * r + b) * LANES)  # fmt: skip
         _chol_logdet(qb, r, tmp, q8)
         for lane in range(m):
             j = j0 + lane
