@@ -119,7 +119,7 @@ def _times(xb, r, p, ut, uo, col, val, lower, wb):  # pragma: no cover - compile
             vstore(wb, at + 2 * LANES, a2)
             vstore(wb, at + 3 * LANES, a3)
             e += 4
-        for e in range(c - c % 4, c):  # noqa: B020 - the columns left after the groups of 4
+        for e in range(c - c % 4, c):  # the columns left after the groups of 4
             acc = vzero()
             for t in range(e if lower else 0, p):
                 acc = vadd(acc, vmul(vload(xb, (a * p + t) * LANES), vsplat(ut[e, t])))
