@@ -5,7 +5,7 @@ the thread policy of the dense algebra and of the block workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import MODEL_COP_COLUMNS, Table
+from sescid.base.columns import MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -19,6 +19,7 @@ from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usabl
 
 __all__ = [
     "MODEL_COP_COLUMNS",
+    "SUPPORT_COLUMN",
     "OutputSet",
     "Table",
     "TerminalProgress",

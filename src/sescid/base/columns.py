@@ -375,6 +375,8 @@ def read_gravity(table: Table) -> np.ndarray | None:
 TAU_PREFIX, TAU_SE_PREFIX = "tau_", "tau_se_"
 #: the side each pose was reached from: +1 from below, −1 from above (joint torques' friction)
 APPROACH_COLUMN = "approach"
+#: the stance of each row (a frame of the model, or "double"): measurement files and raw logs
+SUPPORT_COLUMN = "support"
 #: N·m beyond which a torque is taken for a unit mistake (mN·m, N·mm)
 MAX_TORQUE_NM = 1e4
 #: m, a lever no humanoid's gravity torque exceeds: a holding torque beyond the whole robot's

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from sescid.base.columns import (
+    SUPPORT_COLUMN,
     Table,
     read_approach,
     read_cop,
@@ -166,10 +167,6 @@ def read_measurements(
                 "robot? (--allow-outside-limits accepts them)"
             )
         yield from by_support(table, robot, dataclasses.replace(m, support=support))
-
-
-#: the column naming each row's stance (a frame of the model, or "double")
-SUPPORT_COLUMN = "support"
 
 
 def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:

@@ -75,7 +75,7 @@ class RawLog:
         """Sample ``i`` as an error names it: the file's row as a spreadsheet counts it (or the
         session's pose and sample); parts of a log keep it (``first_row`` moves with them)."""
         if self.row_of is not None:
-            return self.row_of(int(i))
+            return self.row_of(int(i) + self.first_row - 2)
         if self.numbers is not None:
             return f"row {self.numbers(int(i) + self.first_row - 2)}"
         return f"row {int(i) + self.first_row}"

@@ -152,14 +152,16 @@ def check_force_scale(
 ) -> None:
     """DataError naming row and column of a logged foot force beyond ``FORCE_WEIGHT_FACTOR`` ×
     the robot's weight (a force in mN or a wrong unit, not a standing robot), or naming the
-    columns when no logged force of a ``whole_log`` reaches ``FORCE_WEIGHT_FLOOR`` × the weight
-    (kN; a session's single pose may be unloaded)."""
+    columns when no logged force of a ``whole_log`` without pads reaches ``FORCE_WEIGHT_FLOOR``
+    × the weight (kN; a session's single pose may be unloaded)."""
     limit = FORCE_WEIGHT_FACTOR * mass * 9.80665
     logged = {f.cop_prefix: log.cop_force.get(f.name) for f in config.feet}
     logged = {k: v for k, v in logged.items() if v is not None and np.isfinite(v).any()}
     peak = max((float(np.nanmax(np.abs(v))) for v in logged.values()), default=None)
     weight = mass * 9.80665
-    if whole_log and peak is not None and peak < FORCE_WEIGHT_FLOOR * weight:
+    # pads may carry the robot while a lifted foot's F/T reads nothing (one foot's stance)
+    pads = any(v is not None for d in (log.forces, log.centroid) for v in d.values())
+    if whole_log and not pads and peak is not None and peak < FORCE_WEIGHT_FLOOR * weight:
         cols = ", ".join(f"'{k}_fz'" for k in logged)
         what = "column" if len(logged) == 1 else "columns"
         raise DataError(

@@ -67,6 +67,8 @@ def wanted_topics(mp: BagMapping) -> dict[str, list[str]]:
         wanted.setdefault(foot.topic, []).append(f"feet.{foot.name}.topic")
     if mp.pose is not None:
         wanted.setdefault(mp.pose.topic, []).append("pose.topic")
+    if mp.support_topic is not None:
+        wanted.setdefault(mp.support_topic.topic, []).append("support.topic")
     return wanted
 
 
