@@ -125,7 +125,7 @@ def _load_without_registries(dispatcher: Any) -> None:
         from numba.core.runtime import nrt
     except ImportError:  # pragma: no cover - another numba layout
         return
-    rtsys = getattr(nrt, "rtsys", None)
+    rtsys: Any = getattr(nrt, "rtsys", None)
     if load is None or guard is None or not hasattr(rtsys, "initialize"):
         return
 
