@@ -134,3 +134,20 @@ def test_papers_38_poses_work(tmp_path):
     assert run("simulate", "--count", 38, "--out", sim).exit_code == 0
     res = run("identify", sim, "--out", tmp_path / "f.json")
     assert res.exit_code == 0 and "38 poses, rank 42 of 63" in res.output
+
+
+def test_version_is_answered_before_anything_loads():
+    """``sescid --version`` alone is answered by the script's entry without numpy or the package,
+    with the text the command line prints (``VERSION_MESSAGE``, one home)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom _sescid_launch import main\nsys.argv = ['sescid', '--version']\nmain()\n"
+        "print(sorted(m for m in ('numpy', 'sescid', 'click') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    fast, loaded = out.stdout.splitlines()
+    assert loaded == "[]"
+    assert fast == CliRunner().invoke(cli, ["--version"], prog_name="sescid").output.strip()
+    assert fast == f"sescid, version {sescid.__version__}"

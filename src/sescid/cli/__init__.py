@@ -3,7 +3,8 @@
 Each command parses its options, calls the API, prints. Every error a user can cause is one
 line ``sescid: error: …`` with exit code 2; outputs are written atomically. Commands live in one
 module per command (``cli/<command>.py``) and are imported only when run, so ``--help`` and
-``--version`` answer without loading scipy, matplotlib or the compiled kernels.
+``--version`` answer without loading scipy, matplotlib or the compiled kernels (the ``sescid``
+script answers ``--version`` alone before it loads anything: ``_sescid_launch``).
 """
 
 import importlib
@@ -11,6 +12,7 @@ from typing import Any
 
 import click
 
+from _sescid_launch import VERSION_MESSAGE
 from sescid.cli.common import fail, run_guarded, usage_message
 
 #: command → (module, function, one-line help shown by ``sescid --help``)
@@ -86,7 +88,7 @@ class LazyGroup(click.Group):
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="sescid")
+@click.version_option(package_name="sescid", message=VERSION_MESSAGE)
 def cli() -> None:
     """Identify a humanoid robot's mass distribution from what it measures while held still:
     the centre of pressure under its foot and/or its joint torques."""

@@ -164,17 +164,18 @@ def prescreen(rows: BlockRows, k: int) -> np.ndarray:
     n = rows.x.shape[0]
     if n <= max(PRESCREEN_MIN, PRESCREEN_PER_POSE * k):
         return np.arange(n)
-    m0 = rows.information(np.arange(n)) * (k / n)
+    m0 = rows.information(slice(None)) * (k / n)  # every candidate: views, not copies
     m0[np.diag_indices_from(m0)] += _ridge(rows)
-    gain = _gains(rows, np.arange(n), _pd_inverse(m0))
+    gain = _gains(rows, None, _pd_inverse(m0))
     return np.lexsort((np.arange(n), -gain))
 
 
-def _gains(rows: BlockRows, idx: np.ndarray, minv: np.ndarray) -> np.ndarray:
-    """(len(idx),) log det(I + A_j M⁻¹ A_jᵀ) of the candidates ``idx`` (−inf: not finite)."""
-    sub = rows.take(idx)
-    r = sub.x.shape[1]
-    out = Sandwiches(np.empty((len(idx), r, r)), np.empty(len(idx)))
+def _gains(rows: BlockRows, idx: np.ndarray | None, minv: np.ndarray) -> np.ndarray:
+    """(m,) log det(I + A_j M⁻¹ A_jᵀ) of the candidates ``idx`` (None: all; −inf: not
+    finite)."""
+    sub = rows if idx is None else rows.take(idx)
+    n, r = sub.x.shape[:2]
+    out = Sandwiches(np.empty((n, r, r)), np.empty(n))
     sandwich_blocks(Rows(sub.x, sub.col, sub.val), minv, out)
     return np.where(np.isfinite(out.gain), out.gain, -np.inf)
 

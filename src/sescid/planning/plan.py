@@ -12,6 +12,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError, check_choice
 from sescid.estimation import min_poses, structural_rank
+from sescid.kinematics import load_kernels
 from sescid.planning.com import level_cop
 from sescid.planning.doptimal import (
     Selection,
@@ -74,6 +75,7 @@ def plan_poses(
     """
     opt = options_with(options, overrides)
     check_choice("select", select, Select)
+    load_kernels()  # the plan runs compiled kernels anyway: its small kinematics jobs too
     if opt.n_candidates is None:
         n_cand = default_candidates(robot, select, count, opt.kinds)
         opt = dataclasses.replace(opt, n_candidates=n_cand)
