@@ -76,10 +76,12 @@ def _coverage(setup, seeds):
     return float(np.mean(zg < 2)), float(np.mean(zo < 2)), float(np.mean(ratio))
 
 
-def test_gains_offsets_cover_truth_3_seeds(setup):
-    """Both feet, 38 poses each, 5 % gain / 0.1 N offset errors: ≥ 90 % within 2σ (3 seeds)."""
-    g, o, ratio = _coverage(setup, range(3))
-    assert g >= 0.9 and o >= 0.9
+def test_gains_offsets_cover_truth_4_seeds(setup):
+    """Both feet, 38 poses each, 5 % gain / 0.1 N offset errors: ≥ 85 % of the 32 gains and of
+    the 32 offsets within 2σ over 4 seeds (at the nominal 95 %, fewer than 28 of 32 has a
+    chance of about 2 %; the slow test asks 90 % of 400)."""
+    g, o, ratio = _coverage(setup, range(4))
+    assert g >= 0.85 and o >= 0.85
     assert ratio <= 1.2  # held-out CoP error ≤ perfectly calibrated sensors + 20 %
 
 

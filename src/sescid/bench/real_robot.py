@@ -175,28 +175,49 @@ def generic_extra(robot, n: int = 4) -> tuple[ExtraMass, ...]:
     )
 
 
+def default_rooting(robot):
+    """The robot rooted where the default unmodelled masses are written: its profile's support
+    (the OP2's right sole), else the model file's own root link. Every stance's bench carries
+    them from there (``carried``), so every stance stands the same physical robot."""
+    home = robot.profile.support or robot.model.model_root
+    return robot if not home or home == robot.support else robot.at(home)
+
+
 def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
-    """The unmodelled masses of ``config`` on ``robot`` (``ExperimentConfig.extra``)."""
+    """The unmodelled masses of ``config`` on ``robot`` (``ExperimentConfig.extra``, offsets in
+    ``robot``'s body frames); the defaults are those of ``default_rooting`` carried over."""
     if config.extra is not None:
         return config.extra
-    if all(e.body in robot.body_names for e in DEFAULT_EXTRA):
-        return DEFAULT_EXTRA
-    return generic_extra(robot)
+    home = default_rooting(robot)
+    if all(e.body in home.body_names for e in DEFAULT_EXTRA):
+        base = DEFAULT_EXTRA
+    else:
+        base = generic_extra(home)
+    return base if home is robot else carried(home, robot, base)
 
 
-def stance_config(reference, robot, config: ExperimentConfig) -> ExperimentConfig:
-    """``config`` for the same real robot in another stance: its unmodelled masses (those of
-    ``extra_masses(reference, config)``, offsets in the reference robot's body frames) carried
-    into the body frames of ``robot`` (the same model rooted elsewhere, ``Robot.at``) through
-    each body's first link, so every stance stands the same physical robot."""
+def carried(reference, robot, extra: tuple[ExtraMass, ...]) -> tuple[ExtraMass, ...]:
+    """Unmodelled masses with offsets in the body frames of ``reference`` carried into those of
+    ``robot`` (the same model rooted elsewhere, ``Robot.at``) through each body's first link:
+    the same physical masses."""
     out = []
-    for e in extra_masses(reference, config):
+    for e in extra:
         link = reference.model.bodies[reference.body_names.index(e.body)].links[0]
         b, x = robot.model.link_frames[link]
         x_ref = reference.model.link_frames[link][1]
         p = x[:3, :3] @ (x_ref[:3, :3].T @ (np.asarray(e.offset, float) - x_ref[:3, 3])) + x[:3, 3]
         out.append(ExtraMass(robot.body_names[b], e.share, (float(p[0]), float(p[1]), float(p[2]))))
-    return dataclasses.replace(config, extra=tuple(out))
+    return tuple(out)
+
+
+def stance_config(reference, robot, config: ExperimentConfig) -> ExperimentConfig:
+    """``config`` for the same real robot in another stance: its unmodelled masses (those of
+    ``extra_masses(reference, config)``, offsets in the reference robot's body frames) carried
+    into the body frames of ``robot`` (``carried``), so every stance stands the same physical
+    robot."""
+    return dataclasses.replace(
+        config, extra=carried(reference, robot, extra_masses(reference, config))
+    )
 
 
 def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
