@@ -62,7 +62,7 @@ from sescid.session.estimate import (
     REFERENCE_SEED,
     TRUST,
     Status,
-    _converged,
+    has_converged,
 )
 from sescid.session.records import BODY_PRIOR_SCALE, SessionOptions
 from sescid.simulation import random_poses
@@ -282,7 +282,7 @@ class PooledEstimate:
         std = math.inf
         if self.rank >= basis.shape[1]:
             std = math.sqrt(max(float(np.sum(self._g * self.cov[:n4, :n4])) / 2, 0.0))
-        done = _converged(self.history, self.n_poses, std, self.window, self.tol)
+        done = has_converged(self.history, self.n_poses, std, self.window, self.tol)
         self.history.append((self.n_poses, std))
         return Status(std, self.rank, done)
 

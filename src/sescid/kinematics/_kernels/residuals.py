@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sescid.kinematics._kernels.fused import GRAM_BLOCK, angles_ok, body_columns, transpose_block
 from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-from sescid.kinematics.fused import GRAM_BLOCK, _angles_ok, _body, _transpose
 from sescid.kinematics.tree import Tree
 
 vload = simd_intrinsic("vload")
@@ -36,7 +36,7 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
     """Out = (Σ|y − c|, Σ(y − c)², Σ(y2 − c)²) over the poses q (n, nq) and both axes, c the
     CoM's x, y for SESC vectors r (N, 3); y, y2 (n, 2) (y2 (0, 2): none). False (nothing
     written) when an angle is beyond MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
     n, nq = q.shape
     nb = parent.shape[0]
@@ -56,7 +56,7 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
     for s0 in range(0, n, blk):
         w = min(blk, n - s0)
         seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        transpose_block(q, s0, w, qt)
         tgt[:, :, w:] = 0.0
         for k in range(w):
             for i in range(2):
@@ -64,7 +64,7 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
                 tgt[1, i, k] = y2[s0 + k, i] if truth else 0.0
                 tgt[2, i, k] = 1.0
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                   rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
         for i in range(2):
             for k in range(0, seg, 8):
@@ -112,7 +112,7 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
     (−(R_b a_b)_y F_x + (R_b a_b)_x F_y) (level support; F_b the first moment beyond body b,
     rows x, y) over the poses and the joints of jbody (J, B); approach (n,) or (0,). False
     (nothing written) when an angle is beyond MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
     n, nq = q.shape
     nb = parent.shape[0]
@@ -132,7 +132,7 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
     for s0 in range(0, n, blk):
         w = min(blk, n - s0)
         seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        transpose_block(q, s0, w, qt)
         tt[:, w:] = 0.0
         tb = tau[s0 : s0 + w]
         for k in range(w):
@@ -141,7 +141,7 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
             tt[nj, k] = approach[s0 + k] if approach.shape[0] > 0 else 0.0
             tt[nj + 1, k] = 1.0
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                   rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
             r0, r1, r2 = vsplat(r[b, 0]), vsplat(r[b, 1]), vsplat(r[b, 2])
             for i in range(2):
@@ -198,7 +198,7 @@ def torque_residual_sums(
     support, for SESC vectors r (N, 3), M·g0 [kg·m/s²] and q columns ``cols`` (J,); ``data`` =
     (τ (n, J), approach sides (n,) or None, offsets (J,), friction bands (J,)). One compiled
     pass; None when an angle needs numpy's exact reduction."""
-    from sescid.kinematics.torque_values import joint_bodies_padded
+    from sescid.kinematics._kernels.torque_values import joint_bodies_padded
 
     tau, side, off_j, fr_j = data
     out = np.zeros(2)

@@ -23,8 +23,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.core.extending import intrinsic, models, register_model
 
-#: lanes of ``Vec``: part of the summation order, so fixed (not the CPU's vector width)
-LANES = 8
+from sescid.kinematics._kernels.gram import LANES
 
 _F64 = ir.DoubleType()
 _VEC = ir.VectorType(_F64, LANES)

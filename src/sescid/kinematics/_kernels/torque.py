@@ -11,10 +11,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from sescid.kinematics._kernels.fused import (
+    angles_ok,
+    body_columns,
+    cop_rows,
+    cop_target,
+    transpose_block,
+)
+from sescid.kinematics._kernels.gram import sum_tile, sum_tile3, syrk
+from sescid.kinematics._kernels.torque_plan import ROW_OFFSET, ROW_PAIR
 from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-from sescid.kinematics.fused import _angles_ok, _body, _cop_rows, _cop_target, _transpose
-from sescid.kinematics.gram import _syrk, _tile, _tile3
-from sescid.kinematics.torque_plan import ROW_OFFSET, ROW_PAIR
 
 fma = simd_intrinsic("fma")
 vload = simd_intrinsic("vload")
@@ -223,7 +229,7 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
                 b2 = (v0 + rs + min(c0 + 2, rc - 1)) * ldv
                 b3 = (v0 + rs + min(c0 + 3, rc - 1)) * ldv
                 if nrow == 3:
-                    t3 = _tile3(ul, (a0, a1, a2), v, (b0, b1, b2, b3), kk)
+                    t3 = sum_tile3(ul, (a0, a1, a2), v, (b0, b1, b2, b3), kk)
                     for i in range(3):
                         orow = lrows[ra + i, 3]
                         for j in range(min(4, rc - c0)):
@@ -231,7 +237,7 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
                             if orow >= n_sesc or ocol >= orow:
                                 out[orow, ocol] += t3[4 * i + j]
                     continue
-                tile = _tile(ul, (a0, a1, a2, a3), v, (b0, b1, b2, b3), kk)
+                tile = sum_tile(ul, (a0, a1, a2, a3), v, (b0, b1, b2, b3), kk)
                 for i in range(min(4, lc - r0)):
                     orow = lrows[ra + i, 3]
                     for j in range(min(4, rc - c0)):
@@ -241,12 +247,12 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _gram_fused(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, parent, nz_ptr,
+def gram_fused_kernel(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, parent, nz_ptr,
                 nz_k, nz_j, nz_a, root_r, u, pos, meas, axis, own_ptr, own, lrows, tasks, n_sesc,
                 blk, out_cop, out_tau):  # fmt: skip  # pragma: no cover - compiled
     """The CoP's (when out_cop has rows) and the torques' augmented sums of poses q in one pass
     over the chain's rows x, y; False (nothing added) when an angle is beyond MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
     n, nq = q.shape
     nb = parent.shape[0]
@@ -270,18 +276,18 @@ def _gram_fused(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, pa
     for s0 in range(0, n, blk):
         w = min(blk, n - s0)
         seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        transpose_block(q, s0, w, qt)
         _joint_rows((s0, w, seg), tau, tau_sw, approach, ab, e)
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
                   rows, u, pos, s, c1, rot, xv)  # fmt: skip
             if b > 0:
                 _body_torque(b, w, seg, mg, coef, axis, parent, pos, meas, own_ptr, own, lrows,
                              rot, xv, 2, lev, e, sp, zp, ul, n_sesc, friction,
                              out_tau)  # fmt: skip
         if pc > 0:
-            _cop_rows(w, seg, 2, xv)
-            _cop_target((s0, w, seg), cop_y, cop_sw, pt, xv, xw)
-            _syrk(xw if cop_sw.shape[0] > 0 else xv, pc, 2 * seg, out_cop)
+            cop_rows(w, seg, 2, xv)
+            cop_target((s0, w, seg), cop_y, cop_sw, pt, xv, xw)
+            syrk(xw if cop_sw.shape[0] > 0 else xv, pc, 2 * seg, out_cop)
         _blocks(seg, (lrows, tasks), n_sesc, ul, xv, 2, out_tau)
     return True
