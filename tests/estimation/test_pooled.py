@@ -3,6 +3,8 @@ squares, and what pooling adds (ranks, accuracy) with the same number of poses."
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -182,3 +184,47 @@ def test_pooled_fit_on_the_command_line_and_in_its_file(tmp_path):
     run("identify", tmp_path / "r.csv", f"{tmp_path / 'bare.csv'}@l_sole", "--method", "ls",
         "--allow-outside-limits", "--out", tmp_path / "g.json")  # fmt: skip
     np.testing.assert_allclose(sescid.load_fit(tmp_path / "g.json").r, fit.r, atol=1e-12)
+
+
+def test_the_bench_carries_the_stance_through_measure_and_truth(tmp_path):
+    """experiment writes the stance, measure keeps it (and reduces in that stance's frame),
+    identify pools the two measured files, truth judges the pooled fit in each stance."""
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+    from sescid.io import read_table
+
+    def run(*args):
+        res = CliRunner().invoke(cli, [str(a) for a in args])
+        assert res.exit_code == 0, res.output
+        return res.output
+
+    for side, seed in (("r_sole", 0), ("l_sole", 1)):
+        run(
+            "poses",
+            "--support",
+            side,
+            "--count",
+            30,
+            "--seed",
+            seed,
+            "--out",
+            tmp_path / f"p{side}.csv",
+        )
+        run("experiment", "--support", side, "--poses", tmp_path / f"p{side}.csv", "--samples", 10,
+            "--out", tmp_path / f"r{side}.csv", "--truth", tmp_path / f"t{side}.json")  # fmt: skip
+        run("measure", tmp_path / f"r{side}.csv", "--out", tmp_path / f"m{side}.csv")
+        assert set(read_table(tmp_path / f"m{side}.csv").text["support"]) == {side}
+    out = run(
+        "identify", tmp_path / "mr_sole.csv", tmp_path / "ml_sole.csv", "--out", tmp_path / "f.json"
+    )
+    assert "stances pooled" in out
+    for side in ("r_sole", "l_sole"):
+        text = run("truth", tmp_path / "f.json", tmp_path / f"t{side}.json")
+        ident, manu = (
+            float(x) for x in re.findall(r"identified ([\d.]+) mm, manufacturer ([\d.]+)", text)[-1]
+        )
+        assert ident < manu
+    res = CliRunner().invoke(cli, ["measure", str(tmp_path / "rl_sole.csv"), "--support", "r_sole",
+                                   "--out", str(tmp_path / "x.csv")])  # fmt: skip
+    assert res.exit_code == 2 and "measured on 'l_sole'" in res.output

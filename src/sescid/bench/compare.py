@@ -15,7 +15,7 @@ import numpy as np
 
 from sescid.bench.truth import Truth
 from sescid.errors import DataError
-from sescid.estimation import Fit
+from sescid.estimation import Fit, for_support
 
 
 @dataclass(frozen=True)
@@ -54,8 +54,10 @@ def compare_truth(
     seed: int = 0,
 ) -> TruthComparison:
     """Compare ``fit`` with the truth file at the actual poses and ``n_fresh`` fresh poses."""
-    robot = fit.robot
     t = Truth.load(truth_path)
+    if t.support != fit.robot.support and fit.bodies is not None:  # a pooled fit, seen there
+        fit = for_support(fit, t.support)
+    robot = fit.robot
     if list(t.joint_names) != robot.joint_names or list(t.body_names) != robot.body_names:
         raise DataError(f"{truth_path}: the truth is of another robot than the fit's")
     if t.mount == "line":

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import click
+import numpy as np
 
 from sescid.base import OutputSet
 from sescid.bench import (
@@ -29,6 +30,7 @@ from sescid.cli.common import (
 )
 from sescid.errors import DataError, OptionError, choices
 from sescid.io import read_poses, read_table, write_table
+from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
 _EXP = ExperimentConfig()
@@ -230,8 +232,11 @@ def experiment(**opts):
         if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
             raise DataError(f"{opts['poses_file']}: {exc}") from None
         raise
+    stance = DOUBLE if cfg.double_support else robot.support  # carried through measure
     with outs:
-        write_table(outs.path(out), ex.columns)
+        write_table(
+            outs.path(out), ex.columns | {"support": np.full(len(ex.columns["pose"]), stance)}
+        )
         if truth:
             ex.truth.save(outs.path(truth))
     _report(ex, len(q), opts)

@@ -15,9 +15,34 @@ from sescid.cli.common import (
     robot_options,
     sensors_option,
 )
+from sescid.errors import DataError
 from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
+from sescid.robot import DOUBLE
 from sescid.sensors import REASONS, fsr_chunks, load_sensors
+
+
+def _log_stance(raw: str, support: str | None) -> str | None:
+    """The stance of a raw log (its ``support`` column, one value for the whole log), None
+    without the column; an error for a log of several stances or one unlike ``--support``."""
+    first = next(iter(iter_table(raw)), None)
+    if first is None or "support" not in first.text:
+        return None
+    names = {v.strip() for v in first.text["support"]}
+    for table in iter_table(raw):
+        names |= {v.strip() for v in table.text.get("support", [])}
+    if len(names) != 1:
+        raise DataError(
+            f"{raw}: the log's 'support' column names several stances ({', '.join(sorted(names))})"
+            ": measure each stance's log on its own"
+        )
+    (stance,) = names
+    if support is not None and support != stance and stance != DOUBLE:
+        raise DataError(
+            f"{raw}: the log was measured on '{stance}' (its 'support' column), not on "
+            f"--support {support}"
+        )
+    return stance
 
 
 def _sensors(sensors_file, profile):
@@ -52,15 +77,19 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     logged. A log with torques and no foot sensors needs no sensor file.
     """
     outs = OutputSet([out], [raw, poses_file, sensors_file, model_input(robot_name)], force=force)
-    robot = load(robot_name, support)
+    stance = _log_stance(raw, support)
+    robot = load(robot_name, support or (None if stance in (None, DOUBLE) else stance))
     config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
     res, unmeasured = fsr_chunks(
         robot, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
         whole=lambda: read_table(raw),
     )  # fmt: skip
+    columns = res.columns(robot.joint_names)
+    if stance is not None:  # the stance the log was measured in, for identify to pool
+        columns["support"] = np.full(len(res.pose), stance)
     with outs:
-        write_table(outs.path(out), res.columns(robot.joint_names))
+        write_table(outs.path(out), columns)
     total = res.rejected.sum(axis=0)
     why = ", ".join(f"{r} {int(c)}" for r, c in zip(REASONS, total, strict=True) if c) or "none"
     dropped = f"; {len(res.dropped)} poses dropped (below)" if res.dropped else ""
