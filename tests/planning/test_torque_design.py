@@ -202,4 +202,4 @@ def test_cli_torque_design_prints_the_com_error(tmp_path, op2):
     cols = read_table(out).columns
     assert len(cols["pose"]) == 20 and "cop_x" in cols
     bad = CliRunner().invoke(cli, [*args[:-2], "--tau-noise", "0", "--out", str(tmp_path / "b")])
-    assert bad.exit_code == 2 and "tau_noise" in bad.output and not (tmp_path / "b").exists()
+    assert bad.exit_code == 2 and "--tau-noise" in bad.output and not (tmp_path / "b").exists()

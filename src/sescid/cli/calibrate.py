@@ -16,6 +16,7 @@ from sescid.cli.common import (
     robot_options,
     sensors_option,
 )
+from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.estimation import check_total_mass, save_fit
 from sescid.io import read_table
@@ -30,17 +31,10 @@ from sescid.sensors import (
     pad_session,
 )
 
-_CAL = CalibrationOptions()
-
 
 def calibration_options(opts: dict) -> CalibrationOptions:
     """The calibration's typed options from the flags."""
-    return CalibrationOptions(
-        total_mass=opts["total_mass"],
-        prior_scale=opts["prior_scale"],
-        gain_prior=opts["gain_prior"],
-        offset_prior=opts["offset_prior"],
-    )
+    return record(CalibrationOptions, opts)
 
 
 def session_options(raw: tuple[str, ...], opts: dict) -> dict[str, PadSessionOptions]:
@@ -91,13 +85,7 @@ def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
 @click.argument("raw", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @robot_options
 @sensors_option
-@click.option(
-    "--total-mass",
-    type=float,
-    default=_CAL.total_mass,
-    help="Weighed mass of the robot [kg]: fixes the gains' scale (default: the model's, "
-    "reported as unidentifiable).",
-)
+@flags(CalibrationOptions, "total_mass")
 @click.option(
     "--sensor-set",
     "sensor_sets",
@@ -117,12 +105,7 @@ def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
     multiple=True,
     help="SESSION=M: given noise of the session's moment rows, as CoP [m] (default: estimated).",
 )
-@click.option("--prior-scale", type=float, default=_CAL.prior_scale,
-              help="SESC prior τ [m] (default: evidence).")  # fmt: skip
-@click.option("--gain-prior", type=float, default=_CAL.gain_prior, show_default=True,
-              help="Prior std of each gain (relative).")  # fmt: skip
-@click.option("--offset-prior", type=float, default=_CAL.offset_prior, show_default=True,
-              help="Prior std of each offset [N]; the offset twist comes from it.")  # fmt: skip
+@flags(CalibrationOptions, "prior_scale", "gain_prior", "offset_prior")
 @min_samples_option
 @click.option(
     "--offsets-from",

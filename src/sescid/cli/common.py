@@ -10,22 +10,33 @@ from typing import Any
 
 import click
 
+from sescid.base import SEED_HELP
+from sescid.cli.flags import FieldOption, flag
 from sescid.errors import MissingExtraError, OptionError, SescidError
+from sescid.estimation import IdentifyOptions
 
-#: CLI spelling of API parameters, for errors about options
+#: CLI spelling of API parameters that are no flag of the same name, for errors about options
+#: (a flag made from an options record's field is found by its name: ``_flag_of``)
 FLAG = {
     "n": "--poses",
-    "count": "--count",
-    "range_deg": "--range-deg",
-    "noise": "--noise",
-    "rtol": "--rtol",
-    "seed": "--seed",
-    "samples": "--samples",
-    "method": "--method",
     "format": "--format",
-    "total_mass": "--total-mass",
-    "prior_scale": "--prior-scale",
 }
+
+
+def _flag_of(ctx: click.Context, name: str) -> str | None:
+    """The flag of the running command whose parameter, or whose options record's field
+    (``FieldOption``), is ``name`` (else ``FLAG``'s)."""
+    sub = ctx.invoked_subcommand
+    group = ctx.command
+    cmd = group.get_command(ctx, sub) if sub and isinstance(group, click.Group) else None
+    params = [p for p in (cmd.params if cmd is not None else ()) if isinstance(p, click.Option)]
+    for p in params:
+        if p.name == name:
+            return p.opts[0]
+    for p in params:
+        if isinstance(p, FieldOption) and p.field == name:
+            return p.opts[0]
+    return FLAG.get(name)
 
 
 def fail(message: str) -> None:
@@ -39,7 +50,7 @@ def run_guarded(invoke: Any, ctx: click.Context) -> Any:
     try:
         return invoke(ctx)
     except OptionError as exc:
-        flag = FLAG.get(exc.name)
+        flag = _flag_of(ctx, exc.name)
         msg = str(exc)
         fail(f"{flag}{msg[len(exc.name) :]}" if flag else msg)
     except MissingExtraError as exc:
@@ -88,10 +99,6 @@ def robot_options(f: Any) -> Any:
     return f
 
 
-#: help of every --seed
-SEED_HELP = "Random seed: the same seed gives the same numbers."
-
-
 def seed_option(f: Any) -> Any:
     """--seed: a non-negative integer."""
     return click.option(
@@ -118,13 +125,9 @@ def study_options(poses: int, range_deg: float, noise: float) -> Any:
 
 
 def imu_link_option(f: Any) -> Any:
-    """--imu-link: the link whose IMU roll/pitch columns give gravity (no grav_x/y/z)."""
-    return click.option(
-        "--imu-link",
-        default=None,
-        help="Link carrying the IMU of the imu_roll/imu_pitch columns; they give the gravity "
-        "direction when there are no grav_x/y/z columns (default: the profile's).",
-    )(f)
+    """--imu-link: the link whose IMU roll/pitch columns give gravity (no grav_x/y/z), as
+    identify's (``IdentifyOptions.imu_link``)."""
+    return flag(IdentifyOptions, "imu_link")(f)
 
 
 def force_option(f: Any) -> Any:

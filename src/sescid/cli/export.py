@@ -7,17 +7,10 @@ import numpy as np
 
 from sescid.base import OutputSet
 from sescid.cli.common import echo_model_change, force_option
-from sescid.cli.options import (
-    DEFAULT_CONSISTENT,
-    consistent_from_flags,
-    consistent_options,
-    echo_masses,
-)
+from sescid.cli.flags import flag
+from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
-from sescid.estimation import (
-    load_fit,
-    to_consistent,
-)
+from sescid.estimation import ConsistentOptions, load_fit, to_consistent
 from sescid.io import (
     FORMATS,
     export_model,
@@ -34,6 +27,7 @@ from sescid.io import (
     default=None,
     help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
 )
+@flag(ConsistentOptions, "total_mass")
 @consistent_options
 @force_option
 def export_cmd(fit_file, out, model_format, force, **opts):
@@ -51,7 +45,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
         fit = to_consistent(fit, copts)
         echo_masses(fit)
-    elif copts != DEFAULT_CONSISTENT:
+    elif copts != ConsistentOptions():
         raise OptionError(
             "consistent_options",
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "

@@ -11,7 +11,6 @@ import click
 import numpy as np
 
 from sescid.cli.common import (
-    SEED_HELP,
     force_option,
     load,
     model_input,
@@ -19,12 +18,11 @@ from sescid.cli.common import (
     sensors_option,
 )
 from sescid.cli.experiment import bench_sensors, torque_config, torque_options
+from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
-from sescid.planning import MOUNTS, parse_stances, stance_robot
+from sescid.planning import parse_stances, stance_robot
 from sescid.report import mm
-from sescid.session import SESSION_KINDS, SessionOptions, session_mount
-
-_OPT = SessionOptions()
+from sescid.session import SessionOptions, session_mount
 
 
 class _Printer:
@@ -135,59 +133,8 @@ class _Both:
     help="Output folder; each pose is journaled there as it is measured, and running again "
     "with the same folder and options resumes an interrupted session.",
 )
-@click.option("--budget", default=_OPT.budget, show_default=True, type=click.IntRange(min=1),
-              help="Poses commanded at most (failed ones count).")  # fmt: skip
-@click.option("--samples", default=_OPT.samples, show_default=True, type=click.IntRange(min=2),
-              help="Samples read per pose.")  # fmt: skip
-@click.option(
-    "--candidates",
-    "n_candidates",
-    default=_OPT.n_candidates,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Stable, collision-free candidate poses.",
-)
-@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0),
-              help=SEED_HELP)  # fmt: skip
-@click.option(
-    "--near",
-    default=_OPT.near,
-    show_default=True,
-    type=click.FloatRange(0, 1, min_open=True),
-    help="Take the nearest candidate whose information gain is ≥ NEAR × the best.",
-)
-@click.option("--window", default=_OPT.window, show_default=True, type=click.IntRange(min=1),
-              help="Convergence: poses looked back.")  # fmt: skip
-@click.option(
-    "--tol",
-    default=_OPT.tol,
-    show_default=True,
-    type=click.FloatRange(0, 1, min_open=True, max_open=True),
-    help="Convergence: the predicted CoP std fell by less than this (relative) over the window.",
-)
-@click.option(
-    "--target-std",
-    default=_OPT.target_std,
-    type=click.FloatRange(min=0, min_open=True),
-    help="Also stop when the predicted CoP std reaches this [m].",
-)
-@click.option(
-    "--kinds",
-    type=click.Choice(list(SESSION_KINDS)),
-    default=_OPT.kinds,
-    show_default=True,
-    help="What the next pose is chosen for: auto (what the robot reports: a loaded foot sensor "
-    "gives the CoP, tau_<joint> columns the joint torques), cop, tau or both.",
-)
-@click.option("--tau-noise", default=_OPT.tau_noise, show_default=True, type=float,
-              help="Joint-torque noise per pose the design assumes [N·m].")  # fmt: skip
-@click.option(
-    "--mount",
-    type=click.Choice(list(MOUNTS)),
-    default=None,
-    help="stand: on the support foot; gantry: the support link held level, the robot hanging "
-    "free (joint torques only). Default: gantry when the robot's mass splits at the support.",
-)
+@flags(SessionOptions, "budget", "samples", "n_candidates", "seed", "near", "window", "tol",
+       "target_std", "kinds", "tau_noise", "mount")  # fmt: skip
 @click.option(
     "--stances",
     default=None,
@@ -195,28 +142,7 @@ class _Both:
     "gantry:<link>; the session asks for a stance change when a pose of another stance is "
     "worth it (--stance-cost). One stance: as --support/--mount.",
 )
-@click.option(
-    "--stance-cost",
-    default=_OPT.stance_cost,
-    show_default=True,
-    type=click.FloatRange(min=0),
-    help="Poses a stance change costs: asked for when the other stance's best information gain "
-    "exceeds 1 + this times the current one's.",
-)
-@click.option(
-    "--hang-height",
-    default=None,
-    type=float,
-    help="Gantry: height of the held link above the floor [m] (default: its height when the "
-    "robot stands at the zero pose + 50 mm).",
-)
-@click.option(
-    "--total-mass",
-    default=None,
-    type=float,
-    help="The robot's weighed mass [kg]: the scale of joint torques (default: the model's, "
-    "with a warning in the fit).",
-)
+@flags(SessionOptions, "stance_cost", "hang_height", "total_mass")
 @click.option(
     "--foot-sensors/--no-foot-sensors",
     default=True,
@@ -296,22 +222,9 @@ def session(**opts):
 
 def session_options(opts: dict) -> SessionOptions:
     """The session's typed options from the flags (at least one candidate per commanded pose)."""
-    return SessionOptions(
-        budget=opts["budget"],
-        samples=opts["samples"],
-        n_candidates=max(opts["n_candidates"], opts["budget"]),
-        seed=opts["seed"],
-        near=opts["near"],
-        window=opts["window"],
-        tol=opts["tol"],
-        target_std=opts["target_std"],
-        kinds=opts["kinds"],
-        tau_noise=opts["tau_noise"],
-        mount=opts["mount"],
-        hang_height=opts["hang_height"],
-        total_mass=opts["total_mass"],
-        stances=tuple(opts["stances"] or ()),
-        stance_cost=opts["stance_cost"],
+    n_candidates = max(opts["candidates"], opts["budget"])
+    return record(
+        SessionOptions, opts, n_candidates=n_candidates, stances=tuple(opts["stances"] or ())
     )
 
 

@@ -16,11 +16,11 @@ from sescid.cli.common import (
     seed_option,
     study_options,
 )
+from sescid.cli.flags import flags, record
 from sescid.errors import choices
 from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
-TORQUES = TorqueNoise()
 #: what ``simulate`` measures: a design's kinds, or the balancing tilts of a robot on a line
 Measure = Literal[DesignKind, "balance"]
 
@@ -59,27 +59,7 @@ Measure = Literal[DesignKind, "balance"]
     type=click.FloatRange(0, 20),
     help="--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
 )
-@click.option(
-    "--tau-noise",
-    default=TORQUES.noise,
-    show_default=True,
-    type=float,
-    help="Joint-torque noise standard deviation [N·m].",
-)
-@click.option(
-    "--tau-offset",
-    default=TORQUES.offset,
-    show_default=True,
-    type=float,
-    help="Std of a random constant offset per torque sensor [N·m].",
-)
-@click.option(
-    "--tau-friction",
-    default=TORQUES.friction,
-    show_default=True,
-    type=float,
-    help="Half-width of each joint's static-friction band [N·m] (writes the approach column).",
-)
+@flags(TorqueNoise, "noise", "offset", "friction")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
 @force_option
 def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out,
@@ -157,7 +137,7 @@ def torque_noise(kinds: dict) -> TorqueNoise | None:
     """The torque sensors' errors from the flags (None when only the CoP is measured)."""
     if kinds["measure"] in (None, "cop", "balance"):
         return None
-    return TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
+    return record(TorqueNoise, kinds)
 
 
 def _columns(joint_names: list[str], sim, measure: DesignKind) -> dict[str, np.ndarray]:
