@@ -9,13 +9,7 @@ from pathlib import Path
 import click
 
 from sescid.base import OutputSet
-from sescid.cli.common import (
-    force_option,
-    load,
-    min_samples_option,
-    robot_options,
-    sensors_option,
-)
+from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.estimation import check_total_mass, save_fit
@@ -82,9 +76,9 @@ def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
 
 
 @click.command()
-@click.argument("raw", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@robot_options
-@sensors_option
+@click.argument("raw", nargs=-1, required=True, type=common.FILE)
+@common.robot_options
+@common.sensors_option
 @flags(CalibrationOptions, "total_mass")
 @click.option(
     "--sensor-set",
@@ -106,26 +100,19 @@ def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
     help="SESSION=M: given noise of the session's moment rows, as CoP [m] (default: estimated).",
 )
 @flags(CalibrationOptions, "prior_scale", "gain_prior", "offset_prior")
-@min_samples_option
+@common.min_samples_option
 @click.option(
     "--offsets-from",
     default=None,
     help="Session whose offsets go into the sensor file (default: the last one given).",
 )
-@click.option(
-    "--out",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Calibrated sensor file (sescid-fsr/2), for `sescid measure --sensors`.",
+@common.file_option(
+    "--out", "Calibrated sensor file (sescid-fsr/2), for `sescid measure --sensors`.", required=True
 )
-@click.option(
-    "--fit",
-    "fit_out",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Also write the jointly estimated mass model (a MAP fit) for export/report.",
+@common.file_option(
+    "--fit", "Also write the jointly estimated mass model (a MAP fit) for export/report.", "fit_out"
 )
-@force_option
+@common.force_option
 def calibrate(**opts):
     """Estimate every foot pad's gain and offset together with the mass model from RAW logs.
 
@@ -137,7 +124,7 @@ def calibrate(**opts):
     """
     raw, out, fit_out = opts["raw"], opts["out"], opts["fit_out"]
     outs = OutputSet([out, fit_out], [*raw, opts["sensors_file"]], force=opts["force"])
-    robot = load(opts["robot_name"], opts["support"])
+    robot = common.load(opts["robot_name"], opts["support"])
     options = calibration_options(opts)
     options.check()
     if options.total_mass is not None:

@@ -6,13 +6,13 @@ Lengths are printed by ``sescid.report.mm`` (the one home of number wording).
 from __future__ import annotations
 
 import sys
-from typing import Any
+from typing import Any, get_args
 
 import click
 
 from sescid.base import SEED_HELP
 from sescid.cli.flags import FieldOption, flag
-from sescid.errors import MissingExtraError, OptionError, SescidError
+from sescid.errors import MissingExtraError, OptionError, SescidError, choices
 from sescid.estimation import IdentifyOptions
 
 #: CLI spelling of API parameters that are no flag of the same name, for errors about options
@@ -99,6 +99,25 @@ def robot_options(f: Any) -> Any:
     return f
 
 
+#: a file argument or flag: a path that is not a folder
+FILE = click.Path(dir_okay=False)
+
+
+def file_option(flag: str, help: str, param: str | None = None, *, required: bool = False) -> Any:  # noqa: A002
+    """A flag naming a file (not a folder); ``param``: the handler's name for it."""
+    names = [flag] if param is None else [flag, param]
+    return click.option(*names, required=required, default=None, type=FILE, help=help)
+
+
+def choice_option(flag: str, values: Any, default: Any, help: str) -> Any:  # noqa: A002
+    """A flag taking one of ``values`` (a ``Literal`` alias: its choices, or a sequence)."""
+    allowed = choices(values) if get_args(values) else values
+    kind = click.Choice([str(v) for v in allowed])
+    return click.option(
+        flag, type=kind, default=default, show_default=default is not None, help=help
+    )
+
+
 def seed_option(f: Any) -> Any:
     """--seed: a non-negative integer."""
     return click.option(
@@ -164,12 +183,10 @@ def echo_model_change(fit: Any, fit_file: str) -> None:
 
 def sensors_option(f: Any) -> Any:
     """--sensors: the foot-sensor file (default: the robot profile's)."""
-    return click.option(
+    return file_option(
         "--sensors",
+        "Foot-sensor configuration JSON (default: the robot profile's; for op2 a hypothesis).",
         "sensors_file",
-        default=None,
-        type=click.Path(dir_okay=False),
-        help="Foot-sensor configuration JSON (default: the robot profile's; for op2 a hypothesis).",
     )(f)
 
 

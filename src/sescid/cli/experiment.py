@@ -18,16 +18,9 @@ from sescid.bench import (
     check_limits,
     run_experiment,
 )
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    robot_options,
-    seed_option,
-    sensors_option,
-)
+from sescid.cli import common
 from sescid.cli.flags import flags, record
-from sescid.errors import DataError, OptionError, choices
+from sescid.errors import DataError, OptionError
 from sescid.io import read_poses, read_table, write_table
 from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
@@ -71,14 +64,11 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "st
 
 
 @click.command()
-@robot_options
-@click.option(
-    "--poses",
-    "poses_file",
+@common.robot_options
+@common.file_option(
+    "--poses", "Pose list (joint columns in radians; optional 'pose' id column).", "poses_file",
     required=True,
-    type=click.Path(dir_okay=False),
-    help="Pose list (joint columns in radians; optional 'pose' id column).",
-)
+)  # fmt: skip
 @click.option(
     "--samples",
     default=100,
@@ -86,39 +76,34 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "st
     type=click.IntRange(min=1, max=1_000_000),
     help="Sensor readings per pose.",
 )
-@seed_option
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Raw log CSV.")
-@click.option(
+@common.seed_option
+@common.file_option("--out", "Raw log CSV.", required=True)
+@common.file_option(
     "--truth",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Also write the truth (true SESC vectors, actual poses, true CoPs and torques) as JSON.",
+    "Also write the truth (true SESC vectors, actual poses, true CoPs and torques) as JSON.",
 )
-@sensors_option
+@common.sensors_option
 @flags(ExperimentConfig, "extra_mass_fraction", "backlash_deg", "fsr_noise", "fsr_bias", "fsr_gain",
        "double_support", "registers", "mount", "imu_noise_deg", "imu_link")  # fmt: skip
 @torque_options
-@click.option(
+@common.choice_option(
     "--engine",
-    type=click.Choice(choices(Engine)),
-    default="kinematic",
-    show_default=True,
-    help="kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "
+    Engine,
+    "kinematic",
+    "kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "
     "bench (servos hold each pose on a compliant floor; logs grav_x/y/z and the IMU too).",
 )
 @flags(MujocoBenchConfig, "weld_foot", "kp")
 @flags(ExperimentConfig, "tilt_deg")
-@force_option
+@common.force_option
 def experiment(**opts):
     """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs,
     optional joint torque sensors) stands (or hangs) in each pose of the list; writes the raw
     sensor log that `sescid measure` reads."""
     out, truth = opts["out"], opts["truth"]
-    outs = OutputSet(
-        [out, truth], [opts["poses_file"], opts["sensors_file"], model_input(opts["robot_name"])],
-        force=opts["force"],
-    )  # fmt: skip
-    robot = load(opts["robot_name"], opts["support"])
+    inputs = [opts["poses_file"], opts["sensors_file"], common.model_input(opts["robot_name"])]
+    outs = OutputSet([out, truth], inputs, force=opts["force"])
+    robot = common.load(opts["robot_name"], opts["support"])
     cfg = experiment_config(opts)
     bench = mujoco_bench(opts, cfg)
     sensors = bench_sensors(opts["sensors_file"], robot.profile, cfg.torque, cfg.mount)

@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import echo_model_change, force_option
+from sescid.cli import common
 from sescid.cli.flags import flag
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
@@ -18,8 +18,8 @@ from sescid.io import (
 
 
 @click.command("export")
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output model file.")
+@click.argument("fit_file", type=common.FILE)
+@common.file_option("--out", "Output model file.", required=True)
 @click.option(
     "--format",
     "model_format",
@@ -29,7 +29,7 @@ from sescid.io import (
 )
 @flag(ConsistentOptions, "total_mass")
 @consistent_options
-@force_option
+@common.force_option
 def export_cmd(fit_file, out, model_format, force, **opts):
     """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
 
@@ -38,7 +38,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
     """
     OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
-    echo_model_change(fit, fit_file)
+    common.echo_model_change(fit, fit_file)
     outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:

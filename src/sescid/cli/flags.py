@@ -127,3 +127,27 @@ def record(cls: type[T], opts: dict, **given: Any) -> T:
     keys = {n: param_name(cls, n) for n in option_names(cls) if n not in given}
     values = {n: opts[k] for n, k in keys.items() if k in opts}
     return cls(**values, **given)
+
+
+class SectionedCommand(click.Command):
+    """A command whose ``--help`` lists its options under titles (click has no option groups):
+    ``sections`` maps each title to its parameters' names, in order; an option no section names
+    is listed in the last one."""
+
+    def __init__(self, *args: Any, sections: dict[str, tuple[str, ...]], **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.sections = sections
+
+    def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """Each section's options under its title (click's: all under "Options")."""
+        rows = {p.name: p.get_help_record(ctx) for p in self.get_params(ctx)}
+        rows = {n: r for n, r in rows.items() if r is not None and n is not None}
+        named = {n for names in self.sections.values() for n in names}
+        *_, last = self.sections
+        for title, names in self.sections.items():
+            shown = [rows[n] for n in names if n in rows]
+            if title == last:
+                shown += [r for n, r in rows.items() if n not in named]
+            if shown:
+                with formatter.section(title):
+                    formatter.write_dl(shown)

@@ -6,15 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import (
-    force_option,
-    imu_link_option,
-    load,
-    min_samples_option,
-    model_input,
-    robot_options,
-    sensors_option,
-)
+from sescid.cli import common
 from sescid.errors import DataError
 from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
@@ -53,20 +45,18 @@ def _sensors(sensors_file, profile):
 
 
 @click.command()
-@click.argument("raw", type=click.Path(dir_okay=False))
-@robot_options
-@sensors_option
-@click.option(
+@click.argument("raw", type=common.FILE)
+@common.robot_options
+@common.sensors_option
+@common.file_option(
     "--poses",
+    "Pose list: every pose id in the log must be in it (its 'pose' column or row number).",
     "poses_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Pose list: every pose id in the log must be in it (its 'pose' column or row number).",
 )
-@min_samples_option
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-@imu_link_option
-@force_option
+@common.min_samples_option
+@common.file_option("--out", "Output CSV.", required=True)
+@common.imu_link_option
+@common.force_option
 def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, imu_link, force):
     """Reduce a raw log to one measurement per pose: the CoP (support frame, m) from the foot
     sensors and the joint torques, each with its standard error.
@@ -76,9 +66,11 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are
     logged. A log with torques and no foot sensors needs no sensor file.
     """
-    outs = OutputSet([out], [raw, poses_file, sensors_file, model_input(robot_name)], force=force)
+    outs = OutputSet(
+        [out], [raw, poses_file, sensors_file, common.model_input(robot_name)], force=force
+    )
     stance = _log_stance(raw, support)
-    robot = load(robot_name, support or (None if stance in (None, DOUBLE) else stance))
+    robot = common.load(robot_name, support or (None if stance in (None, DOUBLE) else stance))
     config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
     res, unmeasured = fsr_chunks(

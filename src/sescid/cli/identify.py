@@ -13,8 +13,8 @@ import click
 from sescid.api import file_stance
 from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress, option_spec
-from sescid.cli.common import force_option, load, model_input, robot_options
-from sescid.cli.flags import flags, help_of, record
+from sescid.cli import common
+from sescid.cli.flags import SectionedCommand, flags, help_of, record
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError, choices
 from sescid.estimation import (
@@ -88,30 +88,40 @@ def _online_step(opts: dict) -> int | None:
     return None
 
 
+#: identify's options in ``--help``, by what they are about
+SECTIONS = {
+    "Data": ("robot_name", "support", "line", "kinds", "weighted", "cop_noise", "com_height",
+             "imu_link", "allow_outside_limits"),
+    "Method": ("method", "rtol", "allow_exact", "robust", "cv", "joint_noise_deg", "mc_draws",
+               "online", "online_step", "seed"),
+    "MAP (--method map or auto)": ("prior_scale", "prior", "prior_select", "noise", "bias"),
+    "Consistent masses (--method consistent)": ("total_mass", "mass_floor", "symmetric",
+                                                "box_margin", "via", "cad_std"),
+    "Joint torques": ("tau_noise", "tau_gains", "gain_prior", "gravity_accel"),
+    "Output": ("out", "force"),
+}  # fmt: skip
 _, _NOISE = option_spec(IdentifyOptions, "joint_noise")
 _, _STEP = option_spec(IdentifyOptions, "online_step")
 
 
-@click.command()
-@click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@robot_options
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Fit JSON.")
-@click.option(
+@click.command(cls=SectionedCommand, sections=SECTIONS)
+@click.argument("data", nargs=-1, required=True, type=common.FILE)
+@common.robot_options
+@common.file_option("--out", "Fit JSON.", required=True)
+@common.choice_option(
     "--method",
-    type=click.Choice(list(METHOD_CHOICES)),
-    default="auto",
-    show_default=True,
-    help="auto: MAP with the CAD prior when the data leave directions weakly determined, "
+    METHOD_CHOICES,
+    "auto",
+    "auto: MAP with the CAD prior when the data leave directions weakly determined, "
     "least squares when they determine every direction well (the fit says which and why); "
     "ls: least squares (the paper's; undetermined directions from the model file); map: "
     "Gaussian CAD prior; consistent: body masses and CoMs (see --total-mass …).",
 )
-@click.option(
+@common.choice_option(
     "--kinds",
-    type=click.Choice(["all", *choices(Kind)]),
-    default="all",
-    show_default=True,
-    help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
+    ["all", *choices(Kind)],
+    "all",
+    "Which measurements of the files to fit: all they have, the CoP only, or the joint "
     "torques only.",
 )
 @flags(IdentifyOptions, "com_height", "weighted", "rtol", "cop_noise", "tau_noise", "tau_gains",
@@ -132,10 +142,13 @@ _, _STEP = option_spec(IdentifyOptions, "online_step")
     "--online-step", default=1, show_default=True, type=click.IntRange(min=1), help=_STEP.help
 )
 @flags(IdentifyOptions, "seed", "allow_outside_limits", "imu_link")
-@force_option
+@common.force_option
 def identify(data, robot_name, support, out, method, force, **opts):
-    """Identify the SESC vectors from CSV/Parquet files of poses (radians) and what was
-    measured: cop_x, cop_y (m) and/or tau_<joint> (N·m) columns; several files are pooled.
+    """Identify the robot's mass distribution from CSV/Parquet files of poses (a column per
+    joint, radians) and what was measured there: the CoP (cop_x, cop_y, m), joint torques
+    (tau_<joint>, N·m) or, for a robot balancing on a line (--line), the gravity direction of
+    each balanced pose (grav_x, grav_y, grav_z). Several files, of one stance or several, pool
+    into one fit of the SESC vectors (with --method consistent: body masses and CoMs).
 
     Optional columns: grav_x, grav_y, grav_z (gravity direction in the support frame; a tilted
     sole), approach (±1: each pose reached moving up or down, for torque friction), cop_se_*,
@@ -144,8 +157,8 @@ def identify(data, robot_name, support, out, method, force, **opts):
     parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
     files = [file_stance(d)[0] for d in data]
-    outs = OutputSet([out], [*files, model_input(robot_name)], force=force)
-    robot = load(robot_name, support)
+    outs = OutputSet([out], [*files, common.model_input(robot_name)], force=force)
+    robot = common.load(robot_name, support)
     chosen, options = options_from_flags(method, opts)
     size = sum(rows_estimate(f) or 0 for f in files) or None
     with TerminalProgress("identifying poses") as bar:

@@ -7,15 +7,9 @@ import dataclasses
 import click
 
 from sescid.base import OutputSet, TerminalProgress
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    robot_options,
-    seed_option,
-)
+from sescid.cli import common
 from sescid.cli.flags import flags, record
-from sescid.errors import OptionError, choices
+from sescid.errors import OptionError
 from sescid.estimation import min_poses
 from sescid.io import pose_table, required_paper_convention, write_table
 from sescid.planning import (
@@ -51,7 +45,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 
 
 @click.command()
-@robot_options
+@common.robot_options
 @click.option(
     "--count",
     default=38,
@@ -59,15 +53,11 @@ def _sole_notes(robot, capsules) -> list[str]:
     type=click.IntRange(min=1),
     help="Number of poses K to choose.",
 )
-@click.option(
-    "--select",
-    type=click.Choice(choices(Select)),
-    default="d-optimal",
-    show_default=True,
-    help="D-optimal (greedy + exchange) or K random candidates.",
+@common.choice_option(
+    "--select", Select, "d-optimal", "D-optimal (greedy + exchange) or K random candidates."
 )
-@seed_option
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Pose list CSV.")
+@common.seed_option
+@common.file_option("--out", "Pose list CSV.", required=True)
 @flags(PlanOptions, "n_candidates", "n_test")
 @click.option(
     "--cop-box",
@@ -97,12 +87,7 @@ def _sole_notes(robot, capsules) -> list[str]:
     "--urdf-limits", is_flag=True, help="Sample within the model's limits, not the paper's."
 )
 @flags(PlanOptions, "sigma")
-@click.option(
-    "--figure",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Also write a PNG: expected CoP error vs K, D-optimal vs random.",
-)
+@common.file_option("--figure", "Also write a PNG: expected CoP error vs K, D-optimal vs random.")
 @click.option(
     "--paper-convention",
     is_flag=True,
@@ -133,16 +118,14 @@ def _sole_notes(robot, capsules) -> list[str]:
     "--count minus this times (m - 1) poses.",
 )
 @flags(PlanOptions, "hang_height")
-@click.option(
+@common.choice_option(
     "--check",
-    "check",
-    type=click.Choice(["none", "mujoco"]),
-    default="none",
-    show_default=True,
-    help="mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
+    ["none", "mujoco"],
+    "none",
+    "mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
     "the next best until all do; needs the mujoco extra).",
 )
-@force_option
+@common.force_option
 def poses(**o):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
     informative, ordered to keep consecutive poses close.
@@ -153,8 +136,8 @@ def poses(**o):
     in a gantry).
     """
     out, figure, count, select, kinds = o["out"], o["figure"], o["count"], o["select"], o["kinds"]
-    outs = OutputSet([out, figure], [model_input(o["robot_name"])], force=o["force"])
-    robot = load(o["robot_name"], o["support"])
+    outs = OutputSet([out, figure], [common.model_input(o["robot_name"])], force=o["force"])
+    robot = common.load(o["robot_name"], o["support"])
     pc = required_paper_convention(robot) if o["paper_convention"] else None
     chosen = parse_stances(o["stances"], robot) if o["stances"] is not None else ()
     mount = o["mount"]

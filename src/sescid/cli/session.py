@@ -10,13 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    robot_options,
-    sensors_option,
-)
+from sescid.cli import common
 from sescid.cli.experiment import bench_sensors, torque_config, torque_options
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
@@ -89,28 +83,30 @@ class _CopView:
 
 
 class _Both:
+    """Every event told to each of the observers in turn."""
+
     def __init__(self, *observers):
         self.observers = [o for o in observers if o is not None]
 
-    def planned(self, *a):
+    def _tell(self, event: str, args: tuple) -> None:
         for o in self.observers:
-            o.planned(*a)
+            getattr(o, event)(*args)
+
+    def planned(self, *a):
+        self._tell("planned", a)
 
     def finished_pose(self, *a):
-        for o in self.observers:
-            o.finished_pose(*a)
+        self._tell("finished_pose", a)
 
     def stopped(self, *a):
-        for o in self.observers:
-            o.stopped(*a)
+        self._tell("stopped", a)
 
     def stance(self, *a):
-        for o in self.observers:
-            o.stance(*a)
+        self._tell("stance", a)
 
 
 @click.command()
-@robot_options
+@common.robot_options
 @click.option(
     "--adapter",
     default="mujoco",
@@ -119,13 +115,8 @@ class _Both:
     "--replay), or python:MODULE:CLASS / python:FILE.py:CLASS (your robot, constructed as "
     "CLASS(robot)).",
 )
-@click.option(
-    "--replay",
-    "replay_path",
-    default=None,
-    type=click.Path(exists=True),
-    help="replay: a session folder (raw.csv + poses.csv) or a raw log file.",
-)
+@click.option("--replay", "replay_path", type=click.Path(exists=True),
+              help="replay: a session folder (raw.csv + poses.csv) or a raw log file.")  # fmt: skip
 @click.option(
     "--out-dir",
     required=True,
@@ -150,7 +141,7 @@ class _Both:
     help="mujoco, kinematic: whether the robot logs its foot sensors; --no-foot-sensors: a "
     "robot that reports joint torques only (with --torques). Other adapters log what they log.",
 )
-@sensors_option
+@common.sensors_option
 @torque_options
 @click.option("--no-view", is_flag=True, help="No live 3-D view (the session runs the same).")
 @click.option(
@@ -167,7 +158,7 @@ class _Both:
     type=click.FloatRange(0, 3600),
     help="Live view: keep serving this many seconds after the session ends [s].",
 )
-@force_option
+@common.force_option
 def session(**opts):
     """Guided identification: plan the next-best pose, command it, measure, update the estimate;
     stop when the predicted CoP error (the CoM's, with joint torques) has converged or the
@@ -183,7 +174,7 @@ def session(**opts):
     from sescid.base import TerminalProgress
     from sescid.session import Journal, check_options, run_session
 
-    robot = load(opts["robot_name"], opts["support"])
+    robot = common.load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
     stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
     if stances and opts["mount"] is not None:
@@ -236,7 +227,7 @@ def _adapter(robot, opts, opt):
 
     adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
     inputs = [
-        model_input(opts["robot_name"]),
+        common.model_input(opts["robot_name"]),
         opts["sensors_file"],
         *_replay_files(adapter, replay_path),
     ]

@@ -8,16 +8,8 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    robot_options,
-    seed_option,
-    study_options,
-)
+from sescid.cli import common
 from sescid.cli.flags import flags, record
-from sescid.errors import choices
 from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
@@ -26,9 +18,9 @@ Measure = Literal[DesignKind, "balance"]
 
 
 @click.command()
-@robot_options
-@study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
-@seed_option
+@common.robot_options
+@common.study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
+@common.seed_option
 @click.option(
     "--clip/--no-clip",
     default=None,
@@ -44,11 +36,11 @@ Measure = Literal[DesignKind, "balance"]
     help="Tilt the support per pose by a random roll and pitch of this standard deviation "
     "[degrees]; writes grav_x, grav_y, grav_z.",
 )
-@click.option(
+@common.choice_option(
     "--measure",
-    type=click.Choice(choices(Measure)),
-    default=None,
-    help="What the robot measures: the CoP under its foot, its joint torques, or both; "
+    Measure,
+    None,
+    "What the robot measures: the CoP under its foot, its joint torques, or both; "
     "balance: balanced poses of a robot on its support line (--line), read by an IMU "
     "[default: balance on a line support, else cop].",
 )
@@ -60,8 +52,8 @@ Measure = Literal[DesignKind, "balance"]
     help="--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
 )
 @flags(TorqueNoise, "noise", "offset", "friction")
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-@force_option
+@common.file_option("--out", "Output CSV.", required=True)
+@common.force_option
 def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out,
              force, **kinds):  # fmt: skip
     """Simulate poses and what a robot measures there (paper §3) into a CSV.
@@ -78,8 +70,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
 
-    outs = OutputSet([out], [model_input(robot_name)], force=force)
-    robot = load(robot_name, support)
+    outs = OutputSet([out], [common.model_input(robot_name)], force=force)
+    robot = common.load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
     if measure == "balance":
         _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
