@@ -7,8 +7,9 @@ block of poses, the regressor, the one-pose CoM), ``cop`` (the CoM's x, y of man
 ``reduced`` (the regressor without its structural null space), ``gram`` (sums of products in a
 fixed order), ``fused`` (the CoP's normal equations in one pass), ``torque_plan``, ``torque`` and
 ``torque_sums`` (the joint torques' normal equations in the same pass), ``torque_values``
-(holding torques and their regressor rows), ``residuals`` (a fit's residual pass) and ``simd``
-(explicit FMAs and 8-lane vectors, loaded with numba when the kernels load: not imported here).
+(holding torques and their regressor rows), ``residuals`` (a fit's residual pass), ``simd``
+(explicit FMAs and 8-lane vectors, loaded with numba when the kernels load: not imported here)
+and ``intrinsics`` (its stand-ins until then).
 Names are public within the package: a kernel module imports another's by its plain name.
 """
 
@@ -17,6 +18,7 @@ from sescid.kinematics._kernels import (
     cop,
     fused,
     gram,
+    intrinsics,
     reduced,
     residuals,
     torque,
@@ -32,6 +34,7 @@ __all__ = [
     "cop",
     "fused",
     "gram",
+    "intrinsics",
     "reduced",
     "residuals",
     "torque",

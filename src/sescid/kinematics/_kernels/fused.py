@@ -13,22 +13,22 @@ from __future__ import annotations
 import numpy as np
 
 from sescid.kinematics._kernels.gram import padded, syrk
+from sescid.kinematics._kernels.intrinsics import (
+    vabsmax,
+    vfma,
+    vload,
+    vmaxlane,
+    vmul,
+    vneg,
+    vsplat,
+    vstore,
+    vzero,
+)
 from sescid.kinematics._kernels.reduced import Reduction
 from sescid.kinematics._kernels.trig import MAX_ANGLE, SMALL_ANGLE
 from sescid.kinematics._kernels.trig_fma import trig_row_fma
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
+from sescid.kinematics.compile import GROUP, lazy_njit
 from sescid.kinematics.tree import Tree
-
-fma = simd_intrinsic("fma")
-vload = simd_intrinsic("vload")
-vstore = simd_intrinsic("vstore")
-vsplat = simd_intrinsic("vsplat")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vmul = simd_intrinsic("vmul")
-vneg = simd_intrinsic("vneg")
-vabsmax = simd_intrinsic("vabsmax")
-vmaxlane = simd_intrinsic("vmaxlane")
 
 #: poses per sub-block of the fused pass (a multiple of 8: the block's rotations, columns and
 #: product stay in L2)
@@ -46,13 +46,16 @@ def angles_ok(q):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def transpose_block(q, s0, w, qt):  # pragma: no cover - compiled
-    """qt[j, k] = q[s0 + k, j] for k < w, zero beyond: the block's angles, joint-major."""
+def block_angles(q, s0, blk, qt):  # pragma: no cover - compiled
+    """The block of up to blk poses from s0: qt[j, k] = q[s0 + k, j] for k < w, zero beyond
+    (its angles, joint-major); (w, w rounded up to the 8 lanes)."""
+    w = min(blk, q.shape[0] - s0)
     qb = q[s0 : s0 + w]
     for k in range(w):
         for j in range(q.shape[1]):
             qt[j, k] = qb[k, j]
     qt[:, w:] = 0.0
+    return w, (w + 7) // 8 * 8
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -90,8 +93,8 @@ def _trig_simd(qt, jc, lin, w, seg, s, c1):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rows, u,
-          pos, s, c1, rot, xv, cols=True):  # fmt: skip  # pragma: no cover - compiled
+def body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rows,
+                 u, pos, s, c1, rot, xv, cols=True):  # fmt: skip  # pragma: no cover - compiled
     """Body b for the block's w poses (8 lanes at a time, seg = w rounded up to 8):
     rot[b, j, i, k] = R_b[rows[i], j] from its parent's (trig and chain in FMAs) and, for a
     moving body, its unweighted reduced columns xv[nr + 2·pos[b] + l, i·seg + k] =
@@ -170,6 +173,17 @@ def body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_
                 xv[row + lc, i * seg + k] = 0.0
 
 
+@lazy_njit(GROUP, cache=True, nogil=True, inline="always")
+def chain_buffers(q, parent, nr, blk):  # pragma: no cover - compiled
+    """A fused pass over poses q (n, nq) of a tree of nb bodies (``parent``): (n, nq, nb) and
+    its chain buffers for blocks of blk poses: rot (nb, 3, nr, blk), s and c1 (blk,) (a joint's
+    sin θ, 1 − cos θ) and qt (nq, blk) (the block's angles, joint-major)."""
+    n, nq = q.shape
+    nb = parent.shape[0]
+    rot = np.zeros((nb, 3, nr, blk))
+    return n, nq, nb, rot, np.zeros(blk), np.zeros(blk), np.zeros((nq, blk))
+
+
 @lazy_njit(GROUP, cache=True, nogil=True)
 def cop_rows(w, seg, nr, xv):  # pragma: no cover - compiled
     """The CoP's intercept rows xv[c, i·seg + k] = δ_ci (zero for w ≤ k < seg)."""
@@ -219,24 +233,17 @@ def _gram_reduced(q, y, sw, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, r
     MAX_ANGLE."""
     if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
     nr = rows.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, nr, blk)
     p4 = out.shape[0]
     pt = nr + 2 * (nb - 1)
-    rot = np.zeros((nb, 3, nr, blk))
     xv = np.zeros((p4, nr * blk))
     xw = np.zeros((p4 if sw.shape[0] > 0 else 0, nr * blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        transpose_block(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         for b in range(nb):
             body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, u, pos, s, c1, rot, xv)  # fmt: skip
+                         rows, u, pos, s, c1, rot, xv)  # fmt: skip
         cop_rows(w, seg, nr, xv)
         cop_target((s0, w, seg), y, sw, pt, xv, xw)
         syrk(xw if sw.shape[0] > 0 else xv, p4, nr * seg, out)

@@ -13,12 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-
-vload = simd_intrinsic("vload")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vsum = simd_intrinsic("vsum")
+from sescid.kinematics._kernels.intrinsics import vfma, vload, vsum, vzero
+from sescid.kinematics.compile import GROUP, lazy_njit
 
 #: lanes of ``simd.Vec`` and the step of the summed index: part of the summation order, so
 #: fixed (not the CPU's vector width)

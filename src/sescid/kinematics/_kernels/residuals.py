@@ -13,21 +13,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics._kernels.fused import GRAM_BLOCK, angles_ok, body_columns, transpose_block
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
+from sescid.kinematics._kernels.fused import (
+    GRAM_BLOCK,
+    angles_ok,
+    block_angles,
+    body_columns,
+    chain_buffers,
+)
+from sescid.kinematics._kernels.intrinsics import (
+    vabs,
+    vadd,
+    vfma,
+    vload,
+    vmul,
+    vneg,
+    vsplat,
+    vstore,
+    vsub,
+    vsum,
+    vzero,
+)
+from sescid.kinematics.compile import GROUP, lazy_njit
 from sescid.kinematics.tree import Tree
-
-vload = simd_intrinsic("vload")
-vsplat = simd_intrinsic("vsplat")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vmul = simd_intrinsic("vmul")
-vsub = simd_intrinsic("vsub")
-vadd = simd_intrinsic("vadd")
-vabs = simd_intrinsic("vabs")
-vsum = simd_intrinsic("vsum")
-vstore = simd_intrinsic("vstore")
-vneg = simd_intrinsic("vneg")
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -38,13 +45,8 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
     written) when an angle is beyond MAX_ANGLE."""
     if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, 2, blk)
     rows = np.arange(2)
-    rot = np.zeros((nb, 3, 2, blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     tgt = np.zeros((3, 2, blk))  # y, y2 and the mask (1 for a pose of the block, 0 past it)
     dummy = np.zeros((1, 8))
     no_u = np.zeros((1, 2, 3))
@@ -54,9 +56,7 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
     a_sq = vzero()
     a_tr = vzero()
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        transpose_block(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         tgt[:, :, w:] = 0.0
         for k in range(w):
             for i in range(2):
@@ -65,7 +65,7 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
                 tgt[2, i, k] = 1.0
         for b in range(nb):
             body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
+                         rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
         for i in range(2):
             for k in range(0, seg, 8):
                 c = vsplat(root_o[i])
@@ -114,15 +114,10 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
     (nothing written) when an angle is beyond MAX_ANGLE."""
     if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, 2, blk)
     nj = tau.shape[1]
     rows = np.arange(2)
-    rot = np.zeros((nb, 3, 2, blk))
     f = np.zeros((nb, 2, blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     tt = np.zeros((nj + 2, blk))  # the block's torques, approach sides, mask
     dummy = np.zeros((1, 8))
     no_u = np.zeros((1, 2, 3))
@@ -130,9 +125,7 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
     a_abs = vzero()
     a_sq = vzero()
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        transpose_block(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         tt[:, w:] = 0.0
         tb = tau[s0 : s0 + w]
         for k in range(w):
@@ -142,7 +135,7 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
             tt[nj + 1, k] = 1.0
         for b in range(nb):
             body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
+                         rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
             r0, r1, r2 = vsplat(r[b, 0]), vsplat(r[b, 1]), vsplat(r[b, 2])
             for i in range(2):
                 base = (b * 6 + i) * blk

@@ -13,24 +13,25 @@ import numpy as np
 
 from sescid.kinematics._kernels.fused import (
     angles_ok,
+    block_angles,
     body_columns,
+    chain_buffers,
     cop_rows,
     cop_target,
-    transpose_block,
 )
 from sescid.kinematics._kernels.gram import sum_tile, sum_tile3, syrk
+from sescid.kinematics._kernels.intrinsics import (
+    vadd,
+    vfma,
+    vload,
+    vmul,
+    vsplat,
+    vstore,
+    vsum,
+    vzero,
+)
 from sescid.kinematics._kernels.torque_plan import ROW_OFFSET, ROW_PAIR
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-
-fma = simd_intrinsic("fma")
-vload = simd_intrinsic("vload")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vsum = simd_intrinsic("vsum")
-vadd = simd_intrinsic("vadd")
-vmul = simd_intrinsic("vmul")
-vstore = simd_intrinsic("vstore")
-vsplat = simd_intrinsic("vsplat")
+from sescid.kinematics.compile import GROUP, lazy_njit
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
@@ -247,21 +248,17 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def gram_fused_kernel(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, parent, nz_ptr,
-                nz_k, nz_j, nz_a, root_r, u, pos, meas, axis, own_ptr, own, lrows, tasks, n_sesc,
-                blk, out_cop, out_tau):  # fmt: skip  # pragma: no cover - compiled
+def gram_fused_kernel(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, parent,
+                      nz_ptr, nz_k, nz_j, nz_a, root_r, u, pos, meas, axis, own_ptr, own, lrows,
+                      tasks, n_sesc, blk, out_cop,
+                      out_tau):  # fmt: skip  # pragma: no cover - compiled
     """The CoP's (when out_cop has rows) and the torques' augmented sums of poses q in one pass
     over the chain's rows x, y; False (nothing added) when an angle is beyond MAX_ANGLE."""
     if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, 2, blk)
     nj = tau.shape[1]
     rows = np.arange(2)
-    rot = np.zeros((nb, 3, 2, blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     pc = out_cop.shape[0]
     pt = 2 + n_sesc
     xv = np.zeros((max(pc, pt + 1), 2 * blk))
@@ -274,13 +271,11 @@ def gram_fused_kernel(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, o
     friction = approach.shape[0] > 0
     ab = np.zeros(blk)
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        transpose_block(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         _joint_rows((s0, w, seg), tau, tau_sw, approach, ab, e)
         for b in range(nb):
             body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, u, pos, s, c1, rot, xv)  # fmt: skip
+                         rows, u, pos, s, c1, rot, xv)  # fmt: skip
             if b > 0:
                 _body_torque(b, w, seg, mg, coef, axis, parent, pos, meas, own_ptr, own, lrows,
                              rot, xv, 2, lev, e, sp, zp, ul, n_sesc, friction,

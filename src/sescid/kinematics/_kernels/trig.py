@@ -63,6 +63,12 @@ def sin_cos1m(x):
     q = np.floor(x * TWO_OVER_PI + 0.5)
     r = ((x - q * PIO2_1) - q * PIO2_2) - q * PIO2_2T  # |r| ≤ π/4
     sp, cm = _sin_cm(r)
+    return from_quadrant(q, sp, cm)
+
+
+@lazy_njit(GROUP, cache=True, nogil=True, inline="always")
+def from_quadrant(q, sp, cm):
+    """Sin x and 1 − cos x from sin r and cos r − 1 of the reduced angle r = x − q·π/2."""
     qi = np.int64(q) & 3
     a = (1.0 + cm) if qi & 1 else sp
     c = sp if qi & 1 else (1.0 + cm)

@@ -10,10 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics._kernels.trig import PIO2_1, PIO2_2, PIO2_2T, SMALL_ANGLE, TWO_OVER_PI
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-
-fma = simd_intrinsic("fma")
+from sescid.kinematics._kernels.intrinsics import fma
+from sescid.kinematics._kernels.trig import (
+    PIO2_1,
+    PIO2_2,
+    PIO2_2T,
+    SMALL_ANGLE,
+    TWO_OVER_PI,
+    from_quadrant,
+)
+from sescid.kinematics.compile import GROUP, lazy_njit
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
@@ -42,12 +48,7 @@ def _sin_cos1m_fma(x):  # pragma: no cover - compiled
     q = np.floor(x * TWO_OVER_PI + 0.5)
     r = fma(-q, PIO2_2T, fma(-q, PIO2_2, fma(-q, PIO2_1, x)))  # |r| ≤ π/4
     sp, cm = _sin_cm_fma(r)
-    qi = np.int64(q) & 3
-    a = (1.0 + cm) if qi & 1 else sp
-    c = sp if qi & 1 else (1.0 + cm)
-    sn = -a if qi >= 2 else a
-    cs = -c if (qi == 1 or qi == 2) else c
-    return sn, (-cm if qi == 0 else 1.0 - cs)
+    return from_quadrant(q, sp, cm)
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
