@@ -228,14 +228,18 @@ def expected_cop_error(a_sel: np.ndarray, c_test: np.ndarray, sigma: float) -> f
     ``a_sel`` (K, 2, p) projected regressor of the chosen poses, ``c_test`` = Σ_t A_tᵀA_t / rows
     over test poses, ``sigma`` CoP noise [m]: σ · sqrt(trace(M⁻¹ c_test)). inf if M is singular.
     """
-    m = information(a_sel)
+    val = inverse_trace(information(a_sel), c_test)
+    return sigma * math.sqrt(val) if 0 < val < math.inf else math.inf
+
+
+def inverse_trace(m: np.ndarray, c: np.ndarray) -> float:
+    """trace(M⁻¹ C) for M (p, p) symmetric, by Cholesky; inf when M is not positive definite."""
     try:
         chol = np.linalg.cholesky(m)
     except np.linalg.LinAlgError:
         return math.inf
-    z = np.linalg.solve(chol, np.linalg.solve(chol, c_test).T)
-    val = float(np.trace(z))
-    return sigma * math.sqrt(val) if val > 0 else math.inf
+    z = np.linalg.solve(chol, np.linalg.solve(chol, c).T)
+    return float(np.trace(z))
 
 
 @one_blas_thread()

@@ -15,6 +15,7 @@ import numpy as np
 from sescid.base import check_ranges, option
 from sescid.errors import OptionError, SescidError
 from sescid.planning.candidates import CandidateOptions, Candidates, Mount, candidates
+from sescid.planning.com import level_cop
 from sescid.planning.compliance import Compliance, compliance
 from sescid.planning.doptimal import Selection
 from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
@@ -258,3 +259,34 @@ def visiting_order(q_sel: np.ndarray) -> tuple[np.ndarray, float, float]:
     q_ord = q_sel[order_poses(q_sel)]
     zero = np.zeros(q_sel.shape[1])
     return q_ord, path_length(q_sel, zero), path_length(q_ord, zero)
+
+
+def pose_plan(
+    robot: Robot,
+    chosen: tuple[Candidates, np.ndarray, Selection],
+    opt: PlanOptions,
+    sampled: tuple[list[str], float],
+    **fields,
+) -> PosePlan:
+    """The plan of the selection of ``chosen`` = (candidates, pool poses (n, nq), selection),
+    in visiting order, with what every design reports (the sampled range of ``sampled`` = (the
+    unlimited joints, their range), the compliance model); ``fields``: what the design adds
+    (its errors, basis, notes, …). ``cop``: False leaves the model CoP nan (a held robot)."""
+    cand, pool_q, sel = chosen
+    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
+    free, free_range = sampled
+    level = fields.pop("cop", True)
+    return PosePlan(
+        q=q_ord,
+        cop=level_cop(robot, q_ord) if level else np.full((len(q_ord), 2), np.nan),
+        sigma=opt.sigma,
+        logdet=sel.logdet,
+        path_unordered=path_unordered,
+        path_ordered=path_ordered,
+        candidates=cand,
+        selection=sel,
+        unlimited=free,
+        unlimited_range=free_range if free else UNLIMITED_RANGE,
+        compliance=cand.compliance,
+        **fields,
+    )
