@@ -55,7 +55,7 @@ from sescid.planning.sequential import NextPose, SequentialDesign
 from sescid.planning.stances import StanceRows, theta_information, theta_scale
 from sescid.robot import Robot
 from sescid.sensors import Measured
-from sescid.session.design import unsafe_pose
+from sescid.session.design import KindSwitch, unsafe_pose
 from sescid.session.estimate import (
     REFERENCE_POSES,
     REFERENCE_RANGE_DEG,
@@ -83,7 +83,7 @@ def start_kinds(stances: tuple[Stance, ...], asked: str) -> DesignKind:
     return "both" if held and stand else "tau" if held else "cop"
 
 
-class StanceDesign:
+class StanceDesign(KindSwitch):
     """The candidates of every stance and the sequential design over their union (module
     docstring); ``cand`` is their union (``cand.q`` indexed by the design)."""
 
@@ -184,17 +184,6 @@ class StanceDesign:
             return self.kinds
         return "both" if (cop or self.kinds == "both") and (tau or self.kinds != "cop") else (
             "cop" if cop else "tau")  # fmt: skip
-
-    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
-        """Plan for ``kinds`` from now on, holding the measured poses (as ``SessionDesign``)."""
-        if kinds == self.kinds:
-            return
-        tried = self.design.tried.copy()
-        self.basis, self.design, self.min_rows = self._design(kinds)
-        self.kinds = kinds
-        for i in measured:
-            self.design.add(i)
-        self.design.tried |= tried
 
     def unsafe(self, i: int, r_est: np.ndarray | None) -> str:
         """Why union candidate ``i`` must not be commanded ('' when it stands): its stance's
