@@ -109,6 +109,13 @@ def file_option(flag: str, help: str, param: str | None = None, *, required: boo
     return click.option(*names, required=required, default=None, type=FILE, help=help)
 
 
+def folder_option(flag: str, help: str, default: str | None = None, *, required: bool = False):  # noqa: A002
+    """A flag naming a folder (not a file), its default shown."""
+    kind = click.Path(file_okay=False)
+    return click.option(flag, default=default, show_default=default is not None,
+                        required=required, type=kind, help=help)  # fmt: skip
+
+
 def choice_option(flag: str, values: Any, default: Any, help: str) -> Any:  # noqa: A002
     """A flag taking one of ``values`` (a ``Literal`` alias: its choices, or a sequence)."""
     allowed = choices(values) if get_args(values) else values
@@ -116,6 +123,12 @@ def choice_option(flag: str, values: Any, default: Any, help: str) -> Any:  # no
     return click.option(
         flag, type=kind, default=default, show_default=default is not None, help=help
     )
+
+
+def number_option(flag: str, default: float, low: float | None, high: float | None, help: str):  # noqa: A002
+    """A number flag within [low, high] (None: unbounded), an integer when ``default`` is."""
+    kind: Any = click.IntRange if isinstance(default, int) else click.FloatRange
+    return click.option(flag, default=default, show_default=True, type=kind(low, high), help=help)
 
 
 def seed_option(f: Any) -> Any:

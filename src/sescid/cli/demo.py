@@ -16,12 +16,8 @@ from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_D
 
 @click.command()
 @common.robot_options
-@click.option(
-    "--out-dir",
-    default="demo_out",
-    show_default=True,
-    type=click.Path(file_okay=False),
-    help="Folder for fit.json, the two figures and summary.csv.",
+@common.folder_option(
+    "--out-dir", "Folder for fit.json, the two figures and summary.csv.", "demo_out"
 )
 @common.study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
 @common.seed_option

@@ -69,13 +69,7 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "st
     "--poses", "Pose list (joint columns in radians; optional 'pose' id column).", "poses_file",
     required=True,
 )  # fmt: skip
-@click.option(
-    "--samples",
-    default=100,
-    show_default=True,
-    type=click.IntRange(min=1, max=1_000_000),
-    help="Sensor readings per pose.",
-)
+@common.number_option("--samples", 100, 1, 1_000_000, "Sensor readings per pose.")
 @common.seed_option
 @common.file_option("--out", "Raw log CSV.", required=True)
 @common.file_option(

@@ -46,13 +46,7 @@ def _sole_notes(robot, capsules) -> list[str]:
 
 @click.command()
 @common.robot_options
-@click.option(
-    "--count",
-    default=38,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Number of poses K to choose.",
-)
+@common.number_option("--count", 38, 1, None, "Number of poses K to choose.")
 @common.choice_option(
     "--select", Select, "d-optimal", "D-optimal (greedy + exchange) or K random candidates."
 )
@@ -109,14 +103,11 @@ def _sole_notes(robot, capsules) -> list[str]:
     "One stance: as --support/--mount; several: one D-optimal design over the body parameters "
     "they share, visited stance by stance, with a 'support' column naming each pose's stance.",
 )
-@click.option(
-    "--stance-cost",
-    default=DEFAULT_STANCE_COST,
-    show_default=True,
-    type=click.FloatRange(min=0),
-    help="Poses a stance change costs (several --stances): a plan with m stances chooses "
-    "--count minus this times (m - 1) poses.",
-)
+@common.number_option(
+    "--stance-cost", DEFAULT_STANCE_COST, 0, None,
+    "Poses a stance change costs (several --stances): a plan with m stances chooses --count "
+    "minus this times (m - 1) poses.",
+)  # fmt: skip
 @flags(PlanOptions, "hang_height")
 @common.choice_option(
     "--check",

@@ -39,7 +39,7 @@ def _residual_line(k: KindNumbers, n: int) -> str:
 @click.command()
 @click.argument("fit_file", type=common.FILE)
 @click.argument("measured", type=common.FILE)
-@click.option("--out-dir", default="report", show_default=True, type=click.Path(file_okay=False))
+@common.folder_option("--out-dir", "Folder for report.html and the figures.", "report")
 @click.option(
     "--support",
     "stance",

@@ -117,12 +117,11 @@ class _Both:
 )
 @click.option("--replay", "replay_path", type=click.Path(exists=True),
               help="replay: a session folder (raw.csv + poses.csv) or a raw log file.")  # fmt: skip
-@click.option(
+@common.folder_option(
     "--out-dir",
+    "Output folder; each pose is journaled there as it is measured, and running again with "
+    "the same folder and options resumes an interrupted session.",
     required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder; each pose is journaled there as it is measured, and running again "
-    "with the same folder and options resumes an interrupted session.",
 )
 @flags(SessionOptions, "budget", "samples", "n_candidates", "seed", "near", "window", "tol",
        "target_std", "kinds", "tau_noise", "mount")  # fmt: skip
@@ -144,20 +143,11 @@ class _Both:
 @common.sensors_option
 @torque_options
 @click.option("--no-view", is_flag=True, help="No live 3-D view (the session runs the same).")
-@click.option(
-    "--view-port",
-    default=8080,
-    show_default=True,
-    type=click.IntRange(1, 65535),
-    help="Live view: port on 127.0.0.1.",
-)
-@click.option(
-    "--view-linger",
-    default=0.0,
-    show_default=True,
-    type=click.FloatRange(0, 3600),
-    help="Live view: keep serving this many seconds after the session ends [s].",
-)
+@common.number_option("--view-port", 8080, 1, 65535, "Live view: port on 127.0.0.1.")
+@common.number_option(
+    "--view-linger", 0.0, 0, 3600,
+    "Live view: keep serving this many seconds after the session ends [s].",
+)  # fmt: skip
 @common.force_option
 def session(**opts):
     """Guided identification: plan the next-best pose, command it, measure, update the estimate;

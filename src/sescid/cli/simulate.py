@@ -28,14 +28,11 @@ Measure = Literal[DesignKind, "balance"]
     "carries the paper's convention (op2: the paper's ±30° study is unclipped)].",
 )
 @click.option("--stable", is_flag=True, help="Keep only poses whose CoP is inside the sole.")
-@click.option(
-    "--tilt-deg",
-    default=0.0,
-    show_default=True,
-    type=click.FloatRange(0, 30),
-    help="Tilt the support per pose by a random roll and pitch of this standard deviation "
+@common.number_option(
+    "--tilt-deg", 0.0, 0, 30,
+    "Tilt the support per pose by a random roll and pitch of this standard deviation "
     "[degrees]; writes grav_x, grav_y, grav_z.",
-)
+)  # fmt: skip
 @common.choice_option(
     "--measure",
     Measure,
@@ -44,13 +41,10 @@ Measure = Literal[DesignKind, "balance"]
     "balance: balanced poses of a robot on its support line (--line), read by an IMU "
     "[default: balance on a line support, else cop].",
 )
-@click.option(
-    "--tilt-noise-deg",
-    default=0.5,
-    show_default=True,
-    type=click.FloatRange(0, 20),
-    help="--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
-)
+@common.number_option(
+    "--tilt-noise-deg", 0.5, 0, 20,
+    "--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
+)  # fmt: skip
 @flags(TorqueNoise, "noise", "offset", "friction")
 @common.file_option("--out", "Output CSV.", required=True)
 @common.force_option
