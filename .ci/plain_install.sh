@@ -27,7 +27,7 @@ PY
 set -x
 "$sescid" --version
 "$sescid" demo --out-dir demo_out
-"$sescid" simulate --robot op2 --poses 1000 --range-deg 30 --noise 0.00493 --seed 0 --out sim.csv
+"$sescid" simulate --robot op2 --count 1000 --range-deg 30 --noise 0.00493 --seed 0 --out sim.csv
 "$sescid" identify sim.csv --robot op2 --method consistent --total-mass 2.97 --out fit.json
 "$sescid" export fit.json --out op2_identified.urdf
 "$sescid" poses --robot op2 --count 38 --select d-optimal --seed 0 --out poses.csv

@@ -249,7 +249,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         r = args.repeat
-        run(["simulate", "--robot", "op2", "--poses", "38", "--seed", "0", "--out", "s38.csv"], d)
+        run(["simulate", "--robot", "op2", "--count", "38", "--seed", "0", "--out", "s38.csv"], d)
         run(["identify", "s38.csv", "--robot", "op2", "--out", "fit.json"], d)  # numba cache
         print(f"start-up (best of {r} fresh processes)")
         base = floor(r)
@@ -301,7 +301,7 @@ def huge_csv(n: int, d: Path) -> tuple[float, float]:
     with (d / "huge.csv").open("wb") as dst:
         for seed in range(1, 11):
             part = d / "part.csv"
-            sim = ["simulate", "--robot", "op2", "--poses", str(n), "--seed", str(seed)]
+            sim = ["simulate", "--robot", "op2", "--count", str(n), "--seed", str(seed)]
             run([*sim, "--out", part.name], d)
             with part.open("rb") as src:
                 if seed > 1:
@@ -353,7 +353,7 @@ def torques(n: int, d: Path) -> None:
 def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
     """Best wall and highest peak memory of ``repeat`` runs of ``simulate`` of n poses into
     big.csv and of ``identify`` of it."""
-    sim = ["simulate", "--robot", "op2", "--poses", str(n), "--seed", "0", "--out", "big.csv"]
+    sim = ["simulate", "--robot", "op2", "--count", str(n), "--seed", "0", "--out", "big.csv"]
     fit = ["identify", "big.csv", "--robot", "op2", "--out", "big.json", "--force"]
     out = []
     for what, args, target in [
@@ -367,7 +367,7 @@ def large(n: int, d: Path, repeat: int) -> list[tuple[float, float]]:
             runs.append(peak_of(args, d))
         wall, mb = min(r.wall for r in runs), max(r.mb for r in runs)
         if what == "simulate":
-            what = f"simulate --poses {n} ({(d / 'big.csv').stat().st_size / 2**20:.0f} MB CSV)"
+            what = f"simulate --count {n} ({(d / 'big.csv').stat().st_size / 2**20:.0f} MB CSV)"
         print(f"  {what:<40} {wall:6.2f} s  {mb:5.0f} MB peak   (target {target} for 10⁶)")
         anon, file = max(r.anon for r in runs), max(r.file for r in runs)
         if what == "identify big.csv" and anon == anon:  # not nan: the system says

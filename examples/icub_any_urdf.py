@@ -1,6 +1,6 @@
 """Identify any URDF robot standing on one of its links, from simulated CoP data.
 
-Run: ``python examples/icub_any_urdf.py ROBOT.urdf SUPPORT_LINK [--poses 2000]``, e.g. with iCub
+Run: ``python examples/icub_any_urdf.py ROBOT.urdf SUPPORT_LINK [--count 2000]``, e.g. with iCub
 from the ``example-robot-data`` package: ``python examples/icub_any_urdf.py .../icub.urdf r_sole``.
 """
 
@@ -16,14 +16,14 @@ from sescid.simulation import simulate
 ap = argparse.ArgumentParser()
 ap.add_argument("urdf")
 ap.add_argument("support")
-ap.add_argument("--poses", type=int, default=2000)
+ap.add_argument("--count", type=int, default=2000)
 ap.add_argument("--range-deg", type=float, default=20.0)
 ap.add_argument("--noise", type=float, default=0.003, help="CoP noise [m]")
 args = ap.parse_args()
 
 robot = sescid.load_robot(args.urdf, support=args.support)
 print(robot)
-sim = simulate(robot, args.poses, args.range_deg, args.noise, seed=0, clip=True)
+sim = simulate(robot, args.count, args.range_deg, args.noise, seed=0, clip=True)
 fit = sescid.identify(robot, sim.q, sim.cop)
 print(fit.summary())
 reasons: dict[str, int] = {}

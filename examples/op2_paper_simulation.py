@@ -1,6 +1,6 @@
 """The paper's §3 simulation study on the embedded OP2, through the Python API.
 
-Run: ``python examples/op2_paper_simulation.py [--poses 1000]`` (``sescid demo`` does the same
+Run: ``python examples/op2_paper_simulation.py [--count 1000]`` (``sescid demo`` does the same
 with figures).
 """
 
@@ -14,11 +14,11 @@ import sescid
 from sescid.study import paper_study
 
 ap = argparse.ArgumentParser()
-ap.add_argument("--poses", type=int, default=1000)
+ap.add_argument("--count", type=int, default=1000)
 ap.add_argument("--fresh", type=int, default=20000, help="fresh poses for validation")
 args = ap.parse_args()
 robot = sescid.load_robot("op2", support="r_sole")
-study = paper_study(robot, n=args.poses, range_deg=30, noise=0.00493, seed=0, n_fresh=args.fresh)
+study = paper_study(robot, n=args.count, range_deg=30, noise=0.00493, seed=0, n_fresh=args.fresh)
 fit = study.fit
 print(robot)
 print(fit.summary())

@@ -4,7 +4,8 @@ The command fixes the BLAS environment before numpy loads: one thread, and on x8
 kernel set, so a fit has the same bytes on every CPU (``sescid.base.threads.pin_process``).
 Importing any part of ``sescid`` imports numpy (the package's public names are plain imports),
 so this module runs ``sescid/base/threads.py`` on its own first (it needs the standard library
-only), then the command.
+only), then the command. ``sescid --version`` alone is answered here, without numpy or the
+package (its text is defined here once; the command line's ``--version`` prints the same).
 """
 
 import sys
@@ -24,8 +25,29 @@ def pin_blas() -> None:
     threads.pin_process()
 
 
+#: the text of ``sescid --version`` (click's ``%(prog)s``/``%(version)s`` placeholders)
+VERSION_MESSAGE = "%(prog)s, version %(version)s"
+
+
+def version_text() -> str | None:
+    """``sescid --version``'s line from the installed distribution's metadata (as click reads
+    it), or None where sescid is not installed (then the command line answers)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return VERSION_MESSAGE % {"prog": "sescid", "version": version("sescid")}
+    except PackageNotFoundError:
+        return None
+
+
 def main() -> None:
-    """Pin BLAS, then run ``sescid`` with the process's arguments."""
+    """Pin BLAS, then run ``sescid`` with the process's arguments (``--version`` alone: its
+    line, nothing loaded)."""
+    if sys.argv[1:] == ["--version"]:
+        text = version_text()
+        if text is not None:
+            print(text)
+            return
     if "numpy" not in sys.modules:
         pin_blas()
     from sescid.cli import main as run
@@ -33,4 +55,4 @@ def main() -> None:
     run()
 
 
-__all__ = ["main", "pin_blas"]
+__all__ = ["VERSION_MESSAGE", "main", "pin_blas", "version_text"]

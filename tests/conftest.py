@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -16,6 +17,8 @@ import sescid  # noqa: E402
 # One BLAS thread: the tests' matrices are small, and a thread pool per process only
 # oversubscribes the cores when pytest or other jobs run beside it.
 threadpool_limits(1)
+# A bug in a command shows its traceback in the tests (users get one line: cli.common)
+os.environ.setdefault("SESCID_TRACEBACK", "1")
 
 
 @pytest.fixture(scope="session")

@@ -22,7 +22,7 @@ def run(*args):
 @pytest.fixture(scope="module")
 def sim_csv(tmp_path_factory):
     path = tmp_path_factory.mktemp("cli") / "sim.csv"
-    res = run("simulate", "--robot", "op2", "--poses", 300, "--seed", 4, "--out", path)
+    res = run("simulate", "--robot", "op2", "--count", 300, "--seed", 4, "--out", path)
     assert res.exit_code == 0, res.output
     return path
 
@@ -52,7 +52,7 @@ def test_simulate_identify_predict(sim_csv, tmp_path):
 
 
 def test_demo_prints_the_papers_numbers(tmp_path):
-    res = run("demo", "--out-dir", tmp_path / "d", "--poses", 1000, "--seed", 0)
+    res = run("demo", "--out-dir", tmp_path / "d", "--count", 1000, "--seed", 0)
     assert res.exit_code == 0, res.output
     assert "regressor rank p = 42 of 63" in res.output
     assert "paper: 4.0 mm" in res.output and "noise floor" in res.output
@@ -131,6 +131,23 @@ def test_bad_input_gives_one_line_and_no_output(sim_csv, tmp_path):
 
 def test_papers_38_poses_work(tmp_path):
     sim = tmp_path / "s.csv"
-    assert run("simulate", "--poses", 38, "--out", sim).exit_code == 0
+    assert run("simulate", "--count", 38, "--out", sim).exit_code == 0
     res = run("identify", sim, "--out", tmp_path / "f.json")
     assert res.exit_code == 0 and "38 poses, rank 42 of 63" in res.output
+
+
+def test_version_is_answered_before_anything_loads():
+    """``sescid --version`` alone is answered by the script's entry without numpy or the package,
+    with the text the command line prints (``VERSION_MESSAGE``, one home)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom _sescid_launch import main\nsys.argv = ['sescid', '--version']\nmain()\n"
+        "print(sorted(m for m in ('numpy', 'sescid', 'click') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    fast, loaded = out.stdout.splitlines()
+    assert loaded == "[]"
+    assert fast == CliRunner().invoke(cli, ["--version"], prog_name="sescid").output.strip()
+    assert fast == f"sescid, version {sescid.__version__}"

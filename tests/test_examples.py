@@ -31,7 +31,7 @@ def _run(name: str, *args: str) -> str:
 
 def test_paper_simulation_example():
     """The §3 study through the API prints rank, MAE and named combinations."""
-    out = _run("op2_paper_simulation.py", "--poses", "200", "--fresh", "500")
+    out = _run("op2_paper_simulation.py", "--count", "200", "--fresh", "500")
     assert "rank 42 of 63" in out and "first identifiable combinations" in out
 
 
@@ -59,7 +59,7 @@ def test_pose_selection_example(tmp_path):
 @pytest.mark.skipif(not ICUB.is_file(), reason="example-robot-data's iCub not installed")
 def test_any_urdf_example_on_icub():
     """Any URDF: iCub from example-robot-data identifies from simulated CoPs."""
-    out = _run("icub_any_urdf.py", str(ICUB), "r_sole", "--poses", "400")
+    out = _run("icub_any_urdf.py", str(ICUB), "r_sole", "--count", "400")
     assert "noise-free CoP RMSE on fresh poses" in out
 
 

@@ -125,3 +125,21 @@ def test_demo_runs_without_numba_and_prints_the_readme_numbers(tmp_path):
         ("20000 fresh poses: 0.696 mm", "| 0.696 mm |"),
     ]:
         assert printed in out.stdout and quoted in table, printed
+
+
+@pytest.mark.parametrize(("p", "m"), [(1, 1), (6, 3), (43, 2000)])
+def test_the_small_jobs_gram_is_numpys_bit_for_bit_once_kernels_load(p, m):
+    """A small job's normal-equation product (one column at a time, a product and a sum per
+    element) gives the same bits in numpy and in its compiled twin, which runs it once the
+    kernels are loaded (a planner's): the path changes the speed only."""
+    from sescid.kinematics._kernels.gram import gram_in_order, padded
+
+    rng = np.random.default_rng(p)
+    x = rng.normal(size=(p, m)) * 10.0 ** rng.integers(-4, 4, size=(p, 1))
+    ref = np.zeros((padded(p), padded(p)))
+    kin.gram_numpy(x, ref)
+    out = np.zeros_like(ref)
+    gram_in_order(np.ascontiguousarray(x.T), out)
+    assert out.tobytes() == ref.tobytes()
+    kin.load_kernels()
+    assert kin.gram_columns(x, False).tobytes() == ref.tobytes()

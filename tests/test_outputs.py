@@ -14,7 +14,7 @@ from sescid.errors import DataError
 
 def _sim(tmp_path):
     data = tmp_path / "d.csv"
-    res = CliRunner().invoke(cli, ["simulate", "--poses", "60", "--out", str(data)])
+    res = CliRunner().invoke(cli, ["simulate", "--count", "60", "--out", str(data)])
     assert res.exit_code == 0, res.output
     return data
 

@@ -45,10 +45,9 @@ def test_readme_quotes_the_physics_bench_run():
     section = readme
     m = mod.walk_through("mujoco")
     quoted = [
-        "manufacturer offset",
-        "manufacturer |mean|",
+        "manufacturer mean",
         "manufacturer RMS",
-        "identified |mean|",
+        "identified mean",
         "identified RMS",
         "truth identified",
         "truth manufacturer",

@@ -29,7 +29,7 @@ def test_simulate_tilt_draws_gravity(op2):
 def test_cli_simulate_tilt_identify_truth(tmp_path):
     """`simulate --tilt-deg` writes grav_*; identify's truth line uses them (≈ 0 noise-free)."""
     data, fit = tmp_path / "sim.csv", tmp_path / "fit.json"
-    args = ["simulate", "--poses", "300", "--noise", "0", "--tilt-deg", "1", "--out", str(data)]
+    args = ["simulate", "--count", "300", "--noise", "0", "--tilt-deg", "1", "--out", str(data)]
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
     assert {"grav_x", "grav_y", "grav_z"} <= set(read_table(data).names())
@@ -69,7 +69,7 @@ def test_cli_predict_and_report_use_gravity(tmp_path):
 
     data, fit, pred = tmp_path / "sim.csv", tmp_path / "fit.json", tmp_path / "p.csv"
     run = CliRunner().invoke
-    sim = ["simulate", "--poses", "60", "--noise", "0.001", "--tilt-deg", "2", "--out", str(data)]
+    sim = ["simulate", "--count", "60", "--noise", "0.001", "--tilt-deg", "2", "--out", str(data)]
     assert run(cli, sim).exit_code == 0
     res = run(cli, ["identify", str(data), "--method", "map", "--out", str(fit)])
     assert res.exit_code == 0, res.output

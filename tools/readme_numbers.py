@@ -5,9 +5,11 @@
     python tools/readme_numbers.py --engine mujoco   # the physics bench's row and figures
 
 Runs ``poses → experiment → fsr → identify → report → truth`` (the commands of the README's
-"On a real OP2" section) in a temporary folder through the ``sescid`` command line, then reads
-the figures from the files they wrote. ``tests/test_readme_numbers.py`` (slow) checks that the
-README quotes exactly these strings.
+"On a real OP2" section) in a temporary folder through the ``sescid`` command line. The table's
+residuals are the ones ``sescid report`` computes and prints (``sescid.report``'s numbers on the
+file it read: with the file's gravity columns on the physics bench), the truth figures
+``sescid truth``'s; the test checks the report's printed line holds them too.
+``tests/test_readme_numbers.py`` (slow) checks that the docs quote exactly these strings.
 """
 
 from __future__ import annotations
@@ -45,24 +47,28 @@ def walk_through(engine: str = "kinematic") -> dict[str, str]:
     from sescid.cli import cli
     from sescid.estimation import load_fit
     from sescid.io import read_cop, read_poses, read_table
-    from sescid.report.figures import cop_offset_stats
+    from sescid.report import in_unit, read_report_data, with_unit
+    from sescid.report.numbers import CAD, IDENTIFIED, cop_numbers
 
     here = os.getcwd()
     with tempfile.TemporaryDirectory() as tmp:
         os.chdir(tmp)
         try:
             start = time.perf_counter()
+            printed = {}
             for line in commands(engine):
                 res = CliRunner().invoke(cli, line.split()[1:])
                 if res.exit_code != 0:
                     raise SystemExit(f"{line}: exit {res.exit_code}\n{res.output}")
+                printed[line.split()[1]] = res.output
             seconds = time.perf_counter() - start
             fit = load_fit("fit.json")
             table = read_table("measured.csv")
             q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
             cop = read_cop(table)
-            before = cop_offset_stats(cop, fit.robot.cop(q, fit.r_prior))
-            after = cop_offset_stats(cop, fit.predict_cop(q))
+            data, _ = read_report_data("measured.csv", fit)  # as `sescid report` reads it
+            numbers = cop_numbers(fit, data)
+            assert numbers is not None
             truth = compare_truth(fit, "truth.json")
             extra = _physics_figures(fit, table, q, cop) if engine == "mujoco" else {}
         finally:
@@ -71,21 +77,35 @@ def walk_through(engine: str = "kinematic") -> dict[str, str]:
     def mm(x: float, digits: int = 2) -> str:
         return f"{x * 1e3:.{digits}f} mm"
 
-    return {
-        "manufacturer offset": f"({before['mean_x'] * 1e3:.2f}, {before['mean_y'] * 1e3:.2f}) mm",
-        "manufacturer |mean|": mm(before["mean"]),
-        "manufacturer RMS": mm(before["rms"]),
-        "identified |mean|": mm(after["mean"], 3),
-        "identified RMS": mm(after["rms"], 3),
-        "residual scale": f"{fit.sigma_hat:.2f}",
-        "truth identified": mm(truth.rms_identified),
-        "truth manufacturer": mm(truth.rms_manufacturer),
-        "fresh identified": mm(truth.fresh_identified),
-        "fresh manufacturer": mm(truth.fresh_manufacturer),
-        "true mass": f"{truth.true_mass_kg:.3f} kg",
-        "model mass": f"{truth.model_mass_kg:.3f} kg",
-        "seconds": f"{seconds:.0f}",
-    } | extra
+    def mean(model: str) -> str:  # as the report prints a model's mean residual per axis
+        s = numbers.stats[model]
+        return f"({in_unit(s[0].mean, 'm')}, {in_unit(s[1].mean, 'm')}) mm"
+
+    quoted = {
+        "manufacturer mean": mean(CAD),
+        "manufacturer RMS": with_unit(numbers.total(CAD).rms, "m"),
+        "identified mean": mean(IDENTIFIED),
+        "identified RMS": with_unit(numbers.total(IDENTIFIED).rms, "m"),
+        "identified MAE": with_unit(numbers.total(IDENTIFIED).mae, "m"),
+    }
+    said = printed["report"]  # the report's own line holds every one of them
+    missing = [k for k, v in quoted.items() if v not in said]
+    if missing:
+        raise SystemExit(f"sescid report printed other figures ({missing}):\n{said}")
+    return (
+        quoted
+        | {
+            "residual scale": f"{fit.sigma_hat:.2f}",
+            "truth identified": mm(truth.rms_identified),
+            "truth manufacturer": mm(truth.rms_manufacturer),
+            "fresh identified": mm(truth.fresh_identified),
+            "fresh manufacturer": mm(truth.fresh_manufacturer),
+            "true mass": f"{truth.true_mass_kg:.3f} kg",
+            "model mass": f"{truth.model_mass_kg:.3f} kg",
+            "seconds": f"{seconds:.0f}",
+        }
+        | extra
+    )
 
 
 def _physics_figures(fit, table, q, cop) -> dict[str, str]:
@@ -144,34 +164,30 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engine", choices=["kinematic", "mujoco"], default="kinematic")
     engine = ap.parse_args().engine
-    if engine == "mujoco":
-        m = walk_through("mujoco")
-        print(
-            f"| physics bench (`--engine mujoco`), manufacturer | {m['manufacturer offset']} | "
-            f"{m['manufacturer |mean|']} | {m['manufacturer RMS']} |"
-        )
-        print(
-            f"| physics bench (`--engine mujoco`), identified | — | {m['identified |mean|']} | "
-            f"{m['identified RMS']} |"
-        )
-        print()
-        for key, value in m.items():
-            print(f"{key}: {value}")
-        return
-    n = walk_through()
-    print("| CoP predicted − measured, 38 poses | mean offset (x, y) | \\|mean\\| | RMS |")
-    print("|---|---|---|---|")
-    print(
-        f"| manufacturer model | {n['manufacturer offset']} | {n['manufacturer |mean|']} | "
-        f"{n['manufacturer RMS']} |"
-    )
-    print(
-        f"| identified (weighted least squares) | — | {n['identified |mean|']} | "
-        f"{n['identified RMS']} |"
-    )
+    rows = TABLE_ROWS if engine == "kinematic" else TABLE_ROWS_MUJOCO
+    m = walk_through(engine)
+    if engine == "kinematic":
+        print(TABLE_HEAD)
+    for label, model in rows:
+        print(f"| {label} | {m[f'{model} mean']} | {m[f'{model} RMS']} |")
     print()
-    for key, value in n.items():
+    for key, value in m.items():
         print(f"{key}: {value}")
+
+
+#: the table's head and rows (label, model) as docs/walkthrough.md shows them
+TABLE_HEAD = (
+    "| CoP residual, measured − predicted (as `sescid report` prints it), 38 poses | mean (x, y) "
+    "| RMS |\n|---|---|---|"
+)
+TABLE_ROWS = [
+    ("manufacturer model", "manufacturer"),
+    ("identified (`identify --weighted`: method auto, MAP here)", "identified"),
+]
+TABLE_ROWS_MUJOCO = [
+    ("physics bench (`--engine mujoco`, 38 poses), manufacturer", "manufacturer"),
+    ("physics bench (`--engine mujoco`, 38 poses), identified", "identified"),
+]
 
 
 if __name__ == "__main__":

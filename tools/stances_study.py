@@ -1,6 +1,6 @@
 """What pooling stances buys: ranks and accuracy, one stance against several, measured.
 
-    python tools/stances_study.py [--draws 12]           # prints the tables
+    python tools/stances_study.py [--draws 40]           # prints the tables
     python tools/stances_study.py --write                # rewrites them in docs/stances.md
 
 Each draw takes a "real" robot (``defaults_study.real_bodies``: masses ±10 %, CoMs ±5 mm,
@@ -136,7 +136,7 @@ def torque_case(name: str, draws: int) -> list[str]:
 
 def main() -> None:
     p = argparse.ArgumentParser()
-    p.add_argument("--draws", type=int, default=12)
+    p.add_argument("--draws", type=int, default=40)
     p.add_argument("--write", action="store_true")
     args = p.parse_args()
     lines: list[str] = []

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from sescid.base.files import check_distinct
 from sescid.errors import DataError, OptionError
 from sescid.estimation import (
     Fit,
@@ -115,6 +116,7 @@ def identify(
         return fit_measurements(robot, data, method=method, options=opts, progress=progress)
     if cop is not None or sigma is not None or gravity is not None:
         raise OptionError("cop", "cop=, sigma= and gravity= go with joint angles, not with files")
+    check_distinct([file_stance(g)[0] for g in paths], "data")
     got: list[ReadReport] = []
     streams = []
     for given in paths:

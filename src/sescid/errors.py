@@ -38,7 +38,10 @@ class MissingExtraError(SescidError):
     """An optional dependency is not installed; ``extra`` names the sescid extra to install."""
 
     def __init__(self, what: str, extra: str):
-        super().__init__(f"{what} needs the {extra} extra: pip install 'sescid[{extra}]'")
+        super().__init__(
+            f"{what} needs the {extra} extra: pip install 'sescid[{extra}]' (in a clone of "
+            f"the repository: pip install '.[{extra}]')"
+        )
         self.extra = extra
 
 

@@ -212,6 +212,10 @@ def simulate(
     cop_true = robot.cop(q, r_true, gravity)
     cop = cop_true + e
     tau = None
+    if torques is not None and robot.nq == 0:
+        raise OptionError(
+            "torques", f"{robot.name} has no joints: there is no joint torque to simulate"
+        )
     if torques is not None:
         if gravity is not None:
             raise OptionError("tilt", "torques are simulated on a level support only")

@@ -108,7 +108,7 @@ SCRIPT = textwrap.dedent(
     from sescid.cli import cli
     runner = CliRunner()
     steps = {
-        "simulate": ["simulate", "--poses", "60", "--out", str(tmp / "sim.csv")],
+        "simulate": ["simulate", "--count", "60", "--out", str(tmp / "sim.csv")],
         "identify": ["identify", str(tmp / "sim.csv"), "--method", "consistent",
                      "--allow-outside-limits", "--out", str(tmp / "fit.json")],
         "export": ["export", str(tmp / "fit.json"), "--out", str(tmp / "op2.urdf")],
@@ -151,7 +151,10 @@ def test_every_module_imports_with_the_core_dependencies(core_only):
 )
 def test_a_feature_needing_an_extra_names_it(core_only, label, extra):
     msg = core_only["extras"][label]
-    assert msg.endswith(f"needs the {extra} extra: pip install 'sescid[{extra}]'"), msg
+    assert msg.endswith(
+        f"needs the {extra} extra: pip install 'sescid[{extra}]' (in a clone of the "
+        f"repository: pip install '.[{extra}]')"
+    ), msg
     assert "\n" not in msg
 
 
@@ -165,7 +168,8 @@ def test_main_commands_run_on_a_core_install(core_only):
     code, output, exc = cmds["bag"]
     assert code == 2 and exc is None
     assert output.startswith("sescid: error: ") and output.count("\n") == 1
-    assert output.endswith("needs the bags extra: pip install 'sescid[bags]'\n")
+    assert output.endswith("pip install 'sescid[bags]' (in a clone of the repository: "
+                           "pip install '.[bags]')\n")  # fmt: skip
 
 
 def test_the_blocker_blocks(core_only):

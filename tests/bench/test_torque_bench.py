@@ -99,7 +99,7 @@ def test_torque_log_without_foot_sensors(icub_path, tmp_path):
     write_table(poses, {j: q[:, i] for i, j in enumerate(robot.joint_names)})
     raw, truth, out = tmp_path / "raw.csv", tmp_path / "t.json", tmp_path / "m.csv"
     common = ["--robot", str(icub_path), "--support", "root_link"]
-    args = ["experiment", *common, "--poses", str(poses), "--samples", "5", "--mount", "gantry"]
+    args = ["experiment", *common, "--poses", str(poses), "--samples", "10", "--mount", "gantry"]
     res = CliRunner().invoke(
         cli, [*args, "--torques", "all", "--out", str(raw), "--truth", str(truth)]
     )

@@ -68,7 +68,7 @@ def fit_and_data(tmp_path_factory):
     d = tmp_path_factory.mktemp("fit")
     data, fit = d / "d.csv", d / "fit.json"
     run = CliRunner().invoke
-    assert run(cli, ["simulate", "--poses", "60", "--out", str(data)]).exit_code == 0
+    assert run(cli, ["simulate", "--count", "60", "--out", str(data)]).exit_code == 0
     assert run(cli, ["identify", str(data), "--out", str(fit)]).exit_code == 0
     return fit, data
 
@@ -77,7 +77,7 @@ def fit_and_data(tmp_path_factory):
 #: the inputs are missing files, so after the output check the command stops on them
 X = "--robot {x}/no.urdf"
 CASES = {
-    "simulate": ("simulate --poses 5 --out {ro}", "s.csv"),
+    "simulate": ("simulate --count 5 --out {ro}", "s.csv"),
     "demo": (f"demo {X} --out-dir {{tmp}}/demo", "demo/fit.json"),
     "identify": ("identify {x}/d.csv --out {ro}", "fit.json"),
     "predict": ("predict {x}/f.json {x}/p.csv --out {ro}", "p.csv"),

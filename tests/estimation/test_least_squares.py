@@ -142,7 +142,7 @@ def test_bad_cop_input(op2):
     q = random_poses(op2, 30, 30, 0)
     cop = op2.cop(q)
     cop[3, 1] = np.inf
-    with pytest.raises(sescid.SescidError, match="non-finite value at row 3"):
+    with pytest.raises(sescid.SescidError, match="pose 3, cop_y: inf is not a finite number"):
         identify_ls(op2, q, cop)
     with pytest.raises(sescid.SescidError, match="expected shape"):
         identify_ls(op2, q, cop[:, :1])

@@ -70,7 +70,7 @@ def test_a_row_without_either_coordinate_is_named(op2, tmp_path):
     (tmp_path / "m.csv").write_text(f"{joints},cop_x,cop_y\n{zeros},0.01,0.0\n{zeros},,\n")
     with pytest.raises(DataError, match=r"m\.csv: row 3: neither cop_x nor cop_y"):
         sescid.identify(op2, tmp_path / "m.csv", method="ls")
-    with pytest.raises(DataError, match="row 1: neither cop_x nor cop_y"):
+    with pytest.raises(DataError, match="pose 1: neither cop_x nor cop_y"):
         Measurements(q=np.zeros((2, op2.nq)), cop=[[0.0, 0.0], [np.nan, np.nan]]).checked(op2)
-    with pytest.raises(DataError, match="non-finite"):
+    with pytest.raises(DataError, match="pose 0, cop_x: inf is not a finite number"):
         Measurements(q=np.zeros((1, op2.nq)), cop=[[np.inf, 0.0]]).checked(op2)

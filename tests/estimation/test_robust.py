@@ -136,7 +136,7 @@ def test_cli_robust_and_joint_noise(robot, corrupted, tmp_path, write_dataset):
     ]
     res = CliRunner().invoke(cli, [*args, "--mc-draws", "5"])
     assert res.exit_code == 0, res.output
-    first = res.output.split("down-weighted (row index, weight): ")[1].split(",")[:5]
+    first = res.output.split("down-weighted (pose index, weight): ")[1].split(",")[:5]
     assert {int(s.split()[0]) for s in first} == set(BAD.tolist())
     back = load_fit(out)
     assert back.joint_noise.draws == 5 and back.robust.downweighted

@@ -289,15 +289,17 @@ def test_bad_torque_input_is_one_line(op2):
         )
     bad = tau.copy()
     bad[4, 2] = np.nan
-    with pytest.raises(DataError, match="non-finite value at row 4, column 2"):
+    with pytest.raises(DataError, match="pose 4, tau_r_sho_roll: nan is not a finite number"):
         identify(op2, Measurements(q=q, tau=bad, tau_joints=tuple(op2.joint_names)), method="ls")
     with pytest.raises(DataError, match="approach = 0"):
         identify(op2, Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names),
                                    approach=np.zeros(30)), method="ls")  # fmt: skip
-    with pytest.raises(DataError, match="a unit slip"):
+    with pytest.raises(DataError, match=r"is more than the robot's weight at 2 m .*\(mN·m\?\)"):
         identify(
-            op2, Measurements(q=q, tau=tau * 1e5, tau_joints=tuple(op2.joint_names)), method="ls"
+            op2, Measurements(q=q, tau=tau * 1e3, tau_joints=tuple(op2.joint_names)), method="ls"
         )
+    with pytest.raises(DataError, match="the torques are the model's with the opposite sign"):
+        identify(op2, Measurements(q=q, tau=-tau, tau_joints=tuple(op2.joint_names)), method="ls")
 
 
 def test_cli_identifies_from_a_torque_file(op2, tmp_path):
@@ -395,7 +397,7 @@ def test_cli_simulates_and_identifies_torques_alone(op2, tmp_path):
     friction band from them (the approach column) within their standard errors."""
     data, out = tmp_path / "t.csv", tmp_path / "fit.json"
     runner = CliRunner()
-    res = runner.invoke(cli, ["simulate", "--poses", "300", "--measure", "tau", "--tau-offset",
+    res = runner.invoke(cli, ["simulate", "--count", "300", "--measure", "tau", "--tau-offset",
                               "0.1", "--tau-friction", "0.15", "--out", str(data)])  # fmt: skip
     assert res.exit_code == 0, res.output
     header = data.read_text().splitlines()[0].split(",")

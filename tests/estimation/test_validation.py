@@ -147,7 +147,7 @@ def test_cli_predict_level_writes_intervals(robot, tmp_path, write_dataset):
 
 def test_cli_identify_reports_error_against_simulated_truth(robot, tmp_path):
     data, out = tmp_path / "sim.csv", tmp_path / "fit.json"
-    args = ["simulate", "--poses", "100", "--seed", "3", "--out", str(data)]
+    args = ["simulate", "--count", "100", "--seed", "3", "--out", str(data)]
     assert CliRunner().invoke(cli, args).exit_code == 0
     res = CliRunner().invoke(
         cli, ["identify", str(data), "--out", str(out), "--allow-outside-limits"]

@@ -509,3 +509,59 @@ def test_plate_file_force_unit(tmp_path):
     assert mp.feet[0].scale == pytest.approx(2 * 9.80665) and mp.feet[0].unit == "N"
     mp = parse_mapping(mapping_dict(feet={"left": foot | {"unit": "mN"}}), "m.yaml", tmp_path)
     assert mp.feet[0].scale == 2.0 and mp.feet[0].unit == "mN"
+
+
+def _write_shifted(path, s: Session, b: Builder, joint_names, shift_ns: int):
+    """An MCAP bag recorded by a clock that stepped back ``shift_ns`` half-way (receive
+    times and header stamps alike): the reader's time order interleaves two stretches."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    topics = session_topics(s, b, joint_names)
+    items = sorted(((r, t, typ, m) for t, (typ, msgs) in topics.items() for r, m in msgs),
+                   key=lambda x: x[0])  # fmt: skip
+    mid = items[len(items) // 2][0]
+    with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        conns = {t: w.add_connection(t, typ, typestore=b.ts) for t, (typ, _) in topics.items()}
+        for r, t, typ, m in items:
+            if r >= mid:
+                r -= shift_ns
+                st = m.header.stamp
+                ns = st.sec * 10**9 + st.nanosec - shift_ns
+                m.header.stamp = b.T["builtin_interfaces/msg/Time"](sec=ns // 10**9,
+                                                                    nanosec=ns % 10**9)  # fmt: skip
+            w.write(conns[t], int(r), b.ts.serialize_cdr(m, typ))
+    return path
+
+
+def test_hostile_recordings_are_one_line(tmp_path, robot):
+    """A recording whose clock stepped back 5 s (two stretches interleaved: poses were lost
+    silently), a joint without any value, an F/T sensor of reversed sign and a rosbag2 folder
+    without its metadata.yaml: one line naming the bag, topic, joint or file; NaN angles in
+    part of the recording are named in a note."""
+    import shutil
+
+    b = Builder(ros1=False)
+    mp = parse_mapping(mapping_dict(), "map.yaml")
+    back = _write_shifted(tmp_path / "back", make_session(robot.joint_names), b,
+                          robot.joint_names, 5 * 10**9)  # fmt: skip
+    with pytest.raises(SescidError, match="/joint_states: from .* joint states alternate between"):
+        read_bag(back, mp, robot.joint_names)
+    s = make_session(robot.joint_names)
+    s.q[:, 3] = np.nan
+    dead = write_bag(tmp_path / "dead", "mcap", session_topics(s, b, robot.joint_names), b)
+    with pytest.raises(SescidError, match="joint 'l_sho_roll' has no value \\(NaN\\) in any"):
+        read_bag(dead, mp, robot.joint_names)
+    s = make_session(robot.joint_names)
+    s.q[150:, 5] = np.nan
+    part = write_bag(tmp_path / "part", "mcap", session_topics(s, b, robot.joint_names), b)
+    res = read_bag(part, mp, robot.joint_names)
+    assert any("NaN joint angles ('l_el' 428 of" in n for n in res.notes), res.notes
+    s = make_session(robot.joint_names)
+    s.wrench *= -1
+    neg = write_bag(tmp_path / "neg", "mcap", session_topics(s, b, robot.joint_names), b)
+    with pytest.raises(SescidError, match="feet.left .*the force/torque sensor's sign is rev"):
+        read_bag(neg, mp, robot.joint_names)
+    shutil.copytree(part, tmp_path / "nometa")
+    (tmp_path / "nometa" / "metadata.yaml").unlink()
+    with pytest.raises(SescidError, match="nometa: no metadata.yaml, the index of a rosbag2"):
+        read_bag(tmp_path / "nometa", mp, robot.joint_names)

@@ -27,7 +27,7 @@ def op2():
 @pytest.fixture(scope="module")
 def data_csv(tmp_path_factory, op2):
     path = tmp_path_factory.mktemp("data") / "sim.csv"
-    result = CliRunner().invoke(cli, ["simulate", "--poses", "300", "--out", str(path)])
+    result = CliRunner().invoke(cli, ["simulate", "--count", "300", "--out", str(path)])
     assert result.exit_code == 0, result.output
     return path
 

@@ -289,3 +289,25 @@ def test_cli_export_prints_the_warnings(op2, tmp_path, write_dataset):
     fit = sescid.load_fit(tmp_path / "fit.json")
     n = len(mass_warnings(op2.model, fit.inertials.masses))
     assert res.output.count("sescid: warning: body ") == n
+
+
+def test_export_never_overwrites_a_file_the_model_reads(humanoid, tmp_path):
+    """`export --out` naming the model, a file it <include>s or a mesh/texture it reads is
+    refused in one line, every input untouched (it used to overwrite parts/robot.xml)."""
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+    from sescid.io import model_files
+
+    robot, fit, main = humanoid
+    names = {p.relative_to(main.parent).as_posix() for p in model_files(main)}
+    assert {"humanoid.xml", "parts/assets.xml", "parts/robot.xml", "assets/tetra.obj",
+            "textures/skin.png"} <= names  # fmt: skip
+    fit_file = tmp_path / "fit.json"
+    sescid.save_fit(fit, fit_file)
+    before = {p: p.read_bytes() for p in main.parent.rglob("*") if p.is_file()}
+    for name in ("parts/robot.xml", "parts/assets.xml", "assets/tetra.obj", "humanoid.xml"):
+        res = CliRunner().invoke(cli, ["export", str(fit_file), "--out", str(main.parent / name)])
+        assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+        assert "also an input" in res.output, res.output
+    assert {p: p.read_bytes() for p in main.parent.rglob("*") if p.is_file()} == before

@@ -32,7 +32,7 @@ def cli(*args):
         assert not exc.code, exc.code
 
 cli("demo", "--out-dir", str(out / "demo"))
-cli("simulate", "--robot", "op2", "--poses", "25000", "--seed", "3", "--out", str(out / "s.csv"))
+cli("simulate", "--robot", "op2", "--count", "25000", "--seed", "3", "--out", str(out / "s.csv"))
 cli("identify", str(out / "s.csv"), "--robot", "op2", "--out", str(out / "cli_fit.json"))
 robot = sescid.load_robot("op2")
 rng = np.random.default_rng(7)

@@ -240,3 +240,61 @@ def test_after_precompile_the_commands_compile_nothing(tmp_path):
         )  # fmt: skip
         assert out.returncode == 0, out.stderr
         assert out.stdout.splitlines()[-1] == "compiled:", (args, out.stdout[-500:])
+
+
+FAST = """
+import numpy as np
+
+from sescid.kinematics.compile import lazy_njit, load_group
+
+
+@lazy_njit(group="sescid.probe_fast", cache=True)
+def doubled(n):
+    return np.ones(n) * 2.0  # an array: the runtime's allocator
+
+
+@lazy_njit(group="sescid.probe_fast", cache=True)
+def total(x):
+    s = 0.0
+    for v in x:
+        s += v
+    return s
+"""
+
+#: calls ``doubled`` (cached by the first run), then, second run only, ``total`` (compiled)
+FAST_RUN = """
+import importlib.util, sys
+spec = importlib.util.spec_from_file_location("sescid.probe_fast", sys.argv[1])
+mod = importlib.util.module_from_spec(spec)
+sys.modules[spec.name] = mod
+spec.loader.exec_module(mod)
+from sescid.kinematics import counting_compiles
+with counting_compiles() as names:
+    mod.load_group("sescid.probe_fast")
+    a = mod.doubled(3)
+    loaded = sorted(m for m in ("scipy.linalg", "numba.typed.typedlist") if m in sys.modules)
+    print(a.sum(), len(names), *loaded)
+    if sys.argv[2] == "both":
+        print(mod.total(a), len(names), "numba.typed.typedlist" in sys.modules)
+"""
+
+
+def test_cached_kernels_load_without_numbas_compile_registries(tmp_path):
+    """A kernel loaded from the cache runs without numba's typing and lowering registries
+    (typed containers, linalg and the scipy.linalg it imports: 0.3–0.5 s a process); a kernel
+    that must compile afterwards in the same process loads them and compiles as before."""
+    (tmp_path / "fastmod.py").write_text(textwrap.dedent(FAST))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env["PYTHONPATH"] = str(ROOT / "src")
+
+    def run(which: str) -> list[str]:
+        out = subprocess.run(
+            [sys.executable, "-c", FAST_RUN, str(tmp_path / "fastmod.py"), which],
+            env=env, capture_output=True, text=True, check=False,
+        )  # fmt: skip
+        assert out.returncode == 0, out.stderr
+        return out.stdout.splitlines()
+
+    first = run("one")  # compiles doubled (and loads the registries to do so)
+    assert first[0].split()[:2] == ["6.0", "1"]
+    assert run("both") == ["6.0 0", "6.0 1 True"]  # loaded bare; total compiled after it

@@ -511,7 +511,7 @@ def test_cli_end_to_end_on_generated_mjcf(tmp_path):
     assert res.exit_code == 0, res.output
     assert all(name in res.output for name in robot.body_names + robot.joint_names)
     data, fit_file, out = tmp_path / "sim.csv", tmp_path / "fit.json", tmp_path / "fit.xml"
-    res = _cli("simulate", "--robot", path, "--support", "b1", "--poses", 200, "--out", data)
+    res = _cli("simulate", "--robot", path, "--support", "b1", "--count", 200, "--out", data)
     assert res.exit_code == 0, res.output
     res = _cli(
         "identify", data, "--robot", path, "--support", "b1", "--method", "consistent",

@@ -197,3 +197,18 @@ def test_urdf_parser_matches_yourdfpy(op2, icub_path, tmp_path, which):
                 assert _same(ea.geometry.mesh.scale, eb.geometry.mesh.scale)
     if which.startswith("random"):
         assert mimics and {j.name for j in ours.joints if j.mimic is not None} == set(mimics)
+
+
+def test_an_stls_distinct_vertices_are_numpys_unique_rows():
+    """The distinct vertices of an STL (every vertex repeated by its triangles) are
+    ``np.unique(v, axis=0)`` bit for bit: sorted by x, then y, then z, each row once — also
+    where rows share x, or x and y, or differ by 1e-17."""
+    from sescid.model.meshes import _distinct_rows
+
+    rng = np.random.default_rng(5)
+    base = rng.integers(-3, 4, size=(400, 3)) * 0.25 + rng.integers(0, 2, size=(400, 3)) * 1e-17
+    base[:7] = [0.0, -0.5, 0.25]
+    v = base[rng.integers(0, 400, size=5000)]
+    got = _distinct_rows(v)
+    assert got.tobytes() == np.unique(v, axis=0).tobytes()
+    assert 7 < len(got) < 400

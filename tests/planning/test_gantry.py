@@ -129,7 +129,7 @@ def test_cli_gantry_writes_no_cop(tmp_path, op2):
     assert res.exit_code == 0, res.output
     assert "(gantry)" in res.output and "standing height" in res.output
     cols = read_table(out).columns
-    assert "cop_x" not in cols and len(cols["pose"]) == 20
+    assert "cop_x_model" not in cols and "cop_x" not in cols and len(cols["pose"]) == 20
     bad = CliRunner().invoke(cli, [*base, "--out", str(tmp_path / "b.csv")])  # --kinds cop
     assert bad.exit_code == 2 and "--kinds tau" in bad.output
     assert not (tmp_path / "b.csv").exists()

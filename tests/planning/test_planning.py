@@ -323,7 +323,8 @@ def test_cli_poses_writes_ordered_pose_list(tmp_path, op2):
         table.get("l_el_ticks"), np.rint(2048 + np.degrees(q[:, 5]) * 4096 / 360)
     )
     np.testing.assert_allclose(table.get("l_el_paper_deg"), np.degrees(q[:, 5]) - 90, atol=1e-9)
-    cop = np.column_stack([table.get("cop_x"), table.get("cop_y")])
+    cop = np.column_stack([table.get("cop_x_model"), table.get("cop_y_model")])
+    assert "cop_x" not in table  # a prediction, never a measured column
     np.testing.assert_allclose(cop, op2.cop(q), atol=1e-12)
     lim = design.sampling_limits(op2)
     assert np.all((q >= lim[:, 0]) & (q <= lim[:, 1]))

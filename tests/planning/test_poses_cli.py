@@ -46,6 +46,7 @@ def test_check_mujoco_without_the_extra_is_one_line(tmp_path, monkeypatch):
     res = _run("--count", 21, "--candidates", 300, "--check", "mujoco", "--out", out)
     assert res.exit_code == 2 and not out.exists()
     assert "needs the mujoco extra: pip install 'sescid[mujoco]'" in res.output
+    assert "pip install '.[mujoco]'" in res.output  # the form that works in a clone
     assert "Traceback" not in res.output
 
 

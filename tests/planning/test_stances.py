@@ -171,7 +171,7 @@ def test_poses_over_stances_cli(tmp_path):
     op2 = sescid.load_robot("op2")
     q = np.column_stack([t.columns[j] for j in op2.joint_names])
     left = lab == "l_sole"
-    np.testing.assert_allclose(t.columns["cop_x"][left], op2.at("l_sole").com(q[left])[:, 0],
+    np.testing.assert_allclose(t.columns["cop_x_model"][left], op2.at("l_sole").com(q[left])[:, 0],
                                atol=1e-12)  # fmt: skip
     for extra, why in ((["--stances", "r_sole,gantry:MP_BODY", "--kinds", "cop"], "gantry"),
                        (["--stances", "r_sole,l_sole", "--select", "random"], "D-optimal"),

@@ -200,6 +200,6 @@ def test_cli_torque_design_prints_the_com_error(tmp_path, op2):
     assert "tau rows" in res.output and "CoM x/y error" in res.output
     assert "σ_τ = 0.05 N·m" in res.output
     cols = read_table(out).columns
-    assert len(cols["pose"]) == 20 and "cop_x" in cols
+    assert len(cols["pose"]) == 20 and "cop_x_model" in cols and "cop_x" not in cols
     bad = CliRunner().invoke(cli, [*args[:-2], "--tau-noise", "0", "--out", str(tmp_path / "b")])
     assert bad.exit_code == 2 and "--tau-noise" in bad.output and not (tmp_path / "b").exists()

@@ -118,3 +118,30 @@ def test_an_error_names_the_files_row(robot, logs, small_chunks, tmp_path):
     config = load_sensors(None, robot.profile)
     with pytest.raises(DataError, match=r"row 252, column 'r_fsr2': negative force count"):
         _chunked(robot, path, config)
+
+
+def test_a_dead_torque_sensor_and_a_pose_without_torques_in_chunks(robot, logs, small_chunks,
+                                                                     tmp_path):  # fmt: skip
+    """A torque column empty throughout is left out once over the whole log (not per chunk:
+    the parts would not join), a pose without samples of another joint is dropped with the
+    reason, as the whole-file reduction does; an error after a blank line names the file's
+    row."""
+    header, rows = _rows(logs / "tau.csv")
+    dead, part = header.index("tau_r_knee"), header.index("tau_l_hip_roll")
+    for r in rows:
+        r[dead] = ""
+        if r[0] == "5":
+            r[part] = ""
+    path = _write(tmp_path / "dead.csv", header, rows)
+    (w, _), (c, _) = _both(robot, path, True)
+    _same(w, c)
+    assert "r_knee" not in c.tau_joints and "5" not in c.pose.tolist()
+    assert any("tau_r_knee" in n for n in c.notes)
+    assert any(p == "5" and "tau_l_hip_roll" in why for p, why in c.dropped)
+    text = (logs / "pads.csv").read_text().splitlines()
+    cells = text[400].split(",")
+    cells[text[0].split(",").index("r_fsr2")] = "-3"
+    bad = tmp_path / "blank.csv"
+    bad.write_text("\n".join([*text[:3], "", *text[3:400], ",".join(cells), *text[401:]]) + "\n")
+    with pytest.raises(DataError, match=r"row 402, column 'r_fsr2': negative force count"):
+        _chunked(robot, bad, load_sensors(None, robot.profile))

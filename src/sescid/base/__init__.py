@@ -7,8 +7,15 @@ workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import Table
-from sescid.base.files import OutputSet, atomic_open, atomic_path, check_outputs, read_json
+from sescid.base.columns import MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
+from sescid.base.files import (
+    OutputSet,
+    atomic_open,
+    atomic_path,
+    check_distinct,
+    check_outputs,
+    read_json,
+)
 from sescid.base.options import (
     SEED_HELP,
     OptionSpec,
@@ -22,13 +29,16 @@ from sescid.base.progress import TerminalProgress
 from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usable_cores
 
 __all__ = [
+    "MODEL_COP_COLUMNS",
     "SEED_HELP",
+    "SUPPORT_COLUMN",
     "OptionSpec",
     "OutputSet",
     "Table",
     "TerminalProgress",
     "atomic_open",
     "atomic_path",
+    "check_distinct",
     "check_outputs",
     "check_ranges",
     "one_blas_thread",

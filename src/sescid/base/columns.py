@@ -11,6 +11,7 @@ gravity direction. Every error names the file, row and column.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -48,7 +49,9 @@ class Table:
 
     ``columns``: name → float array (n,); ``text``: columns that are not all numbers, as strings.
     ``first_row``: the file's row number of the first data row (2 under a header; a chunk of a
-    streamed file starts further down), so every error names the file's own row.
+    streamed file starts further down), so every error names the file's own row; ``numbers``
+    (a CSV file's ``RowNumbers``) counts blank lines and cells over several lines too.
+    ``label`` names a data row of in-memory columns instead (``pose 3, sample 2`` of a session).
     """
 
     def __init__(
@@ -57,16 +60,26 @@ class Table:
         columns: dict[str, np.ndarray],
         text: dict[str, list],
         first_row: int = 2,
+        label: Callable[[int], str] | None = None,
+        numbers: Callable[[int], int] | None = None,
     ):
         self.path = path
         self.first_row = first_row
+        self.label = label
+        self.numbers = numbers  #: data row of the file (0-based) → its row number
         self.columns = columns
         self.text = text  #: columns that are not numbers (e.g. labels), as strings
         self.n = len(next(iter(columns.values()))) if columns else 0
 
     def row(self, i) -> int:
         """The file's row number of data row ``i`` of this table."""
+        if self.numbers is not None:
+            return self.numbers(int(i) + self.first_row - 2)
         return int(i) + self.first_row
+
+    def where(self, i) -> str:
+        """Data row ``i`` as an error names it: ``row N`` (the file's row) or the label's."""
+        return self.label(int(i)) if self.label is not None else f"row {self.row(i)}"
 
     def __contains__(self, name: str) -> bool:
         return name in self.columns
@@ -80,7 +93,7 @@ class Table:
         if name in self.text:
             row, value = next((i, v) for i, v in enumerate(self.text[name]) if not _is_number(v))
             raise DataError(
-                f"{self.path}: row {self.row(row)}, column '{name}': '{value}' is not a number"
+                f"{self.path}: {self.where(row)}, column '{name}': '{value}' is not a number"
             )
         if name not in self.columns:
             raise DataError(f"{self.path}: missing {what} '{name}'")
@@ -88,7 +101,7 @@ class Table:
         bad = np.flatnonzero(~np.isfinite(col))
         if bad.size:
             raise DataError(
-                f"{self.path}: row {self.row(bad[0])}, "
+                f"{self.path}: {self.where(bad[0])}, "
                 f"column '{name}': value {col[bad[0]]} is not finite"
             )
         return col
@@ -116,7 +129,7 @@ def column_with_missing(table: Table, name: str) -> np.ndarray:
             out[i] = float(v)
         except ValueError:
             raise DataError(
-                f"{table.path}: row {table.row(i)}, column '{name}': '{v}' is not a number"
+                f"{table.path}: {table.where(i)}, column '{name}': '{v}' is not a number"
             ) from None
     return out
 
@@ -130,14 +143,14 @@ def pose_ids(table: Table, name: str = "pose") -> np.ndarray:
         empty = np.flatnonzero(ids == "")
         if empty.size:
             raise DataError(
-                f"{table.path}: row {table.row(empty[0])}, column '{name}': empty pose id"
+                f"{table.path}: {table.where(empty[0])}, column '{name}': empty pose id"
             )
         return ids
     col = table.columns[name]
     bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
     if bad.size:
         raise DataError(
-            f"{table.path}: row {table.row(bad[0])}, "
+            f"{table.path}: {table.where(bad[0])}, "
             f"column '{name}': pose id {col[bad[0]]} is not an "
             "integer or a label"
         )
@@ -172,6 +185,7 @@ def read_joint_columns(
                 + (f", '{j}_ticks' in {servo.name} ticks)" if servo else ")")
             )
         if len(found) > 1 and not allow_missing and found[0][0] == "rad":
+            _check_copies(table, j, found, servo)
             found = found[:1]  # a pose list: radians plus derived copies for the operator
         if len(found) > 1:
             raise DataError(
@@ -184,7 +198,7 @@ def read_joint_columns(
             bad = np.flatnonzero(np.abs(v) > MAX_ANGLE_RAD)
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"{table.path}: {table.where(bad[0])}, "
                     f"column '{name}': {v[bad[0]]:g} looks like "
                     f"degrees or ticks; joint columns are in radians (use '{j}_deg' for degrees)"
                 )
@@ -192,7 +206,7 @@ def read_joint_columns(
             bad = np.flatnonzero(np.abs(v) > 360)
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"{table.path}: {table.where(bad[0])}, "
                     f"column '{name}': {v[bad[0]]:g} is not an "
                     "angle in degrees"
                 )
@@ -206,14 +220,43 @@ def read_joint_columns(
             bad = np.flatnonzero((v < 0) | (v > servo.max_tick))
             if bad.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(bad[0])}, "
+                    f"{table.path}: {table.where(bad[0])}, "
                     f"column '{name}': {v[bad[0]]:g} is outside "
                     f"the {servo.name} range 0–{servo.max_tick} ticks"
                 )
             v = servo.to_rad(v)
         cols.append(v)
         units[j] = unit
-    return np.column_stack(cols), units
+    return (np.column_stack(cols) if cols else np.zeros((table.n, 0))), units
+
+
+#: degrees a pose list's ``<j>_deg`` copy may differ from its radians (printing round-off)
+COPY_TOL_DEG = 1e-6
+
+
+def _check_copies(table: Table, joint: str, found, servo: TickEncoding | None) -> None:
+    """DataError when a pose list's ``<j>_deg``/``<j>_ticks`` copy disagrees with its radians
+    (an edited column: which one holds the pose?), naming the row and both columns."""
+    rad = table.get(joint, "joint column")
+    for unit, name in found[1:]:
+        if unit == "deg":
+            copy = table.get(name, "joint column")
+            bad = np.flatnonzero(~(np.abs(np.degrees(rad) - copy) <= COPY_TOL_DEG))
+            shown = "{:g}°"
+        elif servo is not None:
+            copy = table.get(name, "joint column")
+            tick = float(np.abs(np.diff(servo.to_rad(np.array([0.0, 1.0])))[0]))  # rad per tick
+            bad = np.flatnonzero(~(np.abs(servo.to_rad(copy) - rad) <= 0.5 * tick + 1e-9))
+            shown = "{:g} ticks"
+        else:
+            continue
+        if bad.size:
+            i = int(bad[0])
+            raise DataError(
+                f"{table.path}: {table.where(i)}: columns '{joint}' ({rad[i]:g} rad = "
+                f"{math.degrees(rad[i]):g}°) and '{name}' ({shown.format(copy[i])}) disagree: "
+                "keep one column per joint (the radians are read)"
+            )
 
 
 def read_poses(
@@ -241,7 +284,7 @@ def read_cop(table: Table) -> np.ndarray:
             inf = np.flatnonzero(np.isinf(col))
             if inf.size:
                 raise DataError(
-                    f"{table.path}: row {table.row(inf[0])}, column '{name}': value "
+                    f"{table.path}: {table.where(inf[0])}, column '{name}': value "
                     f"{col[inf[0]]} is not finite"
                 )
             cols.append(col)
@@ -252,7 +295,7 @@ def read_cop(table: Table) -> np.ndarray:
     if big.size:
         i, j = big[0]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
+            f"{table.path}: {table.where(i)}, column 'cop_{'xy'[j]}': {cop[i, j]:g} m is not a "
             "plausible CoP (columns are in metres)"
         )
     return cop
@@ -265,6 +308,43 @@ def read_cop_se(table: Table) -> np.ndarray | None:
     if "cop_se" in table:
         return table.get("cop_se")
     return None
+
+
+#: a planned pose list's CoP: the model's prediction at each pose, never a measurement (named
+#: apart from ``cop_x``/``cop_y`` so that a plan cannot be fitted as if it were measured)
+MODEL_COP_COLUMNS = ("cop_x_model", "cop_y_model")
+
+
+def refuse_plan(table: Table) -> None:
+    """DataError when a table is a planned pose list (``sescid poses``, a session's poses.csv):
+    its CoP columns are the model's predictions, and a fit to them returns the model."""
+    if MODEL_COP_COLUMNS[0] in table or MODEL_COP_COLUMNS[0] in table.text:
+        raise DataError(
+            f"{table.path}: a planned pose list ({', '.join(MODEL_COP_COLUMNS)} are the model's "
+            "predictions, not measurements): measure the poses (sescid experiment or the "
+            "robot's log, then sescid measure) and give the measured file"
+        )
+
+
+def refuse_raw_log(table: Table) -> None:
+    """DataError when a table is a raw log (a ``sample`` column, or a pose id repeated on
+    consecutive rows: one row per sample) given where one row per pose is read."""
+    if "sample" in table.names():
+        raise DataError(
+            f"{table.path}: a raw log (a 'sample' column: one row per sample): reduce it to one "
+            "row per pose with sescid measure, then give the measured file"
+        )
+    if "pose" not in table.names():
+        return
+    ids = pose_ids(table)
+    same = np.flatnonzero(ids[1:] == ids[:-1])
+    if same.size:
+        i = int(same[0])
+        raise DataError(
+            f"{table.path}: a raw log ({table.where(i)} and {table.where(i + 1)} are both pose "
+            f"'{ids[i]}': one row per sample): reduce it to one row per pose with sescid "
+            "measure, then give the measured file"
+        )
 
 
 GRAVITY_COLUMNS = ("grav_x", "grav_y", "grav_z")
@@ -284,7 +364,7 @@ def read_gravity(table: Table) -> np.ndarray | None:
     if bad.size:
         i = int(bad[0])
         raise DataError(
-            f"{table.path}: row {table.row(i)}, columns grav_x/y/z: "
+            f"{table.path}: {table.where(i)}, columns grav_x/y/z: "
             f"gravity ({', '.join(f'{v:g}' for v in g[i])}) must be "
             "finite and point down through the sole (grav_z < 0, tilt < 60°)"
         )
@@ -295,8 +375,20 @@ def read_gravity(table: Table) -> np.ndarray | None:
 TAU_PREFIX, TAU_SE_PREFIX = "tau_", "tau_se_"
 #: the side each pose was reached from: +1 from below, −1 from above (joint torques' friction)
 APPROACH_COLUMN = "approach"
+#: the stance of each row (a frame of the model, or "double"): measurement files and raw logs
+SUPPORT_COLUMN = "support"
 #: N·m beyond which a torque is taken for a unit mistake (mN·m, N·mm)
 MAX_TORQUE_NM = 1e4
+#: m, a lever no humanoid's gravity torque exceeds: a holding torque beyond the whole robot's
+#: weight this far from its joint is not in N·m (mN·m, N·mm)
+TORQUE_REACH_M = 2.0
+#: standard gravity [m/s²] of the torque bound
+G0 = 9.80665
+
+
+def torque_bound(mass: float) -> float:
+    """N·m, the largest holding torque a robot of ``mass`` kg can need (``TORQUE_REACH_M``)."""
+    return mass * G0 * TORQUE_REACH_M
 
 
 @dataclass(frozen=True)
@@ -344,7 +436,7 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
         big = np.flatnonzero(np.abs(v) > MAX_TORQUE_NM)
         if big.size:
             raise DataError(
-                f"{table.path}: row {table.row(big[0])}, column '{name}': {v[big[0]]:g} is not a "
+                f"{table.path}: {table.where(big[0])}, column '{name}': {v[big[0]]:g} is not a "
                 "plausible joint torque in N·m"
             )
         cols.append(v)
@@ -368,7 +460,7 @@ def read_torques(table: Table, joint_names: list[str], allow_missing: bool = Fal
         bad = np.flatnonzero(v < 0)
         if bad.size:
             raise DataError(
-                f"{table.path}: row {table.row(bad[0])}, column '{name}': {v[bad[0]]:g} is not "
+                f"{table.path}: {table.where(bad[0])}, column '{name}': {v[bad[0]]:g} is not "
                 "a standard error (≥ 0 N·m)"
             )
         se[:, k] = v
@@ -387,7 +479,7 @@ def read_approach(
     bad = np.flatnonzero(~np.isnan(v) & (v != 1) & (v != -1))
     if bad.size:
         raise DataError(
-            f"{table.path}: row {table.row(bad[0])}, column '{name}': {v[bad[0]]:g} is not +1 "
+            f"{table.path}: {table.where(bad[0])}, column '{name}': {v[bad[0]]:g} is not +1 "
             "or -1 (the side the joints came from: +1 below, -1 above)"
         )
     return v if allow_missing else v.astype(int)

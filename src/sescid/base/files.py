@@ -328,6 +328,43 @@ class OutputSet:
             shutil.rmtree(tmp_d, ignore_errors=True)
 
 
+def check_distinct(paths: list[str | Path], what: str) -> None:
+    """DataError when two of ``paths`` are the same file (a path, a link) or two copies of
+    the same bytes: pooling data with itself counts every pose twice (standard errors √2 too
+    small). ``what`` names the inputs in the message ("data files")."""
+    import hashlib
+
+    seen: dict[object, Path] = {}
+    sizes: dict[int, list[Path]] = {}
+    for raw in paths:
+        p = Path(raw)
+        key = _identity(p)
+        if key in seen:
+            raise DataError(
+                f"{p}: given twice as {what} (as {seen[key]}): each pose would count twice"
+            )
+        seen[key] = p
+        with contextlib.suppress(OSError):
+            sizes.setdefault(p.stat().st_size, []).append(p)
+    for same in sizes.values():
+        digests: dict[str, Path] = {}
+        for p in same if len(same) > 1 else []:
+            h = hashlib.sha256()
+            try:
+                with p.open("rb") as fh:
+                    while block := fh.read(1 << 20):
+                        h.update(block)
+            except OSError:
+                continue
+            d = h.hexdigest()
+            if d in digests:
+                raise DataError(
+                    f"{p}: the same bytes as {digests[d]} (a copy given twice as {what}): each "
+                    "pose would count twice"
+                )
+            digests[d] = p
+
+
 def _identity(path: Path) -> tuple[int, int] | Path:
     """(device, inode) of an existing file, else its resolved path."""
     try:

@@ -52,14 +52,20 @@ def compare_truth(
     n_fresh: int = FRESH_POSES,
     within_deg: float = FRESH_WITHIN_DEG,
     seed: int = 0,
+    fit_path: str | Path | None = None,
 ) -> TruthComparison:
-    """Compare ``fit`` with the truth file at the actual poses and ``n_fresh`` fresh poses."""
+    """Compare ``fit`` with the truth file at the actual poses and ``n_fresh`` fresh poses;
+    ``fit_path`` names the fit in the error of a fit and truth of different robots."""
     t = Truth.load(truth_path)
     if t.support != fit.robot.support and fit.bodies is not None:  # a pooled fit, seen there
         fit = for_support(fit, t.support)
     robot = fit.robot
     if list(t.joint_names) != robot.joint_names or list(t.body_names) != robot.body_names:
-        raise DataError(f"{truth_path}: the truth is of another robot than the fit's")
+        raise DataError(
+            f"{fit_path or 'the fit'}: a fit of {robot.name} on '{robot.support}' "
+            f"({robot.source}), but {truth_path} is the truth of {t.robot} on '{t.support}': "
+            "compare a fit with the truth of the run it was fitted to"
+        )
     if t.mount == "line":
         return _compare_line(fit, t, n_fresh, within_deg, seed)
     if t.cop_true is None:

@@ -100,6 +100,8 @@ class TorqueConfig:
     def resolve(self, joint_names: list[str]) -> list[str]:
         """The measured joints in model order; DataError for a name the model lacks."""
         if self.joints == "all":
+            if not joint_names:
+                raise DataError("torque joints 'all': the model has no joints to measure")
             return list(joint_names)
         if isinstance(self.joints, str):
             raise DataError(f"torque joints: expected 'all' or joint names, got {self.joints!r}")

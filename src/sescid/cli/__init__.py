@@ -3,7 +3,8 @@
 Each command parses its options, calls the API, prints. Every error a user can cause is one
 line ``sescid: error: …`` with exit code 2; outputs are written atomically. Commands live in one
 module per command (``cli/<command>.py``) and are imported only when run, so ``--help`` and
-``--version`` answer without loading scipy, matplotlib or the compiled kernels.
+``--version`` answer without loading scipy, matplotlib or the compiled kernels (the ``sescid``
+script answers ``--version`` alone before it loads anything: ``_sescid_launch``).
 """
 
 import importlib
@@ -11,7 +12,8 @@ from typing import Any, NamedTuple
 
 import click
 
-from sescid.cli.common import run_guarded
+from _sescid_launch import VERSION_MESSAGE
+from sescid.cli.common import fail, run_guarded, usage_message
 
 
 class Command(NamedTuple):
@@ -67,9 +69,19 @@ class LazyGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         return run_guarded(super().invoke, ctx)
 
+    def make_context(self, info_name, args, parent=None, **extra) -> click.Context:
+        """The group's own options parsed; a mistyped one is one line (``run_guarded``)."""
+        try:
+            return super().make_context(info_name, args, parent=parent, **extra)
+        except click.UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":
+                raise
+            fail(usage_message(exc))
+            raise  # unreachable: fail exits
+
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="sescid")
+@click.version_option(package_name="sescid", message=VERSION_MESSAGE)
 def cli() -> None:
     r"""Identify a humanoid robot's mass distribution (its bodies' masses and centres of mass)
     from what it measures while held still: the centre of pressure (CoP) under its feet, its

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from sescid.base import OutputSet
+from sescid.base import OutputSet, check_distinct
 from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
@@ -124,6 +124,7 @@ def calibrate(**opts):
     """
     raw, out, fit_out = opts["raw"], opts["out"], opts["fit_out"]
     outs = OutputSet([out, fit_out], [*raw, opts["sensors_file"]], force=opts["force"])
+    check_distinct(list(raw), "a session")
     robot = common.load(opts["robot_name"], opts["support"])
     options = calibration_options(opts)
     options.check()

@@ -75,7 +75,7 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     with outs:
         out = outs.folder(out_dir)
         _demo_files(robot, st, out)
-    echo(f"wrote {out_dir}/fit.json, fig3a_r_magnitudes.png, fig3b_cop.png, summary.csv")
+    echo(f"wrote {Path(out_dir) / 'fit.json'}, fig3a_r_magnitudes.png, fig3b_cop.png, summary.csv")
 
 
 def _demo_files(robot, st, out: Path) -> None:

@@ -38,6 +38,10 @@ def torque_options(f: Any) -> Any:
     )(f)
 
 
+#: the parameters of ``torque_options`` that describe the torque sensors (idle without them)
+TORQUE_FLAGS = ("torque_noise", "torque_offset", "torque_gain", "friction", "approach")
+
+
 def torque_config(opts: dict) -> TorqueConfig:
     """The typed torque options from the flags of ``torque_options``."""
     spec = opts["torques"].strip()
@@ -48,6 +52,8 @@ def torque_config(opts: dict) -> TorqueConfig:
         joints = ()
     else:
         joints = tuple(j.strip() for j in spec.split(",") if j.strip())
+    common.refuse_idle(TORQUE_FLAGS, bool(joints),
+                       "without --torques (no joint torque is measured)")  # fmt: skip
     return record(TorqueConfig, opts, joints=joints, friction=tuple(opts["friction"]))
 
 
@@ -127,8 +133,18 @@ def experiment(**opts):
 
 
 def experiment_config(opts: dict) -> ExperimentConfig:
-    """The real robot and its sensors' errors from the flags."""
-    return record(ExperimentConfig, opts, torque=torque_config(opts))
+    """The real robot and its sensors' errors from the flags (an error for a flag that does
+    nothing: foot-sensor settings on a robot held in a gantry, a gantry without torques)."""
+    torque = torque_config(opts)
+    if opts["mount"] == "gantry":
+        if not torque.joints:
+            raise OptionError(
+                "mount", "a robot held in a gantry loads no foot: nothing is measured without "
+                "--torques (the joints with a torque sensor)",
+            )  # fmt: skip
+        feet = ("fsr_noise", "fsr_bias", "fsr_gain", "registers", "sensors_file")
+        common.refuse_idle(feet, False, "on a robot held in a gantry (no foot carries its weight)")
+    return record(ExperimentConfig, opts, torque=torque)
 
 
 def mujoco_bench(opts: dict, cfg: ExperimentConfig):

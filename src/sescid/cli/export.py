@@ -14,6 +14,7 @@ from sescid.estimation import ConsistentOptions, load_fit, to_consistent
 from sescid.io import (
     FORMATS,
     export_model,
+    model_files,
 )
 
 
@@ -39,7 +40,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
     OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
     common.echo_model_change(fit, fit_file)
-    outs = OutputSet([out], [fit_file, fit.robot.model_path], force=force)
+    outs = OutputSet([out], [fit_file, *model_files(fit.robot.model_path)], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
@@ -62,4 +63,13 @@ def export_cmd(fit_file, out, model_format, force, **opts):
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
     total = float(np.sum(fit.inertials.masses))
-    click.echo(f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg)")
+    model = fit.robot.total_mass
+    how = (
+        "the given --total-mass" if copts.total_mass is not None
+        else "the weighed mass the fit was given" if fit.mass_given
+        else "the model's: weigh the robot and give --total-mass" if abs(total - model) < 1e-9
+        else "from the fit"
+    )  # fmt: skip
+    click.echo(
+        f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg, {how})"
+    )

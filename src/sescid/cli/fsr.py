@@ -5,36 +5,41 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import OutputSet
+from sescid.base import SUPPORT_COLUMN, OutputSet
 from sescid.cli import common
-from sescid.errors import DataError
+from sescid.errors import DataError, ModelError
 from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
 from sescid.robot import DOUBLE
-from sescid.sensors import REASONS, fsr_chunks, load_sensors
+from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors
 
 
-def _log_stance(raw: str, support: str | None) -> str | None:
-    """The stance of a raw log (its ``support`` column, one value for the whole log), None
-    without the column; an error for a log of several stances or one unlike ``--support``."""
-    first = next(iter(iter_table(raw)), None)
-    if first is None or "support" not in first.text:
-        return None
-    names = {v.strip() for v in first.text["support"]}
+def _log_stances(raw: str, support: str | None) -> list[str]:
+    """The stances of a raw log (its ``support`` column, in order of appearance; empty without
+    the column); an error for a log of one stance unlike ``--support``."""
+    names: dict[str, None] = {}
     for table in iter_table(raw):
-        names |= {v.strip() for v in table.text.get("support", [])}
-    if len(names) != 1:
+        if SUPPORT_COLUMN not in table.text:
+            break
+        names |= dict.fromkeys(v.strip() for v in table.text[SUPPORT_COLUMN])
+    stances = list(names)
+    if "" in names:
+        raise DataError(f"{raw}: the log's '{SUPPORT_COLUMN}' column has empty cells")
+    if len(stances) == 1 and support is not None and stances[0] not in (support, DOUBLE):
         raise DataError(
-            f"{raw}: the log's 'support' column names several stances ({', '.join(sorted(names))})"
-            ": measure each stance's log on its own"
+            f"{raw}: the log was measured on '{stances[0]}' (its '{SUPPORT_COLUMN}' column), not "
+            f"on --support {support}"
         )
-    (stance,) = names
-    if support is not None and support != stance and stance != DOUBLE:
-        raise DataError(
-            f"{raw}: the log was measured on '{stance}' (its 'support' column), not on "
-            f"--support {support}"
-        )
-    return stance
+    return stances
+
+
+def _stance_robot(robot, stance: str, raw: str):
+    """The robot of one stance of a log ("double": the CoP of both feet in ``robot``'s
+    frame); an unknown frame is an error naming the log."""
+    try:
+        return robot.stance(stance)
+    except ModelError as exc:
+        raise DataError(f"{raw}: column '{SUPPORT_COLUMN}': {exc}") from None
 
 
 def _sensors(sensors_file, profile):
@@ -64,22 +69,32 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     Writes pose, joint columns (mean read-backs, rad), cop_x, cop_y, cop_se_x, cop_se_y (m) when
     foot sensors are logged, tau_<joint> and tau_se_<joint> (N·m) and approach when torques are,
     n_used, n_rejected, reject_reasons, and force_n (mean total force, N) when forces are
-    logged. A log with torques and no foot sensors needs no sensor file.
+    logged. A log with torques and no foot sensors needs no sensor file. A log's 'support'
+    column (each sample's stance) is kept: each stance's poses are reduced in its own frame.
     """
     outs = OutputSet(
         [out], [raw, poses_file, sensors_file, common.model_input(robot_name)], force=force
     )
-    stance = _log_stance(raw, support)
-    robot = common.load(robot_name, support or (None if stance in (None, DOUBLE) else stance))
+    stances = _log_stances(raw, support)
+    one = stances[0] if len(stances) == 1 else None
+    robot = common.load(robot_name, support or (None if one in (None, DOUBLE) else one))
     config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
-    res, unmeasured = fsr_chunks(
-        robot, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
-        whole=lambda: read_table(raw),
-    )  # fmt: skip
+    if len(stances) > 1:  # each stance's samples reduced in its own frame
+        robots = {st: _stance_robot(robot, st, raw) for st in stances}
+        res, unmeasured, labels = fsr_stances(
+            robots, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
+            whole=lambda: read_table(raw),
+        )  # fmt: skip
+    else:
+        res, unmeasured = fsr_chunks(
+            robot, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
+            whole=lambda: read_table(raw),
+        )  # fmt: skip
+        labels = np.full(len(res.pose), one) if one is not None else None
     columns = res.columns(robot.joint_names)
-    if stance is not None:  # the stance the log was measured in, for identify to pool
-        columns["support"] = np.full(len(res.pose), stance)
+    if labels is not None:  # the stance each pose was measured in, for identify to pool
+        columns[SUPPORT_COLUMN] = labels
     with outs:
         write_table(outs.path(out), columns)
     total = res.rejected.sum(axis=0)
@@ -101,9 +116,10 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
             f"  torques of {len(res.tau_joints)} joints: mean standard error "
             f"{float(np.mean(res.tau_se)):.4g} N·m{side}"
         )
+    for note in res.notes:
+        click.echo(f"  note: {note}", err=True)
     for pose, reason in res.dropped:
-        what = "CoP" if res.cop is not None else "measurement"
-        click.echo(f"  pose {pose} has no {what}: {reason}", err=True)
+        click.echo(f"  pose {pose} dropped: {reason}", err=True)
     if unmeasured:
         more = f" (and {len(unmeasured) - 5} more)" if len(unmeasured) > 5 else ""
         click.echo(

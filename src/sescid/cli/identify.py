@@ -16,8 +16,9 @@ from sescid.base import OutputSet, TerminalProgress, option_spec
 from sescid.cli import common
 from sescid.cli.flags import SectionedCommand, flags, help_of, record
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
-from sescid.errors import OptionError, choices
+from sescid.errors import DataError, OptionError, choices
 from sescid.estimation import (
+    COP_ON_TRUNK,
     METHOD_CHOICES,
     AutoOptions,
     ConsistentOptions,
@@ -37,6 +38,10 @@ from sescid.report import mm
 def options_from_flags(method: MethodName, opts: dict) -> tuple[MethodOptions, IdentifyOptions]:
     """The method's options and ``identify``'s shared options from the command's flags (a
     method's flags with another method are an error naming them)."""
+    common.refuse_idle("gain_prior", opts["tau_gains"], "without --tau-gains")
+    common.refuse_idle("mc_draws", opts["joint_noise_deg"] is not None, "without --joint-noise-deg")
+    common.refuse_idle("noise", method in ("map", "auto") or opts["online"],
+                "without --method map (or auto) or --online")  # fmt: skip
     if method not in ("map", "auto"):
         given = [
             name
@@ -169,6 +174,9 @@ def identify(data, robot_name, support, out, method, force, **opts):
             options=options,
             progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
         )
+    trunk = next((w for w in fit.warnings if w.startswith(COP_ON_TRUNK)), None)
+    if trunk is not None:
+        raise DataError(f"{', '.join(map(str, data))}: {trunk}")
     with outs:
         save_fit(fit, outs.path(out))
     echo_fit(fit)
@@ -184,9 +192,14 @@ def echo_fit(fit: Fit) -> None:
         echo_masses(fit)
     if fit.robust is not None:
         low = fit.robust.downweighted
+        if not low:
+            click.echo("robust: no pose down-weighted")
         shown = ", ".join(f"{i} (w {w:.2f})" for i, w in low[:10])
         more = f" and {len(low) - 10} more" if len(low) > 10 else ""
-        click.echo(f"robust: {len(low)} poses down-weighted (row index, weight): {shown}{more}")
+        if low:
+            click.echo(
+                f"robust: {len(low)} poses down-weighted (pose index, weight): {shown}{more}"
+            )
     if fit.cop_offset is not None:
         (bx, by), (sx, sy) = fit.cop_offset.value, fit.cop_offset.std
         click.echo(

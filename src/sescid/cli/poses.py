@@ -123,11 +123,12 @@ def poses(**o):
 
     Columns: pose (id), support (each pose's stance: with --stances, or on both feet), one per
     joint in radians (servo convention), <joint>_deg, <joint>_ticks (when the robot profile
-    knows its servo), cop_x, cop_y (model CoP in the stance's frame, m; empty for a robot held
-    in a gantry).
+    knows its servo), cop_x_model, cop_y_model (the model's CoP in the stance's frame, m: a
+    prediction, not a measurement; empty for a robot held in a gantry).
     """
     out, figure, count, select, kinds = o["out"], o["figure"], o["count"], o["select"], o["kinds"]
     outs = OutputSet([out, figure], [common.model_input(o["robot_name"])], force=o["force"])
+    common.refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
     robot = common.load(o["robot_name"], o["support"])
     pc = required_paper_convention(robot) if o["paper_convention"] else None
     chosen = parse_stances(o["stances"], robot) if o["stances"] is not None else ()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from sescid.base import OutputSet, TerminalProgress
@@ -68,4 +70,4 @@ def report(fit_file, measured, out_dir, stance, imu_link, force):
     for k in (res.content.cop, res.content.tau):
         if k is not None:
             click.echo(_residual_line(k, data.n))
-    click.echo(f"wrote {out_dir}/{res.html.name} and {len(res.figures)} figures")
+    click.echo(f"wrote {Path(out_dir) / res.html.name} and {len(res.figures)} figures")

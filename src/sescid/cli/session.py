@@ -11,7 +11,7 @@ import click
 import numpy as np
 
 from sescid.cli import common
-from sescid.cli.experiment import bench_sensors, torque_config, torque_options
+from sescid.cli.experiment import TORQUE_FLAGS, bench_sensors, torque_config, torque_options
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.planning import parse_stances, stance_robot
@@ -164,6 +164,7 @@ def session(**opts):
     from sescid.base import TerminalProgress
     from sescid.session import Journal, check_options, run_session
 
+    _refuse_idle(opts)
     robot = common.load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
     stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
@@ -182,12 +183,12 @@ def session(**opts):
     elif journal.entries:
         click.echo(f"resuming {journal.path}: {len(journal.entries)} poses journaled")
     view = None
-    if not opts["no_view"]:
-        from sescid.report import LiveView
-
-        view = LiveView(robot, port=opts["view_port"])
-        click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
     try:
+        if not opts["no_view"]:
+            from sescid.report import LiveView
+
+            view = LiveView(robot, port=opts["view_port"])
+            click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
         res = run_session(
             robot, bot, sensors, opt,
             _Both(_Printer(opt.budget), None if view is None else _CopView(view)),
@@ -196,9 +197,20 @@ def session(**opts):
     except BaseException:
         if view is not None:
             view.close()
+        journal.discard_if_empty()  # a session that measured nothing leaves nothing behind
         raise
     _write(res, robot, out_dir, view, opts)
     journal.finish(res.stop_reason)
+
+
+def _refuse_idle(opts: dict) -> None:
+    """An error for flags that would do nothing: the bench's sensors with your own adapter,
+    the live view's settings with --no-view."""
+    # a replay may repeat the recorded session's command line: its bench flags are kept
+    bench = opts["adapter"] in ("mujoco", "kinematic", "replay")
+    why = f"with --adapter {opts['adapter']} (your robot logs what it logs)"
+    common.refuse_idle(("torques", *TORQUE_FLAGS, "foot_sensors"), bench, why)
+    common.refuse_idle(("view_port", "view_linger"), not opts["no_view"], "with --no-view")
 
 
 def session_options(opts: dict) -> SessionOptions:

@@ -67,6 +67,10 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     outs = OutputSet([out], [common.model_input(robot_name)], force=force)
     robot = common.load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
+    common.refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
+                f"with --measure {measure}")  # fmt: skip
+    common.refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
+    common.refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
     if measure == "balance":
         _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
         return

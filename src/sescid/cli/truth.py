@@ -32,7 +32,7 @@ def truth(fit_file, truth_file, fresh, within_deg, seed):
 
     fit = load_fit(fit_file)
     common.echo_model_change(fit, fit_file)
-    c = compare_truth(fit, truth_file, fresh, within_deg, seed)
+    c = compare_truth(fit, truth_file, fresh, within_deg, seed, fit_path=fit_file)
     unit = mm if c.quantity == "CoP" else (lambda x: f"{math.degrees(x):.3f}°")
     click.echo(
         f"truth: real robot {c.true_mass_kg:.3f} kg, model {c.model_mass_kg:.3f} kg; "

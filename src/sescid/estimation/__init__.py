@@ -15,7 +15,12 @@ vectors, sensor offsets, their uncertainty, and physical masses.
 
 from sescid.estimation.api import fit_measurements, to_consistent
 from sescid.estimation.cad_check import cad_violations
-from sescid.estimation.checks import check_total_mass, fit_warnings, outside_limits
+from sescid.estimation.checks import (
+    COP_ON_TRUNK,
+    check_total_mass,
+    fit_warnings,
+    outside_limits,
+)
 from sescid.estimation.consistent import body_boxes, fit_inertials
 from sescid.estimation.fit import (
     METHOD_CHOICES,
@@ -34,7 +39,7 @@ from sescid.estimation.fit import (
     OnlineInfo,
     RobustInfo,
 )
-from sescid.estimation.fit_json import MODEL_CHANGED, load_fit, save_fit
+from sescid.estimation.fit_json import MODEL_CHANGED, OLD_FORMAT, load_fit, save_fit
 from sescid.estimation.identifiability import (
     DEFAULT_RTOL,
     identifiable_eigen,
@@ -115,6 +120,8 @@ __all__ = [
     "identifiable_eigen",
     "fit_measurements",
     "MODEL_CHANGED",
+    "OLD_FORMAT",
+    "COP_ON_TRUNK",
     "load_fit",
     "method_options",
     "min_poses",

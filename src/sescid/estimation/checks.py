@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from sescid.errors import OptionError
 from sescid.estimation.fit import Fit
+from sescid.model.sole import splits_at_support
 from sescid.robot import Robot
 
 #: a weighed total mass must lie within this factor range of the model's (outside: a unit slip
@@ -44,13 +45,19 @@ class LimitViolation:
     lower: float  #: rad
     upper: float  #: rad
 
-    def message(self, total: int) -> str:
-        """One line naming the first violation, in degrees."""
+    def message(self, total: int, at: str | None = None) -> str:
+        """One line naming the first violation, in degrees; ``at`` names its place in a file
+        ("row 7, column 'r_knee'"; default: pose index and joint)."""
+        where = at or f"pose {self.row}, {self.joint}"
         return (
             f"{self.n_poses} of {total} poses are outside the model's joint limits (first: "
-            f"pose {self.row}, {self.joint} = {math.degrees(self.value):.1f}° not in "
+            f"{where} = {math.degrees(self.value):.1f}° not in "
             f"[{math.degrees(self.lower):.1f}, {math.degrees(self.upper):.1f}]°)"
         )
+
+
+#: the start of the warning of a CoP fitted at a trunk (the CLI refuses such a fit)
+COP_ON_TRUNK = "a CoP fitted at a trunk"
 
 
 def outside_limits(robot: Robot, q: ArrayLike | list[np.ndarray]) -> LimitViolation | None:
@@ -149,9 +156,32 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "measure more poses"
         )
     if fit.sigma_hat < EXACT_FIT and fit.n_rows > fit.rank:
+        what = {k.kind for k in fit.kinds} or {"cop"}
+        data = (
+            "the CoP is fitted exactly (a constant or all-zero CoP, or noise-free data)"
+            if what == {"cop"}
+            else "the measurements are fitted exactly (constant or all-zero values, or "
+            "noise-free data)"
+        )
+        out.append(f"σ̂ = 0: {data}; intervals have zero width")
+    negative = [
+        e for e in fit.nuisance
+        if e.kind == "tau" and e.what == "friction" and e.determined and e.value < -2 * e.std
+    ]  # fmt: skip
+    if negative:
+        shown = ", ".join(f"{e.name} {e.value:+.3f} ± {e.std:.3f}" for e in negative[:4])
         out.append(
-            "σ̂ = 0: the CoP is fitted exactly (a constant or all-zero CoP, or noise-free data); "
-            "intervals have zero width"
+            f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}): "
+            "a band is never below zero — those torque sensors' sign is reversed, or their "
+            "approach column is (+1: reached moving up)"
+        )
+    held = splits_at_support([b.parent for b in fit.robot.model.bodies], fit.robot.masses)
+    if held and fit.kind("cop") is not None:
+        out.append(
+            f"{COP_ON_TRUNK}: the support '{fit.robot.support}' is where the robot's mass "
+            "splits (held there in a gantry, it loads no foot), yet the data hold a CoP, "
+            "measured under a standing foot: load the robot at the sole it stood on (support= / "
+            f"--support); this fit is of a robot standing on '{fit.robot.support}'"
         )
     return out
 

@@ -286,7 +286,9 @@ def _read(path: Path) -> dict:
 
 
 def load_fit(path: str | Path) -> records.Fit:
-    """Read a fit written by ``Fit.save`` (versions 1 and 2); reloads its robot."""
+    """Read a fit written by ``save_fit`` (this version, and versions 1 and 2 with a warning
+    ``OLD_FORMAT``: a not-determined covariance they stored as zeros is read as nan again);
+    reloads its robot."""
     path = Path(path)
     data = _read(path)
     v1 = data["format"] == FIT_FORMAT_V1
@@ -337,11 +339,15 @@ def load_fit(path: str | Path) -> records.Fit:
                 fields["truth_cop_rmse"] = float(data["truth_cop_rmse"])
             if data.get("bodies") is not None:
                 fields["bodies"] = _bodies_from_json(data["bodies"], len(bodies), path)
+        cov = _matrix(data, "cov", (n, n), path, nullable=True)
+        sigma_null = data["sigma_hat"] is None
+        if data["format"] != FIT_FORMAT and sigma_null:
+            cov = np.full((n, n), np.nan)  # versions 1, 2 wrote a not-determined cov as zeros
         fit = records.Fit(
             robot=robot,
             r=r,
             r_prior=r_prior,
-            cov=_matrix(data, "cov", (n, n), path, nullable=True),
+            cov=cov,
             basis=_matrix(data, "basis", (n, rank), path) if rank else np.zeros((n, 0)),
             singular_values=_matrix(data, "singular_values", (n,), path),
             rank=rank,
@@ -364,7 +370,18 @@ def load_fit(path: str | Path) -> records.Fit:
         raise DataError(f"{path}: malformed fit file ({exc.__class__.__name__}: {exc})") from None
     if changed is not None:
         fit = dataclasses.replace(fit, warnings=(changed, *fit.warnings))
+    if data["format"] != FIT_FORMAT:
+        old = (
+            f"{OLD_FORMAT} {data['format']!r} (this sescid writes {FIT_FORMAT}): read as such — "
+            "its noise, covariance and notes are those of the sescid that wrote it; refit to "
+            "store what this version records (each kind's fit, the sensors' estimates)"
+        )
+        fit = dataclasses.replace(fit, warnings=(old, *fit.warnings))
     return fit
+
+
+#: the start of the warning a fit read from an older file format carries
+OLD_FORMAT = "an older fit file format"
 
 
 #: the start of the warning a fit read back carries when its model file changed since the fit

@@ -221,6 +221,8 @@ def qr_pivoted(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, Callable]:
 
 def base_combinations(sv, vecs, p, labels, r, cov) -> list[Combination]:
     """Base parameters by QR with column pivoting of S = diag(s) Vᵀ (same structure as Φ)."""
+    if p == 0:  # the data determine no combination (LAPACK refuses an empty matrix)
+        return []
     s_mat = sv[:p, None] * vecs[:, :p].T  # (p, P): SᵀS = ΦᵀΦ on the identifiable part
     rr, piv, solve_upper = qr_pivoted(s_mat)
     r11, r12 = rr[:p, :p], rr[:p, p:]

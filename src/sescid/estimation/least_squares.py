@@ -161,7 +161,7 @@ def fit_from_solution(
         sigma_dof=_sigma_dof(kinds, sol),
         kinds=kinds,
         nuisance=nuisance_estimates(system, sol),
-        total_mass=system.total_mass if TORQUE in system.kinds else math.nan,
+        total_mass=(system.total_mass if TORQUE in system.kinds or system.mass_given else math.nan),
         mass_given=system.mass_given,
         gravity_accel=system.gravity_accel,
     )

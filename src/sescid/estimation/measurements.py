@@ -11,16 +11,26 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, get_args
 
 import numpy as np
 
-from sescid.base.columns import MAX_ANGLE_RAD, MAX_COP_M, MAX_TORQUE_NM
+from sescid.base.columns import MAX_ANGLE_RAD, MAX_COP_M, TORQUE_REACH_M, torque_bound
 from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
+
+#: poses a torque column's sign is checked on at most (spread over the data), and at least
+SIGN_POSES, SIGN_MIN_POSES = 256, 10
+#: a column whose torques correlate below −SIGN_CORR with the model's has the opposite sign
+SIGN_CORR = 0.8
+#: share of the columns the model explains (|correlation| > SIGN_CORR) that must look
+#: reversed for the data to be refused
+SIGN_SHARE = 0.75
+#: N·m, RMS variation of the model's torque below which a column's sign is not judged
+SIGN_SPREAD_NM = 0.02
 
 #: a measurement kind, as named in fits, files and options: the CoP, joint torques, or the
 #: balance of a robot on a support line
@@ -62,6 +72,19 @@ class Measurements:
     cop_true: np.ndarray | None = None
     support: str | None = None
     source: str = "data"
+    #: pose i → where a file holds it ("row 7"; None: arrays, named "pose i" in errors)
+    row_of: Callable[[int], str] | None = None
+
+    def at(self, i: int) -> str:
+        """Pose ``i`` as an error names it: the file's row ("row 7"), or "pose i" of arrays."""
+        return self.row_of(int(i)) if self.row_of is not None else f"pose {int(i)}"
+
+    def cell(self, i: int, column: str) -> str:
+        """Pose ``i``'s value of ``column`` as an error names it: the file's row and column,
+        or the pose index of arrays."""
+        if self.row_of is not None:
+            return f"{self.row_of(int(i))}, column '{column}'"
+        return f"pose {int(i)}, {column}"
 
     @property
     def n(self) -> int:
@@ -92,24 +115,31 @@ class Measurements:
         positive standard errors, known joints, ±1 approach sides (DataError naming the source,
         the row and the column otherwise)."""
         where = self.source
+        if robot.nq == 0:
+            raise DataError(
+                f"{where}: {robot.name} has no joints: every pose is the same rigid body, and its "
+                "data repeat one measurement (sescid fits robots with joints)"
+            )
         q = as_poses(self.q, robot.nq, f"{where}: q")
         n = q.shape[0]
         if n == 0:
             raise DataError(f"{where}: no poses")
-        if q.max() > MAX_ANGLE_RAD or q.min() < -MAX_ANGLE_RAD:  # no |q| temporary
+        names = list(robot.joint_names)
+        if q.size and (q.max() > MAX_ANGLE_RAD or q.min() < -MAX_ANGLE_RAD):  # no |q| temporary
             row, col = np.argwhere(np.abs(q) > MAX_ANGLE_RAD)[0]
             raise DataError(
-                f"{where}: pose {row}, joint {robot.joint_names[col]}: {q[row, col]:g} rad looks "
-                "like degrees; joint angles are in radians"
+                f"{where}: {self.cell(row, names[col])}: {q[row, col]:g} rad looks like degrees; "
+                "joint angles are in radians"
             )
-        cop = _array(self.cop, (n, 2), f"{where}: cop", "m", missing=True)
+        cop = self._array(self.cop, (n, 2), "cop", ["cop_x", "cop_y"], "m", missing=True)
         if cop is not None and np.any(np.abs(cop) > MAX_COP_M):  # nan compares False
             row, col = np.argwhere(np.abs(cop) > MAX_COP_M)[0]
             raise DataError(
-                f"{where}: pose {row}, cop_{'xy'[col]} = {cop[row, col]:g} m is not a plausible "
-                "CoP (millimetres for metres?)"
+                f"{where}: {self.cell(row, f'cop_{chr(120 + col)}')} = {cop[row, col]:g} m is "
+                "not a plausible CoP (millimetres for metres?)"
             )
-        cop_se = _positive(_array(self.cop_se, (n, 2), f"{where}: cop_se", "m"), where, "cop_se")
+        cop_se = self._array(self.cop_se, (n, 2), "cop_se", ["cop_se_x", "cop_se_y"], "m")
+        self._positive(cop_se, ["cop_se_x", "cop_se_y"], "m")
         joints = tuple(str(j) for j in self.tau_joints)
         if self.tau is not None and not joints:
             raise DataError(f"{where}: torques given without the names of their joints")
@@ -117,37 +147,44 @@ class Measurements:
             raise DataError(f"{where}: a joint's torque is given twice ({', '.join(joints)})")
         if joints:
             robot.joint_columns(joints)  # ModelError naming an unknown joint
-        tau = _array(self.tau, (n, len(joints)), f"{where}: tau", "N·m")
-        if tau is not None and np.any(np.abs(tau) > MAX_TORQUE_NM):
-            row, col = np.argwhere(np.abs(tau) > MAX_TORQUE_NM)[0]
+        tau_cols = [f"tau_{j}" for j in joints]
+        tau = self._array(self.tau, (n, len(joints)), "tau", tau_cols, "N·m")
+        bound = torque_bound(robot.total_mass)
+        if tau is not None and np.any(np.abs(tau) > bound):
+            row, col = np.argwhere(np.abs(tau) > bound)[0]
             raise DataError(
-                f"{where}: row {row}, tau_{joints[col]} = {tau[row, col]:g} N·m: beyond "
-                f"{MAX_TORQUE_NM:g} N·m (a unit slip: mN·m?)"
+                f"{where}: {self.cell(row, tau_cols[col])} = {tau[row, col]:g} N·m is more than "
+                f"the robot's weight at {TORQUE_REACH_M:g} m ({bound:.3g} N·m): not a torque in "
+                "N·m (mN·m?)"
             )
-        tau_se = _array(self.tau_se, (n, len(joints)), f"{where}: tau_se", "N·m")
-        tau_se = _positive(tau_se, where, "tau_se")
+        if tau is not None:
+            self._check_sign(robot, q, tau, joints, self.gravity)
+        se_cols = [f"tau_se_{j}" for j in joints]
+        tau_se = self._array(self.tau_se, (n, len(joints)), "tau_se", se_cols, "N·m")
+        self._positive(tau_se, se_cols, "N·m")
         approach = None
         if self.approach is not None:
-            approach = _array(self.approach, (n,), f"{where}: approach", "±1")
+            approach = self._array(self.approach, (n,), "approach", ["approach"], "±1")
             assert approach is not None
             bad = np.flatnonzero(np.abs(approach) != 1.0)
             if bad.size:
                 raise DataError(
-                    f"{where}: row {bad[0]}, approach = {approach[bad[0]]:g}: must be +1 "
-                    "(reached moving up) or −1 (moving down)"
+                    f"{where}: {self.cell(bad[0], 'approach')} = {approach[bad[0]]:g}: must be "
+                    "+1 (reached moving up) or −1 (moving down)"
                 )
-        gravity = _array(self.gravity, (n, 3), f"{where}: gravity", "direction")
-        cop_true = _array(self.cop_true, (n, 2), f"{where}: cop_true", "m")
-        balance = _array(self.balance, (n,), f"{where}: balance", "m")
+        grav = ["grav_x", "grav_y", "grav_z"]
+        gravity = self._array(self.gravity, (n, 3), "gravity", grav, "direction")
+        cop_true = self._array(self.cop_true, (n, 2), "cop_true", ["cop_x_true", "cop_y_true"], "m")
+        balance = self._array(self.balance, (n,), "balance", ["balance"], "m")
         if balance is not None:
-            _check_balance(robot, balance, gravity, where)
+            _check_balance(robot, balance, gravity, where, self.at)
         if cop is None and tau is None and balance is None:
             raise DataError(
                 f"{where}: nothing measured: give cop_x, cop_y (centre of pressure) and/or "
                 "tau_<joint> columns (joint torques)"
             )
         if cop is not None:
-            _check_cop_rows(cop, tau is not None or balance is not None, where)
+            _check_cop_rows(cop, tau is not None or balance is not None, where, self.at)
         return dataclasses.replace(
             self,
             q=q,
@@ -162,12 +199,91 @@ class Measurements:
             balance=balance,
         )
 
+    def _array(
+        self,
+        value,
+        shape: tuple[int, ...],
+        what: str,
+        columns: list[str],
+        unit: str,
+        missing: bool = False,
+    ) -> np.ndarray | None:
+        """``value`` as a float array of ``shape``; DataError naming the first non-finite cell
+        (its ``columns`` name, row or pose; nan marks a value not measured where ``missing``
+        allows it)."""
+        if value is None:
+            return None
+        arr = np.asarray(value, dtype=float)
+        if shape[1:] == (2,) and arr.ndim == 1 and arr.shape == (shape[0] * 2,):
+            arr = arr.reshape(shape)
+        if arr.shape != shape:
+            raise DataError(
+                f"{self.source}: {what}: expected shape {shape} ({unit}), got {arr.shape}"
+            )
+        if arr.size and not math.isfinite(float(np.sum(arr))):
+            bad = np.argwhere(np.isinf(arr) if missing else ~np.isfinite(arr))
+            if bad.size:
+                i = int(bad[0][0])
+                col = columns[int(bad[0][1])] if arr.ndim > 1 else columns[0]
+                raise DataError(f"{self.source}: {self.cell(i, col)}: {arr[tuple(bad[0])]} is "
+                                "not a finite number")  # fmt: skip
+        return np.ascontiguousarray(arr)
+
+    def _check_sign(self, robot: Robot, q, tau, joints: tuple[str, ...], gravity) -> None:
+        """DataError when the torques are the model's with the opposite sign at most joints (a
+        reversed sign convention: every friction band would come out negative), judged on up
+        to ``SIGN_POSES`` poses spread over the data; one joint alone may be a CAD model's
+        error, left to the fit (``fit_warnings``: a negative friction band)."""
+        n = tau.shape[0]
+        if n < SIGN_MIN_POSES:
+            return
+        idx = np.unique(np.linspace(0, n - 1, min(n, SIGN_POSES)).astype(int))
+        g = None if gravity is None else np.asarray(gravity, dtype=float)[idx]
+        try:
+            model = robot.torques(q[idx], joints=list(joints), gravity=g)
+        except Exception:  # the model cannot say: leave the data to the fit
+            return
+        t = tau[idx] - tau[idx].mean(axis=0)
+        m = model - model.mean(axis=0)
+        mm = np.sum(m * m, axis=0)
+        tt = np.sum(t * t, axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slope = np.sum(t * m, axis=0) / mm
+            corr = np.sum(t * m, axis=0) / np.sqrt(mm * tt)
+        spread = np.sqrt(mm / len(idx))
+        judged = (spread > SIGN_SPREAD_NM) & (np.abs(corr) > SIGN_CORR)  # the model explains
+        bad = np.flatnonzero((corr < -SIGN_CORR) & (slope < -0.5) & judged)
+        if bad.size and bad.size >= SIGN_SHARE * judged.sum():
+            k = int(bad[0])
+            others = ", ".join(f"tau_{joints[int(i)]}" for i in bad[1:4])
+            more = f" (also {others}{' …' if bad.size > 4 else ''})" if bad.size > 1 else ""
+            raise DataError(
+                f"{self.source}: column 'tau_{joints[k]}': the torques are the model's with the "
+                f"opposite sign (slope {slope[k]:.2f}, correlation {corr[k]:.2f} over "
+                f"{len(idx)} poses){more}: a sensor of reversed sign (tau_<joint> is the torque "
+                "the actuator applies about the joint's axis, as in the model), or data measured "
+                f"on another support than '{robot.support}'?"
+            )
+
+    def _positive(self, arr: np.ndarray | None, columns: list[str], unit: str) -> None:
+        """DataError naming the first standard error that is not > 0."""
+        if arr is not None and np.any(arr <= 0):
+            i, k = (int(v) for v in np.argwhere(arr <= 0)[0])
+            raise DataError(
+                f"{self.source}: {self.cell(i, columns[k])} = {arr[i, k]:g} {unit}: a standard "
+                "error must be > 0"
+            )
+
     def take(self, rows: slice | np.ndarray) -> Measurements:
         """The poses ``rows`` (a slice or index array) of every array."""
         taken: dict[str, Any] = {}
         for f in _ARRAYS:
             a = getattr(self, f)
             taken[f] = None if a is None else a[rows]
+        where = self.row_of
+        if where is not None:
+            index = np.arange(self.n)[rows]
+            taken["row_of"] = lambda i: where(int(index[i]))
         return dataclasses.replace(self, **taken)
 
     def only(self, kinds: tuple[str, ...] | None) -> Measurements:
@@ -208,8 +324,11 @@ _ARRAYS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravit
 MIN_LINE_GRAVITY_ANGLE = 0.1
 
 
-def _check_balance(robot: Robot, balance: np.ndarray, gravity: np.ndarray | None, where: str):
-    """A balance measurement needs a line support and the gravity direction of every pose."""
+def _check_balance(
+    robot: Robot, balance: np.ndarray, gravity: np.ndarray | None, where: str, at=str
+) -> None:
+    """A balance measurement needs a line support and the gravity direction of every pose
+    (``at(i)`` names pose i: "row 7")."""
     if robot.line is None:
         raise DataError(
             f"{where}: balance rows need a support line (a wheel axle, an edge): give its "
@@ -224,21 +343,21 @@ def _check_balance(robot: Robot, balance: np.ndarray, gravity: np.ndarray | None
     bad = np.flatnonzero(np.abs(g @ robot.line) > math.cos(MIN_LINE_GRAVITY_ANGLE))
     if bad.size:
         raise DataError(
-            f"{where}: row {bad[0]}: gravity {gravity[bad[0]].round(4).tolist()} runs along the "
+            f"{where}: {at(bad[0])}: gravity {gravity[bad[0]].round(4).tolist()} runs along the "
             "support line: the CoM's offset across it is not defined (check the line's "
             "direction or the IMU columns)"
         )
 
 
-def _check_cop_rows(cop: np.ndarray, other_kinds: bool, where: str) -> None:
+def _check_cop_rows(cop: np.ndarray, other_kinds: bool, where: str, at=str) -> None:
     """Each pose must measure something: a CoP row with both coordinates missing needs
-    another kind in the same data."""
+    another kind in the same data (``at(i)`` names pose i: "row 7")."""
     if other_kinds:
         return
     empty = np.flatnonzero(np.all(np.isnan(cop), axis=1))
     if empty.size:
         raise DataError(
-            f"{where}: row {empty[0]}: neither cop_x nor cop_y was measured (drop the row or "
+            f"{where}: {at(empty[0])}: neither cop_x nor cop_y was measured (drop the row or "
             "fill one of them)"
         )
 
@@ -257,34 +376,15 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
         if any(v is None for v in vals) and not all(v is None for v in vals):
             raise DataError(f"{first.source}: column {f} is missing in some parts")
         arrays[f] = None if vals[0] is None else np.concatenate(vals)
+    if all(p.row_of is not None for p in parts):
+        starts = np.cumsum([0] + [p.n for p in parts])
+        funcs = [p.row_of for p in parts]
+
+        def rows(i: int) -> str:
+            k = int(np.searchsorted(starts, i, side="right")) - 1
+            return funcs[k](i - int(starts[k]))  # type: ignore[misc]
+
+        arrays["row_of"] = rows
+    else:
+        arrays["row_of"] = None
     return dataclasses.replace(first, **arrays)
-
-
-def _array(
-    value, shape: tuple[int, ...], what: str, unit: str, missing: bool = False
-) -> np.ndarray | None:
-    """A float64 C-contiguous copy of ``value`` shaped ``shape``; DataError for a wrong shape
-    or a non-finite value (nan marks a value not measured where ``missing`` allows it)."""
-    if value is None:
-        return None
-    arr = np.asarray(value, dtype=float)
-    if shape[1:] == (2,) and arr.ndim == 1 and arr.shape == (shape[0] * 2,):
-        arr = arr.reshape(shape)
-    if arr.shape != shape:
-        raise DataError(f"{what}: expected shape {shape} ({unit}), got {arr.shape}")
-    if arr.size and not math.isfinite(float(np.sum(arr))):
-        bad = np.argwhere(np.isinf(arr) if missing else ~np.isfinite(arr))
-        if bad.size:
-            idx = tuple(int(i) for i in bad[0])
-            raise DataError(
-                f"{what}: non-finite value at row {idx[0]}"
-                + (f", column {idx[1]}" if len(idx) > 1 else "")
-            )
-    return np.ascontiguousarray(arr)
-
-
-def _positive(arr: np.ndarray | None, where: str, name: str) -> np.ndarray | None:
-    if arr is not None and np.any(arr <= 0):
-        row = int(np.argwhere(arr <= 0)[0, 0])
-        raise DataError(f"{where}: {name} at row {row} must be > 0 (a standard error)")
-    return arr

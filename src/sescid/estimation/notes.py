@@ -93,10 +93,17 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             f"± {tilt.std * 1e3:.2f} mm (prior model {tilt.prior * 1e3:.2f} mm; rank +1 over "
             "a level sole)"
         )
-    if fit.weighted:
+    asked = fit.robust.weighted_input if fit.robust is not None else fit.weighted
+    if fit.kinds and fit.robust is None:  # several kinds are weighed by their noise anyway
+        asked = any(k.weighted for k in fit.kinds)
+    if asked:
+        present = {k.kind for k in fit.kinds if k.weighted or fit.robust is not None} or {"cop"}
+        given = " and ".join(
+            {"cop": "CoP", "tau": "torque"}[k] for k in ("cop", "tau") if k in present
+        )
         notes.append(
-            "weighted by the given CoP standard errors: sigma_hat is the dimensionless scale "
-            "of the normalised residuals (≈ 1 when the standard errors are right)"
+            f"weighted by the given {given} standard errors: sigma_hat is the dimensionless "
+            "scale of the normalised residuals (≈ 1 when the standard errors are right)"
         )
     return notes
 

@@ -150,11 +150,14 @@ class ConsistentOptions:
         return "fit" if fit.method == "map" else "prior"
 
     def resolved(self, fit: Fit) -> tuple[Fit, dict]:
-        """The fit and ``consistent_from_fit`` keywords this choice means for ``fit``."""
+        """The fit and ``consistent_from_fit`` keywords this choice means for ``fit``; the
+        total mass defaults to the one the fit was given (weighed), else the model's."""
         kw = self.kwargs()
+        if kw["total_mass"] is None and fit.mass_given and math.isfinite(fit.total_mass):
+            kw["total_mass"] = fit.total_mass
         if self.path_for(fit) == "prior" and self.prior_std is None:
             ls = least_squares_view(fit)
-            tau, com_std = evidence_prior_std(ls, self.total_mass, self.com_scale)
+            tau, com_std = evidence_prior_std(ls, kw["total_mass"], self.com_scale)
             kw["prior_std"], kw["com_scale"] = tau, com_std / tau
             kw["spread"] = "data"
             return ls, kw

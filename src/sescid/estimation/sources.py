@@ -117,6 +117,9 @@ def as_sources(robot: Robot, data: Any, kinds: tuple[str, ...] | None = None) ->
     if isinstance(data, Measurements):
         return [MemorySource(robot, data.only(kinds))]
     if isinstance(data, list | tuple) and data and all(isinstance(d, Measurements) for d in data):
+        if len({id(d) for d in data}) < len(data):
+            raise DataError("identify: the same Measurements given twice (each pose would count "
+                            "twice: standard errors √2 too small)")  # fmt: skip
         return [MemorySource(robot, d.only(kinds)) for d in data]
     if isinstance(data, list) and data and all(_stream(d) for d in data):
         return [

@@ -32,6 +32,7 @@ from sescid.io.bags import (
     parse_mapping,
     read_bag,
 )
+from sescid.io.export.assets import model_files
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
@@ -62,6 +63,7 @@ __all__ = [
     "iter_table",
     "load_fit",
     "load_mapping",
+    "model_files",
     "parse_mapping",
     "pose_table",
     "read_bag",

@@ -19,7 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import Table, read_approach, read_cop, read_poses, read_torques
+from sescid.base.columns import (
+    SUPPORT_COLUMN,
+    Table,
+    read_approach,
+    read_cop,
+    read_poses,
+    read_torques,
+    refuse_plan,
+    refuse_raw_log,
+)
 from sescid.errors import DataError, ModelError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
@@ -36,6 +45,8 @@ class ReadReport:
     n_poses: int = 0
     simulated: bool = False
     limits: list[tuple[int, LimitViolation]] = field(default_factory=list)
+    #: the file row and column of the first violation ("row 7, column 'r_knee'")
+    first_limit_at: str | None = None
 
     def limit_message(self) -> str | None:
         """One line about the poses outside the joint limits, or None."""
@@ -44,11 +55,15 @@ class ReadReport:
         start, first = self.limits[0]
         n_bad = sum(v.n_poses for _, v in self.limits)
         row = first.row + start
-        return dataclasses.replace(first, row=row, n_poses=n_bad).message(self.n_poses)
+        return dataclasses.replace(first, row=row, n_poses=n_bad).message(
+            self.n_poses, self.first_limit_at
+        )
 
 
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
     """One chunk of a measurement table as ``Measurements`` (not yet validated)."""
+    refuse_plan(table)
+    refuse_raw_log(table)
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     has_cop = any(c in table.columns or c in table.text for c in ("cop_x", "cop_y"))
     cop = read_cop(table) if has_cop else None
@@ -66,15 +81,17 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
     gravity = table_gravity(robot, table, q, imu_link)
     balance = _balance(table, robot, has_cop, gravity)
     if cop is None and not joints and balance is None:
+        plan = any(f"{j}_deg" in table.names() for j in robot.joint_names)
         raise DataError(
-            f"{table.path}: no measurement columns: give cop_x, cop_y (centre of pressure) "
-            "and/or tau_<joint> (joint torques, N·m)"
+            f"{table.path}: no measurement columns"
+            + (" (joint angles only: a pose list, measured nowhere)" if plan else "")
+            + ": give cop_x, cop_y (centre of pressure) and/or tau_<joint> (joint torques, N·m)"
         )
     if cop is not None and not joints:
         empty = np.flatnonzero(np.all(np.isnan(cop), axis=1))
         if empty.size:
             raise DataError(
-                f"{table.path}: row {table.row(empty[0])}: neither cop_x nor cop_y was "
+                f"{table.path}: {table.where(empty[0])}: neither cop_x nor cop_y was "
                 "measured (drop the row or fill one of them)"
             )
     return Measurements(
@@ -89,6 +106,7 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
         gravity=gravity,
         cop_true=truth,
         source=str(table.path),
+        row_of=table.where,
     )
 
 
@@ -139,6 +157,8 @@ def read_measurements(
         rep.simulated = rep.simulated or simulated
         bad = outside_limits(robot, m.q)
         if bad is not None:
+            if not rep.limits:
+                rep.first_limit_at = m.cell(bad.row, _joint_column(table, bad.joint))
             rep.limits.append((rep.n_poses, bad))
         rep.n_poses += m.n
         if bad is not None and not (allow_outside_limits or rep.simulated):
@@ -147,10 +167,6 @@ def read_measurements(
                 "robot? (--allow-outside-limits accepts them)"
             )
         yield from by_support(table, robot, dataclasses.replace(m, support=support))
-
-
-#: the column naming each row's stance (a frame of the model, or "double")
-SUPPORT_COLUMN = "support"
 
 
 def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:
@@ -162,22 +178,30 @@ def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurem
         return
     if SUPPORT_COLUMN in table.columns:  # all numbers: no frame is named so
         raise DataError(
-            f"{table.path}: row {table.row(0)}, column '{SUPPORT_COLUMN}': "
+            f"{table.path}: {table.where(0)}, column '{SUPPORT_COLUMN}': "
             f"'{table.columns[SUPPORT_COLUMN][0]:g}' is not a frame of the model"
         )
     names = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
     for name in dict.fromkeys(names.tolist()):
         rows = np.flatnonzero(names == name)
         if not name:
-            raise DataError(f"{table.path}: row {table.row(rows[0])}, column 'support' is empty")
+            raise DataError(f"{table.path}: {table.where(rows[0])}, column 'support' is empty")
         try:
             robot.stance(name)
         except ModelError as exc:
             raise DataError(
-                f"{table.path}: row {table.row(rows[0])}, column 'support': {exc}"
+                f"{table.path}: {table.where(rows[0])}, column 'support': {exc}"
             ) from None
         support = None if name == robot.support else name
         yield dataclasses.replace(m.take(rows), support=support)
+
+
+def _joint_column(table: Table, joint: str) -> str:
+    """The column a joint's angle was read from (``<j>``, ``<j>_deg`` or ``<j>_ticks``)."""
+    for name in (joint, f"{joint}_deg", f"{joint}_ticks"):
+        if name in table.names():
+            return name
+    return joint
 
 
 def rows_estimate(path: str | Path) -> int | None:

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sescid.base import MODEL_COP_COLUMNS
 from sescid.errors import OptionError, SescidError
 from sescid.planning import PaperConvention, paper_convention
 from sescid.robot import Robot
@@ -33,7 +34,8 @@ def pose_table(
     ``support`` (each pose's stance: one label for all, or (n,) labels), one column per joint
     [rad], ``<joint>_deg``, ``<joint>_ticks`` (the profile's servo; left out, with a note, when an
     angle is beyond its range), ``<joint>_paper_deg`` (``paper``: ``required_paper_convention``)
-    and ``cop_x``, ``cop_y`` (``cop`` (n, 2) [m], the model CoP)."""
+    and ``cop_x_model``, ``cop_y_model`` (``MODEL_COP_COLUMNS``: ``cop`` (n, 2) [m], the
+    model's CoP, a prediction)."""
     q = np.asarray(q, dtype=float)
     n = len(q)
     cols: dict[str, np.ndarray] = {"pose": np.arange(n) if pose is None else pose}
@@ -54,7 +56,7 @@ def pose_table(
         qp = np.degrees(paper.to_paper(q))
         cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
     if cop is not None:
-        cols |= {"cop_x": cop[:, 0], "cop_y": cop[:, 1]}
+        cols |= {MODEL_COP_COLUMNS[k]: cop[:, k] for k in range(2)}
     return PoseTable(cols, notes)
 
 

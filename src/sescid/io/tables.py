@@ -25,7 +25,9 @@ import numpy as np
 
 from sescid.base.columns import Table
 from sescid.base.files import atomic_open, atomic_path
+from sescid.base.rows import RowNumbers
 from sescid.errors import DataError
+from sescid.io.file_kinds import refuse_other_content
 
 #: bytes of CSV text per block that pyarrow parses (about 540 OP2 poses); pyarrow's reader
 #: keeps up to 32 blocks read ahead, so its memory is ~32 times this
@@ -69,6 +71,7 @@ def iter_table(path: str | Path, chunk_rows: int | None = None) -> Iterator[Tabl
     if _is_parquet(path):
         yield from _iter_parquet(path, chunk_rows or CHUNK_ROWS)
         return
+    refuse_other_content(path)
     try:
         import pyarrow  # noqa: F401
     except ImportError:  # pragma: no cover - pyarrow is a dependency; plain reader otherwise
@@ -127,8 +130,11 @@ def read_ahead(chunks: Iterator[Table], depth: int = 2) -> Iterator[Table]:
 # --- CSV ---------------------------------------------------------------------------------
 
 
-def _read_csv_plain(path: Path, skip_data_rows: int = 0) -> Table:
+def _read_csv_plain(
+    path: Path, skip_data_rows: int = 0, numbers: RowNumbers | None = None
+) -> Table:
     """The reference reader (``csv`` module): every check, every message, in Python."""
+    numbers = numbers or RowNumbers(path)
     try:
         with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: Excel's BOM
             reader = csv.reader(fh)
@@ -147,14 +153,14 @@ def _read_csv_plain(path: Path, skip_data_rows: int = 0) -> Table:
     for i, r in enumerate(body):
         if len(r) != len(header):
             raise DataError(
-                f"{path}: row {i + 2} has {len(r)} fields, the header has {len(header)}"
+                f"{path}: row {numbers(i)} has {len(r)} fields, the header has {len(header)}"
             )
     body = body[skip_data_rows:]
     columns: dict[str, np.ndarray] = {}
     text: dict[str, list] = {}
     for j, name in enumerate(header):
         _put(columns, text, name, [r[j].strip() for r in body])
-    return Table(path, columns, text, first_row=2 + skip_data_rows)
+    return Table(path, columns, text, first_row=2 + skip_data_rows, numbers=numbers)
 
 
 def _check_header(path: Path, row: list[str]) -> list[str]:
@@ -212,6 +218,7 @@ def _iter_csv(path: Path) -> Iterator[Table]:
     import pyarrow as pa
 
     header, skip = _csv_header(path)
+    numbers = RowNumbers(path)
     done = 0
     try:
         # types from the first chunk: numbers as float64 (a column of "0" is not an integer
@@ -229,15 +236,15 @@ def _iter_csv(path: Path) -> Iterator[Table]:
                 batches.append(batch)
                 rows += batch.num_rows
             if rows >= CSV_CHUNK_ROWS:
-                yield _from_arrow(path, header, batches, 2 + done, pa)
+                yield _from_arrow(path, header, batches, 2 + done, pa, numbers)
                 done += rows
                 batches, rows = [], 0
         if rows:
-            yield _from_arrow(path, header, batches, 2 + done, pa)
+            yield _from_arrow(path, header, batches, 2 + done, pa, numbers)
             done += rows
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError):
         # a short row, text below numbers, …: the plain reader decides (and words the error)
-        yield _read_csv_plain(path, skip_data_rows=done)
+        yield _read_csv_plain(path, skip_data_rows=done, numbers=numbers)
         return
     if done == 0:
         raise DataError(f"{path}: no data rows")
@@ -247,7 +254,9 @@ def _numeric(pa: Any, kind: Any) -> bool:
     return pa.types.is_floating(kind) or pa.types.is_integer(kind)
 
 
-def _from_arrow(path: Path, names: list[str], batches: list, first_row: int, pa: Any) -> Table:
+def _from_arrow(
+    path: Path, names: list[str], batches: list, first_row: int, pa: Any, numbers: RowNumbers
+) -> Table:
     """One ``Table`` of consecutive record batches (each column copied once into numpy)."""
     columns: dict[str, np.ndarray] = {}
     text: dict[str, list] = {}
@@ -258,7 +267,7 @@ def _from_arrow(path: Path, names: list[str], batches: list, first_row: int, pa:
             columns[name] = col.to_numpy().astype(float, copy=False)
         else:
             _put(columns, text, name, [v.strip() for v in col.to_pylist()])
-    return Table(path, columns, text, first_row=first_row)
+    return Table(path, columns, text, first_row=first_row, numbers=numbers)
 
 
 # --- Parquet -----------------------------------------------------------------------------
@@ -318,7 +327,7 @@ def _join(path: Path, chunks: list[Table]) -> Table:
             ]
         else:
             columns[name] = np.concatenate([c.columns[name] for c in chunks])
-    return Table(path, columns, text, first_row=chunks[0].first_row)
+    return Table(path, columns, text, first_row=chunks[0].first_row, numbers=chunks[0].numbers)
 
 
 def _exact(x: float) -> str:
@@ -338,6 +347,8 @@ def write_table(path: str | Path, columns: dict[str, np.ndarray]) -> None:
     path = Path(path)
     names = list(columns)
     cols = [np.asarray(columns[k]) for k in names]
+    if not names:  # a header-less file would read back as nothing: say so instead
+        raise DataError(f"{path}: nothing to write (no column)")
     try:
         import pyarrow as pa
     except ImportError:  # pragma: no cover - pyarrow is a dependency; plain writer otherwise

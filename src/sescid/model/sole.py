@@ -283,6 +283,12 @@ def supporting_leg(parents: list[int], masses: np.ndarray) -> tuple[list[int], i
     return leg[:-1] if len(leg) > 1 else leg, cur
 
 
+def splits_at_support(parents: list[int], masses: np.ndarray) -> bool:
+    """True when the robot's mass splits at its support body (a trunk or pelvis, held in a
+    gantry: no foot carries a load), False at the end of a limb (a foot) or for one body."""
+    return len(parents) > 1 and supporting_leg(parents, masses)[1] == 0
+
+
 def mirror_foot(parents: list[int], masses: np.ndarray) -> int | None:
     """The supporting leg's mirror (None without one): of the branches leaving the end of the
     supporting leg, the one whose mass is nearest the supporting leg's (within a factor

@@ -99,6 +99,8 @@ class BlockDesign:
             return
         update_blocks(self._rows(), u, g, -1.0, self._out())
         self.minv = self.minv - u @ g @ u.T
+        if not np.isfinite(self.gain[~self.chosen]).all():  # the Woodbury chain lost digits
+            self.refresh()
 
     def remove(self, i: int) -> None:
         """Remove chosen candidate i (the design without it must be non-singular)."""
@@ -118,8 +120,24 @@ class BlockDesign:
         if j < 0 or not ratio[j] > tol:
             return None
         self.add(j)
-        self.remove(i_out)
+        try:
+            self.remove(i_out)
+        except np.linalg.LinAlgError:  # i_out alone saw a direction (round-off hid it): keep it
+            self.chosen[j], self.chosen[i_out] = False, True
+            self.refresh()  # M⁻¹ and every S_j from the chosen rows again
+            return None
         return j
+
+
+#: smallest eigenvalue, relative to the largest, of an information matrix that determines every
+#: coordinate (below it, as when a few joints' torques leave coordinates unseen, the ridge stays)
+WELL_POSED = 1e-10
+
+
+def _well_posed(info: np.ndarray) -> bool:
+    """True when ``info`` (symmetric) determines every coordinate, in floating point too."""
+    w = np.linalg.eigvalsh(info)
+    return bool(w[-1] > 0 and w[0] > WELL_POSED * w[-1])
 
 
 def schur_logdet(rows: BlockRows, idx) -> float:
@@ -146,17 +164,18 @@ def prescreen(rows: BlockRows, k: int) -> np.ndarray:
     n = rows.x.shape[0]
     if n <= max(PRESCREEN_MIN, PRESCREEN_PER_POSE * k):
         return np.arange(n)
-    m0 = rows.information(np.arange(n)) * (k / n)
+    m0 = rows.information(slice(None)) * (k / n)  # every candidate: views, not copies
     m0[np.diag_indices_from(m0)] += _ridge(rows)
-    gain = _gains(rows, np.arange(n), _pd_inverse(m0))
+    gain = _gains(rows, None, _pd_inverse(m0))
     return np.lexsort((np.arange(n), -gain))
 
 
-def _gains(rows: BlockRows, idx: np.ndarray, minv: np.ndarray) -> np.ndarray:
-    """(len(idx),) log det(I + A_j M⁻¹ A_jᵀ) of the candidates ``idx`` (−inf: not finite)."""
-    sub = rows.take(idx)
-    r = sub.x.shape[1]
-    out = Sandwiches(np.empty((len(idx), r, r)), np.empty(len(idx)))
+def _gains(rows: BlockRows, idx: np.ndarray | None, minv: np.ndarray) -> np.ndarray:
+    """(m,) log det(I + A_j M⁻¹ A_jᵀ) of the candidates ``idx`` (None: all; −inf: not
+    finite)."""
+    sub = rows if idx is None else rows.take(idx)
+    n, r = sub.x.shape[:2]
+    out = Sandwiches(np.empty((n, r, r)), np.empty(n))
     sandwich_blocks(Rows(sub.x, sub.col, sub.val), minv, out)
     return np.where(np.isfinite(out.gain), out.gain, -np.inf)
 
@@ -202,7 +221,7 @@ def select_blocks(
         full.s, full.gain = np.empty((m, r, r)), np.empty(m)
         full.chosen = np.zeros(m, dtype=bool)
         full.chosen[[at[i] for i in order]] = True
-        if passes > 1 and schur_logdet(rows, order) > -math.inf:  # then drop the ridge
+        if passes > 1 and _well_posed(schur_information(rows, order)):  # then drop the ridge
             full.ridge = 0.0
         full.refresh()
         score = full.gains()

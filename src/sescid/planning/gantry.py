@@ -19,13 +19,14 @@ support at the end of a limb (a foot) stands on the floor.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from sescid.errors import OptionError, SescidError, check_choice
-from sescid.model.sole import supporting_leg
+from sescid.model.sole import splits_at_support
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
 from sescid.planning.candidates import Candidates, Mount, Sampling
@@ -57,8 +58,7 @@ class GantryOptions:
 def held_trunk(robot: Robot) -> bool:
     """True when the robot's mass splits at its support body (a trunk or pelvis: several heavy
     branches leave it), False at the end of a limb (a foot)."""
-    parents = [b.parent for b in robot.model.bodies]
-    return supporting_leg(parents, robot.masses)[1] == 0
+    return splits_at_support([b.parent for b in robot.model.bodies], robot.masses)
 
 
 def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
@@ -106,6 +106,8 @@ def gantry_floor(robot: Robot, hang_height: float | None, clearance: float) -> t
         )
     else:
         height = float(hang_height)
+        if not (math.isfinite(height) and height > 0):
+            raise OptionError("hang_height", f"must be a finite height > 0 m, got {hang_height}")
         how = f"held link {height:.3f} m above the floor (given; standing height {stand:.3f} m)"
     if not height - stand > clearance:
         raise SescidError(

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.errors import OptionError
+from sescid.errors import OptionError, SescidError
 from sescid.robot import Robot
 
 
@@ -98,7 +98,10 @@ def sampling_limits(robot: Robot, paper: bool = True, range_deg: float | None = 
     """(nq, 2) sampling limits [rad]: model limits ∩ the paper's Table 2 (OP2, ``paper``) ∩ ±range.
 
     A joint without limits gets ±``UNLIMITED_RANGE``, or ±``range_deg`` when that is given.
+    SescidError for a robot without joints (no pose to choose).
     """
+    if robot.nq == 0:
+        raise SescidError(f"{robot.name} has no joints: there is no pose to choose")
     lim = robot.joint_limits
     free = ~(np.isfinite(lim[:, 0]) & np.isfinite(lim[:, 1]))
     wide = UNLIMITED_RANGE if range_deg is None else math.pi

@@ -12,6 +12,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError, check_choice
 from sescid.estimation import min_poses, structural_rank
+from sescid.kinematics import load_kernels
 from sescid.planning import doptimal
 from sescid.planning.gantry import resolve_mount
 from sescid.planning.plan_types import (
@@ -65,6 +66,7 @@ def plan_poses(
     """
     opt = options_with(options, overrides)
     check_choice("select", select, Select)
+    load_kernels()  # the plan runs compiled kernels anyway: its small kinematics jobs too
     if opt.n_candidates is None:
         n_cand = default_candidates(robot, select, count, opt.kinds)
         opt = dataclasses.replace(opt, n_candidates=n_cand)

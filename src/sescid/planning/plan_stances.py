@@ -35,6 +35,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import DEFAULT_RTOL, identifiable_eigen
+from sescid.kinematics import load_kernels
 from sescid.planning.blocks import select_blocks
 from sescid.planning.candidates import Candidates
 from sescid.planning.com import level_cop
@@ -248,6 +249,7 @@ def plan_stances(
         raise OptionError("stance_cost", f"must be a number of poses ≥ 0, got {cost}")
     spec = design_kinds(robot, opt.kinds, opt.sigma, opt.tau_noise, opt.tau_joints)
     _check_kinds(stances, spec)
+    load_kernels()  # the plan runs compiled kernels anyway: its small kinematics jobs too
     pool = _Pool(robot, stances, spec, opt, seed, progress)
     p, full = pool.basis.shape[1], len(stances)
     subsets, best = [], None

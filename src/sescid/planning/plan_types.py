@@ -95,7 +95,7 @@ class PlanOptions:
         None,
         "Gantry: height of the held link's frame above the floor [m] (default: its height "
         "when the robot stands at the zero pose + 50 mm).",
-        low=0, low_open=True,
+        low=0, low_open=True, what="a finite height > 0 m",
     )  # fmt: skip
 
     def __post_init__(self) -> None:

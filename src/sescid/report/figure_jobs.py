@@ -56,12 +56,14 @@ def _cop_jobs(c: ReportContent, out: Path, idx: np.ndarray) -> list[FigureJob]:
         FigureJob(
             "fig7_cop.png",
             fig7,
-            lambda: plot_cop_comparison(idx, cop.measured, pred, out / "fig7_cop.png", title=fig7),
+            lambda: plot_cop_comparison(
+                idx, cop.measured, pred, out / "fig7_cop.png", title=fig7, labels=c.labels
+            ),
         ),
         FigureJob(
             "residuals.png",
             "CoP residuals, measured − predicted",
-            lambda: plot_residuals(idx, cop.measured, pred, out / "residuals.png"),
+            lambda: plot_residuals(idx, cop.measured, pred, out / "residuals.png", labels=c.labels),
         ),
     ]
 
@@ -85,13 +87,20 @@ def _torque_jobs(c: ReportContent, out: Path, idx: np.ndarray) -> list[FigureJob
             "torque_residuals.png",
             "Joint-torque residuals, measured − predicted, per pose and joint; right: each "
             "joint's residual RMS",
-            lambda: plot_torque_residuals(idx, t.columns, t.residual, out / "torque_residuals.png"),
+            lambda: plot_torque_residuals(
+                idx, t.columns, t.residual, out / "torque_residuals.png", labels=c.labels
+            ),
         ),
         FigureJob(
             "torque_support_leg.png",
             caption,
             lambda: plot_leg_torques(
-                idx, names, t.measured[:, leg], pred, out / "torque_support_leg.png"
+                idx,
+                names,
+                t.measured[:, leg],
+                pred,
+                out / "torque_support_leg.png",
+                labels=c.labels,
             ),
         ),
     ]
@@ -100,7 +109,7 @@ def _torque_jobs(c: ReportContent, out: Path, idx: np.ndarray) -> list[FigureJob
 def figure_jobs(c: ReportContent, out: Path, options: ReportOptions) -> list[FigureJob]:
     """The figures for this content, in the order the page shows them."""
     fit, n = c.fit, c.data.n
-    idx = np.arange(1, n + 1)
+    idx = np.arange(n)  # positions; the axes are labelled with the files' pose ids
     pick = np.unique(np.linspace(0, n - 1, min(options.n_side, n)).round().astype(int))
     fig6 = "R_i = |r_i|: manufacturer model vs identified ±1σ (paper Fig. 6)"
     cop_pick = None if c.cop is None else c.cop.measured[pick]
@@ -122,6 +131,7 @@ def figure_jobs(c: ReportContent, out: Path, options: ReportOptions) -> list[Fig
                 c.com.std_z,
                 out / "fig8_com_height.png",
                 caveat=com_caveat(c),
+                labels=c.labels,
             ),
         ),
         *_torque_jobs(c, out, idx),

@@ -94,10 +94,29 @@ def plot_r_magnitudes(fit, path, title: str = "SESC vector magnitudes R_i = |r_i
     save_figure(fig, path, MARGINS if indexed else None)  # names of any length: tight layout
 
 
-def plot_cop_comparison(poses_idx, measured, predicted, path, extra=None, title=None) -> None:
+#: pose ticks drawn at most on a per-pose axis
+POSE_TICKS = 20
+
+
+def pose_ticks(ax, labels) -> None:
+    """Label a per-pose x axis (positions 0 … n−1) with the poses' ids as the files name them
+    (``labels``; None: leave the positions), at most ``POSE_TICKS`` of them."""
+    if labels is None or not len(labels):
+        return
+    n = len(labels)
+    at = np.arange(0, n, -(-n // POSE_TICKS))  # every pose, or every 2nd, 3rd, …
+    long = max(len(str(labels[i])) for i in at) > 3
+    ax.set_xticks(at, [str(labels[i]) for i in at], rotation=90 if long else 0, fontsize=8)
+    ax.set_xlabel("pose (id as in the file)")
+
+
+def plot_cop_comparison(
+    poses_idx, measured, predicted, path, extra=None, title=None, labels=None
+) -> None:
     """CoP_x and CoP_y per pose: measured vs predicted curves (paper Fig. 3b / Fig. 7).
 
-    ``predicted`` and ``extra`` map a label to an (n, 2) array in metres.
+    ``predicted`` and ``extra`` map a label to an (n, 2) array in metres; ``labels``: the
+    poses' ids for the x axis (``pose_ticks``).
     """
     fig, axes = new_figure(2, 1, figsize=(10, 6), sharex=True, dpi=PAPER_DPI)
     styles = ["-", "--", ":", "-."]
@@ -110,13 +129,16 @@ def plot_cop_comparison(poses_idx, measured, predicted, path, extra=None, title=
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, ncol=2)
     axes[-1].set_xlabel("pose")
+    pose_ticks(axes[-1], labels)
     if title:
         axes[0].set_title(title, y=TITLE_Y)
     save_figure(fig, path, hspace=0.1)
 
 
 # --- the experiment report (paper §4: Figs. 6-8 and more) ------------------------------------
-def plot_com_height(idx, z_prior, z_fit, std, path, caveat: str = "", title=None) -> None:
+def plot_com_height(
+    idx, z_prior, z_fit, std, path, caveat: str = "", title=None, labels=None
+) -> None:
     """CoM height per pose: prior (manufacturer) vs identified ± 2σ band (paper Fig. 8).
 
     ``z_prior``, ``z_fit``, ``std`` (n,) in m; ``caveat`` is printed under the curves (say how
@@ -134,6 +156,7 @@ def plot_com_height(idx, z_prior, z_fit, std, path, caveat: str = "", title=None
         label="identified ±2σ (identified directions only)",
     )
     ax.set_xlabel("pose")
+    pose_ticks(ax, labels)
     ax.set_ylabel("CoM_z [mm]")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
@@ -145,7 +168,7 @@ def plot_com_height(idx, z_prior, z_fit, std, path, caveat: str = "", title=None
     save_figure(fig, path, (left, right, bottom, top))
 
 
-def plot_residuals(idx, measured, predicted: dict, path, title=None) -> None:
+def plot_residuals(idx, measured, predicted: dict, path, title=None, labels=None) -> None:
     """Residuals measured − predicted CoP per pose and their histogram; (n, 2) arrays in m."""
     fig, axes = new_figure(2, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [3, 1]})
     for k in range(2):
@@ -162,6 +185,7 @@ def plot_residuals(idx, measured, predicted: dict, path, title=None) -> None:
         axes[k, 0].grid(alpha=0.3)
         axes[k, 1].set_xlabel("poses")
     axes[1, 0].set_xlabel("pose")
+    pose_ticks(axes[1, 0], labels)
     axes[0, 0].legend(fontsize=8)
     axes[0, 0].set_title(title or "CoP residuals: measured − predicted", y=TITLE_Y)
     save_figure(fig, path, wspace=0.12, hspace=0.35)  # the histograms' own tick labels between
@@ -181,13 +205,15 @@ def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
     """Stick figures (x–z, support frame) of a few poses with CoM(s) and the measured CoP.
 
     ``q`` (k, nq) rad, ``cop`` (k, 2) m or None (no CoP measured), ``coms`` label → (k, 3) m.
+    Every panel spans the same x width and z range (one size, one scale); the legend sits
+    below the panels, clear of the robot.
     """
     _, origins = robot.forward(q)
     sole = np.array(sole_x_range(robot)) * 1e3
     floor = robot.floor * 1e3
     parents = [b.parent for b in robot.model.bodies]
     k = len(q)
-    fig, axes = new_figure(1, k, figsize=(2.6 * k + 0.5, 4.2), sharey=True, squeeze=False)
+    fig, axes = new_figure(1, k, figsize=(2.6 * k + 0.5, 4.6), squeeze=False)
     colors = ["tab:blue", "0.2", "tab:green"]
     links = np.array([(p, b) for b, p in enumerate(parents) if p >= 0]).reshape(-1, 2)
     for i, ax in enumerate(axes[0]):
@@ -205,13 +231,25 @@ def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
             ax.plot([x, x], [floor, z], ":", color=colors[c % 3], lw=1)
         if cop is not None:
             ax.plot([cop[i, 0] * 1e3], [floor], "^", ms=9, color="tab:red", label="CoP measured")
-        ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_title(f"pose {labels[i] if labels is not None else i}", fontsize=9, y=TITLE_Y)
         ax.grid(alpha=0.3)
+    xs = [np.r_[origins[i][:, 0] * 1e3, sole] for i in range(k)]
+    zs = np.r_[origins[..., 2].ravel() * 1e3, floor]
+    half = max(float(np.ptp(x)) for x in xs) / 2 * 1.08 + 5.0
+    z_lo, z_hi = float(zs.min()) - 15.0, float(zs.max()) + 15.0
+    for ax, x in zip(axes[0], xs, strict=True):
+        mid = (float(x.max()) + float(x.min())) / 2
+        ax.set_xlim(mid - half, mid + half)
+        ax.set_ylim(z_lo, z_hi)
+        ax.set_aspect("equal", adjustable="box")
+    for ax in axes[0, 1:]:
+        ax.tick_params(labelleft=False)
     axes[0, 0].set_ylabel("z [mm]")
-    axes[0, -1].legend(fontsize=7, loc="upper right")
-    save_figure(fig, path, wspace=0.08)
+    handles, names = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, names, fontsize=8, ncol=len(names), loc="lower center", frameon=False)
+    left, right, bottom, top = MARGINS
+    save_figure(fig, path, (left, right, bottom + 0.35, top), wspace=0.15)
 
 
 def cop_offset_stats(measured, predicted) -> dict:

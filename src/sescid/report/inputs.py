@@ -125,8 +125,9 @@ def read_report_data(
     """A measurement file's data for the fit's robot (any kinds it holds: ``cop_x``/``cop_y``,
     ``tau_<joint>``, ``approach``, gravity or IMU columns) and its pose ids (``pose`` column,
     else row numbers). Errors name the file and the column."""
+    from sescid.base.columns import SUPPORT_COLUMN
     from sescid.io import read_table
-    from sescid.io.measurements import SUPPORT_COLUMN, measurements_of
+    from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
 
     table = read_table(path)

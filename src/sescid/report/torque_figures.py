@@ -5,13 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.report.figures import MODEL_COLOURS, TITLE_Y, new_figure, save_figure
+from sescid.report.figures import MODEL_COLOURS, TITLE_Y, new_figure, pose_ticks, save_figure
 
 #: inches per joint row of the residual map, and around it
 ROW_INCH, MAP_EXTRA_INCH = 0.24, 1.6
 
 
-def plot_torque_residuals(idx, joints, residual: dict, path, model: str = "identified") -> None:
+def plot_torque_residuals(
+    idx, joints, residual: dict, path, model: str = "identified", labels=None
+) -> None:
     """Residual map measured − predicted [N·m] per pose (x) and joint (y) of ``model``, beside
     each joint's residual RMS for every model in ``residual`` (label → (n, J) N·m)."""
     res = np.asarray(residual[model], dtype=float)
@@ -33,6 +35,7 @@ def plot_torque_residuals(idx, joints, residual: dict, path, model: str = "ident
     )
     ax.set_yticks(np.arange(nj), joints, fontsize=7 if nj > 24 else 8)
     ax.set_xlabel("pose")
+    pose_ticks(ax, labels)
     ax.set_title(f"torque residual, measured − predicted ({model}) [N·m]", y=TITLE_Y, fontsize=10)
     fig.colorbar(img, ax=ax, fraction=0.04, pad=0.01, label="N·m")
     y = np.arange(nj)
@@ -47,7 +50,9 @@ def plot_torque_residuals(idx, joints, residual: dict, path, model: str = "ident
     save_figure(fig, path, None)  # joint names of any length: tight layout
 
 
-def plot_leg_torques(idx, joints, measured, predicted: dict, path, title: str = "") -> None:
+def plot_leg_torques(
+    idx, joints, measured, predicted: dict, path, title: str = "", labels=None
+) -> None:
     """Torque per pose of a few joints: measured (n, k) against each model's prediction
     (label → (n, k)), all N·m, one panel per joint."""
     k = len(joints)
@@ -64,6 +69,7 @@ def plot_leg_torques(idx, joints, measured, predicted: dict, path, title: str = 
         fontsize=7, ncol=3, loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False
     )
     axes[-1, 0].set_xlabel("pose")
+    pose_ticks(axes[-1, 0], labels)
     if title:
         axes[0, 0].set_title(title, y=TITLE_Y, fontsize=10, loc="left")
     save_figure(fig, path, None)

@@ -31,6 +31,7 @@ from sescid.sensors.imu import (
     read_imu,
     table_gravity,
 )
+from sescid.sensors.measured import concat_measured
 from sescid.sensors.pads import (
     Foot,
     SensorConfig,
@@ -40,7 +41,7 @@ from sescid.sensors.pads import (
 )
 from sescid.sensors.raw import RawLog, read_raw, table_from_columns
 from sescid.sensors.reduce import Measured, fsr, measure, pose_list_ids, read_log
-from sescid.sensors.stream import fsr_chunks
+from sescid.sensors.stream import fsr_chunks, fsr_stances
 from sescid.sensors.wrench import (
     Plate,
     cop_from_force_plate,
@@ -78,8 +79,10 @@ __all__ = [
     "cop_from_plate",
     "cop_from_wrench",
     "default_sensors_path",
+    "concat_measured",
     "fsr",
     "fsr_chunks",
+    "fsr_stances",
     "gravity_from_imu",
     "gravity_in_link",
     "load_plate",

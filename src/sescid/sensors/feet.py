@@ -18,6 +18,7 @@ from typing import Literal
 
 import numpy as np
 
+from sescid.errors import DataError
 from sescid.sensors.pads import Foot, SensorConfig
 from sescid.sensors.raw import RawLog
 
@@ -99,6 +100,41 @@ def foot_samples(log: RawLog, config: SensorConfig, status: Status) -> FootSampl
     if mode != "forces":
         status.reject(load.sum(axis=1) > 1, "two_feet_no_force")
     return FootSamples(tuple(feet), tuple(local), np.stack(force, axis=1), load, mode)
+
+
+#: loaded samples a pad must be judged on before it is called dead or stuck
+DEAD_PAD_SAMPLES = 20
+
+
+def check_pads(log: RawLog, config: SensorConfig) -> None:
+    """DataError naming a foot pad that is dead or stuck: over the samples where its foot is
+    loaded, it has no value while the other pads have, or reads one value while they vary —
+    its foot's CoP and load would be wrong without a word."""
+    for foot in config.feet:
+        arr = log.forces.get(foot.name)
+        if arr is None:
+            continue
+        on = np.nansum(arr, axis=1) * config.force_unit >= config.min_foot_force
+        sub = arr[on]
+        if len(sub) < DEAD_PAD_SAMPLES:
+            continue
+        given = np.isfinite(sub)
+        for k in range(sub.shape[1]):
+            name = f"{foot.columns}{k + 1}"
+            others = np.delete(np.arange(sub.shape[1]), k)
+            if not given[:, k].any() and given[:, others].any():
+                raise DataError(
+                    f"{log.path}: column '{name}' has no value in the {len(sub)} samples where "
+                    f"the {foot.name} foot is loaded: a dead pad? (its foot's CoP needs all four)"
+                )
+            values = sub[given[:, k], k]
+            moving = [np.ptp(sub[given[:, j], j]) > 0 for j in others if given[:, j].any()]
+            if values.size and np.ptp(values) == 0 and moving and all(moving):
+                raise DataError(
+                    f"{log.path}: column '{name}' reads {values[0]:g} in all {values.size} "
+                    f"samples where the {foot.name} foot is loaded while its other pads vary: a "
+                    "dead, stuck or never loaded pad? (its foot's CoP and load would be wrong)"
+                )
 
 
 def _pad_cop(foot: Foot, arr: np.ndarray, config: SensorConfig, status: Status):

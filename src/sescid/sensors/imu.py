@@ -67,7 +67,7 @@ def read_imu(table: Table) -> np.ndarray | None:
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{table.path}: row {i + 2}, column '{IMU_COLUMNS[k]}': {out[i, k]:g} is not an "
+            f"{table.path}: {table.where(i)}, column '{IMU_COLUMNS[k]}': {out[i, k]:g} is not an "
             "angle in radians below 90° (degrees?)"
         )
     return out
@@ -76,13 +76,32 @@ def read_imu(table: Table) -> np.ndarray | None:
 def table_gravity(robot, table: Table, q: np.ndarray, link: str | None = None):
     """Gravity (n, 3) of a data table: ``grav_x/y/z``, else the IMU columns through the model.
 
-    ``q`` (n, nq) [rad]: the table's poses. None when the table has neither, or has IMU
-    columns but no IMU link is known (``link`` or the profile's).
+    ``q`` (n, nq) [rad]: the table's poses. None when the table has neither; DataError for IMU
+    columns without a known IMU link (``link`` or the profile's), OptionError for a ``link``
+    given to a table without IMU columns.
     """
+    name = table_imu_link(robot, table, link)
     if any(c in table for c in GRAVITY_COLUMNS):
         return read_gravity(table)
     rp = read_imu(table)
-    name = imu_link(robot, link)
     if rp is None or name is None:
         return None
     return gravity_from_imu(robot, q, rp[:, 0], rp[:, 1], name)
+
+
+def table_imu_link(robot, table: Table, link: str | None = None) -> str | None:
+    """The IMU link for a table's ``imu_roll``/``imu_pitch`` columns (None without them);
+    DataError when the table has them and no IMU link is known (its gravity would be lost),
+    OptionError when ``link`` is given to a table without them (it would do nothing)."""
+    has = any(c in table.names() for c in IMU_COLUMNS)
+    name = imu_link(robot, link)
+    if has and name is None:
+        raise DataError(
+            f"{table.path}: columns {', '.join(IMU_COLUMNS)}, but {robot.name}'s profile names "
+            "no IMU link: give the link that carries the IMU (imu_link / --imu-link)"
+        )
+    if not has and link is not None:
+        raise OptionError(
+            "imu_link", f"'{link}': {table.path} has no {', '.join(IMU_COLUMNS)} columns"
+        )
+    return name if has else None

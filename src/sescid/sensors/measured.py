@@ -3,6 +3,7 @@ columns of its table (``sescid measure --out``)."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -33,7 +34,9 @@ class Measured:
     tau_joints: tuple[str, ...] = ()  #: joints with torques, model order
     tau: np.ndarray | None = None  #: (k, len(tau_joints)) mean torque, N·m
     tau_se: np.ndarray | None = None  #: (k, len(tau_joints)) its standard error, N·m
-    approach: np.ndarray | None = None  #: (k,) ±1 (NaN where not logged)
+    approach: np.ndarray | None = None  #: (k,) ±1
+    #: what the reduction left out beside whole poses (a dead torque sensor's column, …)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def n_rejected(self) -> np.ndarray:
@@ -75,3 +78,37 @@ class Measured:
         if self.gravity is not None:
             cols |= {f"grav_{a}": self.gravity[:, i] for i, a in enumerate("xyz")}
         return cols
+
+
+def concat_measured(parts: list[Measured]) -> Measured:
+    """One ``Measured`` of the poses of several, in order (a quantity some did not measure:
+    nan there; torques of different joint sets: dropped)."""
+    first = parts[0]
+
+    def cat(name: str):
+        vals = [getattr(p, name) for p in parts]
+        if all(v is None for v in vals):
+            return None
+        shape = next(v for v in vals if v is not None).shape[1:]
+        return np.concatenate([np.full((len(p.pose), *shape), np.nan) if v is None else v
+                               for p, v in zip(parts, vals, strict=True)])  # fmt: skip
+
+    joints = {p.tau_joints for p in parts if p.tau is not None}
+    tau_ok = len(joints) == 1
+    return dataclasses.replace(
+        first,
+        pose=np.concatenate([p.pose for p in parts]),
+        q=np.concatenate([p.q for p in parts]),
+        cop=cat("cop"),
+        cop_se=cat("cop_se"),
+        force=np.concatenate([p.force for p in parts]),
+        n_used=np.concatenate([p.n_used for p in parts]),
+        rejected=np.concatenate([p.rejected for p in parts]),
+        dropped=[d for p in parts for d in p.dropped],
+        gravity=cat("gravity"),
+        tau_joints=next(iter(joints)) if tau_ok else (),
+        tau=cat("tau") if tau_ok else None,
+        tau_se=cat("tau_se") if tau_ok else None,
+        approach=cat("approach"),
+        notes=list(dict.fromkeys(n for p in parts for n in p.notes)),
+    )

@@ -21,6 +21,7 @@ sign gives negative forces: refused in one line instead of unloaded feet).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -65,6 +66,19 @@ class RawLog:
     tau: np.ndarray | None = None  #: (m, k) joint torques, N·m
     approach: np.ndarray | None = None  #: (m,) ±1 (NaN missing)
     first_row: int = 2  #: the file's row number of sample 0
+    #: in-memory samples: sample i → its name ("pose 3, sample 2" of a session)
+    row_of: Callable[[int], str] | None = None
+    #: a file's data row (0-based over the file) → its row number (``base.columns.RowNumbers``)
+    numbers: Callable[[int], int] | None = None
+
+    def where(self, i) -> str:
+        """Sample ``i`` as an error names it: the file's row as a spreadsheet counts it (or the
+        session's pose and sample); parts of a log keep it (``first_row`` moves with them)."""
+        if self.row_of is not None:
+            return self.row_of(int(i) + self.first_row - 2)
+        if self.numbers is not None:
+            return f"row {self.numbers(int(i) + self.first_row - 2)}"
+        return f"row {int(i) + self.first_row}"
 
     @property
     def has_feet(self) -> bool:
@@ -76,9 +90,9 @@ class RawLog:
         return replace(self, gravity=gravity)
 
 
-def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>") -> Table:
+def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>", label=None) -> Table:
     """A ``Table`` of in-memory columns (a bench's or a session's raw log, as ``read_table``
-    gives a file: numbers as float, text as text)."""
+    gives a file: numbers as float, text as text); ``label(i)`` names data row i in errors."""
     num, text = {}, {}
     for k, v in columns.items():
         arr = np.asarray(v)
@@ -86,7 +100,7 @@ def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>") ->
             num[k] = arr.astype(float)
         else:
             text[k] = [str(x) for x in arr]
-    return Table(Path(name), num, text)
+    return Table(Path(name), num, text, label=label)
 
 
 def read_raw(
@@ -142,6 +156,8 @@ def read_raw(
         tau=tau,
         approach=read_approach(table, allow_missing=True),
         first_row=table.first_row,
+        row_of=table.label,
+        numbers=table.numbers,
     )
 
 
@@ -173,7 +189,7 @@ def _read_foot(table: Table, foot: Foot, config: SensorConfig, names: set[str], 
         if bad.size:
             i, k = bad[0]
             raise DataError(
-                f"{table.path}: row {table.row(i)}, column '{fcols[k]}': negative force count "
+                f"{table.path}: {table.where(i)}, column '{fcols[k]}': negative force count "
                 f"{f[i, k]:g} (the board reports 0–{config.saturation} counts)"
             )
         forces[foot.name] = f
@@ -186,7 +202,7 @@ def _read_foot(table: Table, foot: Foot, config: SensorConfig, names: set[str], 
         if bad.size:
             i, k = bad[0]
             raise DataError(
-                f"{table.path}: row {table.row(i)}, column '{ccols[k]}': {c[i, k]:g} is not a "
+                f"{table.path}: {table.where(i)}, column '{ccols[k]}': {c[i, k]:g} is not a "
                 f"centroid register (integer 0–{config.centroid_max}, "
                 f"{config.no_load} = no load)"
             )
@@ -214,7 +230,7 @@ def _read_cop(table: Table, foot: Foot, config: SensorConfig, names: set[str], o
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column '{pcols[k]}': {c[i, k]:g} is "
+            f"{table.path}: {table.where(i)}, column '{pcols[k]}': {c[i, k]:g} is "
             f"{COP_MAX_M:g} m or more from the sole (CoP columns are in metres)"
         )
     fz = column_with_missing(table, zcol) if zcol in names else None
@@ -235,18 +251,27 @@ def _check_normal_force(table: Table, zcol: str, fz: np.ndarray, min_force: floa
     inf = np.flatnonzero(np.isinf(fz))
     if inf.size:
         raise DataError(
-            f"{table.path}: row {table.row(inf[0])}, column '{zcol}': {fz[inf[0]]} is not a force"
+            f"{table.path}: {table.where(inf[0])}, column '{zcol}': {fz[inf[0]]} is not a force"
         )
+    why = reversed_force(fz, min_force)
+    if why is not None:
+        raise DataError(f"{table.path}: column '{zcol}': {why}")
+
+
+def reversed_force(fz: np.ndarray, min_force: float) -> str | None:
+    """Why a foot's normal forces (m,) N come from a sensor of reversed sign (most loaded
+    samples pull on the floor), or None."""
     with np.errstate(invalid="ignore"):
         pushing = int(np.sum(fz >= min_force))
         pulling = int(np.sum(fz <= -min_force))
-    if pulling > pushing:
-        med = float(np.nanmedian(fz))
-        raise DataError(
-            f"{table.path}: column '{zcol}': the normal force is negative in {pulling} of "
-            f"{pulling + pushing} loaded samples (median {med:.4g} N): the force/torque sensor's "
-            "sign is reversed (negate its force and torque: the floor pushes up on the foot)"
-        )
+    if pulling <= pushing:
+        return None
+    med = float(np.nanmedian(fz))
+    return (
+        f"the normal force is negative in {pulling} of {pulling + pushing} loaded samples "
+        f"(median {med:.4g} N): the force/torque sensor's sign is reversed (negate its force "
+        "and torque: the floor pushes up on the foot)"
+    )
 
 
 def _check_within_sole(table, foot: Foot, c: np.ndarray, loaded: np.ndarray, cols) -> None:
@@ -259,7 +284,7 @@ def _check_within_sole(table, foot: Foot, c: np.ndarray, loaded: np.ndarray, col
         i, k = bad[0]
         axis = "xy"[k]
         raise DataError(
-            f"{table.path}: row {table.row(i)}, column '{cols[k]}': {c[i, k]:g} m lies "
+            f"{table.path}: {table.where(i)}, column '{cols[k]}': {c[i, k]:g} m lies "
             f"{(abs(c[i, k] - centre[k]) - half[k]) * 1e3:.0f} mm outside the {foot.name} foot's "
             f"pads along {axis} (more than {COP_SOLE_MARGIN_M * 1e3:.0f} mm beyond the sole): "
             "a wrong sensor frame, sign or unit"

@@ -19,18 +19,21 @@ reduced on its torques alone (mode ``torque``), as is a log without foot-sensor 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from sescid.base.columns import Table, pose_ids
 from sescid.errors import DataError
-from sescid.sensors.feet import REASONS, Status, foot_samples, support_cop
+from sescid.sensors.feet import REASONS, Status, check_pads, foot_samples, support_cop
 from sescid.sensors.measured import Measured, MeasuredFrom
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
 from sescid.sensors.stats import PoseGroups
 from sescid.sensors.torque import (
+    APPROACH_COLUMN,
+    TAU_PREFIX,
     TORQUE_OUTLIER_FLOOR,
     TORQUE_SE_FLOOR,
     check_torque_scale,
@@ -139,10 +142,32 @@ def _pose_gravity(log: RawLog, s: _Samples) -> np.ndarray | None:
         return g_sum / np.linalg.norm(g_sum, axis=1, keepdims=True)
 
 
-def check_force_scale(log: RawLog, config: SensorConfig, mass: float) -> None:
+#: a log whose every logged foot force stays below this share of the robot's weight never
+#: carried the robot: its forces are not in N (kN?)
+FORCE_WEIGHT_FLOOR = 0.02
+
+
+def check_force_scale(
+    log: RawLog, config: SensorConfig, mass: float, whole_log: bool = True
+) -> None:
     """DataError naming row and column of a logged foot force beyond ``FORCE_WEIGHT_FACTOR`` ×
-    the robot's weight (a force in mN or a wrong unit, not a standing robot)."""
+    the robot's weight (a force in mN or a wrong unit, not a standing robot), or naming the
+    columns when no logged force of a ``whole_log`` without pads reaches ``FORCE_WEIGHT_FLOOR``
+    × the weight (kN; a session's single pose may be unloaded)."""
     limit = FORCE_WEIGHT_FACTOR * mass * 9.80665
+    logged = {f.cop_prefix: log.cop_force.get(f.name) for f in config.feet}
+    logged = {k: v for k, v in logged.items() if v is not None and np.isfinite(v).any()}
+    peak = max((float(np.nanmax(np.abs(v))) for v in logged.values()), default=None)
+    weight = mass * 9.80665
+    # pads may carry the robot while a lifted foot's F/T reads nothing (one foot's stance)
+    pads = any(v is not None for d in (log.forces, log.centroid) for v in d.values())
+    if whole_log and not pads and peak is not None and peak < FORCE_WEIGHT_FLOOR * weight:
+        cols = ", ".join(f"'{k}_fz'" for k in logged)
+        what = "column" if len(logged) == 1 else "columns"
+        raise DataError(
+            f"{log.path}: {what} {cols}: at most {peak:.3g} N over the whole log, while the "
+            f"robot weighs {weight:.4g} N: not a force in N (kN?)"
+        )
     for foot in config.feet:
         fz = log.cop_force.get(foot.name)
         if fz is None:
@@ -152,7 +177,7 @@ def check_force_scale(log: RawLog, config: SensorConfig, mass: float) -> None:
         if bad.size:
             i = int(bad[0])
             raise DataError(
-                f"{log.path}: row {i + log.first_row}, column '{foot.cop_prefix}_fz': "
+                f"{log.path}: {log.where(i)}, column '{foot.cop_prefix}_fz': "
                 f"{fz[i]:g} N is more than {FORCE_WEIGHT_FACTOR:g}× the robot's weight "
                 f"({limit / FORCE_WEIGHT_FACTOR:.4g} N): not a force in N"
             )
@@ -170,14 +195,24 @@ def uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
 
 
 def measure(
-    robot, log: RawLog, config: SensorConfig | None, min_samples: int = 5, feet: bool | None = None
+    robot,
+    log: RawLog,
+    config: SensorConfig | None,
+    min_samples: int = 5,
+    feet: bool | None = None,
+    whole_log: bool = True,
+    finish: bool = True,
 ) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
     Poses left with fewer than ``min_samples`` usable samples are listed in ``dropped`` with
     the reason. The foot poses come from ``robot.link_poses`` at each pose's mean read-backs.
     ``feet``: whether the foot sensors give the CoP (None: ``uses_feet`` of this log; a part
-    of a longer log takes the whole log's answer).
+    of a longer log takes the whole log's answer). ``whole_log`` (not one of a session's
+    poses): a dead or stuck foot pad is an error, and ``finish_measured`` may leave out a
+    dead torque column. ``finish``: drop the poses whose torques, approach side or gravity the
+    samples do not determine (``finish_measured``; a part of a longer log is finished once
+    joined).
     """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
@@ -188,7 +223,9 @@ def measure(
     if feet:
         assert config is not None
         check_sensors(robot, config)
-        check_force_scale(log, config, robot.total_mass)
+        check_force_scale(log, config, robot.total_mass, whole_log)
+        if whole_log:
+            check_pads(log, config)
         cop, force_n, fs, out = _cop_part(robot, log, config, s)
         mode = fs.mode
     else:
@@ -210,9 +247,9 @@ def measure(
         tau, tau_se = _tau_means(log, s, use, min_samples)
     approach = None
     if log.approach is not None:
-        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.first_row)[keep]
+        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)[keep]
     grav = _pose_gravity(log, s)
-    return Measured(
+    m = Measured(
         pose=groups.ids[keep],
         q=s.q_mean[keep],
         cop=mean[keep] if feet else None,
@@ -228,6 +265,59 @@ def measure(
         tau_se=None if tau_se is None else tau_se[keep],
         approach=approach,
     )
+    return finish_measured(m, whole_log) if finish else m
+
+
+#: fields of ``Measured`` with one row per kept pose
+_POSE_FIELDS = ("pose", "q", "cop", "cop_se", "force", "n_used", "rejected", "gravity", "tau",
+                "tau_se", "approach")  # fmt: skip
+
+
+def finish_measured(m: Measured, whole_log: bool = True) -> Measured:
+    """Never a value the samples do not determine: with ``whole_log`` a torque column without
+    a value at any pose (a dead sensor) and an approach column without one are left out, with
+    a note; then a pose whose torques, approach side or gravity is not determined is dropped,
+    with the reason (a session's single pose is dropped, its columns kept)."""
+    notes = list(m.notes)
+    tau, tau_se, joints, approach = m.tau, m.tau_se, m.tau_joints, m.approach
+    if tau is not None and tau_se is not None and whole_log and len(m.pose):
+        dead = ~np.isfinite(tau).any(axis=0)
+        if dead.any():
+            gone = [j for j, d in zip(joints, dead, strict=True) if d]
+            notes.append(
+                f"no usable {', '.join(TAU_PREFIX + j for j in gone)} sample at any pose (a dead "
+                "sensor?): left out"
+            )
+            joints = tuple(j for j, d in zip(joints, dead, strict=True) if not d)
+            tau, tau_se = (tau[:, ~dead], tau_se[:, ~dead]) if joints else (None, None)
+    if approach is not None and whole_log and len(m.pose) and not np.isfinite(approach).any():
+        notes.append(f"no '{APPROACH_COLUMN}' value at any pose: left out")
+        approach = None
+    keep = np.ones(len(m.pose), dtype=bool)
+    dropped = list(m.dropped)
+    for what, values in (("joint torque", tau), (APPROACH_COLUMN, approach),
+                         ("gravity", m.gravity)):  # fmt: skip
+        if values is None:
+            continue
+        finite = np.isfinite(values) if values.ndim == 1 else np.isfinite(values).all(axis=1)
+        for i in np.flatnonzero(keep & ~finite):
+            dropped.append((str(m.pose[i]), _undetermined(what, values, int(i), joints)))
+        keep &= finite
+    fields = {"tau": tau, "tau_se": tau_se, "approach": approach}
+    rows = {f: fields.get(f, getattr(m, f)) for f in _POSE_FIELDS}
+    rows = {f: None if v is None else v[keep] for f, v in rows.items()}
+    return dataclasses.replace(m, **rows, tau_joints=joints if tau is not None else m.tau_joints,
+                               dropped=dropped, notes=notes)  # fmt: skip
+
+
+def _undetermined(what: str, values: np.ndarray, i: int, joints) -> str:
+    """Why pose ``i`` is dropped: which of its values the samples did not determine."""
+    if what == "joint torque":
+        bad = [TAU_PREFIX + j for j, v in zip(joints, values[i], strict=True) if not np.isfinite(v)]
+        return f"too few usable samples of {', '.join(bad)} (a torque not determined)"
+    if what == APPROACH_COLUMN:
+        return f"no '{APPROACH_COLUMN}' value in its samples (the side it was reached from)"
+    return "no usable gravity direction (grav_x/y/z or IMU) in its samples"
 
 
 def _dropped(ids, n_used, rejected, keep, min_samples) -> list[tuple[str, str]]:
@@ -268,10 +358,10 @@ def pose_list_ids(table: Table) -> np.ndarray:
 
 def imu_gravity_samples(robot, table: Table, q: np.ndarray, link: str | None) -> np.ndarray | None:
     """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
-    from sescid.sensors.imu import gravity_from_imu, imu_link, read_imu
+    from sescid.sensors.imu import gravity_from_imu, read_imu, table_imu_link
 
+    name = table_imu_link(robot, table, link)
     rp = read_imu(table)
-    name = imu_link(robot, link)
     if rp is None or name is None:
         return None
     out = np.full((q.shape[0], 3), np.nan)

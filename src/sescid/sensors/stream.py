@@ -23,13 +23,14 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import Table
+from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError
-from sescid.sensors.measured import Measured
+from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
 from sescid.sensors.raw import RawLog
 from sescid.sensors.reduce import (
     check_pose_ids,
+    finish_measured,
     fsr,
     measure,
     pose_list_ids,
@@ -107,7 +108,7 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
         if any(i in seen for i in ids):
             raise _Revisited
         seen.update(ids)
-        parts.append(measure(robot, log, config, min_samples, feet=decided))
+        parts.append(measure(robot, log, config, min_samples, feet=decided, finish=False))
 
     for table in chunks:
         log = read_log(robot, table, config, imu_link)
@@ -152,10 +153,69 @@ def fsr_chunks(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(np.array(ids), pose_list_ids(pose_list), where)
-    res = _joined(parts) if parts else None
+    res = finish_measured(_joined(parts)) if parts else None
     if res is None or len(res.pose) == 0:
         dropped = [] if res is None else res.dropped
         reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
         what = "CoP" if res is not None and res.cop is not None else "measurement"
         raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
     return res, unmeasured
+
+
+def _rows(table: Table, keep: np.ndarray) -> Table:
+    """The rows ``keep`` (indices) of a table; errors still name the file's own rows."""
+    return Table(
+        table.path,
+        {k: v[keep] for k, v in table.columns.items()},
+        {k: [v[i] for i in keep] for k, v in table.text.items()},
+        label=lambda i: table.where(keep[i]),
+    )
+
+
+def _stance_rows(table: Table, stance: str) -> Table:
+    """The samples of one stance (its ``support`` column stripped)."""
+    labels = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    return _rows(table, np.flatnonzero(labels == stance))
+
+
+def fsr_stances(
+    robots: dict[str, Any],
+    chunks: Callable[[], Iterable[Table]],
+    config: SensorConfig | None,
+    min_samples: int = 5,
+    pose_list: Table | None = None,
+    imu_link: str | None = None,
+    *,
+    whole: Callable[[], Table],
+) -> tuple[Measured, list[str], np.ndarray]:
+    """``fsr_chunks`` of a log of several stances (its ``support`` column): each stance's
+    samples reduced with its robot (``robots``: stance → robot, in output order), so each pose's
+    CoP, gravity and torques are in its stance's frame. Returns the poses of all stances, the
+    pose list's unmeasured ids and each pose's stance (k,)."""
+    parts: list[Measured] = []
+    labels: list[np.ndarray] = []
+    for stance, robot in robots.items():
+
+        def part(stance: str = stance) -> Iterable[Table]:
+            for table in chunks():
+                sub = _stance_rows(table, stance)
+                if sub.n:
+                    yield sub
+
+        def whole_part(stance: str = stance) -> Table:
+            return _stance_rows(whole(), stance)
+
+        try:
+            res, _ = fsr_chunks(robot, part, config, min_samples, None, imu_link, whole=whole_part)
+        except DataError as exc:
+            raise DataError(f"{exc} (stance {stance})") from None
+        parts.append(res)
+        labels.append(np.full(len(res.pose), stance))
+    res = concat_measured(parts)
+    unmeasured: list[str] = []
+    if pose_list is not None:
+        ids = np.array([*res.pose.tolist(), *(p for p, _ in res.dropped)])
+        first = next(iter(chunks()), None)
+        where = str(first.path) if first is not None else "the log"
+        unmeasured = check_pose_ids(ids, pose_list_ids(pose_list), where)
+    return res, unmeasured, np.concatenate(labels)

@@ -17,11 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX
+from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TORQUE_REACH_M, torque_bound
 from sescid.errors import DataError
 
-#: m, a lever no humanoid's gravity torque exceeds (the whole weight this far from a joint)
-TORQUE_REACH_M = 2.0
 #: N·m, smallest robust scale of a torque in the outlier rule
 TORQUE_OUTLIER_FLOOR = 1e-3
 #: N·m, smallest standard error of a pose's mean torque (identical samples: a resolution)
@@ -31,21 +29,22 @@ TORQUE_SE_FLOOR = 1e-6
 def check_torque_scale(log, mass: float) -> None:
     """DataError naming the row and column of a torque of the raw log ``log`` beyond
     ``mass``·g·TORQUE_REACH_M."""
-    limit = mass * 9.80665 * TORQUE_REACH_M
+    limit = torque_bound(mass)
     with np.errstate(invalid="ignore"):
         bad = np.argwhere(np.abs(log.tau) > limit)
     if bad.size:
         i, k = bad[0]
         raise DataError(
-            f"{log.path}: row {i + log.first_row}, column '{TAU_PREFIX}{log.tau_joints[k]}': "
+            f"{log.path}: {log.where(i)}, column '{TAU_PREFIX}{log.tau_joints[k]}': "
             f"{log.tau[i, k]:g} N·m is "
             f"more than the robot's weight at {TORQUE_REACH_M:g} m ({limit:.3g} N·m): not a "
             "torque in N·m"
         )
 
 
-def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path, first_row: int = 2):
-    """(k,) the approach side of each pose; DataError when a pose's samples disagree."""
+def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path, where=None):
+    """(k,) the approach side of each pose; DataError when a pose's samples disagree
+    (``where(i)`` names sample i: "row 7")."""
     out = np.full(k, np.nan)
     ok = ~np.isnan(approach)
     lo = np.full(k, np.inf)
@@ -54,9 +53,10 @@ def pose_approach(approach: np.ndarray, g: np.ndarray, k: int, path, first_row: 
     np.maximum.at(hi, g[ok], approach[ok])
     mixed = np.flatnonzero(lo < hi)
     if mixed.size:
-        row = int(np.flatnonzero(g == mixed[0])[0]) + first_row
+        i = int(np.flatnonzero(g == mixed[0])[0])
+        at = where(i) if where is not None else f"row {i + 2}"
         raise DataError(
-            f"{path}: column '{APPROACH_COLUMN}': the samples of one pose (from row {row}) give "
+            f"{path}: column '{APPROACH_COLUMN}': the samples of one pose (from {at}) give "
             "both +1 and -1 (one approach side per pose id)"
         )
     has = np.isfinite(lo)

@@ -53,6 +53,7 @@ class JournalEntry:
     q: np.ndarray  #: (nq,) commanded, rad
     why: str  #: "" when it settled, else why it failed
     columns: dict[str, np.ndarray] | None  #: the adapter's samples (None: not read)
+    line: int = 0  #: the journal's line of this record (0: not read from a file)
 
 
 @dataclass
@@ -63,13 +64,16 @@ class Journal:
     header: dict
     entries: list[JournalEntry] = field(default_factory=list)
     finished: str = ""  #: the stop reason of a finished session ("" while open)
+    created_folder: bool = False  #: the output folder was made for this journal
 
     @classmethod
     def open(cls, out_dir: str | Path, header: dict, *, restart: bool = False) -> Journal:
         """The folder's journal: resumed when it holds this session's poses (same header), a
         new one otherwise; DataError when the folder is not writable or holds another session
-        (``restart`` discards it instead)."""
+        (``restart`` discards it instead). A last line cut by a crash is cut off the file, so
+        the next record starts on a line of its own."""
         folder = Path(out_dir)
+        created = not folder.exists()
         try:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -77,7 +81,7 @@ class Journal:
         path = folder / JOURNAL_NAME
         head = _plain(header) | {"format": JOURNAL_FORMAT}
         if path.exists() and not restart:
-            old = cls._read(path)
+            old, complete = cls._read(path)
             if old.entries or old.finished:  # else nothing was measured: start afresh
                 if old.header != head:
                     diff = sorted(k for k in head if old.header.get(k) != head.get(k))
@@ -86,8 +90,11 @@ class Journal:
                         f"({', '.join(diff)}): run with the same ones to resume it, or choose "
                         "another --out-dir (--force starts over)"
                     )
+                if complete < path.stat().st_size:
+                    _cut(path, complete)
                 return old
         journal = cls(path, head)
+        journal.created_folder = created
         try:
             with open(path, "w") as fh:
                 fh.write(json.dumps(head) + "\n")
@@ -97,36 +104,56 @@ class Journal:
             raise DataError(f"{path}: cannot write the session journal ({exc.strerror})") from None
         return journal
 
-    @classmethod
-    def _read(cls, path: Path) -> Journal:
-        lines = path.read_text().splitlines()
+    def discard_if_empty(self) -> None:
+        """Remove a journal that holds no pose (a session that failed before measuring one),
+        and its folder when the session created it and nothing else is in it."""
+        if self.entries or self.finished or not self.path.exists():
+            return
         try:
-            head = json.loads(lines[0])
-        except (IndexError, json.JSONDecodeError):
-            raise DataError(f"{path}: not a session journal (--force starts over)") from None
-        if not isinstance(head, dict) or head.get("format") != JOURNAL_FORMAT:
-            raise DataError(f"{path}: not a session journal (--force starts over)")
-        journal = cls(path, head)
-        for i, line in enumerate(lines[1:], start=2):
+            self.path.unlink()
+            if self.created_folder and not any(self.path.parent.iterdir()):
+                self.path.parent.rmdir()
+        except OSError:
+            pass
+
+    @classmethod
+    def _read(cls, path: Path) -> tuple[Journal, int]:
+        """The journal of a file and the byte length of its complete lines (a last line cut
+        by a crash is left out: its pose is measured again)."""
+        not_journal = f"{path}: not a session journal (--force starts over)"
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise DataError(f"{path}: cannot read the session journal ({exc.strerror})") from None
+        lines = data.split(b"\n")
+        complete = len(data) - len(lines[-1])  # bytes up to the last newline
+        tail = lines.pop()  # b"" when the file ends with a newline
+        records: list[tuple[int, Any]] = []
+        for i, raw in enumerate(lines, start=1):
             try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                if i == len(lines):  # a line cut by a crash: the pose is measured again
-                    break
-                raise DataError(f"{path}: line {i} is not JSON (--force starts over)") from None
-            if "end" in rec:
+                records.append((i, json.loads(raw.decode("utf-8"))))
+            except (UnicodeDecodeError, json.JSONDecodeError):
+                if i == 1:
+                    raise DataError(not_journal) from None
+                raise DataError(
+                    f"{path}: line {i} is not a journal record (a damaged journal; --force "
+                    "starts over)"
+                ) from None
+        if not records:
+            try:
+                records.append((1, json.loads(tail.decode("utf-8"))))
+            except (UnicodeDecodeError, json.JSONDecodeError):
+                raise DataError(not_journal) from None
+        head = records[0][1]
+        if not isinstance(head, dict) or head.get("format") != JOURNAL_FORMAT:
+            raise DataError(not_journal)
+        journal = cls(path, head)
+        for i, rec in records[1:]:
+            if isinstance(rec, dict) and "end" in rec:
                 journal.finished = str(rec["end"])
                 continue
-            cols = rec.get("columns")
-            journal.entries.append(
-                JournalEntry(
-                    str(rec["pose"]),
-                    np.asarray(rec["q"], dtype=float),
-                    str(rec.get("why", "")),
-                    None if cols is None else {k: _column(v) for k, v in cols.items()},
-                )
-            )
-        return journal
+            journal.entries.append(_entry(path, i, rec))
+        return journal, complete
 
     def append(self, entry: JournalEntry) -> None:
         """Write one pose's record (synced to disk before the session goes on)."""
@@ -153,9 +180,60 @@ class Journal:
             ) from None
 
 
-def _column(v: list) -> np.ndarray:
+def _cut(path: Path, size: int) -> None:
+    """Cut a crash's incomplete last line off the journal (synced)."""
+    try:
+        with open(path, "r+b") as fh:
+            fh.truncate(size)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError as exc:
+        raise DataError(f"{path}: cannot repair the session journal ({exc.strerror})") from None
+
+
+def _entry(path: Path, line: int, rec: Any) -> JournalEntry:
+    """One pose record, checked: DataError naming the journal line for a damaged one."""
+    where = f"{path}: line {line}"
+    damaged = "a damaged journal; --force starts over"
+    if not isinstance(rec, dict):
+        raise DataError(f"{where}: not a pose record ({damaged})")
+    missing = [k for k in ("pose", "q") if k not in rec]
+    if missing:
+        raise DataError(f"{where}: the pose record has no '{missing[0]}' ({damaged})")
+    try:
+        q = np.asarray(rec["q"], dtype=float)
+    except (TypeError, ValueError):
+        q = np.zeros(0)
+    if q.ndim != 1 or q.size == 0 or not np.all(np.isfinite(q)):
+        raise DataError(f"{where}: 'q' is not a list of joint angles ({damaged})")
+    cols = rec.get("columns")
+    if cols is not None and not (
+        isinstance(cols, dict) and all(isinstance(v, list) for v in cols.values())
+    ):
+        raise DataError(f"{where}: 'columns' is not a table of samples ({damaged})")
+    columns: dict[str, np.ndarray] | None = None
+    if cols is not None:
+        columns = {}
+        for k, v in cols.items():
+            arr = _column(v)
+            if arr is None:
+                raise DataError(f"{where}: column '{k}' is not a list of samples ({damaged})")
+            columns[k] = arr
+    return JournalEntry(str(rec["pose"]), q, str(rec.get("why", "")), columns, line)
+
+
+def _column(v: list) -> np.ndarray | None:
+    """A journaled column as an array (null → NaN; text stays text for the reader to name);
+    None when it is not a flat list of numbers or texts."""
+    if any(isinstance(x, list | dict) for x in v):
+        return None
     arr = np.array([np.nan if x is None else x for x in v])
-    return arr.astype(float) if arr.dtype == object else arr
+    if arr.dtype == object:
+        try:
+            return arr.astype(float)
+        except (TypeError, ValueError):
+            return arr.astype(str)
+    return arr
 
 
 class ResumingAdapter:
@@ -190,7 +268,8 @@ class ResumingAdapter:
         """The journaled pose (checked to be this command), else the live robot's move."""
         if self.done < self.resumed:
             e = self.journal.entries[self.done]
-            if e.pose != pose or np.max(np.abs(e.q - np.asarray(q, dtype=float))) > 1e-9:
+            q = np.asarray(q, dtype=float)
+            if e.pose != pose or e.q.shape != q.shape or np.max(np.abs(e.q - q)) > 1e-9:
                 raise DataError(
                     f"{self.journal.path}: resuming diverged at pose {pose} (the journal "
                     f"commanded pose {e.pose} there): another robot model or sensor file? "

@@ -34,6 +34,7 @@ command order.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 
 import numpy as np
@@ -69,14 +70,23 @@ __all__ = [
 ]
 
 
-def raw_table(cols: dict[str, np.ndarray]) -> Table:
-    """In-memory raw-log table (as ``read_table`` gives it: numbers as float, text as text)."""
-    return table_from_columns(cols, "session raw log")
+def raw_table(cols: dict[str, np.ndarray], source: str = "session raw log") -> Table:
+    """In-memory raw-log table (as ``read_table`` gives it: numbers as float, text as text);
+    errors name ``source`` (the adapter or the journal), the pose and the sample."""
+    pose, sample = cols.get("pose"), cols.get("sample")
+
+    def label(i: int) -> str:
+        k = sample[i] if sample is not None else i
+        return f"pose {pose[i]}, sample {k}" if pose is not None else f"sample {k}"
+
+    return table_from_columns(cols, source, label)
 
 
-def _read_log(robot: Robot, cols: dict[str, np.ndarray], sensors: SensorConfig) -> RawLog:
+def _read_log(
+    robot: Robot, cols: dict[str, np.ndarray], sensors: SensorConfig, source: str
+) -> RawLog:
     """The raw log of these columns as ``sescid measure`` reads it (IMU gravity included)."""
-    return read_log(robot, raw_table(cols), sensors)
+    return read_log(robot, raw_table(cols, source), sensors)
 
 
 def check_options(robot: Robot, opt: SessionOptions) -> int:
@@ -124,6 +134,7 @@ class _Run:
         self.q_cur = np.zeros(robot.nq)
         self.r_est: np.ndarray | None = None
         self.rejected: list[tuple[int, str]] = []
+        self.source = "session raw log"  #: where the current pose's samples came from
 
     @property
     def design(self) -> SequentialDesign:
@@ -158,20 +169,42 @@ class _Run:
             return self.plan.robots[self.plan.stance_of(i)]
         return self.robot
 
-    def columns(self, pose: str, cols: dict) -> dict[str, np.ndarray]:
-        """The pose's raw part (pose, sample, the adapter's columns), checked."""
-        n = {len(np.atleast_1d(v)) for v in cols.values()}
-        if len(n) != 1:
-            raise DataError(f"pose {pose}: the adapter's columns differ in length ({n})")
+    def columns(self, pose: str, cols: dict, source: str) -> dict[str, np.ndarray]:
+        """The pose's raw part (pose, sample, the adapter's columns), checked; ``source``
+        (the adapter or the journal) names where the samples came from in the errors."""
+        where = f"{source}: pose {pose}"
+        if not cols:
+            raise DataError(f"{where}: read() returned no columns")
+        arrays = {str(c): np.asarray(v) for c, v in cols.items()}
+        bad = next((c for c, v in arrays.items() if v.ndim != 1), None)
+        if bad is not None:
+            raise DataError(f"{where}: column '{bad}' is not one value per sample")
+        lengths = {c: len(v) for c, v in arrays.items()}
+        if len(set(lengths.values())) != 1:
+            values = list(lengths.values())
+            common = max(set(values), key=values.count)
+            odd = [f"'{c}' has {k}" for c, k in lengths.items() if k != common]
+            raise DataError(
+                f"{where}: the columns differ in length ({', '.join(odd[:4])}"
+                f"{' …' if len(odd) > 4 else ''}; the others {common} samples)"
+            )
         if self.names is None:
-            self.names = list(cols)
-        elif set(cols) != set(self.names):
-            raise DataError(f"pose {pose}: the adapter changed its columns")
-        m = n.pop()
+            self.names = list(arrays)
+        elif set(arrays) != set(self.names):
+            gone = sorted(set(self.names) - set(arrays))
+            new = sorted(set(arrays) - set(self.names))
+            raise DataError(
+                f"{where}: the columns changed since the first pose (missing {gone or 'none'}, "
+                f"new {new or 'none'})"
+            )
+        m = next(iter(lengths.values()))
+        if m == 0:
+            raise DataError(f"{where}: read() returned no samples")
+        self.source = source
         out = {"pose": np.full(m, pose), "sample": np.arange(m)}
         if isinstance(self.plan, StanceDesign) and self.stance is not None:
             out["support"] = np.full(m, self.plan.stances[self.stance].label)
-        return out | {c: np.asarray(cols[c]) for c in self.names}
+        return out | {c: arrays[c] for c in self.names}
 
     def _kinds(self, meas, step: SessionStep) -> DesignKind:
         """The kinds this pose measured for the session; at the first measured pose the
@@ -196,10 +229,15 @@ class _Run:
                                          o.torque_method)  # fmt: skip
         return self.plan.kinds
 
-    def measure(self, step: SessionStep, part: dict) -> bool:
-        """Reduce the pose's samples and update the estimate; False when it gave nothing."""
-        robot, opt = self.robot_at(step.candidate), self.opt
-        meas = measure(robot, _read_log(robot, part, self.sensors), self.sensors, opt.min_samples)
+    def reduce(self, part: dict, robot: Robot):
+        """The pose's samples read and reduced as ``sescid measure`` does (DataError for
+        samples that cannot be read: such a pose is never journaled)."""
+        log = _read_log(robot, part, self.sensors, self.source)
+        return measure(robot, log, self.sensors, self.opt.min_samples, whole_log=False)
+
+    def measure(self, step: SessionStep, part: dict, meas) -> bool:
+        """Update the estimate with the pose's reduced samples; False when it gave nothing."""
+        robot = self.robot_at(step.candidate)
         kinds = self._kinds(meas, step)
         if len(meas.pose) == 0:
             none = "no usable CoP" if kinds == "cop" else "no usable samples"
@@ -269,7 +307,7 @@ class _Run:
             measured, fit = stance_result(self.plan, raw, self.sensors)
             pooled = self.est.body_parameters()
         else:
-            log = _read_log(self.robot, raw, self.sensors)
+            log = _read_log(self.robot, raw, self.sensors, "session raw log")
             measured = measure(self.robot, log, self.sensors, self.opt.min_samples)
             assert not isinstance(self.est, PooledEstimate)
             fit = self.est.fit()
@@ -327,18 +365,27 @@ def run_session(
                 st = run.plan.stances[ks]
                 if ks != run.stance:  # ask for the change (the first stance too)
                     obs.stance(k, st.label, st.describe())
-                    bot.change_stance(st.support, st.mount)  # type: ignore[attr-defined]
+                    with _adapter_call(bot, pose, journal):
+                        bot.change_stance(st.support, st.mount)  # type: ignore[attr-defined]
                     run.stance = ks
                 step.stance = st.label
             obs.planned(k, pose, q, run.q_cur)
-            bot.move(pose, q)
-            run.q_cur = q
-            why = bot.wait_settled()
-            cols = None if why else dict(bot.read(opt.samples))
+            with _adapter_call(bot, pose, journal):
+                bot.move(pose, q)
+                run.q_cur = q
+                why = bot.wait_settled()
+                if not isinstance(why, str):
+                    raise DataError(f"wait_settled returned {type(why).__name__}, not a text")
+                cols = None if why else _samples(bot.read(opt.samples), opt.samples)
+            meas = part = None
+            if cols is not None:
+                with _kept_on_error(journal):
+                    part = run.columns(pose, cols, _source(bot, journal))
+                    meas = run.reduce(part, run.robot_at(nxt.index))
             if journal is not None and not getattr(bot, "replaying", False):
                 journal.append(JournalEntry(pose, q, why, cols))
             step.reason = why
-            measured = cols is not None and run.measure(step, run.columns(pose, cols))
+            measured = part is not None and run.measure(step, part, meas)
             if measured:
                 run.design.add(nxt.index)
             run.steps.append(step)
@@ -347,10 +394,68 @@ def run_session(
                 stop = reason
                 break
     finally:
-        bot.stop()
+        with _adapter_call(bot, "", journal, "stop"):
+            bot.stop()
     result = run.result(stop)
     obs.stopped(result)
     return result
+
+
+@contextlib.contextmanager
+def _adapter_call(bot, pose: str, journal: Journal | None, what: str = ""):
+    """An adapter's own exception (a servo error, a bug in the user's class) as one
+    DataError naming the pose; the journal keeps the poses measured before it."""
+    try:
+        yield
+    except (SescidError, KeyboardInterrupt):
+        raise
+    except Exception as exc:
+        live = getattr(bot, "live", bot)
+        name = type(live).__name__
+        at = f"at pose {pose}" if pose else f"in {what}()"
+        raise DataError(
+            f"the robot adapter {name} failed {at}: {type(exc).__name__}: {exc}{_kept(journal)}"
+        ) from None
+
+
+@contextlib.contextmanager
+def _kept_on_error(journal: Journal | None):
+    """A pose's data error, saying what the journal keeps for a resume."""
+    try:
+        yield
+    except DataError as exc:
+        kept = _kept(journal)
+        if not kept:
+            raise
+        raise DataError(f"{exc}{kept}") from None
+
+
+def _kept(journal: Journal | None) -> str:
+    """'; JOURNAL keeps the N poses …' when the journal holds poses to resume from."""
+    n = 0 if journal is None else len(journal.entries)
+    if not n:
+        return ""
+    assert journal is not None
+    return (
+        f"; {journal.path} keeps the {n} poses journaled before it: run the same command "
+        "again to resume"
+    )
+
+
+def _samples(cols, n: int) -> dict[str, np.ndarray]:
+    """The adapter's ``read`` result as columns (DataError when it is not a mapping)."""
+    if not hasattr(cols, "items"):
+        raise DataError(f"read({n}) returned {type(cols).__name__}, not columns by name")
+    return dict(cols)
+
+
+def _source(bot, journal: Journal | None) -> str:
+    """Where a pose's samples come from, for the reader's errors: the journal (a resumed
+    pose) or the adapter."""
+    if journal is not None and getattr(bot, "replaying", False):
+        return str(journal.path)
+    live = getattr(bot, "live", bot)
+    return f"adapter {type(live).__name__}"
 
 
 def _box(half: np.ndarray | None) -> np.ndarray:

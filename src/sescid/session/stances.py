@@ -54,7 +54,7 @@ from sescid.planning.plan_stances import PRIOR_TAU
 from sescid.planning.sequential import NextPose, SequentialDesign
 from sescid.planning.stances import StanceRows, theta_information, theta_scale
 from sescid.robot import Robot
-from sescid.sensors import Measured
+from sescid.sensors import Measured, concat_measured
 from sescid.session.design import KindSwitch, unsafe_pose
 from sescid.session.estimate import (
     REFERENCE_POSES,
@@ -298,39 +298,6 @@ class PooledEstimate:
         cov_r = e @ self.cov[: self.n4, : self.n4] @ e.T
         var = np.minimum(np.diag(cov_r), BODY_PRIOR_SCALE**2)
         return np.sqrt(var.reshape(-1, 3).sum(axis=1))
-
-
-def concat_measured(parts: list[Measured]) -> Measured:
-    """One ``Measured`` of the poses of several (a quantity some did not measure: nan there;
-    torques of different joint sets: dropped)."""
-    first = parts[0]
-
-    def cat(name: str):
-        vals = [getattr(p, name) for p in parts]
-        if all(v is None for v in vals):
-            return None
-        shape = next(v for v in vals if v is not None).shape[1:]
-        return np.concatenate([np.full((len(p.pose), *shape), np.nan) if v is None else v
-                               for p, v in zip(parts, vals, strict=True)])  # fmt: skip
-
-    joints = {p.tau_joints for p in parts if p.tau is not None}
-    tau_ok = len(joints) == 1
-    return dataclasses.replace(
-        first,
-        pose=np.concatenate([p.pose for p in parts]),
-        q=np.concatenate([p.q for p in parts]),
-        cop=cat("cop"),
-        cop_se=cat("cop_se"),
-        force=np.concatenate([p.force for p in parts]),
-        n_used=np.concatenate([p.n_used for p in parts]),
-        rejected=np.concatenate([p.rejected for p in parts]),
-        dropped=[d for p in parts for d in p.dropped],
-        gravity=cat("gravity"),
-        tau_joints=next(iter(joints)) if tau_ok else (),
-        tau=cat("tau") if tau_ok else None,
-        tau_se=cat("tau_se") if tau_ok else None,
-        approach=cat("approach"),
-    )
 
 
 def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tuple[Measured, Fit]:

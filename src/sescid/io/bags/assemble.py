@@ -17,19 +17,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sescid.base.columns import SUPPORT_COLUMN
 from sescid.errors import DataError, SescidError
 from sescid.io.bags.feet import FORCE_N, LENGTH_M, FootSource
 from sescid.io.bags.fields import Stamp
-from sescid.io.bags.joints import joint_angles, joint_torques
+from sescid.io.bags.joints import check_joint_values, joint_angles, joint_torques
 from sescid.io.bags.mapping import BagMapping, load_mapping
 from sescid.io.bags.messages import foot_values, pose_ids
 from sescid.io.bags.recording import bag_paths, check_type, read_topics
 from sescid.io.bags.segments import segment_labels, topic_labels
 from sescid.io.bags.stamps import Clocked, fill_recent, nearest, one_clock, topic_stamps
+from sescid.io.bags.stances import check_stances, row_stances
+from sescid.sensors.raw import reversed_force
 from sescid.sensors.wrench import cop_from_plate, cop_from_wrench
 
 #: reasons a clock sample is left out, in the order they are counted
-DROP_REASONS = ("no_joint_state", "missing_joint", "no_pose", "moving", "unmatched_pose")
+DROP_REASONS = (
+    "no_joint_state", "missing_joint", "no_pose", "moving", "unmatched_pose", "no_support",
+)  # fmt: skip
 _JOINT_STATE = ("sensor_msgs/msg/JointState",)
 _FOOT_TYPES = {
     "wrench": ("geometry_msgs/msg/WrenchStamped", "geometry_msgs/msg/Wrench"),
@@ -45,6 +50,7 @@ class Segment:
     start: float
     end: float
     samples: int
+    stance: str = ""  #: the support it was measured in ("" when the log names none)
 
 
 @dataclass
@@ -134,6 +140,9 @@ def _clocks(mp: BagMapping, topics: dict, tol: int, notes: list[str]) -> dict[st
                 ("std_msgs/msg/Int32", "std_msgs/msg/String"),
             )
         )
+    if mp.support_topic is not None:
+        s = mp.support_topic
+        sections.append(("support", s.topic, s.stamp, None, ("std_msgs/msg/String",)))
     clocks = {}
     for name, topic, stamp, want, default in sections:
         where = f"{src}: {name}"
@@ -167,14 +176,19 @@ def _count(masks: dict[str, np.ndarray], n: int) -> tuple[dict[str, int], np.nda
     return dropped, keep
 
 
-def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> RawLogTable:
+def read_bag(
+    bag_path, mapping, joint_names=None, robot=None, poses=None, pose_support=None
+) -> RawLogTable:
     """Read a ROS bag into the raw log of the ``fsr`` step (see ``sescid.io.bags``).
 
     ``bag_path``: a rosbag2 directory (sqlite3 or MCAP), a ROS 1 ``.bag`` file, or a list of
     ROS 1 files. ``mapping``: a ``BagMapping`` or a mapping file path. ``joint_names``: the
     model's joints (default ``robot.joint_names``). ``robot`` is needed for a wrench source whose
     sensor frame is a URDF link. ``poses = (ids, q)``: the planned pose list (ids (k,) text,
-    angles (k, nq) rad) whose ids the stationary segments take (without a pose topic).
+    angles (k, nq) rad) whose ids the stationary segments take (without a pose topic);
+    ``pose_support`` (k,): their stances (the list's ``support`` column), which the rows of a
+    matched segment take when the mapping names no ``support``. With a stance the log has a
+    ``support`` column (a frame of the model, or "double"; checked against ``robot``).
     """
     mp = mapping if isinstance(mapping, BagMapping) else load_mapping(mapping)
     joint_names = _joint_names(mp, joint_names, robot)
@@ -184,6 +198,7 @@ def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> Raw
     clocks = _clocks(mp, topics, tol, notes)
     tj, q = _sorted(clocks["joints"], joint_angles(clocks["joints"], mp, joint_names, notes))
     q = fill_recent(tj, q, tol)
+    check_joint_values(clocks["joints"], tj, q, joint_names, notes)
     streams = _streams(mp, clocks, joint_names, notes)
     clock = f"feet.{mp.feet[0].name}" if mp.feet else "torques"
     t_clock = streams[clock][0]
@@ -195,10 +210,15 @@ def read_bag(bag_path, mapping, joint_names=None, robot=None, poses=None) -> Raw
         pose, more = topic_labels(cp.stamps, pose_ids(cp.topic, mp.pose.field, cp.where), t_clock)
     else:
         pose, more = segment_labels(ij, tj, q, mp, poses, notes)
+    stance = row_stances(mp, clocks, t_clock, pose, poses, pose_support, more)
     dropped, keep = _count(masks | more, len(t_clock))
     t0 = min(int(tj[0]), int(t_clock[0]))
     qk = q[ij[keep]]
     cols = {"pose": pose[keep], "t": (t_clock[keep] - t0) * 1e-9}
+    if stance is not None:
+        where = f"{mp.source}: support" if mp.support or mp.support_topic else "the pose list"
+        check_stances(stance[keep], robot, where)
+        cols[SUPPORT_COLUMN] = stance[keep]
     cols |= {j: qk[:, c] for c, j in enumerate(joint_names)}
     for name, (t, values) in streams.items():
         if name != clock:
@@ -213,10 +233,12 @@ def _result(cols: dict[str, np.ndarray], dropped: dict[str, int], notes: list[st
     """The raw log with its pose segments (runs of one pose id in time order)."""
     segments = []
     pk, tk = cols["pose"], cols["t"]
+    sk = cols.get(SUPPORT_COLUMN, np.full(len(pk), ""))
     if len(pk):
-        change = np.flatnonzero(pk[1:] != pk[:-1]) + 1
+        change = np.flatnonzero((pk[1:] != pk[:-1]) | (sk[1:] != sk[:-1])) + 1
         for a, b in zip(np.r_[0, change], np.r_[change, len(pk)], strict=True):
-            segments.append(Segment(str(pk[a]), float(tk[a]), float(tk[b - 1]), int(b - a)))
+            seg = Segment(str(pk[a]), float(tk[a]), float(tk[b - 1]), int(b - a), str(sk[a]))
+            segments.append(seg)
     else:
         why = ", ".join(f"{k}={v}" for k, v in dropped.items() if v) or "none"
         notes.append(f"no sample kept: {why}")
@@ -244,6 +266,9 @@ def _foot_columns(foot: FootSource, v: np.ndarray, q: np.ndarray, robot, source:
             foot_com=foot.foot_com,
             min_force=foot.min_force,
         )
+    why = reversed_force(fz, max(foot.min_force, 1e-9))
+    if why is not None:
+        raise DataError(f"{source}: feet.{foot.name} ({foot.topic}): {why}")
     p = foot.prefix
     return {f"{p}_cop_x": cop[:, 0], f"{p}_cop_y": cop[:, 1], f"{p}_fz": fz}
 

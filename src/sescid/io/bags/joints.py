@@ -85,3 +85,45 @@ def joint_torques(
             notes.append(f"{c.topic.name}: {empty} messages have no {ts.field} values (NaN)")
     tau = tau * (ts.scale * TORQUE_NM[ts.unit])
     return {f"tau_{j}": tau[:, k] for k, j in enumerate(names)}
+
+
+#: rad: consecutive joint states further apart than this, while the states two apart agree,
+#: alternate between two time lines
+ALTERNATION_RAD = 0.01
+#: alternating joint states that make a recording two interleaved time lines
+ALTERNATIONS = 10
+
+
+def check_joint_values(c: Clocked, tj: np.ndarray, q: np.ndarray, joint_names, notes) -> None:
+    """Name the joints whose angles are NaN (a note; an error when one never has a value), and
+    refuse joint states that alternate between two time lines (a clock that stepped back
+    while recording: the bag's order interleaves two stretches of the session)."""
+    where = f"{c.topic.bag}: {c.topic.name}"
+    nan = np.isnan(q)
+    if nan.any():
+        counts = nan.sum(axis=0)
+        dead = [j for j, n in zip(joint_names, counts, strict=True) if n == len(q)]
+        if dead:
+            raise DataError(
+                f"{where}: joint '{dead[0]}' has no value (NaN) in any of the {len(q)} joint "
+                "states: no sample can be placed (a dead encoder?)"
+            )
+        shown = ", ".join(f"'{j}' {int(n)}" for j, n in zip(joint_names, counts, strict=True)
+                          if n)  # fmt: skip
+        notes.append(
+            f"{c.topic.name}: NaN joint angles ({shown} of {len(q)} joint states): the samples "
+            "they would place are dropped (missing_joint)"
+        )
+    if len(q) < 3:
+        return
+    with np.errstate(invalid="ignore"):
+        d1 = np.nanmax(np.abs(q[1:-1] - q[:-2]), axis=1)
+        d2 = np.nanmax(np.abs(q[2:] - q[:-2]), axis=1)
+    alt = np.flatnonzero((d1 > ALTERNATION_RAD) & (d2 < 0.25 * d1))
+    if alt.size >= ALTERNATIONS:
+        t = (tj[alt[0] + 1] - tj[0]) * 1e-9
+        raise DataError(
+            f"{where}: from {t:.3f} s on, {alt.size} joint states alternate between two sets of "
+            "angles: two time lines interleaved in one recording (a clock that stepped back?); "
+            "split the bag where the clock stepped back"
+        )

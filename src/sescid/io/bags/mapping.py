@@ -1,12 +1,14 @@
 """The mapping file: which topics of a bag hold the joints, the joint torques, each foot's force
-source and the pose ids (``format: sescid-bag-mapping/1``, YAML or JSON).
+source, the pose ids and the stance (``format: sescid-bag-mapping/1``, YAML or JSON).
 
 Joints and torques come either from a ``sensor_msgs/msg/JointState`` (``kind: joint_state``,
 matched by name, with an optional ``rename`` table bag name → model name; torques from its
 ``effort``) or from any message with a float array (``kind: array``: ``field`` a dotted path,
 which may pass through an array of messages, e.g. ``motor_state.tau_est`` of a Unitree
 ``LowState``; ``names`` the model joint of each array position, or ``index`` a table model joint
-→ position). Every bad field raises a one-line DataError naming the file and the field path.
+→ position). ``support`` names the stance the recording was made in (a frame of the model, or
+``double``), or a String topic naming it as it changes (``{topic: /stance}``). Every bad
+field raises a one-line DataError naming the file and the field path.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ MessageKind = Literal["joint_state", "array"]
 AngleUnit = Literal["rad", "deg"]
 _SOURCE_FIELDS = {"topic", "kind", "rename", "field", "index", "names", "stamp", "type"}
 _TOP = {"format", "joints", "torques", "feet", "pose", "stationary", "tolerance", "typestore"}
-_TOP |= {"types", "notes"}
+_TOP |= {"types", "notes", "support"}
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,8 @@ class TorqueSource:
 
 @dataclass(frozen=True)
 class PoseSource:
-    """A topic carrying the pose id (Int32 or String)."""
+    """A topic carrying a label per message: the pose id (Int32 or String), or the stance
+    (String: a frame of the model, or "double")."""
 
     topic: str
     field: str = "data"
@@ -80,6 +83,8 @@ class BagMapping:
     feet: tuple[FootSource, ...]
     pose: PoseSource | None = None
     torques: TorqueSource | None = None
+    support: str | None = None  #: the stance of the whole recording (None: a topic's, or none)
+    support_topic: PoseSource | None = None  #: a topic naming the stance as it changes
     max_speed: float = 0.05  #: rad/s
     dwell: float = 0.5  #: s
     window: float = 0.1  #: s
@@ -158,6 +163,18 @@ def _torques(f: Fields, joints: JointSource) -> TorqueSource:
     )
 
 
+def _support(f: Fields) -> tuple[str | None, PoseSource | None]:
+    """The ``support`` field: a stance name, or a table {topic, field, stamp} of a String
+    topic naming it."""
+    raw = f.data.get("support")
+    if raw is None:
+        return None, None
+    if isinstance(raw, dict):
+        t = f.sub("support", {"topic", "field", "stamp"})
+        return None, PoseSource(t.required("topic"), t.text("field", "data"), t.stamp())
+    return f.text("support"), None
+
+
 def parse_mapping(data, source: str = "<mapping>", mapping_dir: Path | None = None) -> BagMapping:
     """A mapping from its parsed YAML/JSON document (see ``load_mapping``)."""
     f = Fields(source, "", data, _TOP, mapping_dir)
@@ -194,11 +211,14 @@ def parse_mapping(data, source: str = "<mapping>", mapping_dir: Path | None = No
         else None
     )
     types = f.table("types", "message_type: .msg text")
+    support, support_topic = _support(f)
     return BagMapping(
         joints=joints,
         feet=feet,
         pose=pose,
         torques=torques,
+        support=support,
+        support_topic=support_topic,
         max_speed=st.number("max_speed", 0.05, positive=True) if st else 0.05,
         dwell=st.number("dwell", 0.5) if st else 0.5,
         window=st.number("window", 0.1, positive=True) if st else 0.1,

@@ -44,6 +44,19 @@ def bag_paths(bag_path) -> list[Path]:
     return paths
 
 
+def _check_metadata(paths: list[Path]) -> None:
+    """DataError for a rosbag2 folder without its metadata.yaml (rosbags' own error named the
+    folder as the missing file)."""
+    for p in paths:
+        if p.is_dir() and not (p / "metadata.yaml").is_file():
+            stored = sorted(f.name for f in p.iterdir() if f.suffix in (".mcap", ".db3"))
+            has = f"it holds {', '.join(stored[:3])}" if stored else "it holds no .mcap or .db3"
+            raise DataError(
+                f"{p}: no metadata.yaml, the index of a rosbag2 recording ({has}): restore it "
+                f"(ros2 bag reindex {p} rebuilds it) or give the recording's own folder"
+            )
+
+
 def wanted_topics(mp: BagMapping) -> dict[str, list[str]]:
     """Topic → the mapping fields that name it."""
     wanted: dict[str, list[str]] = {}
@@ -54,6 +67,8 @@ def wanted_topics(mp: BagMapping) -> dict[str, list[str]]:
         wanted.setdefault(foot.topic, []).append(f"feet.{foot.name}.topic")
     if mp.pose is not None:
         wanted.setdefault(mp.pose.topic, []).append("pose.topic")
+    if mp.support_topic is not None:
+        wanted.setdefault(mp.support_topic.topic, []).append("support.topic")
     return wanted
 
 
@@ -83,6 +98,7 @@ def _typestore(mp: BagMapping, rb):
 def read_topics(paths: list[Path], mp: BagMapping) -> dict[str, Topic]:
     """Every topic the mapping names, decoded (one-line errors naming the bag and the field)."""
     rb = rosbags()
+    _check_metadata(paths)
     AnyReader, AnyReaderError, _, TypesysError, _, _ = rb
     store = _typestore(mp, rb)
     bag = ", ".join(str(p) for p in paths)

@@ -134,3 +134,39 @@ def _resolve(root: ET.Element, main: Path, here: Path, stack: list[Path]) -> lis
         for k, child in enumerate(children):
             parent.insert(at + k, child)
     return files
+
+
+def model_files(path: str | Path) -> list[Path]:
+    """Every file a model file reads: itself, the files it ``<include>``s (MJCF, nested) and
+    the asset files (meshes, textures, …) its relative names point to — the inputs an export
+    must never overwrite. Unreadable files are skipped (the model's reader reports them)."""
+    main = Path(path)
+    found: list[Path] = [main]
+    try:
+        root = ET.parse(main).getroot()
+    except (ET.ParseError, OSError, UnicodeDecodeError, ValueError):
+        return found
+    if root.tag != "mujoco":  # URDF: mesh and texture file names
+        for el in root.iter():
+            name = el.get("filename", "") if el.tag in ("mesh", "texture") else ""
+            rest = name[len("file://") :] if name.startswith("file://") else name
+            if rest and "://" not in rest:
+                found.append(Path(rest) if Path(rest).is_absolute() else main.parent / rest)
+        return found
+    try:
+        found += resolve_includes(root, main)
+    except ModelError:
+        return found
+    compilers = list(root.iter("compiler"))
+    dirs: dict[str, str] = {}
+    for k in ("meshdir", "texturedir", "assetdir"):
+        dirs[k] = next((str(c.get(k)) for c in compilers if c.get(k)), "")
+    for tag, (attrs, dir_key) in MJCF_FILES.items():
+        folder = (dirs[dir_key] or dirs["assetdir"]) if dir_key else ""
+        for el in root.iter(tag):
+            for a in attrs:
+                name = el.get(a)
+                if name:
+                    f = Path(folder) / name
+                    found.append(f if f.is_absolute() else main.parent / f)
+    return found

@@ -168,6 +168,29 @@ def vsub(typingctx, a, b):
 
 
 @intrinsic
+def vdiv(typingctx, a, b):
+    """A / b lane by lane (each correctly rounded: the scalar division's bits)."""
+
+    def codegen(context, builder, sig, args):
+        return builder.fdiv(args[0], args[1])
+
+    return vec(vec, vec), codegen
+
+
+@intrinsic
+def vsqrt(typingctx, a):
+    """√a lane by lane (``llvm.sqrt``, correctly rounded: ``math.sqrt``'s bits in a kernel)."""
+
+    def codegen(context, builder, sig, args):
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_VEC, [_VEC]), f"llvm.sqrt.v{LANES}f64"
+        )
+        return builder.call(fn, [args[0]])
+
+    return vec(vec), codegen
+
+
+@intrinsic
 def vneg(typingctx, a):
     """−a lane by lane (the sign flipped: exact)."""
 
