@@ -15,7 +15,7 @@ from sescid.kinematics import compile as kcompile
 from sescid.kinematics._kernels import chains as kchain
 from sescid.kinematics._kernels import trig as ktrig
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _kernel_chain(tree, q):
