@@ -14,6 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from sescid.cli import cli
+from sescid.io import read_table
 
 
 def run(*args) -> tuple[int, str]:
@@ -789,6 +790,23 @@ def test_dead_pads_and_forces_in_kilonewtons_are_named(bench, tmp_path):
     code, out = run("truth", tmp_path / "f.json", bench["truth"])
     assert code == 2 and out.startswith(f"sescid: error: {tmp_path / 'f.json'}: a fit of stick")
     assert f"but {bench['truth']} is the truth of op2 on 'r_sole'" in out, out
+
+
+def test_a_pad_unloaded_through_one_pose_is_not_dead(bench, tmp_path):
+    """A pad that reads 0 through one pose (its CoP at the other edge: the MuJoCo bench's
+    left foot did this) while it varies elsewhere is measured, whichever chunk the pose falls
+    in: the dead-pad rule judges the whole log (it judged the log's last pose alone)."""
+    lines = bench["raw"].read_text().splitlines()
+    header = lines[0].split(",")
+    col, pose = header.index("r_fsr3"), header.index("pose")
+    last = lines[-1].split(",")[pose]
+    rows = [x.split(",") for x in lines[1:]]
+    edited = [[c if (k != col or r[pose] != last) else "0" for k, c in enumerate(r)] for r in rows]
+    raw = tmp_path / "raw.csv"
+    raw.write_text("\n".join([lines[0]] + [",".join(r) for r in edited]) + "\n")
+    code, out = run("measure", raw, "--poses", bench["poses"], "--out", tmp_path / "m.csv")
+    assert code == 0, out
+    assert len(read_table(tmp_path / "m.csv").columns["cop_x"]) == len({r[pose] for r in rows})
 
 
 def test_export_writes_the_weighed_mass_the_fit_was_given(bench, tmp_path):

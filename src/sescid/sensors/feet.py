@@ -106,35 +106,74 @@ def foot_samples(log: RawLog, config: SensorConfig, status: Status) -> FootSampl
 DEAD_PAD_SAMPLES = 20
 
 
+@dataclass
+class _PadStats:
+    """One foot's pads over the samples where the foot is loaded: how many samples, and per
+    pad (4,) how many values, their least and greatest."""
+
+    n: int
+    count: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+class PadWatch:
+    """The dead or stuck foot pad check over a whole log, fed in parts (``add``, a log read in
+    chunks) and judged once (``check``): a pad that has no value while its foot's other pads
+    have, or reads one value while they vary, over every sample where its foot is loaded —
+    its foot's CoP and load would be wrong without a word. (A pad that reads 0 through a pose
+    whose CoP sits at the other edge is not dead: the whole log decides.)"""
+
+    def __init__(self, config: SensorConfig):
+        self.config = config
+        self.stats: dict[str, _PadStats] = {}
+
+    def add(self, log: RawLog) -> None:
+        """Count the samples of ``log`` (a whole raw log or a part of one)."""
+        for foot in self.config.feet:
+            arr = log.forces.get(foot.name)
+            if arr is None:
+                continue
+            on = np.nansum(arr, axis=1) * self.config.force_unit >= self.config.min_foot_force
+            sub = arr[on]
+            given = np.isfinite(sub)
+            k = sub.shape[1]
+            st = self.stats.setdefault(
+                foot.name, _PadStats(0, np.zeros(k, int), np.full(k, np.inf), np.full(k, -np.inf))
+            )
+            st.n += len(sub)
+            st.count += given.sum(axis=0)
+            st.lo = np.minimum(st.lo, np.where(given, sub, np.inf).min(axis=0, initial=np.inf))
+            st.hi = np.maximum(st.hi, np.where(given, sub, -np.inf).max(axis=0, initial=-np.inf))
+
+    def check(self, path: object) -> None:
+        """DataError naming the first dead or stuck pad of the samples added so far."""
+        for foot in self.config.feet:
+            st = self.stats.get(foot.name)
+            if st is None or st.n < DEAD_PAD_SAMPLES:
+                continue
+            for k in range(len(st.count)):
+                name = f"{foot.columns}{k + 1}"
+                others = [j for j in range(len(st.count)) if j != k]
+                if not st.count[k] and any(st.count[j] for j in others):
+                    raise DataError(
+                        f"{path}: column '{name}' has no value in the {st.n} samples where the "
+                        f"{foot.name} foot is loaded: a dead pad? (its foot's CoP needs all four)"
+                    )
+                moving = [st.hi[j] > st.lo[j] for j in others if st.count[j]]
+                if st.count[k] and st.hi[k] == st.lo[k] and moving and all(moving):
+                    raise DataError(
+                        f"{path}: column '{name}' reads {st.lo[k]:g} in all {st.count[k]} samples "
+                        f"where the {foot.name} foot is loaded while its other pads vary: a dead, "
+                        "stuck or never loaded pad? (its foot's CoP and load would be wrong)"
+                    )
+
+
 def check_pads(log: RawLog, config: SensorConfig) -> None:
-    """DataError naming a foot pad that is dead or stuck: over the samples where its foot is
-    loaded, it has no value while the other pads have, or reads one value while they vary —
-    its foot's CoP and load would be wrong without a word."""
-    for foot in config.feet:
-        arr = log.forces.get(foot.name)
-        if arr is None:
-            continue
-        on = np.nansum(arr, axis=1) * config.force_unit >= config.min_foot_force
-        sub = arr[on]
-        if len(sub) < DEAD_PAD_SAMPLES:
-            continue
-        given = np.isfinite(sub)
-        for k in range(sub.shape[1]):
-            name = f"{foot.columns}{k + 1}"
-            others = np.delete(np.arange(sub.shape[1]), k)
-            if not given[:, k].any() and given[:, others].any():
-                raise DataError(
-                    f"{log.path}: column '{name}' has no value in the {len(sub)} samples where "
-                    f"the {foot.name} foot is loaded: a dead pad? (its foot's CoP needs all four)"
-                )
-            values = sub[given[:, k], k]
-            moving = [np.ptp(sub[given[:, j], j]) > 0 for j in others if given[:, j].any()]
-            if values.size and np.ptp(values) == 0 and moving and all(moving):
-                raise DataError(
-                    f"{log.path}: column '{name}' reads {values[0]:g} in all {values.size} "
-                    f"samples where the {foot.name} foot is loaded while its other pads vary: a "
-                    "dead, stuck or never loaded pad? (its foot's CoP and load would be wrong)"
-                )
+    """``PadWatch``'s check of one whole raw log."""
+    watch = PadWatch(config)
+    watch.add(log)
+    watch.check(log.path)
 
 
 def _pad_cop(foot: Foot, arr: np.ndarray, config: SensorConfig, status: Status):

@@ -26,7 +26,7 @@ import numpy as np
 
 from sescid.base.columns import Table, pose_ids
 from sescid.errors import DataError
-from sescid.sensors.feet import REASONS, Status, check_pads, foot_samples, support_cop
+from sescid.sensors.feet import REASONS, PadWatch, Status, check_pads, foot_samples, support_cop
 from sescid.sensors.measured import Measured, MeasuredFrom
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
@@ -202,6 +202,7 @@ def measure(
     feet: bool | None = None,
     whole_log: bool = True,
     finish: bool = True,
+    pads: PadWatch | None = None,
 ) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
@@ -212,7 +213,8 @@ def measure(
     poses): a dead or stuck foot pad is an error, and ``finish_measured`` may leave out a
     dead torque column. ``finish``: drop the poses whose torques, approach side or gravity the
     samples do not determine (``finish_measured``; a part of a longer log is finished once
-    joined).
+    joined). ``pads``: a part of a longer log adds its samples to the whole log's dead-pad
+    check instead of being judged alone.
     """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
@@ -224,7 +226,9 @@ def measure(
         assert config is not None
         check_sensors(robot, config)
         check_force_scale(log, config, robot.total_mass, whole_log)
-        if whole_log:
+        if pads is not None:
+            pads.add(log)
+        elif whole_log:
             check_pads(log, config)
         cop, force_n, fs, out = _cop_part(robot, log, config, s)
         mode = fs.mode

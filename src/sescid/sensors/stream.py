@@ -25,6 +25,7 @@ import numpy as np
 
 from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError
+from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
 from sescid.sensors.raw import RawLog
@@ -102,13 +103,16 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
     seen: dict[str, None] = {}  # pose ids reduced, in the log's order
     carry: RawLog | None = None
     decided = feet
+    pads = PadWatch(config) if config is not None else None  # judged over the whole log
 
     def reduce(log: RawLog) -> None:
         ids = dict.fromkeys(log.pose.tolist())
         if any(i in seen for i in ids):
             raise _Revisited
         seen.update(ids)
-        parts.append(measure(robot, log, config, min_samples, feet=decided, finish=False))
+        parts.append(
+            measure(robot, log, config, min_samples, feet=decided, finish=False, pads=pads)
+        )
 
     for table in chunks:
         log = read_log(robot, table, config, imu_link)
@@ -127,6 +131,8 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
         carry = _take(log, start)
     if carry is not None and len(carry.pose):
         reduce(carry)
+    if pads is not None:
+        pads.check(where)
     return parts, list(seen), where
 
 
