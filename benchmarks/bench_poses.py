@@ -9,7 +9,8 @@ per robot, and the OP2's D-optimal choice from 10⁵ candidates against a naive 
 2. The planner's search per robot: uniform draws and the CoM-Jacobian search side by side —
    share accepted, draws and CPU seconds per 1000 accepted candidates (compliant stability,
    floor and self-collision included): OP2, TALOS, iCub, and a synthetic humanoid with a small
-   foot and a heavy torso far ahead (``tests/humanoid_gen.py``, uniform draws almost never pass).
+   foot and a heavy torso far ahead (``tests/helpers/humanoid_gen.py``, uniform draws almost
+   never pass).
 3. OP2: 38 D-optimal poses from 10⁵ candidates; the rank-2 greedy against a naive greedy that
    recomputes every log det (timed on ``--naive-subset`` candidates, scaled).
 4. Torque designs (``--kinds tau``): the user's commands (the OP2 standing, 38 poses from the
@@ -45,7 +46,7 @@ from sescid import planning as design
 from sescid.errors import SescidError
 from sescid.simulation import PAPER_NOISE
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "helpers"))
 
 TARGET = 2.0  #: s, both commands (issue "speed that holds on any machine")
 

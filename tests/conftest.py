@@ -10,9 +10,7 @@ import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
 
-sys.path.insert(0, str(Path(__file__).parent))
-
-import sescid  # noqa: E402
+import sescid
 
 # One BLAS thread: the tests' matrices are small, and a thread pool per process only
 # oversubscribes the cores when pytest or other jobs run beside it.

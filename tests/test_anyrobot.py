@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +17,6 @@ from sescid.planning.adjust import _subtrees, adjust_support_leg, support_chain
 from sescid.planning.broadphase import collision_free_mask_broad
 from sescid.planning.collision import mesh_capsules, segment_distance
 from sescid.planning.ground import ground_checks
-
-sys.path.insert(0, str(Path(__file__).parent))
 
 ANKLE = 0.06  #: m, ankle frame above the foot box's bottom in the generated biped
 FOOT = (0.16, 0.08, 0.03)  #: m, foot box

@@ -1,6 +1,7 @@
-"""Every runnable code block of README.md and docs/*.md runs as written (tests/docs_blocks.py
-says which blocks and how): each page's blocks in order, in a folder of their own, the
-commands exiting 0; a Python block in a namespace the page's blocks share."""
+"""Every runnable code block of README.md and docs/*.md runs as written
+(tests/helpers/docs_blocks.py says which blocks and how): each page's blocks in order, in a
+folder of their own, the commands exiting 0; a Python block in a namespace the page's blocks
+share."""
 
 from __future__ import annotations
 

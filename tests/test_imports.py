@@ -129,3 +129,54 @@ def test_the_bound_name_check_can_fail():
     """A name served by ``__getattr__`` is not bound by a statement (so the rule can fail)."""
     tree = ast.parse("from x import a\ndef __getattr__(name):\n    return 1\n__all__ = ['a', 'b']")
     assert _bound_names(tree) == {"a", "__getattr__", "__all__"}
+
+
+def _private_uses(tree: ast.Module) -> list[str]:
+    """``line: module.name`` for each private name (one underscore) a module takes from another
+    module of sescid: ``from sescid.x import _y``, or ``m._y`` with ``m`` a sescid module it
+    imported."""
+    modules: set[str] = set()
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("sescid"):
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__"):
+                    out.append(f"{node.lineno}: {node.module}.{a.name}")
+                modules.add(a.asname or a.name)
+        elif isinstance(node, ast.Import):
+            modules |= {a.asname or a.name for a in node.names if a.name.startswith("sescid")}
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in modules
+            and node.attr.startswith("_")
+            and not node.attr.startswith("__")
+        ):
+            out.append(f"{node.lineno}: {node.value.id}.{node.attr}")
+    return out
+
+
+def test_no_module_takes_another_modules_private_names():
+    """A name used across modules is public where it is defined (the kernels' private package
+    names its shared kernels plainly), so no module of sescid reaches into another's ``_names``."""
+    bad = [
+        f"{path.relative_to(SRC)}:{use}"
+        for path in sorted(SRC.rglob("*.py"))
+        for use in _private_uses(ast.parse(path.read_text()))
+    ]
+    assert not bad, bad
+
+
+def test_the_private_name_check_can_fail():
+    """Both ways of reaching a private name are seen (so the rule can fail)."""
+    tree = ast.parse(
+        "from sescid.kinematics._kernels.fused import _body, GRAM_BLOCK\n"
+        "from sescid.kinematics._kernels import chains as kc\n"
+        "import numpy as np\n"
+        "kc._chain_block(1)\nnp._x\nkc.__doc__\n"
+    )
+    assert _private_uses(tree) == [
+        "1: sescid.kinematics._kernels.fused._body",
+        "4: kc._chain_block",
+    ]

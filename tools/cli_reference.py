@@ -122,11 +122,11 @@ def render() -> str:
         "| Command | What it does |",
         "|---|---|",
     ]
-    lines += [f"| [`{n}`](#sescid-{n}) | {_cell(s)} |" for n, (_, _, s) in COMMANDS.items()]
+    lines += [f"| [`{n}`](#sescid-{n}) | {_cell(c.help)} |" for n, c in COMMANDS.items()]
     lines.append("")
-    for name, (module, attr, short) in COMMANDS.items():
-        alias_of = first.setdefault((module, attr), name)
-        lines += _section(name, short, cli, None if alias_of == name else alias_of)
+    for name, command in COMMANDS.items():
+        alias_of = first.setdefault(command.where(name), name)
+        lines += _section(name, command.help, cli, None if alias_of == name else alias_of)
     return "\n".join(lines).rstrip("\n") + "\n"
 
 

@@ -31,8 +31,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
-from sescid.kinematics import Tree, as_poses, com_one, com_rows, regressor
-from sescid.kinematics.torque_values import torque_rows, torque_values
+from sescid.kinematics import (
+    Tree,
+    as_poses,
+    com_one,
+    com_rows,
+    regressor,
+    torque_rows,
+    torque_values,
+)
 from sescid.model import RobotModel
 
 #: standard gravity, m/s² (the magnitude of g; its direction comes from the data or a level sole)

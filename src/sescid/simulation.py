@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sescid.base import check_ranges, option
 from sescid.base.columns import MAX_COP_NOISE_M
 from sescid.errors import OptionError
 
@@ -69,20 +70,24 @@ class TorqueNoise:
     from, a random side per pose, written as the ``approach`` column); ``g0``: |g| [m/s²];
     ``total_mass``: the true robot's mass [kg] (None: the model's)."""
 
-    noise: float = 0.05
-    offset: float = 0.0
-    friction: float = 0.0
-    g0: float = 9.80665
+    noise: float = option(
+        0.05, "Joint-torque noise standard deviation [N·m].", low=0, high=1e3, flag="--tau-noise"
+    )
+    offset: float = option(
+        0.0, "Std of a random constant offset per torque sensor [N·m].", low=0, high=1e3,
+        flag="--tau-offset",
+    )  # fmt: skip
+    friction: float = option(
+        0.0,
+        "Half-width of each joint's static-friction band [N·m] (writes the approach column).",
+        low=0, high=1e3, flag="--tau-friction",
+    )  # fmt: skip
+    g0: float = option(9.80665, "|g| [m/s²].", low=1, high=30, what="|g| in m/s² (1–30)")
     total_mass: float | None = None
 
     def check(self) -> None:
         """OptionError for a value out of range."""
-        for name in ("noise", "offset", "friction"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and 0 <= v <= 1e3):
-                raise OptionError(f"tau_{name}", f"must be in [0, 1000] N·m, got {v}")
-        if not (math.isfinite(self.g0) and 1.0 <= self.g0 <= 30.0):
-            raise OptionError("g0", f"must be |g| in m/s² (1–30), got {self.g0}")
+        check_ranges(self)
 
 
 @dataclass(frozen=True)

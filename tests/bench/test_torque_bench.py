@@ -151,7 +151,7 @@ def test_torque_options_are_checked(op2, sensors):
         (TorqueConfig(("nope",)), "no joint 'nope'"),
         (TorqueConfig("some"), "expected 'all'"),
         (TorqueConfig("all", friction=(0.3, 0.1)), "friction band"),
-        (TorqueConfig("all", noise=-1.0), "torque noise"),
+        (TorqueConfig("all", noise=-1.0), "noise: must be ≥ 0"),
         (TorqueConfig("all", approach="sideways"), "approach: must be one of"),
     ):
         with pytest.raises(SescidError, match=match):

@@ -118,7 +118,10 @@ def help_options(command: str) -> frozenset[str] | None:
         return None
     res = CliRunner().invoke(cli, [command, "--help"] if command else ["--help"])
     assert res.exit_code == 0, res.output
-    listed = res.output.split("Options:", 1)[1].split("Commands:", 1)[0]
+    lines = res.output.splitlines()
+    # the option sections: from the first title line ("Options:", or identify's "Data:")
+    first = next(i for i, t in enumerate(lines) if i and t[:1].strip() and t.endswith(":"))
+    listed = "\n".join(lines[first:]).split("Commands:", 1)[0]
     return frozenset(OPTION.findall(listed))
 
 

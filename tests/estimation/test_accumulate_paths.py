@@ -76,8 +76,7 @@ def test_every_path_equals_the_explicit_rows(op2, kernels):
     """Weighted CoP and torques with friction columns, small (numpy) or large (compiled): the
     reduced sums equal the explicit rows' product by BLAS to rounding."""
     from sescid.estimation.block_sums import RowMaker
-    from sescid.kinematics.fused import reduced_order
-    from sescid.kinematics.torque_sums import fold_torque
+    from sescid.kinematics import fold_torque, reduced_order
 
     m = _data(op2, 600, 3)
     maker = RowMaker(op2, kernels, True, 3.0, 9.80665, m.tau_joints, True)

@@ -59,7 +59,7 @@ def test_a_name_gives_its_method_with_default_options_and_an_object_is_its_own()
             r"kinds: must be one of 'cop', 'tau', 'balance'",
         ),
         (lambda: IdentifyOptions(kinds=()), r"kinds: must name some measurement kinds"),
-        (lambda: IdentifyOptions(cv=1), r"cv: needs at least 2 folds"),
+        (lambda: IdentifyOptions(cv=1), r"cv: must be ≥ 2, got 1"),
         (lambda: IdentifyOptions(online_step=0), r"online_step: must be ≥ 1"),
         (lambda: IdentifyOptions(gain_prior=2.0), r"gain_prior: must be a relative std"),
         (lambda: IdentifyOptions(joint_noise=2.0), r"joint_noise: must be an angle"),

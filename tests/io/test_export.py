@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from fitting import identify_consistent
-from oracle import PinOracle  # noqa: E402  (tests/ is on sys.path through its conftest)
+from oracle import PinOracle
 
 import sescid
 from sescid.cli import cli

@@ -13,9 +13,7 @@ from urdf_gen import random_urdf
 import sescid
 from sescid.estimation.measurements import Measurements
 from sescid.estimation.torque_rows import torque_columns
-from sescid.kinematics import gram_reduced
-from sescid.kinematics.torque_plan import torque_plan
-from sescid.kinematics.torque_sums import TorqueBlock, gram_fused
+from sescid.kinematics import TorqueBlock, gram_fused, gram_reduced, torque_plan
 
 G0 = 9.81
 
@@ -159,7 +157,7 @@ def test_holding_torques_numpy_and_compiled_are_the_same_bits(op2, rng, tilted):
     """``torque_values`` in numpy and on the kernels: the same bits (so its path, a question of
     speed, cannot change a result); and M Φ_τ r from the regressor rows to ~1e-15."""
     from sescid.kinematics import load_kernels
-    from sescid.kinematics import torque_values as tv
+    from sescid.kinematics._kernels import torque_values as tv
 
     n = 1500
     q = rng.uniform(-3, 3, (n, op2.nq))
@@ -171,7 +169,7 @@ def test_holding_torques_numpy_and_compiled_are_the_same_bits(op2, rng, tilted):
     load_kernels()
     fast = tv.torque_values(op2.tree, q, r, 2.5, cols, g)
     rot = sescid.kinematics.chain(op2.tree, q, None, False)
-    slow = tv._torques_numpy(rot, op2.tree, tv.joint_bodies_padded(op2.tree, cols), r, g, 2.5)
+    slow = tv.torques_numpy(rot, op2.tree, tv.joint_bodies_padded(op2.tree, cols), r, g, 2.5)
     assert np.array_equal(fast, slow)
     rows = tv.torque_rows(op2.tree, q, cols, g)
     np.testing.assert_allclose(2.5 * rows @ r.reshape(-1), fast, rtol=0, atol=1e-13)

@@ -4,19 +4,13 @@ follow no left/right convention and on URDF humanoids (TALOS, iCub, a Y-up human
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from refs import erd, mj_geom_corners, write_humanoid
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "planning"))
-
-from refs import erd, mj_geom_corners, write_humanoid  # noqa: E402
-
-import sescid  # noqa: E402
-from sescid.errors import ModelError  # noqa: E402
-from sescid.model.sole import LEVEL_SHARE, supporting_leg  # noqa: E402
+import sescid
+from sescid.errors import ModelError
+from sescid.model.sole import LEVEL_SHARE, supporting_leg
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,7 @@
 """The re-rooted body tree against Pinocchio (an independent URDF reader and kinematics).
 
-Pinocchio (free-flyer root at identity, see tests/oracle.py) groups links as sescid does: the
-links welded by fixed joints form one body whatever the root. For random trees (with mimic
+Pinocchio (free-flyer root at identity, see tests/helpers/oracle.py) groups links as sescid does:
+the links welded by fixed joints form one body whatever the root. For random trees (with mimic
 joints), the OP2, TALOS and iCub, re-rooted at several links, every sescid body must have
 Pinocchio's links, total mass, CoM and inertia; every link frame Pinocchio's pose in the support
 frame; and every joint must be crossed in the direction that its Pinocchio body implies.

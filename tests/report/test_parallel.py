@@ -94,13 +94,13 @@ def test_fixed_layout_keeps_every_text_inside(monkeypatch, tmp_path):
     robot = sescid.load_robot("op2")
     q = np.random.default_rng(2).uniform(-0.3, 0.3, (12, robot.nq))
     saved = []
-    real_save = figures._save
+    real_save = figures.save_figure
 
     def keep(fig, path, *args, **kwargs):
         real_save(fig, path, *args, **kwargs)
         saved.append(fig)
 
-    monkeypatch.setattr(figures, "_save", keep)
+    monkeypatch.setattr(figures, "save_figure", keep)
     idx = np.arange(1, 13)
     for scale in (1.0, 10.0):
         cop = robot.cop(q) * scale

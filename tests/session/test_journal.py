@@ -139,7 +139,7 @@ def test_cli_session_resumes_and_force_starts_over(tmp_path):
     opt = SessionOptions()
     for name in ("budget", "samples", "seed", "near", "window", "tol", "target_std"):
         assert params[name] == getattr(opt, name), name
-    assert params["n_candidates"] == opt.n_candidates
+    assert params["candidates"] == opt.n_candidates
 
 
 def test_replaying_an_experiment_log_never_pairs_unrelated_poses(op2, sensors):

@@ -1,6 +1,8 @@
 """Foundations every layer uses: files written atomically and read with one-line errors
-(``files``), the named columns of a data file (``columns``), terminal progress (``progress``) and
-the thread policy of the dense algebra and of the block workers (``threads``).
+(``files``), the named columns of a data file (``columns``), options written once (``options``:
+a record's field carries its default, range and help, the CLI's flags are made from it),
+terminal progress (``progress``) and the thread policy of the dense algebra and of the block
+workers (``threads``).
 
 Nothing here knows about robots; everything above may import it.
 """
@@ -14,12 +16,23 @@ from sescid.base.files import (
     check_outputs,
     read_json,
 )
+from sescid.base.options import (
+    SEED_HELP,
+    OptionSpec,
+    check_ranges,
+    option,
+    option_like,
+    option_names,
+    option_spec,
+)
 from sescid.base.progress import TerminalProgress
 from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usable_cores
 
 __all__ = [
     "MODEL_COP_COLUMNS",
+    "SEED_HELP",
     "SUPPORT_COLUMN",
+    "OptionSpec",
     "OutputSet",
     "Table",
     "TerminalProgress",
@@ -27,7 +40,12 @@ __all__ = [
     "atomic_path",
     "check_distinct",
     "check_outputs",
+    "check_ranges",
     "one_blas_thread",
+    "option",
+    "option_like",
+    "option_names",
+    "option_spec",
     "ordered_map",
     "pin_process",
     "read_json",

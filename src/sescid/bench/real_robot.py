@@ -29,6 +29,7 @@ from typing import Literal, get_args
 
 import numpy as np
 
+from sescid.base import check_ranges, option
 from sescid.errors import DataError, check_choice
 from sescid.planning import Mount
 from sescid.sensors.pads import SensorConfig
@@ -79,11 +80,22 @@ class TorqueConfig:
     """Joint torque sensors of the real robot (N·m); ``joints`` () logs no torque."""
 
     joints: tuple[str, ...] | Literal["all"] = ()  #: measured joints, "all", or () for none
-    noise: float = 0.05  #: N·m, per sample (std)
-    offset: float = 0.05  #: N·m, std of the per-joint constant offsets
-    gain: float = 0.0  #: relative std of the per-joint gain errors
-    friction: tuple[float, float] = (0.0, 0.0)  #: N·m, f_j ~ U(lo, hi) per joint
-    approach: Approach = "random"  #: per pose
+    noise: float = option(0.05, "Torque noise per sample [N·m].", low=0, flag="--torque-noise")
+    offset: float = option(
+        0.05, "Std of the per-joint torque offsets [N·m].", low=0, flag="--torque-offset"
+    )
+    gain: float = option(
+        0.0, "Std of the per-joint torque gain errors (relative).", low=0, flag="--torque-gain"
+    )
+    friction: tuple[float, float] = option(
+        (0.0, 0.0),
+        "Static-friction band half-width f_j ~ U(LO, HI) per joint [N·m]: a held pose reads "
+        "τ ± f_j on the side it came from.",
+        low=0, metavar="LO HI",
+    )  # fmt: skip
+    approach: Approach = option(
+        "random", "Side each pose is approached from (the approach column)."
+    )
 
     def resolve(self, joint_names: list[str]) -> list[str]:
         """The measured joints in model order; DataError for a name the model lacks."""
@@ -99,13 +111,9 @@ class TorqueConfig:
         return [j for j in joint_names if j in self.joints]
 
     def check(self) -> None:
-        """DataError for a setting outside its range."""
+        """OptionError for a setting outside its range."""
+        check_ranges(self)
         lo, hi = self.friction
-        values = (("torque noise", self.noise), ("torque offset", self.offset),
-                  ("torque gain error", self.gain), ("friction", lo), ("friction", hi))  # fmt: skip
-        for name, v in values:
-            if not (v >= 0 and math.isfinite(v)):
-                raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
         if lo > hi:
             raise DataError(f"friction band: lower {lo:g} above upper {hi:g} N·m")
         check_choice("approach", self.approach, Approach)
@@ -115,51 +123,62 @@ class TorqueConfig:
 class ExperimentConfig:
     """How the virtual real robot differs from the model (SI units, angles in degrees)."""
 
-    extra_mass_fraction: float = 0.07  #: unmodelled mass / model mass
+    extra_mass_fraction: float = option(
+        0.07, "Unmodelled mass as a fraction of the model's mass.", low=0, flag="--extra-mass"
+    )
     #: where the unmodelled mass sits (None: ``DEFAULT_EXTRA`` on a robot with those bodies,
     #: else ``generic_extra``)
     extra: tuple[ExtraMass, ...] | None = None
-    backlash_deg: float = 1.0  #: actual − commanded angle ~ U(−b, b) per pose and joint
+    #: actual − commanded angle ~ U(−b, b) per pose and joint
+    backlash_deg: float = option(1.0, "Joint play ±b [degrees].", low=0)
     readback_seen: float = 0.5  #: part of that offset the joint encoder reports
-    readback_jitter_ticks: float = 0.3  #: read-back noise per sample, ticks (std)
-    fsr_noise: float = 1.5  #: N, per sensor and sample (std)
-    fsr_bias: float = 0.1  #: N, per-sensor constant bias (std over sensors)
-    #: relative std of per-pad gain errors: a pad reads F / g + bias, g ~ N(1, fsr_gain²)
-    fsr_gain: float = 0.0
-    #: kinematic bench: feet whose sole the model puts on the floor share the load (two-foot
-    #: poses); the split over all their pads is the elastic one (least squares, as a rigid
-    #: body on equal springs): statics fixes only the total force and its moments
-    double_support: bool = False
-    registers: Registers = "forces"
-    #: kinematic bench: the support stands tilted by a random roll and pitch ~ N(0, tilt_deg²)
-    #: per pose (a sloped or soft floor); the log gets grav_x/y/z, the CoP follows gravity
-    tilt_deg: float = 0.0
+    readback_jitter_ticks: float = option(0.3, "Read-back noise per sample [ticks].", low=0)
+    fsr_noise: float = option(1.5, "Per-sensor noise std [N].", low=0)
+    fsr_bias: float = option(0.1, "Per-sensor bias std [N].", low=0)
+    #: a pad reads F / g + bias, g ~ N(1, fsr_gain²)
+    fsr_gain: float = option(
+        0.0, "Per-pad gain error std (relative): a pad reads force / gain + bias.", low=0
+    )
+    #: kinematic bench: the split over all the feet's pads is the elastic one (least squares,
+    #: as a rigid body on equal springs): statics fixes only the total force and its moments
+    double_support: bool = option(
+        False,
+        "Both feet on the floor where the pose puts them there; the load splits over all "
+        "their pads.",
+    )
+    registers: Registers = option("forces", "Log the four forces, the centroid registers, or both.")
+    #: a sloped or soft floor: roll and pitch ~ N(0, tilt_deg²) per pose
+    tilt_deg: float = option(
+        0.0,
+        "kinematic: the support stands tilted by a random roll and pitch of this standard "
+        "deviation per pose [degrees]; the log gets grav_x, grav_y, grav_z.",
+        low=0, high=30,
+    )  # fmt: skip
     torque: TorqueConfig = field(default_factory=TorqueConfig)  #: joint torque sensors
-    mount: BenchMount = "stand"  #: on the support foot, held in a fixture, or on a line
-    #: line mount: the IMU's link (None: the profile's, else the support frame) and its noise
-    #: per sample, degrees (roll and pitch)
-    imu_link: str | None = None
-    imu_noise_deg: float = 0.5
+    mount: BenchMount = option(
+        "stand",
+        "stand: on the support foot; gantry: the support link (--support pelvis) held level "
+        "in a fixture, the robot hanging free (no balance; the feet carry nothing); line: "
+        "balancing on its support line (--support axle --line y: a wheel axle, an edge), each "
+        "pose at the tilt that balances it, read by an IMU (kinematic engine).",
+    )
+    imu_link: str | None = option(
+        None,
+        "line mount: the link carrying the IMU (default: the profile's, else the support frame).",
+    )
+    imu_noise_deg: float = option(
+        0.5, "line mount: IMU roll/pitch noise per sample [degrees].", low=0, high=20
+    )
 
     def check(self) -> None:
-        """DataError for a setting outside its range (the one check both benches use)."""
+        """OptionError for a setting outside its range (the one check both benches use)."""
+        check_ranges(self)
         check_choice("registers", self.registers, Registers)
         check_choice("mount", self.mount, BenchMount)
         if self.mount == "line" and self.double_support:
             raise DataError("a robot balancing on a line stands on no foot: no double support")
         if self.mount == "gantry" and self.double_support:
             raise DataError("a robot held in a gantry stands on no foot: no double support")
-        for name, v in (
-            ("backlash", self.backlash_deg),
-            ("FSR noise", self.fsr_noise),
-            ("FSR bias", self.fsr_bias),
-            ("FSR gain error", self.fsr_gain),
-            ("read-back jitter", self.readback_jitter_ticks),
-            ("support tilt", self.tilt_deg),
-            ("IMU noise", self.imu_noise_deg),
-        ):
-            if not (v >= 0 and math.isfinite(v)):
-                raise DataError(f"{name} must be a finite number ≥ 0, got {v}")
         self.torque.check()
 
 

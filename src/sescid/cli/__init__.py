@@ -8,51 +8,44 @@ script answers ``--version`` alone before it loads anything: ``_sescid_launch``)
 """
 
 import importlib
-from typing import Any
+from typing import Any, NamedTuple
 
 import click
 
 from _sescid_launch import VERSION_MESSAGE
 from sescid.cli.common import fail, run_guarded, usage_message
 
-#: command → (module, function, one-line help shown by ``sescid --help``)
-COMMANDS: dict[str, tuple[str, str, str]] = {
-    "simulate": (
-        "simulate",
-        "simulate",
-        "Simulate poses and what they give: CoP, joint torques (paper §3).",
-    ),
-    "demo": ("demo", "demo", "Reproduce the paper's §3 simulation study."),
-    "info": ("info", "info", "Print the robot's bodies, masses, joints and limits."),
-    "identify": (
-        "identify",
-        "identify",
-        "Identify the SESC vectors from poses with CoPs and/or joint torques.",
-    ),
-    "predict": ("predict", "predict", "Predict CoP and CoM at poses from a fit."),
-    "export": ("export", "export_cmd", "Write the model file with identified masses and CoMs."),
-    "poses": ("poses", "poses", "Plan stable, collision-free, informative bench poses."),
-    "experiment": ("experiment", "experiment", "Virtual bench experiment: a raw sensor log."),
-    "bag": (
-        "bag",
-        "bag",
-        "Read a ROS bag into the raw log: foot sensors, joint torques (mapping file).",
-    ),
-    "measure": ("fsr", "fsr", "Reduce a raw log to one measurement (CoP, torques) per pose."),
-    "fsr": ("fsr", "fsr", "The same as measure (its former name)."),
-    "calibrate": (
-        "calibrate",
-        "calibrate",
-        "Foot-pad gains and offsets estimated with the masses from raw sessions.",
-    ),
-    "report": ("report", "report", "Figures and one self-contained HTML page from a fit."),
-    "truth": ("truth", "truth", "Compare a fit with a virtual experiment's truth file."),
-    "session": ("session", "session", "Guided identification: next-best pose until converged."),
-    "precompile": (
-        "precompile",
-        "precompile",
-        "Compile the numba kernels into numba's cache now (pip install does it).",
-    ),
+
+class Command(NamedTuple):
+    """A command: its line in ``sescid --help``, and where it lives (``cli/<module>.py``, its
+    function; both default to the command's name)."""
+
+    help: str
+    module: str | None = None
+    function: str | None = None
+
+    def where(self, name: str) -> tuple[str, str]:
+        """(module, function) of the command called ``name``."""
+        return self.module or name, self.function or name
+
+
+COMMANDS: dict[str, Command] = {
+    "simulate": Command("Simulate poses and their CoP, joint torques or balance."),
+    "demo": Command("Reproduce the paper's §3 simulation study (the OP2's CoP)."),
+    "info": Command("Print the robot's bodies, masses, joints and limits."),
+    "identify": Command("Identify masses and CoMs from CoPs, joint torques or balance."),
+    "predict": Command("Predict the CoP (or balancing tilt) and CoM at poses from a fit."),
+    "export": Command("Write the model file with identified masses and CoMs.", None, "export_cmd"),
+    "poses": Command("Plan stable, collision-free, informative poses (any stances)."),
+    "experiment": Command("Virtual bench: a raw log of foot sensors, torques or an IMU."),
+    "bag": Command("Read a ROS bag into the raw log (joints, torques, foot sensors)."),
+    "measure": Command("Reduce a raw log to one CoP and torques per pose.", "fsr", "fsr"),
+    "fsr": Command("The same as measure (its former name)."),
+    "calibrate": Command("Foot-pad gains and offsets, estimated with the masses."),
+    "report": Command("Figures and one HTML page from a fit and what was measured."),
+    "truth": Command("Compare a fit with a virtual experiment's truth file."),
+    "session": Command("Guided session: the next-best pose (and stance) until converged."),
+    "precompile": Command("Compile the numba kernels now (pip install does it)."),
 }
 
 
@@ -65,11 +58,11 @@ class LazyGroup(click.Group):
     def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
         if name not in COMMANDS:
             return None
-        module, attr, _ = COMMANDS[name]
-        return getattr(importlib.import_module(f"{__name__}.{module}"), attr)
+        module, function = COMMANDS[name].where(name)
+        return getattr(importlib.import_module(f"{__name__}.{module}"), function)
 
     def format_commands(self, ctx: click.Context, formatter: Any) -> None:
-        rows = [(name, short) for name, (_, _, short) in COMMANDS.items()]
+        rows = [(name, c.help) for name, c in COMMANDS.items()]
         with formatter.section("Commands"):
             formatter.write_dl(rows)
 
@@ -90,8 +83,15 @@ class LazyGroup(click.Group):
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="sescid", message=VERSION_MESSAGE)
 def cli() -> None:
-    """Identify a humanoid robot's mass distribution from what it measures while held still:
-    the centre of pressure under its foot and/or its joint torques."""
+    r"""Identify a humanoid robot's mass distribution (its bodies' masses and centres of mass)
+    from what it measures while held still: the centre of pressure (CoP) under its feet, its
+    joint torques, or its balance on a line (a wheel axle, an edge). Measurements made in
+    several stances (either foot, both feet, held in a gantry) pool into one fit.
+
+    \b
+    A bench session: poses → experiment (or the robot) → measure → identify → report.
+    Try it: sescid demo; each command's options: sescid COMMAND --help.
+    """
 
 
 def main() -> None:
@@ -104,4 +104,4 @@ def main() -> None:
     cli(prog_name="sescid")
 
 
-__all__ = ["COMMANDS", "cli", "main"]
+__all__ = ["COMMANDS", "Command", "cli", "main"]

@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import SUPPORT_COLUMN, OutputSet
-from sescid.cli.common import force_option, load, model_input, robot_options
+from sescid.cli import common
 from sescid.errors import DataError
 from sescid.io import read_bag, read_poses, read_table, write_table
 from sescid.sensors import pose_list_ids
@@ -14,31 +14,23 @@ from sescid.sensors import pose_list_ids
 
 @click.command()
 @click.argument("bag", nargs=-1, required=True, type=click.Path())
-@click.option(
+@common.file_option(
     "--map",
+    "Mapping file (YAML or JSON, sescid-bag-mapping/1): which topics hold the joints, the joint "
+    "torques, each foot's force source and the pose ids (see docs/io.md).",
     "map_file",
     required=True,
-    type=click.Path(dir_okay=False),
-    help="Mapping file (YAML or JSON, sescid-bag-mapping/1): which topics hold the joints, "
-    "the joint torques, each foot's force source and the pose ids (see docs/io.md).",
 )
-@robot_options
-@click.option(
+@common.robot_options
+@common.file_option(
     "--poses",
+    "Planned pose list: stationary segments take the id of the nearest planned pose (within "
+    "the mapping's match_deg), and its stance (its 'support' column); segments matching none "
+    "are dropped.",
     "poses_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Planned pose list: stationary segments take the id of the nearest planned pose "
-    "(within the mapping's match_deg), and its stance (its 'support' column); segments "
-    "matching none are dropped.",
 )
-@click.option(
-    "--out",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Raw log for `sescid fsr` (.csv, or .parquet).",
-)
-@force_option
+@common.file_option("--out", "Raw log for `sescid measure` (.csv, or .parquet).", required=True)
+@common.force_option
 def bag(bag, map_file, robot_name, support, poses_file, out, force):
     """Read a ROS bag (rosbag2 directory, sqlite3 or MCAP; or ROS 1 .bag files) into the raw log.
 
@@ -48,8 +40,10 @@ def bag(bag, map_file, robot_name, support, poses_file, out, force):
     the recording. Needs the bags extra: pip install 'sescid[bags]' (in a clone: pip install
     '.[bags]').
     """
-    outs = OutputSet([out], [*bag, map_file, poses_file, model_input(robot_name)], force=force)
-    robot = load(robot_name, support)
+    outs = OutputSet(
+        [out], [*bag, map_file, poses_file, common.model_input(robot_name)], force=force
+    )
+    robot = common.load(robot_name, support)
     poses = stances = None
     if poses_file is not None:
         table = read_table(poses_file)

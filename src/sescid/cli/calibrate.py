@@ -9,13 +9,8 @@ from pathlib import Path
 import click
 
 from sescid.base import OutputSet, check_distinct
-from sescid.cli.common import (
-    force_option,
-    load,
-    min_samples_option,
-    robot_options,
-    sensors_option,
-)
+from sescid.cli import common
+from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.estimation import check_total_mass, save_fit
 from sescid.io import read_table
@@ -30,17 +25,10 @@ from sescid.sensors import (
     pad_session,
 )
 
-_CAL = CalibrationOptions()
-
 
 def calibration_options(opts: dict) -> CalibrationOptions:
     """The calibration's typed options from the flags."""
-    return CalibrationOptions(
-        total_mass=opts["total_mass"],
-        prior_scale=opts["prior_scale"],
-        gain_prior=opts["gain_prior"],
-        offset_prior=opts["offset_prior"],
-    )
+    return record(CalibrationOptions, opts)
 
 
 def session_options(raw: tuple[str, ...], opts: dict) -> dict[str, PadSessionOptions]:
@@ -88,16 +76,10 @@ def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
 
 
 @click.command()
-@click.argument("raw", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@robot_options
-@sensors_option
-@click.option(
-    "--total-mass",
-    type=float,
-    default=_CAL.total_mass,
-    help="Weighed mass of the robot [kg]: fixes the gains' scale (default: the model's, "
-    "reported as unidentifiable).",
-)
+@click.argument("raw", nargs=-1, required=True, type=common.FILE)
+@common.robot_options
+@common.sensors_option
+@flags(CalibrationOptions, "total_mass")
 @click.option(
     "--sensor-set",
     "sensor_sets",
@@ -117,32 +99,20 @@ def _positive(values: dict[str, str], what: str, unit: str) -> dict[str, float]:
     multiple=True,
     help="SESSION=M: given noise of the session's moment rows, as CoP [m] (default: estimated).",
 )
-@click.option("--prior-scale", type=float, default=_CAL.prior_scale,
-              help="SESC prior τ [m] (default: evidence).")  # fmt: skip
-@click.option("--gain-prior", type=float, default=_CAL.gain_prior, show_default=True,
-              help="Prior std of each gain (relative).")  # fmt: skip
-@click.option("--offset-prior", type=float, default=_CAL.offset_prior, show_default=True,
-              help="Prior std of each offset [N]; the offset twist comes from it.")  # fmt: skip
-@min_samples_option
+@flags(CalibrationOptions, "prior_scale", "gain_prior", "offset_prior")
+@common.min_samples_option
 @click.option(
     "--offsets-from",
     default=None,
     help="Session whose offsets go into the sensor file (default: the last one given).",
 )
-@click.option(
-    "--out",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Calibrated sensor file (sescid-fsr/2), for `sescid measure --sensors`.",
+@common.file_option(
+    "--out", "Calibrated sensor file (sescid-fsr/2), for `sescid measure --sensors`.", required=True
 )
-@click.option(
-    "--fit",
-    "fit_out",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Also write the jointly estimated mass model (a MAP fit) for export/report.",
+@common.file_option(
+    "--fit", "Also write the jointly estimated mass model (a MAP fit) for export/report.", "fit_out"
 )
-@force_option
+@common.force_option
 def calibrate(**opts):
     """Estimate every foot pad's gain and offset together with the mass model from RAW logs.
 
@@ -155,7 +125,7 @@ def calibrate(**opts):
     raw, out, fit_out = opts["raw"], opts["out"], opts["fit_out"]
     outs = OutputSet([out, fit_out], [*raw, opts["sensors_file"]], force=opts["force"])
     check_distinct(list(raw), "a session")
-    robot = load(opts["robot_name"], opts["support"])
+    robot = common.load(opts["robot_name"], opts["support"])
     options = calibration_options(opts)
     options.check()
     if options.total_mass is not None:

@@ -7,13 +7,17 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from typing import Any
+from typing import Any, get_args
 
 import click
 
-from sescid.errors import MissingExtraError, OptionError, SescidError
+from sescid.base import SEED_HELP
+from sescid.cli.flags import FieldOption, flag
+from sescid.errors import MissingExtraError, OptionError, SescidError, choices
+from sescid.estimation import IdentifyOptions
 
-#: CLI spelling of API parameters, for errors about options
+#: CLI spelling of API parameters that are no flag of the same name, for errors about options
+#: (a flag made from an options record's field is found by its field: ``option_message``)
 FLAG = {
     "n": "--count",
     "count": "--count",
@@ -24,8 +28,6 @@ FLAG = {
     "samples": "--samples",
     "method": "--method",
     "format": "--format",
-    "total_mass": "--total-mass",
-    "prior_scale": "--prior-scale",
 }
 
 
@@ -100,10 +102,12 @@ def option_message(exc: OptionError, command: click.Command | None) -> str:
     rest = str(exc)[len(exc.name) + 2 :]
     if rest.startswith("--"):
         return rest  # the message names its flags itself
-    flag = FLAG.get(exc.name)
-    for p in command.params if command is not None else []:
-        if isinstance(p, click.Option) and p.name == exc.name:
-            flag = max(p.opts, key=len)
+    params = [
+        p for p in (command.params if command is not None else ()) if isinstance(p, click.Option)
+    ]
+    named = [p for p in params if p.name == exc.name]  # else a flag made from a record's field
+    named = named or [p for p in params if isinstance(p, FieldOption) and p.field == exc.name]
+    flag = max(named[0].opts, key=len) if named else FLAG.get(exc.name)
     return f"{flag}: {rest}" if flag else str(exc)
 
 
@@ -198,8 +202,36 @@ def robot_options(f: Any) -> Any:
     return f
 
 
-#: help of every --seed
-SEED_HELP = "Random seed: the same seed gives the same numbers."
+#: a file argument or flag: a path that is not a folder
+FILE = click.Path(dir_okay=False)
+
+
+def file_option(flag: str, help: str, param: str | None = None, *, required: bool = False) -> Any:  # noqa: A002
+    """A flag naming a file (not a folder); ``param``: the handler's name for it."""
+    names = [flag] if param is None else [flag, param]
+    return click.option(*names, required=required, default=None, type=FILE, help=help)
+
+
+def folder_option(flag: str, help: str, default: str | None = None, *, required: bool = False):  # noqa: A002
+    """A flag naming a folder (not a file), its default shown."""
+    kind = click.Path(file_okay=False)
+    return click.option(flag, default=default, show_default=default is not None,
+                        required=required, type=kind, help=help)  # fmt: skip
+
+
+def choice_option(flag: str, values: Any, default: Any, help: str) -> Any:  # noqa: A002
+    """A flag taking one of ``values`` (a ``Literal`` alias: its choices, or a sequence)."""
+    allowed = choices(values) if get_args(values) else values
+    kind = click.Choice([str(v) for v in allowed])
+    return click.option(
+        flag, type=kind, default=default, show_default=default is not None, help=help
+    )
+
+
+def number_option(flag: str, default: float, low: float | None, high: float | None, help: str):  # noqa: A002
+    """A number flag within [low, high] (None: unbounded), an integer when ``default`` is."""
+    kind: Any = click.IntRange if isinstance(default, int) else click.FloatRange
+    return click.option(flag, default=default, show_default=True, type=kind(low, high), help=help)
 
 
 def seed_option(f: Any) -> Any:
@@ -255,13 +287,9 @@ def study_options(poses: int, range_deg: float, noise: float) -> Any:
 
 
 def imu_link_option(f: Any) -> Any:
-    """--imu-link: the link whose IMU roll/pitch columns give gravity (no grav_x/y/z)."""
-    return click.option(
-        "--imu-link",
-        default=None,
-        help="Link carrying the IMU of the imu_roll/imu_pitch columns; they give the gravity "
-        "direction when there are no grav_x/y/z columns (default: the profile's).",
-    )(f)
+    """--imu-link: the link whose IMU roll/pitch columns give gravity (no grav_x/y/z), as
+    identify's (``IdentifyOptions.imu_link``)."""
+    return flag(IdentifyOptions, "imu_link")(f)
 
 
 def force_option(f: Any) -> Any:
@@ -299,12 +327,10 @@ def echo_model_change(fit: Any, fit_file: str) -> None:
 
 def sensors_option(f: Any) -> Any:
     """--sensors: the foot-sensor file (default: the robot profile's)."""
-    return click.option(
+    return file_option(
         "--sensors",
+        "Foot-sensor configuration JSON (default: the robot profile's; for op2 a hypothesis).",
         "sensors_file",
-        default=None,
-        type=click.Path(dir_okay=False),
-        help="Foot-sensor configuration JSON (default: the robot profile's; for op2 a hypothesis).",
     )(f)
 
 

@@ -8,31 +8,20 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    robot_options,
-    seed_option,
-    study_options,
-)
+from sescid.cli import common
 from sescid.estimation import save_fit
 from sescid.report import mm
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 
 @click.command()
-@robot_options
-@click.option(
-    "--out-dir",
-    default="demo_out",
-    show_default=True,
-    type=click.Path(file_okay=False),
-    help="Folder for fit.json, the two figures and summary.csv.",
+@common.robot_options
+@common.folder_option(
+    "--out-dir", "Folder for fit.json, the two figures and summary.csv.", "demo_out"
 )
-@study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
-@seed_option
-@force_option
+@common.study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
+@common.seed_option
+@common.force_option
 def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     """Reproduce the paper's §3 simulation study; print its numbers and write its figures."""
     from sescid.report import body_labels, paper_order
@@ -41,11 +30,11 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     names = ["fit.json", "fig3a_r_magnitudes.png", "fig3b_cop.png", "summary.csv"]
     OutputSet(
         [Path(out_dir) / f for f in names],
-        [model_input(robot_name)],
+        [common.model_input(robot_name)],
         folders=[out_dir],
         force=force,
     )
-    robot = load(robot_name, support)
+    robot = common.load(robot_name, support)
     st = paper_study(robot, poses, range_deg, noise, seed)
     fit = st.fit
     p = fit.rank
@@ -82,7 +71,7 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
             f"    {labels[i]:>3s} {robot.body_names[i]:16s} {r_prior_mm[i]:9.3f}"
             f"   {fit.r_magnitudes[i] * 1e3:9.3f} ± {std_mm[i]:.3f}"
         )
-    outs = OutputSet([], [model_input(robot_name)], folders=[out_dir], force=force)
+    outs = OutputSet([], [common.model_input(robot_name)], folders=[out_dir], force=force)
     with outs:
         out = outs.folder(out_dir)
         _demo_files(robot, st, out)

@@ -11,63 +11,31 @@ import numpy as np
 from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
-    Approach,
-    BenchMount,
     Engine,
     ExperimentConfig,
-    Registers,
+    MujocoBenchConfig,
     TorqueConfig,
     check_limits,
     run_experiment,
 )
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    refuse_idle,
-    robot_options,
-    seed_option,
-    sensors_option,
-)
-from sescid.errors import DataError, OptionError, choices
+from sescid.cli import common
+from sescid.cli.flags import flags, record
+from sescid.errors import DataError, OptionError
 from sescid.io import read_poses, read_table, write_table
 from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 
-_EXP = ExperimentConfig()
-_TAU = TorqueConfig()
-
 
 def torque_options(f: Any) -> Any:
     """The joint torque sensors of a bench's real robot (experiment, session)."""
-    for opt in reversed(
-        [
-            click.option(
-                "--torques",
-                default="none",
-                show_default=True,
-                help="Joints with a torque sensor: all, none, or a comma-separated list; they "
-                "log tau_<joint> [N·m] and the pose's approach side.",
-            ),
-            click.option("--torque-noise", default=_TAU.noise, show_default=True,
-                         type=click.FloatRange(min=0), help="Torque noise per sample [N·m]."),
-            click.option("--torque-offset", default=_TAU.offset, show_default=True,
-                         type=click.FloatRange(min=0),
-                         help="Std of the per-joint torque offsets [N·m]."),
-            click.option("--torque-gain", default=_TAU.gain, show_default=True,
-                         type=click.FloatRange(min=0),
-                         help="Std of the per-joint torque gain errors (relative)."),
-            click.option("--friction", nargs=2, type=click.FloatRange(min=0),
-                         default=_TAU.friction, show_default=True, metavar="LO HI",
-                         help="Static-friction band half-width f_j ~ U(LO, HI) per joint [N·m]: "
-                         "a held pose reads τ ± f_j on the side it came from."),
-            click.option("--approach", type=click.Choice(choices(Approach)),
-                         default=_TAU.approach, show_default=True,
-                         help="Side each pose is approached from (the approach column)."),
-        ]
-    ):  # fmt: skip
-        f = opt(f)
-    return f
+    f = flags(TorqueConfig, "noise", "offset", "gain", "friction", "approach")(f)
+    return click.option(
+        "--torques",
+        default="none",
+        show_default=True,
+        help="Joints with a torque sensor: all, none, or a comma-separated list; they log "
+        "tau_<joint> [N·m] and the pose's approach side.",
+    )(f)
 
 
 #: the parameters of ``torque_options`` that describe the torque sensors (idle without them)
@@ -84,15 +52,9 @@ def torque_config(opts: dict) -> TorqueConfig:
         joints = ()
     else:
         joints = tuple(j.strip() for j in spec.split(",") if j.strip())
-    refuse_idle(TORQUE_FLAGS, bool(joints), "without --torques (no joint torque is measured)")
-    return TorqueConfig(
-        joints=joints,
-        noise=opts["torque_noise"],
-        offset=opts["torque_offset"],
-        gain=opts["torque_gain"],
-        friction=tuple(opts["friction"]),
-        approach=opts["approach"],
-    )
+    common.refuse_idle(TORQUE_FLAGS, bool(joints),
+                       "without --torques (no joint torque is measured)")  # fmt: skip
+    return record(TorqueConfig, opts, joints=joints, friction=tuple(opts["friction"]))
 
 
 def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "stand"):
@@ -108,118 +70,40 @@ def bench_sensors(sensors_file, profile, torques: TorqueConfig, mount: str = "st
 
 
 @click.command()
-@robot_options
-@click.option(
-    "--poses",
-    "poses_file",
+@common.robot_options
+@common.file_option(
+    "--poses", "Pose list (joint columns in radians; optional 'pose' id column).", "poses_file",
     required=True,
-    type=click.Path(dir_okay=False),
-    help="Pose list (joint columns in radians; optional 'pose' id column).",
-)
-@click.option(
-    "--samples",
-    default=100,
-    show_default=True,
-    type=click.IntRange(min=1, max=1_000_000),
-    help="Sensor readings per pose.",
-)
-@seed_option
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Raw log CSV.")
-@click.option(
+)  # fmt: skip
+@common.number_option("--samples", 100, 1, 1_000_000, "Sensor readings per pose.")
+@common.seed_option
+@common.file_option("--out", "Raw log CSV.", required=True)
+@common.file_option(
     "--truth",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Also write the truth (true SESC vectors, actual poses, true CoPs and torques) as JSON.",
+    "Also write the truth (true SESC vectors, actual poses, true CoPs and torques) as JSON.",
 )
-@sensors_option
-@click.option("--extra-mass", default=_EXP.extra_mass_fraction, show_default=True,
-              help="Unmodelled mass as a fraction of the model's mass.")  # fmt: skip
-@click.option("--backlash-deg", default=_EXP.backlash_deg, show_default=True,
-              help="Joint play ±b [degrees].")  # fmt: skip
-@click.option("--fsr-noise", default=_EXP.fsr_noise, show_default=True,
-              help="Per-sensor noise std [N].")  # fmt: skip
-@click.option("--fsr-bias", default=_EXP.fsr_bias, show_default=True,
-              help="Per-sensor bias std [N].")  # fmt: skip
-@click.option(
-    "--fsr-gain",
-    default=_EXP.fsr_gain,
-    show_default=True,
-    help="Per-pad gain error std (relative): a pad reads force / gain + bias.",
-)
-@click.option(
-    "--double-support",
-    is_flag=True,
-    help="Both feet on the floor where the pose puts them there; the load splits over all "
-    "their pads.",
-)
-@click.option(
-    "--registers",
-    type=click.Choice(choices(Registers)),
-    default=_EXP.registers,
-    show_default=True,
-    help="Log the four forces, the centroid registers, or both.",
-)
-@click.option(
-    "--mount",
-    type=click.Choice(choices(BenchMount)),
-    default=_EXP.mount,
-    show_default=True,
-    help="stand: on the support foot; gantry: the support link (--support pelvis) held level "
-    "in a fixture, the robot hanging free (no balance; the feet carry nothing); line: "
-    "balancing on its support line (--support axle --line y: a wheel axle, an edge), each "
-    "pose at the tilt that balances it, read by an IMU (kinematic engine).",
-)
-@click.option(
-    "--imu-noise-deg",
-    default=_EXP.imu_noise_deg,
-    show_default=True,
-    type=click.FloatRange(0, 20),
-    help="line mount: IMU roll/pitch noise per sample [degrees].",
-)
-@click.option(
-    "--imu-link",
-    default=None,
-    help="line mount: the link carrying the IMU (default: the profile's, else the support frame).",
-)
+@common.sensors_option
+@flags(ExperimentConfig, "extra_mass_fraction", "backlash_deg", "fsr_noise", "fsr_bias", "fsr_gain",
+       "double_support", "registers", "mount", "imu_noise_deg", "imu_link")  # fmt: skip
 @torque_options
-@click.option(
+@common.choice_option(
     "--engine",
-    type=click.Choice(choices(Engine)),
-    default="kinematic",
-    show_default=True,
-    help="kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "
+    Engine,
+    "kinematic",
+    "kinematic: rigid statics (CoP at the CoM's ground projection); mujoco: a physics "
     "bench (servos hold each pose on a compliant floor; logs grav_x/y/z and the IMU too).",
 )
-@click.option(
-    "--weld-foot",
-    is_flag=True,
-    help="mujoco: fix the support foot level to the world (pads read an ideal F/T sensor).",
-)
-@click.option(
-    "--kp",
-    default=None,
-    type=click.FloatRange(min=0, min_open=True),
-    help="mujoco: servo stiffness [N·m/rad] (default: the robot profile's servo gains).",
-)
-@click.option(
-    "--tilt-deg",
-    default=_EXP.tilt_deg,
-    show_default=True,
-    type=click.FloatRange(0, 30),
-    help="kinematic: the support stands tilted by a random roll and pitch of this standard "
-    "deviation per pose [degrees]; the log gets grav_x, grav_y, grav_z.",
-)
-@force_option
+@flags(MujocoBenchConfig, "weld_foot", "kp")
+@flags(ExperimentConfig, "tilt_deg")
+@common.force_option
 def experiment(**opts):
     """Virtual bench experiment: a "real" robot (unmodelled mass, backlash, noisy biased FSRs,
     optional joint torque sensors) stands (or hangs) in each pose of the list; writes the raw
     sensor log that `sescid measure` reads."""
     out, truth = opts["out"], opts["truth"]
-    outs = OutputSet(
-        [out, truth], [opts["poses_file"], opts["sensors_file"], model_input(opts["robot_name"])],
-        force=opts["force"],
-    )  # fmt: skip
-    robot = load(opts["robot_name"], opts["support"])
+    inputs = [opts["poses_file"], opts["sensors_file"], common.model_input(opts["robot_name"])]
+    outs = OutputSet([out, truth], inputs, force=opts["force"])
+    robot = common.load(opts["robot_name"], opts["support"])
     cfg = experiment_config(opts)
     bench = mujoco_bench(opts, cfg)
     sensors = bench_sensors(opts["sensors_file"], robot.profile, cfg.torque, cfg.mount)
@@ -259,27 +143,14 @@ def experiment_config(opts: dict) -> ExperimentConfig:
                 "--torques (the joints with a torque sensor)",
             )  # fmt: skip
         feet = ("fsr_noise", "fsr_bias", "fsr_gain", "registers", "sensors_file")
-        refuse_idle(feet, False, "on a robot held in a gantry (no foot carries its weight)")
-    return ExperimentConfig(
-        extra_mass_fraction=opts["extra_mass"],
-        backlash_deg=opts["backlash_deg"],
-        fsr_noise=opts["fsr_noise"],
-        fsr_bias=opts["fsr_bias"],
-        fsr_gain=opts["fsr_gain"],
-        double_support=opts["double_support"],
-        registers=opts["registers"],
-        tilt_deg=opts["tilt_deg"],
-        torque=torque,
-        mount=opts["mount"],
-        imu_link=opts["imu_link"],
-        imu_noise_deg=opts["imu_noise_deg"],
-    )
+        common.refuse_idle(feet, False, "on a robot held in a gantry (no foot carries its weight)")
+    return record(ExperimentConfig, opts, torque=torque)
 
 
 def mujoco_bench(opts: dict, cfg: ExperimentConfig):
     """The physics bench's settings for ``--engine mujoco``, None for the kinematic bench;
     OptionError for a flag of the other engine."""
-    engine, weld, kp = opts["engine"], opts["weld_foot"], opts["kp"]
+    engine, weld, kp = opts["engine"], opts["weld_foot"], opts["kp"]  # the physics bench's
     if engine == "mujoco" and cfg.mount == "line":
         raise OptionError("engine", "--mount line runs on --engine kinematic")
     if engine == "kinematic":
@@ -290,9 +161,7 @@ def mujoco_bench(opts: dict, cfg: ExperimentConfig):
         raise OptionError(
             "tilt_deg", "--tilt-deg is for --engine kinematic (the MuJoCo foot tilts by itself)"
         )
-    from sescid.bench import MujocoBenchConfig
-
-    return MujocoBenchConfig(kp=kp, weld_foot=weld, double_support=cfg.double_support)
+    return record(MujocoBenchConfig, opts, double_support=cfg.double_support)
 
 
 def _report(ex, n: int, opts) -> None:

@@ -6,18 +6,11 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import echo_model_change, force_option
-from sescid.cli.options import (
-    DEFAULT_CONSISTENT,
-    consistent_from_flags,
-    consistent_options,
-    echo_masses,
-)
+from sescid.cli import common
+from sescid.cli.flags import flag
+from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import OptionError
-from sescid.estimation import (
-    load_fit,
-    to_consistent,
-)
+from sescid.estimation import ConsistentOptions, load_fit, to_consistent
 from sescid.io import (
     FORMATS,
     export_model,
@@ -26,8 +19,8 @@ from sescid.io import (
 
 
 @click.command("export")
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output model file.")
+@click.argument("fit_file", type=common.FILE)
+@common.file_option("--out", "Output model file.", required=True)
 @click.option(
     "--format",
     "model_format",
@@ -35,8 +28,9 @@ from sescid.io import (
     default=None,
     help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
 )
+@flag(ConsistentOptions, "total_mass")
 @consistent_options
-@force_option
+@common.force_option
 def export_cmd(fit_file, out, model_format, force, **opts):
     """Write the fit's URDF or MJCF with the identified masses and CoMs (inertias rescaled).
 
@@ -45,14 +39,14 @@ def export_cmd(fit_file, out, model_format, force, **opts):
     """
     OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
-    echo_model_change(fit, fit_file)
+    common.echo_model_change(fit, fit_file)
     outs = OutputSet([out], [fit_file, *model_files(fit.robot.model_path)], force=force)
     copts = consistent_from_flags(opts)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")
         fit = to_consistent(fit, copts)
         echo_masses(fit)
-    elif copts != DEFAULT_CONSISTENT:
+    elif copts != ConsistentOptions():
         raise OptionError(
             "consistent_options",
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "

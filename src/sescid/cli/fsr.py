@@ -6,15 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import SUPPORT_COLUMN, OutputSet
-from sescid.cli.common import (
-    force_option,
-    imu_link_option,
-    load,
-    min_samples_option,
-    model_input,
-    robot_options,
-    sensors_option,
-)
+from sescid.cli import common
 from sescid.errors import DataError, ModelError
 from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
@@ -58,20 +50,18 @@ def _sensors(sensors_file, profile):
 
 
 @click.command()
-@click.argument("raw", type=click.Path(dir_okay=False))
-@robot_options
-@sensors_option
-@click.option(
+@click.argument("raw", type=common.FILE)
+@common.robot_options
+@common.sensors_option
+@common.file_option(
     "--poses",
+    "Pose list: every pose id in the log must be in it (its 'pose' column or row number).",
     "poses_file",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Pose list: every pose id in the log must be in it (its 'pose' column or row number).",
 )
-@min_samples_option
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-@imu_link_option
-@force_option
+@common.min_samples_option
+@common.file_option("--out", "Output CSV.", required=True)
+@common.imu_link_option
+@common.force_option
 def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, imu_link, force):
     """Reduce a raw log to one measurement per pose: the CoP (support frame, m) from the foot
     sensors and the joint torques, each with its standard error.
@@ -82,10 +72,12 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     logged. A log with torques and no foot sensors needs no sensor file. A log's 'support'
     column (each sample's stance) is kept: each stance's poses are reduced in its own frame.
     """
-    outs = OutputSet([out], [raw, poses_file, sensors_file, model_input(robot_name)], force=force)
+    outs = OutputSet(
+        [out], [raw, poses_file, sensors_file, common.model_input(robot_name)], force=force
+    )
     stances = _log_stances(raw, support)
     one = stances[0] if len(stances) == 1 else None
-    robot = load(robot_name, support or (None if one in (None, DOUBLE) else one))
+    robot = common.load(robot_name, support or (None if one in (None, DOUBLE) else one))
     config = _sensors(sensors_file, robot.profile)
     pose_list = read_table(poses_file) if poses_file is not None else None
     if len(stances) > 1:  # each stance's samples reduced in its own frame

@@ -6,23 +6,15 @@ show), make one call to ``sescid.identify`` on the files, print the fit.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import click
 
 from sescid.api import file_stance
 from sescid.api import identify as run_identify
-from sescid.base import OutputSet, TerminalProgress
-from sescid.cli.common import (
-    force_option,
-    imu_link_option,
-    load,
-    model_input,
-    refuse_idle,
-    robot_options,
-    seed_option,
-)
+from sescid.base import OutputSet, TerminalProgress, option_spec
+from sescid.cli import common
+from sescid.cli.flags import SectionedCommand, flags, help_of, record
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
 from sescid.errors import DataError, OptionError, choices
 from sescid.estimation import (
@@ -37,23 +29,18 @@ from sescid.estimation import (
     MapOptions,
     MethodName,
     MethodOptions,
-    PriorChoice,
-    PriorSelect,
     save_fit,
 )
 from sescid.io import rows_estimate
 from sescid.report import mm
 
-DEFAULTS = IdentifyOptions()
-MAP_DEFAULTS = MapOptions()
-
 
 def options_from_flags(method: MethodName, opts: dict) -> tuple[MethodOptions, IdentifyOptions]:
     """The method's options and ``identify``'s shared options from the command's flags (a
     method's flags with another method are an error naming them)."""
-    refuse_idle("gain_prior", opts["tau_gains"], "without --tau-gains")
-    refuse_idle("mc_draws", opts["joint_noise_deg"] is not None, "without --joint-noise-deg")
-    refuse_idle("noise", method in ("map", "auto") or opts["online"],
+    common.refuse_idle("gain_prior", opts["tau_gains"], "without --tau-gains")
+    common.refuse_idle("mc_draws", opts["joint_noise_deg"] is not None, "without --joint-noise-deg")
+    common.refuse_idle("noise", method in ("map", "auto") or opts["online"],
                 "without --method map (or auto) or --online")  # fmt: skip
     if method not in ("map", "auto"):
         given = [
@@ -76,45 +63,24 @@ def options_from_flags(method: MethodName, opts: dict) -> tuple[MethodOptions, I
             raise OptionError(
                 "method", f"{', '.join(given)} needs --method map (got {method}){why}"
             )
-    flags = consistent_from_flags(opts)
-    total_mass = flags.total_mass  # a weighed mass scales torques as well as the masses
-    consistent = dataclasses.replace(flags, total_mass=None)
+    consistent = consistent_from_flags(opts, total_mass=None)  # the weighed mass: identify's
     if method != "consistent" and consistent != ConsistentOptions():
         raise OptionError("method", f"the consistent options need --method consistent ({method})")
     chosen: MethodOptions = LeastSquaresOptions()
     if method in ("map", "auto"):
-        settings = MapOptions(
-            prior_scale=opts["prior_scale"],
-            noise=opts["noise"],
-            select=opts["prior_select"],
-            bias=opts["bias"],
-            prior=opts["prior"],
-        )
+        settings = record(MapOptions, opts)
         chosen = settings if method == "map" else AutoOptions(settings)
     elif method == "consistent":
         chosen = consistent
-    shared = IdentifyOptions(
-        rtol=opts["rtol"],
-        weighted=opts["weighted"],
-        cop_noise=opts["cop_noise"],
-        tau_noise=opts["tau_noise"],
-        total_mass=total_mass,
-        gravity_accel=opts["gravity_accel"],
-        tau_gains=opts["tau_gains"],
+    deg = opts["joint_noise_deg"]
+    shared = record(
+        IdentifyOptions,
+        opts,
         kinds=None if opts["kinds"] == "all" else (opts["kinds"],),
-        gain_prior=opts["gain_prior"],
-        allow_exact=opts["allow_exact"],
-        imu_link=opts["imu_link"],
-        allow_outside_limits=opts["allow_outside_limits"],
-        com_height=opts["com_height"],
         robust="auto" if opts["robust"] is None else bool(opts["robust"]),
-        seed=opts["seed"],
-        cv=opts["cv"],
-        joint_noise=None if opts["joint_noise_deg"] is None else math.radians(
-            opts["joint_noise_deg"]),
-        mc_draws=opts["mc_draws"],
+        joint_noise=None if deg is None else math.radians(deg),
         online_step=_online_step(opts),
-    )  # fmt: skip
+    )
     return chosen, shared
 
 
@@ -127,160 +93,67 @@ def _online_step(opts: dict) -> int | None:
     return None
 
 
-@click.command()
-@click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@robot_options
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Fit JSON.")
-@click.option(
+#: identify's options in ``--help``, by what they are about
+SECTIONS = {
+    "Data": ("robot_name", "support", "line", "kinds", "weighted", "cop_noise", "com_height",
+             "imu_link", "allow_outside_limits"),
+    "Method": ("method", "rtol", "allow_exact", "robust", "cv", "joint_noise_deg", "mc_draws",
+               "online", "online_step", "seed"),
+    "MAP (--method map or auto)": ("prior_scale", "prior", "prior_select", "noise", "bias"),
+    "Consistent masses (--method consistent)": ("total_mass", "mass_floor", "symmetric",
+                                                "box_margin", "via", "cad_std"),
+    "Joint torques": ("tau_noise", "tau_gains", "gain_prior", "gravity_accel"),
+    "Output": ("out", "force"),
+}  # fmt: skip
+_, _NOISE = option_spec(IdentifyOptions, "joint_noise")
+_, _STEP = option_spec(IdentifyOptions, "online_step")
+
+
+@click.command(cls=SectionedCommand, sections=SECTIONS)
+@click.argument("data", nargs=-1, required=True, type=common.FILE)
+@common.robot_options
+@common.file_option("--out", "Fit JSON.", required=True)
+@common.choice_option(
     "--method",
-    type=click.Choice(list(METHOD_CHOICES)),
-    default="auto",
-    show_default=True,
-    help="auto: MAP with the CAD prior when the data leave directions weakly determined, "
+    METHOD_CHOICES,
+    "auto",
+    "auto: MAP with the CAD prior when the data leave directions weakly determined, "
     "least squares when they determine every direction well (the fit says which and why); "
     "ls: least squares (the paper's; undetermined directions from the model file); map: "
     "Gaussian CAD prior; consistent: body masses and CoMs (see --total-mass …).",
 )
-@click.option(
+@common.choice_option(
     "--kinds",
-    type=click.Choice(["all", *choices(Kind)]),
-    default="all",
-    show_default=True,
-    help="Which measurements of the files to fit: all they have, the CoP only, or the joint "
+    ["all", *choices(Kind)],
+    "all",
+    "Which measurements of the files to fit: all they have, the CoP only, or the joint "
     "torques only.",
 )
-@click.option(
-    "--com-height",
-    default=None,
-    type=click.FloatRange(min=0, min_open=True),
-    help="Balance data (a robot on a line) carry no scale: the CoM's known distance from the "
-    "support line at the zero pose [m] (default: the model's).",
-)
-@click.option(
-    "--weighted",
-    is_flag=True,
-    default=DEFAULTS.weighted,
-    help="Weight rows by their standard errors (cop_se_x/cop_se_y, tau_se_<joint>).",
-)
-@click.option(
-    "--rtol",
-    default=DEFAULTS.rtol,
-    show_default=True,
-    help="Rank tolerance on singular values, relative to the largest (0 < rtol < 1).",
-)
-@click.option(
-    "--cop-noise",
-    type=float,
-    default=DEFAULTS.cop_noise,
-    help="Known CoP noise standard deviation [m] (default: estimated from the data).",
-)
-@click.option(
-    "--tau-noise",
-    type=float,
-    default=DEFAULTS.tau_noise,
-    help="Known joint-torque noise standard deviation [N·m] (default: estimated).",
-)
-@click.option(
-    "--tau-gains",
-    is_flag=True,
-    default=DEFAULTS.tau_gains,
-    help="Also estimate a gain error per torque sensor (only their ratios come from the data).",
-)
-@click.option(
-    "--gain-prior",
-    type=float,
-    default=DEFAULTS.gain_prior,
-    show_default=True,
-    help="Prior std of each torque gain error (relative), with --tau-gains.",
-)
-@click.option(
-    "--gravity-accel",
-    type=float,
-    default=DEFAULTS.gravity_accel,
-    show_default=True,
-    help="|g| behind the torque rows [m/s²] (local gravity).",
-)
-@click.option(
-    "--allow-exact",
-    is_flag=True,
-    default=DEFAULTS.allow_exact,
-    help="Fit even when no degrees of freedom are left (σ̂ and standard errors: not determined).",
-)
+@flags(IdentifyOptions, "com_height", "weighted", "rtol", "cop_noise", "tau_noise", "tau_gains",
+       "gain_prior", "gravity_accel", "allow_exact", "total_mass")  # fmt: skip
 @consistent_options
-@click.option(
-    "--prior-scale",
-    type=float,
-    default=MAP_DEFAULTS.prior_scale,
-    help="map: prior standard deviation of each SESC component [m] (default: evidence).",
-)
-@click.option(
-    "--prior",
-    type=click.Choice(choices(PriorChoice)),
-    default=MAP_DEFAULTS.prior,
-    show_default=True,
-    help="map: the CAD prior's shape: each SESC component ±τ m (sesc), or each body's mass ±τ "
-    "and first moment ±τ·5 cm per unit mass (bodies, τ relative); auto: bodies for data with "
-    "torques, sesc for the CoP alone.",
-)
-@click.option(
-    "--prior-select",
-    type=click.Choice(choices(PriorSelect)),
-    default=MAP_DEFAULTS.select,
-    show_default=True,
-    help="map: choose the prior scale by marginal likelihood or 5-fold cross-validation.",
-)
-@click.option(
-    "--noise",
-    type=float,
-    default=MAP_DEFAULTS.noise,
-    help="map/online: known noise scale [m for CoP data] (default: estimated).",
-)
-@click.option("--bias", is_flag=True, help="map: estimate constant CoP offsets b_x, b_y [m].")
-@click.option(
-    "--robust/--no-robust",
-    default=None,
-    help="Huber IRLS, naming the down-weighted poses (default: on for torques without an "
-    "approach column, whose static friction acts as bounded errors; off otherwise).",
-)
-@click.option(
-    "--cv",
-    type=click.IntRange(min=2),
-    default=DEFAULTS.cv,
-    help="Print the k-fold cross-validated error.",
-)
+@flags(MapOptions, "prior_scale", "prior", "select", "noise", "bias")
+@click.option("--robust/--no-robust", default=None, help=help_of(IdentifyOptions, "robust"))
+@flags(IdentifyOptions, "cv")
 @click.option(
     "--joint-noise-deg",
-    type=click.FloatRange(min=0, min_open=True, max=90),
+    type=click.FloatRange(min=0, min_open=True, max=round(math.degrees(_NOISE.high or 0))),
     default=None,
-    help="Monte-Carlo effect of joint-angle errors of this standard deviation [degrees].",
+    help=_NOISE.help.replace("[rad]", "[degrees]"),
 )
-@click.option(
-    "--mc-draws",
-    default=DEFAULTS.mc_draws,
-    show_default=True,
-    type=click.IntRange(min=2),
-    help="MC draws.",
-)
+@flags(IdentifyOptions, "mc_draws")
 @click.option("--online", is_flag=True, help="Recursive estimator; prints the convergence.")
 @click.option(
-    "--online-step",
-    default=1,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Poses per online update.",
+    "--online-step", default=1, show_default=True, type=click.IntRange(min=1), help=_STEP.help
 )
-@seed_option
-@click.option(
-    "--allow-outside-limits",
-    is_flag=True,
-    help="Accept poses outside the model's joint limits (a warning stored in the fit); "
-    "simulated data (cop_x_true columns) get the warning without the flag.",
-)
-@imu_link_option
-@force_option
+@flags(IdentifyOptions, "seed", "allow_outside_limits", "imu_link")
+@common.force_option
 def identify(data, robot_name, support, out, method, force, **opts):
-    """Identify the SESC vectors from CSV/Parquet files of poses (radians) and what was
-    measured: cop_x, cop_y (m) and/or tau_<joint> (N·m) columns; several files are pooled.
+    """Identify the robot's mass distribution from CSV/Parquet files of poses (a column per
+    joint, radians) and what was measured there: the CoP (cop_x, cop_y, m), joint torques
+    (tau_<joint>, N·m) or, for a robot balancing on a line (--line), the gravity direction of
+    each balanced pose (grav_x, grav_y, grav_z). Several files, of one stance or several, pool
+    into one fit of the SESC vectors (with --method consistent: body masses and CoMs).
 
     Optional columns: grav_x, grav_y, grav_z (gravity direction in the support frame; a tilted
     sole), approach (±1: each pose reached moving up or down, for torque friction), cop_se_*,
@@ -289,8 +162,8 @@ def identify(data, robot_name, support, out, method, force, **opts):
     parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
     files = [file_stance(d)[0] for d in data]
-    outs = OutputSet([out], [*files, model_input(robot_name)], force=force)
-    robot = load(robot_name, support)
+    outs = OutputSet([out], [*files, common.model_input(robot_name)], force=force)
+    robot = common.load(robot_name, support)
     chosen, options = options_from_flags(method, opts)
     size = sum(rows_estimate(f) or 0 for f in files) or None
     with TerminalProgress("identifying poses") as bar:

@@ -5,11 +5,11 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.cli.common import load, robot_options
+from sescid.cli import common
 
 
 @click.command()
-@robot_options
+@common.robot_options
 def info(robot_name, support):
     """Print the robot's bodies, masses, joints and limits, and, for a model file without
     --support, its support candidates (its feet, found from the tree and the geometry)."""
@@ -20,10 +20,10 @@ def info(robot_name, support):
         from sescid.model import root_frame, support_candidates
 
         root, _ = root_frame(robot_name)
-        robot = load(robot_name, root)
+        robot = common.load(robot_name, root)
         feet = support_candidates(robot_name)
     else:
-        robot = load(robot_name, support)
+        robot = common.load(robot_name, support)
     click.echo(repr(robot))
     click.echo(f"model file: {robot.model_path}")
     if feet is not None:

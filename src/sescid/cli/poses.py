@@ -3,29 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
 
 import click
-import numpy as np
 
-from sescid.base import MODEL_COP_COLUMNS, OutputSet, TerminalProgress
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    refuse_idle,
-    robot_options,
-    seed_option,
-)
-from sescid.errors import OptionError, SescidError, choices
+from sescid.base import OutputSet, TerminalProgress
+from sescid.cli import common
+from sescid.cli.flags import flags, record
+from sescid.errors import OptionError
 from sescid.estimation import min_poses
-from sescid.io import write_table
+from sescid.io import pose_table, required_paper_convention, write_table
 from sescid.planning import (
-    DEFAULT_CLEARANCE,
     DEFAULT_STANCE_COST,
-    DEFAULT_TAU_NOISE,
-    DesignKind,
-    Mount,
     PlanOptions,
     Select,
     block_curve,
@@ -41,9 +29,7 @@ from sescid.planning import (
     sampling_limits,
     stance_robot,
 )
-from sescid.planning import paper_convention as robot_paper_convention
 from sescid.report import design_figure, mm
-from sescid.simulation import PAPER_NOISE
 
 
 def _sole_notes(robot, capsules) -> list[str]:
@@ -59,39 +45,14 @@ def _sole_notes(robot, capsules) -> list[str]:
 
 
 @click.command()
-@robot_options
-@click.option(
-    "--count",
-    default=38,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Number of poses K to choose.",
+@common.robot_options
+@common.number_option("--count", 38, 1, None, "Number of poses K to choose.")
+@common.choice_option(
+    "--select", Select, "d-optimal", "D-optimal (greedy + exchange) or K random candidates."
 )
-@click.option(
-    "--select",
-    type=click.Choice(choices(Select)),
-    default="d-optimal",
-    show_default=True,
-    help="D-optimal (greedy + exchange) or K random candidates.",
-)
-@seed_option
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Pose list CSV.")
-@click.option(
-    "--candidates",
-    "n_candidates",
-    default=None,
-    type=click.IntRange(min=1, max=10_000_000),
-    help="Stable, collision-free candidate poses to choose from "
-    "[default, d-optimal: 20000 for uniform draws (op2), 5000 with the adjusted sampler; "
-    "random: --count (a random subset of random candidates is random)].",
-)
-@click.option(
-    "--test-poses",
-    default=2_000,
-    show_default=True,
-    type=click.IntRange(min=1, max=10_000_000),
-    help="Held-out poses for the error.",
-)
+@common.seed_option
+@common.file_option("--out", "Pose list CSV.", required=True)
+@flags(PlanOptions, "n_candidates", "n_test")
 @click.option(
     "--cop-box",
     default=None,
@@ -112,74 +73,28 @@ def _sole_notes(robot, capsules) -> list[str]:
     default=None,
     help="Sole rectangle length and width [m] for --margin (default: the profile's).",
 )
-@click.option(
-    "--foot-clearance",
-    "clearance",
-    default=DEFAULT_CLEARANCE,
-    show_default=True,
-    help="The free foot (all its geometry) above the floor by at least this [m]; on a gantry, "
-    "every body.",
-)
+@flags(PlanOptions, "clearance")
 @click.option(
     "--range-deg", default=None, type=float, help="Also limit every joint to ±this [degrees]."
 )
 @click.option(
     "--urdf-limits", is_flag=True, help="Sample within the model's limits, not the paper's."
 )
-@click.option(
-    "--noise",
-    default=PAPER_NOISE,
-    show_default=True,
-    help="CoP noise σ for the expected error [m].",
-)
-@click.option(
-    "--figure",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Also write a PNG: expected CoP error vs K, D-optimal vs random.",
-)
+@flags(PlanOptions, "sigma")
+@common.file_option("--figure", "Also write a PNG: expected CoP error vs K, D-optimal vs random.")
 @click.option(
     "--paper-convention",
     is_flag=True,
     help="Add <joint>_paper_deg columns (the paper's Table 2 angle convention; op2).",
 )
-@click.option(
-    "--rigid",
-    is_flag=True,
-    help="Stability: the CoP box only, no compliant-robot margin (servo sag, sole tilt, "
-    "backlash from the robot profile).",
-)
-@click.option(
-    "--kinds",
-    type=click.Choice(choices(DesignKind)),
-    default="cop",
-    show_default=True,
-    help="What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
-    "tau (joint torques, an unknown offset per joint) or both.",
-)
-@click.option(
-    "--tau-noise",
-    default=DEFAULT_TAU_NOISE,
-    show_default=True,
-    type=float,
-    help="Joint-torque noise σ per pose for the design and its expected error [N·m].",
-)
+@flags(PlanOptions, "rigid", "kinds", "tau_noise")
 @click.option(
     "--tau-joints",
     default="all",
     show_default=True,
     help="Joints whose torque is measured: all, or a comma-separated list.",
 )
-@click.option(
-    "--mount",
-    type=click.Choice(choices(Mount)),
-    default=None,
-    help="stand: on the support foot (balance checked); gantry: the support link (a torso, "
-    "pelvis) held level, the robot hanging free (joint limits, floor, self-collision only; "
-    "--kinds tau); double: on both feet, the other foot's sole flat on the floor (CoP of the "
-    "whole robot in the support foot's frame; --kinds cop). Default: gantry when the robot's "
-    "mass splits at the support (a trunk), else stand.",
-)
+@flags(PlanOptions, "mount")
 @click.option(
     "--stances",
     default=None,
@@ -188,60 +103,21 @@ def _sole_notes(robot, capsules) -> list[str]:
     "One stance: as --support/--mount; several: one D-optimal design over the body parameters "
     "they share, visited stance by stance, with a 'support' column naming each pose's stance.",
 )
-@click.option(
-    "--stance-cost",
-    default=DEFAULT_STANCE_COST,
-    show_default=True,
-    type=click.FloatRange(min=0),
-    help="Poses a stance change costs (several --stances): a plan with m stances chooses "
-    "--count minus this times (m - 1) poses.",
-)
-@click.option(
-    "--hang-height",
-    default=None,
-    type=float,
-    help="Gantry: height of the held link's frame above the floor [m] (default: its height "
-    "when the robot stands at the zero pose + 50 mm).",
-)
-@click.option(
+@common.number_option(
+    "--stance-cost", DEFAULT_STANCE_COST, 0, None,
+    "Poses a stance change costs (several --stances): a plan with m stances chooses --count "
+    "minus this times (m - 1) poses.",
+)  # fmt: skip
+@flags(PlanOptions, "hang_height")
+@common.choice_option(
     "--check",
-    "check",
-    type=click.Choice(["none", "mujoco"]),
-    default="none",
-    show_default=True,
-    help="mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
+    ["none", "mujoco"],
+    "none",
+    "mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
     "the next best until all do; needs the mujoco extra).",
 )
-@force_option
-def poses(
-    robot_name,
-    support,
-    count,
-    select: Select,
-    seed,
-    out,
-    n_candidates,
-    test_poses,
-    cop_box,
-    margin,
-    sole_size,
-    clearance,
-    range_deg,
-    urdf_limits,
-    noise,
-    figure,
-    paper_convention: bool,
-    rigid: bool,
-    kinds: DesignKind,
-    tau_noise: float,
-    tau_joints: str,
-    mount: Mount | None,
-    stances: str | None,
-    stance_cost: float,
-    hang_height: float | None,
-    check: Literal["none", "mujoco"],
-    force: bool,
-):
+@common.force_option
+def poses(**o):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
     informative, ordered to keep consecutive poses close.
 
@@ -250,78 +126,73 @@ def poses(
     knows its servo), cop_x_model, cop_y_model (the model's CoP in the stance's frame, m: a
     prediction, not a measurement; empty for a robot held in a gantry).
     """
-    outs = OutputSet([out, figure], [model_input(robot_name)], force=force)
-    refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
-    robot = load(robot_name, support)
-    chosen = parse_stances(stances, robot) if stances is not None else ()
+    out, figure, count, select, kinds = o["out"], o["figure"], o["count"], o["select"], o["kinds"]
+    outs = OutputSet([out, figure], [common.model_input(o["robot_name"])], force=o["force"])
+    common.refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
+    robot = common.load(o["robot_name"], o["support"])
+    pc = required_paper_convention(robot) if o["paper_convention"] else None
+    chosen = parse_stances(o["stances"], robot) if o["stances"] is not None else ()
+    mount = o["mount"]
     if chosen and mount is not None:
         raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
     if len(chosen) == 1:  # one stance: as --support and --mount
         robot, mount = stance_robot(robot, chosen[0]), chosen[0].mount
-    if n_candidates is None and len(chosen) > 1:
-        n_candidates = default_candidates(robot, select, count, kinds) // len(chosen)
-    if n_candidates is None:
-        n_candidates = default_candidates(robot, select, count, kinds)
+    n_candidates = o["candidates"]
+    if n_candidates is None:  # several stances share the pool
+        n_candidates = default_candidates(robot, select, count, kinds) // max(len(chosen), 1)
     held = len(chosen) < 2 and resolve_mount(robot, mount, kinds) == "gantry"  # said first
     need = min_poses(robot)
     if count < need and kinds == "cop":
         raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
     if n_candidates < count:
         raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
-    if not noise > 0 or not clearance >= 0:
-        raise OptionError("noise", "must be > 0 and --foot-clearance ≥ 0 (metres)")
-    if not tau_noise > 0:
-        raise OptionError("tau_noise", f"must be > 0 (N·m), got {tau_noise}")
-    pc = robot_paper_convention(robot)
-    if paper_convention and pc is None:
-        raise OptionError("paper_convention", "--paper-convention: this robot's profile has none")
-    half = None if held else cop_half_extents(robot, cop_box, margin, sole_size)
-    limits = sampling_limits(robot, paper=not urdf_limits, range_deg=range_deg)
+    box = o["cop_box"], o["margin"], o["sole_size"]
+    half = None if held else cop_half_extents(robot, *box)
     pose_check = None
-    if check == "mujoco" and len(chosen) < 2:
+    if o["check"] == "mujoco" and len(chosen) < 2:
         from sescid.bench import standing_check
 
         pose_check = standing_check(robot, mount == "double")
-    opt = PlanOptions(
-        n_candidates=n_candidates,
-        n_test=test_poses,
-        sigma=noise,
-        limits=limits,
-        half_extents=half,
-        clearance=clearance,
-        rigid=rigid,
-        check=pose_check,
-        check_name="MuJoCo bench",
-        kinds=kinds,
-        tau_noise=tau_noise,
-        tau_joints=_joint_list(tau_joints),
-        mount=mount,
-        hang_height=hang_height,
-    )
+    opt = record(
+        PlanOptions, o, n_candidates=n_candidates, mount=mount, half_extents=half,
+        limits=sampling_limits(robot, paper=not o["urdf_limits"], range_deg=o["range_deg"]),
+        check=pose_check, check_name="MuJoCo bench", tau_joints=_joint_list(o["tau_joints"]),
+    )  # fmt: skip
     if len(chosen) > 1:
         if select != "d-optimal" or figure is not None:
             raise OptionError("stances", "several stances are planned D-optimally, no figure")
-        opt = dataclasses.replace(opt, half_extents=None if cop_box is None and margin is None
-                                  else half, mount=None)  # fmt: skip
-        checks = (lambda st, rb: _stance_check(st, rb)) if check == "mujoco" else None
-        sp = plan_stances(robot, chosen, count, seed, opt, stance_cost, check=checks,
+        opt = dataclasses.replace(opt, half_extents=None if box[:2] == (None, None) else half,
+                                  mount=None)  # fmt: skip
+        checks = (lambda st, rb: _stance_check(st, rb)) if o["check"] == "mujoco" else None
+        sp = plan_stances(robot, chosen, count, o["seed"], opt, o["stance_cost"], check=checks,
                           progress=TerminalProgress("candidates"))  # fmt: skip
-        _write_stance_plan(robot, sp, out, outs, pc if paper_convention else None)
+        _write_stance_plan(robot, sp, out, outs, pc)
         return
-    plan = plan_poses(robot, count, select, seed, opt, progress=TerminalProgress("candidates"))
+    plan = plan_poses(robot, count, select, o["seed"], opt, progress=TerminalProgress("candidates"))
+    label = chosen[0].label if chosen else "double" if plan.mount == "double" else None
+    table = pose_table(robot, plan.q, support=label, paper=pc,
+                       cop=None if plan.mount == "gantry" else plan.cop)  # fmt: skip
+    _echo_plan(robot, plan, opt, half, table.notes)
+    curve = _curve(plan, need, count, n_candidates, opt.sigma, o["seed"]) if figure else None
+    with outs:
+        write_table(outs.path(out), table.columns)
+        if curve is not None:
+            what = "" if plan.rows is None else f" ({kinds} rows, CoM x/y error)"
+            design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection{what}")
+    click.echo(f"wrote {out}: {count} poses ({len(table.columns)} columns)")
+    if curve is not None:
+        click.echo(f"wrote {figure}")
+
+
+def _echo_plan(robot, plan, opt: PlanOptions, half, table_notes: list[str]) -> None:
+    """What the plan found: the candidates, the checks, notes, the expected error, the path."""
+    echo = click.echo
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
     if plan.mount != "gantry":
         notes += _sole_notes(robot, capsules)
-    notes += plan.notes
-    label = chosen[0].label if chosen else "double" if plan.mount == "double" else None
-    first = {} if label is None else {"support": np.full(count, label)}
-    cols = _pose_columns(robot, plan.q, first, pc if paper_convention else None, notes)
-    if plan.mount != "gantry":
-        cols |= {MODEL_COP_COLUMNS[k]: plan.cop[:, k] for k in range(2)}
-    echo = click.echo
-    cand = plan.candidates
-    echo(f"candidates: {cand.summary()}")
+    notes += plan.notes + table_notes
+    echo(f"candidates: {plan.candidates.summary()}")
     free = free_sole(robot)
     n_pairs = len(capsules.pairs) if capsules is not None else 0
     if half is not None and plan.mount == "double":
@@ -332,49 +203,22 @@ def poses(
     elif half is not None:
         echo(
             f"  stability: CoP within ±{half[0] * 1e3:.1f} mm (x) ±{half[1] * 1e3:.1f} mm (y); "
-            + (f"free foot {free} ≥ {clearance * 1e3:g} mm above the floor; " if free else "")
+            + (f"free foot {free} ≥ {opt.clearance * 1e3:g} mm above the floor; " if free else "")
             + f"{n_pairs} capsule pairs checked"
         )
     else:
         echo(f"  held by {robot.support} (gantry); {n_pairs} capsule pairs checked")
     for note in notes:
         echo(f"  note: {note}")
-    echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({select}, {kinds} rows)")
-    echo(f"expected noise-free {_error_line(plan, noise, tau_noise)}: chosen "
+    count = len(plan.q)
+    echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({plan.method}, "
+         f"{plan.kinds} rows)")  # fmt: skip
+    echo(f"expected noise-free {_error_line(plan, opt.sigma, opt.tau_noise)}: chosen "
          f"{mm(plan.expected_error)}, {count} random {mm(plan.random_error)} (median)")  # fmt: skip
     echo(
         f"joint-space path from the zero pose: {plan.path_unordered:.2f} rad in selection "
         f"order → {plan.path_ordered:.2f} rad ordered"
     )
-    curve = _curve(plan, need, count, n_candidates, noise, seed) if figure else None
-    with outs:
-        write_table(outs.path(out), cols)
-        if curve is not None:
-            what = "" if plan.rows is None else f" ({kinds} rows, CoM x/y error)"
-            design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection{what}")
-    echo(f"wrote {out}: {count} poses ({len(cols)} columns)")
-    if curve is not None:
-        echo(f"wrote {figure}")
-
-
-def _pose_columns(robot, q, first: dict, pc, notes: list[str]) -> dict[str, np.ndarray]:
-    """The pose table: ``pose``, the ``first`` columns, one per joint (rad), ``<joint>_deg``,
-    ``<joint>_ticks`` (a profile servo), ``<joint>_paper_deg`` (``pc``: the paper's convention)."""
-    cols: dict[str, np.ndarray] = {"pose": np.arange(len(q))} | first
-    names = robot.joint_names
-    cols |= {j: q[:, k] for k, j in enumerate(names)}
-    cols |= {f"{j}_deg": np.degrees(q[:, k]) for k, j in enumerate(names)}
-    servo = robot.profile.servo
-    if servo is not None:
-        try:
-            ticks = servo.to_ticks(q)
-            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
-        except SescidError:
-            notes.append(f"no _ticks columns: some angles are outside the {servo.name} range")
-    if pc is not None:
-        qp = np.degrees(pc.to_paper(q))
-        cols |= {f"{j}_paper_deg": qp[:, k] for k, j in enumerate(names)}
-    return cols
 
 
 def _stance_check(stance, robot):
@@ -391,7 +235,6 @@ def _write_stance_plan(robot, sp, out: str, outs: OutputSet, pc) -> None:
         echo(f"{rep.stance.label}: {rep.stance.describe()}: {rep.candidates.summary()}")
         for note in rep.candidates.notes:
             echo(f"  note: {note}")
-    notes: list[str] = []
     for note in sp.notes:
         echo(f"note: {note}")
     echo(f"rank over the {sp.n_theta} body parameters (data alone): pooled {sp.rank}")
@@ -406,13 +249,12 @@ def _write_stance_plan(robot, sp, out: str, outs: OutputSet, pc) -> None:
         echo(f"MuJoCo bench check: {sp.n_checked} poses simulated, {sp.n_check_failed} did not "
              "stand and were replaced")  # fmt: skip
     echo(f"{sp.changes} stance change(s); joint-space path {sp.path_length:.2f} rad")
-    cols = _pose_columns(robot, sp.q, {"support": sp.stance}, pc, notes)
-    cols |= {MODEL_COP_COLUMNS[k]: sp.cop[:, k] for k in range(2)}
-    for note in notes:
+    table = pose_table(robot, sp.q, support=sp.stance, paper=pc, cop=sp.cop)
+    for note in table.notes:
         echo(f"note: {note}")
     with outs:
-        write_table(outs.path(out), cols)
-    echo(f"wrote {out}: {len(sp.q)} poses ({len(cols)} columns)")
+        write_table(outs.path(out), table.columns)
+    echo(f"wrote {out}: {len(sp.q)} poses ({len(table.columns)} columns)")
 
 
 def _joint_list(spec: str) -> tuple[str, ...] | None:

@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import force_option, imu_link_option
+from sescid.cli import common
 from sescid.estimation import (
     com_interval,
     for_support,
@@ -20,9 +20,9 @@ from sescid.io import (
 
 
 @click.command()
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.argument("poses", type=click.Path(dir_okay=False))
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
+@click.argument("fit_file", type=common.FILE)
+@click.argument("poses", type=common.FILE)
+@common.file_option("--out", "Output CSV.", required=True)
 @click.option(
     "--level",
     type=click.FloatRange(0, 1, min_open=True, max_open=True),
@@ -37,8 +37,8 @@ from sescid.io import (
     help="Predict in another stance of a fit pooled over stances (the other foot, a held "
     "link): its frame name (default: the fit's support).",
 )
-@imu_link_option
-@force_option
+@common.imu_link_option
+@common.force_option
 def predict(fit_file, poses, out, level, stance, imu_link, force):
     """Predict CoP (x, y) and CoM (x, y, z) in metres at the poses of a CSV (radians).
 

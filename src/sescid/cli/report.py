@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from sescid.base import OutputSet, TerminalProgress
-from sescid.cli.common import echo_model_change, force_option, imu_link_option
+from sescid.cli import common
 from sescid.estimation import for_support, load_fit
 from sescid.report import (
     KIND_TITLES,
@@ -39,9 +39,9 @@ def _residual_line(k: KindNumbers, n: int) -> str:
 
 
 @click.command()
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.argument("measured", type=click.Path(dir_okay=False))
-@click.option("--out-dir", default="report", show_default=True, type=click.Path(file_okay=False))
+@click.argument("fit_file", type=common.FILE)
+@click.argument("measured", type=common.FILE)
+@common.folder_option("--out-dir", "Folder for report.html and the figures.", "report")
 @click.option(
     "--support",
     "stance",
@@ -49,8 +49,8 @@ def _residual_line(k: KindNumbers, n: int) -> str:
     help="Report a fit pooled over stances in another of them (its frame name): the file's "
     "rows of that stance (its 'support' column). Default: the fit's support.",
 )
-@imu_link_option
-@force_option
+@common.imu_link_option
+@common.force_option
 def report(fit_file, measured, out_dir, stance, imu_link, force):
     """Figures and one self-contained HTML page from a fit and what was measured (never
     re-fits): CoP (cop_x, cop_y), joint torques (tau_<joint>, approach) or both.
@@ -62,7 +62,7 @@ def report(fit_file, measured, out_dir, stance, imu_link, force):
     fit = load_fit(fit_file)
     if stance is not None:
         fit = for_support(fit, stance)
-    echo_model_change(fit, fit_file)
+    common.echo_model_change(fit, fit_file)
     data, ids = read_report_data(measured, fit, imu_link)
     options = ReportOptions(pose_ids=ids, progress=TerminalProgress("report files"))
     with outs:

@@ -10,22 +10,13 @@ from pathlib import Path
 import click
 import numpy as np
 
-from sescid.cli.common import (
-    SEED_HELP,
-    force_option,
-    load,
-    model_input,
-    refuse_idle,
-    robot_options,
-    sensors_option,
-)
+from sescid.cli import common
 from sescid.cli.experiment import TORQUE_FLAGS, bench_sensors, torque_config, torque_options
+from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
-from sescid.planning import MOUNTS, parse_stances, stance_robot
+from sescid.planning import parse_stances, stance_robot
 from sescid.report import mm
-from sescid.session import SESSION_KINDS, SessionOptions, session_mount
-
-_OPT = SessionOptions()
+from sescid.session import SessionOptions, session_mount
 
 
 class _Printer:
@@ -92,28 +83,30 @@ class _CopView:
 
 
 class _Both:
+    """Every event told to each of the observers in turn."""
+
     def __init__(self, *observers):
         self.observers = [o for o in observers if o is not None]
 
-    def planned(self, *a):
+    def _tell(self, event: str, args: tuple) -> None:
         for o in self.observers:
-            o.planned(*a)
+            getattr(o, event)(*args)
+
+    def planned(self, *a):
+        self._tell("planned", a)
 
     def finished_pose(self, *a):
-        for o in self.observers:
-            o.finished_pose(*a)
+        self._tell("finished_pose", a)
 
     def stopped(self, *a):
-        for o in self.observers:
-            o.stopped(*a)
+        self._tell("stopped", a)
 
     def stance(self, *a):
-        for o in self.observers:
-            o.stance(*a)
+        self._tell("stance", a)
 
 
 @click.command()
-@robot_options
+@common.robot_options
 @click.option(
     "--adapter",
     default="mujoco",
@@ -122,73 +115,16 @@ class _Both:
     "--replay), or python:MODULE:CLASS / python:FILE.py:CLASS (your robot, constructed as "
     "CLASS(robot)).",
 )
-@click.option(
-    "--replay",
-    "replay_path",
-    default=None,
-    type=click.Path(exists=True),
-    help="replay: a session folder (raw.csv + poses.csv) or a raw log file.",
-)
-@click.option(
+@click.option("--replay", "replay_path", type=click.Path(exists=True),
+              help="replay: a session folder (raw.csv + poses.csv) or a raw log file.")  # fmt: skip
+@common.folder_option(
     "--out-dir",
+    "Output folder; each pose is journaled there as it is measured, and running again with "
+    "the same folder and options resumes an interrupted session.",
     required=True,
-    type=click.Path(file_okay=False),
-    help="Output folder; each pose is journaled there as it is measured, and running again "
-    "with the same folder and options resumes an interrupted session.",
 )
-@click.option("--budget", default=_OPT.budget, show_default=True, type=click.IntRange(min=1),
-              help="Poses commanded at most (failed ones count).")  # fmt: skip
-@click.option("--samples", default=_OPT.samples, show_default=True, type=click.IntRange(min=2),
-              help="Samples read per pose.")  # fmt: skip
-@click.option(
-    "--candidates",
-    "n_candidates",
-    default=_OPT.n_candidates,
-    show_default=True,
-    type=click.IntRange(min=1),
-    help="Stable, collision-free candidate poses.",
-)
-@click.option("--seed", default=_OPT.seed, show_default=True, type=click.IntRange(min=0),
-              help=SEED_HELP)  # fmt: skip
-@click.option(
-    "--near",
-    default=_OPT.near,
-    show_default=True,
-    type=click.FloatRange(0, 1, min_open=True),
-    help="Take the nearest candidate whose information gain is ≥ NEAR × the best.",
-)
-@click.option("--window", default=_OPT.window, show_default=True, type=click.IntRange(min=1),
-              help="Convergence: poses looked back.")  # fmt: skip
-@click.option(
-    "--tol",
-    default=_OPT.tol,
-    show_default=True,
-    type=click.FloatRange(0, 1, min_open=True, max_open=True),
-    help="Convergence: the predicted CoP std fell by less than this (relative) over the window.",
-)
-@click.option(
-    "--target-std",
-    default=_OPT.target_std,
-    type=click.FloatRange(min=0, min_open=True),
-    help="Also stop when the predicted CoP std reaches this [m].",
-)
-@click.option(
-    "--kinds",
-    type=click.Choice(list(SESSION_KINDS)),
-    default=_OPT.kinds,
-    show_default=True,
-    help="What the next pose is chosen for: auto (what the robot reports: a loaded foot sensor "
-    "gives the CoP, tau_<joint> columns the joint torques), cop, tau or both.",
-)
-@click.option("--tau-noise", default=_OPT.tau_noise, show_default=True, type=float,
-              help="Joint-torque noise per pose the design assumes [N·m].")  # fmt: skip
-@click.option(
-    "--mount",
-    type=click.Choice(list(MOUNTS)),
-    default=None,
-    help="stand: on the support foot; gantry: the support link held level, the robot hanging "
-    "free (joint torques only). Default: gantry when the robot's mass splits at the support.",
-)
+@flags(SessionOptions, "budget", "samples", "n_candidates", "seed", "near", "window", "tol",
+       "target_std", "kinds", "tau_noise", "mount")  # fmt: skip
 @click.option(
     "--stances",
     default=None,
@@ -196,28 +132,7 @@ class _Both:
     "gantry:<link>; the session asks for a stance change when a pose of another stance is "
     "worth it (--stance-cost). One stance: as --support/--mount.",
 )
-@click.option(
-    "--stance-cost",
-    default=_OPT.stance_cost,
-    show_default=True,
-    type=click.FloatRange(min=0),
-    help="Poses a stance change costs: asked for when the other stance's best information gain "
-    "exceeds 1 + this times the current one's.",
-)
-@click.option(
-    "--hang-height",
-    default=None,
-    type=float,
-    help="Gantry: height of the held link above the floor [m] (default: its height when the "
-    "robot stands at the zero pose + 50 mm).",
-)
-@click.option(
-    "--total-mass",
-    default=None,
-    type=float,
-    help="The robot's weighed mass [kg]: the scale of joint torques (default: the model's, "
-    "with a warning in the fit).",
-)
+@flags(SessionOptions, "stance_cost", "hang_height", "total_mass")
 @click.option(
     "--foot-sensors/--no-foot-sensors",
     default=True,
@@ -225,24 +140,15 @@ class _Both:
     help="mujoco, kinematic: whether the robot logs its foot sensors; --no-foot-sensors: a "
     "robot that reports joint torques only (with --torques). Other adapters log what they log.",
 )
-@sensors_option
+@common.sensors_option
 @torque_options
 @click.option("--no-view", is_flag=True, help="No live 3-D view (the session runs the same).")
-@click.option(
-    "--view-port",
-    default=8080,
-    show_default=True,
-    type=click.IntRange(1, 65535),
-    help="Live view: port on 127.0.0.1.",
-)
-@click.option(
-    "--view-linger",
-    default=0.0,
-    show_default=True,
-    type=click.FloatRange(0, 3600),
-    help="Live view: keep serving this many seconds after the session ends [s].",
-)
-@force_option
+@common.number_option("--view-port", 8080, 1, 65535, "Live view: port on 127.0.0.1.")
+@common.number_option(
+    "--view-linger", 0.0, 0, 3600,
+    "Live view: keep serving this many seconds after the session ends [s].",
+)  # fmt: skip
+@common.force_option
 def session(**opts):
     """Guided identification: plan the next-best pose, command it, measure, update the estimate;
     stop when the predicted CoP error (the CoM's, with joint torques) has converged or the
@@ -259,7 +165,7 @@ def session(**opts):
     from sescid.session import Journal, check_options, run_session
 
     _refuse_idle(opts)
-    robot = load(opts["robot_name"], opts["support"])
+    robot = common.load(opts["robot_name"], opts["support"])
     out_dir = opts["out_dir"]
     stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
     if stances and opts["mount"] is not None:
@@ -303,28 +209,15 @@ def _refuse_idle(opts: dict) -> None:
     # a replay may repeat the recorded session's command line: its bench flags are kept
     bench = opts["adapter"] in ("mujoco", "kinematic", "replay")
     why = f"with --adapter {opts['adapter']} (your robot logs what it logs)"
-    refuse_idle(("torques", *TORQUE_FLAGS, "foot_sensors"), bench, why)
-    refuse_idle(("view_port", "view_linger"), not opts["no_view"], "with --no-view")
+    common.refuse_idle(("torques", *TORQUE_FLAGS, "foot_sensors"), bench, why)
+    common.refuse_idle(("view_port", "view_linger"), not opts["no_view"], "with --no-view")
 
 
 def session_options(opts: dict) -> SessionOptions:
     """The session's typed options from the flags (at least one candidate per commanded pose)."""
-    return SessionOptions(
-        budget=opts["budget"],
-        samples=opts["samples"],
-        n_candidates=max(opts["n_candidates"], opts["budget"]),
-        seed=opts["seed"],
-        near=opts["near"],
-        window=opts["window"],
-        tol=opts["tol"],
-        target_std=opts["target_std"],
-        kinds=opts["kinds"],
-        tau_noise=opts["tau_noise"],
-        mount=opts["mount"],
-        hang_height=opts["hang_height"],
-        total_mass=opts["total_mass"],
-        stances=tuple(opts["stances"] or ()),
-        stance_cost=opts["stance_cost"],
+    n_candidates = max(opts["candidates"], opts["budget"])
+    return record(
+        SessionOptions, opts, n_candidates=n_candidates, stances=tuple(opts["stances"] or ())
     )
 
 
@@ -336,7 +229,7 @@ def _adapter(robot, opts, opt):
 
     adapter, replay_path, out_dir = opts["adapter"], opts["replay_path"], opts["out_dir"]
     inputs = [
-        model_input(opts["robot_name"]),
+        common.model_input(opts["robot_name"]),
         opts["sensors_file"],
         *_replay_files(adapter, replay_path),
     ]

@@ -8,28 +8,19 @@ import click
 import numpy as np
 
 from sescid.base import OutputSet
-from sescid.cli.common import (
-    force_option,
-    load,
-    model_input,
-    refuse_idle,
-    robot_options,
-    seed_option,
-    study_options,
-)
-from sescid.errors import choices
+from sescid.cli import common
+from sescid.cli.flags import flags, record
 from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
-TORQUES = TorqueNoise()
 #: what ``simulate`` measures: a design's kinds, or the balancing tilts of a robot on a line
 Measure = Literal[DesignKind, "balance"]
 
 
 @click.command()
-@robot_options
-@study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
-@seed_option
+@common.robot_options
+@common.study_options(PAPER_POSES, PAPER_RANGE_DEG, PAPER_NOISE)
+@common.seed_option
 @click.option(
     "--clip/--no-clip",
     default=None,
@@ -37,52 +28,26 @@ Measure = Literal[DesignKind, "balance"]
     "carries the paper's convention (op2: the paper's ±30° study is unclipped)].",
 )
 @click.option("--stable", is_flag=True, help="Keep only poses whose CoP is inside the sole.")
-@click.option(
-    "--tilt-deg",
-    default=0.0,
-    show_default=True,
-    type=click.FloatRange(0, 30),
-    help="Tilt the support per pose by a random roll and pitch of this standard deviation "
+@common.number_option(
+    "--tilt-deg", 0.0, 0, 30,
+    "Tilt the support per pose by a random roll and pitch of this standard deviation "
     "[degrees]; writes grav_x, grav_y, grav_z.",
-)
-@click.option(
+)  # fmt: skip
+@common.choice_option(
     "--measure",
-    type=click.Choice(choices(Measure)),
-    default=None,
-    help="What the robot measures: the CoP under its foot, its joint torques, or both; "
+    Measure,
+    None,
+    "What the robot measures: the CoP under its foot, its joint torques, or both; "
     "balance: balanced poses of a robot on its support line (--line), read by an IMU "
     "[default: balance on a line support, else cop].",
 )
-@click.option(
-    "--tilt-noise-deg",
-    default=0.5,
-    show_default=True,
-    type=click.FloatRange(0, 20),
-    help="--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
-)
-@click.option(
-    "--tau-noise",
-    default=TORQUES.noise,
-    show_default=True,
-    type=float,
-    help="Joint-torque noise standard deviation [N·m].",
-)
-@click.option(
-    "--tau-offset",
-    default=TORQUES.offset,
-    show_default=True,
-    type=float,
-    help="Std of a random constant offset per torque sensor [N·m].",
-)
-@click.option(
-    "--tau-friction",
-    default=TORQUES.friction,
-    show_default=True,
-    type=float,
-    help="Half-width of each joint's static-friction band [N·m] (writes the approach column).",
-)
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Output CSV.")
-@force_option
+@common.number_option(
+    "--tilt-noise-deg", 0.5, 0, 20,
+    "--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
+)  # fmt: skip
+@flags(TorqueNoise, "noise", "offset", "friction")
+@common.file_option("--out", "Output CSV.", required=True)
+@common.force_option
 def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out,
              force, **kinds):  # fmt: skip
     """Simulate poses and what a robot measures there (paper §3) into a CSV.
@@ -99,13 +64,13 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
 
-    outs = OutputSet([out], [model_input(robot_name)], force=force)
-    robot = load(robot_name, support)
+    outs = OutputSet([out], [common.model_input(robot_name)], force=force)
+    robot = common.load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
-    refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
+    common.refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
                 f"with --measure {measure}")  # fmt: skip
-    refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
-    refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
+    common.refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
+    common.refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
     if measure == "balance":
         _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
         return
@@ -162,7 +127,7 @@ def torque_noise(kinds: dict) -> TorqueNoise | None:
     """The torque sensors' errors from the flags (None when only the CoP is measured)."""
     if kinds["measure"] in (None, "cop", "balance"):
         return None
-    return TorqueNoise(kinds["tau_noise"], kinds["tau_offset"], kinds["tau_friction"])
+    return record(TorqueNoise, kinds)
 
 
 def _columns(joint_names: list[str], sim, measure: DesignKind) -> dict[str, np.ndarray]:

@@ -7,13 +7,13 @@ import math
 import click
 
 from sescid.bench import FRESH_POSES, FRESH_WITHIN_DEG
-from sescid.cli.common import echo_model_change, seed_option
+from sescid.cli import common
 from sescid.report import mm
 
 
 @click.command()
-@click.argument("fit_file", type=click.Path(dir_okay=False))
-@click.argument("truth_file", type=click.Path(dir_okay=False))
+@click.argument("fit_file", type=common.FILE)
+@click.argument("truth_file", type=common.FILE)
 @click.option(
     "--fresh", default=FRESH_POSES, show_default=True, type=click.IntRange(1, 10_000_000),
     help="Fresh poses near the actual ones.",
@@ -23,7 +23,7 @@ from sescid.report import mm
     type=click.FloatRange(0, 180, min_open=True),
     help="Fresh poses uniform within ±this of the actual ones [degrees].",
 )  # fmt: skip
-@seed_option
+@common.seed_option
 def truth(fit_file, truth_file, fresh, within_deg, seed):
     """Compare a fit with the truth of `sescid experiment --truth`: RMS CoP error of the
     identified and the manufacturer model at the actual poses and at fresh poses near them."""
@@ -31,7 +31,7 @@ def truth(fit_file, truth_file, fresh, within_deg, seed):
     from sescid.estimation import load_fit
 
     fit = load_fit(fit_file)
-    echo_model_change(fit, fit_file)
+    common.echo_model_change(fit, fit_file)
     c = compare_truth(fit, truth_file, fresh, within_deg, seed, fit_path=fit_file)
     unit = mm if c.quantity == "CoP" else (lambda x: f"{math.degrees(x):.3f}°")
     click.echo(

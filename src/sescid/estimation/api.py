@@ -27,7 +27,6 @@ from sescid.estimation.options import (
     AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
-    LeastSquaresOptions,
     MapOptions,
     MethodOptions,
     map_settings,
@@ -79,7 +78,7 @@ def _huber(
         fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
     else:
         fit = huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k)
-    if not isinstance(method, LeastSquaresOptions):
+    if method.method != "ls":
         return fit
     plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
     first = run_method(robot, method, plain, _held(robot, sources, memory), memory)
@@ -92,7 +91,7 @@ def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
     own values): the recursive fit and the torque gains run least squares or MAP only."""
     settings = map_settings(method)
     if opts.online_step is not None:
-        if isinstance(method, ConsistentOptions):
+        if method.method == "consistent":
             raise OptionError("online", "the recursive fit supports ls or map, not consistent")
         if opts.robust is True or (settings is not None and settings.bias):
             raise OptionError("online", "the recursive fit cannot be robust or fit a bias")
@@ -101,7 +100,7 @@ def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
                 "online",
                 "a recursive MAP fit needs --prior-scale and --noise (m): its prior and noise",
             )
-    if opts.tau_gains and (opts.robust is True or isinstance(method, ConsistentOptions)):
+    if opts.tau_gains and (opts.robust is True or method.method == "consistent"):
         raise OptionError("tau_gains", "torque gains go with ls or map, not robust or consistent")
 
 

@@ -27,10 +27,15 @@ from sescid.estimation.normal_equations import (
     tilted_sums,
 )
 from sescid.estimation.torque_rows import torque_columns
-from sescid.kinematics import augmented_size
-from sescid.kinematics.fused import add_gram_reduced
-from sescid.kinematics.torque_plan import TorquePlan, torque_plan
-from sescid.kinematics.torque_sums import TorqueBlock, add_gram_fused, torque_size
+from sescid.kinematics import (
+    TorqueBlock,
+    TorquePlan,
+    add_gram_fused,
+    add_gram_reduced,
+    augmented_size,
+    torque_plan,
+    torque_size,
+)
 from sescid.robot import Robot
 
 

@@ -28,23 +28,7 @@ import numpy as np
 
 from sescid.base.files import atomic_open, read_json
 from sescid.errors import DataError, SescidError
-from sescid.estimation.fit import (
-    METHODS,
-    BodyInertials,
-    Combination,
-    CopOffset,
-    CrossValidation,
-    Fit,
-    JointNoiseEffect,
-    KindFit,
-    MapInfo,
-    Method,
-    MethodChoice,
-    NuisanceEstimate,
-    OnlineInfo,
-    RobustInfo,
-    ScaleAnchor,
-)
+from sescid.estimation import fit as records
 from sescid.robot import load_robot
 
 FIT_FORMAT = "sescid-fit/3"
@@ -52,15 +36,15 @@ FIT_FORMAT_V2 = "sescid-fit/2"
 FIT_FORMAT_V1 = "sescid-fit/1"
 FIT_FORMATS = (FIT_FORMAT_V1, FIT_FORMAT_V2, FIT_FORMAT)
 _RECORDS: dict[str, type] = {
-    "map": MapInfo,
-    "cop_offset": CopOffset,
-    "scale": ScaleAnchor,
-    "choice": MethodChoice,
-    "inertials": BodyInertials,
-    "robust": RobustInfo,
-    "online": OnlineInfo,
-    "cv": CrossValidation,
-    "joint_noise": JointNoiseEffect,
+    "map": records.MapInfo,
+    "cop_offset": records.CopOffset,
+    "scale": records.ScaleAnchor,
+    "choice": records.MethodChoice,
+    "inertials": records.BodyInertials,
+    "robust": records.RobustInfo,
+    "online": records.OnlineInfo,
+    "cv": records.CrossValidation,
+    "joint_noise": records.JointNoiseEffect,
 }
 
 
@@ -102,7 +86,7 @@ def _record_from_json(cls: type, d: dict, where: str) -> Any:
     return cls(**kw)
 
 
-def fit_to_json(fit: Fit) -> dict:
+def fit_to_json(fit: records.Fit) -> dict:
     """The fit file's content as a JSON-ready dict."""
     robot = fit.robot
     bodies = robot.body_names
@@ -187,7 +171,7 @@ def _bodies_from_json(d: dict, n: int, path: Path):
     )
 
 
-def save_fit(fit: Fit, path: str | Path) -> None:
+def save_fit(fit: records.Fit, path: str | Path) -> None:
     """Write a fit as JSON, atomically."""
     with atomic_open(path, "w") as fh:
         json.dump(fit_to_json(fit), fh, indent=1, allow_nan=False)
@@ -200,7 +184,7 @@ def _v1_records(extra: dict, method: str) -> dict[str, Any]:
     if "dof" in extra:
         out["sigma_dof"] = math.inf if extra["dof"] is None else float(extra["dof"])
     if "prior_scale_m" in extra:
-        out["map"] = MapInfo(
+        out["map"] = records.MapInfo(
             prior_scale=float(extra["prior_scale_m"]),
             prior_scale_by=str(extra.get("prior_scale_chosen_by", "given")),
             noise=float(extra.get("noise_m", math.nan)),
@@ -210,12 +194,12 @@ def _v1_records(extra: dict, method: str) -> dict[str, Any]:
             cv_curve=extra.get("cv_curve"),
         )
     if "bias" in extra:
-        out["cop_offset"] = CopOffset(
+        out["cop_offset"] = records.CopOffset(
             np.array(extra["bias"], float), np.array(extra.get("bias_std", [0, 0]), float)
         )
     if "robust" in extra:
         r = extra["robust"]
-        out["robust"] = RobustInfo(
+        out["robust"] = records.RobustInfo(
             k=float(r["k"]),
             scale=float(r["scale_m"]),
             iterations=int(r["iterations"]),
@@ -225,7 +209,7 @@ def _v1_records(extra: dict, method: str) -> dict[str, Any]:
     if "bodies" in extra:
         names = list(extra["bodies"])
         rows = [extra["bodies"][n] for n in names]
-        out["inertials"] = BodyInertials(
+        out["inertials"] = records.BodyInertials(
             masses=np.array([b["mass_kg"] for b in rows], float),
             coms=np.array([b["com_m"] for b in rows], float),
             coms_link=np.array([b.get("com_link_m", b["com_m"]) for b in rows], float),
@@ -247,7 +231,7 @@ def _v1_records(extra: dict, method: str) -> dict[str, Any]:
         )
     if "cv" in extra:
         c = extra["cv"]
-        out["cv"] = CrossValidation(
+        out["cv"] = records.CrossValidation(
             int(c["k"]), c["cop_rmse_m"], c["cop_rmse_folds_m"], c["noise_m"], c["model_rmse_m"]
         )
     if "truth_cop_rmse_m" in extra:
@@ -260,11 +244,13 @@ def _v1_method(method: str) -> str:
     return {"least-squares": "ls"}.get(base, base)
 
 
-def _method(text: str, path: Path) -> Method:
+def _method(text: str, path: Path) -> records.Method:
     """The fit's method, one of ``METHODS`` (DataError naming the file otherwise)."""
-    if text not in METHODS:
-        raise DataError(f"{path}: field 'method': {text!r} is not one of {', '.join(METHODS)}")
-    return cast(Method, text)
+    if text not in records.METHODS:
+        raise DataError(
+            f"{path}: field 'method': {text!r} is not one of {', '.join(records.METHODS)}"
+        )
+    return cast(records.Method, text)
 
 
 def _matrix(
@@ -299,7 +285,7 @@ def _read(path: Path) -> dict:
         raise
 
 
-def load_fit(path: str | Path) -> Fit:
+def load_fit(path: str | Path) -> records.Fit:
     """Read a fit written by ``save_fit`` (this version, and versions 1 and 2 with a warning
     ``OLD_FORMAT``: a not-determined covariance they stored as zeros is read as nan again);
     reloads its robot."""
@@ -333,11 +319,11 @@ def load_fit(path: str | Path) -> Fit:
             fields["sigma_dof"] = math.inf if dof == "inf" else (None if dof is None else dof)
             fields["warnings"] = tuple(str(w) for w in data.get("warnings", []))
             fields["kinds"] = tuple(
-                _record_from_json(KindFit, k, f"{path}: field 'kinds'")
+                _record_from_json(records.KindFit, k, f"{path}: field 'kinds'")
                 for k in data.get("kinds", [])
             )
             fields["nuisance"] = tuple(
-                _record_from_json(NuisanceEstimate, e, f"{path}: field 'nuisance'")
+                _record_from_json(records.NuisanceEstimate, e, f"{path}: field 'nuisance'")
                 for e in data.get("nuisance", [])
             )
             if data.get("total_mass") is not None:
@@ -357,7 +343,7 @@ def load_fit(path: str | Path) -> Fit:
         sigma_null = data["sigma_hat"] is None
         if data["format"] != FIT_FORMAT and sigma_null:
             cov = np.full((n, n), np.nan)  # versions 1, 2 wrote a not-determined cov as zeros
-        fit = Fit(
+        fit = records.Fit(
             robot=robot,
             r=r,
             r_prior=r_prior,
@@ -372,9 +358,9 @@ def load_fit(path: str | Path) -> Fit:
             mae=nan if data["mae"] is None else float(data["mae"]),
             rtol=float(data["rtol"]),
             method=method,
-            base=tuple(Combination.from_json(c) for c in data["base_combinations"]),
-            unidentifiable=tuple(Combination.from_json(c) for c in data["unidentifiable"]),
-            weak=tuple(Combination.from_json(c) for c in data.get("weak", [])),
+            base=tuple(records.Combination.from_json(c) for c in data["base_combinations"]),
+            unidentifiable=tuple(records.Combination.from_json(c) for c in data["unidentifiable"]),
+            weak=tuple(records.Combination.from_json(c) for c in data.get("weak", [])),
             **fields,
         )
         changed = _model_change(path, meta, robot)

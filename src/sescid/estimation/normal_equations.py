@@ -3,8 +3,8 @@
 The x/y regressor is accumulated in reduced coordinates (``Robot.reduction``: the structural
 null directions removed in closed form) and expanded exactly, so a stream of chunks gives the
 same sums as one array without storing Φ. Every sum runs in a fixed order, never BLAS's (whose
-order follows the CPU): the compiled product (``kinematics.gram``: FMAs in 8 lanes) for a large
-job, numpy one column at a time for a small one (``kinematics.use_kernels``: the job's size
+order follows the CPU): the compiled product (``kinematics.gram_columns``: FMAs in 8 lanes) for
+a large job, numpy one column at a time for a small one (``kinematics.use_kernels``: the job's size
 alone decides), so the same data give the same bits on every machine.
 """
 

@@ -15,6 +15,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from sescid.base import SEED_HELP, check_ranges, option
 from sescid.errors import OptionError, check_choice
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
@@ -36,13 +37,7 @@ Robust = bool | Literal["auto"]
 #: m, the largest prior scale or noise a MAP fit accepts (1 m on a SESC component is already a
 #: flat prior; a larger number is not in metres)
 MAX_SCALE = 100.0
-
-
-def _positive(name: str, value: float | None, what: str, upper: float = math.inf) -> None:
-    """OptionError ("must be <what>") unless ``value`` is None or a finite number in
-    (0, upper]."""
-    if value is not None and not (math.isfinite(value) and 0 < value <= upper):
-        raise OptionError(name, f"must be {what}, got {value}")
+_SCALE = f"a positive number of metres ≤ {MAX_SCALE:g}"
 
 
 @dataclass(frozen=True)
@@ -56,30 +51,45 @@ class LeastSquaresOptions:
 
 @dataclass(frozen=True)
 class MapOptions:
-    """MAP ("map") parameters: prior scale τ and noise σ (m; None = chosen by the data, each ≤
-    ``MAX_SCALE``), how τ is chosen (``select``, with ``folds`` for "cv"), whether a constant
-    CoP offset is fitted (``bias``), and the prior's shape: "sesc" (each SESC component ±τ m),
-    "bodies" (each body's mass ±τ and first moment ±τ·5 cm per unit mass, relative to CAD: τ is
-    then a fraction) or "auto" ("bodies": closer to the truth than "sesc" for the CoP and for
-    joint torques alike, in every case of docs/defaults.md)."""
+    """MAP ("map") parameters: prior scale τ and noise σ (None: chosen by the data), how τ is
+    chosen (``select``, with ``folds`` for "cv"), whether a constant CoP offset is fitted
+    (``bias``), and the prior's shape: "sesc" (each SESC component ±τ m), "bodies" (each body's
+    mass ±τ and first moment ±τ·5 cm per unit mass, relative to CAD: τ is then a fraction) or
+    "auto" ("bodies": closer to the truth than "sesc" for the CoP and for joint torques alike,
+    in every case of docs/defaults.md)."""
 
     method: ClassVar[MethodName] = "map"
 
-    prior_scale: float | None = None
-    noise: float | None = None
-    select: PriorSelect = "evidence"
-    folds: int = 5
-    bias: bool = False
-    prior: PriorChoice = "auto"
+    prior_scale: float | None = option(
+        None,
+        "map: prior standard deviation of each SESC component [m] (default: evidence).",
+        low=0, high=MAX_SCALE, low_open=True, what=_SCALE,
+    )  # fmt: skip
+    noise: float | None = option(
+        None,
+        "map/online: known noise scale [m for CoP data] (default: estimated).",
+        low=0, high=MAX_SCALE, low_open=True, what=_SCALE,
+    )  # fmt: skip
+    select: PriorSelect = option(
+        "evidence",
+        "map: choose the prior scale by marginal likelihood or 5-fold cross-validation.",
+        flag="--prior-select",
+    )
+    folds: int = option(
+        5, "map: folds of the cross-validation that chooses τ.", low=2, what="at least 2 folds"
+    )
+    bias: bool = option(False, "map: estimate constant CoP offsets b_x, b_y [m].")
+    prior: PriorChoice = option(
+        "auto",
+        "map: the CAD prior's shape: each SESC component ±τ m (sesc), or each body's mass ±τ "
+        "and first moment ±τ·5 cm per unit mass (bodies, τ relative); auto: bodies for data "
+        "with torques, sesc for the CoP alone.",
+    )
 
     def __post_init__(self) -> None:
-        what = f"a positive number of metres ≤ {MAX_SCALE:g}"
-        _positive("prior_scale", self.prior_scale, what, MAX_SCALE)
-        _positive("noise", self.noise, what, MAX_SCALE)
+        check_ranges(self)
         check_choice("select", self.select, PriorSelect)
         check_choice("prior", self.prior, PriorChoice)
-        if self.folds < 2:
-            raise OptionError("folds", f"cross-validation needs at least 2 folds, got {self.folds}")
         if self.select == "cv" and self.prior_scale is None and self.bias:
             raise OptionError("bias", "choosing the prior scale by cv does not fit a bias")
 
@@ -99,15 +109,30 @@ class ConsistentOptions:
 
     method: ClassVar[MethodName] = "consistent"
 
-    total_mass: float | None = None
-    mass_floor: float = 0.0
-    symmetric: bool = False
-    box_margin: float | None = None
-    prior_std: float | None = None
+    total_mass: float | None = option(
+        None, "consistent: weighed total mass [kg] (default: the model's)."
+    )
+    mass_floor: float = option(0.0, "consistent: lower bound on every body's mass [kg].")
+    symmetric: bool = option(False, "consistent: mirrored bodies (*_R/*_L) equal.")
+    box_margin: float | None = option(
+        None, "consistent: grow the CoM boxes by this [m] (default 0, fallback boxes 0.02)."
+    )
+    prior_std: float | None = option(
+        None,
+        "consistent: trade data fit against a Gaussian prior on the relative deviation from "
+        "CAD of this std (e.g. 0.05) instead of fitting the data first.",
+        flag="--cad-std",
+    )
     com_scale: float = COM_SCALE
     fit_tol: float = FIT_TOL
     boxes: dict[str, tuple] | None = None
-    via: Via = "auto"
+    via: Via = option(
+        "auto",
+        "consistent: 'prior' weighs the data against a CAD prior on masses/CoMs whose scale the "
+        "data choose (controller-ready; a weighed total mass goes where the data put it); 'fit' "
+        "reproduces the fit first (least squares follows the noise); 'auto': 'fit' for a MAP "
+        "fit, else 'prior'. --cad-std fixes the prior scale instead.",
+    )
 
     def __post_init__(self) -> None:
         check_choice("via", self.via, Via)
@@ -183,84 +208,94 @@ def map_settings(method: MethodOptions) -> MapOptions | None:
 
 @dataclass(frozen=True)
 class IdentifyOptions:
-    """What every method of ``identify`` is told, with the defaults the CLI shows.
-
-    ``rtol``: rank tolerance; ``weighted``: weigh rows by the data's standard-error columns;
-    ``cop_noise`` [m] / ``tau_noise`` [N·m]: known noise of a kind (None: estimated);
-    ``total_mass`` [kg]: weighed mass, the scale of torque rows (None: the model's, with a
-    warning when torques are fitted) and of the consistent masses; ``gravity_accel`` [m/s²]:
-    |g| behind torque rows; ``allow_exact``: fit even with no residual degrees of freedom (σ̂
-    and every standard error are then "not determined"); ``robust``: Huber IRLS ("auto": on for
-    torques without an approach side, whose static friction acts as bounded errors);
-    ``huber_k``: its threshold in σ; ``seed``: for cross-validation folds and Monte Carlo;
-    ``cv``: also score the method by k-fold cross-validation (``fit.cv``); ``joint_noise``
-    [rad]: also propagate joint-angle errors of this std by ``mc_draws`` refits
-    (``fit.joint_noise``); ``online_step``: fit recursively, this many poses per update
-    (``fit.online`` keeps the convergence history; ls, or map with prior scale and noise);
-    ``r_prior`` (N, 3) [m]: SESC vectors that fill what the data do not determine and centre
-    the MAP prior (None: the model's); ``tau_gains``: also a gain error per torque sensor, with
-    a prior N(0, ``gain_prior``²) (only their ratios come from the data); ``kinds``: use only
-    these measurement kinds of the data (``Kind``; None: all it has). Files only
-    (``sescid.identify`` on paths): ``imu_link``, the link whose ``imu_roll``/``imu_pitch``
-    columns give gravity (None: the profile's); ``allow_outside_limits``, accept poses outside
-    the model's joint limits with a warning (else an error names the first). ``com_height``
-    [m]: for balance data, which carry no scale (``estimation.anchor``), the CoM's known
-    distance from the support (its line) at the zero pose (None: the prior model's).
+    """What every method of ``identify`` is told: each field's help says what it means (the
+    CLI's flags are these fields). Not on the command line: ``huber_k``, the Huber threshold;
+    ``joint_noise`` [rad] (the CLI takes degrees); ``online_step`` (None: not online);
+    ``r_prior`` (N, 3) [m], SESC vectors that fill what the data do not determine and centre
+    the MAP prior (None: the model's); ``kinds`` (None: every kind the data have). ``imu_link``
+    and ``allow_outside_limits`` apply to files (``sescid.identify`` on paths).
     """
 
-    rtol: float = DEFAULT_RTOL
-    weighted: bool = False
-    cop_noise: float | None = None
-    tau_noise: float | None = None
-    total_mass: float | None = None
-    gravity_accel: float = STANDARD_GRAVITY
-    allow_exact: bool = False
-    robust: Robust = "auto"
-    huber_k: float = HUBER_K
-    seed: int = 0
-    cv: int | None = None
-    joint_noise: float | None = None
-    mc_draws: int = 30
-    online_step: int | None = None
+    rtol: float = option(
+        DEFAULT_RTOL, "Rank tolerance on singular values, relative to the largest (0 < rtol < 1)."
+    )
+    weighted: bool = option(
+        False, "Weight rows by their standard errors (cop_se_x/cop_se_y, tau_se_<joint>)."
+    )
+    cop_noise: float | None = option(
+        None,
+        "Known CoP noise standard deviation [m] (default: estimated from the data).",
+        low=0, low_open=True, what="a positive noise level",
+    )  # fmt: skip
+    tau_noise: float | None = option(
+        None,
+        "Known joint-torque noise standard deviation [N·m] (default: estimated).",
+        low=0, low_open=True, what="a positive noise level",
+    )  # fmt: skip
+    total_mass: float | None = option(
+        None,
+        "Weighed total mass [kg]: the scale of the joint-torque rows and of the consistent "
+        "masses (default: the model's, with a warning when torques are fitted).",
+    )
+    gravity_accel: float = option(
+        STANDARD_GRAVITY, "|g| behind the torque rows [m/s²] (local gravity).",
+        low=1, high=30, what="|g| in m/s² (1–30)",
+    )  # fmt: skip
+    allow_exact: bool = option(
+        False,
+        "Fit even when no degrees of freedom are left (σ̂ and standard errors: not determined).",
+    )
+    robust: Robust = option(
+        "auto",
+        "Huber IRLS, naming the down-weighted poses (default: on for torques without an "
+        "approach column, whose static friction acts as bounded errors; off otherwise).",
+    )
+    huber_k: float = option(HUBER_K, "Huber threshold [σ].", low=0, low_open=True)
+    seed: int = option(0, SEED_HELP, low=0)
+    cv: int | None = option(None, "Print the k-fold cross-validated error.", low=2)
+    joint_noise: float | None = option(
+        None,
+        "Monte-Carlo effect of joint-angle errors of this standard deviation [rad].",
+        low=0, high=math.pi / 2, low_open=True, what="an angle in (0, π/2] rad",
+    )  # fmt: skip
+    mc_draws: int = option(30, "MC draws.", low=2)
+    online_step: int | None = option(None, "Poses per online update.", low=1)
     r_prior: np.ndarray | None = None
-    tau_gains: bool = False
-    gain_prior: float = 0.1
+    tau_gains: bool = option(
+        False,
+        "Also estimate a gain error per torque sensor (only their ratios come from the data).",
+    )
+    gain_prior: float = option(
+        0.1, "Prior std of each torque gain error (relative), with --tau-gains.",
+        low=0, high=1, low_open=True, what="a relative std in (0, 1]",
+    )  # fmt: skip
     kinds: tuple[Kind, ...] | None = None
-    imu_link: str | None = None
-    allow_outside_limits: bool = False
-    com_height: float | None = None
+    imu_link: str | None = option(
+        None,
+        "Link carrying the IMU of the imu_roll/imu_pitch columns; they give the gravity "
+        "direction when there are no grav_x/y/z columns (default: the profile's).",
+    )
+    allow_outside_limits: bool = option(
+        False,
+        "Accept poses outside the model's joint limits (a warning stored in the fit); "
+        "simulated data (cop_x_true columns) get the warning without the flag.",
+    )
+    com_height: float | None = option(
+        None,
+        "Balance data (a robot on a line) carry no scale: the CoM's known distance from the "
+        "support line at the zero pose [m] (default: the model's).",
+        low=0, high=10, low_open=True, what="a distance in m (0–10)",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         check_rtol(self.rtol)
-        _positive("cop_noise", self.cop_noise, "a positive noise level")
-        _positive("tau_noise", self.tau_noise, "a positive noise level")
-        if not (math.isfinite(self.gravity_accel) and 1.0 <= self.gravity_accel <= 30.0):
-            raise OptionError(
-                "gravity_accel", f"must be |g| in m/s² (1–30), got {self.gravity_accel}"
-            )
+        check_ranges(self)
         check_choice("robust", self.robust, Robust)
-        _positive("huber_k", self.huber_k, "> 0 (a threshold in σ)")
-        if self.cv is not None and self.cv < 2:
-            raise OptionError("cv", f"needs at least 2 folds, got {self.cv}")
-        _positive("joint_noise", self.joint_noise, "an angle in (0, π/2] rad", math.pi / 2)
-        if self.mc_draws < 2:
-            raise OptionError(
-                "mc_draws", f"Monte Carlo needs at least 2 draws, got {self.mc_draws}"
-            )
-        if self.online_step is not None and self.online_step < 1:
-            raise OptionError("online_step", f"must be ≥ 1 pose, got {self.online_step}")
-        if self.com_height is not None and not (
-            math.isfinite(self.com_height) and 0 < self.com_height <= 10
-        ):
-            raise OptionError(
-                "com_height", f"must be a distance in m (0–10), got {self.com_height}"
-            )
         if self.kinds is not None:
             if not self.kinds:
                 raise OptionError("kinds", "must name some measurement kinds, got none")
             for k in self.kinds:
                 check_choice("kinds", k, Kind)
-        _positive("gain_prior", self.gain_prior, "a relative std in (0, 1]", 1.0)
 
     def with_overrides(self, **overrides: Any) -> IdentifyOptions:
         """A copy with fields replaced by keyword (None keeps a field; the copy checks its

@@ -6,7 +6,8 @@ The RMS follows from the normal equations' sums; the MAE needs each row's residu
 estimate, which only the poses give. Sums run in blocks of ``RESIDUAL_BLOCK`` poses counted from
 each source's first pose (the chunks a file arrives in do not matter: the same bits streamed or
 in memory), blocks in order, each in a fixed order: compiled for a large fit
-(``kinematics.residuals``, the job being the fit's poses), numpy for a small one; never BLAS.
+(``kinematics.cop_residual_sums``, the job being the fit's poses), numpy for a small one; never
+BLAS.
 """
 
 from __future__ import annotations
@@ -23,8 +24,7 @@ from sescid.estimation.block_sums import aligned
 from sescid.estimation.fit import Fit
 from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.estimation.pooled import for_support
-from sescid.kinematics import use_kernels
-from sescid.kinematics.residuals import cop_residual_sums, torque_residual_sums
+from sescid.kinematics import cop_residual_sums, torque_residual_sums, use_kernels
 
 #: poses per block of the residual pass
 RESIDUAL_BLOCK = 8192

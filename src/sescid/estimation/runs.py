@@ -23,7 +23,6 @@ from sescid.estimation.options import (
     AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
-    LeastSquaresOptions,
     MapOptions,
     MethodOptions,
 )
@@ -100,7 +99,7 @@ def run_method(
             robot, system, rtol=options.rtol, noise=options.noise(), r_prior=r_prior,
             allow_exact=options.allow_exact,
         )  # fmt: skip
-        if isinstance(method, LeastSquaresOptions) and compare:
+        if method.method == "ls" and compare:
             fit = _against_cad(robot, system, options, r_prior, fit)
     if scale is not None:
         fit = with_scale(fit, scale)

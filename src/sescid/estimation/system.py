@@ -28,9 +28,7 @@ from sescid.estimation.fit import NuisanceWhat
 from sescid.estimation.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
 from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
-from sescid.kinematics import use_kernels
-from sescid.kinematics.fused import reduced_order
-from sescid.kinematics.torque_sums import fold_torque
+from sescid.kinematics import fold_torque, reduced_order, use_kernels
 from sescid.robot import Robot
 from sescid.sesc import STANDARD_GRAVITY
 

@@ -3,9 +3,10 @@
 ``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
 ``read_cop_se`` (column conventions of ``sescid.base.columns``), ``save_fit``/``load_fit`` (the fit
 JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
-``export_mjcf``; ``sescid.io.export``), ``read_bag`` (a ROS bag and a mapping file → the raw log:
-joints, joint torques, foot forces; ``sescid.io.bags``, the ``bags`` extra). Outputs are never
-written over an input nor inside an input folder (``sescid.base.files``).
+``export_mjcf``; ``sescid.io.export``), ``pose_table`` (the pose list a bench reads), ``read_bag``
+(a ROS bag and a mapping file → the raw log: joints, joint torques, foot forces;
+``sescid.io.bags``, the ``bags`` extra). Outputs are never written over an input nor inside an
+input folder (``sescid.base.files``).
 """
 
 from sescid.base.columns import (
@@ -36,6 +37,7 @@ from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
 from sescid.io.measurements import rows_estimate
+from sescid.io.pose_table import PoseTable, pose_table, required_paper_convention
 from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
 from sescid.io.tables import iter_table, read_table, write_table
 
@@ -48,6 +50,7 @@ __all__ = [
     "FootSource",
     "JointSource",
     "PoseSource",
+    "PoseTable",
     "RawLogTable",
     "Segment",
     "Table",
@@ -57,21 +60,23 @@ __all__ = [
     "export_mjcf",
     "export_model",
     "export_urdf",
+    "iter_table",
     "load_fit",
     "load_mapping",
     "model_files",
     "parse_mapping",
-    "read_cop",
+    "pose_table",
     "read_bag",
+    "read_cop",
     "read_cop_se",
     "read_gravity",
     "read_joint_columns",
     "read_json",
     "read_poses",
     "read_session_reasons",
-    "rows_estimate",
     "read_table",
-    "iter_table",
+    "required_paper_convention",
+    "rows_estimate",
     "save_fit",
     "write_session",
     "write_table",

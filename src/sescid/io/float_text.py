@@ -146,6 +146,13 @@ def _pow5bits(e):
 
 
 @lazy_njit(cache=True, nogil=True, inline="always")
+def _drop_digit(vr, vp, vm, vr_tz, last):
+    """One step of Ryū's general case: the last digit dropped from vr, vp and vm; ``vr_tz``
+    stays True while every digit dropped before ``last`` was 0. (vr, vp, vm, vr_tz, last)."""
+    return vr // _U10, vp // _U10, vm // _U10, vr_tz and last == _U0, vr % _U10
+
+
+@lazy_njit(cache=True, nogil=True, inline="always")
 def _shortest(mantissa, exponent, inv, fwd):
     """Ryū's d2d: (digits, decimal exponent) of the shortest exact decimal of a finite,
     non-zero double given its IEEE mantissa and biased exponent fields."""
@@ -197,19 +204,11 @@ def _shortest(mantissa, exponent, inv, fwd):
     if vm_tz or vr_tz:  # the general case (rare): ties and exact bounds
         while vp // _U10 > vm // _U10:
             vm_tz = vm_tz and (vm % _U10 == _U0)
-            vr_tz = vr_tz and (last == _U0)
-            last = vr % _U10
-            vr //= _U10
-            vp //= _U10
-            vm //= _U10
+            vr, vp, vm, vr_tz, last = _drop_digit(vr, vp, vm, vr_tz, last)
             removed += 1
         if vm_tz:
             while vm % _U10 == _U0:
-                vr_tz = vr_tz and (last == _U0)
-                last = vr % _U10
-                vr //= _U10
-                vp //= _U10
-                vm //= _U10
+                vr, vp, vm, vr_tz, last = _drop_digit(vr, vp, vm, vr_tz, last)
                 removed += 1
         if vr_tz and last == _U5 and vr % _U2 == _U0:
             last = np.uint64(4)  # round half to even

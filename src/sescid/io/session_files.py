@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import MODEL_COP_COLUMNS
 from sescid.base.files import atomic_open, check_outputs, read_json
 from sescid.errors import SescidError
 from sescid.estimation.fit_json import save_fit
+from sescid.io.pose_table import pose_table
 from sescid.io.tables import write_table
 
 SESSION_FORMAT = "sescid-session/1"
@@ -65,21 +65,12 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     names = robot.joint_names
     q = result.poses
-    cols: dict[str, np.ndarray] = {"pose": result.pose_ids}
     stance = {s.pose: s.stance for s in result.steps}
+    support = None
     if result.stances:  # over stances: each pose's stance, its model CoP in that frame
-        cols["support"] = np.array([stance[p] for p in result.pose_ids])
-    cols |= {j: q[:, k] for k, j in enumerate(names)}
-    cols |= {f"{j}_deg": np.degrees(q[:, k]) for k, j in enumerate(names)}
-    servo = robot.profile.servo
-    if servo is not None:
-        try:
-            ticks = servo.to_ticks(q)
-            cols |= {f"{j}_ticks": ticks[:, k] for k, j in enumerate(names)}
-        except SescidError:
-            pass  # angles beyond the servo's range: the radians are still there
-    cop = robot.cop(q) if not result.stances else _stance_cops(robot, result, cols["support"])
-    cols |= {MODEL_COP_COLUMNS[k]: cop[:, k] for k in range(2)}
+        support = np.array([stance[p] for p in result.pose_ids])
+    cop = robot.cop(q) if support is None else _stance_cops(robot, result, support)
+    cols = pose_table(robot, q, pose=result.pose_ids, support=support, cop=cop).columns
     write_table(paths["poses"], cols)
     write_table(paths["raw"], result.raw)
     measured = result.measured.columns(names)

@@ -2,22 +2,19 @@
 once, and the regressor products built on them.
 
 The chain runs block by block in structure-of-arrays layout, its inner loops across poses;
-sin/cos come from a polynomial kernel (``trig``). Each body's joint contributes
+sin/cos come from a polynomial kernel. Each body's joint contributes
 
     M_b(θ) = C_b Rot(a_b, θ) = A0_b + sin θ · A1_b + (1 − cos θ) · A2_b,   θ = coef_b q_j + off_b
 
 with A0 = C, A1 = C K, A2 = C K² and K the cross-product matrix of the axis (Rodrigues).
 Modules: ``tree`` (the flat arrays), ``compile`` (numba loaded on first use, and which jobs
-run in numpy: by their size alone), ``simd`` (explicit FMAs and 8-lane vectors: the same bits on
-every CPU), ``trig`` and ``trig_fma``, ``chains`` (the chain: kernel beside its numpy twin),
-``cop`` (x, y of the CoM of many poses), ``reduced`` (the regressor without its structural null
-space), ``gram`` (sums of products in a fixed order), ``fused`` (the CoP's normal equations in one
-pass), ``torque_plan``, ``torque`` and ``torque_sums`` (the joint torques' normal equations in the
-same pass), ``torque_values`` (holding torques and their regressor rows) and ``residuals`` (a
-fit's residual pass).
+run in numpy: by their size alone) and the private ``_kernels`` package (each compiled kernel
+beside its numpy twin: the chain, the CoM's x, y, the reduced columns, the normal equations'
+products of the CoP and the joint torques, holding torques and a fit's residual pass), whose
+public names are these.
 """
 
-from sescid.kinematics.chains import (
+from sescid.kinematics._kernels.chains import (
     CHAIN_BLOCK,
     Workspace,
     chain,
@@ -26,6 +23,28 @@ from sescid.kinematics.chains import (
     regressor,
     regressor_columns,
 )
+from sescid.kinematics._kernels.cop import com_rows, com_sum, cop_xy
+from sescid.kinematics._kernels.fused import (
+    GRAM_BLOCK,
+    add_gram_reduced,
+    augmented_size,
+    gram_reduced,
+    reduced_order,
+    split_augmented,
+)
+from sescid.kinematics._kernels.gram import gram_columns, gram_numpy, padded
+from sescid.kinematics._kernels.reduced import Reduction, reduced_columns, reduction
+from sescid.kinematics._kernels.residuals import cop_residual_sums, torque_residual_sums
+from sescid.kinematics._kernels.torque_plan import TorquePlan, torque_plan
+from sescid.kinematics._kernels.torque_sums import (
+    TorqueBlock,
+    add_gram_fused,
+    fold_torque,
+    gram_fused,
+    torque_size,
+)
+from sescid.kinematics._kernels.torque_values import torque_rows, torque_values
+from sescid.kinematics._kernels.trig import MAX_ANGLE, SMALL_ANGLE, reducible
 from sescid.kinematics.compile import (
     NUMPY_JOB,
     cache_folder,
@@ -37,12 +56,7 @@ from sescid.kinematics.compile import (
     prefer_kernels,
     use_kernels,
 )
-from sescid.kinematics.cop import com_rows, com_sum, cop_xy
-from sescid.kinematics.fused import GRAM_BLOCK, augmented_size, gram_reduced, split_augmented
-from sescid.kinematics.gram import gram_columns, gram_numpy, padded
-from sescid.kinematics.reduced import Reduction, reduced_columns, reduction
 from sescid.kinematics.tree import Tree, as_poses
-from sescid.kinematics.trig import MAX_ANGLE, SMALL_ANGLE, reducible
 
 __all__ = [
     "CHAIN_BLOCK",
@@ -51,8 +65,12 @@ __all__ = [
     "NUMPY_JOB",
     "SMALL_ANGLE",
     "Reduction",
+    "TorqueBlock",
+    "TorquePlan",
     "Tree",
     "Workspace",
+    "add_gram_fused",
+    "add_gram_reduced",
     "as_poses",
     "augmented_size",
     "cache_folder",
@@ -61,10 +79,13 @@ __all__ = [
     "com_rows",
     "com_sum",
     "compiled",
+    "cop_residual_sums",
     "cop_xy",
     "counting_compiles",
+    "fold_torque",
     "forward",
     "gram_columns",
+    "gram_fused",
     "gram_numpy",
     "gram_reduced",
     "lazy_njit",
@@ -73,10 +94,16 @@ __all__ = [
     "padded",
     "prefer_kernels",
     "reduced_columns",
+    "reduced_order",
     "reducible",
     "reduction",
     "regressor",
     "regressor_columns",
     "split_augmented",
+    "torque_plan",
+    "torque_residual_sums",
+    "torque_rows",
+    "torque_size",
+    "torque_values",
     "use_kernels",
 ]

@@ -46,8 +46,8 @@ class _LazyKernel:
 
 
 class _LazyIntrinsic:
-    """A placeholder for an intrinsic of ``sescid.kinematics.simd`` (which imports numba): the
-    group's kernels see the real intrinsic once ``load_group`` swapped it in."""
+    """A placeholder for an intrinsic of ``SIMD`` (a module that imports numba): the group's
+    kernels see the real intrinsic once ``load_group`` swapped it in."""
 
     def __init__(self, name: str):
         self.name = name
@@ -58,6 +58,8 @@ class _LazyIntrinsic:
 
 #: group → its kernels not yet swapped for numba dispatchers (a registry, like a cache)
 _LAZY: dict[str, list[_LazyKernel]] = {}
+#: group → its numba dispatchers, once swapped in
+_LOADED: dict[str, list[Any]] = {}
 _SWAP_LOCK = threading.Lock()
 
 
@@ -78,6 +80,7 @@ def load_group(group: str) -> None:
         if not kernels:
             return
         swapped: dict[int, Any] = {id(k): _dispatcher(k, numba) for k in kernels}
+        _LOADED.setdefault(group, []).extend(swapped.values())
         simd: Any = None
         for name, module in list(sys.modules.items()):
             if module is None or not (name == group or name.startswith(group + ".")):
@@ -88,7 +91,7 @@ def load_group(group: str) -> None:
                     space[attr] = swapped[id(value)]
                 elif isinstance(value, _LazyIntrinsic):
                     if simd is None:
-                        simd = importlib.import_module("sescid.kinematics.simd")
+                        simd = importlib.import_module(SIMD)
                     space[attr] = getattr(simd, value.name)
 
 
@@ -264,8 +267,8 @@ def lazy_njit(group: str | None = None, **options: Any) -> Callable[[Callable], 
 
 
 def simd_intrinsic(name: str) -> Any:
-    """A module-level stand-in for ``sescid.kinematics.simd.<name>`` in a kernel module of the
-    kinematics group (the real intrinsic replaces it when the group loads)."""
+    """A module-level stand-in for ``SIMD``'s ``<name>`` in a kernel module of the kinematics
+    group (the real intrinsic replaces it when the group loads)."""
     return _LazyIntrinsic(name)
 
 
@@ -276,14 +279,15 @@ def loaded(group: str) -> bool:
 
 #: the group of the kinematics kernels (they call each other across this package's modules)
 GROUP = "sescid.kinematics"
+#: the module of the SIMD intrinsics (imports numba and llvmlite: loaded with the kernels)
+SIMD = "sescid.kinematics._kernels.simd"
 
 
 def cache_folder() -> str | None:
     """The folder of numba's on-disk cache of the kinematics kernels (once loaded), or None
     where they have none (no writable folder: they compile in every process)."""
-    from sescid.kinematics import chains
-
-    cache: Any = getattr(chains._chain_block, "_cache", None)
+    dispatchers = _LOADED.get(GROUP) or [None]
+    cache: Any = getattr(dispatchers[0], "_cache", None)
     path = getattr(cache, "_cache_path", None)
     return None if path is None or type(cache).__name__ == "NullCache" else str(path)
 

@@ -61,7 +61,7 @@ from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape, S
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 from sescid.model.mjcf_joints import MjcfJoints, robot_joints
-from sescid.model.tree import RobotModel, reroot, rot_axis
+from sescid.model.tree import RobotModel, rooted_model, rot_axis
 
 
 def _pose(pos, quat) -> np.ndarray:
@@ -198,24 +198,16 @@ def build_model(path: str | Path, support: str) -> RobotModel:
     in_robot = [b for b in range(1, m.nbody) if int(m.body_rootid[b]) == root]
     joints = robot_joints(path, m, in_robot, joint_names)
     graph = mjcf_graph(path, m, in_robot, joints)
-    bodies, link_frames = reroot(graph, support)
-    if not sum(b.mass for b in bodies) > 0:
-        raise ModelError(f"{path}: the robot has no mass")
-    return RobotModel(
+    return rooted_model(
+        graph,
+        support,
+        lambda frames: _shapes(spec, m, body_names, set(in_robot), frames),
         name=spec.modelname or path.stem,
-        path=path.resolve(),
         format="mjcf",
-        support=support,
         joint_names=joints.names,
         joint_limits=joints.limits,
-        bodies=bodies,
-        link_frames=link_frames,
-        root_rotation=np.eye(3),
-        root_origin=np.zeros(3),
         model_root=body_names[root],
-        shapes=_shapes(spec, m, body_names, set(in_robot), link_frames),
         notes=notes + joints.notes,
-        inertials={n: f.inertial for n, f in graph.frames.items() if f.inertial is not None},
     )
 
 

@@ -20,10 +20,10 @@ direction (s = +1) or against it (s = −1, the parent side becomes the child).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -193,3 +193,26 @@ def reroot(graph: Graph, support: str) -> tuple[list[Body], dict[str, tuple[int,
             )
         )
     return bodies, frames
+
+
+def rooted_model(
+    graph: Graph, support: str, shapes: Callable[[dict], list[Shape]], **fields: Any
+) -> RobotModel:
+    """The model of ``graph`` rooted at the frame ``support`` (``reroot``; the root body at the
+    support frame's origin, unrotated), with the file's inertials; ``shapes(link_frames)`` its
+    shapes in body frames; ``fields``: the file's name, format, joints, limits, root, notes.
+    ModelError for a robot without mass."""
+    bodies, link_frames = reroot(graph, support)
+    if not sum(b.mass for b in bodies) > 0:
+        raise ModelError(f"{graph.source}: the robot has no mass (no inertial with mass > 0)")
+    return RobotModel(
+        path=Path(graph.source).resolve(),
+        support=support,
+        bodies=bodies,
+        link_frames=link_frames,
+        root_rotation=np.eye(3),
+        root_origin=np.zeros(3),
+        shapes=shapes(link_frames),
+        inertials={n: f.inertial for n, f in graph.frames.items() if f.inertial is not None},
+        **fields,
+    )

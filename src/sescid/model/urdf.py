@@ -15,7 +15,7 @@ import numpy as np
 from sescid.errors import ModelError
 from sescid.model.geometry import BOX, CYLINDER, MESH, SPHERE, Shape, ShapeRole
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
-from sescid.model.tree import RobotModel, reroot
+from sescid.model.tree import RobotModel, rooted_model
 from sescid.model.urdf_check import UrdfTree, check_urdf, finite
 from sescid.model.urdf_parse import load_urdf, parse_inertial
 from sescid.model.urdf_records import Link, Urdf
@@ -57,24 +57,16 @@ def build_model(path: str | Path, support: str) -> RobotModel:
     path = Path(path)
     tree = check_urdf(path, load_urdf(path), support)
     graph = urdf_graph(path, tree)
-    bodies, link_frames = reroot(graph, support)
-    if not sum(b.mass for b in bodies) > 0:
-        raise ModelError(f"{path}: the robot has no mass (no <inertial> with mass > 0)")
-    return RobotModel(
+    return rooted_model(
+        graph,
+        support,
+        lambda frames: _shapes(path, tree.links, frames),
         name=tree.name or path.stem,
-        path=path.resolve(),
         format="urdf",
-        support=support,
         joint_names=tree.joint_names,
         joint_limits=tree.limits,
-        bodies=bodies,
-        link_frames=link_frames,
-        root_rotation=np.eye(3),
-        root_origin=np.zeros(3),
         model_root=tree.root,
-        shapes=_shapes(path, tree.links, link_frames),
         notes=tree.notes,
-        inertials={n: f.inertial for n, f in graph.frames.items() if f.inertial is not None},
     )
 
 

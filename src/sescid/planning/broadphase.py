@@ -16,7 +16,7 @@ from sescid.planning.capsule_kernels import (
     BodySpheres,
     BroadPhase,
     CapsuleEnds,
-    _broad,
+    broad_phase_kernel,
 )
 from sescid.planning.collision import Capsules
 from sescid.robot import Robot
@@ -48,7 +48,7 @@ def collision_free_poses(robot: Robot, cap: Capsules, q: np.ndarray) -> np.ndarr
 def _check(cap: Capsules, rot: np.ndarray, org: np.ndarray, out: np.ndarray) -> None:
     """The kernel on poses; then the body pairs re-ordered by how many poses they rejected."""
     phase = _phase(cap, rot.shape[1])
-    _broad(rot, org, phase, out)
+    broad_phase_kernel(rot, org, phase, out)
     order = np.argsort(-phase.body_pairs.hits, kind="stable")  # most rejecting first, next call
     for a in phase.body_pairs:
         a[:] = a[order]

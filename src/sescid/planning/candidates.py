@@ -75,6 +75,14 @@ class Candidates:
     #: (n, 4) double support: the free sole's placement x, y [m], cos ψ, sin ψ on the floor
     placement: np.ndarray | None = None
 
+    @classmethod
+    def counted(cls, counts: np.ndarray, **fields) -> Candidates:
+        """Candidates whose funnel is ``counts`` (5,): poses drawn, CoP in the box, stable,
+        clear of the ground, free of self-collision; ``fields``: the rest."""
+        c = [int(x) for x in counts]
+        return cls(n_sampled=c[0], n_box=c[1], n_stable=c[2], n_ground=c[3], n_free=c[4],
+                   **fields)  # fmt: skip
+
     @property
     def acceptance(self) -> float:
         """Fraction of raw draws that are stable, ground-clear and collision free."""
@@ -173,6 +181,12 @@ class _Run:
             self.cops.append(cop)
 
 
+def first_empty(counts: np.ndarray, stages: tuple[str, ...]) -> str:
+    """The first of the funnel's ``stages`` (after the draws: ``counts[1:]``, in order) that no
+    draw passed; the last when each passed some."""
+    return next((s for c, s in zip(counts[1:], stages, strict=False) if c == 0), stages[-1])
+
+
 def candidates(
     robot: Robot,
     n: int,
@@ -221,20 +235,15 @@ def candidates(
             rate = run.counts[4] / drawn if run.counts[4] else 0.0
             want = 1.05 * left / rate + 500 if rate else 5_000  # ≤ 4× the last: rates climb
             size = int(min(100_000, 4 * size, max(1_000, want)))
-    c = run.counts
-    return Candidates(
+    return Candidates.counted(
+        run.counts,
         q=np.concatenate(run.qs)[:n],
         cop=np.concatenate(run.cops)[:n],
         limits=lim,
         half_extents=half,
-        n_sampled=int(c[0]),
-        n_stable=int(c[2]),
-        n_ground=int(c[3]),
-        n_free=int(c[4]),
         capsules=run.cap,
         sampler=used,
         centre=run.centre,
-        n_box=int(c[1]),
         compliance=opt.compliance,
     )
 
@@ -294,13 +303,9 @@ def _nothing(run: _Run) -> str:
             "alone: hold it in a gantry (--mount gantry --kinds tau, by its pelvis or torso), "
             "widen the joint limits, or stand it on another foot"
         )
-    stage = (
-        "the compliant-robot margin (stiffer servos or a stiffer sole in the profile, or --rigid)"
-        if c[2] == 0
-        else "the floor check"
-        if c[3] == 0
-        else "self-collision"
-    )
+    stage = first_empty(c, ("the stability box",
+        "the compliant-robot margin (stiffer servos or a stiffer sole in the profile, or --rigid)",
+        "the floor check", "self-collision"))  # fmt: skip
     return (
         f"no pose of {r.name} passes every check: of {c[0]} draws moved over the foot by the "
         f"CoM Jacobian {c[1]} had their CoP in the box, {c[2]} kept the compliant margin, "

@@ -88,7 +88,7 @@ def _seg_dist2(a, b, c, d):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True, nogil=True)
-def _broad(rot, org, phase, out):  # pragma: no cover - compiled
+def broad_phase_kernel(rot, org, phase, out):  # pragma: no cover - compiled
     """out[k] = True where no checked capsule pair of pose k intersects. ``rot`` (n, N, 3, 3),
     ``org`` (n, N, 3) from forward kinematics; ``phase`` a ``BroadPhase`` (its body pairs'
     ``hits`` counted)."""
@@ -153,7 +153,7 @@ def _broad(rot, org, phase, out):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True, nogil=True)
-def _first_contact(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
+def first_contact_kernel(w0, w1, reach, pi, pj, out):  # pragma: no cover - compiled
     """out[k] = index of the first capsule pair closer than its reach in pose k, or −1.
 
     Closest points of two segments (clamped parameters, as in ``segment_distance``).

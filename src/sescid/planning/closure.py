@@ -130,7 +130,7 @@ def close_chain(
     """(q (n, nq), closed (n,)): the loop's joints of poses q (n, nq) [rad] moved by Newton's
     method until the free sole frame sits at ``target`` (n, 4: x, y [m], cos ψ, sin ψ) on the
     floor (module docstring); ``closed`` where it converged to ``CLOSE_TOL``."""
-    from sescid.planning.closure_kernels import _newton
+    from sescid.planning.closure_kernels import newton_kernel
 
     q = np.array(q, dtype=float, copy=True).reshape(-1, robot.nq)
     target = np.ascontiguousarray(target, dtype=float).reshape(-1, 4)
@@ -148,7 +148,7 @@ def close_chain(
         rot, org = robot.forward(q[active])
         m = len(active)
         err, step, up = np.empty((m, 6)), np.empty((m, len(loop.cols))), np.empty(m)
-        _newton(rot, org, loop.body, loop.rot, loop.centre, loop.path, col_of, axis,
+        newton_kernel(rot, org, loop.body, loop.rot, loop.centre, loop.path, col_of, axis,
                 target[active], loop.floor, _DAMP, err, step, up)  # fmt: skip
         done = np.all(np.abs(err) <= CLOSE_TOL, axis=1) & (up > 2.0)
         closed[active[done]] = True

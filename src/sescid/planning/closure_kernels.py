@@ -16,7 +16,7 @@ from sescid.kinematics import lazy_njit
 
 
 @lazy_njit(cache=True, nogil=True)
-def _newton(rot, org, body, frame, centre, path, jcol, axis, target, floor, damp, err, step,
+def newton_kernel(rot, org, body, frame, centre, path, jcol, axis, target, floor, damp, err, step,
             up):  # fmt: skip  # pragma: no cover - compiled
     """For each pose k: ``err[k]`` (6,) the free sole frame's position error [m] and rotation
     error (the skew part of R R_tᵀ: sin θ · axis) from ``target[k]`` (x, y, cos ψ, sin ψ) on the

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
-from sescid.planning.capsule_kernels import _first_contact
+from sescid.planning.capsule_kernels import first_contact_kernel
 from sescid.robot import Robot
 
 _CAPSULE_RMAX = 0.025  #: m, largest capsule radius used to cover a box cross-section
@@ -263,7 +263,9 @@ def first_contact(cap: Capsules, rot, org, chunk: int = 4096) -> np.ndarray:
     reach = cap.radius[pi] + cap.radius[pj]
     for s in range(0, n, chunk):
         w0, w1 = cap.world(rot[s : s + chunk], org[s : s + chunk])
-        _first_contact(np.ascontiguousarray(w0), np.ascontiguousarray(w1), reach, pi, pj, out[s:])
+        first_contact_kernel(
+            np.ascontiguousarray(w0), np.ascontiguousarray(w1), reach, pi, pj, out[s:]
+        )
     return out
 
 

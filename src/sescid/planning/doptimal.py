@@ -62,7 +62,7 @@ def projected_regressor(robot: Robot, q, basis: np.ndarray, chunk: int = 50_000)
     return out
 
 
-def _logdet2(s: np.ndarray) -> np.ndarray:
+def logdet2(s: np.ndarray) -> np.ndarray:
     """Log det(I + S) for S (n, 3) = (s00, s01, s11) (nan where not positive)."""
     det = (1.0 + s[:, 0]) * (1.0 + s[:, 2]) - s[:, 1] * s[:, 1]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -92,7 +92,7 @@ class Selection:
     passes: int = 0  #: exchange passes
 
 
-class _Design:
+class GreedyDesign:
     """Rank-2 bookkeeping for D-optimal search over candidates A (n, 2, p).
 
     Keeps M⁻¹ and, for every candidate, S_i = A_i M⁻¹ A_iᵀ (stored as (s00, s01, s11)) current
@@ -108,7 +108,7 @@ class _Design:
 
     def best(self) -> int:
         """The unchosen candidate of largest log det(I + S_i) (near-ties: the lowest index)."""
-        gain = _logdet2(self.s)
+        gain = logdet2(self.s)
         gain[self.chosen] = -np.inf
         return first_best(gain)
 
@@ -185,7 +185,7 @@ def select_d_optimal(
     s0[:, 0] = np.einsum("np,np->n", a[:, 0], a[:, 0]) / delta
     s0[:, 1] = np.einsum("np,np->n", a[:, 0], a[:, 1]) / delta
     s0[:, 2] = np.einsum("np,np->n", a[:, 1], a[:, 1]) / delta
-    st = _Design(a, np.eye(p) / delta, s0)
+    st = GreedyDesign(a, np.eye(p) / delta, s0)
     i = st.best()
     order = []
     for _ in range(k):
@@ -201,11 +201,11 @@ def select_d_optimal(
             minv = np.linalg.inv(m)
         n_short = min(shortlist, n - k)
         s_all = sandwich(a, minv)
-        score = np.nan_to_num(_logdet2(s_all), nan=-np.inf)
+        score = np.nan_to_num(logdet2(s_all), nan=-np.inf)
         score[order] = -np.inf
         top = np.lexsort((np.arange(n), -score))[:n_short]  # ties: the lower index
         idx = np.concatenate([np.asarray(order), top])
-        sub = _Design(a[idx], minv, s_all[idx])
+        sub = GreedyDesign(a[idx], minv, s_all[idx])
         sub.chosen[:k] = True
         pos_sub, swaps = exchange_pass(sub, k, rng)
         exchanges += swaps
@@ -228,14 +228,18 @@ def expected_cop_error(a_sel: np.ndarray, c_test: np.ndarray, sigma: float) -> f
     ``a_sel`` (K, 2, p) projected regressor of the chosen poses, ``c_test`` = Σ_t A_tᵀA_t / rows
     over test poses, ``sigma`` CoP noise [m]: σ · sqrt(trace(M⁻¹ c_test)). inf if M is singular.
     """
-    m = information(a_sel)
+    val = inverse_trace(information(a_sel), c_test)
+    return sigma * math.sqrt(val) if 0 < val < math.inf else math.inf
+
+
+def inverse_trace(m: np.ndarray, c: np.ndarray) -> float:
+    """trace(M⁻¹ C) for M (p, p) symmetric, by Cholesky; inf when M is not positive definite."""
     try:
         chol = np.linalg.cholesky(m)
     except np.linalg.LinAlgError:
         return math.inf
-    z = np.linalg.solve(chol, np.linalg.solve(chol, c_test).T)
-    val = float(np.trace(z))
-    return sigma * math.sqrt(val) if val > 0 else math.inf
+    z = np.linalg.solve(chol, np.linalg.solve(chol, c).T)
+    return float(np.trace(z))
 
 
 @one_blas_thread()

@@ -40,7 +40,7 @@ import numpy as np
 from sescid.errors import SescidError
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad, collision_free_poses
-from sescid.planning.candidates import CandidateOptions, Candidates, Sampling
+from sescid.planning.candidates import CandidateOptions, Candidates, Sampling, first_empty
 from sescid.planning.closure import Loop, close_chain, free_sole_frame, loop_of, placements
 from sescid.planning.collision import Capsules, collision_capsules
 from sescid.planning.com import com_state, level_cop
@@ -246,15 +246,9 @@ class _Double:
     def nothing(self) -> str:
         """Why no draw was kept: the first check that stops them all."""
         c = self.counts
-        stage = (
-            "the loop does not close within the joint limits"
-            if c[1] == 0
-            else "stability (the CoP inside both feet's support)"
-            if c[2] == 0
-            else "the floor check"
-            if c[3] == 0
-            else "self-collision"
-        )
+        stage = first_empty(c, ("the loop does not close within the joint limits",
+                                "stability (the CoP inside both feet's support)",
+                                "the floor check", "self-collision"))  # fmt: skip
         return (
             f"no pose of {self.robot.name} on both feet passes every check: of {c[0]} draws "
             f"{c[1]} closed the loop onto the floor within the limits, {c[2]} were stable, "
@@ -306,21 +300,16 @@ def double_candidates(
         rate = done / drawn
         want = 1.05 * (n - done) / rate + 500 if rate > 0 else _CHUNK
         size = int(min(_CHUNK, max(1_000, want)))
-    c = run.counts
     q = np.concatenate(run.qs)[:n]
-    out = Candidates(
+    out = Candidates.counted(
+        run.counts,
         q=q,
         cop=level_cop(robot, q),
         limits=lim,
         half_extents=run.half,
-        n_sampled=int(c[0]),
-        n_stable=int(c[2]),
-        n_ground=int(c[3]),
-        n_free=int(c[4]),
         capsules=run.cap,
         sampler=sampler,
         centre=robot.sole_centre,
-        n_box=int(c[1]),
         compliance=opt.compliance,
         mount="double",
     )

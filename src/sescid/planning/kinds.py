@@ -28,6 +28,7 @@ import numpy as np
 from sescid.errors import OptionError, check_choice
 from sescid.estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
 from sescid.kinematics import as_poses
+from sescid.planning.doptimal import inverse_trace
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
@@ -266,14 +267,8 @@ def expected_com_error(rows: BlockRows, idx, c_test: np.ndarray) -> float:
     candidates ``idx``: sqrt(trace(F⁻¹_zz c_test)), ``c_test`` (p, p) the test poses' mean
     CoM-row information (``per_row_information`` of their projected x/y regressor); inf when
     the poses do not determine every coordinate."""
-    s = schur_information(rows, idx)
-    try:
-        chol = np.linalg.cholesky(s)
-    except np.linalg.LinAlgError:
-        return math.inf
-    z = np.linalg.solve(chol, np.linalg.solve(chol, c_test).T)
-    val = float(np.trace(z))
-    return math.sqrt(val) if val > 0 else math.inf
+    val = inverse_trace(schur_information(rows, idx), c_test)
+    return math.sqrt(val) if 0 < val < math.inf else math.inf
 
 
 def random_com_error(

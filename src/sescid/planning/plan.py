@@ -13,19 +13,8 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError, check_choice
 from sescid.estimation import min_poses, structural_rank
 from sescid.kinematics import load_kernels
-from sescid.planning.com import level_cop
-from sescid.planning.doptimal import (
-    Selection,
-    expected_cop_error,
-    identifiable_basis,
-    information,
-    per_row_information,
-    projected_regressor,
-    random_cop_error,
-    select_d_optimal,
-)
+from sescid.planning import doptimal
 from sescid.planning.gantry import resolve_mount
-from sescid.planning.limits import UNLIMITED_RANGE
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,
@@ -34,25 +23,27 @@ from sescid.planning.plan_types import (
     default_candidates,
     options_with,
     plan_notes,
+    pose_plan,
     sampling_range,
     standing_candidates,
-    visiting_order,
 )
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
 
-def _choose(a: np.ndarray, count: int, select: Select, seed: int, keep: np.ndarray) -> Selection:
+def _choose(
+    a: np.ndarray, count: int, select: Select, seed: int, keep: np.ndarray
+) -> doptimal.Selection:
     """``count`` of the pool rows where ``keep``: D-optimal, or random (seeded)."""
     idx = np.flatnonzero(keep)
     if len(idx) < count:
         raise SescidError(f"only {len(idx)} candidates left to choose {count} poses from")
     if select == "d-optimal":
-        sel = select_d_optimal(a[idx], count, seed)
+        sel = doptimal.select_d_optimal(a[idx], count, seed)
         return dataclasses.replace(sel, index=idx[sel.index])
     pick = idx[np.random.default_rng(seed).choice(len(idx), count, replace=False)]
-    sign, ld = np.linalg.slogdet(information(a[pick]))
-    return Selection(index=pick, logdet=float(ld) if sign > 0 else -math.inf)
+    sign, ld = np.linalg.slogdet(doptimal.information(a[pick]))
+    return doptimal.Selection(index=pick, logdet=float(ld) if sign > 0 else -math.inf)
 
 
 @one_blas_thread()
@@ -101,34 +92,26 @@ def plan_poses(
     model = cand.compliance
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
-    basis = identifiable_basis(robot, pool_q)
-    a_pool = projected_regressor(robot, pool_q, basis)
-    c_test = per_row_information(projected_regressor(robot, test_q, basis))
+    basis = doptimal.identifiable_basis(robot, pool_q)
+    a_pool = doptimal.projected_regressor(robot, pool_q, basis)
+    c_test = doptimal.per_row_information(doptimal.projected_regressor(robot, test_q, basis))
     sel, n_checked, n_failed = checked_choice(
         lambda keep: _choose(a_pool, count, select, seed, keep), pool_q, opt
     )
-    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
     rng = np.random.default_rng(seed)
-    rand = random_cop_error(a_pool, count, c_test, opt.sigma, opt.random_draws, rng)
-    return PosePlan(
-        q=q_ord,
-        cop=level_cop(robot, q_ord),
+    rand = doptimal.random_cop_error(a_pool, count, c_test, opt.sigma, opt.random_draws, rng)
+    return pose_plan(
+        robot,
+        (cand, pool_q, sel),
+        opt,
+        (free, free_range),
         method=select,
-        expected_error=expected_cop_error(a_pool[sel.index], c_test, opt.sigma),
+        expected_error=doptimal.expected_cop_error(a_pool[sel.index], c_test, opt.sigma),
         random_error=float(np.median(rand)),
-        sigma=opt.sigma,
         rank=basis.shape[1],
-        logdet=sel.logdet,
-        path_unordered=path_unordered,
-        path_ordered=path_ordered,
-        candidates=cand,
-        selection=sel,
         basis=basis,
         a_pool=a_pool,
         c_test=c_test,
-        unlimited=free,
-        unlimited_range=free_range if free else UNLIMITED_RANGE,
-        compliance=model,
         n_checked=n_checked,
         n_check_failed=n_failed,
         notes=plan_notes(free, free_range, opt, model, (n_checked, n_failed)) + cand.notes,
@@ -152,9 +135,9 @@ def design_curve(
     for n_done, k in enumerate(ks):
         if progress is not None:
             progress(n_done, len(ks))
-        sel = select_d_optimal(a_pool, int(k), seed)
-        dopt.append(expected_cop_error(a_pool[sel.index], c_test, sigma))
-        r = random_cop_error(a_pool, int(k), c_test, sigma, draws, seed)
+        sel = doptimal.select_d_optimal(a_pool, int(k), seed)
+        dopt.append(doptimal.expected_cop_error(a_pool[sel.index], c_test, sigma))
+        r = doptimal.random_cop_error(a_pool, int(k), c_test, sigma, draws, seed)
         med.append(np.median(r))
         lo.append(np.percentile(r, 10))
         hi.append(np.percentile(r, 90))

@@ -11,38 +11,26 @@ from collections.abc import Callable
 import numpy as np
 
 from sescid.errors import OptionError, SescidError
+from sescid.planning import kinds
 from sescid.planning.blocks import schur_logdet, select_blocks
 from sescid.planning.candidates import Candidates, Mount
-from sescid.planning.com import level_cop
 from sescid.planning.doptimal import Selection, per_row_information, projected_regressor
 from sescid.planning.gantry import GantryOptions, gantry_candidates
-from sescid.planning.kinds import (
-    BlockRows,
-    DesignKinds,
-    TorqueRows,
-    block_rows,
-    design_kinds,
-    expected_com_error,
-    kind_basis,
-    min_block_poses,
-    random_com_error,
-)
-from sescid.planning.limits import UNLIMITED_RANGE
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,
     Select,
     checked_choice,
     plan_notes,
+    pose_plan,
     sampling_range,
     standing_candidates,
-    visiting_order,
 )
 from sescid.robot import Robot
 
 
 def choose_blocks(
-    rows: BlockRows, count: int, select: Select, seed: int, keep: np.ndarray
+    rows: kinds.BlockRows, count: int, select: Select, seed: int, keep: np.ndarray
 ) -> Selection:
     """``count`` of the candidates where ``keep``: D-optimal over their rows, or random
     (seeded, as ``plan._choose``)."""
@@ -80,7 +68,7 @@ def plan_kinds(
     progress: Callable[[int, int], None] | None = None,
 ) -> PosePlan:
     """``plan_poses`` for torque rows (module docstring); ``opt.n_candidates`` is set."""
-    spec = design_kinds(robot, opt.kinds, opt.sigma, opt.tau_noise, opt.tau_joints)
+    spec = kinds.design_kinds(robot, opt.kinds, opt.sigma, opt.tau_noise, opt.tau_joints)
     assert opt.n_candidates is not None
     if count < 2:
         raise OptionError("count", f"{count}: a torque offset needs at least 2 poses")
@@ -90,9 +78,9 @@ def plan_kinds(
     cand = _candidates(robot, opt.n_candidates + opt.n_test, seed, opt, mount, lim, progress)
     n = opt.n_candidates
     pool_q, test_q = cand.q[:n], cand.q[n:]
-    torques = TorqueRows(robot, pool_q, spec) if spec.has_tau else None
-    basis = kind_basis(robot, pool_q, spec, torques=torques)
-    need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
+    torques = kinds.TorqueRows(robot, pool_q, spec) if spec.has_tau else None
+    basis = kinds.kind_basis(robot, pool_q, spec, torques=torques)
+    need = kinds.min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
     if count < need:
         raise OptionError(
             "count",
@@ -100,40 +88,32 @@ def plan_kinds(
             f"{basis.shape[1]} combinations these kinds see and {spec.n_nuisance} sensor "
             f"offsets: at least {need} poses",
         )
-    rows = block_rows(robot, pool_q, spec, basis, torques)
+    rows = kinds.block_rows(robot, pool_q, spec, basis, torques)
     del torques
     c_test = per_row_information(projected_regressor(robot, test_q, basis))
     sel, n_checked, n_failed = checked_choice(
         lambda keep: choose_blocks(rows, count, select, seed, keep), pool_q, opt
     )
-    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
     rng = np.random.default_rng(seed)
-    rand = random_com_error(rows, count, c_test, opt.random_draws, rng)
-    model = cand.compliance
-    notes = plan_notes(free, free_range, opt, model, (n_checked, n_failed), mount == "gantry")
-    notes += cand.notes + _kind_notes(spec, mount)
-    return PosePlan(
-        q=q_ord,
-        cop=level_cop(robot, q_ord) if mount == "stand" else np.full((count, 2), np.nan),
+    rand = kinds.random_com_error(rows, count, c_test, opt.random_draws, rng)
+    notes = plan_notes(free, free_range, opt, cand.compliance, (n_checked, n_failed),
+                       mount == "gantry")  # fmt: skip
+    return pose_plan(
+        robot,
+        (cand, pool_q, sel),
+        opt,
+        (free, free_range),
+        cop=mount == "stand",
         method=select,
-        expected_error=expected_com_error(rows, sel.index, c_test),
+        expected_error=kinds.expected_com_error(rows, sel.index, c_test),
         random_error=float(np.median(rand)),
-        sigma=opt.sigma,
         rank=basis.shape[1],
-        logdet=sel.logdet,
-        path_unordered=path_unordered,
-        path_ordered=path_ordered,
-        candidates=cand,
-        selection=sel,
         basis=basis,
         a_pool=np.zeros((0, 2, basis.shape[1])),
         c_test=c_test,
-        unlimited=free,
-        unlimited_range=free_range if free else UNLIMITED_RANGE,
-        compliance=model,
         n_checked=n_checked,
         n_check_failed=n_failed,
-        notes=notes,
+        notes=notes + cand.notes + _kind_notes(spec, mount),
         kinds=spec.kinds,
         quantity="CoM x/y",
         mount=mount,
@@ -141,7 +121,7 @@ def plan_kinds(
     )
 
 
-def _kind_notes(spec: DesignKinds, mount: Mount) -> list[str]:
+def _kind_notes(spec: kinds.DesignKinds, mount: Mount) -> list[str]:
     """What the torque design assumed, one line each."""
     joints = spec.tau_joints
     out = [
@@ -160,7 +140,7 @@ def _kind_notes(spec: DesignKinds, mount: Mount) -> list[str]:
 
 
 def block_curve(
-    rows: BlockRows,
+    rows: kinds.BlockRows,
     c_test: np.ndarray,
     ks,
     seed: int = 0,
@@ -176,8 +156,8 @@ def block_curve(
         if progress is not None:
             progress(n_done, len(ks))
         sel = select_blocks(rows, int(k), seed)
-        out["d_optimal"].append(expected_com_error(rows, sel.index, c_test))
-        r = random_com_error(rows, int(k), c_test, draws, seed)
+        out["d_optimal"].append(kinds.expected_com_error(rows, sel.index, c_test))
+        r = kinds.random_com_error(rows, int(k), c_test, draws, seed)
         out["random_median"].append(float(np.median(r)))
         out["random_p10"].append(float(np.percentile(r, 10)))
         out["random_p90"].append(float(np.percentile(r, 90)))

@@ -12,8 +12,10 @@ from typing import Literal
 
 import numpy as np
 
+from sescid.base import check_ranges, option
 from sescid.errors import OptionError, SescidError
 from sescid.planning.candidates import CandidateOptions, Candidates, Mount, candidates
+from sescid.planning.com import level_cop
 from sescid.planning.compliance import Compliance, compliance
 from sescid.planning.doptimal import Selection
 from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
@@ -38,24 +40,66 @@ Quantity = Literal["CoP", "CoM x/y"]
 class PlanOptions:
     """How ``plan_poses`` samples, checks and scores (SI units, radians)."""
 
-    #: stable, collision-free candidates to choose from; None: ``default_candidates``
-    n_candidates: int | None = None
-    n_test: int = 2_000  #: further candidates on which the expected error is computed
-    sigma: float = PAPER_NOISE  #: m, CoP noise assumed for the expected error
+    n_candidates: int | None = option(
+        None,
+        "Stable, collision-free candidate poses to choose from [default, d-optimal: 20000 for "
+        "uniform draws (op2), 5000 with the adjusted sampler; random: --count (a random subset "
+        "of random candidates is random)].",
+        low=1, high=10_000_000, flag="--candidates",
+    )  # fmt: skip
+    #: further candidates on which the expected error is computed
+    n_test: int = option(
+        2_000, "Held-out poses for the error.", low=1, high=10_000_000, flag="--test-poses"
+    )
+    sigma: float = option(
+        PAPER_NOISE, "CoP noise σ for the expected error [m].", low=0, low_open=True,
+        flag="--noise",
+    )  # fmt: skip
     limits: np.ndarray | None = None  #: (nq, 2) rad; None: ``sampling_limits(robot)``
     half_extents: np.ndarray | None = None  #: (2,) m CoP box; None: ``cop_half_extents``
-    clearance: float = DEFAULT_CLEARANCE  #: m, free sole corners above the floor
-    random_draws: int = 50  #: random sets drawn for the random-choice error
-    rigid: bool = False  #: True: the CoP box only, no compliant-robot margin
+    clearance: float = option(
+        DEFAULT_CLEARANCE,
+        "The free foot (all its geometry) above the floor by at least this [m]; on a gantry, "
+        "every body.",
+        low=0, flag="--foot-clearance",
+    )  # fmt: skip
+    random_draws: int = option(50, "Random sets drawn for the random-choice error.", low=1)
+    rigid: bool = option(
+        False,
+        "Stability: the CoP box only, no compliant-robot margin (servo sag, sole tilt, "
+        "backlash from the robot profile).",
+    )
     check: PoseCheck | None = None  #: keeps only chosen poses it passes (a physics bench)
     check_name: str = ""  #: what ``check`` is, for the notes
     max_check_rounds: int = 20  #: choose again at most this often after failed checks
-    kinds: DesignKind = "cop"  #: the measured kinds the design counts
-    tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose and joint
+    kinds: DesignKind = option(
+        "cop",
+        "What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
+        "tau (joint torques, an unknown offset per joint) or both.",
+    )
+    tau_noise: float = option(
+        DEFAULT_TAU_NOISE,
+        "Joint-torque noise σ per pose for the design and its expected error [N·m].",
+        low=0, low_open=True,
+    )  # fmt: skip
     tau_joints: tuple[str, ...] | None = None  #: joints whose torque is measured (None: all)
-    #: None: from the support (``gantry.resolve_mount``); "double": both feet
-    mount: Mount | None = None
-    hang_height: float | None = None  #: m, gantry: held link above the floor (None: ``gantry``)
+    mount: Mount | None = option(
+        None,
+        "stand: on the support foot (balance checked); gantry: the support link (a torso, "
+        "pelvis) held level, the robot hanging free (joint limits, floor, self-collision only; "
+        "--kinds tau); double: on both feet, the other foot's sole flat on the floor (CoP of "
+        "the whole robot in the support foot's frame; --kinds cop). Default: gantry when the "
+        "robot's mass splits at the support (a trunk), else stand.",
+    )
+    hang_height: float | None = option(
+        None,
+        "Gantry: height of the held link's frame above the floor [m] (default: its height "
+        "when the robot stands at the zero pose + 50 mm).",
+        low=0, low_open=True, what="a finite height > 0 m",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        check_ranges(self)
 
 
 @dataclass
@@ -215,3 +259,34 @@ def visiting_order(q_sel: np.ndarray) -> tuple[np.ndarray, float, float]:
     q_ord = q_sel[order_poses(q_sel)]
     zero = np.zeros(q_sel.shape[1])
     return q_ord, path_length(q_sel, zero), path_length(q_ord, zero)
+
+
+def pose_plan(
+    robot: Robot,
+    chosen: tuple[Candidates, np.ndarray, Selection],
+    opt: PlanOptions,
+    sampled: tuple[list[str], float],
+    **fields,
+) -> PosePlan:
+    """The plan of the selection of ``chosen`` = (candidates, pool poses (n, nq), selection),
+    in visiting order, with what every design reports (the sampled range of ``sampled`` = (the
+    unlimited joints, their range), the compliance model); ``fields``: what the design adds
+    (its errors, basis, notes, …). ``cop``: False leaves the model CoP nan (a held robot)."""
+    cand, pool_q, sel = chosen
+    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
+    free, free_range = sampled
+    level = fields.pop("cop", True)
+    return PosePlan(
+        q=q_ord,
+        cop=level_cop(robot, q_ord) if level else np.full((len(q_ord), 2), np.nan),
+        sigma=opt.sigma,
+        logdet=sel.logdet,
+        path_unordered=path_unordered,
+        path_ordered=path_ordered,
+        candidates=cand,
+        selection=sel,
+        unlimited=free,
+        unlimited_range=free_range if free else UNLIMITED_RANGE,
+        compliance=cand.compliance,
+        **fields,
+    )

@@ -23,7 +23,7 @@ import numpy as np
 
 from sescid.errors import OptionError, SescidError
 from sescid.planning.blocks import BlockDesign
-from sescid.planning.doptimal import _Design, _logdet2
+from sescid.planning.doptimal import GreedyDesign, logdet2
 from sescid.planning.kinds import BlockRows
 
 
@@ -47,14 +47,14 @@ class SequentialDesign:
         n = a.x.shape[0] if isinstance(a, BlockRows) else a.shape[0]
         if n == 0:
             raise SescidError("no candidate poses to choose from")
-        self._d: _Design | BlockDesign
+        self._d: GreedyDesign | BlockDesign
         if isinstance(a, BlockRows):
             self._d = BlockDesign(a)
         else:
             p = a.shape[2]
             x = a.reshape(2 * n, p)
             delta = 1e-8 * float(np.einsum("ij,ij->", x, x)) / (n * p)
-            self._d = _Design(a, np.eye(p) / delta)
+            self._d = GreedyDesign(a, np.eye(p) / delta)
         self.near = near
         self.tried = np.zeros(n, dtype=bool)  #: commanded already (measured or failed)
 
@@ -63,7 +63,7 @@ class SequentialDesign:
         if isinstance(self._d, BlockDesign):
             g = self._d.gains()
         else:
-            g = np.nan_to_num(_logdet2(self._d.s), nan=-np.inf)
+            g = np.nan_to_num(logdet2(self._d.s), nan=-np.inf)
         g[self.tried] = -np.inf
         return g
 

@@ -26,7 +26,7 @@ MODEL_COLOURS = {"manufacturer model": "0.45", "identified": "tab:blue"}
 SOLE_FALLBACK = 0.05
 
 
-def _figure(*args: Any, dpi: float = REPORT_DPI, **kwargs: Any) -> tuple[Any, Any]:
+def new_figure(*args: Any, dpi: float = REPORT_DPI, **kwargs: Any) -> tuple[Any, Any]:
     """A figure and its axes, like ``pyplot.subplots`` but owned by no global state."""
     from matplotlib.figure import Figure
 
@@ -34,7 +34,7 @@ def _figure(*args: Any, dpi: float = REPORT_DPI, **kwargs: Any) -> tuple[Any, An
     return fig, fig.subplots(*args, **kwargs)
 
 
-def _save(fig, path, margins=MARGINS, **space: float) -> None:
+def save_figure(fig, path, margins=MARGINS, **space: float) -> None:
     """Write ``fig`` as PNG at its own resolution, atomically. ``margins`` (left, right, bottom,
     top) in inches fix the layout, ``space`` (``wspace``, ``hspace``) the gaps between axes;
     ``margins=None``: matplotlib's tight layout (for labels of unknown length)."""
@@ -82,7 +82,7 @@ def plot_r_magnitudes(fit, path, title: str = "SESC vector magnitudes R_i = |r_i
     r1 = fit.r_magnitudes[order] * 1e3
     std = r_magnitude_std(fit)[order] * 1e3
     x = np.arange(len(order))
-    fig, ax = _figure(figsize=(10, 4), dpi=PAPER_DPI)
+    fig, ax = new_figure(figsize=(10, 4), dpi=PAPER_DPI)
     ax.bar(x - 0.2, r0, 0.4, label="manufacturer model", color="0.4")
     ax.bar(x + 0.2, r1, 0.4, yerr=std, label="identified (±1σ)", color="tab:blue", capsize=2)
     indexed = _table(fit.robot) is not None  # short paper indices, else body names
@@ -91,7 +91,7 @@ def plot_r_magnitudes(fit, path, title: str = "SESC vector magnitudes R_i = |r_i
     ax.set_ylabel("R_i [mm]")
     ax.set_title(title, y=TITLE_Y)
     ax.legend()
-    _save(fig, path, MARGINS if indexed else None)  # names of any length: tight layout
+    save_figure(fig, path, MARGINS if indexed else None)  # names of any length: tight layout
 
 
 #: pose ticks drawn at most on a per-pose axis
@@ -118,7 +118,7 @@ def plot_cop_comparison(
     ``predicted`` and ``extra`` map a label to an (n, 2) array in metres; ``labels``: the
     poses' ids for the x axis (``pose_ticks``).
     """
-    fig, axes = _figure(2, 1, figsize=(10, 6), sharex=True, dpi=PAPER_DPI)
+    fig, axes = new_figure(2, 1, figsize=(10, 6), sharex=True, dpi=PAPER_DPI)
     styles = ["-", "--", ":", "-."]
     for k, ax in enumerate(axes):
         ax.plot(poses_idx, measured[:, k] * 1e3, "o-", color="tab:red", ms=3, label="measured")
@@ -132,7 +132,7 @@ def plot_cop_comparison(
     pose_ticks(axes[-1], labels)
     if title:
         axes[0].set_title(title, y=TITLE_Y)
-    _save(fig, path, hspace=0.1)
+    save_figure(fig, path, hspace=0.1)
 
 
 # --- the experiment report (paper §4: Figs. 6-8 and more) ------------------------------------
@@ -144,7 +144,7 @@ def plot_com_height(
     ``z_prior``, ``z_fit``, ``std`` (n,) in m; ``caveat`` is printed under the curves (say how
     much of the identified height comes from the prior).
     """
-    fig, ax = _figure(figsize=(10, 3.8))
+    fig, ax = new_figure(figsize=(10, 3.8))
     ax.plot(idx, z_prior * 1e3, "s--", color="0.2", ms=3, label="manufacturer model")
     ax.plot(idx, z_fit * 1e3, "o-", color="tab:blue", ms=3, label="identified")
     ax.fill_between(
@@ -165,12 +165,12 @@ def plot_com_height(
     if caveat:
         fig.text(0.01, 0.01, caveat, fontsize=7, color="tab:orange", wrap=True)
         bottom += 0.3  # the caveat's line(s) under the axis label
-    _save(fig, path, (left, right, bottom, top))
+    save_figure(fig, path, (left, right, bottom, top))
 
 
 def plot_residuals(idx, measured, predicted: dict, path, title=None, labels=None) -> None:
     """Residuals measured − predicted CoP per pose and their histogram; (n, 2) arrays in m."""
-    fig, axes = _figure(2, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [3, 1]})
+    fig, axes = new_figure(2, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [3, 1]})
     for k in range(2):
         for s, (lab, arr) in enumerate(predicted.items()):
             res = (measured[:, k] - arr[:, k]) * 1e3
@@ -188,7 +188,7 @@ def plot_residuals(idx, measured, predicted: dict, path, title=None, labels=None
     pose_ticks(axes[1, 0], labels)
     axes[0, 0].legend(fontsize=8)
     axes[0, 0].set_title(title or "CoP residuals: measured − predicted", y=TITLE_Y)
-    _save(fig, path, wspace=0.12, hspace=0.35)  # the histograms' own tick labels between
+    save_figure(fig, path, wspace=0.12, hspace=0.35)  # the histograms' own tick labels between
 
 
 def sole_x_range(robot) -> tuple[float, float]:
@@ -213,7 +213,7 @@ def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
     floor = robot.floor * 1e3
     parents = [b.parent for b in robot.model.bodies]
     k = len(q)
-    fig, axes = _figure(1, k, figsize=(2.6 * k + 0.5, 4.6), squeeze=False)
+    fig, axes = new_figure(1, k, figsize=(2.6 * k + 0.5, 4.6), squeeze=False)
     colors = ["tab:blue", "0.2", "tab:green"]
     links = np.array([(p, b) for b, p in enumerate(parents) if p >= 0]).reshape(-1, 2)
     for i, ax in enumerate(axes[0]):
@@ -249,7 +249,7 @@ def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
     handles, names = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, names, fontsize=8, ncol=len(names), loc="lower center", frameon=False)
     left, right, bottom, top = MARGINS
-    _save(fig, path, (left, right, bottom + 0.35, top), wspace=0.15)
+    save_figure(fig, path, (left, right, bottom + 0.35, top), wspace=0.15)
 
 
 def cop_offset_stats(measured, predicted) -> dict:
@@ -277,7 +277,7 @@ def r_magnitude_std(fit) -> np.ndarray:
 def design_figure(curve: dict[str, np.ndarray], path, title: str | None = None) -> None:
     """PNG of expected CoP error [mm] vs number of poses, D-optimal vs random."""
     k = curve["k"]
-    fig, ax = _figure(figsize=(6.4, 4.2), dpi=PAPER_DPI)
+    fig, ax = new_figure(figsize=(6.4, 4.2), dpi=PAPER_DPI)
     ax.plot(k, curve["d_optimal"] * 1e3, "o-", color="C0", label="D-optimal")
     ax.plot(k, curve["random_median"] * 1e3, "s-", color="C1", label="random (median)")
     ax.fill_between(
@@ -294,4 +294,4 @@ def design_figure(curve: dict[str, np.ndarray], path, title: str | None = None) 
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     ax.set_title(title or "Pose selection: expected noise-free CoP error", y=TITLE_Y)
-    _save(fig, path)
+    save_figure(fig, path)

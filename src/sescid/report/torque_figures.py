@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.report.figures import MODEL_COLOURS, TITLE_Y, _figure, _save, pose_ticks
+from sescid.report.figures import MODEL_COLOURS, TITLE_Y, new_figure, pose_ticks, save_figure
 
 #: inches per joint row of the residual map, and around it
 ROW_INCH, MAP_EXTRA_INCH = 0.24, 1.6
@@ -20,7 +20,7 @@ def plot_torque_residuals(
     joints = list(joints)
     nj = len(joints)
     height = max(3.0, ROW_INCH * nj + MAP_EXTRA_INCH)
-    fig, (ax, bar) = _figure(
+    fig, (ax, bar) = new_figure(
         1, 2, figsize=(10, height), sharey=True, gridspec_kw={"width_ratios": [3, 1]}
     )
     lim = float(np.max(np.abs(res))) or 1.0
@@ -47,7 +47,7 @@ def plot_torque_residuals(
     bar.set_xlabel("residual RMS [N·m]")
     bar.grid(axis="x", alpha=0.3)
     bar.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
-    _save(fig, path, None)  # joint names of any length: tight layout
+    save_figure(fig, path, None)  # joint names of any length: tight layout
 
 
 def plot_leg_torques(
@@ -56,7 +56,7 @@ def plot_leg_torques(
     """Torque per pose of a few joints: measured (n, k) against each model's prediction
     (label → (n, k)), all N·m, one panel per joint."""
     k = len(joints)
-    fig, axes = _figure(k, 1, figsize=(10, 1.35 * k + 1.0), sharex=True, squeeze=False)
+    fig, axes = new_figure(k, 1, figsize=(10, 1.35 * k + 1.0), sharex=True, squeeze=False)
     for j, ax in enumerate(axes[:, 0]):
         ax.plot(idx, measured[:, j], "o", color="tab:red", ms=3, label="measured")
         for s, (label, arr) in enumerate(predicted.items()):
@@ -72,4 +72,4 @@ def plot_leg_torques(
     pose_ticks(axes[-1, 0], labels)
     if title:
         axes[0, 0].set_title(title, y=TITLE_Y, fontsize=10, loc="left")
-    _save(fig, path, None)
+    save_figure(fig, path, None)

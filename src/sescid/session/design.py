@@ -58,7 +58,32 @@ def kinds_of(cop: bool, tau: bool) -> DesignKind:
     return "both" if cop and tau else "cop" if cop else "tau"
 
 
-class SessionDesign:
+class KindSwitch:
+    """A session's design that can change the kinds it plans for (``SessionDesign``,
+    ``session.stances.StanceDesign``): ``_design(kinds)`` makes the new one."""
+
+    kinds: DesignKind
+    basis: np.ndarray
+    design: SequentialDesign
+    min_rows: int
+
+    def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:
+        raise NotImplementedError
+
+    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
+        """Plan for ``kinds`` from now on: a new design holding the poses ``measured`` (pool
+        indices) and never proposing one already commanded."""
+        if kinds == self.kinds:
+            return
+        tried = self.design.tried.copy()
+        self.basis, self.design, self.min_rows = self._design(kinds)
+        self.kinds = kinds
+        for i in measured:
+            self.design.add(i)
+        self.design.tried |= tried
+
+
+class SessionDesign(KindSwitch):
     """The session's candidates and its sequential design for ``kinds``."""
 
     def __init__(self, robot: Robot, opt: SessionOptions, progress: Callable | None = None):
@@ -117,18 +142,6 @@ class SessionDesign:
                 f"session was asked to plan for them (--kinds {asked})"
             )
         return kinds_of(cop, tau) if asked == "auto" else asked
-
-    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
-        """Plan for ``kinds`` from now on: a new design holding the poses ``measured`` (pool
-        indices) and never proposing one already commanded."""
-        if kinds == self.kinds:
-            return
-        tried = self.design.tried.copy()
-        self.basis, self.design, self.min_rows = self._design(kinds)
-        self.kinds = kinds
-        for i in measured:
-            self.design.add(i)
-        self.design.tried |= tried
 
 
 def unsafe_pose(

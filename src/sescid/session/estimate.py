@@ -56,7 +56,7 @@ class Status:
     converged: bool
 
 
-def _converged(history: list[tuple[int, float]], n: int, std: float, window: int, tol: float):
+def has_converged(history: list[tuple[int, float]], n: int, std: float, window: int, tol: float):
     """The std fell by less than ``tol`` over the last ``window`` poses (``history``: (poses,
     std) of the earlier updates)."""
     if not math.isfinite(std):
@@ -197,7 +197,7 @@ class BatchEstimate:
             c = self.basis.T @ self.last.cov @ self.basis
             if rank >= self.basis.shape[1] and np.all(np.isfinite(c)):
                 std = math.sqrt(max(float(np.sum(self._g * c)) / 2, 0.0))
-        done = _converged(self.history, self.n_poses, std, self.window, self.tol)
+        done = has_converged(self.history, self.n_poses, std, self.window, self.tol)
         self.history.append((self.n_poses, std))
         return Status(std, rank, done)
 

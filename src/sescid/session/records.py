@@ -9,14 +9,15 @@ from typing import Literal, get_args
 
 import numpy as np
 
+from sescid.base import SEED_HELP, check_ranges, option, option_like
 from sescid.errors import check_choice
 from sescid.estimation.fit import Fit
 from sescid.planning import (
     DEFAULT_STANCE_COST,
-    DEFAULT_TAU_NOISE,
     Candidates,
     DesignKind,
     Mount,
+    PlanOptions,
     Quantity,
 )
 from sescid.sensors import Measured
@@ -35,39 +36,69 @@ TorqueMethod = Literal["ls", "map"]
 class SessionOptions:
     """How a guided session plans, measures and stops (SI units, radians)."""
 
-    budget: int = 60  #: poses commanded at most (failed ones count)
-    samples: int = 100  #: samples read per pose
-    min_samples: int = 5  #: usable samples a pose needs (as ``sescid fsr``)
-    n_candidates: int = 5000  #: stable, collision-free candidate poses to choose from
-    seed: int = 0  #: candidate sampling
-    near: float = 0.8  #: take the nearest candidate whose gain is ≥ near × the best gain
-    window: int = 10  #: convergence: measured poses looked back
-    tol: float = 0.10  #: convergence: relative fall of the predicted CoP std over the window
+    budget: int = option(60, "Poses commanded at most (failed ones count).", low=1)
+    samples: int = option(100, "Samples read per pose.", low=2)
+    min_samples: int = option(5, "Usable samples per pose.", low=2)  #: as ``sescid measure``
+    n_candidates: int = option(
+        5000, "Stable, collision-free candidate poses.", low=1, flag="--candidates"
+    )
+    seed: int = option(0, SEED_HELP, low=0)  #: candidate sampling
+    near: float = option(
+        0.8,
+        "Take the nearest candidate whose information gain is ≥ NEAR × the best.",
+        low=0, high=1, low_open=True,
+    )  # fmt: skip
+    window: int = option(10, "Convergence: poses looked back.", low=1)
+    tol: float = option(
+        0.10,
+        "Convergence: the predicted CoP std fell by less than this (relative) over the window.",
+        low=0, high=1, low_open=True, high_open=True,
+    )  # fmt: skip
     min_measured: int | None = None  #: at least this many measured poses (None: the rank's min)
-    target_std: float | None = None  #: m, also stop when the predicted CoP std reaches this
+    target_std: float | None = option(
+        None, "Also stop when the predicted CoP std reaches this [m].", low=0, low_open=True
+    )
     limits: np.ndarray | None = None  #: (nq, 2) sampling limits, rad (None: the robot's)
     half_extents: np.ndarray | None = None  #: (2,) CoP stability box, m (None: the profile's)
-    #: what the poses are chosen for: "cop", "tau", "both", or "auto" — what the robot reports
-    #: (decided at the first measured pose; planned for the CoP before it, joint torques when
-    #: the robot is held in a gantry)
-    kinds: SessionKind = "auto"
-    cop_noise: float = PAPER_NOISE  #: m, CoP noise per pose the design weighs CoP rows by
-    tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, torque noise per pose the design assumes
-    mount: Mount | None = None  #: None: from the support (``planning.resolve_mount``)
-    hang_height: float | None = None  #: m, gantry: held link above the floor (None: the rule)
-    #: kg, the weighed mass that scales joint torques (None: the model's, with a warning)
-    total_mass: float | None = None
+    #: decided at the first measured pose; planned for the CoP before it, joint torques when
+    #: the robot is held in a gantry
+    kinds: SessionKind = option(
+        "auto",
+        "What the next pose is chosen for: auto (what the robot reports: a loaded foot sensor "
+        "gives the CoP, tau_<joint> columns the joint torques), cop, tau or both.",
+    )
+    cop_noise: float = option(
+        PAPER_NOISE, "CoP noise per pose the design weighs CoP rows by [m].",
+        low=0, low_open=True, what="a positive noise level",
+    )  # fmt: skip
+    tau_noise: float = option_like(PlanOptions, "tau_noise")
+    mount: Mount | None = option(
+        None,
+        "stand: on the support foot; gantry: the support link held level, the robot hanging "
+        "free (joint torques only). Default: gantry when the robot's mass splits at the "
+        "support.",
+    )
+    hang_height: float | None = option_like(PlanOptions, "hang_height")
+    total_mass: float | None = option(
+        None,
+        "The robot's weighed mass [kg]: the scale of joint torques (default: the model's, "
+        "with a warning in the fit).",
+    )
     #: how a session with joint torques fits: "map" (the CAD prior, as ``identify --method
     #: map``) or "ls"; a CoP session fits least squares (the online estimator)
     torque_method: TorqueMethod = "map"
     #: stances to choose poses from (``planning.parse_stances``: sole frames, "double",
     #: "gantry:<link>"), two or more; empty: the support alone (``session.stances``)
     stances: tuple[str, ...] = ()
-    #: poses a stance change costs: proposed when the other stance's best gain exceeds 1 + this
-    #: times the current one's
-    stance_cost: float = DEFAULT_STANCE_COST
+    stance_cost: float = option(
+        DEFAULT_STANCE_COST,
+        "Poses a stance change costs: asked for when the other stance's best information gain "
+        "exceeds 1 + this times the current one's.",
+        low=0,
+    )
 
     def __post_init__(self) -> None:
+        check_ranges(self)
         check_choice("kinds", self.kinds, SessionKind)
         if self.mount is not None:
             check_choice("mount", self.mount, Mount)

@@ -55,14 +55,14 @@ from sescid.planning.sequential import NextPose, SequentialDesign
 from sescid.planning.stances import StanceRows, theta_information, theta_scale
 from sescid.robot import Robot
 from sescid.sensors import Measured, concat_measured
-from sescid.session.design import unsafe_pose
+from sescid.session.design import KindSwitch, unsafe_pose
 from sescid.session.estimate import (
     REFERENCE_POSES,
     REFERENCE_RANGE_DEG,
     REFERENCE_SEED,
     TRUST,
     Status,
-    _converged,
+    has_converged,
 )
 from sescid.session.records import BODY_PRIOR_SCALE, SessionOptions
 from sescid.simulation import random_poses
@@ -83,7 +83,7 @@ def start_kinds(stances: tuple[Stance, ...], asked: str) -> DesignKind:
     return "both" if held and stand else "tau" if held else "cop"
 
 
-class StanceDesign:
+class StanceDesign(KindSwitch):
     """The candidates of every stance and the sequential design over their union (module
     docstring); ``cand`` is their union (``cand.q`` indexed by the design)."""
 
@@ -185,17 +185,6 @@ class StanceDesign:
         return "both" if (cop or self.kinds == "both") and (tau or self.kinds != "cop") else (
             "cop" if cop else "tau")  # fmt: skip
 
-    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
-        """Plan for ``kinds`` from now on, holding the measured poses (as ``SessionDesign``)."""
-        if kinds == self.kinds:
-            return
-        tried = self.design.tried.copy()
-        self.basis, self.design, self.min_rows = self._design(kinds)
-        self.kinds = kinds
-        for i in measured:
-            self.design.add(i)
-        self.design.tried |= tried
-
     def unsafe(self, i: int, r_est: np.ndarray | None) -> str:
         """Why union candidate ``i`` must not be commanded ('' when it stands): its stance's
         robot within the limits, the model's (and an identified estimate's) CoP inside its
@@ -282,7 +271,7 @@ class PooledEstimate:
         std = math.inf
         if self.rank >= basis.shape[1]:
             std = math.sqrt(max(float(np.sum(self._g * self.cov[:n4, :n4])) / 2, 0.0))
-        done = _converged(self.history, self.n_poses, std, self.window, self.tol)
+        done = has_converged(self.history, self.n_poses, std, self.window, self.tol)
         self.history.append((self.n_poses, std))
         return Status(std, self.rank, done)
 

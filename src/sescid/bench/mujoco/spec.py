@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sescid.base import option
 from sescid.bench.real_robot import ExperimentConfig, extra_masses, real_bodies
 from sescid.errors import DataError, MissingExtraError, ModelError, OptionError, SescidError
 from sescid.planning import collision_capsules
@@ -41,7 +42,11 @@ class MujocoBenchConfig:
     is unique (a real servo's friction is the torque sensor model's band, ``TorqueConfig``).
     """
 
-    kp: float | None = None  #: N·m/rad, servo stiffness (None: the profile's)
+    kp: float | None = option(
+        None,
+        "mujoco: servo stiffness [N·m/rad] (default: the robot profile's servo gains).",
+        low=0, low_open=True,
+    )  # fmt: skip
     kv: float | None = None  #: N·m·s/rad, servo damping (None: the profile's)
     armature: float | None = None  #: kg·m², reflected rotor inertia per joint (None: profile's)
     timestep: float = 0.001  #: s
@@ -65,7 +70,9 @@ class MujocoBenchConfig:
     #: heaviest body
     imu_body: str | None = None
     imu_noise: float = 0.0  #: rad, per sample (std)
-    weld_foot: bool = False  #: fix the support body level to the world (statics check)
+    weld_foot: bool = option(
+        False, "mujoco: fix the support foot level to the world (pads read an ideal F/T sensor)."
+    )
     double_support: bool = False  #: both feet stand on the floor
     #: bodies that carry no floor contact (the planner's exempt bodies: already below the floor
     #: at the zero pose, as a support foot's toes)

@@ -6,6 +6,7 @@ import numpy as np
 
 from sescid.errors import SolverError
 from sescid.robot import Robot
+from sescid.sesc import sesc_matrix
 
 #: default CoM deviation that costs as much as a 100 % mass change in the closest-to-CAD step, m
 COM_SCALE = 0.02
@@ -16,18 +17,10 @@ H_UNIT = 0.1
 
 
 def sesc_map(robot: Robot) -> np.ndarray:
-    """K (3N, 4N) with vec(r) = K · [m/M, vec(h)/(M ℓ)] for ℓ = 0.1 m (m kg, h = m c kg·m)."""
-    bodies = robot.model.bodies
-    n = len(bodies)
-    k = np.zeros((3 * n, 4 * n))
-    for i in range(n):
-        k[3 * i : 3 * i + 3, n + 3 * i : n + 3 * i + 3] = H_UNIT * np.eye(3)
-    for j in range(n):  # mass of j moves r[parent(a)] by t_a for every ancestor-or-self a ≠ root
-        a = j
-        while bodies[a].parent >= 0:
-            par = bodies[a].parent
-            k[3 * par : 3 * par + 3, j] += bodies[a].trans_const
-            a = par
+    """K (3N, 4N) with vec(r) = K · [m/M, vec(h)/(M ℓ)] for ℓ = 0.1 m (m kg, h = m c kg·m):
+    ``sesc_matrix`` with the first moments in units of ℓ."""
+    k = sesc_matrix(robot.model)
+    k[:, len(robot.model.bodies) :] *= H_UNIT
     return k
 
 

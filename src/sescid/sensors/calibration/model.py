@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
-from sescid.errors import OptionError
+from sescid.base import check_ranges, option
 from sescid.estimation.fit import Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 
@@ -38,28 +37,32 @@ NOT_EXCITED: Unseen = "not-excited"
 class CalibrationOptions:
     """How ``calibrate_sensors`` weighs the data against the priors (SI units)."""
 
-    #: kg, the weighed mass that fixes the gains' scale (None: the model's, named as the
-    #: unidentifiable ``scale``)
-    total_mass: float | None = None
-    prior_scale: float | None = None  #: m, τ of the CAD prior on the SESC vectors (None: evidence)
-    gain_prior: float = GAIN_PRIOR  #: prior std of each gain (relative)
-    offset_prior: float = OFFSET_PRIOR  #: prior std of each offset, N
+    total_mass: float | None = option(
+        None,
+        "Weighed mass of the robot [kg]: fixes the gains' scale (default: the model's, "
+        "reported as unidentifiable).",
+    )
+    prior_scale: float | None = option(
+        None, "SESC prior τ [m] (default: evidence).", low=0, low_open=True
+    )
+    gain_prior: float = option(
+        GAIN_PRIOR, "Prior std of each gain (relative).", low=0, low_open=True
+    )
+    offset_prior: float = option(
+        OFFSET_PRIOR,
+        "Prior std of each offset [N]; the offset twist comes from it.",
+        low=0, low_open=True,
+    )  # fmt: skip
     rtol: float = DEFAULT_RTOL  #: rank tolerance of the identifiability analysis
-    max_iter: int = 30  #: noise-level iterations at most
-    tol: float = 1e-4  #: convergence of the noise levels (largest change of log σ²)
+    max_iter: int = option(30, "Noise-level iterations at most.", low=1)
+    tol: float = option(
+        1e-4, "Convergence of the noise levels (largest change of log σ²).", low=0, low_open=True
+    )
 
     def check(self) -> None:
         """OptionError naming the first setting outside its range."""
         check_rtol(self.rtol)
-        for name, v in (("gain_prior", self.gain_prior), ("offset_prior", self.offset_prior)):
-            if not (math.isfinite(v) and v > 0):
-                raise OptionError(name, f"must be > 0, got {v}")
-        if self.prior_scale is not None and not (
-            math.isfinite(self.prior_scale) and self.prior_scale > 0
-        ):
-            raise OptionError("prior_scale", f"must be > 0 m, got {self.prior_scale}")
-        if not (self.max_iter >= 1 and self.tol > 0):
-            raise OptionError("max_iter", "need max_iter ≥ 1 and tol > 0")
+        check_ranges(self)
 
 
 # --- inputs -----------------------------------------------------------------------------

@@ -11,20 +11,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-from sescid.kinematics.fused import _angles_ok, _body, _cop_rows, _cop_target, _transpose
-from sescid.kinematics.gram import _syrk, _tile, _tile3
-from sescid.kinematics.torque_plan import ROW_OFFSET, ROW_PAIR
-
-fma = simd_intrinsic("fma")
-vload = simd_intrinsic("vload")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vsum = simd_intrinsic("vsum")
-vadd = simd_intrinsic("vadd")
-vmul = simd_intrinsic("vmul")
-vstore = simd_intrinsic("vstore")
-vsplat = simd_intrinsic("vsplat")
+from sescid.kinematics._kernels.fused import (
+    angles_ok,
+    block_angles,
+    body_columns,
+    chain_buffers,
+    cop_rows,
+    cop_target,
+)
+from sescid.kinematics._kernels.gram import sum_tile, sum_tile3, syrk
+from sescid.kinematics._kernels.intrinsics import (
+    vadd,
+    vfma,
+    vload,
+    vmul,
+    vsplat,
+    vstore,
+    vsum,
+    vzero,
+)
+from sescid.kinematics._kernels.torque_plan import ROW_OFFSET, ROW_PAIR
+from sescid.kinematics.compile import GROUP, lazy_njit
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
@@ -223,7 +230,7 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
                 b2 = (v0 + rs + min(c0 + 2, rc - 1)) * ldv
                 b3 = (v0 + rs + min(c0 + 3, rc - 1)) * ldv
                 if nrow == 3:
-                    t3 = _tile3(ul, (a0, a1, a2), v, (b0, b1, b2, b3), kk)
+                    t3 = sum_tile3(ul, (a0, a1, a2), v, (b0, b1, b2, b3), kk)
                     for i in range(3):
                         orow = lrows[ra + i, 3]
                         for j in range(min(4, rc - c0)):
@@ -231,7 +238,7 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
                             if orow >= n_sesc or ocol >= orow:
                                 out[orow, ocol] += t3[4 * i + j]
                     continue
-                tile = _tile(ul, (a0, a1, a2, a3), v, (b0, b1, b2, b3), kk)
+                tile = sum_tile(ul, (a0, a1, a2, a3), v, (b0, b1, b2, b3), kk)
                 for i in range(min(4, lc - r0)):
                     orow = lrows[ra + i, 3]
                     for j in range(min(4, rc - c0)):
@@ -241,21 +248,17 @@ def _blocks(seg, plan, n_sesc, ul, v, v0, out):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _gram_fused(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, parent, nz_ptr,
-                nz_k, nz_j, nz_a, root_r, u, pos, meas, axis, own_ptr, own, lrows, tasks, n_sesc,
-                blk, out_cop, out_tau):  # fmt: skip  # pragma: no cover - compiled
+def gram_fused_kernel(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, parent,
+                      nz_ptr, nz_k, nz_j, nz_a, root_r, u, pos, meas, axis, own_ptr, own, lrows,
+                      tasks, n_sesc, blk, out_cop,
+                      out_tau):  # fmt: skip  # pragma: no cover - compiled
     """The CoP's (when out_cop has rows) and the torques' augmented sums of poses q in one pass
     over the chain's rows x, y; False (nothing added) when an angle is beyond MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, 2, blk)
     nj = tau.shape[1]
     rows = np.arange(2)
-    rot = np.zeros((nb, 3, 2, blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     pc = out_cop.shape[0]
     pt = 2 + n_sesc
     xv = np.zeros((max(pc, pt + 1), 2 * blk))
@@ -268,20 +271,18 @@ def _gram_fused(q, cop_y, cop_sw, tau, tau_sw, approach, mg, jcol, coef, off, pa
     friction = approach.shape[0] > 0
     ab = np.zeros(blk)
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         _joint_rows((s0, w, seg), tau, tau_sw, approach, ab, e)
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, u, pos, s, c1, rot, xv)  # fmt: skip
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+                         rows, u, pos, s, c1, rot, xv)  # fmt: skip
             if b > 0:
                 _body_torque(b, w, seg, mg, coef, axis, parent, pos, meas, own_ptr, own, lrows,
                              rot, xv, 2, lev, e, sp, zp, ul, n_sesc, friction,
                              out_tau)  # fmt: skip
         if pc > 0:
-            _cop_rows(w, seg, 2, xv)
-            _cop_target((s0, w, seg), cop_y, cop_sw, pt, xv, xw)
-            _syrk(xw if cop_sw.shape[0] > 0 else xv, pc, 2 * seg, out_cop)
+            cop_rows(w, seg, 2, xv)
+            cop_target((s0, w, seg), cop_y, cop_sw, pt, xv, xw)
+            syrk(xw if cop_sw.shape[0] > 0 else xv, pc, 2 * seg, out_cop)
         _blocks(seg, (lrows, tasks), n_sesc, ul, xv, 2, out_tau)
     return True

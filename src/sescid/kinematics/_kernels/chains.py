@@ -8,16 +8,16 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.kinematics._kernels.trig import (
+    MAX_ANGLE,
+    joint_trig,
+    reducible,
+    sin_cos1m,
+    trig_numpy,
+    trig_poly_numpy,
+)
 from sescid.kinematics.compile import GROUP, compiled, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree, as_poses
-from sescid.kinematics.trig import (
-    MAX_ANGLE,
-    _joint_trig,
-    _sin_cos1m,
-    _trig_numpy,
-    _trig_poly_numpy,
-    reducible,
-)
 
 #: poses per block of the compiled chain (keeps the block's rotations in cache)
 CHAIN_BLOCK = 1024
@@ -43,7 +43,7 @@ class Workspace:
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _chain_block(s, c1, tree, rot):
+def chain_block(s, c1, tree, rot):
     """Rotations of every body for a block of poses, structure-of-arrays.
 
     s, c1: (N, B) sin θ and 1 − cos θ of each body's joint; tree: ``Tree.arrays``;
@@ -86,7 +86,7 @@ def _chain_block(s, c1, tree, rot):
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _origins_block(rot, parent, t, root_o, org):
+def origins_block(rot, parent, t, root_o, org):
     """Org (N, 3, B): body origins, o_b = o_p + R_p t_b, from rot (N, 3, 3, B)."""
     nb = parent.shape[0]
     nbk = rot.shape[3]
@@ -141,7 +141,7 @@ def _com_one(q, ints, reals, r, out):
             theta = reals[b] * q[jc] + reals[nb + b]
             if not abs(theta) < MAX_ANGLE:  # numpy's exact reduction: the caller's path
                 return False
-            s, c1 = _sin_cos1m(theta)
+            s, c1 = sin_cos1m(theta)
         for i in range(3):
             for j in range(3):
                 rot[b, i, j] = 0.0
@@ -172,8 +172,8 @@ def com_one(tree: Tree, q: np.ndarray, r: np.ndarray, k: int = 3) -> np.ndarray 
     return out if _com_one(q, ints, reals, r, out) else None
 
 
-def _chain_numpy(tree: Tree, s: np.ndarray, c1: np.ndarray, rot: np.ndarray) -> None:
-    """``_chain_block`` in numpy, the same products and sums in the same order (the same bits):
+def chain_numpy(tree: Tree, s: np.ndarray, c1: np.ndarray, rot: np.ndarray) -> None:
+    """``chain_block`` in numpy, the same products and sums in the same order (the same bits):
     R_b[:, j] = Σ_k R_p[:, k] M_b[k, j] over M_b's non-zero entries, across the block's poses."""
     a = tree.nz_a
     body = np.repeat(np.arange(tree.parent.shape[0]), np.diff(tree.nz_ptr))
@@ -211,23 +211,23 @@ def chain(
         kernels = prefer_kernels(m * len(tree.parent))
     if not kernels:
         if reducible(q):
-            _trig_poly_numpy(tree, q, s, c1)
+            trig_poly_numpy(tree, q, s, c1)
         else:
-            _trig_numpy(tree, q, s, c1)
-        _chain_numpy(tree, s, c1, rot)
+            trig_numpy(tree, q, s, c1)
+        chain_numpy(tree, s, c1, rot)
         return rot
     if reducible(q):
-        _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
+        joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
     else:  # huge angles: exact reduction by numpy
-        _trig_numpy(tree, q, s, c1)
-    _chain_block(s, c1, tree.arrays, rot)
+        trig_numpy(tree, q, s, c1)
+    chain_block(s, c1, tree.arrays, rot)
     return rot
 
 
-def _origins(rot: np.ndarray, tree: Tree, org: np.ndarray, kernels: bool) -> None:
+def origins(rot: np.ndarray, tree: Tree, org: np.ndarray, kernels: bool) -> None:
     """Org (N, 3, m) from rot (N, 3, 3, m): the kernel, or numpy (the same bits)."""
     if kernels:
-        _origins_block(rot, tree.parent, tree.t, tree.root_o, org)
+        origins_block(rot, tree.parent, tree.t, tree.root_o, org)
         return
     for b in range(tree.parent.shape[0]):  # the kernel's sums in its order: the same bits
         p = tree.parent[b]
@@ -253,7 +253,7 @@ def forward(tree: Tree, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         blk = q[s0 : s0 + ws.block]
         rot = chain(tree, blk, ws, kernels)
         o = org[..., : len(blk)] if len(blk) == ws.block else np.empty((nb, 3, len(blk)))
-        _origins(rot, tree, o, kernels)
+        origins(rot, tree, o, kernels)
         rot_out[s0 : s0 + len(blk)] = rot.transpose(3, 0, 2, 1)
         org_out[s0 : s0 + len(blk)] = o.transpose(2, 0, 1)
     return rot_out, org_out

@@ -1,7 +1,7 @@
 """Sums of products of rows, Σ_k a[i, k] b[j, k], in a fixed order: the normal equations' product.
 
 Rows are stored with the summed index k (poses, rows of a pose) contiguous, in blocks whose length
-is a multiple of 8 (zero-padded). Each output is summed in ``simd.LANES`` = 8 partial sums (lane
+is a multiple of 8 (zero-padded). Each output is summed in ``LANES`` = 8 partial sums (lane
 l takes k = l, l + 8, …, each term an FMA) joined in a fixed tree: vectorised across independent
 outputs, never by reassociating a sum, so the bits are the same on every CPU. Outputs come in 4 × 4
 tiles (16 vector accumulators: 8 loads per 16 FMAs). ``gram_numpy`` is the deterministic numpy
@@ -13,14 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.compile import GROUP, compiled, lazy_njit, simd_intrinsic
+from sescid.kinematics._kernels.intrinsics import vfma, vload, vsum, vzero
+from sescid.kinematics.compile import GROUP, compiled, lazy_njit
 
-vload = simd_intrinsic("vload")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vsum = simd_intrinsic("vsum")
-
-#: the summed index runs in steps of this many (``simd.LANES``)
+#: lanes of ``simd.Vec`` and the step of the summed index: part of the summation order, so
+#: fixed (not the CPU's vector width)
 LANES = 8
 
 
@@ -35,7 +32,7 @@ def padded(p: int) -> int:
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _tile(a, ra, b, rb, kk):  # pragma: no cover - compiled
+def sum_tile(a, ra, b, rb, kk):  # pragma: no cover - compiled
     """The 16 sums Σ_{k<kk} a.flat[ai + k] b.flat[bj + k] of a 4 × 4 tile (ra = (a0, …, a3),
     rb = (b0, …, b3): flat offsets of the rows), row-major; kk a multiple of 8."""
     a0, a1, a2, a3 = ra
@@ -78,8 +75,8 @@ def _tile(a, ra, b, rb, kk):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _tile3(a, ra, b, rb, kk):  # pragma: no cover - compiled
-    """``_tile`` for 3 rows × 4 columns (ra = (a0, a1, a2); 12 sums, row-major)."""
+def sum_tile3(a, ra, b, rb, kk):  # pragma: no cover - compiled
+    """``sum_tile`` for 3 rows × 4 columns (ra = (a0, a1, a2); 12 sums, row-major)."""
     a0, a1, a2 = ra
     b0, b1, b2, b3 = rb
     c00 = c01 = c02 = c03 = vzero()
@@ -113,7 +110,7 @@ def _tile3(a, ra, b, rb, kk):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _syrk(x, p4, kk, out):  # pragma: no cover - compiled
+def syrk(x, p4, kk, out):  # pragma: no cover - compiled
     """out[i, j] += Σ_{k<kk} x[i, k] x[j, k] on the 4 × 4 tiles on and above the diagonal
     (j ≥ i − i % 4; p4 a multiple of 4 rows, x C-contiguous, kk a multiple of 8)."""
     ld = x.shape[1]
@@ -123,7 +120,7 @@ def _syrk(x, p4, kk, out):  # pragma: no cover - compiled
             rb = j0 * ld
             rows_a = (ra, ra + ld, ra + 2 * ld, ra + 3 * ld)
             rows_b = (rb, rb + ld, rb + 2 * ld, rb + 3 * ld)
-            t = _tile(x, rows_a, x, rows_b, kk)
+            t = sum_tile(x, rows_a, x, rows_b, kk)
             for r in range(4):
                 for c in range(4):
                     out[i0 + r, j0 + c] += t[4 * r + c]
@@ -142,7 +139,7 @@ def gram_numpy(x: np.ndarray, out: np.ndarray) -> None:
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _gram_in_order(xt, out):  # pragma: no cover - compiled
+def gram_in_order(xt, out):  # pragma: no cover - compiled
     """``gram_numpy`` compiled, the same bits: out[i, j] += xt[k, i] · xt[k, j] for k in order,
     the product and the sum each rounded (no FMA); rows xt (m, p) C-contiguous."""
     m, p = xt.shape
@@ -162,12 +159,12 @@ def gram_columns(x: np.ndarray, kernels: bool) -> np.ndarray:
     out = np.zeros((p4, p4))
     if not kernels:
         if compiled():
-            _gram_in_order(np.ascontiguousarray(x.T), out)
+            gram_in_order(np.ascontiguousarray(x.T), out)
         else:
             gram_numpy(x, out)
         return out
     mm = lanes_padded(max(m, 1))
     xp = np.zeros((p4, mm))
     xp[:p, :m] = x
-    _syrk(xp, p4, mm, out)
+    syrk(xp, p4, mm, out)
     return out

@@ -10,10 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-from sescid.kinematics.trig import _PIO2_1, _PIO2_2, _PIO2_2T, _TWO_OVER_PI, SMALL_ANGLE
-
-fma = simd_intrinsic("fma")
+from sescid.kinematics._kernels.intrinsics import fma
+from sescid.kinematics._kernels.trig import (
+    PIO2_1,
+    PIO2_2,
+    PIO2_2T,
+    SMALL_ANGLE,
+    TWO_OVER_PI,
+    from_quadrant,
+)
+from sescid.kinematics.compile import GROUP, lazy_njit
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
@@ -39,19 +45,14 @@ def _sin_cm_fma(r):  # pragma: no cover - compiled
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
 def _sin_cos1m_fma(x):  # pragma: no cover - compiled
     """Sin x and 1 − cos x, with the Cody–Waite reduction in FMAs."""
-    q = np.floor(x * _TWO_OVER_PI + 0.5)
-    r = fma(-q, _PIO2_2T, fma(-q, _PIO2_2, fma(-q, _PIO2_1, x)))  # |r| ≤ π/4
+    q = np.floor(x * TWO_OVER_PI + 0.5)
+    r = fma(-q, PIO2_2T, fma(-q, PIO2_2, fma(-q, PIO2_1, x)))  # |r| ≤ π/4
     sp, cm = _sin_cm_fma(r)
-    qi = np.int64(q) & 3
-    a = (1.0 + cm) if qi & 1 else sp
-    c = sp if qi & 1 else (1.0 + cm)
-    sn = -a if qi >= 2 else a
-    cs = -c if (qi == 1 or qi == 2) else c
-    return sn, (-cm if qi == 0 else 1.0 - cs)
+    return from_quadrant(q, sp, cm)
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _trig_row_fma(qrow, cb, ob, w, s, c1):  # pragma: no cover - compiled
+def trig_row_fma(qrow, cb, ob, w, s, c1):  # pragma: no cover - compiled
     """s[:w], c1[:w] = sin θ, 1 − cos θ of θ = cb·qrow[:w] + ob: the polynomials alone when
     every |θ| < SMALL_ANGLE (the reduction is then the identity: the same bits)."""
     big = 0.0

@@ -13,21 +13,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-from sescid.kinematics.fused import GRAM_BLOCK, _angles_ok, _body, _transpose
+from sescid.kinematics._kernels.fused import (
+    GRAM_BLOCK,
+    angles_ok,
+    block_angles,
+    body_columns,
+    chain_buffers,
+)
+from sescid.kinematics._kernels.intrinsics import (
+    vabs,
+    vadd,
+    vfma,
+    vload,
+    vmul,
+    vneg,
+    vsplat,
+    vstore,
+    vsub,
+    vsum,
+    vzero,
+)
+from sescid.kinematics.compile import GROUP, lazy_njit
 from sescid.kinematics.tree import Tree
-
-vload = simd_intrinsic("vload")
-vsplat = simd_intrinsic("vsplat")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vmul = simd_intrinsic("vmul")
-vsub = simd_intrinsic("vsub")
-vadd = simd_intrinsic("vadd")
-vabs = simd_intrinsic("vabs")
-vsum = simd_intrinsic("vsum")
-vstore = simd_intrinsic("vstore")
-vneg = simd_intrinsic("vneg")
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -36,15 +43,10 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
     """Out = (Σ|y − c|, Σ(y − c)², Σ(y2 − c)²) over the poses q (n, nq) and both axes, c the
     CoM's x, y for SESC vectors r (N, 3); y, y2 (n, 2) (y2 (0, 2): none). False (nothing
     written) when an angle is beyond MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, 2, blk)
     rows = np.arange(2)
-    rot = np.zeros((nb, 3, 2, blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     tgt = np.zeros((3, 2, blk))  # y, y2 and the mask (1 for a pose of the block, 0 past it)
     dummy = np.zeros((1, 8))
     no_u = np.zeros((1, 2, 3))
@@ -54,9 +56,7 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
     a_sq = vzero()
     a_tr = vzero()
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         tgt[:, :, w:] = 0.0
         for k in range(w):
             for i in range(2):
@@ -64,8 +64,8 @@ def _cop_residual_sums(q, y, y2, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz
                 tgt[1, i, k] = y2[s0 + k, i] if truth else 0.0
                 tgt[2, i, k] = 1.0
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+                         rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
         for i in range(2):
             for k in range(0, seg, 8):
                 c = vsplat(root_o[i])
@@ -112,17 +112,12 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
     (−(R_b a_b)_y F_x + (R_b a_b)_x F_y) (level support; F_b the first moment beyond body b,
     rows x, y) over the poses and the joints of jbody (J, B); approach (n,) or (0,). False
     (nothing written) when an angle is beyond MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, 2, blk)
     nj = tau.shape[1]
     rows = np.arange(2)
-    rot = np.zeros((nb, 3, 2, blk))
     f = np.zeros((nb, 2, blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     tt = np.zeros((nj + 2, blk))  # the block's torques, approach sides, mask
     dummy = np.zeros((1, 8))
     no_u = np.zeros((1, 2, 3))
@@ -130,9 +125,7 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
     a_abs = vzero()
     a_sq = vzero()
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         tt[:, w:] = 0.0
         tb = tau[s0 : s0 + w]
         for k in range(w):
@@ -141,8 +134,8 @@ def _torque_residual_sums(q, tau, approach, off_j, fr_j, mg, jbody, jcol, coef, 
             tt[nj, k] = approach[s0 + k] if approach.shape[0] > 0 else 0.0
             tt[nj + 1, k] = 1.0
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+                         rows, no_u, pos, s, c1, rot, dummy, False)  # fmt: skip
             r0, r1, r2 = vsplat(r[b, 0]), vsplat(r[b, 1]), vsplat(r[b, 2])
             for i in range(2):
                 base = (b * 6 + i) * blk
@@ -198,7 +191,7 @@ def torque_residual_sums(
     support, for SESC vectors r (N, 3), M·g0 [kg·m/s²] and q columns ``cols`` (J,); ``data`` =
     (τ (n, J), approach sides (n,) or None, offsets (J,), friction bands (J,)). One compiled
     pass; None when an angle needs numpy's exact reduction."""
-    from sescid.kinematics.torque_values import joint_bodies_padded
+    from sescid.kinematics._kernels.torque_values import joint_bodies_padded
 
     tau, side, off_j, fr_j = data
     out = np.zeros(2)

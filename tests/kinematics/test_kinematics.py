@@ -11,7 +11,7 @@ from urdf_gen import random_urdf
 
 import sescid
 from sescid import kinematics
-from sescid.kinematics import trig as ktrig
+from sescid.kinematics._kernels import trig as ktrig
 
 
 @pytest.mark.parametrize("support", ["r_sole", "l_sole", "MP_BODY", "MP_HEAD", "MP_ARM_LOW_L"])
@@ -76,7 +76,7 @@ def test_forward_rotations_are_orthonormal_and_origins_chain(op2, rng):
 
 
 def _one_joint_tree() -> kinematics.Tree:
-    """A bare one-joint tree, to drive ``_joint_trig`` directly."""
+    """A bare one-joint tree, to drive ``joint_trig`` directly."""
     return kinematics.Tree(
         parent=np.array([-1, 0]), jcol=np.array([-1, 0]), coef=np.ones(2), off=np.zeros(2),
         a0=np.zeros((2, 3, 3)), a1=np.zeros((2, 3, 3)), a2=np.zeros((2, 3, 3)),
@@ -91,7 +91,7 @@ def test_in_kernel_sincos_is_accurate():
     tree = _one_joint_tree()
     s = np.empty((2, x.size))
     c1 = np.empty((2, x.size))
-    ktrig._joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, s, c1)
+    ktrig.joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, s, c1)
     np.testing.assert_allclose(s[1], np.sin(x), rtol=0, atol=4.5e-16)
     exact_c1 = 2 * np.sin(x / 2) ** 2  # 1 − cos x without cancellation
     np.testing.assert_allclose(c1[1], exact_c1, rtol=1e-14, atol=4.5e-16)
@@ -103,10 +103,10 @@ def test_small_angle_trig_gives_the_reduced_paths_bits(rng):
     lim = np.nextafter(kinematics.SMALL_ANGLE, 0)
     x = np.concatenate([rng.uniform(-lim, lim, 4000), [0.0, -0.0, lim, -lim, 1e-300]])
     fast = np.empty((2, x.size)), np.empty((2, x.size))
-    ktrig._joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, *fast)
+    ktrig.joint_trig(x[None, :], tree.jcol, tree.coef, tree.off, *fast)
     with_big = np.append(x, 3.0)  # one large angle: the whole block takes the reduction
     full = np.empty((2, with_big.size)), np.empty((2, with_big.size))
-    ktrig._joint_trig(with_big[None, :], tree.jcol, tree.coef, tree.off, *full)
+    ktrig.joint_trig(with_big[None, :], tree.jcol, tree.coef, tree.off, *full)
     assert np.array_equal(fast[0][1], full[0][1, :-1]) and np.array_equal(
         fast[1][1], full[1][1, :-1]
     )

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.kinematics.chains import Workspace, chain
+from sescid.kinematics._kernels.chains import Workspace, chain
 from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
 

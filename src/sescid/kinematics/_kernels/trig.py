@@ -9,16 +9,16 @@ from sescid.kinematics.compile import GROUP, lazy_njit
 from sescid.kinematics.tree import Tree
 
 # Cody–Waite split of π/2 (fdlibm) and Taylor coefficients: |error| ≤ 2 ulp for |θ| < 1e5.
-_PIO2_1 = 1.57079632673412561417e00
+PIO2_1 = 1.57079632673412561417e00
 
 
-_PIO2_2 = 6.07710050630396597660e-11
+PIO2_2 = 6.07710050630396597660e-11
 
 
-_PIO2_2T = 2.02226624879595063154e-21
+PIO2_2T = 2.02226624879595063154e-21
 
 
-_TWO_OVER_PI = 6.36619772367581382433e-01
+TWO_OVER_PI = 6.36619772367581382433e-01
 
 
 MAX_ANGLE = 1e5  #: rad; beyond this the reduction loses accuracy and numpy's sin/cos is used
@@ -33,7 +33,7 @@ def reducible(q: np.ndarray) -> bool:
 
 
 #: rad: below this |θ| the reduction is the identity (its quotient is 0 since θ·2/π + ½ < 1),
-#: so the polynomials alone give ``_sin_cos1m``'s bits for less work
+#: so the polynomials alone give ``sin_cos1m``'s bits for less work
 SMALL_ANGLE = 0.78
 
 
@@ -58,11 +58,17 @@ def _sin_cm(r):
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _sin_cos1m(x):
+def sin_cos1m(x):
     """Sin x and 1 − cos x, branch-free enough for the compiler to vectorise across poses."""
-    q = np.floor(x * _TWO_OVER_PI + 0.5)
-    r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T  # |r| ≤ π/4
+    q = np.floor(x * TWO_OVER_PI + 0.5)
+    r = ((x - q * PIO2_1) - q * PIO2_2) - q * PIO2_2T  # |r| ≤ π/4
     sp, cm = _sin_cm(r)
+    return from_quadrant(q, sp, cm)
+
+
+@lazy_njit(GROUP, cache=True, nogil=True, inline="always")
+def from_quadrant(q, sp, cm):
+    """Sin x and 1 − cos x from sin r and cos r − 1 of the reduced angle r = x − q·π/2."""
     qi = np.int64(q) & 3
     a = (1.0 + cm) if qi & 1 else sp
     c = sp if qi & 1 else (1.0 + cm)
@@ -72,7 +78,7 @@ def _sin_cos1m(x):
 
 
 @lazy_njit(GROUP, cache=True, nogil=True, inline="always")
-def _trig_row(qrow, cb, ob, w, s, c1):
+def trig_row(qrow, cb, ob, w, s, c1):
     """s[:w], c1[:w] = sin θ, 1 − cos θ of θ = cb·qrow[:w] + ob: the polynomials alone when
     every |θ| < SMALL_ANGLE (the same bits), else with the reduction."""
     big = 0.0
@@ -85,11 +91,11 @@ def _trig_row(qrow, cb, ob, w, s, c1):
             c1[k] = -cm
     else:
         for k in range(w):
-            s[k], c1[k] = _sin_cos1m(cb * qrow[k] + ob)
+            s[k], c1[k] = sin_cos1m(cb * qrow[k] + ob)
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _joint_trig(qt, jcol, coef, off, s, c1):
+def joint_trig(qt, jcol, coef, off, s, c1):
     """s, c1 (N, m): sin θ and 1 − cos θ of each body's joint angle θ = coef·q[:, jcol] + off.
 
     ``qt`` is the block transposed, (nq, m) C-contiguous, so the pose loop reads contiguously
@@ -105,10 +111,10 @@ def _joint_trig(qt, jcol, coef, off, s, c1):
             continue
         cb = coef[b]
         ob = off[b]
-        _trig_row(qt[j], cb, ob, m, s[b], c1[b])
+        trig_row(qt[j], cb, ob, m, s[b], c1[b])
 
 
-def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
+def trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
     """Sin θ and 1 − cos θ = 2 sin²(θ/2) of every body's joint angle, exact reduction (libm)."""
     moving = tree.jcol >= 0
     theta = np.zeros(s.shape)
@@ -118,9 +124,9 @@ def _trig_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> Non
 
 
 def _sin_cos1m_numpy(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``_sin_cos1m`` in numpy, the same operations in the same order: the same bits."""
-    q = np.floor(x * _TWO_OVER_PI + 0.5)
-    r = ((x - q * _PIO2_1) - q * _PIO2_2) - q * _PIO2_2T
+    """``sin_cos1m`` in numpy, the same operations in the same order: the same bits."""
+    q = np.floor(x * TWO_OVER_PI + 0.5)
+    r = ((x - q * PIO2_1) - q * PIO2_2) - q * PIO2_2T
     z = r * r
     poly = 1 / 6227020800
     for c in (-1 / 39916800, 1 / 362880, -1 / 5040, 1 / 120, -1 / 6):
@@ -142,8 +148,8 @@ def _sin_cos1m_numpy(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return sn, np.where(qi == 0, -cm, 1.0 - cs)
 
 
-def _trig_poly_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
-    """``_joint_trig`` in numpy (|q| < ``MAX_ANGLE``): the kernel's sin θ and 1 − cos θ, bit
+def trig_poly_numpy(tree: Tree, q: np.ndarray, s: np.ndarray, c1: np.ndarray) -> None:
+    """``joint_trig`` in numpy (|q| < ``MAX_ANGLE``): the kernel's sin θ and 1 − cos θ, bit
     for bit."""
     moving = tree.jcol >= 0
     theta = tree.coef[moving, None] * q.T[tree.jcol[moving]] + tree.off[moving, None]

@@ -6,16 +6,12 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parents[1]))
-
-from humanoid_gen import HumanoidSpec, humanoid_mjcf  # noqa: E402
-from mjcf_gen import _mujoco_states  # noqa: E402
+from humanoid_gen import HumanoidSpec, humanoid_mjcf
+from mjcf_gen import _mujoco_states
 
 G = 9.80665
 

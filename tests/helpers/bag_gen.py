@@ -16,7 +16,7 @@ from sescid.sensors.wrench import G, rpy_matrix
 FOOT_MSG = "std_msgs/Header header\nfloat32[4] force\nuint8 board_id\n"
 FOOT_TYPE = "op2_msgs/msg/FootFsr"
 T0 = 1_700_000_000 * 10**9  # ns, the session's first stamp
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "bag_mapping.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "bag_mapping.yaml"
 SENSOR_XYZ, SENSOR_RPY = [0.004, -0.002, 0.031], [0.02, -0.03, 0.4]
 
 

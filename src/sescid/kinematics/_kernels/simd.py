@@ -19,12 +19,13 @@ lie inside the array.
 
 from __future__ import annotations
 
+from typing import Any
+
 from llvmlite import ir
 from numba.core import cgutils, types
 from numba.core.extending import intrinsic, models, register_model
 
-#: lanes of ``Vec``: part of the summation order, so fixed (not the CPU's vector width)
-LANES = 8
+from sescid.kinematics._kernels.gram import LANES
 
 _F64 = ir.DoubleType()
 _VEC = ir.VectorType(_F64, LANES)
@@ -95,8 +96,10 @@ def vsplat(typingctx, x):
     return vec(types.float64), codegen
 
 
-def _fma_fn(builder, ty, name):
-    return cgutils.get_or_insert_function(builder.module, ir.FunctionType(ty, [ty, ty, ty]), name)
+def _llvm_fn(builder, name: str, n_args: int, ty=_VEC):
+    """LLVM's function ``name`` of ``n_args`` arguments of type ``ty`` (and its result), declared
+    in the builder's module."""
+    return cgutils.get_or_insert_function(builder.module, ir.FunctionType(ty, [ty] * n_args), name)
 
 
 @intrinsic
@@ -104,29 +107,30 @@ def vfma(typingctx, a, b, c):
     """a·b + c lane by lane, each rounded once (``llvm.fma``)."""
 
     def codegen(context, builder, sig, args):
-        return builder.call(_fma_fn(builder, _VEC, f"llvm.fma.v{LANES}f64"), args)
+        return builder.call(_llvm_fn(builder, f"llvm.fma.v{LANES}f64", 3), args)
 
     return vec(vec, vec, vec), codegen
 
 
-@intrinsic
-def vmul(typingctx, a, b):
-    """a·b lane by lane."""
+def _lanewise(name: str, op: str, doc: str) -> Any:
+    """The intrinsic ``name(a, b)``: the IRBuilder's ``op`` (fmul, fadd, …) lane by lane, one
+    IEEE operation per lane (correctly rounded: the scalar operation's bits)."""
 
-    def codegen(context, builder, sig, args):
-        return builder.fmul(args[0], args[1])
+    def typer(typingctx, a, b):
+        def codegen(context, builder, sig, args):
+            return getattr(builder, op)(args[0], args[1])
 
-    return vec(vec, vec), codegen
+        return vec(vec, vec), codegen
+
+    typer.__name__ = typer.__qualname__ = name
+    typer.__doc__ = doc
+    return intrinsic(typer)
 
 
-@intrinsic
-def vadd(typingctx, a, b):
-    """A + b lane by lane."""
-
-    def codegen(context, builder, sig, args):
-        return builder.fadd(args[0], args[1])
-
-    return vec(vec, vec), codegen
+vmul = _lanewise("vmul", "fmul", "a·b lane by lane.")
+vadd = _lanewise("vadd", "fadd", "A + b lane by lane.")
+vsub = _lanewise("vsub", "fsub", "A − b lane by lane.")
+vdiv = _lanewise("vdiv", "fdiv", "A / b lane by lane.")
 
 
 @intrinsic
@@ -153,29 +157,9 @@ def fma(typingctx, a, b, c):
         vals = [
             context.cast(builder, v, t, types.float64) for v, t in zip(args, sig.args, strict=True)
         ]
-        return builder.call(_fma_fn(builder, _F64, "llvm.fma.f64"), vals)
+        return builder.call(_llvm_fn(builder, "llvm.fma.f64", 3, _F64), vals)
 
     return types.float64(a, b, c), codegen
-
-
-@intrinsic
-def vsub(typingctx, a, b):
-    """A − b lane by lane."""
-
-    def codegen(context, builder, sig, args):
-        return builder.fsub(args[0], args[1])
-
-    return vec(vec, vec), codegen
-
-
-@intrinsic
-def vdiv(typingctx, a, b):
-    """A / b lane by lane (each correctly rounded: the scalar division's bits)."""
-
-    def codegen(context, builder, sig, args):
-        return builder.fdiv(args[0], args[1])
-
-    return vec(vec, vec), codegen
 
 
 @intrinsic
@@ -183,10 +167,7 @@ def vsqrt(typingctx, a):
     """√a lane by lane (``llvm.sqrt``, correctly rounded: ``math.sqrt``'s bits in a kernel)."""
 
     def codegen(context, builder, sig, args):
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(_VEC, [_VEC]), f"llvm.sqrt.v{LANES}f64"
-        )
-        return builder.call(fn, [args[0]])
+        return builder.call(_llvm_fn(builder, f"llvm.sqrt.v{LANES}f64", 1), [args[0]])
 
     return vec(vec), codegen
 
@@ -206,12 +187,8 @@ def vabsmax(typingctx, m, a):
     """max(m, |a|) lane by lane (``llvm.maxnum`` of ``llvm.fabs``: exact, a NaN never wins)."""
 
     def codegen(context, builder, sig, args):
-        fabs = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(_VEC, [_VEC]), f"llvm.fabs.v{LANES}f64"
-        )
-        fmax = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(_VEC, [_VEC, _VEC]), f"llvm.maxnum.v{LANES}f64"
-        )
+        fabs = _llvm_fn(builder, f"llvm.fabs.v{LANES}f64", 1)
+        fmax = _llvm_fn(builder, f"llvm.maxnum.v{LANES}f64", 2)
         return builder.call(fmax, [args[0], builder.call(fabs, [args[1]])])
 
     return vec(vec, vec), codegen
@@ -222,9 +199,7 @@ def vmaxlane(typingctx, v):
     """The largest lane (exact: max does not round, so any order gives it)."""
 
     def codegen(context, builder, sig, args):
-        fmax = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(_F64, [_F64, _F64]), "llvm.maxnum.f64"
-        )
+        fmax = _llvm_fn(builder, "llvm.maxnum.f64", 2, _F64)
         out = builder.extract_element(args[0], ir.Constant(_I32, 0))
         for i in range(1, LANES):
             out = builder.call(fmax, [out, builder.extract_element(args[0], ir.Constant(_I32, i))])
@@ -238,9 +213,6 @@ def vabs(typingctx, a):
     """|a| lane by lane (exact)."""
 
     def codegen(context, builder, sig, args):
-        fabs = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(_VEC, [_VEC]), f"llvm.fabs.v{LANES}f64"
-        )
-        return builder.call(fabs, [args[0]])
+        return builder.call(_llvm_fn(builder, f"llvm.fabs.v{LANES}f64", 1), [args[0]])
 
     return vec(vec), codegen

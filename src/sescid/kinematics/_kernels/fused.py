@@ -12,23 +12,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.compile import GROUP, lazy_njit, simd_intrinsic
-from sescid.kinematics.gram import _syrk, padded
-from sescid.kinematics.reduced import Reduction
+from sescid.kinematics._kernels.gram import padded, syrk
+from sescid.kinematics._kernels.intrinsics import (
+    vabsmax,
+    vfma,
+    vload,
+    vmaxlane,
+    vmul,
+    vneg,
+    vsplat,
+    vstore,
+    vzero,
+)
+from sescid.kinematics._kernels.reduced import Reduction
+from sescid.kinematics._kernels.trig import MAX_ANGLE, SMALL_ANGLE
+from sescid.kinematics._kernels.trig_fma import trig_row_fma
+from sescid.kinematics.compile import GROUP, lazy_njit
 from sescid.kinematics.tree import Tree
-from sescid.kinematics.trig import MAX_ANGLE, SMALL_ANGLE
-from sescid.kinematics.trig_fma import _trig_row_fma
-
-fma = simd_intrinsic("fma")
-vload = simd_intrinsic("vload")
-vstore = simd_intrinsic("vstore")
-vsplat = simd_intrinsic("vsplat")
-vzero = simd_intrinsic("vzero")
-vfma = simd_intrinsic("vfma")
-vmul = simd_intrinsic("vmul")
-vneg = simd_intrinsic("vneg")
-vabsmax = simd_intrinsic("vabsmax")
-vmaxlane = simd_intrinsic("vmaxlane")
 
 #: poses per sub-block of the fused pass (a multiple of 8: the block's rotations, columns and
 #: product stay in L2)
@@ -36,7 +36,7 @@ GRAM_BLOCK = 128
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _angles_ok(q):  # pragma: no cover - compiled
+def angles_ok(q):  # pragma: no cover - compiled
     """True when every |angle| < MAX_ANGLE (the in-kernel reduction's range)."""
     for k in range(q.shape[0]):
         for j in range(q.shape[1]):
@@ -46,19 +46,22 @@ def _angles_ok(q):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _transpose(q, s0, w, qt):  # pragma: no cover - compiled
-    """qt[j, k] = q[s0 + k, j] for k < w, zero beyond: the block's angles, joint-major."""
+def block_angles(q, s0, blk, qt):  # pragma: no cover - compiled
+    """The block of up to blk poses from s0: qt[j, k] = q[s0 + k, j] for k < w, zero beyond
+    (its angles, joint-major); (w, w rounded up to the 8 lanes)."""
+    w = min(blk, q.shape[0] - s0)
     qb = q[s0 : s0 + w]
     for k in range(w):
         for j in range(q.shape[1]):
             qt[j, k] = qb[k, j]
     qt[:, w:] = 0.0
+    return w, (w + 7) // 8 * 8
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
 def _trig_simd(qt, jc, lin, w, seg, s, c1):  # pragma: no cover - compiled
     """s, c1 = sin θ, 1 − cos θ of θ = cb·qt[jc] + ob, lin = (cb, ob), for the block
-    (``_trig_row_fma``'s bits): 8 lanes at a time when every |θ| < SMALL_ANGLE, else its
+    (``trig_row_fma``'s bits): 8 lanes at a time when every |θ| < SMALL_ANGLE, else its
     reduction."""
     cb, ob = lin
     base = jc * qt.shape[1]
@@ -67,7 +70,7 @@ def _trig_simd(qt, jc, lin, w, seg, s, c1):  # pragma: no cover - compiled
     for k in range(0, seg, 8):
         big = vabsmax(big, vfma(vb, vload(qt, base + k), vo))
     if not vmaxlane(big) < SMALL_ANGLE:
-        _trig_row_fma(qt[jc], cb, ob, w, s, c1)
+        trig_row_fma(qt[jc], cb, ob, w, s, c1)
         return
     for k in range(0, seg, 8):
         r = vfma(vb, vload(qt, base + k), vo)
@@ -90,8 +93,8 @@ def _trig_simd(qt, jc, lin, w, seg, s, c1):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rows, u,
-          pos, s, c1, rot, xv, cols=True):  # fmt: skip  # pragma: no cover - compiled
+def body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r, rows,
+                 u, pos, s, c1, rot, xv, cols=True):  # fmt: skip  # pragma: no cover - compiled
     """Body b for the block's w poses (8 lanes at a time, seg = w rounded up to 8):
     rot[b, j, i, k] = R_b[rows[i], j] from its parent's (trig and chain in FMAs) and, for a
     moving body, its unweighted reduced columns xv[nr + 2·pos[b] + l, i·seg + k] =
@@ -170,8 +173,19 @@ def _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root
                 xv[row + lc, i * seg + k] = 0.0
 
 
+@lazy_njit(GROUP, cache=True, nogil=True, inline="always")
+def chain_buffers(q, parent, nr, blk):  # pragma: no cover - compiled
+    """A fused pass over poses q (n, nq) of a tree of nb bodies (``parent``): (n, nq, nb) and
+    its chain buffers for blocks of blk poses: rot (nb, 3, nr, blk), s and c1 (blk,) (a joint's
+    sin θ, 1 − cos θ) and qt (nq, blk) (the block's angles, joint-major)."""
+    n, nq = q.shape
+    nb = parent.shape[0]
+    rot = np.zeros((nb, 3, nr, blk))
+    return n, nq, nb, rot, np.zeros(blk), np.zeros(blk), np.zeros((nq, blk))
+
+
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _cop_rows(w, seg, nr, xv):  # pragma: no cover - compiled
+def cop_rows(w, seg, nr, xv):  # pragma: no cover - compiled
     """The CoP's intercept rows xv[c, i·seg + k] = δ_ci (zero for w ≤ k < seg)."""
     for i in range(nr):
         for c in range(nr):
@@ -184,7 +198,7 @@ def _cop_rows(w, seg, nr, xv):  # pragma: no cover - compiled
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
-def _cop_target(span, y, sw, pt, xv, xw):  # pragma: no cover - compiled
+def cop_target(span, y, sw, pt, xv, xw):  # pragma: no cover - compiled
     """Target row pt of xv (y, zero tail) and, when weighted (sw (n, nr), else (0, nr)), rows
     0..pt of xv times each CoP row's weight into xw; span = (s0, w, seg): the block's first
     pose, its poses and w rounded up to 8."""
@@ -217,29 +231,22 @@ def _gram_reduced(q, y, sw, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, r
     depth-first order, padded(p + 1) square), y (n, nr) targets, sw (n, nr) square-root weights
     or (0, nr); sub-blocks of blk poses. False (nothing added) when an angle is beyond
     MAX_ANGLE."""
-    if not _angles_ok(q):
+    if not angles_ok(q):
         return False
-    n, nq = q.shape
-    nb = parent.shape[0]
     nr = rows.shape[0]
+    n, nq, nb, rot, s, c1, qt = chain_buffers(q, parent, nr, blk)
     p4 = out.shape[0]
     pt = nr + 2 * (nb - 1)
-    rot = np.zeros((nb, 3, nr, blk))
     xv = np.zeros((p4, nr * blk))
     xw = np.zeros((p4 if sw.shape[0] > 0 else 0, nr * blk))
-    s = np.zeros(blk)
-    c1 = np.zeros(blk)
-    qt = np.zeros((nq, blk))
     for s0 in range(0, n, blk):
-        w = min(blk, n - s0)
-        seg = (w + 7) // 8 * 8
-        _transpose(q, s0, w, qt)
+        w, seg = block_angles(q, s0, blk, qt)
         for b in range(nb):
-            _body(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
-                  rows, u, pos, s, c1, rot, xv)  # fmt: skip
-        _cop_rows(w, seg, nr, xv)
-        _cop_target((s0, w, seg), y, sw, pt, xv, xw)
-        _syrk(xw if sw.shape[0] > 0 else xv, p4, nr * seg, out)
+            body_columns(b, w, seg, qt, jcol, coef, off, parent, nz_ptr, nz_k, nz_j, nz_a, root_r,
+                         rows, u, pos, s, c1, rot, xv)  # fmt: skip
+        cop_rows(w, seg, nr, xv)
+        cop_target((s0, w, seg), y, sw, pt, xv, xw)
+        syrk(xw if sw.shape[0] > 0 else xv, p4, nr * seg, out)
     return True
 
 

@@ -7,8 +7,8 @@ import sys
 
 import numpy as np
 
-from sescid.kinematics import chains as kchain
-from sescid.kinematics import trig as ktrig
+from sescid.kinematics._kernels import chains as kchain
+from sescid.kinematics._kernels import trig as ktrig
 from sescid.sesc import com_from_sesc
 
 
@@ -18,11 +18,11 @@ def test_numpy_chain_equals_kernel(op2, rng):
     nb = len(op2.tree.parent)
     s, c1 = np.empty((nb, 50)), np.empty((nb, 50))
     ref = np.empty((nb, 3, 3, 50))
-    ktrig._joint_trig(np.ascontiguousarray(q.T), op2.tree.jcol, op2.tree.coef, op2.tree.off, s, c1)
-    kchain._chain_block(s, c1, op2.tree.arrays, ref)
+    ktrig.joint_trig(np.ascontiguousarray(q.T), op2.tree.jcol, op2.tree.coef, op2.tree.off, s, c1)
+    kchain.chain_block(s, c1, op2.tree.arrays, ref)
     s2, c2, rot = np.empty_like(s), np.empty_like(c1), np.empty_like(ref)
-    ktrig._trig_numpy(op2.tree, q, s2, c2)
-    kchain._chain_numpy(op2.tree, s2, c2, rot)
+    ktrig.trig_numpy(op2.tree, q, s2, c2)
+    kchain.chain_numpy(op2.tree, s2, c2, rot)
     np.testing.assert_allclose(rot, ref, rtol=0, atol=2e-15)
 
 

@@ -9,11 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.kinematics.fused import GRAM_BLOCK, augmented_size, reduced_order
-from sescid.kinematics.gram import padded
-from sescid.kinematics.reduced import Reduction
-from sescid.kinematics.torque import _gram_fused
-from sescid.kinematics.torque_plan import TorquePlan
+from sescid.kinematics._kernels.fused import GRAM_BLOCK, augmented_size, reduced_order
+from sescid.kinematics._kernels.gram import padded
+from sescid.kinematics._kernels.reduced import Reduction
+from sescid.kinematics._kernels.torque import gram_fused_kernel
+from sescid.kinematics._kernels.torque_plan import TorquePlan
 from sescid.kinematics.tree import Tree
 
 #: (ΦᵀWΦ, ΦᵀWy, yᵀWy) of one block
@@ -82,7 +82,7 @@ def add_gram_fused(
         y_c = np.ascontiguousarray(cop[0], dtype=float)
         sw_c = np.empty((0, 2)) if cop[1] is None else np.ascontiguousarray(cop[1], dtype=float)
     return bool(
-        _gram_fused(
+        gram_fused_kernel(
             q, y_c, sw_c, np.ascontiguousarray(torque.tau, dtype=float),
             empty if torque.sw is None else np.ascontiguousarray(torque.sw, dtype=float),
             np.empty(0) if torque.approach is None else np.ascontiguousarray(torque.approach),

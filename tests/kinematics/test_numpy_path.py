@@ -11,19 +11,19 @@ import numpy as np
 import pytest
 
 from sescid import kinematics as kin
-from sescid.kinematics import chains as kchain
 from sescid.kinematics import compile as kcompile
-from sescid.kinematics import trig as ktrig
+from sescid.kinematics._kernels import chains as kchain
+from sescid.kinematics._kernels import trig as ktrig
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _kernel_chain(tree, q):
     nb = len(tree.parent)
     s, c1 = np.empty((nb, len(q))), np.empty((nb, len(q)))
     rot = np.empty((nb, 3, 3, len(q)))
-    ktrig._joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
-    kchain._chain_block(s, c1, tree.arrays, rot)
+    ktrig.joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
+    kchain.chain_block(s, c1, tree.arrays, rot)
     return s, c1, rot
 
 
@@ -36,15 +36,15 @@ def test_numpy_chain_is_the_kernel_bit_for_bit(op2, scale):
     s_ref, c_ref, rot_ref = _kernel_chain(tree, q)  # loads the kernels
     nb = len(tree.parent)
     org_ref = np.empty((nb, 3, m))
-    kchain._origins_block(rot_ref, tree.parent, tree.t, tree.root_o, org_ref)
+    kchain.origins_block(rot_ref, tree.parent, tree.t, tree.root_o, org_ref)
     cols_ref = kin.reduced_columns(tree, op2.reduction, q, None, True).copy()
     s, c1, rot = np.empty((nb, m)), np.empty((nb, m)), np.empty((nb, 3, 3, m))
-    ktrig._trig_poly_numpy(tree, q, s, c1)
-    kchain._chain_numpy(tree, s, c1, rot)
+    ktrig.trig_poly_numpy(tree, q, s, c1)
+    kchain.chain_numpy(tree, s, c1, rot)
     assert np.array_equal(s, s_ref) and np.array_equal(c1, c_ref)
     assert np.array_equal(rot, rot_ref)
     org = np.empty((nb, 3, m))
-    kchain._origins(rot, tree, org, False)
+    kchain.origins(rot, tree, org, False)
     assert np.array_equal(org, org_ref)
     assert np.array_equal(kin.reduced_columns(tree, op2.reduction, q, None, False), cols_ref)
     r = op2.sesc_vectors()
@@ -132,14 +132,14 @@ def test_the_small_jobs_gram_is_numpys_bit_for_bit_once_kernels_load(p, m):
     """A small job's normal-equation product (one column at a time, a product and a sum per
     element) gives the same bits in numpy and in its compiled twin, which runs it once the
     kernels are loaded (a planner's): the path changes the speed only."""
-    from sescid.kinematics.gram import _gram_in_order, padded
+    from sescid.kinematics._kernels.gram import gram_in_order, padded
 
     rng = np.random.default_rng(p)
     x = rng.normal(size=(p, m)) * 10.0 ** rng.integers(-4, 4, size=(p, 1))
     ref = np.zeros((padded(p), padded(p)))
     kin.gram_numpy(x, ref)
     out = np.zeros_like(ref)
-    _gram_in_order(np.ascontiguousarray(x.T), out)
+    gram_in_order(np.ascontiguousarray(x.T), out)
     assert out.tobytes() == ref.tobytes()
     kin.load_kernels()
     assert kin.gram_columns(x, False).tobytes() == ref.tobytes()

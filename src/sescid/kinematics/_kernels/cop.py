@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.kinematics.chains import CHAIN_BLOCK, Workspace, chain
+from sescid.kinematics._kernels.chains import CHAIN_BLOCK, Workspace, chain
+from sescid.kinematics._kernels.trig import MAX_ANGLE, reducible, trig_row
 from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
-from sescid.kinematics.trig import MAX_ANGLE, _trig_row, reducible
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -56,7 +56,7 @@ def _cop_xy_kernel(q, tree, r, out):
                     s[:] = 0.0
                     c1[:] = 0.0
                 else:
-                    _trig_row(qt[jc], coef[b], off[b], w, s, c1)
+                    trig_row(qt[jc], coef[b], off[b], w, s, c1)
                 rot[b, :, :, :] = 0.0
                 for z in range(nz_ptr[b], nz_ptr[b + 1]):
                     kk = nz_k[z]

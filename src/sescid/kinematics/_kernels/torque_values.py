@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.kinematics.chains import CHAIN_BLOCK, Workspace, _chain_block, chain
+from sescid.kinematics._kernels.chains import CHAIN_BLOCK, Workspace, chain, chain_block
+from sescid.kinematics._kernels.trig import joint_trig, reducible
 from sescid.kinematics.compile import GROUP, lazy_njit, prefer_kernels
 from sescid.kinematics.tree import Tree
-from sescid.kinematics.trig import _joint_trig, reducible
 
 
 @lazy_njit(GROUP, cache=True, nogil=True)
@@ -67,7 +67,7 @@ def joint_bodies_padded(tree: Tree, cols: np.ndarray) -> np.ndarray:
     return out
 
 
-def _torques_numpy(rot, tree: Tree, jbody, r, g, mass) -> np.ndarray:
+def torques_numpy(rot, tree: Tree, jbody, r, g, mass) -> np.ndarray:
     """``_torques_block`` in numpy: the same operations in the same order."""
     f = (rot[:, 0] * r[:, 0, None, None] + rot[:, 1] * r[:, 1, None, None]) + rot[:, 2] * r[
         :, 2, None, None
@@ -111,7 +111,7 @@ def torque_values(
             _torques_block(rot, tree.arrays, jbody, rr, gb, float(mass), (scratch, out[blk]))
         else:
             rot = chain(tree, q[blk], ws, False)
-            out[blk] = _torques_numpy(rot, tree, jbody, rr, gb, float(mass))
+            out[blk] = torques_numpy(rot, tree, jbody, rr, gb, float(mass))
     return out
 
 
@@ -123,8 +123,8 @@ def _chain_kernel(tree: Tree, q: np.ndarray, ws: Workspace) -> np.ndarray:
     else:
         nb = tree.parent.shape[0]
         s, c1, rot = np.empty((nb, m)), np.empty((nb, m)), np.empty((nb, 3, 3, m))
-    _joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
-    _chain_block(s, c1, tree.arrays, rot)
+    joint_trig(np.ascontiguousarray(q.T), tree.jcol, tree.coef, tree.off, s, c1)
+    chain_block(s, c1, tree.arrays, rot)
     return rot
 
 
@@ -133,7 +133,7 @@ def torque_rows(tree: Tree, q: np.ndarray, cols: np.ndarray, g: np.ndarray) -> n
     (n, nq) under gravity vectors g (n, 3) [m/s²]: row j, body i's three entries are
     Σ_{b: joint(b) = j, i in the subtree of b} coef_b h_bᵀ R_i, each h_bᵀ R_i summed as
     (h_x R_i[0] + h_y R_i[1]) + h_z R_i[2] (fixed order, numpy)."""
-    from sescid.kinematics.chains import forward
+    from sescid.kinematics._kernels.chains import forward
 
     n, nb = q.shape[0], tree.parent.shape[0]
     jbody = joint_bodies_padded(tree, np.asarray(cols, dtype=np.int64))
