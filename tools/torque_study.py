@@ -114,7 +114,7 @@ def one_seed(seed: int, args) -> dict[str, float]:
         tau = data.without("cop")
         cop = data.without("tau")
         opts = {"total_mass": mass, "robust": False}
-        ls = identify(robot, tau, **opts)
+        ls = identify(robot, tau, method="ls", **opts)
         out["torques, least squares"] = com_error(robot, ls.r, r_true, fresh)
         ref = lstsq_reference(robot, tau, mass, friction=False)
         out["independent lstsq, same rows"] = com_error(robot, ref, r_true, fresh)
@@ -130,22 +130,22 @@ def one_seed(seed: int, args) -> dict[str, float]:
         out["CoP + torques, MAP"] = com_error(robot, both.r, r_true, fresh)
         out["CAD model"] = com_error(robot, robot.sesc_vectors(), r_true, fresh)
         out["rank: torques"] = ls.rank
-        out["rank: CoP"] = identify(robot, cop, allow_exact=True).rank
+        out["rank: CoP"] = identify(robot, cop, method="ls", allow_exact=True).rank
         out["poses measured"] = data.n
-        out["rank: pooled"] = identify(robot, data, **opts).rank
+        out["rank: pooled"] = identify(robot, data, method="ls", **opts).rank
         # friction band with one random approach side per pose
         robot, data, truth = bench(folder, seed, args, ["--friction", "0.1", "0.3"])
         tau = data.without("cop")
         tau = Measurements(q=tau.q, tau=tau.tau, tau_joints=tau.tau_joints, tau_se=tau.tau_se,
                            approach=data.approach, source=tau.source)  # fmt: skip
-        band = identify(robot, tau, total_mass=truth.true_mass, robust=False)
+        band = identify(robot, tau, method="ls", total_mass=truth.true_mass, robust=False)
         out["friction: estimated band"] = com_error(robot, band.r, truth.r_true, fresh)
         ref = lstsq_reference(robot, tau, truth.true_mass, friction=True)
         out["friction: reference lstsq with the band"] = com_error(robot, ref, truth.r_true, fresh)
         blind = Measurements(q=tau.q, tau=tau.tau, tau_joints=tau.tau_joints)
-        ign = identify(robot, blind, total_mass=truth.true_mass, robust=False)
+        ign = identify(robot, blind, method="ls", total_mass=truth.true_mass, robust=False)
         out["friction: band ignored (LS)"] = com_error(robot, ign.r, truth.r_true, fresh)
-        rob = identify(robot, blind, total_mass=truth.true_mass, robust=True)
+        rob = identify(robot, blind, method="ls", total_mass=truth.true_mass, robust=True)
         out["friction: band ignored (robust)"] = com_error(robot, rob.r, truth.r_true, fresh)
         est = {e.name: e.value for e in band.nuisance if e.what == "friction" and e.determined}
         true_f = dict(zip(truth.joint_names, truth.torque.friction, strict=True))
