@@ -203,3 +203,27 @@ def test_cli_torque_design_prints_the_com_error(tmp_path, op2):
     assert len(cols["pose"]) == 20 and "cop_x_model" in cols and "cop_x" not in cols
     bad = CliRunner().invoke(cli, [*args[:-2], "--tau-noise", "0", "--out", str(tmp_path / "b")])
     assert bad.exit_code == 2 and "--tau-noise" in bad.output and not (tmp_path / "b").exists()
+
+
+def test_a_plan_says_when_its_poses_determine_fewer_combinations(op2, tmp_path):
+    """Two parallel joints of the support leg (hip pitch and knee): a pose's two torque rows
+    repeat one another, so 30 poses determine 31 of the 36 combinations although their rows
+    (60, less 2 offsets) outnumber them — counted as numpy's rank of the dense rows with the
+    offset columns, less the offsets' — and the plan says so with about how many poses do (35,
+    which then determine all); the command line prints it as a warning."""
+    joints = ("r_hip_pitch", "r_knee")
+    plan = design.plan_poses(op2, 30, kinds="tau", tau_joints=joints, seed=0)
+    phi = op2.torque_regressor(plan.q, joints) @ plan.basis  # (K, 2, p)
+    rows = phi.transpose(1, 0, 2).reshape(-1, plan.rank)
+    offsets = np.kron(np.eye(len(joints)), np.ones((len(plan.q), 1)))
+    dense = np.linalg.matrix_rank(np.hstack([rows, offsets]), tol=None) - len(joints)
+    assert plan.determined == dense == 31 < plan.rank == 36
+    assert plan.poses_for_all == 35 and math.isinf(plan.expected_error)
+    more = design.plan_poses(op2, 35, kinds="tau", tau_joints=joints, seed=0)
+    assert more.determined == 36 and more.poses_for_all is None
+    args = ["poses", "--kinds", "tau", "--tau-joints", ",".join(joints), "--count", "30",
+            "--out", str(tmp_path / "p.csv")]  # fmt: skip
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    assert "warning: these 30 poses determine 31 of the 36 combinations" in res.output
+    assert "about 35 poses determine them all" in res.output

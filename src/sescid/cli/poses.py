@@ -215,6 +215,11 @@ def _echo_plan(robot, plan, opt: PlanOptions, half, table_notes: list[str]) -> N
          f"{plan.kinds} rows)")  # fmt: skip
     echo(f"expected noise-free {_error_line(plan, opt.sigma, opt.tau_noise)}: chosen "
          f"{mm(plan.expected_error)}, {count} random {mm(plan.random_error)} (median)")  # fmt: skip
+    if plan.poses_for_all is not None:
+        echo(f"warning: these {count} poses determine {plan.determined} of the {plan.rank} "
+             "combinations (a pose's rows repeat one another here); about "
+             f"{plan.poses_for_all} poses determine them all (--count), or measure more "
+             "joints")  # fmt: skip
     echo(
         f"joint-space path from the zero pose: {plan.path_unordered:.2f} rad in selection "
         f"order → {plan.path_ordered:.2f} rad ordered"

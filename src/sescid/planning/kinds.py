@@ -262,6 +262,14 @@ def schur_information(rows: BlockRows, idx) -> np.ndarray:
     return (out + out.T) / 2
 
 
+def determined(rows: BlockRows, idx) -> int:
+    """How many of the p SESC coordinates the candidates ``idx`` determine, the offsets
+    marginalised (the rank rule of ``identifiable_eigen`` on their Schur information): fewer
+    than their rows count when a pose's rows repeat one another (two parallel joints of the
+    support leg add about one combination a pose, not two)."""
+    return len(identifiable_eigen(schur_information(rows, idx))[0])
+
+
 def expected_com_error(rows: BlockRows, idx, c_test: np.ndarray) -> float:
     """Expected RMS error [m] of least-squares CoM x/y predictions on fresh poses from the
     candidates ``idx``: sqrt(trace(F⁻¹_zz c_test)), ``c_test`` (p, p) the test poses' mean

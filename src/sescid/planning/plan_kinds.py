@@ -118,6 +118,7 @@ def plan_kinds(
         quantity="CoM x/y",
         mount=mount,
         rows=rows,
+        determined=kinds.determined(rows, sel.index),
     )
 
 

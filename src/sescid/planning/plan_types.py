@@ -134,6 +134,16 @@ class PosePlan:
     quantity: Quantity = "CoP"  #: what ``expected_error`` is the error of
     mount: Mount = "stand"  #: "stand", "gantry" or "double"
     rows: BlockRows | None = field(default=None, repr=False)  #: the pool's rows (kinds ≠ cop)
+    #: of the ``rank`` combinations, how many the chosen poses determine (None: all of them)
+    determined: int | None = None
+
+    @property
+    def poses_for_all(self) -> int | None:
+        """About how many poses determine every combination when these do not (None when they
+        do): the count scaled by the combinations a pose added here."""
+        if self.determined is None or self.determined >= self.rank:
+            return None
+        return math.ceil(len(self.q) * self.rank / max(self.determined, 1))
 
 
 def default_candidates(robot: Robot, select: Select, count: int, kinds: DesignKind = "cop") -> int:
