@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sescid.base import check_ranges, option
+from sescid.base import G0, check_ranges, option
 from sescid.base.columns import MAX_COP_NOISE_M
 from sescid.errors import OptionError
 
@@ -82,7 +82,7 @@ class TorqueNoise:
         "Half-width of each joint's static-friction band [N·m] (writes the approach column).",
         low=0, high=1e3, flag="--tau-friction",
     )  # fmt: skip
-    g0: float = option(9.80665, "|g| [m/s²].", low=1, high=30, what="|g| in m/s² (1–30)")
+    g0: float = option(G0, "|g| [m/s²].", low=1, high=30, what="|g| in m/s² (1–30)")
     total_mass: float | None = None
 
     def check(self) -> None:

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.sensors.wrench import G, rpy_matrix
+from sescid.base import G0
+from sescid.sensors.wrench import rpy_matrix
 
 FOOT_MSG = "std_msgs/Header header\nfloat32[4] force\nuint8 board_id\n"
 FOOT_TYPE = "op2_msgs/msg/FootFsr"
@@ -255,7 +256,7 @@ def sensor_wrench(p, f_ground, tau_n, rot, s, foot_mass=0.0, foot_com=(0, 0, 0))
     moments taken about the sensor origin instead of the sole origin.
     """
     p = np.column_stack([p, np.zeros(len(p))])
-    g_vec = np.array([0.0, 0.0, -G]) * foot_mass
+    g_vec = np.array([0.0, 0.0, -G0]) * foot_mass
     big_f = f_ground + g_vec
     big_t = (
         np.cross(p - s, f_ground)

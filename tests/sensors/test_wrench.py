@@ -10,9 +10,9 @@ from bag_gen import sensor_wrench
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sescid.base import G0
 from sescid.errors import SescidError
 from sescid.sensors.wrench import (
-    G,
     cop_from_force_plate,
     cop_from_plate,
     cop_from_wrench,
@@ -102,7 +102,7 @@ def test_foot_alone_puts_the_cop_under_its_com():
         [0, 0, 0], [0, 0, 0], np.eye(3), [0, 0, 0.03], foot_mass=0.2, foot_com=[0.01, 0.02, 0.01]
     )
     assert cop == pytest.approx([0.01, 0.02])
-    assert fz == pytest.approx(0.2 * G)
+    assert fz == pytest.approx(0.2 * G0)
 
 
 def test_unloaded_samples_have_no_cop():
@@ -181,7 +181,7 @@ def test_load_plate_json_and_yaml(tmp_path):
         "format: sescid-plate/1\nforce_unit: kgf\ncells_m:\n- [0, 0]\n- [0.4, 0]\n- [0, 0.3]\n"
     )
     plate = load_plate(y)
-    assert plate.force_unit == G and plate.cells[1].tolist() == [0.4, 0.0]
+    assert plate.force_unit == G0 and plate.cells[1].tolist() == [0.4, 0.0]
 
 
 @pytest.mark.parametrize(

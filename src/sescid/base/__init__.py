@@ -7,7 +7,7 @@ workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
+from sescid.base.columns import G0, MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -29,6 +29,7 @@ from sescid.base.progress import TerminalProgress
 from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usable_cores
 
 __all__ = [
+    "G0",
     "MODEL_COP_COLUMNS",
     "SEED_HELP",
     "SUPPORT_COLUMN",

@@ -382,7 +382,7 @@ MAX_TORQUE_NM = 1e4
 #: m, a lever no humanoid's gravity torque exceeds: a holding torque beyond the whole robot's
 #: weight this far from its joint is not in N·m (mN·m, N·mm)
 TORQUE_REACH_M = 2.0
-#: standard gravity [m/s²] of the torque bound
+#: standard gravity [m/s²] (the one home of g0: weights, kgf, the torque bound)
 G0 = 9.80665
 
 

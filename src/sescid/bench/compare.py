@@ -10,12 +10,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
 from sescid.bench.truth import Truth
 from sescid.errors import DataError
 from sescid.estimation import Fit, for_support
+
+#: what a truth comparison compares: the CoP (m) or a line-balanced robot's tilt (rad)
+TruthQuantity = Literal["CoP", "balance tilt"]
 
 
 @dataclass(frozen=True)
@@ -32,7 +36,7 @@ class TruthComparison:
     fresh_manufacturer: float
     true_mass_kg: float
     model_mass_kg: float
-    quantity: str = "CoP"  #: "CoP" (m) or "balance tilt" (rad)
+    quantity: TruthQuantity = "CoP"  #: "CoP" (m) or "balance tilt" (rad)
     #: line mount: the CoM's distance from the line at the zero pose, m (true, identified)
     com_distance: tuple[float, float] | None = None
 

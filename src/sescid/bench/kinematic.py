@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.bench.log import RawLogWriter, Readings
 from sescid.bench.real_robot import (
     NO_POSE_MEASURED,
@@ -53,8 +54,6 @@ from sescid.sensors.feet import OFF_FLOOR_M, OFF_FLOOR_TILT
 from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
 from sescid.sesc import balance_gravity, balance_tilt
 from sescid.simulation import check_count
-
-G = 9.80665  #: m/s², standard gravity
 
 
 @dataclass
@@ -273,7 +272,7 @@ def run_experiment(
         )
     line = config.mount == "line"
     cop_true = np.zeros((n, 2)) if line else robot.cop(q_act, r_true, grav)
-    st = _stance(robot, sensors, config, cop_true, q_act, mass_true * G)
+    st = _stance(robot, sensors, config, cop_true, q_act, mass_true * G0)
     skipped = [
         (
             str(pose_ids[i]),

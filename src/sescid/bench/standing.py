@@ -29,9 +29,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.bench.kinematic import ExperimentConfig
 from sescid.errors import DataError, MissingExtraError, ModelError
-from sescid.planning.compliance import GENERIC_SINK, G, compliance
+from sescid.planning.compliance import GENERIC_SINK, compliance
 from sescid.robot import Robot
 
 GENERIC_KV = 1.0 / 320.0  #: s, servo damping / stiffness without profile gains (the OP2's)
@@ -121,7 +122,7 @@ def _bench(robot: Robot, double: bool = False):
     if robot.profile.pad_stiffness is None:
         sink = model.weight / (len(model.contacts) * model.contact_stiffness)
         if sink < GENERIC_SINK * (1 - 1e-9):  # stiffened: a tall robot on a narrow foot
-            bench = dataclasses.replace(bench, contact_stiffness=PAD_SINK_ACCEL * G / sink)
+            bench = dataclasses.replace(bench, contact_stiffness=PAD_SINK_ACCEL * G0 / sink)
     if robot.profile.servo_gains is not None:
         return bench
     kp = model.kp

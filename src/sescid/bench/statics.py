@@ -22,9 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base import G0
 from sescid.kinematics import as_poses
-
-G = 9.80665  #: m/s², standard gravity
 
 
 @dataclass(frozen=True)
@@ -56,7 +55,7 @@ def holding_torques(
     com = np.array([b.com for b in bodies])  # (N, 3) body frames
     c = org + np.einsum("nbij,bj->nbi", rot, com)  # (n, N, 3) body CoMs, support frame
     g = np.tile([0.0, 0.0, -1.0], (n, 1)) if gravity is None else np.asarray(gravity, float)
-    g = np.broadcast_to(g, (n, 3)) * G
+    g = np.broadcast_to(g, (n, 3)) * G0
     # per body: the gravity moment of its subtree and external moments, about the origin
     moment = np.cross(mass[None, :, None] * c, g[:, None, :])  # (n, N, 3)
     force = np.broadcast_to(mass[None, :, None] * g[:, None, :], (n, len(bodies), 3)).copy()

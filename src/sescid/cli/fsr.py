@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import SUPPORT_COLUMN, OutputSet
+from sescid.base import G0, SUPPORT_COLUMN, OutputSet
 from sescid.cli import common
 from sescid.errors import DataError, ModelError
 from sescid.io import iter_table, read_table, write_table
@@ -106,7 +106,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     )
     if res.mode == "forces":
         click.echo(
-            f"  mean measured weight {np.mean(res.force) / 9.80665:.4f} kg "
+            f"  mean measured weight {np.mean(res.force) / G0:.4f} kg "
             f"(model {robot.total_mass:.4f} kg); mean CoP standard error "
             f"x {mm(float(np.mean(res.cop_se[:, 0])))}, y {mm(float(np.mean(res.cop_se[:, 1])))}"
         )

@@ -40,11 +40,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.planning.com import ComState
 from sescid.planning.stability import FALLBACK_COP_BOX, SOLE_BOX_FRACTION
 from sescid.robot import Robot
 
-G = 9.80665  #: m/s²
 DYNAMIC_FACTOR = 2.0  #: peak / static deflection of an undamped step response
 BACKLASH_SIGMAS = 2.0  #: standard deviations of the backlash's CoM shift kept free
 EDGE_MARGIN = 0.003  #: m, kept free inside the contacts' rectangle beyond the rest
@@ -97,7 +97,7 @@ def _pads(robot: Robot) -> np.ndarray | None:
 
 def compliance(robot: Robot) -> Compliance:
     """The robot's compliance model: profile values, else the generic defaults (stated)."""
-    weight = robot.total_mass * G
+    weight = robot.total_mass * G0
     said = []
     pads = _pads(robot)
     sole = robot.sole

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.files import read_json
 from sescid.errors import DataError
 from sescid.robots import RobotProfile
@@ -33,7 +34,6 @@ CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
 GAIN_RANGE = (0.2, 5.0)
 #: a calibrated pad offset beyond this share of the robot's weight is not an offset
 OFFSET_WEIGHT_SHARE = 0.25
-G = 9.80665  #: m/s², standard gravity
 
 
 @dataclass(frozen=True)
@@ -258,7 +258,7 @@ def check_sensors(robot, config: SensorConfig) -> None:
     link of the model, and calibrated offsets stay below a quarter of the robot's weight."""
     where = config.source or "the sensor configuration"
     links = robot.model.link_frames
-    weight = robot.total_mass * G
+    weight = robot.total_mass * G0
     for f in config.feet:
         if f.sole_frame not in links:
             raise DataError(

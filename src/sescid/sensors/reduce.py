@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.columns import Table, pose_ids
 from sescid.errors import DataError
 from sescid.sensors.feet import REASONS, PadWatch, Status, check_pads, foot_samples, support_cop
@@ -154,11 +155,11 @@ def check_force_scale(
     the robot's weight (a force in mN or a wrong unit, not a standing robot), or naming the
     columns when no logged force of a ``whole_log`` without pads reaches ``FORCE_WEIGHT_FLOOR``
     × the weight (kN; a session's single pose may be unloaded)."""
-    limit = FORCE_WEIGHT_FACTOR * mass * 9.80665
+    limit = FORCE_WEIGHT_FACTOR * mass * G0
     logged = {f.cop_prefix: log.cop_force.get(f.name) for f in config.feet}
     logged = {k: v for k, v in logged.items() if v is not None and np.isfinite(v).any()}
     peak = max((float(np.nanmax(np.abs(v))) for v in logged.values()), default=None)
-    weight = mass * 9.80665
+    weight = mass * G0
     # pads may carry the robot while a lifted foot's F/T reads nothing (one foot's stance)
     pads = any(v is not None for d in (log.forces, log.centroid) for v in d.values())
     if whole_log and not pads and peak is not None and peak < FORCE_WEIGHT_FLOOR * weight:

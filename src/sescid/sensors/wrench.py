@@ -12,16 +12,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.files import read_document
 from sescid.errors import DataError, OptionError
 
-G = 9.80665  #: m/s², standard gravity
 PLATE_FORMAT = "sescid-plate/1"
-#: N per unit of a force unit name
-FORCE_UNITS = {"N": 1.0, "mN": 1e-3, "kgf": G}
+#: the unit of a logged force, and N per unit
+ForceUnit = Literal["N", "mN", "kgf"]
+FORCE_UNITS: dict[ForceUnit, float] = {"N": 1.0, "mN": 1e-3, "kgf": G0}
 
 
 # --- small geometry -----------------------------------------------------------------------
@@ -113,7 +115,7 @@ def cop_from_wrench(
         if foot_com is None:
             raise OptionError("foot_com", "a foot_mass needs its foot_com (sole frame, m)")
         c = np.asarray(foot_com, dtype=float)
-        w = foot_mass * G
+        w = foot_mass * G0
         m = m + w * np.stack([c[..., 1], -c[..., 0], np.zeros_like(c[..., 0])], axis=-1)
         fz = fz + w
     return _finish(-m[..., 1], m[..., 0], fz, min_force)

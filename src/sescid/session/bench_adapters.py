@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.bench.kinematic import floor_forces, two_foot_split
 from sescid.bench.log import RawLogWriter, Readings
 from sescid.bench.real_robot import (
@@ -42,8 +43,6 @@ from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
 
 if TYPE_CHECKING:
     from sescid.bench.mujoco import PoseResult
-
-G = 9.80665  #: m/s², standard gravity
 
 
 class _BenchAdapter:
@@ -147,7 +146,7 @@ class KinematicAdapter(_BenchAdapter):
             uv = self.foot.board_coordinates(cop[None])
             if np.any((uv < 0) | (uv > 1)):
                 return f"toppled: {where} pads"
-            self._pads = self.mass_true * G * bilinear_weights(uv[:, 0], uv[:, 1])[0]
+            self._pads = self.mass_true * G0 * bilinear_weights(uv[:, 0], uv[:, 1])[0]
             return ""
         sole = self.robot.sole
         if sole is not None and np.any(
@@ -164,7 +163,7 @@ class KinematicAdapter(_BenchAdapter):
         ext: tuple = ()
         self._feet = None
         if self.config.double_support and self.sensors is not None:
-            forces, tips, _ = two_foot_split(self.robot, self.sensors, q, cop, self.mass_true * G)
+            forces, tips, _ = two_foot_split(self.robot, self.sensors, q, cop, self.mass_true * G0)
             if tips[0]:
                 c = cop[0] * 1e3
                 return f"toppled: the CoP ({c[0]:.1f}, {c[1]:.1f}) mm left both feet"

@@ -23,14 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.base import option
+from sescid.base import G0, option
 from sescid.bench.real_robot import ExperimentConfig, extra_masses, real_bodies
 from sescid.errors import DataError, MissingExtraError, ModelError, OptionError, SescidError
 from sescid.planning import collision_capsules
 from sescid.robots.profile import ServoGains
 from sescid.sensors.pads import SensorConfig
-
-G = 9.80665  #: m/s², standard gravity
 
 
 @dataclass(frozen=True)
@@ -327,7 +325,7 @@ def build_spec(robot, sensors: SensorConfig | None, config: ExperimentConfig, be
     spec.modelname = f"sescid_{robot.name}"
     spec.option.timestep = bench.timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.gravity = [0.0, 0.0, -G]
+    spec.option.gravity = [0.0, 0.0, -G0]
     if config.mount != "gantry":
         floor = spec.worldbody.add_geom()
         floor.name = "floor"

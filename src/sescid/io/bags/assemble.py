@@ -19,7 +19,7 @@ import numpy as np
 
 from sescid.base.columns import SUPPORT_COLUMN
 from sescid.errors import DataError, SescidError
-from sescid.io.bags.feet import FORCE_N, LENGTH_M, FootSource
+from sescid.io.bags.feet import FootSource
 from sescid.io.bags.fields import Stamp
 from sescid.io.bags.joints import check_joint_values, joint_angles, joint_torques
 from sescid.io.bags.mapping import BagMapping, load_mapping
@@ -250,7 +250,7 @@ def _foot_columns(foot: FootSource, v: np.ndarray, q: np.ndarray, robot, source:
     if foot.source == "pads":  # the fsr step's force counts, mN (exact for unit mN, scale 1)
         mn = {"N": 1000.0, "mN": 1.0, "kgf": 9806.65}[foot.unit]
         return {c: v[:, k] * mn for k, c in enumerate(foot.columns)}
-    v = v * (LENGTH_M if foot.source == "cop" else FORCE_N)[foot.unit]
+    v = v * foot.si_per_unit
     if foot.source == "cop":
         return {f"{foot.prefix}_cop_x": v[:, 0], f"{foot.prefix}_cop_y": v[:, 1]}
     if foot.source == "plate":

@@ -10,16 +10,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, get_args
+from typing import Literal, cast, get_args
 
 import numpy as np
 
 from sescid.io.bags.fields import Fields, Stamp
-from sescid.sensors.wrench import load_plate, rpy_matrix
+from sescid.sensors.wrench import FORCE_UNITS, ForceUnit, load_plate, rpy_matrix
 
-#: N per unit of a force; m per unit of a length
-FORCE_N = {"N": 1.0, "mN": 1e-3, "kgf": 9.80665}
-LENGTH_M = {"m": 1.0, "mm": 1e-3}
+#: the unit of a ready CoP, and m per unit (forces: ``sensors.wrench.FORCE_UNITS``)
+LengthUnit = Literal["m", "mm"]
+LENGTH_UNITS: dict[LengthUnit, float] = {"m": 1.0, "mm": 1e-3}
 #: a foot's force source: four pads, an ankle F/T wrench, a force plate, or a ready CoP
 FootSourceKind = Literal["pads", "wrench", "plate", "cop"]
 SOURCES: tuple[FootSourceKind, ...] = get_args(FootSourceKind)
@@ -45,7 +45,15 @@ class FootSource:
     field: str | tuple[str, ...]  #: array field, or one scalar field per column (dotted paths)
     index: tuple[int, ...] = ()  #: array positions of the pads/cells
     columns: tuple[str, ...] = ()  #: pad column names (source "pads")
-    unit: str = "N"  #: forces N, mN or kgf (torques in that unit × m); CoP m or mm
+    unit: ForceUnit | LengthUnit = "N"  #: forces N, mN or kgf (torques that × m); CoP m or mm
+
+    @property
+    def si_per_unit(self) -> float:
+        """N (or m, for a ready CoP) per unit of the logged values."""
+        if self.source == "cop":
+            return LENGTH_UNITS[cast(LengthUnit, self.unit)]
+        return FORCE_UNITS[cast(ForceUnit, self.unit)]
+
     scale: float = 1.0  #: extra factor on the raw values
     stamp: Stamp = "auto"
     type: str | None = None
@@ -86,8 +94,9 @@ def parse_foot(path: str, name: str, data, folder: Path) -> FootSource:
     f = Fields(path, f"feet.{name}", data, _COMMON | _EXTRA[source], folder)
     prefix = f.text("prefix", _PREFIX.get(name, name))
     fld = _field_spec(f, _DEFAULT_FIELD[source])
-    units = LENGTH_M if source == "cop" else FORCE_N
-    unit = f.text("unit", "m" if source == "cop" else "N", tuple(units))
+    unit: ForceUnit | LengthUnit = (
+        f.choice("unit", "m", LengthUnit) if source == "cop" else f.choice("unit", "N", ForceUnit)
+    )
     kw: dict = {}
     if source in ("pads", "plate"):
         kw = _array_foot(f, source, prefix, fld)

@@ -24,8 +24,9 @@ from sescid.io.bags.feet import FootSource, parse_foot
 from sescid.io.bags.fields import Fields, Stamp, normalize_type
 
 MAPPING_FORMAT = "sescid-bag-mapping/1"
-#: N·m per unit of a joint torque
-TORQUE_NM = {"N.m": 1.0, "mN.m": 1e-3}
+#: the unit of a logged joint torque, and N·m per unit
+TorqueUnit = Literal["N.m", "mN.m"]
+TORQUE_NM: dict[TorqueUnit, float] = {"N.m": 1.0, "mN.m": 1e-3}
 #: how a source message carries its values: a JointState (by name) or a float array (by index)
 MessageKind = Literal["joint_state", "array"]
 #: the unit of logged joint angles
@@ -56,7 +57,7 @@ class TorqueSource:
 
     topic: str
     kind: MessageKind = "joint_state"
-    unit: str = "N.m"  #: a key of ``TORQUE_NM``
+    unit: TorqueUnit = "N.m"
     scale: float = 1.0  #: extra factor on the raw values
     rename: dict[str, str] = dataclasses.field(default_factory=dict)  #: bag name → model name
     field: str = "effort"  #: value field (dotted path)
@@ -153,7 +154,7 @@ def _torques(f: Fields, joints: JointSource) -> TorqueSource:
     return TorqueSource(
         topic=f.required("topic"),
         kind=kind,
-        unit=f.text("unit", "N.m", tuple(TORQUE_NM)),
+        unit=f.choice("unit", "N.m", TorqueUnit),
         scale=f.number("scale", 1.0, positive=True),
         rename=rename if "rename" in f.data else dict(joints.rename),
         field=f.text("field", "effort" if kind == "joint_state" else "data"),

@@ -11,7 +11,6 @@ from sescid.base import check_ranges, option
 from sescid.estimation.fit import Fit
 from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 
-G = 9.80665  #: m/s², standard gravity
 #: default prior standard deviations: relative gain, offset (N)
 GAIN_PRIOR = 0.2
 OFFSET_PRIOR = 0.2

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.errors import DataError, OptionError
 from sescid.estimation.checks import check_total_mass
 from sescid.estimation.fit import Fit
@@ -30,7 +31,6 @@ from sescid.sensors.calibration.model import (
     START_NOISE_COP,
     START_NOISE_FORCE,
     CalibrationOptions,
-    G,
     KnownSensors,
     PadSession,
     SensorCalibration,
@@ -276,7 +276,7 @@ def calibrate_sensors(
     check_sessions(robot, sessions)
     mass = robot.total_mass if opt.total_mass is None else float(opt.total_mass)
     cols = sensor_columns(sessions)
-    rows, index = build_rows(robot, sessions, cols, mass * G)
+    rows, index = build_rows(robot, sessions, cols, mass * G0)
     if rows.n_poses == 0:
         raise DataError("no pose of any session has a loaded foot")
     pb = _problem(robot, sessions, rows, cols, index, opt, known or KnownSensors())
