@@ -20,8 +20,9 @@ Cases (each ``--draws`` random draws; every fit through ``sescid.identify``, the
 
 Beside the CAD model and the methods, the torque cases carry an **independent MAP reference**:
 a dense numpy solve of the same rows over body masses and first moments (torque regressor ×
-the map from body parameters to SESC vectors), the torque offsets free, the noise known, and a
-Gaussian prior equal to the draws' own distribution (mean and per-parameter variance of 2000
+the map from body parameters to SESC vectors), the torque offsets free, the noise known, the
+weighed total mass given (as ``identify`` is), and a Gaussian prior equal to the draws' own
+distribution (mean and per-parameter variance of 2000
 draws of the real-robot generator): the best a linear-Gaussian estimator can do here.
 """
 
@@ -107,14 +108,20 @@ def to_sesc(robot, theta: np.ndarray) -> np.ndarray:
 
 
 # --- the independent MAP reference ------------------------------------------------------------
-def reference_map(robot, m: Measurements, sigma: float, prior_mean, prior_var) -> np.ndarray:
-    """MAP over body parameters θ and per-joint offsets (flat), dense numpy (module docstring);
+#: relative standard deviation of the weighed total mass in the references (a scale: exact)
+WEIGHED_REL = 1e-6
+
+
+def reference_map(
+    robot, m: Measurements, sigma: float, prior_mean, prior_var, mass: float
+) -> np.ndarray:
+    """MAP over body parameters θ and per-joint offsets (flat), dense numpy (module docstring),
+    given the weighed total ``mass`` as ``identify`` is (a pseudo-observation Σ m_i = mass);
     returns the SESC vectors (N, 3)."""
     from sescid.estimation.consistent import sesc_map
     from sescid.estimation.consistent.qp import H_UNIT
 
     n = len(robot.body_names)
-    mass = float(prior_mean[:n].sum())
     k = sesc_map(robot) * np.concatenate([np.ones(n), np.full(3 * n, 1 / H_UNIT)])[None, :]
     # τ = M Φ r with r = K θ / M: τ = Φ K θ (independent of M)
     phi = robot.torque_regressor(m.q, m.tau_joints)  # (n, J, 3N), τ = M Φ vec(r)
@@ -123,13 +130,22 @@ def reference_map(robot, m: Measurements, sigma: float, prior_mean, prior_var) -
     offsets = np.kron(np.eye(nj), np.ones((nq, 1)))
     a = np.hstack([rows, offsets])
     y = m.tau.T.reshape(-1)
+    theta = _map_solve(a / sigma, y / sigma, prior_mean, prior_var, n, mass)
+    return (k @ theta[: 4 * n]).reshape(-1, 3) / theta[:n].sum()
+
+
+def _map_solve(a, y, prior_mean, prior_var, n: int, mass: float) -> np.ndarray:
+    """The MAP of whitened rows ``a x ≈ y`` (x = [θ; nuisances], flat prior on the nuisances),
+    the Gaussian prior on θ and the weighed mass Σ θ[:n] = ``mass``."""
+    w = np.zeros(a.shape[1])
+    w[:n] = 1.0 / (WEIGHED_REL * mass)
+    a = np.vstack([a, w])
+    y = np.concatenate([y, [mass / (WEIGHED_REL * mass)]])
     prec = np.zeros(a.shape[1])
     prec[: 4 * n] = 1.0 / prior_var
-    lhs = a.T @ a / sigma**2 + np.diag(prec)
-    x0 = np.concatenate([prior_mean, np.zeros(nj)])
-    theta = x0 + np.linalg.solve(lhs, a.T @ (y - a @ x0) / sigma**2)
-    del mass
-    return (k @ theta[: 4 * n]).reshape(-1, 3) / theta[:n].sum()
+    x0 = np.concatenate([prior_mean, np.zeros(a.shape[1] - 4 * n)])
+    lhs = a.T @ a + np.diag(prec)
+    return x0 + np.linalg.solve(lhs, a.T @ (y - a @ x0))
 
 
 # --- the torque cases ---------------------------------------------------------------------
@@ -159,7 +175,7 @@ def torque_case(name: str, mount: str, draws: int, rows: list) -> None:
         fits = {"CAD model": robot.sesc_vectors()}
         for label, kw in METHODS.items():
             fits[label] = sescid.identify(robot, m, total_mass=mass, **kw).r
-        fits["independent MAP reference"] = reference_map(robot, m, sigma, mean, var)
+        fits["independent MAP reference"] = reference_map(robot, m, sigma, mean, var, mass)
         for label, r in fits.items():
             errors.setdefault(label, []).append(err(r))
     rows.append(

@@ -108,7 +108,7 @@ def main() -> None:
             }  # fmt: skip
             rs = {label: fit.r for label, fit in fits.items()}
             rs["independent pooled MAP, both feet"] = reference(
-                robot, [tau[0], tau[2]], TAU_SIGMA, mean, var
+                robot, [tau[0], tau[2]], TAU_SIGMA, mean, var, mass
             )
             rs["CAD model"] = robot.sesc_vectors()
             for label, r in rs.items():

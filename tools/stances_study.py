@@ -30,7 +30,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from defaults_study import TORQUE_ROBOTS, body_parameters, model_path, real_bodies  # noqa: E402
+from defaults_study import (  # noqa: E402
+    TORQUE_ROBOTS,
+    _map_solve,
+    body_parameters,
+    model_path,
+    real_bodies,
+)
 
 import sescid  # noqa: E402
 from sescid.estimation import Measurements  # noqa: E402
@@ -60,8 +66,9 @@ def measure(ref, theta, support, k, rng, offsets, sigma, kind):
     return Measurements(q=q, tau=tau, tau_joints=tuple(robot.joint_names), support=stance)
 
 
-def reference(ref, data, sigma, mean, var):
-    """Independent pooled MAP over θ and per-joint offsets (dense numpy); returns r (N, 3)."""
+def reference(ref, data, sigma, mean, var, mass):
+    """Independent pooled MAP over θ and per-joint offsets (dense numpy), the weighed ``mass``
+    given as ``identify`` is; returns r (N, 3)."""
     n = len(ref.body_names)
     blocks, ys = [], []
     for m in data:
@@ -73,11 +80,7 @@ def reference(ref, data, sigma, mean, var):
         blocks.append(np.hstack([rows, np.kron(np.eye(nj), np.ones((nq, 1)))]))
         ys.append(m.tau.T.reshape(-1))
     a, y = np.vstack(blocks), np.concatenate(ys)
-    prec = np.zeros(a.shape[1])
-    prec[: 4 * n] = 1.0 / var
-    x0 = np.concatenate([mean, np.zeros(a.shape[1] - 4 * n)])
-    lhs = a.T @ a / sigma**2 + np.diag(prec)
-    theta = x0 + np.linalg.solve(lhs, a.T @ (y - a @ x0) / sigma**2)
+    theta = _map_solve(a / sigma, y / sigma, mean, var, n, mass)
     return (ref.sesc_matrix() @ theta[: 4 * n] / theta[:n].sum()).reshape(-1, 3)
 
 
@@ -112,7 +115,7 @@ def torque_case(name: str, draws: int) -> list[str]:
             d = ref.com(fresh, fit.r) - ref.com(fresh, r_true)
             err.setdefault(label, []).append(1e3 * float(np.sqrt(np.mean(np.sum(d * d, 1)))))
             ranks[label] = fit.bodies.rank if fit.bodies is not None else fit.rank
-        r_ref = reference(ref, both, sigma, mean, var)
+        r_ref = reference(ref, both, sigma, mean, var, mass)
         d = ref.com(fresh, r_ref) - ref.com(fresh, r_true)
         err.setdefault("independent pooled MAP, both feet", []).append(
             1e3 * float(np.sqrt(np.mean(np.sum(d * d, 1))))
