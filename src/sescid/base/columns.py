@@ -19,6 +19,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base.rows import RowNames
 from sescid.errors import DataError
 
 #: cell texts read as a missing value
@@ -73,13 +74,17 @@ class Table:
 
     def row(self, i) -> int:
         """The file's row number of data row ``i`` of this table."""
-        if self.numbers is not None:
-            return self.numbers(int(i) + self.first_row - 2)
-        return int(i) + self.first_row
+        return self.rows.row(i)
 
     def where(self, i) -> str:
         """Data row ``i`` as an error names it: ``row N`` (the file's row) or the label's."""
-        return self.label(int(i)) if self.label is not None else f"row {self.row(i)}"
+        return self.rows.where(i)
+
+    @property
+    def rows(self) -> RowNames:
+        """What names this table's rows, without its columns: for what outlives the table (a
+        streamed file's chunks would stay in memory through a bound ``where``)."""
+        return RowNames(self.first_row, self.label, self.numbers)
 
     def __contains__(self, name: str) -> bool:
         return name in self.columns

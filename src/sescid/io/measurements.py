@@ -106,7 +106,7 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
         gravity=gravity,
         cop_true=truth,
         source=str(table.path),
-        row_of=table.where,
+        row_of=table.rows,  # not table.where: a chunk kept by its row names pins its columns
     )
 
 
