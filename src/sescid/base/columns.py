@@ -65,12 +65,27 @@ class Table:
         numbers: Callable[[int], int] | None = None,
     ):
         self.path = path
-        self.first_row = first_row
-        self.label = label
-        self.numbers = numbers  #: data row of the file (0-based) → its row number
+        #: what names the rows, without the columns: for what outlives the table (a streamed
+        #: file's chunks would stay in memory through a bound ``where``)
+        self.rows = RowNames(first_row, label, numbers)
         self.columns = columns
         self.text = text  #: columns that are not numbers (e.g. labels), as strings
         self.n = len(next(iter(columns.values()))) if columns else 0
+
+    @property
+    def first_row(self) -> int:
+        """The file's row number of the first data row."""
+        return self.rows.first_row
+
+    @property
+    def label(self) -> Callable[[int], str] | None:
+        """Names a data row of in-memory columns (None: the file's rows)."""
+        return self.rows.label
+
+    @property
+    def numbers(self) -> Callable[[int], int] | None:
+        """Data row of the file (0-based) → its row number."""
+        return self.rows.numbers
 
     def row(self, i) -> int:
         """The file's row number of data row ``i`` of this table."""
@@ -79,12 +94,6 @@ class Table:
     def where(self, i) -> str:
         """Data row ``i`` as an error names it: ``row N`` (the file's row) or the label's."""
         return self.rows.where(i)
-
-    @property
-    def rows(self) -> RowNames:
-        """What names this table's rows, without its columns: for what outlives the table (a
-        streamed file's chunks would stay in memory through a bound ``where``)."""
-        return RowNames(self.first_row, self.label, self.numbers)
 
     def __contains__(self, name: str) -> bool:
         return name in self.columns

@@ -199,7 +199,7 @@ def default_rooting(robot):
     (the OP2's right sole), else the model file's own root link. Every stance's bench carries
     them from there (``carried``), so every stance stands the same physical robot."""
     home = robot.profile.support or robot.model.model_root
-    return robot if not home or home == robot.support else robot.at(home)
+    return robot.stance(home) if home else robot  # kept by the robot: loaded once
 
 
 def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:

@@ -170,11 +170,12 @@ def fsr_chunks(
 
 def _rows(table: Table, keep: np.ndarray) -> Table:
     """The rows ``keep`` (indices) of a table; errors still name the file's own rows."""
+    names = table.rows  # not table.where: the rows' names without the whole table's columns
     return Table(
         table.path,
         {k: v[keep] for k, v in table.columns.items()},
         {k: [v[i] for i in keep] for k, v in table.text.items()},
-        label=lambda i: table.where(keep[i]),
+        label=lambda i: names(keep[i]),
     )
 
 
