@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from doc_blocks import spliced
 
 import sescid
 from sescid.estimation import Measurements
@@ -86,10 +87,8 @@ def table(res: dict[str, np.ndarray]) -> str:
 
 def main() -> None:
     text = DOC.read_text()
-    head, rest = text.split(START)
-    _, tail = rest.split(END)
     quoted = table(study())
-    new = f"{head}{START}\n{quoted}\n{END}{tail}"
+    new = spliced(text, START, END, quoted)
     if "--check" in sys.argv:
         if new != text:
             print("docs/balance.md quotes other figures than tools/balance_study.py gives")

@@ -37,6 +37,7 @@ import zlib
 from pathlib import Path
 
 import numpy as np
+from doc_blocks import spliced
 
 import sescid
 from sescid.estimation import Measurements
@@ -130,11 +131,11 @@ def reference_map(
     offsets = np.kron(np.eye(nj), np.ones((nq, 1)))
     a = np.hstack([rows, offsets])
     y = m.tau.T.reshape(-1)
-    theta = _map_solve(a / sigma, y / sigma, prior_mean, prior_var, n, mass)
+    theta = map_solve(a / sigma, y / sigma, prior_mean, prior_var, n, mass)
     return (k @ theta[: 4 * n]).reshape(-1, 3) / theta[:n].sum()
 
 
-def _map_solve(a, y, prior_mean, prior_var, n: int, mass: float) -> np.ndarray:
+def map_solve(a, y, prior_mean, prior_var, n: int, mass: float) -> np.ndarray:
     """The MAP of whitened rows ``a x ≈ y`` (x = [θ; nuisances], flat prior on the nuisances),
     the Gaussian prior on θ and the weighed mass Σ θ[:n] = ``mass``."""
     w = np.zeros(a.shape[1])
@@ -295,10 +296,7 @@ def main() -> None:
                     print(table(rows[-1:]), flush=True)
     text = table(rows)
     if args.write:
-        doc = DOC.read_text()
-        head, rest = doc.split(START)
-        _, tail = rest.split(END)
-        DOC.write_text(f"{head}{START}\n{text}\n{END}{tail}")
+        DOC.write_text(spliced(DOC.read_text(), START, END, text))
     print(text)
     sys.stdout.flush()
 

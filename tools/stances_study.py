@@ -32,11 +32,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from defaults_study import (  # noqa: E402
     TORQUE_ROBOTS,
-    _map_solve,
     body_parameters,
+    map_solve,
     model_path,
     real_bodies,
 )
+from doc_blocks import spliced  # noqa: E402
 
 import sescid  # noqa: E402
 from sescid.estimation import Measurements  # noqa: E402
@@ -80,7 +81,7 @@ def reference(ref, data, sigma, mean, var, mass):
         blocks.append(np.hstack([rows, np.kron(np.eye(nj), np.ones((nq, 1)))]))
         ys.append(m.tau.T.reshape(-1))
     a, y = np.vstack(blocks), np.concatenate(ys)
-    theta = _map_solve(a / sigma, y / sigma, mean, var, n, mass)
+    theta = map_solve(a / sigma, y / sigma, mean, var, n, mass)
     return (ref.sesc_matrix() @ theta[: 4 * n] / theta[:n].sum()).reshape(-1, 3)
 
 
@@ -148,10 +149,7 @@ def main() -> None:
         print("\n".join(lines[-12:]), flush=True)
     text = "\n".join(lines).rstrip()
     if args.write:
-        doc = DOC.read_text()
-        head, rest = doc.split(START)
-        _, tail = rest.split(END)
-        DOC.write_text(f"{head}{START}\n{text}\n{END}{tail}")
+        DOC.write_text(spliced(DOC.read_text(), START, END, text))
     print(text)
 
 
