@@ -43,6 +43,9 @@ WRITE_THREADS = 2
 #: numbers up to which a float64 CSV is formatted by Python's repr while numba is not loaded
 #: (≤ ~0.2 s, against ~0.5 s to import numba and load the compiled formatter)
 PYTHON_WRITE_NUMBERS = 1 << 18
+#: the same for a table with text columns, by the csv module (~0.6 µs a number: ≤ ~2.5 s,
+#: against ~90 MB of memory and ~0.5 s to load the compiled formatter for `measure`'s output)
+PLAIN_MIXED_NUMBERS = 1 << 22
 
 
 def _is_parquet(path: Path) -> bool:
@@ -361,7 +364,7 @@ def write_table(path: str | Path, columns: dict[str, np.ndarray]) -> None:
             pq.write_table(pa.table(dict(zip(names, cols, strict=True))), tmp)
         return
     if any(c.dtype.kind not in "fiu" for c in cols):  # text or flags beside the numbers
-        if len(cols) == 1 or _small_write(len(cols[0]) * len(cols)):
+        if len(cols) == 1 or _small_write(len(cols[0]) * len(cols), PLAIN_MIXED_NUMBERS):
             _write_csv_plain(path, names, cols)
         else:
             _write_csv_mixed(path, names, cols)
@@ -468,10 +471,10 @@ def _csv_cell(v: Any) -> bytes:
     return _csv_field(repr(v) if isinstance(v, float) else str(v)).encode()
 
 
-def _small_write(numbers: int) -> bool:
-    """True for a table small enough to format in Python while numba is not loaded (a
-    prediction of a few dozen poses need not load it)."""
-    return numbers <= PYTHON_WRITE_NUMBERS and "numba" not in sys.modules
+def _small_write(numbers: int, limit: int = PYTHON_WRITE_NUMBERS) -> bool:
+    """True for a table small enough (``limit`` numbers) to format in Python while numba is
+    not loaded (a prediction of a few dozen poses need not load it)."""
+    return numbers <= limit and "numba" not in sys.modules
 
 
 def _rows_repr(cols: list[np.ndarray]) -> bytes:
