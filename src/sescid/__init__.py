@@ -10,13 +10,14 @@ the compiled kernels — load inside the functions that need them):
   ``AutoOptions``, ``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``; what every
   method shares: ``IdentifyOptions``),
   ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
+  ``identify_payload`` (a payload's mass and CoM on a calibrated robot);
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
 - outputs: ``export_model`` (``export_urdf``, ``export_mjcf``), ``write_report``;
 - errors: ``SescidError`` and its subclasses.
 """
 
-from sescid.api import identify
+from sescid.api import identify, identify_payload
 from sescid.bench import run_experiment
 from sescid.errors import (
     DataError,
@@ -70,6 +71,7 @@ __all__ = [
     "export_urdf",
     "fsr",
     "identify",
+    "identify_payload",
     "load_fit",
     "load_robot",
     "load_sensors",

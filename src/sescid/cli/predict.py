@@ -99,4 +99,6 @@ def predict(fit_file, poses, out, level, stance, imu_link, force):
         )
     for w in fit.warnings:
         click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
+    if fit.payload is not None:
+        click.echo(f"predictions include the {fit.payload.summary().splitlines()[0]}")
     click.echo(f"wrote {out}: {len(q)} poses")

@@ -62,6 +62,8 @@ from sescid.estimation.options import (
     Via,
     method_options,
 )
+from sescid.estimation.payload import PayloadOptions, check_base, check_payload, payload_fit
+from sescid.estimation.payload_record import PayloadFit, PayloadKind
 from sescid.estimation.pooled import BodyFit, StanceRank, for_support
 from sescid.estimation.validation import (
     Interval,
@@ -103,6 +105,9 @@ __all__ = [
     "PriorSelect",
     "OnlineEstimator",
     "OnlineInfo",
+    "PayloadFit",
+    "PayloadKind",
+    "PayloadOptions",
     "Robust",
     "RobustInfo",
     "StanceRank",
@@ -126,6 +131,9 @@ __all__ = [
     "method_options",
     "min_poses",
     "outside_limits",
+    "payload_fit",
+    "check_base",
+    "check_payload",
     "perturbed_sesc",
     "save_fit",
     "structural_rank",

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
 from sescid.estimation.measurements import Kind
+from sescid.estimation.payload_record import PayloadFit
 from sescid.kinematics import as_poses, regressor
 from sescid.sesc import balance_tilt
 
@@ -347,6 +348,8 @@ class Fit:
     total_mass: float = float("nan")  #: kg: the scale of torque rows (M·r); nan without torques
     mass_given: bool = False  #: the total mass was weighed (else the model's)
     gravity_accel: float = 9.80665  #: m/s², the magnitude of g behind torque rows
+    #: a payload identified on a base model (``estimation.payload``): r and total_mass include it
+    payload: PayloadFit | None = None
 
     # --- predictions ------------------------------------------------------------------
     def predict_cop(self, q: ArrayLike, gravity: ArrayLike | None = None) -> np.ndarray:
@@ -483,8 +486,9 @@ class Fit:
 
     def summary(self) -> str:
         """A few lines: method, poses, rank, each kind's noise and residuals, notes, warnings."""
+        label = self.method_label if self.payload is None else "payload"
         lines = [
-            f"{self.method_label} fit of {self.robot.name} (support {self.robot.support}): "
+            f"{label} fit of {self.robot.name} (support {self.robot.support}): "
             f"{self.n_poses} poses, rank {self.rank} of {self.r.size}"
         ]
         kinds = self.kinds or (None,)

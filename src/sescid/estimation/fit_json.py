@@ -10,7 +10,8 @@ std, reason, kind}), ``notes`` (generated, for reading), ``warnings``, and one o
 record that is present: ``map``, ``cop_offset``, ``inertials``, ``robust``, ``online``, ``cv``,
 ``joint_noise``, ``truth_cop_rmse``; ``kinds`` (per measurement kind: rows, noise, residuals, in
 its own unit), ``nuisance`` (sensor offsets, friction bands: value, std, determined, reason),
-``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²]. Lengths in
+``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²], and
+``payload`` when one was identified (``payload_record``: body, mass, com, their stds). Lengths in
 m, masses in kg, angles in rad, torques in N·m; a quantity the data do not determine is ``null``.
 Versions 1 and 2 are read (version 1: method-specific results in a free ``extra`` object); a
 file of another version is refused with a message that says so.
@@ -29,6 +30,7 @@ import numpy as np
 from sescid.base.files import atomic_open, read_json
 from sescid.errors import DataError, SescidError
 from sescid.estimation import fit as records
+from sescid.estimation.payload_record import payload_from_json, payload_to_json
 from sescid.robot import load_robot
 
 FIT_FORMAT = "sescid-fit/3"
@@ -149,6 +151,8 @@ def fit_to_json(fit: records.Fit) -> dict:
             "added": list(b.added),
             "total_mass": b.total_mass,
         }
+    if fit.payload is not None:
+        out["payload"] = payload_to_json(fit.payload)
     return out
 
 
@@ -339,6 +343,8 @@ def load_fit(path: str | Path) -> records.Fit:
                 fields["truth_cop_rmse"] = float(data["truth_cop_rmse"])
             if data.get("bodies") is not None:
                 fields["bodies"] = _bodies_from_json(data["bodies"], len(bodies), path)
+            if data.get("payload") is not None:
+                fields["payload"] = payload_from_json(data["payload"], f"{path}: field 'payload'")
         cov = _matrix(data, "cov", (n, n), path, nullable=True)
         sigma_null = data["sigma_hat"] is None
         if data["format"] != FIT_FORMAT and sigma_null:

@@ -11,6 +11,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 def fit_notes(fit: Fit) -> list[str]:
     """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
+    if fit.payload is not None:  # the base is given: what the payload's data show
+        return _payload_notes(fit)
     notes = [fit.choice.note()] if fit.choice is not None else []
     notes += _identifiability_notes(fit)
     if fit.scale is not None:
@@ -221,3 +223,22 @@ def _sensor_notes(fit: Fit) -> list[str]:
             "gravity torque) is left in the residuals; a robust fit or approach sides separate it"
         )
     return out
+
+
+def _payload_notes(fit: Fit) -> list[str]:
+    """A payload fit: its base, what is not determined, the noise left undetermined."""
+    p = fit.payload
+    assert p is not None
+    notes = [
+        f"the robot's own masses are the base ({p.base}, {p.base_mass:.4g} kg), kept as given; "
+        f"only the payload on {p.body} was identified from {p.n_poses} poses ({p.n_rows} rows)"
+    ]
+    if p.reason:
+        notes.append(p.reason)
+    lost = [k.kind for k in p.kinds if k.sigma_by == "not determined"]
+    if lost:
+        notes.append(
+            f"no residual left to estimate the {', '.join(lost)} noise: the payload's standard "
+            "errors are not determined (more poses, or give the noise)"
+        )
+    return notes
