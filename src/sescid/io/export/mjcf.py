@@ -42,6 +42,7 @@ from sescid.io.export.inertia import (
     sphere_inertia,
     valid_inertia,
 )
+from sescid.io.export.payload import add_payload
 from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
 from sescid.model.mjcf import object_names
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
@@ -172,6 +173,8 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
         f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
         f"total mass {float(masses.sum()):.6f} kg); other elements as in the source MJCF",
     )
+    if fit.payload is not None:  # a payload fit: its payload as one more fixed body
+        add_note(root, add_payload(root, fit, "mjcf"))
     out = Path(path)
     if out.resolve().parent != src.resolve().parent:
         relocate_mjcf(root, src.parent.resolve(), out.resolve().parent)

@@ -8,6 +8,7 @@ from typing import get_args
 from sescid.errors import OptionError, check_choice
 from sescid.estimation import Fit
 from sescid.io.export.mjcf import export_mjcf
+from sescid.io.export.payload import export_model_with_payload
 from sescid.io.export.urdf import export_urdf
 from sescid.model import ModelFormat
 
@@ -32,6 +33,8 @@ def export_model(fit: Fit, path: str | Path, format: ModelFormat | None = None) 
             "export edits the inertials of the model file the fit was made from (convert the "
             "model first and identify on it)",
         )
+    if fit.payload is not None and fit.inertials is None and fit.payload.base == "model":
+        return export_model_with_payload(fit, path)  # the model's own masses, and the payload
     if fmt == "mjcf":
         return export_mjcf(fit, path)
     return export_urdf(fit, path)

@@ -24,6 +24,7 @@ from sescid.io.export.inertia import (
     sphere_inertia,
     valid_inertia,
 )
+from sescid.io.export.payload import add_payload
 from sescid.io.export.xmldoc import add_note, new_child, read_xml, write_xml
 
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
@@ -132,6 +133,8 @@ def export_urdf(fit: Fit, path: str | Path) -> list[str]:
         f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
         f"total mass {float(masses.sum()):.6f} kg); other elements as in the source URDF",
     )
+    if fit.payload is not None:  # a payload fit: its payload as one more fixed link
+        add_note(doc.root, add_payload(doc.root, fit, "urdf"))
     out = Path(path)
     if out.resolve().parent != src.resolve().parent:
         relocate_urdf(doc.root, src.parent.resolve(), out.resolve().parent)
