@@ -63,6 +63,10 @@ CLI_ONLY = {
     "noise_force": "calibrate: per-session pairs, none by default",
     "noise_cop": "calibrate: per-session pairs, none by default",
     "level": "predict: no interval columns unless asked",
+    "payload": "identify, poses: the payload's link (identify_payload's and "
+    "plan_payload_poses' required body)",
+    "payload_mass": "identify, poses: the payload's weighed mass (mass=None: identified)",
+    "base": "identify --payload: a file (a fit or a model) read into identify_payload's base",
     "adapter": "session: which robot adapter class",
     "replay_path": "session: the replay adapter's input",
     "no_view": "session: whether the live view runs",
