@@ -140,6 +140,17 @@ def identify(
     return fit
 
 
+#: the ``IdentifyOptions`` a payload fit uses (any other changed from its default is refused)
+PAYLOAD_OPTIONS = ("rtol", "cop_noise", "tau_noise", "gravity_accel", "kinds", "imu_link",
+                   "allow_outside_limits", "seed", "huber_k", "mc_draws", "gain_prior")  # fmt: skip
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return a is b
+    return bool(a == b)
+
+
 def identify_payload(
     robot: Robot,
     data: Any,
@@ -162,6 +173,21 @@ def identify_payload(
     poses do not determine and why) — ``estimation.payload``.
     """
     opts = (options or IdentifyOptions()).with_overrides(**overrides)
+    idle = [
+        f.name
+        for f in dataclasses.fields(IdentifyOptions)
+        if f.name not in PAYLOAD_OPTIONS
+        and not _same(getattr(opts, f.name), getattr(IdentifyOptions(), f.name))
+    ]
+    if idle:
+        more = f" (nor {', '.join(idle[1:])})" if idle[1:] else ""
+        why = (
+            "give the payload's weighed mass instead (mass=, --payload-mass)"
+            if idle[0] == "total_mass"
+            else "only the payload is fitted, each kind's noise estimated or given (cop_noise, "
+            "tau_noise)"
+        )
+        raise OptionError(idle[0], f"does not apply to a payload fit{more}: {why}")
     if base is not None:
         check_base(robot, base, "base")
     check_payload(robot, body, mass)

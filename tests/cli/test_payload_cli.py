@@ -98,3 +98,17 @@ def test_bad_payload_input(data, tmp_path):
     sescid.save_fit(other, tmp_path / "talos.json")
     _bad(tmp_path, "identify", path, "--robot", "op2", "--payload", HAND, "--base",
          tmp_path / "talos.json", match="base fit is of the robot")  # fmt: skip
+
+
+def test_base_model_file(data, tmp_path):
+    path, _ = data
+    model = sescid.load_robot("op2").model_path
+    res = run("identify", path, "--payload", HAND, "--base", model, "--support", "r_sole",
+              "--out", tmp_path / "fit.json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    fit = sescid.load_fit(tmp_path / "fit.json")
+    assert fit.payload is not None and fit.payload.base == "model"
+    assert abs(fit.payload.mass - 1.2) < 4 * fit.payload.mass_std
+    _bad(tmp_path, "identify", path, "--payload", HAND, "--weighted", match="--weighted: does not")
+    _bad(tmp_path, "identify", path, "--payload", HAND, "--total-mass", "4",
+         match="--payload-mass")  # fmt: skip

@@ -5,6 +5,7 @@ torques of that file."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from sescid import Measurements, identify_payload, load_robot
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.estimation import PayloadOptions, load_fit, payload_fit, save_fit
 from sescid.sesc import STANDARD_GRAVITY
-from sescid.simulation import TorqueNoise, simulate
+from sescid.simulation import TorqueNoise, simulate, simulate_balance
 
 HAND, MASS, COM = "MP_ARM_LOW_R", 1.2, np.array([0.08, 0.0, 0.0])
 
@@ -184,3 +185,41 @@ def test_bad_input(op2, carrying, tmp_path):
                             "gripper_right_base_link", mass=1.0)  # fmt: skip
     with pytest.raises(DataError, match="base fit is of the robot"):
         identify_payload(op2, m, HAND, base=base)
+
+
+def test_balance_on_a_wheel_axle(tmp_path):
+    """A wheeled humanoid balancing on its axle: the balancing tilts give the payload (exactly
+    from noise-free tilts; within its stated errors from an IMU with 0.2° noise)."""
+    path = Path(__file__).parents[2] / "examples" / "models" / "wheeled_humanoid.urdf"
+    robot = load_robot(path, "axle", line="y")
+    truth = robot_with_payload(robot, tmp_path, "forearm_r", 0.8, [0.05, 0.02, -0.03])
+    for noise in (0.0, math.radians(0.2)):
+        sim = simulate_balance(truth, n=16, tilt_noise=noise, seed=3)
+        m = Measurements(q=sim.q, balance=np.zeros(16), gravity=sim.gravity).checked(robot)
+        p = payload_fit(robot, [m], PayloadOptions("forearm_r")).payload
+        assert p is not None and p.kinds[0].kind == "balance" and not p.unseen
+        truth_p = np.array([0.8, 0.05, 0.02, -0.03])
+        est = np.concatenate([[p.mass], p.com])
+        if noise == 0:
+            np.testing.assert_allclose(est, truth_p, atol=1e-7)
+        else:
+            std = np.concatenate([[p.mass_std], p.com_std])
+            assert np.all(np.abs(est - truth_p) < 4 * std), (est, std)
+
+
+def test_two_stances_determine_a_payload_on_one_foot(op2, tmp_path):
+    """On its own foot a payload never turns (its height unseen); the other foot's stance turns
+    it: pooled, every component is determined."""
+    foot = op2.model.bodies[0].name
+    truth = robot_with_payload(op2, tmp_path, foot, 0.3, [0.01, 0.0, 0.02])
+    right = simulate(truth, n=10, noise=1e-4, seed=0)
+    left_robot = truth.stance("l_sole")
+    left = simulate(left_robot, n=10, noise=1e-4, seed=1)
+    data = [
+        Measurements(q=right.q, cop=right.cop).checked(op2),
+        Measurements(q=left.q, cop=left.cop, support="l_sole").checked(op2.stance("l_sole")),
+    ]
+    p = payload_fit(op2, data, PayloadOptions(foot)).payload
+    assert p is not None and p.unseen == () and set(p.stances) == {op2.support, "l_sole"}
+    assert abs(p.mass - 0.3) < 4 * p.mass_std
+    assert np.all(np.abs(p.com - [0.01, 0.0, 0.02]) < 4 * p.com_std)

@@ -40,4 +40,4 @@ def robot_with_payload(robot: Robot, folder: Path, body: str, mass: float, com) 
     src = Path(robot.model_path)
     out = Path(folder) / f"{src.stem}_payload.urdf"
     urdf_with_payload(src, out, body, mass, com)
-    return load_robot(out, robot.support)
+    return load_robot(out, robot.support, robot.line)
