@@ -427,8 +427,9 @@ def _unseen_reason(robot: Robot, body: str, unseen: tuple[str, ...], k: int, per
         )
     more = max(1, math.ceil(k / max(min(per_pose, 3), 1)))
     return (
-        f"not determined: {names} — the poses do not turn {body} enough (a payload on a body "
-        f"the poses never turn is seen only as a mass); at least {more} more pose"
+        f"not determined: {names} — the poses do not turn {body} enough to see it (a payload "
+        "on a body the poses never turn shows only its mass and horizontal moment); at least "
+        f"{more} more pose"
         f"{'s' if more > 1 else ''} turning {body} to new orientations would determine it "
         f"(sescid poses --payload {body})",
         more,
