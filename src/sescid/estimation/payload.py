@@ -216,7 +216,7 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
             parts.append((TORQUE, m.tau.reshape(-1), np.zeros(m.n * nj), t0.reshape(-1),
                           tb.reshape(-1, 4), 0.0, extra))  # fmt: skip
             bidx = rs.model.link_frames[body][0]
-            sub = _beyond(rs, bidx)
+            sub = _chain_to(rs, bidx)
             seen_here += int(sum(1 for j in joints if _drives(rs, j, sub)))
         per_pose = max(per_pose, seen_here)
     kinds: list[str] = [k for k in (COP, TORQUE, BALANCE) if any(p[0] == k for p in parts)]
@@ -243,7 +243,7 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
                  np.concatenate(kis), kinds, nuisance, per_pose, stances)  # fmt: skip
 
 
-def _beyond(rs: Robot, b: int) -> set[int]:
+def _chain_to(rs: Robot, b: int) -> set[int]:
     """Bodies from the root to body b (their joints carry b's weight)."""
     out = set()
     while b >= 0:
