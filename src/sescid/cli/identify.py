@@ -29,6 +29,7 @@ from sescid.estimation import (
     MapOptions,
     MethodName,
     MethodOptions,
+    fit_summary,
     save_fit,
 )
 from sescid.io import rows_estimate
@@ -187,7 +188,7 @@ def echo_fit(fit: Fit) -> None:
     """The fit's summary, then what its records hold: online history, sensors, extras."""
     if fit.online is not None:
         _echo_online(fit)
-    click.echo(fit.summary())
+    click.echo(fit_summary(fit))
     if fit.inertials is not None:
         echo_masses(fit)
     if fit.robust is not None:
