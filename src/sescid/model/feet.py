@@ -67,7 +67,7 @@ class FootCandidate:
 
 def root_frame(path: str | Path) -> tuple[str, np.ndarray]:
     """(the model file's root link or top body, its rotation (3, 3) in the file's world)."""
-    from sescid.model import model_format
+    from sescid.model.load import model_format
 
     path = Path(path)
     if model_format(path) == "mjcf":
@@ -199,7 +199,7 @@ def _foot(model: RobotModel, shapes, b: int, on_body: dict) -> FootCandidate:
 
 def support_candidates(path: str | Path) -> list[FootCandidate]:
     """The feet of the model file ``path`` (``find_feet`` on the model rooted at its root)."""
-    from sescid.model import load_model
+    from sescid.model.load import load_model
 
     root, up = root_frame(path)
     return find_feet(load_model(path, root), up)
