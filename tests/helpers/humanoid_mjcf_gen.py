@@ -28,10 +28,20 @@ _LEG = """
                       fullinertia="0.0003 0.0006 0.0007 0.00001 0 0"/>
             <geom name="{s}_foot_col" type="box" size="0.07 0.035 0.01" pos="0.02 0 -0.03"
                   contype="0" conaffinity="0"/>
-            <site name="{s}_sole" pos="0.02 0 -0.04"/>
+            <site name="{s}_sole" pos="0.02 0 -0.04"/>{toes}
           </body>
         </body>
       </body>"""
+
+#: toes on a hinge at the front of each foot: a sphere whose bottom lies ``TOE_DIP`` below the
+#: sole at the zero pose (as the CMU humanoid's toes lie below its foot's touch site)
+TOE_DIP = 0.005
+_TOES = """
+            <body name="{s}_toes" pos="0.09 0 -0.03">
+              <joint name="{s}_toe" axis="0 1 0" range="-0.8 0.8"/>
+              <inertial pos="0.015 0 0" mass="0.03" diaginertia="2e-6 2e-6 2e-6"/>
+              <geom type="sphere" size="0.015" pos="0.015 0 0" contype="0" conaffinity="0"/>
+            </body>"""
 
 _ARM = """
       <body name="{s}_upper_arm" pos="0 {y} 0.25">
@@ -87,9 +97,10 @@ def png_2x2() -> bytes:
     )
 
 
-def robot_xml() -> str:
+def robot_xml(toes: bool = False) -> str:
     legs = "".join(
-        _LEG.format(s=s, y=y, mt=mt) for s, y, mt in (("r", -0.08, 0.9), ("l", 0.08, 0.95))
+        _LEG.format(s=s, y=y, mt=mt, toes=_TOES.format(s=s) if toes else "")
+        for s, y, mt in (("r", -0.08, 0.9), ("l", 0.08, 0.95))
     )
     arms = "".join(_ARM.format(s=s, y=y) for s, y in (("r", -0.15), ("l", 0.15)))
     return f"""<mujoco>
@@ -112,15 +123,16 @@ def robot_xml() -> str:
 """
 
 
-def write_humanoid(folder: Path) -> Path:
-    """Write the humanoid's files under ``folder``; the main file's path."""
+def write_humanoid(folder: Path, toes: bool = False) -> Path:
+    """Write the humanoid's files under ``folder`` (``toes``: with toes, ``_TOES``); the main
+    file's path."""
     (folder / "parts").mkdir(parents=True)
     (folder / "assets").mkdir()
     (folder / "textures").mkdir()
     (folder / "textures" / "skin.png").write_bytes(png_2x2())
     (folder / "assets" / "tetra.obj").write_text(TETRA_OBJ)
     (folder / "parts" / "assets.xml").write_text(ASSETS)
-    (folder / "parts" / "robot.xml").write_text(robot_xml())
+    (folder / "parts" / "robot.xml").write_text(robot_xml(toes))
     main = folder / "humanoid.xml"
     main.write_text(MAIN)
     return main

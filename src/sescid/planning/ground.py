@@ -10,7 +10,9 @@ mesh its hull vertices (checked only in the poses where the capsules that cover 
 the floor, ``collision.mesh_capsules``). The floor is ``Robot.floor`` (z = 0 of a sole frame, or
 the plane under a foot frame derived from the foot's geometry). A body other than the free foot
 that already reaches below the floor at the zero pose (a conservative covering of an ankle link)
-is not checked, with a note — as self-collision skips pairs that touch at the zero pose. The
+is not checked, with a note — as self-collision skips pairs that touch at the zero pose —
+unless it lies beyond the support foot (toes on a joint of the support foot: they touch the
+floor the foot stands on, so they must stay above it whatever they do at the zero pose). The
 free foot (``Robot.free_sole``) and the bodies beyond it (toes) must clear the floor by the
 foot clearance on all of their geometry, and its sole's corners too: a foot that grazes the
 floor is not single support on a real robot.
@@ -24,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
-from sescid.model.sole import profile_sole
+from sescid.model.sole import beyond_support, profile_sole
 from sescid.planning.collision import Capsules, mesh_capsules
 from sescid.robot import Robot
 
@@ -202,7 +204,12 @@ def _exempt(robot: Robot, g: GroundChecks) -> set[int]:
             out |= {int(b) for b in body[z < below]}
     free = robot.free_sole
     out.discard(-1 if free is None else free.body)
-    return out
+    return out - set(_beyond_support(robot))
+
+
+def _beyond_support(robot: Robot) -> list[int]:
+    """The bodies beyond the support foot (its toes: ``model.sole.beyond_support``)."""
+    return beyond_support([bd.parent for bd in robot.model.bodies], robot.masses)
 
 
 def _notes(robot: Robot, g: GroundChecks) -> list[str]:
@@ -215,6 +222,13 @@ def _notes(robot: Robot, g: GroundChecks) -> list[str]:
     ]
     if by["origin"]:
         notes.append("bodies checked by their origin only: " + ", ".join(by["origin"][:6]))
+    toes = [robot.body_names[b] for b in _beyond_support(robot)]
+    if toes:
+        notes.append(
+            f"{len(toes)} body(ies) beyond the support foot held above the floor too: "
+            + ", ".join(toes[:6])
+            + (" …" if len(toes) > 6 else "")
+        )
     if g.exempt:
         notes.append(
             f"{len(g.exempt)} body(ies) reach below the floor at q = 0 and are not checked "
