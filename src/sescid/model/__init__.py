@@ -12,7 +12,7 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 from sescid.errors import ModelError
-from sescid.model.feet import FootCandidate, root_frame, support_candidates
+from sescid.model.feet import FootCandidate, frame_up, root_frame, support_candidates
 from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.inertia import inertia_issue, inertia_parts
@@ -65,6 +65,7 @@ __all__ = [
     "ShapeRole",
     "body_hulls",
     "build_urdf_model",
+    "frame_up",
     "inertia_issue",
     "inertia_parts",
     "inv_transform",
