@@ -177,10 +177,16 @@ _UP = {
 }
 
 
+#: characters of a Collada file searched for its ``<asset>`` (long contributor notes included)
+ASSET_CHARS = 1 << 16
+
+
 def _collada_up(path: str) -> np.ndarray:
-    """Rotation taking a Collada file's coordinates to Z up (identity for Z_UP or none)."""
+    """Rotation taking a Collada file's coordinates to Z up (identity for Z_UP or none): the
+    ``<up_axis>`` of its ``<asset>``, which opens the file (read up to ``ASSET_CHARS``)."""
     with open(path, encoding="utf-8", errors="replace") as fh:
-        head = fh.read(8192)
+        head = fh.read(ASSET_CHARS)
+    head = head[: head.find("</asset>")] if "</asset>" in head else head
     m = re.search(r"<up_axis>\s*([XYZ]_UP)\s*</up_axis>", head)
     return _UP.get(m.group(1) if m else "Z_UP", np.eye(3))
 
