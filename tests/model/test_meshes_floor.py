@@ -17,7 +17,7 @@ import sescid
 from sescid.cli import cli
 from sescid.errors import MissingExtraError
 from sescid.model import meshes, support_candidates
-from sescid.planning.ground import clear_above, ground_checks
+from sescid.planning.ground import clear_above, ground_checks, ground_clear
 
 pytest.importorskip("trimesh")
 pytest.importorskip("collada")
@@ -135,3 +135,25 @@ def test_toes_of_the_support_foot_are_held_above_the_floor(tmp_path):
     margin = np.abs(low - robot.floor) > 1e-9
     np.testing.assert_array_equal(ok[margin], (low > robot.floor)[margin])
     assert ok.any() and not ok.all()
+
+
+def test_bodies_without_geometry_are_checked_by_their_frames_too(tmp_path, monkeypatch):
+    """Meshes not found (a URDF copied out of its package): each body is checked by its origin
+    and by the frames on it, so the free sole frame keeps the foot clearance (iCub copied out of
+    its package planned its free sole origin 7.9 mm under the floor: origins only)."""
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    inside = write_mesh_robot(tmp_path / "pkg", package="bot_description")
+    away = tmp_path / "bot.urdf"
+    shutil.copy(inside, away)
+    robot = sescid.load_robot(away, "r_sole")
+    g = ground_checks(robot)
+    assert any("by their origin and frames only" in n for n in g.notes)
+    q = np.random.default_rng(1).uniform(-0.8, 0.8, (4000, robot.nq))
+    rot, org = robot.forward(q)
+    ok = ground_clear(robot, None, rot, org, 0.005)
+    _, sole = robot.link_poses(q, "l_sole")
+    foot = org[:, robot.body_names.index(robot.free_sole.link)]
+    assert ok.sum() > 100
+    assert np.all(sole[ok, 2] > robot.floor + 0.005) and np.all(foot[ok, 2] > robot.floor + 0.005)
+    # the sole frame decides poses the foot body's origin alone would pass
+    assert np.any((sole[:, 2] <= robot.floor + 0.005) & (foot[:, 2] > robot.floor + 0.005))
