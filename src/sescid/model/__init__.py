@@ -8,7 +8,7 @@ geometry; ``inertia_parts`` the inertia tensors the file gives, per body; ``supp
 the feet a robot can stand on (``feet``). See docs/model.md.
 """
 
-from sescid.model.feet import FootCandidate, root_frame, support_candidates
+from sescid.model.feet import FootCandidate, frame_up, root_frame, support_candidates
 from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.inertia import inertia_issue, inertia_parts
@@ -31,6 +31,7 @@ __all__ = [
     "ShapeRole",
     "body_hulls",
     "build_urdf_model",
+    "frame_up",
     "inertia_issue",
     "inertia_parts",
     "inv_transform",
