@@ -13,6 +13,9 @@ $(STAMP): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[dev]' -c $(LOCK)
+	# the tests' helpers importable by the tools' studies (tools/*.py import them as a library)
+	$(PY) -c "import pathlib, sys, sysconfig; pathlib.Path(sysconfig.get_paths()['purelib'], \
+	    'sescid-test-helpers.pth').write_text(sys.argv[1] + '\\n')" "$(CURDIR)/tests/helpers"
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -10,7 +10,7 @@ and measures it at k random poses (uniform in the joint limits clipped to ±0.5 
 on the robot's model (the base), with or without its weighed mass. Two bases:
 
 - **calibrated**: the robot is its model plus the box (the base is exact, as after a fit);
-- **CAD**: the robot differs from its model as in ``defaults_study.real_bodies`` (masses ±10 %,
+- **CAD**: the robot differs from its model as in ``study_refs.real_bodies`` (masses ±10 %,
   CoMs ±5 mm, 5 % of the mass unmodelled on heavy bodies): what using the model file as the base
   costs when it is not the robot.
 
@@ -27,20 +27,16 @@ added as a link, and against Pinocchio).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from doc_blocks import spliced
+from study_refs import body_parameters, model_path, real_bodies
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from defaults_study import body_parameters, model_path, real_bodies  # noqa: E402
-from doc_blocks import spliced  # noqa: E402
-
-import sescid  # noqa: E402
-from sescid.estimation import Measurements  # noqa: E402
-from sescid.estimation.payload import payload_map  # noqa: E402
+import sescid
+from sescid.estimation import Measurements
+from sescid.estimation.payload import payload_map
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "payload.md"

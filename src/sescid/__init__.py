@@ -9,7 +9,8 @@ the compiled kernels — load inside the functions that need them):
   ``method`` = "auto" (the default) | "ls" | "map" | "consistent" or that method's options —
   ``AutoOptions``, ``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``; what every
   method shares: ``IdentifyOptions``),
-  ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
+  ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``, ``fit_summary``
+  and ``fit_notes`` (a fit's lines for a reader, made outside the record);
   ``identify_payload`` (a payload's mass and CoM on a calibrated robot);
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
@@ -36,6 +37,8 @@ from sescid.estimation import (
     MapOptions,
     Measurements,
     OnlineEstimator,
+    fit_notes,
+    fit_summary,
     load_fit,
     save_fit,
     to_consistent,
@@ -69,6 +72,8 @@ __all__ = [
     "export_mjcf",
     "export_model",
     "export_urdf",
+    "fit_notes",
+    "fit_summary",
     "fsr",
     "identify",
     "identify_payload",

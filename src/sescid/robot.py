@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid import kinematics, sesc
+from sescid.base import G0
 from sescid.errors import ModelError
 from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
@@ -171,7 +172,7 @@ class Robot:
         q: ArrayLike,
         joints=None,
         gravity: ArrayLike | None = None,
-        g0: float = sesc.STANDARD_GRAVITY,
+        g0: float = G0,
     ) -> np.ndarray:
         """Φ_τ (n, J, 3N) [m/s²]: holding torques τ = M · Φ_τ · vec(r) [N·m] of ``joints``
         (names; None: all) with the support link fixed, gravity (n, 3) directions (None: level)
@@ -186,7 +187,7 @@ class Robot:
         joints=None,
         gravity: ArrayLike | None = None,
         total_mass: float | None = None,
-        g0: float = sesc.STANDARD_GRAVITY,
+        g0: float = G0,
     ) -> np.ndarray:
         """Holding torques (n, J) [N·m] of ``joints`` (None: all) with the support link fixed:
         each balances the gravity moment of the bodies beyond its joint. ``r`` and

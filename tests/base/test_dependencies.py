@@ -96,13 +96,14 @@ SCRIPT = textwrap.dedent(
     extra("mjcf", lambda: sescid.load_robot(tmp / "m.xml", support="a"))
     extra("bag", lambda: read_bag(tmp, mp, ["a"]))
     from sescid.base.files import read_document
-    from sescid.bench.mujoco.spec import mujoco_module as bench_mujoco_module
+    from sescid.bench.mujoco.spec import BENCH_NEEDS
+    from sescid.model.mjcf_compile import mujoco_module
     from sescid.model import meshes
     from sescid.report import live
     extra("yaml", lambda: read_document(tmp / "map.yaml"))
     extra("meshes", lambda: meshes._hull_vertices(str(tmp / "x.obj")))  # STL: numpy alone
     extra("view", lambda: live._viser())
-    extra("bench", lambda: bench_mujoco_module())
+    extra("bench", lambda: mujoco_module(BENCH_NEEDS))
 
     from click.testing import CliRunner
     from sescid.cli import cli

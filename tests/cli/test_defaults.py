@@ -217,9 +217,10 @@ def _measure(d) -> list:
 
 
 def _calibrate(d) -> list:
-    from sescid.cli.calibrate import calibration_options, session_options
+    from sescid.cli import calibrate
+    from sescid.cli.calibrate import calibration_options
 
-    (one,) = session_options(("s.csv",), d).values()
+    (one,) = calibrate.session_options(("s.csv",), d).values()
     return [
         *_robot(d),
         ("sensors_file", d["sensors_file"], _arg(load_sensors, "path")),

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import sescid
+from sescid.estimation import fit_notes
 from sescid.estimation.validation import perturbed_sesc
 from sescid.simulation import random_poses
 
@@ -23,7 +24,7 @@ def test_auto_is_the_default_and_chooses_map_for_38_noisy_poses(op2):
     assert fit.method == "map" and fit.choice is not None and fit.choice.chosen == "map"
     assert fit.map is not None and fit.map.prior == "bodies" and fit.map.prior_share > 0.01
     assert fit.map.prior_scale_by == "evidence"
-    assert fit.notes[0].startswith("method auto chose MAP")
+    assert fit_notes(fit)[0].startswith("method auto chose MAP")
     explicit = sescid.identify(op2, q, cop, method="map")
     np.testing.assert_array_equal(fit.r, explicit.r)
 

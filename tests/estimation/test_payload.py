@@ -15,9 +15,9 @@ from refs import erd
 
 import sescid
 from sescid import Measurements, identify_payload, load_robot
+from sescid.base import G0
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.estimation import PayloadOptions, load_fit, payload_fit, save_fit
-from sescid.sesc import STANDARD_GRAVITY
 from sescid.simulation import TorqueNoise, simulate, simulate_balance
 
 HAND, MASS, COM = "MP_ARM_LOW_R", 1.2, np.array([0.08, 0.0, 0.0])
@@ -73,7 +73,7 @@ def test_fit_predicts_the_carrying_robot_and_pinocchio_torques(op2, carrying, tm
     q = sescid.simulation.random_poses(op2, 6, 25.0, 9, clip=True)
     np.testing.assert_allclose(fit.predict_cop(q), carrying.cop(q), atol=2e-4)
     assert fit.total_mass == pytest.approx(carrying.total_mass, abs=2e-3)
-    pin = PinStatics(carrying.model_path, op2.support, op2.joint_names, STANDARD_GRAVITY)
+    pin = PinStatics(carrying.model_path, op2.support, op2.joint_names, G0)
     np.testing.assert_allclose(fit.predict_torque(q), pin.torques(q), atol=5e-3)
     # the exact payload gives Pinocchio's torques to rounding (the rows' algebra, no noise)
     exact = payload_fit(

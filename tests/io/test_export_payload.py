@@ -12,8 +12,8 @@ from refs import write_humanoid
 
 import sescid
 from sescid import Measurements, export_model, identify_payload, load_robot
+from sescid.base import G0
 from sescid.errors import ModelError
-from sescid.sesc import STANDARD_GRAVITY
 from sescid.simulation import simulate
 
 HAND = "MP_ARM_LOW_R"
@@ -40,7 +40,7 @@ def test_urdf_export_on_the_model_adds_the_payload_link(op2, tmp_path):
     np.testing.assert_allclose(back.sesc_vectors(), fit.r, atol=1e-12)
     assert "HAND_payload".replace("HAND", HAND) in out.read_text()
     q = sescid.simulation.random_poses(op2, 4, 20.0, 1, clip=True)
-    pin = PinStatics(out, op2.support, op2.joint_names, STANDARD_GRAVITY)
+    pin = PinStatics(out, op2.support, op2.joint_names, G0)
     np.testing.assert_allclose(pin.torques(q), fit.predict_torque(q), atol=1e-9)
 
 

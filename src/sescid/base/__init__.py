@@ -27,8 +27,10 @@ from sescid.base.options import (
 )
 from sescid.base.progress import TerminalProgress
 from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usable_cores
+from sescid.base.version import VERSION_MESSAGE
 
 __all__ = [
+    "VERSION_MESSAGE",
     "G0",
     "MODEL_COP_COLUMNS",
     "SEED_HELP",

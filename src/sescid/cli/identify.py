@@ -30,6 +30,7 @@ from sescid.estimation import (
     MethodName,
     MethodOptions,
     check_base,
+    fit_summary,
     load_fit,
     save_fit,
 )
@@ -251,7 +252,7 @@ def echo_fit(fit: Fit) -> None:
     """The fit's summary, then what its records hold: online history, sensors, extras."""
     if fit.online is not None:
         _echo_online(fit)
-    click.echo(fit.summary())
+    click.echo(fit_summary(fit))
     if fit.payload is not None:
         click.echo(fit.payload.summary())
     if fit.inertials is not None:

@@ -48,6 +48,7 @@ from sescid.estimation.identifiability import (
 )
 from sescid.estimation.measurements import KINDS, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
+from sescid.estimation.notes import fit_notes
 from sescid.estimation.online import OnlineEstimator
 from sescid.estimation.options import (
     AutoOptions,
@@ -65,6 +66,7 @@ from sescid.estimation.options import (
 from sescid.estimation.payload import PayloadOptions, check_base, check_payload, payload_fit
 from sescid.estimation.payload_record import PayloadFit, PayloadKind
 from sescid.estimation.pooled import BodyFit, StanceRank, for_support
+from sescid.estimation.summary import fit_summary
 from sescid.estimation.validation import (
     Interval,
     balance_interval,
@@ -124,6 +126,8 @@ __all__ = [
     "for_support",
     "identifiable_eigen",
     "fit_measurements",
+    "fit_notes",
+    "fit_summary",
     "MODEL_CHANGED",
     "OLD_FORMAT",
     "COP_ON_TRUNK",

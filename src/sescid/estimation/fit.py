@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base import G0
 from sescid.errors import DataError
 from sescid.estimation.measurements import Kind
 from sescid.estimation.payload_record import PayloadFit
@@ -347,7 +348,7 @@ class Fit:
     nuisance: tuple[NuisanceEstimate, ...] = ()  #: sensor offsets, friction bands
     total_mass: float = float("nan")  #: kg: the scale of torque rows (M·r); nan without torques
     mass_given: bool = False  #: the total mass was weighed (else the model's)
-    gravity_accel: float = 9.80665  #: m/s², the magnitude of g behind torque rows
+    gravity_accel: float = G0  #: m/s², the magnitude of g behind torque rows
     #: a payload identified on a base model (``estimation.payload``): r and total_mass include it
     payload: PayloadFit | None = None
 
@@ -476,54 +477,3 @@ class Fit:
     def cop_bias(self) -> np.ndarray:
         """(2,) estimated constant CoP offset (m); zeros when none was estimated."""
         return np.zeros(2) if self.cop_offset is None else np.asarray(self.cop_offset.value)
-
-    @property
-    def notes(self) -> list[str]:
-        """What a reader should know about this fit, generated from its fields."""
-        from sescid.estimation.notes import fit_notes
-
-        return fit_notes(self)
-
-    def summary(self) -> str:
-        """A few lines: method, poses, rank, each kind's noise and residuals, notes, warnings."""
-        label = self.method_label if self.payload is None else "payload"
-        lines = [
-            f"{label} fit of {self.robot.name} (support {self.robot.support}): "
-            f"{self.n_poses} poses, rank {self.rank} of {self.r.size}"
-        ]
-        kinds = self.kinds or (None,)
-        for k in kinds:
-            lines.append("  " + _kind_line(self, k))
-        lines += [f"  note: {n}" for n in self.notes]
-        lines += [f"  warning: {w}" for w in self.warnings]
-        return "\n".join(lines)
-
-
-def _number(x: float, unit: str) -> str:
-    """A value in a kind's display unit: mm for metres, N·m as is; "not determined" for nan."""
-    if not math.isfinite(x):
-        return "not determined"
-    if unit == "rad":  # an angle: degrees at the boundary
-        return f"{math.degrees(x):.3f}°"
-    return f"{x * 1e3:.3f} mm" if unit == "m" else f"{x:.4f} {unit}"
-
-
-def _kind_line(fit: Fit, k: KindFit | None) -> str:
-    """One kind's noise and residuals (the fit's own figures for a fit without kinds)."""
-    if k is None or len(fit.kinds) == 1:
-        unit = "m" if k is None else k.unit
-        weighted = fit.weighted
-        sigma, rms, mae, name = fit.sigma_hat, fit.rms, fit.mae, "" if k is None else k.kind
-    else:
-        unit, weighted, sigma, rms, mae, name = k.unit, k.weighted, k.sigma, k.rms, k.mae, k.kind
-    label = {"cop": "CoP", "tau": "joint torques", "balance": "balance tilt"}.get(name, name)
-    head = f"{label}: " if label else ""
-    if weighted:
-        scale = "not determined" if not math.isfinite(sigma) else f"{sigma:.3f}"
-        noise = f"sigma_hat {scale} (scale of normalised residuals)"
-    else:
-        noise = f"sigma_hat {_number(sigma, unit)}"
-    if k is not None and k.sigma_by == "given":
-        noise += " (given)"
-    out = f"{head}{noise}, residual RMS {_number(rms, unit)}"
-    return out + ("" if math.isnan(mae) else f", MAE {_number(mae, unit)}")

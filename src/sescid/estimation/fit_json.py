@@ -27,9 +27,11 @@ from typing import Any, cast
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.files import atomic_open, read_json
 from sescid.errors import DataError, SescidError
 from sescid.estimation import fit as records
+from sescid.estimation.notes import fit_notes
 from sescid.estimation.payload_record import payload_from_json, payload_to_json
 from sescid.robot import load_robot
 
@@ -125,7 +127,7 @@ def fit_to_json(fit: records.Fit) -> dict:
         "base_combinations": [c.to_json() for c in fit.base],
         "unidentifiable": [c.to_json() for c in fit.unidentifiable],
         "weak": [c.to_json() for c in fit.weak],
-        "notes": fit.notes,
+        "notes": fit_notes(fit),
         "warnings": list(fit.warnings),
         "kinds": [_record_to_json(k) for k in fit.kinds],
         "nuisance": [_record_to_json(e) for e in fit.nuisance],
@@ -334,7 +336,7 @@ def load_fit(path: str | Path) -> records.Fit:
                 fields["total_mass"] = float(data["total_mass"])
             fields["mass_given"] = bool(data.get("mass_given", False))
             fields["gravity_accel"] = float(
-                data.get("gravity_accel", fields.get("gravity_accel", 9.80665))
+                data.get("gravity_accel", fields.get("gravity_accel", G0))
             )
             for key, cls in _RECORDS.items():
                 if data.get(key) is not None:

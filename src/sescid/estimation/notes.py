@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from sescid.estimation.tilt import tilt_direction
+
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.estimation.fit import Fit
 
@@ -86,8 +88,6 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             f"{len(fit.unidentifiable)} of {fit.r.size} directions are not determined by the "
             f"data; {filled} ({seen} predictions do not depend on them, {effect})"
         )
-    from sescid.estimation.tilt import tilt_direction
-
     tilt = tilt_direction(fit) if fit.kind("cop") is not None else None
     if tilt is not None:
         notes.append(

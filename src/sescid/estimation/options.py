@@ -15,7 +15,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from sescid.base import SEED_HELP, check_ranges, option
+from sescid.base import G0, SEED_HELP, check_ranges, option
 from sescid.errors import OptionError, check_choice
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
@@ -24,7 +24,6 @@ from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.measurements import COP, TORQUE, Kind
 from sescid.estimation.robust import HUBER_K
 from sescid.estimation.system import RowOptions
-from sescid.sesc import STANDARD_GRAVITY
 
 #: how MAP chooses its prior scale τ: by marginal likelihood, or by k-fold cross-validation
 PriorSelect = Literal["evidence", "cv"]
@@ -238,7 +237,7 @@ class IdentifyOptions:
         "masses (default: the model's, with a warning when torques are fitted).",
     )
     gravity_accel: float = option(
-        STANDARD_GRAVITY, "|g| behind the torque rows [m/s²] (local gravity).",
+        G0, "|g| behind the torque rows [m/s²] (local gravity).",
         low=1, high=30, what="|g| in m/s² (1–30)",
     )  # fmt: skip
     allow_exact: bool = option(

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.estimation.fit import Fit, KindFit, NuisanceEstimate
 from sescid.estimation.identifiability import DEFAULT_RTOL
@@ -39,7 +40,7 @@ from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.estimation.payload_record import PayloadFit, PayloadKind
 from sescid.estimation.pooled import PARAM_UNIT
 from sescid.robot import DOUBLE, Robot
-from sescid.sesc import STANDARD_GRAVITY, gravity_ratios, line_across, line_distance
+from sescid.sesc import gravity_ratios, line_across, line_distance
 
 #: a balance row's smallest lever (the base model's CoM distance from the line), m
 MIN_RHO = 1e-3
@@ -60,7 +61,7 @@ class PayloadOptions:
     mass: float | None = None
     cop_noise: float | None = None
     tau_noise: float | None = None
-    gravity_accel: float = STANDARD_GRAVITY
+    gravity_accel: float = G0
     rtol: float = DEFAULT_RTOL
 
 

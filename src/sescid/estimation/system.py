@@ -21,6 +21,7 @@ from typing import Literal
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.threads import ordered_map
 from sescid.errors import DataError
 from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
@@ -30,7 +31,6 @@ from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import fold_torque, reduced_order, use_kernels
 from sescid.robot import Robot
-from sescid.sesc import STANDARD_GRAVITY
 
 #: MAP prior standard deviation of a constant CoP offset: effectively flat, m
 NUISANCE_PRIOR_COP = 1.0
@@ -90,7 +90,7 @@ class System:
     mass_given: bool  #: the total mass was weighed, not taken from the model
     n_poses: int = 0
     sources: list[str] = field(default_factory=list)
-    gravity_accel: float = STANDARD_GRAVITY  #: |g| behind the torque rows, m/s²
+    gravity_accel: float = G0  #: |g| behind the torque rows, m/s²
     #: the parameters: "sesc" (vec(r) of the robot's support, 3N) or "bodies" (the body
     #: parameters x = [m/M; vec(m c)/(M ℓ)], 4N, that several stances share: ``pooled``)
     space: Space = "sesc"
@@ -163,7 +163,7 @@ class RowOptions:
     weighted: bool = False
     total_mass: float | None = None
     cop_offset: bool = False
-    gravity_accel: float = STANDARD_GRAVITY
+    gravity_accel: float = G0
 
 
 class Accumulator:
