@@ -4,6 +4,7 @@ torques of that file."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -171,6 +172,11 @@ def test_fit_file_keeps_the_payload(op2, carrying, tmp_path):
     np.testing.assert_array_equal(back.payload.com_std, fit.payload.com_std)
     assert back.total_mass == fit.total_mass
     np.testing.assert_allclose(back.predict_cop(m.q), fit.predict_cop(m.q), atol=1e-15)
+    # a file without the payload object (every file written before it) reads as before
+    doc = json.loads((tmp_path / "fit.json").read_text())
+    del doc["payload"]
+    (tmp_path / "old.json").write_text(json.dumps(doc))
+    assert load_fit(tmp_path / "old.json").payload is None
 
 
 def test_bad_input(op2, carrying, tmp_path):

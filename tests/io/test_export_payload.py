@@ -1,6 +1,6 @@
 """Export of a payload fit: the model file with one more body fixed to the payload's link,
 read back by sescid (its SESC vectors and mass are the fit's), by Pinocchio (URDF: the holding
-torques) and by MuJoCo (MJCF: the total mass and CoM)."""
+torques) and by MuJoCo (MJCF: the payload body's mass, parent and no joint)."""
 
 from __future__ import annotations
 
@@ -77,6 +77,14 @@ def test_mjcf_export_adds_a_fixed_body(tmp_path):
     export_model(fit, tmp_path / "out.xml")
     back = load_robot(tmp_path / "out.xml", "legA_sole")
     assert back.total_mass == pytest.approx(truth.total_mass, rel=1e-9)
+    import mujoco
+
+    compiled = mujoco.MjModel.from_xml_path(str(tmp_path / "out.xml"))
+    (bid,) = [i for i in range(compiled.nbody) if compiled.body(i).name == f"{hand}_payload"]
+    assert compiled.body_mass[bid] == pytest.approx(fit.payload.mass, rel=1e-12)
+    assert compiled.body_parentid[bid] == [i for i in range(compiled.nbody)
+                                            if compiled.body(i).name == hand][0]  # fmt: skip
+    assert compiled.body_jntnum[bid] == 0  # fixed to the forearm
     np.testing.assert_allclose(back.com(q), truth.com(q), atol=1e-9)
 
 
