@@ -229,3 +229,22 @@ def test_two_stances_determine_a_payload_on_one_foot(op2, tmp_path):
     assert p is not None and p.unseen == () and set(p.stances) == {op2.support, "l_sole"}
     assert abs(p.mass - 0.3) < 4 * p.mass_std
     assert np.all(np.abs(p.com - [0.01, 0.0, 0.02]) < 4 * p.com_std)
+
+
+def test_a_noisy_base_fit_of_the_same_support(op2, carrying):
+    """The base is a least-squares fit of 40 poses with 2 mm CoP noise (its own errors enter the
+    payload's rows, correlated: propagated with its covariance): over 20 draws the payload's
+    errors stay within their stated standard errors."""
+    z = []
+    for seed in range(20):
+        own = simulate(op2, n=40, noise=2e-3, seed=100 + seed)
+        base = sescid.identify(op2, own.q, cop=own.cop, method="ls")
+        sim = simulate(carrying, n=8, noise=2e-3, seed=seed)
+        m = Measurements(q=sim.q, cop=sim.cop).checked(op2)
+        p = payload_fit(op2, [m], PayloadOptions(HAND), base).payload
+        assert p is not None and p.base == "fit: ls"
+        est = np.concatenate([[p.mass], p.com])
+        z.append((est - np.concatenate([[MASS], COM])) / np.concatenate([[p.mass_std], p.com_std]))
+    z = np.array(z)
+    assert np.mean(np.abs(z) < 2) >= 0.85, z
+    assert 0.6 < math.sqrt(np.mean(z**2)) < 1.5

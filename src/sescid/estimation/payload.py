@@ -17,9 +17,11 @@ body), and the total mass becomes M = M_b + m. Every kind is then a function of 
   each measured joint's offset (and friction band with an approach side) as nuisance columns.
 
 Each kind is weighed by its own noise (given, or estimated from its residuals with its share of
-the degrees of freedom, by the rows' leverages). What the poses leave undetermined (a payload on
-a body the poses never turn is seen only through its mass) is reported as nan with its reason
-and how many more poses would determine it. ``payload_fit`` returns a ``Fit`` of the robot with
+the degrees of freedom, by the rows' leverages); a base fit's own covariance enters the rows of
+its support as a correlated error (``_whitener``); a model file is taken as exact. What the
+poses leave undetermined (a payload on a body the poses never turn shows only its mass and
+horizontal moment) is reported as nan with its reason and how many more poses would determine
+it. ``payload_fit`` returns a ``Fit`` of the robot with
 its payload (``Fit.payload`` the record), so that every prediction includes it.
 """
 
@@ -48,6 +50,8 @@ MIN_RHO = 1e-3
 START_SIGMA: dict[str, float] = {COP: 1e-3, TORQUE: 1e-2, BALANCE: 1e-2}
 #: units of each kind
 UNITS: dict[str, str] = {COP: "m", TORQUE: "N·m", BALANCE: "rad"}
+#: most rows whose base-fit errors are propagated (a dense R × R covariance)
+BASE_ROWS = 3000
 #: names of p's components as reported
 COMPONENTS = ("mass", "com_x", "com_y", "com_z")
 
@@ -149,11 +153,16 @@ class _Rows:
     nuisance: list[tuple[str, str]]  #: (what, joint)
     rows_per_pose: int  #: most rows one pose gives that see the payload
     stances: list[str]
+    #: (R, 3N) ∂pred/∂vec(r_b) over M_b (CoM rows, then over M) of the rows measured in the base
+    #: fit's own support (0 elsewhere), and the base's covariance (3N, 3N); None: not propagated
+    jb: np.ndarray | None = None
+    cb: np.ndarray | None = None
 
 
 def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: list[Measurements],
-          g0: float, body: str) -> _Rows:  # fmt: skip
-    """The rows of validated data (each chunk in its stance, ``Measurements.support``)."""
+          g0: float, body: str, base_support: str | None = None) -> _Rows:  # fmt: skip
+    """The rows of validated data (each chunk in its stance, ``Measurements.support``);
+    ``base_support``: also each row's derivative in the base fit's r for rows of that stance."""
     parts: list[
         tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, dict[str, Any]]
     ] = []
@@ -168,6 +177,7 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
         ks = rs.sesc_matrix(ref)
         kb, kd = ks @ theta, ks @ dmap
         seen_here = 0
+        mine = base_support is not None and support == base_support
         if COP in m.kinds or BALANCE in m.kinds:
             phi = rs.regressor(m.q, (0, 1, 2))  # (n, 3, 3N)
             a, bm = phi @ kb, phi @ kd  # (n, 3), (n, 3, 4)
@@ -183,7 +193,8 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
             u = np.einsum("nij,nj->ni", proj, a)
             v = np.einsum("nij,njp->nip", proj, bm)
             keep = ~np.isnan(m.cop)
-            parts.append((COP, m.cop[keep], c0[keep], u[keep], v[keep], 1.0, {}))
+            jb = np.einsum("nij,njp->nip", proj, phi)[keep] if mine else None
+            parts.append((COP, m.cop[keep], c0[keep], u[keep], v[keep], 1.0, {"jb": jb}))
             seen_here += 2
         if BALANCE in m.kinds:
             assert m.balance is not None and m.gravity is not None
@@ -192,9 +203,11 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
             ndir = line_across(rs.line, m.gravity)
             rho = np.maximum(line_distance(rs.line, d + a / theta[: len(ref.body_names)].sum()),
                              MIN_RHO)  # fmt: skip
+            jb = np.einsum("na,nap->np", ndir, phi) / rho[:, None] if mine else None
             parts.append((BALANCE, m.balance / rho, ndir @ d / rho,
                           np.einsum("na,na->n", ndir, a) / rho,
-                          np.einsum("na,nap->np", ndir, bm) / rho[:, None], 1.0, {}))  # fmt: skip
+                          np.einsum("na,nap->np", ndir, bm) / rho[:, None], 1.0,
+                          {"jb": jb}))  # fmt: skip
             seen_here += 1
         if TORQUE in m.kinds:
             assert m.tau is not None
@@ -213,7 +226,13 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
                         nuisance.append((what, name))
                     cols[(what, name, j)] = nuisance.index((what, name))
             nj = len(joints)
-            extra: dict[str, Any] = {"cols": cols, "n": m.n, "nj": nj, "approach": m.approach}
+            extra: dict[str, Any] = {
+                "cols": cols,
+                "n": m.n,
+                "nj": nj,
+                "approach": m.approach,
+                "jb": phit.reshape(-1, phit.shape[2]) if mine else None,
+            }
             parts.append((TORQUE, m.tau.reshape(-1), np.zeros(m.n * nj), t0.reshape(-1),
                           tb.reshape(-1, 4), 0.0, extra))  # fmt: skip
             bidx = rs.model.link_frames[body][0]
@@ -223,11 +242,13 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
     kinds: list[str] = [k for k in (COP, TORQUE, BALANCE) if any(p[0] == k for p in parts)]
     if not parts:
         raise DataError("no CoP, joint torque or balance rows to identify a payload from")
-    ys, c0s, us, vs, ks_, nus, kis = [], [], [], [], [], [], []
+    ys, c0s, us, vs, ks_, nus, kis, jbs = [], [], [], [], [], [], [], []
+    n_x = 3 * len(ref.body_names)
     for kind, y, c0, u, v, kk, extra in parts:
         r = y.shape[0]
         nu = np.zeros((r, len(nuisance)))
-        if extra:
+        jbs.append(extra["jb"] if extra["jb"] is not None else np.zeros((r, n_x)))
+        if "cols" in extra:
             n, nj, app = extra["n"], extra["nj"], extra["approach"]
             for (what, _name, j), col in extra["cols"].items():
                 rows = np.arange(n) * nj + j
@@ -239,9 +260,10 @@ def _rows(robot: Robot, ref: Robot, theta: np.ndarray, dmap: np.ndarray, data: l
         ks_.append(np.full(r, kk))
         nus.append(nu)
         kis.append(np.full(r, kinds.index(kind)))
+    jb = np.vstack(jbs) if base_support is not None else None
     return _Rows(np.concatenate(ys), np.concatenate(c0s), np.concatenate(us),
                  np.concatenate(vs), np.concatenate(ks_), np.vstack(nus),
-                 np.concatenate(kis), kinds, nuisance, per_pose, stances)  # fmt: skip
+                 np.concatenate(kis), kinds, nuisance, per_pose, stances, jb)  # fmt: skip
 
 
 def _chain_to(rs: Robot, b: int) -> set[int]:
@@ -282,12 +304,12 @@ def _solve(rows: _Rows, base_mass: float, opts: PayloadOptions):
     nu = np.zeros(k)
     # column scales: kg, kg·ℓ, N·m (rank decisions in comparable units)
     scale = np.concatenate([np.array([1.0, PARAM_UNIT, PARAM_UNIT, PARAM_UNIT])[free], np.ones(k)])
-    for _outer in range(4):
+    for _outer in range(6):
+        white, extra = _whitener(rows, sigma, p, base_mass)
         for _it in range(60):
             pred, jac = _predict(rows, p, nu, base_mass)
-            w = 1.0 / sigma[rows.kind]
-            e = (rows.y - pred) * w
-            jz = np.hstack([jac[:, free], rows.nuis]) * w[:, None] * scale[None, :]
+            e = white(rows.y - pred)
+            jz = white(np.hstack([jac[:, free], rows.nuis])) * scale[None, :]
             step = np.linalg.lstsq(jz, e, rcond=opts.rtol)[0] * scale
             cost = float(e @ e)
             t = 1.0
@@ -295,7 +317,7 @@ def _solve(rows: _Rows, base_mass: float, opts: PayloadOptions):
                 p_new, nu_new = p.copy(), nu + t * step[len(free) :]
                 p_new[free] += t * step[: len(free)]
                 if base_mass + p_new[0] > 0:
-                    e_new = (rows.y - _predict(rows, p_new, nu_new, base_mass)[0]) * w
+                    e_new = white(rows.y - _predict(rows, p_new, nu_new, base_mass)[0])
                     if float(e_new @ e_new) <= cost * (1 + 1e-12):
                         break
                 t /= 2
@@ -303,8 +325,7 @@ def _solve(rows: _Rows, base_mass: float, opts: PayloadOptions):
             if np.all(np.abs(t * step[: len(free)]) <= 1e-12 * (1 + np.abs(p[free]))):
                 break
         pred, jac = _predict(rows, p, nu, base_mass)
-        w = 1.0 / sigma[rows.kind]
-        jz = np.hstack([jac[:, free], rows.nuis]) * w[:, None]
+        jz = white(np.hstack([jac[:, free], rows.nuis]))
         res = rows.y - pred
         info = jz.T @ jz
         lev = np.einsum("ri,ij,rj->r", jz, np.linalg.pinv(info, rcond=opts.rtol, hermitian=True),
@@ -314,13 +335,33 @@ def _solve(rows: _Rows, base_mass: float, opts: PayloadOptions):
         for i, kd in enumerate(rows.kinds):
             at = rows.kind == i
             dof[i] = at.sum() - lev[at].sum()
-            if given[kd] is None and dof[i] > 0.5:
-                new[i] = max(math.sqrt(float(res[at] @ res[at]) / dof[i]), 1e-12 * START_SIGMA[kd])
+            if given[kd] is None and dof[i] > 0.5:  # the base's share of the residuals taken out
+                var = float(res[at] @ res[at]) / dof[i] - float(np.mean(extra[at]))
+                new[i] = max(math.sqrt(max(var, 0.0)), 1e-12 * START_SIGMA[kd])
         if np.allclose(new, sigma, rtol=1e-6):
             break
         sigma = new
+    white, _ = _whitener(rows, sigma, p, base_mass)
+    jz = white(np.hstack([_predict(rows, p, nu, base_mass)[1][:, free], rows.nuis]))
     free_sigma = np.array([given[kd] is None and dof[i] <= 0.5 for i, kd in enumerate(rows.kinds)])
     return p, nu, jz, sigma, dof, res, free, free_sigma
+
+
+def _whitener(rows: _Rows, sigma: np.ndarray, p: np.ndarray, base_mass: float):
+    """The whitening v ↦ L⁻¹ v for the rows' error covariance σ_kind² I (+ the base fit's
+    J_b C_b J_bᵀ), and that base share of each row's variance (zeros without it)."""
+    s = sigma[rows.kind]
+    if rows.jb is None or rows.cb is None:
+        return (lambda v: v / (s[:, None] if v.ndim == 2 else s)), np.zeros(s.size)
+    from scipy.linalg import cholesky, solve_triangular
+
+    g = rows.jb * np.where(rows.k > 0, base_mass / (base_mass + p[0]), base_mass)[:, None]
+    gc = g @ rows.cb
+    extra = np.einsum("ij,ij->i", gc, g)
+    cov = gc @ g.T
+    cov[np.diag_indices_from(cov)] += s**2
+    low = cholesky(cov, lower=True)
+    return (lambda v: solve_triangular(low, v, lower=True)), extra
 
 
 def _marginal(jz: np.ndarray, n_free: int, rtol: float):
@@ -345,7 +386,14 @@ def solve_payload(robot: Robot, data: list[Measurements], opts: PayloadOptions,
     n = len(ref.body_names)
     base_mass = float(theta[:n].sum())
     dmap = payload_map(ref, opts.body)
-    rows = _rows(robot, ref, theta, dmap, data, opts.gravity_accel, opts.body)
+    # the base fit's own uncertainty, for rows of its support (dense: up to BASE_ROWS rows)
+    same = base is not None and np.all(np.isfinite(base.cov)) and np.any(base.cov != 0)
+    n_rows = sum(d.rows() for d in data)
+    support = base.robot.support if base is not None and same and n_rows <= BASE_ROWS else None
+    rows = _rows(robot, ref, theta, dmap, data, opts.gravity_accel, opts.body, support)
+    if support is not None:
+        assert base is not None
+        rows.cb = base.cov
     p, nu, jz, sigma, dof, res, free, free_sigma = _solve(rows, base_mass, opts)
     nf = len(free)
     sc = np.array([1.0, PARAM_UNIT, PARAM_UNIT, PARAM_UNIT])[free]
