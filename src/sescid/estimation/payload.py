@@ -21,8 +21,8 @@ the degrees of freedom, by the rows' leverages); a base fit's own covariance ent
 its support as a correlated error (``_whitener``); a model file is taken as exact. What the
 poses leave undetermined (a payload on a body the poses never turn shows only its mass and
 horizontal moment) is reported as nan with its reason and how many more poses would determine
-it. ``payload_fit`` returns a ``Fit`` of the robot with
-its payload (``Fit.payload`` the record), so that every prediction includes it.
+it. ``payload_fit`` returns a ``Fit`` of the robot with its payload (``Fit.payload`` the
+record), so that every prediction includes it.
 """
 
 from __future__ import annotations
