@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+CORE   := $(VENV)/.installed-core
 
 LOCK   := requirements-dev.lock
 
@@ -15,7 +16,16 @@ $(STAMP): pyproject.toml $(LOCK)
 	$(PY) -m pip install -q -e '.[dev]' -c $(LOCK)
 	touch $(STAMP)
 
-demo: $(STAMP)
+# the demo's environment: the core dependencies only (no extras, no test tools), the lock's
+# versions; a venv that already holds the development set (it includes the core) is kept as is
+$(CORE): pyproject.toml $(LOCK)
+	if [ -f $(STAMP) ] && [ $(STAMP) -nt pyproject.toml ] && [ $(STAMP) -nt $(LOCK) ]; then :; else \
+	  $(PYTHON) -m venv $(VENV) && \
+	  $(PY) -m pip install -q --upgrade pip && \
+	  $(PY) -m pip install -q -e . -c $(LOCK); fi
+	touch $(CORE)
+
+demo: $(CORE)
 	$(VENV)/bin/sescid demo --out-dir demo_out
 
 lint: $(STAMP)
