@@ -12,8 +12,9 @@ comment on the line just above its fence:
 - ``<!-- docs-test: after walkthrough -->``: the page's folder first gets the files of the
   walk-through's commands (a pose list, raw log, measured file, fit, truth).
 
-Model paths under example-robot-data's ``robots/`` folder (``talos_data/robots/…``) resolve
-because the folder's robots are linked into the run's folder.
+A block runs in an empty folder outside the repository: it names models by an embedded or
+example name (``op2``, ``wheeled_humanoid``) or by a path it computes (example-robot-data's
+``robots/`` folder from the environment's ``site-packages``), never by a path of the clone.
 """
 
 from __future__ import annotations
