@@ -41,6 +41,7 @@ slow: $(STAMP)
 
 docs: $(STAMP)
 	$(PY) tools/readme_numbers.py
+	$(PY) tools/torques_walkthrough.py
 
 # speed figures, each beside its target and a reference measured in the same run (docs/speed.md)
 bench: $(STAMP)
