@@ -1,7 +1,8 @@
 """Benchmark: sescid on the public humanoids of example-robot-data (and the OP2 for reference).
 
-Per robot: load time, regressor rank (least squares on 400 simulated poses), ``poses`` time
-(``plan_poses`` with 40 poses and the CLI's default candidate count for the robot's sampler) and
+Per robot: load time, rank of least squares and of the default method (``auto``, and the
+method it chose) on 400 simulated poses, ``poses`` time (``plan_poses`` with 40 poses, or the
+robot's minimum when that is more, and the CLI's default candidate count for its sampler) and
 what its checks gave (lowest free-sole corner and lowest checked body above the floor over the
 chosen poses), the sole used, and how closely the export of a MAP fit reproduces that fit's CoP
 on 2000 fresh poses. Reference measured in the same run: the acceptance of plain uniform draws
@@ -64,7 +65,8 @@ def run(name: str, tmp: Path) -> dict:
     robot = sescid.load_robot(path if name == "op2" else erd() / path, support)
     t_load = time.perf_counter() - t0
     sim = sescid.simulate(robot, 400, 20, 0.002, seed=0, clip=name != "op2")
-    fit = sescid.identify(robot, sim.q, sim.cop)
+    fit = sescid.identify(robot, sim.q, sim.cop, method="ls")
+    auto = sescid.identify(robot, sim.q, sim.cop)
     n_cand = 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
     t0 = time.perf_counter()
     plan = sescid.plan_poses(robot, count=max(40, min_poses(robot)), n_candidates=n_cand)
@@ -81,6 +83,9 @@ def run(name: str, tmp: Path) -> dict:
         "robot": name,
         "load_s": t_load,
         "rank": fit.rank,
+        "rank_auto": auto.rank,
+        "auto_method": auto.method,
+        "n_poses": len(plan.q),
         "poses_s": t_poses,
         "accept": plan.candidates.acceptance,
         "sole": "none"
@@ -102,7 +107,8 @@ def main() -> None:
             rows.append(run(name, Path(d)))
             r = rows[-1]
             print(
-                f"{r['robot']:6s} load {r['load_s']:.2f} s  rank {r['rank']}  poses(40) "
+                f"{r['robot']:6s} load {r['load_s']:.2f} s  rank ls {r['rank']}, auto "
+                f"{r['rank_auto']} ({r['auto_method']})  poses({r['n_poses']}) "
                 f"{r['poses_s']:.1f} s (acceptance {r['accept']:.1%})  sole {r['sole']}  "
                 f"free sole ≥ {r['free_sole_mm']:.1f} mm, bodies ≥ {r['body_mm']:.1f} mm above "
                 f"floor  export vs fit CoP {r['export_um']:.3f} µm",
