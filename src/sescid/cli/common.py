@@ -197,7 +197,8 @@ def robot_options(f: Any) -> Any:
         "robot_name",
         default="op2",
         show_default=True,
-        help="Embedded robot name (op2) or a URDF/MJCF file.",
+        help="Embedded robot name (op2), an example model shipped with sescid "
+        "(wheeled_humanoid, humanoid) or a URDF/MJCF file.",
     )(f)
     return f
 
