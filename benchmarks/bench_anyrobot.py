@@ -22,8 +22,8 @@ import numpy as np
 
 import sescid
 from sescid.estimation import min_poses
-from sescid.planning import CandidateOptions, candidates, collision_capsules
-from sescid.planning.ground import ground_checks
+from sescid.planning import CandidateOptions, candidates
+from sescid.planning.ground import lowest_heights
 
 ROBOTS = {
     "op2": ("op2", None),
@@ -48,14 +48,7 @@ def lowest(robot, q) -> tuple[float, float]:
     if free is not None:
         c = org[:, None, free.body] + np.einsum("nij,cj->nci", rot[:, free.body], free.corners)
         sole = float(c[..., 2].min() - robot.floor)
-    cap = collision_capsules(robot)
-    g = ground_checks(robot, cap)
-    w0, w1 = cap.world(rot, org)
-    low = np.minimum(w0[..., 2], w1[..., 2]) - cap.radius
-    body = float(low[:, g.capsules].min()) if g.capsules.any() else np.inf
-    for b in np.unique(g.vert_body):
-        v = g.vertices[g.vert_body == b]
-        body = min(body, float((org[:, b, 2:3] + rot[:, b, 2, :] @ v.T).min()))
+    body = float(lowest_heights(robot, rot, org).min())
     return sole, body - robot.floor
 
 
