@@ -97,7 +97,11 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for name in args.robots:
-            rows.append(run(name, Path(d)))
+            try:
+                rows.append(run(name, Path(d)))
+            except sescid.SescidError as exc:  # a robot sescid refuses: say why, go on
+                print(f"{name:6s} refused: {exc}", flush=True)
+                continue
             r = rows[-1]
             print(
                 f"{r['robot']:6s} load {r['load_s']:.2f} s  rank ls {r['rank']}, auto "
