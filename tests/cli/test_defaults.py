@@ -158,6 +158,8 @@ def _simulate(d) -> list:
         ("measure", torque_noise(d), _arg(simulate, "torques")),
         ("TorqueNoise", tau, TorqueNoise()),
         ("tilt_noise_deg", math.radians(d["tilt_noise_deg"]), _arg(simulate_balance, "tilt_noise")),
+        # the real robot simulated: the bench's (experiment's) unmodelled mass
+        ("extra_mass", d["extra_mass"], ExperimentConfig().extra_mass_fraction),
     ]
 
 

@@ -129,7 +129,7 @@ def experiment(**opts):
         )
         if truth:
             ex.truth.save(outs.path(truth))
-    _report(ex, len(q), opts)
+    _report(ex, len(q), opts, pads=sensors is not None)
 
 
 def experiment_config(opts: dict) -> ExperimentConfig:
@@ -164,19 +164,24 @@ def mujoco_bench(opts: dict, cfg: ExperimentConfig):
     return record(MujocoBenchConfig, opts, double_support=cfg.double_support)
 
 
-def _report(ex, n: int, opts) -> None:
+def _report(ex, n: int, opts, pads: bool) -> None:
+    """The log's summary line: the real robot and the errors of the sensors it logged (foot
+    pads only when ``pads``: a torque-only log has no FSR columns)."""
     t = ex.truth
-    tau = "" if t.torque is None else f", torques on {len(t.torque.joints)} joints"
+    tau = "" if t.torque is None else f"torques on {len(t.torque.joints)} joints"
     sensors = (
         f"IMU noise {opts['imu_noise_deg']:g}°"
         if t.mount == "line"
         else f"FSR noise {opts['fsr_noise']:g} N, bias {opts['fsr_bias']:g} N, gain error "
         f"{opts['fsr_gain']:g}"
+        if pads
+        else ""
     )
+    logged = ", ".join(x for x in (sensors, tau) if x)
     click.echo(
         f"wrote {opts['out']}: {n - len(ex.skipped)} poses × {opts['samples']} samples "
         f"({t.mount}); real robot {t.true_mass:.4f} kg (model {t.model_mass:.4f} kg), "
-        f"backlash ±{opts['backlash_deg']:g}°, {sensors}{tau}"
+        f"backlash ±{opts['backlash_deg']:g}°, {logged}"
     )
     for pose, why in ex.skipped:
         click.echo(f"  pose {pose} skipped: {why}", err=True)

@@ -56,7 +56,7 @@ def export_cmd(fit_file, out, model_format, force, **opts):
 
     assert fit.inertials is not None
     for line in cad_violations(fit.inertials, fit.robot.body_names):
-        click.echo(f"  the CAD model itself violates a constraint: {line}")
+        click.echo(f"  {line}")
     with outs:
         warnings = export_model(fit, outs.path(out), model_format)
     for warning in warnings:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import G0, SUPPORT_COLUMN, OutputSet
+from sescid.base import G0, SUPPORT_COLUMN, OutputSet, listed
 from sescid.cli import common
 from sescid.errors import DataError, ModelError
 from sescid.io import iter_table, read_table, write_table
@@ -121,10 +121,9 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     for pose, reason in res.dropped:
         click.echo(f"  pose {pose} dropped: {reason}", err=True)
     if unmeasured:
-        more = f" (and {len(unmeasured) - 5} more)" if len(unmeasured) > 5 else ""
         click.echo(
             f"  {len(unmeasured)} poses of the list were not measured: "
-            f"{', '.join(unmeasured[:5])}{more}",
+            f"{listed(unmeasured, first=5)}",
             err=True,
         )
     click.echo(f"wrote {out}")

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base.text import listed
 from sescid.errors import OptionError
 from sescid.estimation.fit import Fit
 from sescid.model.sole import splits_at_support
@@ -120,12 +121,13 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "data, whose scale is not in the data"
         )
     if fit.weak:
-        names = "; ".join(c.label() for c in fit.weak[:3])
-        more = f" (and {len(fit.weak) - 3} more)" if len(fit.weak) > 3 else ""
+        names = listed(
+            (c.label() for c in fit.weak), sep="; ", where='all in the fit file\'s "weak"'
+        )
         whose = "taken from the prior model" if fit.map is None else "decided by the prior"
         out.append(
             f"{len(fit.weak)} combination(s) barely excited by these poses (information below "
-            f"10⁻⁷ of the largest), {whose}: {names}{more}; vary the joints that move them"
+            f"10⁻⁷ of the largest), {whose}: {names}; vary the joints that move them"
         )
     from sescid.estimation.tilt import TILT_REL_STD_WARN, tilt_direction
 

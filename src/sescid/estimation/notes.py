@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from sescid.base.text import listed
 from sescid.estimation.tilt import tilt_direction
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -47,7 +48,7 @@ def _stance_note(fit: Fit) -> str:
     """What each stance determines alone and what pooling them adds."""
     b = fit.bodies
     each = ", ".join(f"{s.support} {s.rank} ({s.n_poses} poses)" for s in b.stances)
-    added = "; ".join(b.added[:3]) + (f" (and {len(b.added) - 3} more)" if len(b.added) > 3 else "")
+    added = listed(b.added, sep="; ")
     gain = f"; pooling adds {len(b.added)}: {added}" if b.added else ""
     return (
         f"stances pooled over the {b.x.size} body parameters (masses, first moments): each "

@@ -49,15 +49,16 @@ class ReadReport:
     first_limit_at: str | None = None
 
     def limit_message(self) -> str | None:
-        """One line about the poses outside the joint limits, or None."""
+        """One line about the poses outside the joint limits, naming the file, or None."""
         if not self.limits:
             return None
         start, first = self.limits[0]
         n_bad = sum(v.n_poses for _, v in self.limits)
         row = first.row + start
-        return dataclasses.replace(first, row=row, n_poses=n_bad).message(
+        text = dataclasses.replace(first, row=row, n_poses=n_bad).message(
             self.n_poses, self.first_limit_at
         )
+        return f"{self.path}: {text}"
 
 
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
@@ -163,7 +164,7 @@ def read_measurements(
         rep.n_poses += m.n
         if bad is not None and not (allow_outside_limits or rep.simulated):
             raise DataError(
-                f"{path}: {rep.limit_message()}; degrees in a radian column, or another "
+                f"{rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
         yield from by_support(table, robot, dataclasses.replace(m, support=support))
