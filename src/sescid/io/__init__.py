@@ -33,6 +33,7 @@ from sescid.io.bags import (
     read_bag,
 )
 from sescid.io.export.assets import model_files
+from sescid.io.export.inertia import check_inertias
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
@@ -57,6 +58,7 @@ __all__ = [
     "TorqueSource",
     "atomic_open",
     "atomic_path",
+    "check_inertias",
     "export_mjcf",
     "export_model",
     "export_urdf",

@@ -15,7 +15,13 @@ from sescid.errors import ModelError
 from sescid.model.feet import FootCandidate, root_frame, support_candidates
 from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
-from sescid.model.inertia import inertia_issue, inertia_parts
+from sescid.model.inertia import (
+    InertiaProblem,
+    inertia_issue,
+    inertia_parts,
+    inertia_problems,
+    repair_inertia,
+)
 from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
 from sescid.model.urdf import build_model as build_urdf_model
 from sescid.model.urdf_parse import load_urdf, parse_inertial
@@ -66,6 +72,9 @@ __all__ = [
     "body_hulls",
     "build_urdf_model",
     "inertia_issue",
+    "inertia_problems",
+    "repair_inertia",
+    "InertiaProblem",
     "inertia_parts",
     "inv_transform",
     "load_model",

@@ -15,7 +15,9 @@ round-off (not to the solver's tolerance).
 A massive body's mass stays within ``MASS_SIGMAS`` prior standard deviations of CAD's (the
 fit's own uncertainty on it; a body held there is named). When the boxes then make r̂
 unreachable, they become soft (a slack per face, costing ``SOFT_BOX``): a CoM leaves its box
-only as far as r̂ demands and is named (``BodyInertials.notes``), never silently moved.
+only as far as r̂ demands and is named (``BodyInertials.notes``), never silently moved; when
+even that fails (the Σ m = M the fit did not impose moves the masses), the band goes and every
+body beyond it is named.
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ MASS_SIGMAS = 3.0
 #: a body whose parameters carry less than this share of the largest data information is
 #: "not determined by the data"
 UNSEEN_RTOL = 1e-10
+#: weight (per m of r, relative to the CAD term's unit) of a frame-only body's r mismatch: its
+#: r follows from the masses alone, and a MAP prior leaves it reachable only to round-off
+FRAME_WEIGHT = 1e7
 #: cost of a box slack when the boxes cannot all hold, relative to the CAD term's unit
 SOFT_BOX = 1e6
 
@@ -83,13 +88,19 @@ def solve_exact(
     robot = fit.robot
     nb = len(robot.body_names)
     k = sesc_map(robot)
-    a_eq = np.vstack([k, a_eq_extra[0]])
-    b_eq = np.concatenate([np.asarray(fit.r, dtype=float).reshape(-1), a_eq_extra[1]])
+    r_hat = np.asarray(fit.r, dtype=float).reshape(-1)
+    frame = np.repeat([b.frame_only for b in robot.model.bodies], 3)
+    a_eq = np.vstack([k[~frame], a_eq_extra[0]])
+    b_eq = np.concatenate([r_hat[~frame], a_eq_extra[1]])
     m_cad = robot.masses / float(robot.masses.sum())
     coms = np.array([b.com for b in robot.model.bodies])
     x_cad = np.concatenate([m_cad, (m_cad[:, None] * coms).ravel() / H_UNIT])
     w, _, _ = prior_weights(fit, com_scale)
     p_mat, q_vec = 2 * np.diag(w**2), -2 * w**2 * x_cad
+    if frame.any():  # a frame-only body's r follows from the masses: matched in least squares
+        kf = k[frame] * FRAME_WEIGHT
+        p_mat = p_mat + 2 * kf.T @ kf
+        q_vec = q_vec - 2 * kf.T @ (r_hat[frame] * FRAME_WEIGHT)
     unseen = unseen_bodies(fit)
     fixed = np.zeros((4 * int(unseen.sum()), 4 * nb))
     for r, j in enumerate(np.flatnonzero(unseen)):
@@ -97,6 +108,7 @@ def solve_exact(
         fixed[4 * r + np.arange(4), cols] = 1.0
     fixed_rhs = fixed @ x_cad
     band = mass_band(fit, com_scale)
+    banded = [(bounds, floor_only)]
     if band is not None:  # masses within MASS_SIGMAS prior std of CAD's (massive bodies)
         lo, hi = band
         live = np.flatnonzero(robot.masses > 0)
@@ -104,20 +116,27 @@ def solve_exact(
         rows[np.arange(live.size), live] = 1.0
         rows[live.size + np.arange(live.size), live] = -1.0
         rhs_b = np.concatenate([hi[live], -lo[live]])
-        bounds = (np.vstack([bounds[0], rows]), np.concatenate([bounds[1], rhs_b]))
-        floor_only = (np.vstack([floor_only[0], rows]), np.concatenate([floor_only[1], rhs_b]))
-    tries = [(True, True), (False, True), (True, False), (False, False)]
+        with_band = (
+            (np.vstack([bounds[0], rows]), np.concatenate([bounds[1], rhs_b])),
+            (np.vstack([floor_only[0], rows]), np.concatenate([floor_only[1], rhs_b])),
+        )
+        banded.insert(0, with_band)
+    # the most held first: unseen bodies at CAD, then hard boxes, then the mass band
+    tries = [
+        (unseen_kept, boxes_hard, limits)
+        for limits in banded
+        for boxes_hard in (True, False)
+        for unseen_kept in ((True, False) if unseen.any() else (False,))
+    ]
     last: SolverError | None = None
-    for keep_unseen, keep_boxes in tries:
-        if keep_unseen and not unseen.any():
-            continue
+    for keep_unseen, keep_boxes, (full, hard) in tries:
         eq = np.vstack([a_eq, fixed]) if keep_unseen else a_eq
         rhs = np.concatenate([b_eq, fixed_rhs]) if keep_unseen else b_eq
         try:
             if keep_boxes:
-                x, status, it = solve_qp(p_mat, q_vec, eq, rhs, *bounds, "consistent fit (exact)")
+                x, status, it = solve_qp(p_mat, q_vec, eq, rhs, *full, "consistent fit (exact)")
             else:
-                x, status, it = _soft_boxes(p_mat, q_vec, eq, rhs, bounds, floor_only, nb)
+                x, status, it = _soft_boxes(p_mat, q_vec, eq, rhs, full, hard, nb)
         except SolverError as exc:
             last = exc
             continue
@@ -210,10 +229,11 @@ def mass_notes(
     cad = fit.robot.masses * (big_m / float(fit.robot.masses.sum()))
     z = (masses - cad) / (tau * m_bar * big_m)
     for j in np.flatnonzero(np.abs(z) > MASS_SIGMAS * (1 - 1e-6)):
+        held = "held at" if abs(z[j]) <= MASS_SIGMAS * (1 + 1e-6) else "at"
         notes.append(
-            f"{names[j]}: mass {masses[j]:.4g} kg against CAD's {cad[j]:.4g} kg held at "
-            f"{z[j]:+.1f} prior standard deviations (τ = {tau:.3g}), the most the fit's "
-            "uncertainty allows: the data pull it further (check them)"
+            f"{names[j]}: mass {masses[j]:.4g} kg against CAD's {cad[j]:.4g} kg {held} "
+            f"{z[j]:+.1f} prior standard deviations (τ = {tau:.3g}; {MASS_SIGMAS:g} is the most "
+            "the fit's uncertainty allows): the fit's SESC vectors pull it there, check the data"
         )
     return notes
 

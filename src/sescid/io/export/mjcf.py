@@ -6,8 +6,9 @@ asset paths then rewritten to resolve from the output's folder), and only ``<ine
 elements change (see ``sescid.io.export.inertia`` for how a merged body's parts move):
 
 - an MJCF body whose inertia MuJoCo inferred from its geoms gets an explicit ``<inertial>``
-  (first child) with MuJoCo's compiled principal frame (``quat``) and ``diaginertia`` × the
-  mass ratio; explicit inertials keep their orientation (``quat``/``fullinertia`` axes);
+  (first child) with MuJoCo's compiled principal frame (``quat``) and ``diaginertia``;
+  explicit inertials keep their orientation (``quat``/``fullinertia`` axes); the tensor about
+  the CoM is CAD's (``sescid.io.export.inertia``);
 - a sescid body that was massless gets its mass on its MJCF body with a small sphere's inertia.
   The massless frames between the hinges of one MJCF body (``Body.frame_only``) cannot carry
   mass in MJCF; the consistent step keeps them at 0, and a fit that gives one more than 1e-12 ×
@@ -36,11 +37,13 @@ from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_mjcf, resolve_includes
 from sescid.io.export.inertia import (
+    check_inertias,
+    exported_inertia,
     fmt,
+    kept_notes,
     mass_warnings,
     merged_body_change,
     sphere_inertia,
-    valid_inertia,
 )
 from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
 from sescid.model.mjcf import object_names
@@ -59,6 +62,7 @@ class _Target:
     m: Any  #: the compiled MjModel
     from_geom: bool  #: compiler inertiafromgeom="true" in the source
     warnings: list[str]
+    repair: bool = False  #: repair inconsistent CAD tensors (``exported_inertia``)
 
 
 def _full_tensor(values: list[float]) -> np.ndarray:
@@ -67,9 +71,9 @@ def _full_tensor(values: list[float]) -> np.ndarray:
     return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
 
 
-def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, scale: float | None) -> None:
-    """Set MJCF body ``bid``'s mass (kg) and CoM (m, body frame); inertia × ``scale`` (None: a
-    newly massive body, a small sphere's)."""
+def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, cad: bool) -> None:
+    """Set MJCF body ``bid``'s mass (kg) and CoM (m, body frame), the inertia CAD's about the
+    CoM (``exported_inertia``; ``cad`` False: a newly massive body, a small sphere's)."""
     el, m = t.elements[bid - 1], t.m
     name = f"body {el.get('name') or bid}"
     if m.body_dofnum[bid] > 0 and mass < MIN_MOVING_MASS:
@@ -77,39 +81,50 @@ def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, scale: float | No
             f"{name}: the fit leaves it {mass:.3g} kg; written as {MIN_MOVING_MASS:g} kg "
             "(MuJoCo needs a moving body to have mass)"
         )
-        scale = None if scale is None else scale * MIN_MOVING_MASS / max(mass, 1e-300)
         mass = MIN_MOVING_MASS
     inertial = el.find("inertial")
-    if inertial is not None and not t.from_geom and scale is not None:
-        inertial.set("mass", repr(float(mass)))
-        inertial.set("pos", fmt(pos))
-        if inertial.get("fullinertia") is not None:
-            full = _full_tensor([float(v) * scale for v in inertial.get("fullinertia", "").split()])
-            full, warning = valid_inertia(full, mass, name)
-            inertial.set("fullinertia", fmt(full[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]))
+    if inertial is not None and not t.from_geom and cad:
+        full = inertial.get("fullinertia")
+        if full is not None:
+            tensor = _full_tensor([float(v) for v in full.split()])
         else:
-            diag = [float(v) * scale for v in inertial.get("diaginertia", "0 0 0").split()]
-            full, warning = valid_inertia(np.diag(diag), mass, name)
-            inertial.set("diaginertia", fmt(np.diag(full)))
-        if warning:
-            t.warnings.append(warning)
-        return
-    if scale is None:
-        diag, quat = sphere_inertia(mass), np.array([1.0, 0.0, 0.0, 0.0])
+            tensor = np.diag([float(v) for v in inertial.get("diaginertia", "0 0 0").split()])
+        tensor, note = exported_inertia(tensor, mass, name, t.repair)
+        write_inertial(inertial, mass, pos, tensor, None)
     else:
-        diag = np.asarray(m.body_inertia[bid], dtype=float) * scale
-        quat = m.body_iquat[bid]
-    full, warning = valid_inertia(np.diag(diag), mass, name)
-    if warning:
-        t.warnings.append(warning)
-    if inertial is None:
-        inertial = new_child(el, "inertial", first=True)
-    for key in (*_ORIENT, "fullinertia", "diaginertia"):
-        inertial.attrib.pop(key, None)
-    inertial.set("pos", fmt(pos))
-    inertial.set("quat", fmt(quat))
+        if cad:
+            tensor, quat = np.diag(m.body_inertia[bid]), np.asarray(m.body_iquat[bid], float)
+        else:
+            tensor, quat = np.diag(sphere_inertia(mass)), np.array([1.0, 0.0, 0.0, 0.0])
+        tensor, note = exported_inertia(tensor, mass, name, t.repair)
+        if inertial is None:
+            inertial = new_child(el, "inertial", first=True)
+        write_inertial(inertial, mass, pos, tensor, quat)
+    if note:
+        t.warnings.append(note)
+
+
+def write_inertial(
+    inertial: ET.Element, mass: float, pos: np.ndarray, tensor: np.ndarray, quat
+) -> None:
+    """Set an MJCF ``<inertial>``: mass (kg), pos (m, body frame), the tensor (3, 3) kg·m²
+    about the CoM in the inertial's frame — its own orientation kept when ``quat`` is None
+    (``fullinertia`` stays full, else ``diaginertia``), else the frame ``quat`` (w x y z) with
+    a diagonal tensor. The one place an MJCF inertial is written."""
+    if quat is not None:
+        for key in (*_ORIENT, "fullinertia", "diaginertia"):
+            inertial.attrib.pop(key, None)
+        inertial.set("pos", fmt(pos))
+        inertial.set("quat", fmt(quat))
+        inertial.set("mass", repr(float(mass)))
+        inertial.set("diaginertia", fmt(np.diag(tensor)))
+        return
     inertial.set("mass", repr(float(mass)))
-    inertial.set("diaginertia", fmt(np.diag(full)))
+    inertial.set("pos", fmt(pos))
+    if inertial.get("fullinertia") is not None:
+        inertial.set("fullinertia", fmt(tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]))
+    else:
+        inertial.set("diaginertia", fmt(np.diag(tensor)))
 
 
 def _compiler_edits(root: ET.Element, warnings: list[str]) -> None:
@@ -144,20 +159,29 @@ def _target(src: Path) -> tuple[_Target, XmlDoc, Any]:
     return target, doc, spec
 
 
-def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = None) -> list[str]:
+def export_mjcf(
+    fit: Fit,
+    path: str | Path,
+    source_path: str | Path | None = None,
+    repair_inertia: bool = False,
+) -> list[str]:
     """Write ``fit.robot``'s MJCF with the fit's body masses and CoMs to ``path`` (atomically).
 
     ``source_path``: the MJCF the fit's model was built from (default: the model's path).
-    ``fit`` must hold masses (method "consistent"). Returns warnings (compiler attributes
-    changed, bodies whose mass leaves ±50 % of the CAD's, inertias made valid).
+    ``fit`` must hold masses (method "consistent"). Inertias: CAD's about each CoM
+    (``exported_inertia``); inconsistent CAD tensors raise ModelError unless
+    ``repair_inertia``. Returns warnings (compiler attributes changed, bodies whose mass leaves
+    ±50 % of the CAD's, bodies kept at CAD, tensors repaired).
     """
     masses, coms = fit_inertials(fit)
     model = fit.robot.model
     src = Path(source_path if source_path is not None else model.path)
+    check_inertias(model, src, repair_inertia)
     t, doc, spec = _target(src)
+    t.repair = repair_inertia
     m = t.m
     total_set = spec.compiler.settotalmass > 0
-    t.warnings += mass_warnings(model, masses)
+    t.warnings += mass_warnings(model, masses) + kept_notes(fit)
     _compiler_edits(doc.root, t.warnings)
     names = object_names(m, "body", m.nbody, "body")
     body_id = {n: i for i, n in enumerate(names) if i}
@@ -165,7 +189,7 @@ def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = Non
     if t.from_geom or total_set:  # every other massive body needs its compiled inertial written
         for bid in range(1, m.nbody):
             if bid not in written and m.body_mass[bid] > 0:
-                _write(t, bid, float(m.body_mass[bid]), m.body_ipos[bid], 1.0)
+                _write(t, bid, float(m.body_mass[bid]), m.body_ipos[bid], True)
     root = doc.root
     add_note(
         root,
@@ -195,7 +219,7 @@ def _write_bodies(t: _Target, model, body_id, masses, coms, src: Path) -> set[in
             ratio, shift = change
             for bid, mk, ck, name in parts:
                 x = model.link_frames[name][1]
-                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, ratio)
+                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, True)
                 written.add(bid)
         elif masses[b] > 1e-12 * big_m:
             bid = body_id.get(body.name)
@@ -205,6 +229,6 @@ def _write_bodies(t: _Target, model, body_id, masses, coms, src: Path) -> set[in
                     "between two hinges of one MJCF body, which cannot carry mass in MJCF"
                 )
             x = model.link_frames[body.name][1]
-            _write(t, bid, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), None)
+            _write(t, bid, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), False)
             written.add(bid)
     return written

@@ -15,12 +15,19 @@ from sescid.model import ModelFormat
 FORMATS: tuple[ModelFormat, ...] = get_args(ModelFormat)
 
 
-def export_model(fit: Fit, path: str | Path, format: ModelFormat | None = None) -> list[str]:
+def export_model(
+    fit: Fit,
+    path: str | Path,
+    format: ModelFormat | None = None,
+    repair_inertia: bool = False,
+) -> list[str]:
     """Write ``fit.robot``'s model file with the fit's masses and CoMs to ``path``; warnings.
 
     ``format``: "urdf" or "mjcf" (default: the model's own, ``RobotModel.format``). Export
     edits the model file the fit was made from, so a format other than the model's own raises
-    OptionError (no URDF ↔ MJCF conversion).
+    OptionError (no URDF ↔ MJCF conversion). ``repair_inertia``: write inconsistent CAD
+    tensors repaired with the smallest change (``sescid.model.repair_inertia``), else such a
+    model raises ModelError naming them.
     """
     own = fit.robot.model.format
     fmt = own if format is None else str(format).lower()
@@ -33,5 +40,5 @@ def export_model(fit: Fit, path: str | Path, format: ModelFormat | None = None) 
             "model first and identify on it)",
         )
     if fmt == "mjcf":
-        return export_mjcf(fit, path)
-    return export_urdf(fit, path)
+        return export_mjcf(fit, path, repair_inertia=repair_inertia)
+    return export_urdf(fit, path, repair_inertia=repair_inertia)

@@ -1,10 +1,10 @@
 """URDF export: the fit's robot URDF with identified masses and CoMs, everything else untouched.
 
-Only ``<inertial>`` elements change (mass value, origin xyz, inertia scaled), written as
-``sescid.io.export.inertia`` describes (merged links keep their layout, every tensor physically
-valid, a massless body gets a small sphere's inertia); comments, visuals, collisions, joints and
-element order survive (``xmldoc``). Written to another folder, relative mesh and texture file
-names are rewritten to resolve from there (``assets``).
+Only ``<inertial>`` elements change (mass value, origin xyz, inertia), written as
+``sescid.io.export.inertia`` describes (merged links keep their layout, every tensor consistent
+and CAD's about the CoM, a massless body gets a small sphere's inertia); comments, visuals,
+collisions, joints and element order survive (``xmldoc``). Written to another folder,
+relative mesh and texture file names are rewritten to resolve from there (``assets``).
 """
 
 from __future__ import annotations
@@ -18,11 +18,13 @@ from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_urdf
 from sescid.io.export.inertia import (
+    check_inertias,
+    exported_inertia,
     fmt,
+    kept_notes,
     mass_warnings,
     merged_body_change,
     sphere_inertia,
-    valid_inertia,
 )
 from sescid.io.export.xmldoc import add_note, new_child, read_xml, write_xml
 
@@ -65,11 +67,10 @@ def _tensor(inertia: ET.Element | None) -> np.ndarray:
     )
 
 
-def _write_inertial(
-    link: ET.Element, mass: float, com: np.ndarray, scale: float | None
-) -> str | None:
-    """Set a link's mass (kg) and CoM (m, link frame); its inertia tensor × ``scale`` (None: a
-    newly massive link, a small sphere's). A warning when the tensor had to be made valid."""
+def write_inertial(link: ET.Element, mass: float, com: np.ndarray, tensor: np.ndarray) -> None:
+    """Set a link's inertial: mass (kg), CoM (m, link frame) and inertia tensor (3, 3) kg·m²
+    about the CoM in the inertial's frame (its ``origin rpy``, identity when new). The one
+    place a URDF inertial is written."""
     inertial = link.find("inertial")
     if inertial is None:
         inertial = new_child(link, "inertial")
@@ -83,30 +84,38 @@ def _write_inertial(
         mass_el = new_child(inertial, "mass")
     mass_el.set("value", repr(float(mass)))
     inertia = inertial.find("inertia")
-    if scale is None:
-        tensor = np.diag(sphere_inertia(mass))
-    else:
-        tensor = _tensor(inertia) * float(scale)
-    tensor, warning = valid_inertia(tensor, mass, f"link {link.get('name')}")
     if inertia is None:
         inertia = new_child(inertial, "inertia")
     for key, (i, j) in zip(_INERTIA, [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)], strict=True):
         inertia.set(key, repr(float(tensor[i, j])))
-    return warning
 
 
-def export_urdf(fit: Fit, path: str | Path) -> list[str]:
+def _part(link: ET.Element, mass: float, com: np.ndarray, cad: bool, repair: bool) -> str | None:
+    """Write one link's identified mass and CoM with the inertia ``exported_inertia`` gives
+    for its CAD tensor (``cad`` False: a newly massive link, a small sphere's); a note."""
+    inertia = link.find("inertial/inertia")
+    tensor = _tensor(inertia) if cad else np.diag(sphere_inertia(mass))
+    tensor, note = exported_inertia(tensor, mass, f"link {link.get('name')}", repair)
+    write_inertial(link, mass, com, tensor)
+    return note
+
+
+def export_urdf(fit: Fit, path: str | Path, repair_inertia: bool = False) -> list[str]:
     """Write ``fit.robot``'s URDF with the fit's body masses and CoMs to ``path`` (atomically).
 
-    ``fit`` must hold masses (method "consistent"). Returns warnings: bodies whose mass leaves
-    ±50 % of the CAD's, inertia tensors of the model that were not physically valid.
+    ``fit`` must hold masses (method "consistent"). Inertias: CAD's about each CoM
+    (``exported_inertia``); a model with inconsistent CAD tensors raises ModelError unless
+    ``repair_inertia``. Returns warnings: bodies whose mass leaves ±50 % of the CAD's, bodies
+    kept at CAD, tensors repaired.
     """
     masses, coms = fit_inertials(fit)
     model = fit.robot.model
     src = Path(fit.robot.model_path)
     doc = read_xml(src, "URDF")
     links = {el.get("name"): el for el in doc.root.findall("link")}
-    warnings = mass_warnings(model, masses)
+    check_inertias(model, src, repair_inertia)
+    repair = repair_inertia
+    warnings = mass_warnings(model, masses) + kept_notes(fit)
     for b, body in enumerate(model.bodies):
         cad = []  # (link element, mass, CoM in the link frame, link-frame transform)
         for name in body.links:
@@ -122,10 +131,11 @@ def export_urdf(fit: Fit, path: str | Path) -> list[str]:
             ratio, shift = change
             for el, m, c, x in cad:
                 if m > 0:
-                    notes.append(_write_inertial(el, m * ratio, c + x[:3, :3].T @ shift, ratio))
+                    notes.append(_part(el, m * ratio, c + x[:3, :3].T @ shift, True, repair))
         elif masses[b] > 0:
             el, _, _, x = next(item for item in cad if item[0].get("name") == body.name)
-            notes.append(_write_inertial(el, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), None))
+            com = x[:3, :3].T @ (coms[b] - x[:3, 3])
+            notes.append(_part(el, masses[b], com, False, repair))
         warnings += [n for n in notes if n]
     add_note(
         doc.root,
