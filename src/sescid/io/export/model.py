@@ -7,6 +7,7 @@ from typing import get_args
 
 from sescid.errors import OptionError, check_choice
 from sescid.estimation import Fit
+from sescid.io.export.assets import missing_assets
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.urdf import export_urdf
 from sescid.model import ModelFormat
@@ -39,6 +40,7 @@ def export_model(
             "export edits the inertials of the model file the fit was made from (convert the "
             "model first and identify on it)",
         )
+    missing = missing_assets(fit.robot.model_path)
     if fmt == "mjcf":
-        return export_mjcf(fit, path, repair_inertia=repair_inertia)
-    return export_urdf(fit, path, repair_inertia=repair_inertia)
+        return missing + export_mjcf(fit, path, repair_inertia=repair_inertia)
+    return missing + export_urdf(fit, path, repair_inertia=repair_inertia)
