@@ -30,6 +30,14 @@ from sescid.io import (
     help="Output format (default: the model's own; URDF ↔ MJCF conversion is not supported).",
 )
 @click.option(
+    "--over",
+    "over",
+    type=common.FILE,
+    default=None,
+    help="USD output: the robot's own USD file the layer overrides (bodies matched by prim "
+    "name); without it the layer holds the body tree itself.",
+)
+@click.option(
     "--repair-inertia",
     is_flag=True,
     help="Repair CAD inertia tensors that are not physically consistent (point masses, the "
@@ -39,9 +47,10 @@ from sescid.io import (
 @flag(ConsistentOptions, "total_mass")
 @consistent_options
 @common.force_option
-def export_cmd(fit_file, out, model_format, repair_inertia, force, **opts):
-    """Write the fit's URDF or MJCF with the identified masses and CoMs; each body's inertia
-    about its CoM stays CAD's (the consistent tensor closest to it, docs/export.md).
+def export_cmd(fit_file, out, model_format, over, repair_inertia, force, **opts):
+    """Write the fit's URDF or MJCF with the identified masses and CoMs, or (--out *.usda,
+    *.usdc, *.usd) a UsdPhysics layer; each body's inertia about its CoM stays CAD's (the
+    consistent tensor closest to it, docs/export.md).
 
     A fit without masses (e.g. least squares) first goes through the consistent step with the
     --total-mass/--mass-floor/--symmetric/--box-margin/--cad-std options.
@@ -49,7 +58,8 @@ def export_cmd(fit_file, out, model_format, repair_inertia, force, **opts):
     OutputSet([out], [fit_file], force=force)
     fit = load_fit(fit_file)
     common.echo_model_change(fit, fit_file)
-    outs = OutputSet([out], [fit_file, *model_files(fit.robot.model_path)], force=force)
+    inputs = [fit_file, *model_files(fit.robot.model_path), *([over] if over else [])]
+    outs = OutputSet([out], inputs, force=force)
     copts = consistent_from_flags(opts)
     check_inertias(fit.robot.model, fit.robot.model_path, repair_inertia)
     if fit.inertials is None:
@@ -68,7 +78,7 @@ def export_cmd(fit_file, out, model_format, repair_inertia, force, **opts):
     for line in cad_violations(fit.inertials, fit.robot.body_names):
         click.echo(f"  the CAD model itself violates a constraint: {line}")
     with outs:
-        warnings = export_model(fit, outs.path(out), model_format, repair_inertia)
+        warnings = export_model(fit, outs.path(out), model_format, repair_inertia, over)
     for warning in warnings:
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
