@@ -22,6 +22,8 @@ body beyond it is named.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from sescid.errors import SolverError
@@ -231,7 +233,8 @@ def mass_notes(
     for j in np.flatnonzero(np.abs(z) > MASS_SIGMAS * (1 - 1e-6)):
         held = "held at" if abs(z[j]) <= MASS_SIGMAS * (1 + 1e-6) else "at"
         notes.append(
-            f"{names[j]}: mass {masses[j]:.4g} kg against CAD's {cad[j]:.4g} kg {held} "
+            f"{names[j]}: mass {masses[j]:.4g} kg against CAD's {cad[j]:.4g} kg "
+            f"({100 * (masses[j] / cad[j] - 1) if cad[j] > 0 else math.inf:+.2g} %) {held} "
             f"{z[j]:+.1f} prior standard deviations (τ = {tau:.3g}; {MASS_SIGMAS:g} is the most "
             "the fit's uncertainty allows): the fit's SESC vectors pull it there, check the data"
         )
