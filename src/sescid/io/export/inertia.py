@@ -54,6 +54,65 @@ def merged_body_change(
     return mass / m_old, com - body.com
 
 
+def merged_correction(masses, coms, ratio: float) -> np.ndarray:
+    """ΔI (3, 3) kg·m², body-frame axes, to add to one part's tensor so that a merged body
+    whose parts (CAD ``masses`` (k,) kg, CoMs (k, 3) m in the body frame) all scale by
+    ``ratio`` and shift together keeps CAD's second moment about its CoM: the parts' spread
+    term Σ m_k d_k d_kᵀ scales with the masses, so the parts' own second moments make up
+    (1 − ratio)·S (zero for a single part)."""
+    m = np.asarray(masses, dtype=float)
+    c = np.asarray(coms, dtype=float).reshape(-1, 3)
+    if m.size < 2 or not m.sum() > 0:
+        return np.zeros((3, 3))
+    d = c - (m @ c) / m.sum()
+    sigma = (1.0 - ratio) * (d.T * m) @ d
+    return np.trace(sigma) * np.eye(3) - sigma
+
+
+def corrected(tensor: np.ndarray, delta: np.ndarray, where: str) -> tuple[np.ndarray, str | None]:
+    """``tensor`` + ``delta`` (3, 3) kg·m², made consistent with the smallest change when the
+    sum is not (a merged body grown heavier than its parts' layout allows), with a note."""
+    if not np.any(delta):
+        return tensor, None
+    out, changed = repair_inertia(tensor + delta)
+    if not changed:
+        return out, None
+    return out, (
+        f"{where}: its merged body's CAD second moment about the CoM cannot be kept with its "
+        "parts scaled together; the closest consistent tensor written"
+    )
+
+
+def principal(tensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(moments (3,) kg·m², quaternion (4,) w x y z): ``tensor`` = R diag(moments) Rᵀ with R the
+    rotation of the quaternion (columns: the principal axes in the tensor's frame)."""
+    t = 0.5 * (np.asarray(tensor, dtype=float) + np.asarray(tensor, dtype=float).T)
+    w, v = np.linalg.eigh(t)
+    if np.linalg.det(v) < 0:
+        v[:, 2] = -v[:, 2]
+    return w, quaternion(v)
+
+
+def quaternion(r: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z), w ≥ 0, of a rotation matrix (3, 3) (Shepperd's method)."""
+    tr = float(np.trace(r))
+    if tr > 0:
+        s = 2.0 * np.sqrt(tr + 1.0)
+        q = np.array([0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s,
+                      (r[1, 0] - r[0, 1]) / s])  # fmt: skip
+    else:
+        i = int(np.argmax(np.diag(r)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(max(1.0 + r[i, i] - r[j, j] - r[k, k], 0.0))
+        q = np.zeros(4)
+        q[0] = (r[k, j] - r[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (r[j, i] + r[i, j]) / s
+        q[1 + k] = (r[k, i] + r[i, k]) / s
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
 def sphere_inertia(mass: float) -> np.ndarray:
     """Principal moments (3,) kg·m² of a solid sphere of ``NEW_BODY_RADIUS`` and ``mass``."""
     return np.full(3, 0.4 * mass * NEW_BODY_RADIUS**2)

@@ -38,11 +38,14 @@ from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_mjcf, resolve_includes
 from sescid.io.export.inertia import (
     check_inertias,
+    corrected,
     exported_inertia,
     fmt,
     kept_notes,
     mass_warnings,
     merged_body_change,
+    merged_correction,
+    principal,
     sphere_inertia,
 )
 from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
@@ -65,15 +68,31 @@ class _Target:
     repair: bool = False  #: repair inconsistent CAD tensors (``exported_inertia``)
 
 
+def _rotation(quat) -> np.ndarray:
+    """(3, 3) rotation of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = (float(v) for v in quat)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
 def _full_tensor(values: list[float]) -> np.ndarray:
     """MJCF fullinertia 'ixx iyy izz ixy ixz iyz' → (3, 3)."""
     xx, yy, zz, xy, xz, yz = values
     return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
 
 
-def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, cad: bool) -> None:
+def _write(
+    t: _Target, bid: int, mass: float, pos: np.ndarray, cad: bool, extra: np.ndarray | None = None
+) -> None:
     """Set MJCF body ``bid``'s mass (kg) and CoM (m, body frame), the inertia CAD's about the
-    CoM (``exported_inertia``; ``cad`` False: a newly massive body, a small sphere's)."""
+    CoM (``exported_inertia``; ``cad`` False: a newly massive body, a small sphere's), plus
+    ``extra`` (``merged_correction``, body-frame axes) when given: then written as its
+    principal frame (``quat``) and moments."""
     el, m = t.elements[bid - 1], t.m
     name = f"body {el.get('name') or bid}"
     if m.body_dofnum[bid] > 0 and mass < MIN_MOVING_MASS:
@@ -83,6 +102,19 @@ def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, cad: bool) -> Non
         )
         mass = MIN_MOVING_MASS
     inertial = el.find("inertial")
+    if extra is not None and np.any(extra):
+        rot = _rotation(m.body_iquat[bid])
+        full = rot @ np.diag(m.body_inertia[bid]) @ rot.T
+        full, note = exported_inertia(full, mass, name, t.repair)
+        full, more = corrected(full, extra, name)
+        moments, quat = principal(full)
+        if inertial is None:
+            inertial = new_child(el, "inertial", first=True)
+        write_inertial(inertial, mass, pos, np.diag(moments), quat)
+        for n in (note, more):
+            if n:
+                t.warnings.append(n)
+        return
     if inertial is not None and not t.from_geom and cad:
         full = inertial.get("fullinertia")
         if full is not None:
@@ -217,9 +249,13 @@ def _write_bodies(t: _Target, model, body_id, masses, coms, src: Path) -> set[in
         change = merged_body_change(src, "MJCF", body, sum(p[1] for p in parts), masses[b], coms[b])
         if change is not None:
             ratio, shift = change
-            for bid, mk, ck, name in parts:
-                x = model.link_frames[name][1]
-                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, True)
+            frames = [model.link_frames[name][1] for _, _, _, name in parts]
+            at = [x[:3, :3] @ ck + x[:3, 3] for x, (_, _, ck, _) in zip(frames, parts, strict=True)]
+            delta = merged_correction([p[1] for p in parts], at, ratio)
+            main = int(np.argmax([p[1] for p in parts]))
+            for k, ((bid, mk, ck, _), x) in enumerate(zip(parts, frames, strict=True)):
+                extra = x[:3, :3].T @ delta @ x[:3, :3] if k == main else None
+                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, True, extra)
                 written.add(bid)
         elif masses[b] > 1e-12 * big_m:
             bid = body_id.get(body.name)

@@ -16,10 +16,12 @@ from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.inertia import (
     check_inertias,
+    corrected,
     exported_inertia,
     kept_notes,
     mass_warnings,
     merged_body_change,
+    merged_correction,
     sphere_inertia,
 )
 
@@ -55,14 +57,23 @@ def exported_parts(fit: Fit, repair_inertia: bool = False) -> tuple[list[Part], 
         change = merged_body_change(src, "model", body, m_old, masses[b], coms[b])
         if change is not None:
             ratio, shift = change
-            for name, inertial in cad:
-                x = model.link_frames[name][1]
+            frames = [model.link_frames[name][1] for name, _ in cad]
+            at = [
+                x[:3, :3] @ i.frame[:3, 3] + x[:3, 3] for x, (_, i) in zip(frames, cad, strict=True)
+            ]
+            delta = merged_correction([i.mass for _, i in cad], at, ratio)
+            main = int(np.argmax([i.mass for _, i in cad]))
+            for k, ((name, inertial), x) in enumerate(zip(cad, frames, strict=True)):
                 rot = inertial.frame[:3, :3]
                 tensor = np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia
                 mass = inertial.mass * ratio
                 tensor, note = exported_inertia(
                     rot @ tensor @ rot.T, mass, f"link {name}", repair_inertia
                 )
+                if k == main:
+                    r = x[:3, :3]
+                    tensor, extra = corrected(tensor, r.T @ delta @ r, f"link {name}")
+                    note = note or extra
                 com = inertial.frame[:3, 3] + x[:3, :3].T @ shift
                 parts.append(Part(name, mass, com, tensor))
                 warnings += [note] if note else []

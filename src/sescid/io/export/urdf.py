@@ -19,11 +19,13 @@ from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_urdf
 from sescid.io.export.inertia import (
     check_inertias,
+    corrected,
     exported_inertia,
     fmt,
     kept_notes,
     mass_warnings,
     merged_body_change,
+    merged_correction,
     sphere_inertia,
 )
 from sescid.io.export.xmldoc import add_note, new_child, read_xml, write_xml
@@ -90,12 +92,24 @@ def write_inertial(link: ET.Element, mass: float, com: np.ndarray, tensor: np.nd
         inertia.set(key, repr(float(tensor[i, j])))
 
 
-def _part(link: ET.Element, mass: float, com: np.ndarray, cad: bool, repair: bool) -> str | None:
+def _part(
+    link: ET.Element,
+    mass: float,
+    com: np.ndarray,
+    cad: bool,
+    repair: bool,
+    extra: np.ndarray | None = None,
+) -> str | None:
     """Write one link's identified mass and CoM with the inertia ``exported_inertia`` gives
-    for its CAD tensor (``cad`` False: a newly massive link, a small sphere's); a note."""
+    for its CAD tensor (``cad`` False: a newly massive link, a small sphere's), plus ``extra``
+    (``merged_correction`` in the inertial's axes) when given; a note."""
     inertia = link.find("inertial/inertia")
     tensor = _tensor(inertia) if cad else np.diag(sphere_inertia(mass))
-    tensor, note = exported_inertia(tensor, mass, f"link {link.get('name')}", repair)
+    where = f"link {link.get('name')}"
+    tensor, note = exported_inertia(tensor, mass, where, repair)
+    if extra is not None:
+        tensor, more = corrected(tensor, extra, where)
+        note = note or more
     write_inertial(link, mass, com, tensor)
     return note
 
@@ -129,9 +143,14 @@ def export_urdf(fit: Fit, path: str | Path, repair_inertia: bool = False) -> lis
         notes: list[str | None] = []
         if change is not None:
             ratio, shift = change
-            for el, m, c, x in cad:
-                if m > 0:
-                    notes.append(_part(el, m * ratio, c + x[:3, :3].T @ shift, True, repair))
+            live = [item for item in cad if item[1] > 0]
+            at = [x[:3, :3] @ c + x[:3, 3] for _, _, c, x in live]
+            delta = merged_correction([m for _, m, _, _ in live], at, ratio)
+            main = int(np.argmax([m for _, m, _, _ in live]))
+            for k, (el, m, c, x) in enumerate(live):
+                rot = x[:3, :3] @ model.inertials[str(el.get("name"))].frame[:3, :3]
+                extra = rot.T @ delta @ rot if k == main else None
+                notes.append(_part(el, m * ratio, c + x[:3, :3].T @ shift, True, repair, extra))
         elif masses[b] > 0:
             el, _, _, x = next(item for item in cad if item[0].get("name") == body.name)
             com = x[:3, :3].T @ (coms[b] - x[:3, 3])

@@ -34,6 +34,7 @@ from sescid.base.files import atomic_path
 from sescid.errors import MissingExtraError, ModelError
 from sescid.estimation import Fit
 from sescid.io.export.assets import relative
+from sescid.io.export.inertia import principal
 from sescid.io.export.parts import Part, exported_parts
 
 #: file suffixes written as USD
@@ -47,36 +48,6 @@ def _pxr() -> Any:
     except ImportError:
         raise MissingExtraError("writing USD", "usd") from None
     return Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics
-
-
-def principal(tensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(moments (3,) kg·m², quaternion (4,) w x y z): ``tensor`` = R diag(moments) Rᵀ with R the
-    rotation of the quaternion (columns: the principal axes in the tensor's frame)."""
-    t = 0.5 * (np.asarray(tensor, dtype=float) + np.asarray(tensor, dtype=float).T)
-    w, v = np.linalg.eigh(t)
-    if np.linalg.det(v) < 0:
-        v[:, 2] = -v[:, 2]
-    return w, quaternion(v)
-
-
-def quaternion(r: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w, x, y, z), w ≥ 0, of a rotation matrix (3, 3) (Shepperd's method)."""
-    tr = float(np.trace(r))
-    if tr > 0:
-        s = 2.0 * np.sqrt(tr + 1.0)
-        q = np.array([0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s,
-                      (r[1, 0] - r[0, 1]) / s])  # fmt: skip
-    else:
-        i = int(np.argmax(np.diag(r)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * np.sqrt(max(1.0 + r[i, i] - r[j, j] - r[k, k], 0.0))
-        q = np.zeros(4)
-        q[0] = (r[k, j] - r[j, k]) / s
-        q[1 + i] = 0.25 * s
-        q[1 + j] = (r[j, i] + r[i, j]) / s
-        q[1 + k] = (r[k, i] + r[i, k]) / s
-    q /= np.linalg.norm(q)
-    return q if q[0] >= 0 else -q
 
 
 def _mass_api(prim: Any, part: Part, units: tuple[float, float], pxr: Any) -> None:
