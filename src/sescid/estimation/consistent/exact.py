@@ -34,6 +34,8 @@ from sescid.sesc import sesc_matrix
 
 #: a body mass beyond this many prior standard deviations of CAD's is reported
 MASS_SIGMAS = 3.0
+#: a mass change smaller than this (relative to CAD's) is not reported, whatever its z-score
+MATERIAL = 0.01
 #: a body whose parameters carry less than this share of the largest data information is
 #: "not determined by the data"
 UNSEEN_RTOL = 1e-10
@@ -230,7 +232,8 @@ def mass_notes(
     _, m_bar, _ = prior_weights(fit, com_scale)
     cad = fit.robot.masses * (big_m / float(fit.robot.masses.sum()))
     z = (masses - cad) / (tau * m_bar * big_m)
-    for j in np.flatnonzero(np.abs(z) > MASS_SIGMAS * (1 - 1e-6)):
+    material = (cad > 0) & (np.abs(masses - cad) > MATERIAL * cad)
+    for j in np.flatnonzero((np.abs(z) > MASS_SIGMAS * (1 - 1e-6)) & material):
         held = "held at" if abs(z[j]) <= MASS_SIGMAS * (1 + 1e-6) else "at"
         notes.append(
             f"{names[j]}: mass {masses[j]:.4g} kg against CAD's {cad[j]:.4g} kg "
