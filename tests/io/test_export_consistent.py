@@ -175,3 +175,48 @@ def test_map_masses_stay_within_the_fits_uncertainty(talos):
     for name in held:
         assert any(n.startswith(name + ":") for n in cons.inertials.notes)
     assert cons.inertials.exact and math.isfinite(cons.rms)
+
+
+BAD_URDF = """<robot name="bad">
+  <link name="foot">
+    <inertial><origin xyz="0 0 0.02"/><mass value="1.0"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.005"/></inertial>
+  </link>
+  <link name="leg">
+    <inertial><origin xyz="0.01 0 0.2"/><mass value="2.0"/>
+      <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial>
+  </link>
+  <link name="hand">
+    <inertial><origin xyz="0.1 0 0"/><mass value="0.5"/>
+      <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>
+  </link>
+  <joint name="ankle" type="revolute"><parent link="foot"/><child link="leg"/>
+    <origin xyz="0 0 0.05"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <joint name="wrist" type="revolute"><parent link="leg"/><child link="hand"/>
+    <origin xyz="0 0 0.4"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_info_names_every_inconsistent_tensor_by_how_much(tmp_path):
+    """`sescid info`: a triangle-breaking tensor with its principal moments and Σ's deficit,
+    a massive zero tensor as a point mass; a model without any says so."""
+    from click.testing import CliRunner
+
+    from sescid.cli import cli
+
+    path = tmp_path / "bad.urdf"
+    path.write_text(BAD_URDF)
+    res = CliRunner().invoke(cli, ["info", "--robot", str(path), "--support", "foot"])
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    at = next(i for i, x in enumerate(lines) if x.startswith("inertia tensors: 2 link(s)"))
+    assert lines[at + 1] == (
+        "  foot: 1 kg, triangle inequality broken: 0.005 > 0.001 + 0.001 kg·m² (second moment "
+        "-0.0015 kg·m² below zero)"
+    )
+    assert lines[at + 2] == "  hand: 0.5 kg with a zero inertia tensor (a point mass)"
+    res = CliRunner().invoke(cli, ["info", "--robot", "op2"])
+    assert "inertia tensors: every link with mass has a physical one" in res.output

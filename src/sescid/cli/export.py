@@ -72,6 +72,9 @@ def export_cmd(fit_file, out, model_format, over, repair_inertia, force, **opts)
             f"{fit_file}: this fit already holds masses; the consistent options apply only to "
             "fits without (re-run identify --method consistent to change them)",
         )
+    else:
+        for note in fit.inertials.notes:
+            click.echo(f"  note: {note}")
     from sescid.estimation import cad_violations
 
     assert fit.inertials is not None

@@ -187,9 +187,10 @@ def mass_band(fit: Fit, com_scale: float) -> tuple[np.ndarray, np.ndarray] | Non
 
 def exact_parameters(
     fit: Fit, x: np.ndarray, big_m: float, floor: float, frame: np.ndarray, unseen: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Masses (N,) kg from the solver, then CoMs (N, 3) m from r̂ in closed form (see the
-    module doc); a massless body keeps CAD's CoM. Unseen bodies keep CAD's exactly."""
+    module doc) and the first moments h (N, 3) kg·m r̂ asks for; a massless body keeps CAD's
+    CoM. Unseen bodies keep CAD's exactly."""
     robot = fit.robot
     nb = len(robot.body_names)
     cad_m = robot.masses * (big_m / float(robot.masses.sum()))
@@ -204,7 +205,20 @@ def exact_parameters(
     coms_cad = np.array([b.com for b in robot.model.bodies])
     tiny = masses <= 1e-12 * big_m
     coms = np.where(tiny[:, None], coms_cad, h / np.where(tiny, 1.0, masses)[:, None])
-    return masses, coms
+    return masses, coms, h
+
+
+def impossible(fit: Fit, masses: np.ndarray, h: np.ndarray, big_m: float) -> list[str]:
+    """Bodies left without mass whose first moment h (N, 3) kg·m the fit's r still needs
+    (over 1e-9·M·1 m): no consistent inertia carries a first moment without mass."""
+    names = fit.robot.body_names
+    bad = (masses <= 1e-12 * big_m) & (np.abs(h).max(axis=1) > 1e-9 * big_m)
+    return [
+        f"{names[j]}: the fit needs a first moment of {np.abs(h[j]).max():.3g} kg·m on a body "
+        "left without mass; no consistent inertia holds it (written massless, so the model's "
+        "CoM differs from the fit's there)"
+        for j in np.flatnonzero(bad)
+    ]
 
 
 def mass_notes(

@@ -14,6 +14,7 @@ from sescid.estimation.checks import check_total_mass
 from sescid.estimation.consistent.boxes import Box, body_boxes, mirror_pairs, mirror_plane
 from sescid.estimation.consistent.exact import (
     exact_parameters,
+    impossible,
     mass_notes,
     outside_boxes,
     solve_exact,
@@ -274,7 +275,7 @@ def _exact(fit: Fit, opts: MassSettings, big_m, frame, box_list, pairs, t0) -> F
     x, statuses, iterations, unseen, dropped = solve_exact(
         fit, big_m, (a_eq, b_eq), (a_in, b_in), (a_in[:nb], b_in[:nb]), opts.com_scale
     )
-    masses, coms = exact_parameters(fit, x, big_m, opts.mass_floor, frame, unseen)
+    masses, coms, h = exact_parameters(fit, x, big_m, opts.mass_floor, frame, unseen)
     outside = outside_boxes(coms, masses, box_list, robot.body_names) if dropped else []
     r = sesc_vectors(consistent_model(robot, masses, coms))
     sv = fit.singular_values[: fit.rank]
@@ -291,6 +292,7 @@ def _exact(fit: Fit, opts: MassSettings, big_m, frame, box_list, pairs, t0) -> F
         "solve_time": time.perf_counter() - t0,
         "exact": True,
         "undetermined": [n for n, u in zip(robot.body_names, unseen, strict=True) if u],
-        "notes": mass_notes(fit, masses, big_m, opts.com_scale, unseen, outside),
+        "notes": impossible(fit, masses, h, big_m)
+        + mass_notes(fit, masses, big_m, opts.com_scale, unseen, outside),
     }
     return make_fit(fit, r, masses, coms, (box_list, pairs), float(du @ du), info)
