@@ -36,18 +36,8 @@ import numpy as np
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_mjcf, resolve_includes
-from sescid.io.export.inertia import (
-    check_inertias,
-    corrected,
-    exported_inertia,
-    fmt,
-    kept_notes,
-    mass_warnings,
-    merged_body_change,
-    merged_correction,
-    principal,
-    sphere_inertia,
-)
+from sescid.io.export.inertia import fmt, merged_body_change, principal
+from sescid.io.export.parts import Part, exported_parts
 from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
 from sescid.model.mjcf import object_names
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
@@ -65,7 +55,6 @@ class _Target:
     m: Any  #: the compiled MjModel
     from_geom: bool  #: compiler inertiafromgeom="true" in the source
     warnings: list[str]
-    repair: bool = False  #: repair inconsistent CAD tensors (``exported_inertia``)
 
 
 def _rotation(quat) -> np.ndarray:
@@ -80,21 +69,14 @@ def _rotation(quat) -> np.ndarray:
     )
 
 
-def _full_tensor(values: list[float]) -> np.ndarray:
-    """MJCF fullinertia 'ixx iyy izz ixy ixz iyz' → (3, 3)."""
-    xx, yy, zz, xy, xz, yz = values
-    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-
-
-def _write(
-    t: _Target, bid: int, mass: float, pos: np.ndarray, cad: bool, extra: np.ndarray | None = None
-) -> None:
-    """Set MJCF body ``bid``'s mass (kg) and CoM (m, body frame), the inertia CAD's about the
-    CoM (``exported_inertia``; ``cad`` False: a newly massive body, a small sphere's), plus
-    ``extra`` (``merged_correction``, body-frame axes) when given: then written as its
-    principal frame (``quat``) and moments."""
+def _write(t: _Target, bid: int, part: Part) -> None:
+    """Put ``part`` (mass, CoM and tensor in MJCF body ``bid``'s frame) into the body's
+    ``<inertial>``: an explicit one keeps its ``fullinertia`` or its orientation when the
+    tensor is diagonal there; otherwise the tensor's principal frame (``quat``) and moments.
+    An unchanged CAD tensor is written with MuJoCo's own numbers."""
     el, m = t.elements[bid - 1], t.m
     name = f"body {el.get('name') or bid}"
+    mass = part.mass
     if m.body_dofnum[bid] > 0 and mass < MIN_MOVING_MASS:
         t.warnings.append(
             f"{name}: the fit leaves it {mass:.3g} kg; written as {MIN_MOVING_MASS:g} kg "
@@ -102,38 +84,35 @@ def _write(
         )
         mass = MIN_MOVING_MASS
     inertial = el.find("inertial")
-    if extra is not None and np.any(extra):
-        rot = _rotation(m.body_iquat[bid])
-        full = rot @ np.diag(m.body_inertia[bid]) @ rot.T
-        full, note = exported_inertia(full, mass, name, t.repair)
-        full, more = corrected(full, extra, name)
-        moments, quat = principal(full)
-        if inertial is None:
-            inertial = new_child(el, "inertial", first=True)
-        write_inertial(inertial, mass, pos, np.diag(moments), quat)
-        for n in (note, more):
-            if n:
-                t.warnings.append(n)
+    explicit = inertial is not None and not t.from_geom and not part.new
+    if explicit and inertial is not None and inertial.get("fullinertia") is not None:
+        write_inertial(inertial, mass, part.com, part.inertia, None)
         return
-    if inertial is not None and not t.from_geom and cad:
-        full = inertial.get("fullinertia")
-        if full is not None:
-            tensor = _full_tensor([float(v) for v in full.split()])
-        else:
-            tensor = np.diag([float(v) for v in inertial.get("diaginertia", "0 0 0").split()])
-        tensor, note = exported_inertia(tensor, mass, name, t.repair)
-        write_inertial(inertial, mass, pos, tensor, None)
+    rot = np.eye(3) if part.new else _rotation(m.body_iquat[bid])
+    d = rot.T @ part.inertia @ rot
+    cad = np.asarray(m.body_inertia[bid], dtype=float)
+    scale = max(float(np.abs(d).max()), 1e-300)
+    diagonal = float(np.abs(d - np.diag(np.diag(d))).max()) <= 1e-12 * scale
+    if diagonal and not part.new and np.abs(np.diag(d) - cad).max() <= 1e-12 * scale:
+        d = np.diag(cad)  # CAD's, exactly
+    if explicit and inertial is not None and diagonal:
+        write_inertial(inertial, mass, part.com, d, None)
+        return
+    if diagonal:
+        quat = np.array([1.0, 0.0, 0.0, 0.0]) if part.new else np.asarray(m.body_iquat[bid])
+        moments = np.diag(d)
     else:
-        if cad:
-            tensor, quat = np.diag(m.body_inertia[bid]), np.asarray(m.body_iquat[bid], float)
-        else:
-            tensor, quat = np.diag(sphere_inertia(mass)), np.array([1.0, 0.0, 0.0, 0.0])
-        tensor, note = exported_inertia(tensor, mass, name, t.repair)
-        if inertial is None:
-            inertial = new_child(el, "inertial", first=True)
-        write_inertial(inertial, mass, pos, tensor, quat)
-    if note:
-        t.warnings.append(note)
+        moments, quat = principal(part.inertia)
+    if inertial is None:
+        inertial = new_child(el, "inertial", first=True)
+    write_inertial(inertial, mass, part.com, np.diag(moments), quat)
+
+
+def _compiled(m, bid: int) -> Part:
+    """MJCF body ``bid`` as MuJoCo compiled it (a body the fit does not touch)."""
+    rot = _rotation(m.body_iquat[bid])
+    tensor = rot @ np.diag(m.body_inertia[bid]) @ rot.T
+    return Part(m.body(bid).name, float(m.body_mass[bid]), np.asarray(m.body_ipos[bid]), tensor)
 
 
 def write_inertial(
@@ -205,23 +184,31 @@ def export_mjcf(
     ``repair_inertia``. Returns warnings (compiler attributes changed, bodies whose mass leaves
     ±50 % of the CAD's, bodies kept at CAD, tensors repaired).
     """
-    masses, coms = fit_inertials(fit)
+    masses, _ = fit_inertials(fit)
     model = fit.robot.model
     src = Path(source_path if source_path is not None else model.path)
-    check_inertias(model, src, repair_inertia)
     t, doc, spec = _target(src)
-    t.repair = repair_inertia
     m = t.m
-    total_set = spec.compiler.settotalmass > 0
-    t.warnings += mass_warnings(model, masses) + kept_notes(fit)
-    _compiler_edits(doc.root, t.warnings)
     names = object_names(m, "body", m.nbody, "body")
     body_id = {n: i for i, n in enumerate(names) if i}
-    written = _write_bodies(t, model, body_id, masses, coms, src)
+    for body in model.bodies:  # the file the fit's model was read from, unchanged since?
+        m_file = sum(float(m.body_mass[body_id[n]]) for n in body.links if n in body_id)
+        merged_body_change(src, "MJCF", body, m_file, body.mass, body.com)
+    parts, warnings = exported_parts(fit, repair_inertia)
+    t.warnings += warnings
+    total_set = spec.compiler.settotalmass > 0
+    _compiler_edits(doc.root, t.warnings)
+    written: set[int] = set()
+    for part in parts:
+        bid = body_id.get(part.link)
+        if bid is None:
+            raise ModelError(f"{src}: body '{part.link}' of the fit's model is missing")
+        _write(t, bid, part)
+        written.add(bid)
     if t.from_geom or total_set:  # every other massive body needs its compiled inertial written
         for bid in range(1, m.nbody):
             if bid not in written and m.body_mass[bid] > 0:
-                _write(t, bid, float(m.body_mass[bid]), m.body_ipos[bid], True)
+                _write(t, bid, _compiled(m, bid))
     root = doc.root
     add_note(
         root,
@@ -233,38 +220,3 @@ def export_mjcf(
         relocate_mjcf(root, src.parent.resolve(), out.resolve().parent)
     write_xml(doc, out)
     return t.warnings
-
-
-def _write_bodies(t: _Target, model, body_id, masses, coms, src: Path) -> set[int]:
-    """Write every sescid body's mass and CoM onto its MJCF bodies; the MJCF body ids written."""
-    m = t.m
-    written: set[int] = set()
-    big_m = float(masses.sum())
-    for b, body in enumerate(model.bodies):
-        parts = []  # (MJCF body id, mass, CoM in the MJCF body frame, name)
-        for name in body.links:
-            bid = body_id.get(name)
-            if bid is not None and m.body_mass[bid] > 0:
-                parts.append((bid, float(m.body_mass[bid]), m.body_ipos[bid], name))
-        change = merged_body_change(src, "MJCF", body, sum(p[1] for p in parts), masses[b], coms[b])
-        if change is not None:
-            ratio, shift = change
-            frames = [model.link_frames[name][1] for _, _, _, name in parts]
-            at = [x[:3, :3] @ ck + x[:3, 3] for x, (_, _, ck, _) in zip(frames, parts, strict=True)]
-            delta = merged_correction([p[1] for p in parts], at, ratio)
-            main = int(np.argmax([p[1] for p in parts]))
-            for k, ((bid, mk, ck, _), x) in enumerate(zip(parts, frames, strict=True)):
-                extra = x[:3, :3].T @ delta @ x[:3, :3] if k == main else None
-                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, True, extra)
-                written.add(bid)
-        elif masses[b] > 1e-12 * big_m:
-            bid = body_id.get(body.name)
-            if bid is None or body.frame_only:
-                raise ModelError(
-                    f"{src}: the fit gives {masses[b]:.6g} kg to '{body.name}', a massless frame "
-                    "between two hinges of one MJCF body, which cannot carry mass in MJCF"
-                )
-            x = model.link_frames[body.name][1]
-            _write(t, bid, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), False)
-            written.add(bid)
-    return written

@@ -17,56 +17,21 @@ import numpy as np
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_urdf
-from sescid.io.export.inertia import (
-    check_inertias,
-    corrected,
-    exported_inertia,
-    fmt,
-    kept_notes,
-    mass_warnings,
-    merged_body_change,
-    merged_correction,
-    sphere_inertia,
-)
+from sescid.io.export.inertia import fmt, merged_body_change
+from sescid.io.export.parts import exported_parts
 from sescid.io.export.xmldoc import add_note, new_child, read_xml, write_xml
 
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
 
-def _floats(text: str | None, n: int, what: str) -> np.ndarray:
-    if text is None:
-        return np.zeros(n)
+def _mass(link: ET.Element) -> float:
+    """A <link>'s inertial mass in kg (0 without one); ModelError when it is not a number."""
+    el = link.find("inertial/mass")
+    text = "0" if el is None else el.get("value", "0")
     try:
-        out = np.array([float(v) for v in text.split()])
+        return float(text)
     except ValueError:
-        out = np.zeros(0)
-    if out.shape != (n,):
-        raise ModelError(f"malformed {what}: '{text}'")
-    return out
-
-
-def _read_inertial(link: ET.Element) -> tuple[float, np.ndarray]:
-    """(mass kg, CoM m in the link frame) of a <link> element; (0, 0) when it has none."""
-    inertial = link.find("inertial")
-    if inertial is None:
-        return 0.0, np.zeros(3)
-    mass_el = inertial.find("mass")
-    mass = 0.0 if mass_el is None else float(mass_el.get("value", "0"))
-    origin = inertial.find("origin")
-    xyz = _floats(None if origin is None else origin.get("xyz"), 3, "inertial origin xyz")
-    return mass, xyz
-
-
-def _tensor(inertia: ET.Element | None) -> np.ndarray:
-    """The (3, 3) tensor of an <inertia> element (zeros when absent)."""
-    v = {k: 0.0 if inertia is None else float(inertia.get(k, "0")) for k in _INERTIA}
-    return np.array(
-        [
-            [v["ixx"], v["ixy"], v["ixz"]],
-            [v["ixy"], v["iyy"], v["iyz"]],
-            [v["ixz"], v["iyz"], v["izz"]],
-        ]
-    )
+        raise ModelError(f"link {link.get('name')}: malformed mass '{text}'") from None
 
 
 def write_inertial(link: ET.Element, mass: float, com: np.ndarray, tensor: np.ndarray) -> None:
@@ -88,74 +53,47 @@ def write_inertial(link: ET.Element, mass: float, com: np.ndarray, tensor: np.nd
     inertia = inertial.find("inertia")
     if inertia is None:
         inertia = new_child(inertial, "inertia")
-    for key, (i, j) in zip(_INERTIA, [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)], strict=True):
-        inertia.set(key, repr(float(tensor[i, j])))
-
-
-def _part(
-    link: ET.Element,
-    mass: float,
-    com: np.ndarray,
-    cad: bool,
-    repair: bool,
-    extra: np.ndarray | None = None,
-) -> str | None:
-    """Write one link's identified mass and CoM with the inertia ``exported_inertia`` gives
-    for its CAD tensor (``cad`` False: a newly massive link, a small sphere's), plus ``extra``
-    (``merged_correction`` in the inertial's axes) when given; a note."""
-    inertia = link.find("inertial/inertia")
-    tensor = _tensor(inertia) if cad else np.diag(sphere_inertia(mass))
-    where = f"link {link.get('name')}"
-    tensor, note = exported_inertia(tensor, mass, where, repair)
-    if extra is not None:
-        tensor, more = corrected(tensor, extra, where)
-        note = note or more
-    write_inertial(link, mass, com, tensor)
-    return note
+    at = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    try:
+        old = np.array([float(inertia.get(key, "nan")) for key in _INERTIA])
+    except ValueError:
+        old = np.full(6, np.nan)
+    new = np.array([tensor[i, j] for i, j in at], dtype=float)
+    if np.all(np.abs(new - old) <= 1e-13 * max(float(np.abs(new).max()), 1e-300)):
+        return  # the file's own numbers (a tensor kept, up to the frame changes' round-off)
+    for key, value in zip(_INERTIA, new, strict=True):
+        inertia.set(key, repr(float(value)))
 
 
 def export_urdf(fit: Fit, path: str | Path, repair_inertia: bool = False) -> list[str]:
     """Write ``fit.robot``'s URDF with the fit's body masses and CoMs to ``path`` (atomically).
 
-    ``fit`` must hold masses (method "consistent"). Inertias: CAD's about each CoM
-    (``exported_inertia``); a model with inconsistent CAD tensors raises ModelError unless
-    ``repair_inertia``. Returns warnings: bodies whose mass leaves ±50 % of the CAD's, bodies
-    kept at CAD, tensors repaired.
+    ``fit`` must hold masses (method "consistent"). What each link gets is
+    ``exported_parts``'s (the inertia CAD's about each body's CoM); a model with inconsistent
+    CAD tensors raises ModelError unless ``repair_inertia``. Returns warnings: bodies whose
+    mass leaves ±50 % of the CAD's, bodies kept at CAD, tensors repaired.
     """
-    masses, coms = fit_inertials(fit)
+    masses, _ = fit_inertials(fit)
     model = fit.robot.model
     src = Path(fit.robot.model_path)
     doc = read_xml(src, "URDF")
     links = {el.get("name"): el for el in doc.root.findall("link")}
-    check_inertias(model, src, repair_inertia)
-    repair = repair_inertia
-    warnings = mass_warnings(model, masses) + kept_notes(fit)
-    for b, body in enumerate(model.bodies):
-        cad = []  # (link element, mass, CoM in the link frame, link-frame transform)
-        for name in body.links:
-            if name not in links:
-                raise ModelError(f"{src}: link '{name}' of the fit's model is missing")
-            m, c = _read_inertial(links[name])
-            cad.append((links[name], m, c, model.link_frames[name][1]))
-        change = merged_body_change(
-            src, "URDF", body, sum(m for _, m, _, _ in cad), masses[b], coms[b]
-        )
-        notes: list[str | None] = []
-        if change is not None:
-            ratio, shift = change
-            live = [item for item in cad if item[1] > 0]
-            at = [x[:3, :3] @ c + x[:3, 3] for _, _, c, x in live]
-            delta = merged_correction([m for _, m, _, _ in live], at, ratio)
-            main = int(np.argmax([m for _, m, _, _ in live]))
-            for k, (el, m, c, x) in enumerate(live):
-                rot = x[:3, :3] @ model.inertials[str(el.get("name"))].frame[:3, :3]
-                extra = rot.T @ delta @ rot if k == main else None
-                notes.append(_part(el, m * ratio, c + x[:3, :3].T @ shift, True, repair, extra))
-        elif masses[b] > 0:
-            el, _, _, x = next(item for item in cad if item[0].get("name") == body.name)
-            com = x[:3, :3].T @ (coms[b] - x[:3, 3])
-            notes.append(_part(el, masses[b], com, False, repair))
-        warnings += [n for n in notes if n]
+    for body in model.bodies:  # the file the fit's model was read from, unchanged since?
+        missing = [n for n in body.links if n not in links]
+        if missing:
+            raise ModelError(f"{src}: link '{missing[0]}' of the fit's model is missing")
+        m_file = sum(_mass(links[n]) for n in body.links)
+        merged_body_change(src, "URDF", body, m_file, body.mass, body.com)
+    parts, warnings = exported_parts(fit, repair_inertia)
+    for part in parts:
+        if part.link not in links:
+            raise ModelError(f"{src}: link '{part.link}' of the fit's model is missing")
+        el = links[part.link]
+        inertial = model.inertials.get(part.link)
+        # the tensor goes in the frame of the inertial's origin rpy (identity when written new)
+        has_rpy = el.find("inertial/origin") is not None and inertial is not None
+        rot = inertial.frame[:3, :3] if has_rpy and inertial is not None else np.eye(3)
+        write_inertial(el, part.mass, part.com, rot.T @ part.inertia @ rot)
     add_note(
         doc.root,
         f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
