@@ -111,8 +111,11 @@ def exported_parts(fit: Fit, repair_inertia: bool = False) -> tuple[list[Part], 
         elif masses[b] > 1e-12 * big_m:
             if body.frame_only or body.name not in model.link_frames:
                 raise ModelError(
-                    f"{src}: the fit gives {masses[b]:.6g} kg to '{body.name}', a frame that "
-                    "cannot carry mass in the model file"
+                    f"{src}: the fit gives {masses[b]:.6g} kg to '{body.name}', a massless frame "
+                    "between two hinges of one MJCF body, which cannot carry mass in MJCF"
+                    if body.frame_only
+                    else f"{src}: the fit gives {masses[b]:.6g} kg to '{body.name}', a frame "
+                    "that cannot carry mass in the model file"
                 )
             x = model.link_frames[body.name][1]
             com = x[:3, :3].T @ (coms[b] - x[:3, 3])
