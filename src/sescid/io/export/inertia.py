@@ -69,20 +69,6 @@ def merged_correction(masses, coms, ratio: float) -> np.ndarray:
     return np.trace(sigma) * np.eye(3) - sigma
 
 
-def corrected(tensor: np.ndarray, delta: np.ndarray, where: str) -> tuple[np.ndarray, str | None]:
-    """``tensor`` + ``delta`` (3, 3) kg·m², made consistent with the smallest change when the
-    sum is not (a merged body grown heavier than its parts' layout allows), with a note."""
-    if not np.any(delta):
-        return tensor, None
-    out, changed = repair_inertia(tensor + delta)
-    if not changed:
-        return out, None
-    return out, (
-        f"{where}: its merged body's CAD second moment about the CoM cannot be kept with its "
-        "parts scaled together; the closest consistent tensor written"
-    )
-
-
 def principal(tensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(moments (3,) kg·m², quaternion (4,) w x y z): ``tensor`` = R diag(moments) Rᵀ with R the
     rotation of the quaternion (columns: the principal axes in the tensor's frame)."""
