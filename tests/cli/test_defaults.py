@@ -66,6 +66,9 @@ CLI_ONLY = {
     "adapter": "session: which robot adapter class",
     "replay_path": "session: the replay adapter's input",
     "no_view": "session: whether the live view runs",
+    "over": "export: an input file (export_model(over=None))",
+    "repair_inertia": "export: export_model(repair_inertia=False), a keyword of the writer, "
+    "not an options record",
     "online_step": "identify: poses per update once --online is given (IdentifyOptions."
     "online_step None, the default, means not online: checked as --online)",
 }

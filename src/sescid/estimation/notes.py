@@ -156,7 +156,8 @@ def _consistent_notes(fit: Fit) -> list[str]:
     ]
     if b.grown_boxes:
         notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))
-    if active and b.prior_std is None:
+    notes += list(b.notes)
+    if active and b.prior_std is None and not b.exact:
         notes.append(
             "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
             "their bounds; a CAD prior (ConsistentOptions.prior_std, e.g. 0.05) gives "
