@@ -368,6 +368,11 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
     if len(parts) == 1:
         return first
     for p in parts[1:]:
+        if p.support != first.support:
+            raise DataError(
+                f"{p.source}: its parts were measured in different stances ('{first.support}', "
+                f"'{p.support}'); cannot be joined"
+            )
         if p.kinds != first.kinds or p.tau_joints != first.tau_joints:
             raise DataError(f"{p.source}: its parts measure different things; cannot be joined")
     arrays: dict[str, Any] = {}

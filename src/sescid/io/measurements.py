@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 
 from sescid.base.columns import (
-    SUPPORT_COLUMN,
     Table,
     read_approach,
     read_cop,
@@ -28,13 +27,15 @@ from sescid.base.columns import (
     read_torques,
     refuse_plan,
     refuse_raw_log,
+    support_column,
 )
-from sescid.errors import DataError, ModelError
+from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
 from sescid.robot import Robot
 from sescid.sensors.imu import table_gravity
+from sescid.stance import data_stance
 
 
 @dataclass
@@ -147,10 +148,11 @@ def read_measurements(
     """The file's chunks as ``Measurements``, read once, as they are parsed (module docstring).
     ``report`` collects the poses outside the limits and whether the data are simulated;
     ``support``: the stance of rows without a ``support`` column (None: the robot's own)."""
-    if support is not None:
-        robot.stance(support)  # an unknown frame: the one-line error now
-        support = None if support == robot.support else support
+    given = support
+    if support is not None:  # FILE@FRAME: the one stance check, naming the file and frame
+        support, _ = data_stance(robot, support, where=f"{path}@{support}")
     rep = report if report is not None else ReadReport(str(path))
+    at = None if given is None else f"{path}@{given}"
     for table in read_ahead(iter_table(path)):
         m = measurements_of(table, robot, imu_link)
         simulated = m.cop_true is not None or any(c.startswith("true_tau_") for c in table.names())
@@ -166,34 +168,44 @@ def read_measurements(
                 f"{path}: {rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
-        yield from by_support(table, robot, dataclasses.replace(m, support=support))
+        yield from by_support(table, robot, dataclasses.replace(m, support=support), at)
 
 
-def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:
-    """The rows of a chunk grouped by their ``support`` column (each group in file order, the
-    groups in order of first appearance); the chunk as it is (its ``support``) without the
-    column. An unknown support is an error naming the row."""
-    if SUPPORT_COLUMN not in table.text and SUPPORT_COLUMN not in table.columns:
+def by_support(
+    table: Table, robot: Robot, m: Measurements, given: str | None = None
+) -> Iterator[Measurements]:
+    """The rows of a chunk grouped by their ``support`` column (its header in any case; each
+    group in file order, the groups in order of first appearance); the chunk as it is (its
+    ``support``) without the column. Each row's stance passes ``sescid.stance.data_stance``
+    (a frame of the model that can measure the row's kinds): an error names the row. ``given``
+    (``FILE@FRAME``) must agree with the column where both name a stance."""
+    column = support_column(table)
+    if column is None:
+        if given is not None:  # what FILE@FRAME's stance can measure
+            data_stance(robot, m.support, m.kinds, given)
         yield m
         return
-    if SUPPORT_COLUMN in table.columns:  # all numbers: no frame is named so
+    if column in table.columns:  # all numbers: no frame is named so
         raise DataError(
-            f"{table.path}: {table.where(0)}, column '{SUPPORT_COLUMN}': "
-            f"'{table.columns[SUPPORT_COLUMN][0]:g}' is not a frame of the model"
+            f"{table.path}: {table.where(0)}, column '{column}': "
+            f"'{table.columns[column][0]:g}' is not a frame of the model"
         )
-    names = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    names = np.array([v.strip() for v in table.text[column]])
     for name in dict.fromkeys(names.tolist()):
         rows = np.flatnonzero(names == name)
+        where = f"{table.path}: {table.where(rows[0])}, column '{column}'"
         if not name:
-            raise DataError(f"{table.path}: {table.where(rows[0])}, column 'support' is empty")
-        try:
-            robot.stance(name)
-        except ModelError as exc:
+            raise DataError(f"{where} is empty (name the stance of every row, or of none)")
+        part = m.take(rows)
+        support, _ = data_stance(robot, name, part.kinds, where)
+        if given is not None and support != m.support:
+            said = support or robot.support
             raise DataError(
-                f"{table.path}: {table.where(rows[0])}, column 'support': {exc}"
-            ) from None
-        support = None if name == robot.support else name
-        yield dataclasses.replace(m.take(rows), support=support)
+                f"{where} says '{said}', but {given} names the stance "
+                f"'{m.support or robot.support}': give the file without @ (its column says "
+                "each row's stance) or fix the column"
+            )
+        yield dataclasses.replace(part, support=support)
 
 
 def _joint_column(table: Table, joint: str) -> str:

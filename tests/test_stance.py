@@ -1,0 +1,135 @@
+"""One stance check for every way a stance arrives (issue 35, "Stances typed wrong"): a
+``support`` column in any case, ``FILE@FRAME``, Measurements, and predict's rows; each refusal a
+one-line error naming the file (and row) or the option."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import sescid
+from sescid.cli import cli
+from sescid.errors import DataError, OptionError
+from sescid.estimation import Measurements
+from sescid.io import read_table, write_table
+from sescid.stance import data_stance, parse_stance
+
+TRUNK = "MP_BODY"
+
+
+def run(*args) -> tuple[int, str]:
+    """Exit code and combined output of ``sescid ARGS``."""
+    res = CliRunner().invoke(cli, [str(a) for a in args])
+    if res.exception is not None and not isinstance(res.exception, SystemExit):
+        raise res.exception
+    return res.exit_code, res.output
+
+
+def _relabel(table, label: str | None, header: str = "support") -> dict[str, np.ndarray]:
+    cols = {c: table.get(c) for c in table.columns}
+    if label is not None:
+        cols[header] = np.full(table.n, label)
+    return cols
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Simulated CoP data on each sole (60 poses each), and the same rows relabelled."""
+    d = tmp_path_factory.mktemp("stances")
+    for side, seed, name in (("r_sole", 1, "r.csv"), ("l_sole", 2, "l.csv")):
+        code, out = run("simulate", "--support", side, "--poses", 60, "--seed", seed,
+                        "--out", d / name)  # fmt: skip
+        assert code == 0, out
+    r, l_ = read_table(d / "r.csv"), read_table(d / "l.csv")
+    a, b = _relabel(r, "r_sole"), _relabel(l_, "l_sole")
+    write_table(d / "both.csv", {c: np.concatenate([a[c], b[c]]) for c in a})
+    write_table(d / "trunk.csv", _relabel(r, TRUNK))
+    some = _relabel(r, "r_sole")
+    some["support"] = np.array(["r_sole"] * (r.n - 1) + [TRUNK])  # one row at the trunk
+    write_table(d / "some.csv", some)
+    write_table(d / "cap.csv", _relabel(l_, "l_sole", "Support"))
+    write_table(d / "bare_l.csv", _relabel(l_, None))
+    return d
+
+
+def _truth_mm(out: str) -> float:
+    return float(re.findall(r"noise-free CoP at these poses ([\d.]+) mm", out)[-1])
+
+
+@pytest.mark.parametrize("name", ["trunk.csv", "some.csv"])
+def test_a_cop_at_a_trunk_is_refused_in_every_row_or_one(files, tmp_path, name):
+    """A support column naming the trunk (every row, or the last) on a CoP file: refused with
+    the file, row and column, as --support TRUNK is (it was fitted 53 mm off)."""
+    code, out = run(
+        "identify", files / name, "--allow-outside-limits", "--out", tmp_path / "f.json"
+    )
+    row = 2 if name == "trunk.csv" else 61
+    assert code == 2 and f"{name}: row {row}, column 'support': '{TRUNK}'" in out, out
+    assert "no centre of pressure" in out and out.count("\n") == 1
+    assert not (tmp_path / "f").exists()
+    code, out = run("identify", f"{files / 'bare_l.csv'}@{TRUNK}", "--out", tmp_path / "g.json")
+    assert code == 2 and f"bare_l.csv@{TRUNK}: '{TRUNK}'" in out, out
+
+
+def test_the_support_header_in_any_case(files, tmp_path):
+    """'Support' is the support column: the left-foot rows are fitted on the left foot (they
+    were fitted as right-foot ones, 48 mm off); two such headers are refused."""
+    code, out = run("identify", files / "cap.csv", "--allow-outside-limits",
+                    "--out", tmp_path / "f.json")  # fmt: skip
+    assert code == 0, out
+    code, ref = run("identify", f"{files / 'bare_l.csv'}@l_sole", "--allow-outside-limits",
+                    "--out", tmp_path / "g.json")  # fmt: skip
+    assert code == 0, ref
+    assert _truth_mm(out) == _truth_mm(ref) < 1.0
+    cols = _relabel(read_table(files / "cap.csv"), "l_sole") | {"SUPPORT": np.full(60, "l_sole")}
+    write_table(tmp_path / "two.csv", cols)
+    code, out = run("identify", tmp_path / "two.csv", "--out", tmp_path / "h.json")
+    assert code == 2 and "'support', 'SUPPORT' both name each row's stance" in out, out
+
+
+def test_file_at_frame_that_its_column_contradicts(files, tmp_path):
+    """`l.csv@r_sole` where the column says l_sole is refused (the @ was ignored); an @ that
+    agrees is read; an unknown frame names the file@frame."""
+    code, out = run("identify", f"{files / 'l.csv'}@r_sole", "--out", tmp_path / "f.json")
+    assert code == 2 and "column 'support' says 'l_sole', but" in out and "l.csv@r_sole" in out
+    code, out = run("identify", f"{files / 'l.csv'}@l_sole", "--allow-outside-limits",
+                    "--out", tmp_path / "f.json")  # fmt: skip
+    assert code == 0, out
+    code, out = run("identify", f"{files / 'l.csv'}@nope", "--out", tmp_path / "f.json")
+    assert code == 2 and "l.csv@nope: " in out and "unknown support 'nope'" in out, out
+
+
+def test_one_file_of_two_stances_reports_the_residuals_of_two_files(files, tmp_path):
+    """The residual RMS/MAE of one file holding both stances are those of the two files (they
+    were 76 mm against 4.7 mm: residual blocks spanned the two stances), and so with --robust
+    (the in-memory path)."""
+    figures = []
+    for data in ([files / "both.csv"], [files / "r.csv", files / "l.csv"]):
+        for extra in ((), ("--robust",)):
+            code, out = run("identify", *data, "--method", "ls", *extra,
+                            "--allow-outside-limits", "--out", tmp_path / "f.json")  # fmt: skip
+            assert code == 0, out
+            figures.append(re.search(r"residual RMS ([\d.]+) mm, MAE ([\d.]+) mm", out).groups())
+            figures[-1] += (_truth_mm(out),)
+    assert figures[0] == figures[2] and figures[1] == figures[3], figures
+    assert float(figures[0][0]) < 6.0
+
+
+def test_measurements_of_a_stance_that_cannot_measure_them(op2):
+    """Arrays take the same check: a CoP held at a trunk, torques on both feet; an option's
+    spelling is an OptionError naming it."""
+    q = np.zeros((20, op2.nq))
+    with pytest.raises(DataError, match=f"data: '{TRUNK}': a robot held there"):
+        sescid.identify(op2, Measurements(q=q, cop=np.zeros((20, 2)), support=TRUNK))
+    tau = op2.torques(q)
+    m = Measurements(q=q, tau=tau, tau_joints=tuple(op2.joint_names), support="double")
+    with pytest.raises(DataError, match="data: 'double': joint torques on both feet"):
+        sescid.identify(op2, m)
+    assert parse_stance("gantry:MP_BODY", op2).mount == "gantry"
+    assert parse_stance(TRUNK, op2).mount == "gantry"
+    assert data_stance(op2, "stand:r_sole")[0] is None
+    with pytest.raises(OptionError, match="support: .*unknown support 'toe'"):
+        data_stance(op2, "toe", where="--support")
