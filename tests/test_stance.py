@@ -133,3 +133,40 @@ def test_measurements_of_a_stance_that_cannot_measure_them(op2):
     assert data_stance(op2, "stand:r_sole")[0] is None
     with pytest.raises(OptionError, match="support: .*unknown support 'toe'"):
         data_stance(op2, "toe", where="--support")
+
+
+def test_predict_uses_each_rows_stance(files, tmp_path):
+    """predict of a pooled fit on rows labelled with both stances predicts each in its own
+    (the left rows were predicted in the right foot's frame, 150 mm off); --support agrees with
+    the column or is refused; a trunk and a one-stance fit are refused naming file or option."""
+    fit, one = tmp_path / "two.json", tmp_path / "one.json"
+    for data, out in (((files / "r.csv", files / "l.csv"), fit), ((files / "r.csv",), one)):
+        code, text = run("identify", *data, "--method", "ls", "--allow-outside-limits",
+                         "--out", out)  # fmt: skip
+        assert code == 0, text
+    code, text = run("predict", fit, files / "both.csv", "--out", tmp_path / "both.csv")
+    assert code == 0, text
+    code, text = run("predict", fit, files / "l.csv", "--support", "l_sole",
+                     "--out", tmp_path / "l.csv")  # fmt: skip
+    assert code == 0, text
+    both, left = read_table(tmp_path / "both.csv"), read_table(tmp_path / "l.csv")
+    model = sescid.load_fit(fit)
+    q = read_table(files / "both.csv")
+    ql = np.column_stack([q.get(j) for j in model.robot.joint_names])
+    np.testing.assert_allclose(both.get("cop_x")[60:], left.get("cop_x"), rtol=0, atol=0)
+    np.testing.assert_allclose(both.get("cop_x")[:60], model.predict_cop(ql[:60])[:, 0], atol=0)
+    truth = np.column_stack([q.get("cop_x_true"), q.get("cop_y_true")])
+    got = np.column_stack([both.get("cop_x"), both.get("cop_y")])
+    assert np.sqrt(np.mean((got - truth) ** 2)) < 0.003
+    cases = [
+        ((fit, files / "l.csv", "--support", TRUNK), f"support: '{TRUNK}': a robot held there"),
+        ((fit, files / "l.csv", "--support", "r_sole"), "support: r_sole, but "),
+        ((one, files / "l.csv"), "l.csv: row 2, column 'support': 'l_sole': the fit was made "
+         "in one stance ('r_sole')"),
+        ((one, files / "l.csv", "--support", "l_sole"), "support: l_sole: the fit was made"),
+        ((fit, files / "trunk.csv"), "trunk.csv: row 2, column 'support': 'MP_BODY': a robot"),
+    ]  # fmt: skip
+    for args, message in cases:
+        code, text = run("predict", *args, "--out", tmp_path / "x.csv")
+        assert code == 2 and message in text and text.count("\n") == 1, text
+        assert not (tmp_path / "x.csv").exists()

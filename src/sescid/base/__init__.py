@@ -7,7 +7,7 @@ workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import G0, MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
+from sescid.base.columns import G0, MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table, support_column
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -49,6 +49,7 @@ __all__ = [
     "option_spec",
     "ordered_map",
     "pin_process",
+    "support_column",
     "read_json",
     "usable_cores",
 ]
