@@ -48,6 +48,20 @@ class ReadReport:
     limits: list[tuple[int, LimitViolation]] = field(default_factory=list)
     #: the file row and column of the first violation ("row 7, column 'r_knee'")
     first_limit_at: str | None = None
+    #: CoP cells left empty (CSV) or null (Parquet) in a cop_x/cop_y column the file has
+    cop_missing: int = 0
+    #: the file row and column of the first of them
+    first_missing_at: str | None = None
+
+    def missing_message(self) -> str | None:
+        """One line about the CoP cells not measured, or None."""
+        if not self.cop_missing:
+            return None
+        return (
+            f"{self.path}: {self.cop_missing} CoP coordinate(s) not measured (empty or null "
+            f"cells; first: {self.first_missing_at}): those poses are fitted on the coordinate "
+            "they have"
+        )
 
     def limit_message(self) -> str | None:
         """One line about the poses outside the joint limits, or None."""
@@ -162,6 +176,7 @@ def read_measurements(
             if not rep.limits:
                 rep.first_limit_at = m.cell(bad.row, _joint_column(table, bad.joint))
             rep.limits.append((rep.n_poses, bad))
+        _count_missing(rep, table, m)
         rep.n_poses += m.n
         if bad is not None and not (allow_outside_limits or rep.simulated):
             raise DataError(
@@ -206,6 +221,19 @@ def by_support(
                 "each row's stance) or fix the column"
             )
         yield dataclasses.replace(part, support=support)
+
+
+def _count_missing(rep: ReadReport, table: Table, m: Measurements) -> None:
+    """Add the chunk's empty or null CoP cells (in the cop_x/cop_y columns it has) to ``rep``."""
+    if m.cop is None:
+        return
+    has = np.array([c in table.names() for c in ("cop_x", "cop_y")])
+    miss = np.isnan(m.cop) & has
+    count = int(np.count_nonzero(miss))
+    if count and not rep.cop_missing:
+        i, j = np.argwhere(miss)[0]
+        rep.first_missing_at = m.cell(int(i), f"cop_{'xy'[int(j)]}")
+    rep.cop_missing += count
 
 
 def _joint_column(table: Table, joint: str) -> str:
