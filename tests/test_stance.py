@@ -170,3 +170,42 @@ def test_predict_uses_each_rows_stance(files, tmp_path):
         code, text = run("predict", *args, "--out", tmp_path / "x.csv")
         assert code == 2 and message in text and text.count("\n") == 1, text
         assert not (tmp_path / "x.csv").exists()
+
+
+def test_experiment_stands_each_planned_pose_on_its_stance(tmp_path):
+    """A plan over two stances: experiment measures the rows of the stance it stands on and
+    says where the others go (it stood every pose on the first stance and labelled it so);
+    --mount double stands on both feet, labelled double (it stood on one foot)."""
+    plan = tmp_path / "p.csv"
+    code, out = run("poses", "--stances", "r_sole,l_sole", "--count", 30, "--candidates", 400,
+                    "--out", plan)  # fmt: skip
+    assert code == 0, out
+    labels = np.array(read_table(plan).text["support"])
+    for side in ("r_sole", "l_sole"):
+        raw = tmp_path / f"{side}.csv"
+        code, out = run("experiment", "--poses", plan, "--support", side, "--samples", 5,
+                        "--out", raw)  # fmt: skip
+        assert code == 0, out
+        other = "l_sole" if side == "r_sole" else "r_sole"
+        n = int(np.sum(labels == side))
+        assert f"measuring the {n} poses planned for '{side}'" in out, out
+        assert f"'{other}' (--support {other})" in out
+        log = read_table(raw)
+        assert set(log.text["support"]) == {side}
+        planned = set(np.array(read_table(plan).get("pose"))[labels == side].astype(int))
+        assert set(log.get("pose").astype(int)) <= planned
+    code, out = run("experiment", "--poses", plan, "--double-support", "--samples", 5,
+                    "--out", tmp_path / "d.csv")  # fmt: skip
+    assert code == 2 and "planned for 'r_sole', 'l_sole' (column 'support')" in out, out
+    assert not (tmp_path / "d.csv").exists()
+    both = tmp_path / "pd.csv"
+    code, out = run("poses", "--stances", "double", "--count", 25, "--candidates", 600,
+                    "--out", both)  # fmt: skip
+    assert code == 0, out
+    code, out = run("experiment", "--poses", both, "--mount", "double", "--samples", 5,
+                    "--out", tmp_path / "e.csv")  # fmt: skip
+    assert code == 0 and "(double support)" in out, out
+    log = read_table(tmp_path / "e.csv")
+    assert set(log.text["support"]) == {"double"}
+    left = sum(log.get(f"l_fsr{k}") for k in range(1, 5))
+    assert np.median(left) > 100  # the left foot carries load: both feet on the floor
