@@ -209,3 +209,53 @@ def test_experiment_stands_each_planned_pose_on_its_stance(tmp_path):
     assert set(log.text["support"]) == {"double"}
     left = sum(log.get(f"l_fsr{k}") for k in range(1, 5))
     assert np.median(left) > 100  # the left foot carries load: both feet on the floor
+
+
+def test_measure_checks_each_samples_stance(tmp_path):
+    """measure: a pose whose samples switch stance (it was written twice, from halves), an
+    empty support cell (reported without its row) and a log whose stance disagrees with the
+    plan's (accepted silently) are refused naming the row; a log as planned is read."""
+    plan = tmp_path / "p.csv"
+    code, out = run("poses", "--stances", "r_sole,l_sole", "--count", 30, "--candidates", 400,
+                    "--out", plan)  # fmt: skip
+    assert code == 0, out
+    raw = tmp_path / "raw.csv"
+    code, out = run("experiment", "--poses", plan, "--samples", 6, "--out", raw)
+    assert code == 0, out
+    code, out = run("measure", raw, "--poses", plan, "--out", tmp_path / "m.csv")
+    assert code == 0, out
+    log = read_table(raw)
+    cols = {c: log.get(c) for c in log.columns}
+    labels = np.array(log.text["support"], dtype=object)
+    cases = {}
+    switch = labels.copy()
+    switch[3] = "l_sole"  # pose 0's fourth sample (rows 2–7 hold its six)
+    cases["switch"] = (switch, "pose 0 switches stance between its samples ('r_sole' at row 2, "
+                       "'l_sole' at row 5)")  # fmt: skip
+    empty = labels.copy()
+    empty[7] = ""
+    cases["empty"] = (empty, "row 9, column 'support' is empty")
+    cases["wrong"] = (np.full(len(labels), "l_sole"), "row 2: pose 0 was measured on 'l_sole', "
+                      f"but {plan} plans it on 'r_sole'")  # fmt: skip
+    for name, (values, message) in cases.items():
+        bad = tmp_path / f"{name}.csv"
+        write_table(bad, cols | {"support": values})
+        code, out = run("measure", bad, "--poses", plan, "--out", tmp_path / "x.csv")
+        assert code == 2 and message in out and out.count("\n") == 1, (name, out)
+        assert not (tmp_path / "x.csv").exists()
+
+
+def test_stances_that_a_plan_or_a_session_cannot_use(tmp_path):
+    """poses --stances with a line support is refused by name (it was read as a gantry and
+    failed on --kinds); session --stances with a gantry and no torque sensors is refused before
+    anything runs (it ran with a stance it could never measure)."""
+    from pathlib import Path
+
+    wheeled = Path(__file__).parents[1] / "examples" / "models" / "wheeled_humanoid.urdf"
+    code, out = run("poses", "--robot", wheeled, "--support", "axle", "--line", "y",
+                    "--stances", "axle,torso", "--out", tmp_path / "p.csv")  # fmt: skip
+    assert code == 2 and "--stances: 'axle': the robot balances on a line there" in out, out
+    code, out = run("session", "--stances", "r_sole,gantry:MP_BODY", "--no-view",
+                    "--out-dir", tmp_path / "s")  # fmt: skip
+    assert code == 2 and "'gantry:MP_BODY': a robot held in a gantry loads no foot" in out, out
+    assert not (tmp_path / "s").exists()

@@ -116,8 +116,9 @@ def parse_stance(text: str, reference: Robot, where: str = "--stances") -> Stanc
 
 def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, ...]:
     """The stances of ``spec``: a comma-separated list (or a sequence) of ``parse_stance``
-    spellings. OptionError naming ``--stances`` for an empty list, an unknown prefix, a frame
-    the model lacks or a stance named twice."""
+    spellings, to plan or run a session over. OptionError naming ``--stances`` for an empty
+    list, an unknown prefix, a frame the model lacks, a stance named twice or one balancing on
+    a line (planned alone)."""
     items = [s.strip() for s in spec.split(",")] if isinstance(spec, str) else list(spec)
     items = [s for s in items if s]
     if not items:
@@ -125,6 +126,13 @@ def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, 
     out: list[Stance] = []
     for item in items:
         st = parse_stance(item, reference, "--stances")
+        if reference.stance(st.label).line is not None:  # balance rows: no stance of a plan
+            raise OptionError(
+                "stances",
+                f"'{item}': the robot balances on a line there (a wheel axle, an edge): plan it "
+                "alone (--support FRAME --line …, without --stances); --stances plans soles, "
+                "both feet and held links",
+            )
         if any(s.label == st.label for s in out):
             raise OptionError("stances", f"'{st.label}' is named twice")
         out.append(st)

@@ -7,7 +7,14 @@ workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import G0, MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table, support_column
+from sescid.base.columns import (
+    G0,
+    MODEL_COP_COLUMNS,
+    SUPPORT_COLUMN,
+    Table,
+    pose_ids,
+    support_column,
+)
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -49,6 +56,7 @@ __all__ = [
     "option_spec",
     "ordered_map",
     "pin_process",
+    "pose_ids",
     "support_column",
     "read_json",
     "usable_cores",

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import SUPPORT_COLUMN, Table
+from sescid.base.columns import SUPPORT_COLUMN, Table, support_column
 from sescid.errors import DataError
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
@@ -181,7 +181,8 @@ def _rows(table: Table, keep: np.ndarray) -> Table:
 
 def _stance_rows(table: Table, stance: str) -> Table:
     """The samples of one stance (its ``support`` column stripped)."""
-    labels = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    column = support_column(table) or SUPPORT_COLUMN
+    labels = np.array([v.strip() for v in table.text[column]])
     return _rows(table, np.flatnonzero(labels == stance))
 
 
