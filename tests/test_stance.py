@@ -161,9 +161,9 @@ def test_predict_uses_each_rows_stance(files, tmp_path):
     cases = [
         ((fit, files / "l.csv", "--support", TRUNK), f"support: '{TRUNK}': a robot held there"),
         ((fit, files / "l.csv", "--support", "r_sole"), "support: r_sole, but "),
-        ((one, files / "l.csv"), "l.csv: row 2, column 'support': 'l_sole': the fit was made "
-         "in one stance ('r_sole')"),
-        ((one, files / "l.csv", "--support", "l_sole"), "support: l_sole: the fit was made"),
+        ((one, files / "l.csv"), f"l.csv: row 2, column 'support': 'l_sole': {one}: the fit "
+         "was made in one stance ('r_sole')"),
+        ((one, files / "l.csv", "--support", "l_sole"), f"support: l_sole: {one}: the fit was"),
         ((fit, files / "trunk.csv"), "trunk.csv: row 2, column 'support': 'MP_BODY': a robot"),
     ]  # fmt: skip
     for args, message in cases:
@@ -259,3 +259,20 @@ def test_stances_that_a_plan_or_a_session_cannot_use(tmp_path):
                     "--out-dir", tmp_path / "s")  # fmt: skip
     assert code == 2 and "'gantry:MP_BODY': a robot held in a gantry loads no foot" in out, out
     assert not (tmp_path / "s").exists()
+
+
+def test_a_fit_file_missing_part_of_its_bodies_names_the_field(files, tmp_path):
+    """A pooled fit JSON whose body record lost a field: the error names the file and the
+    field (it said only "KeyError")."""
+    import json
+
+    fit = tmp_path / "two.json"
+    code, text = run("identify", files / "r.csv", files / "l.csv", "--method", "ls",
+                     "--allow-outside-limits", "--out", fit)  # fmt: skip
+    assert code == 0, text
+    data = json.loads(fit.read_text())
+    del data["bodies"]["x"]
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(data))
+    code, text = run("predict", bad, files / "l.csv", "--out", tmp_path / "x.csv")
+    assert code == 2 and f"{bad}: malformed fit file (field 'x' missing)" in text, text

@@ -57,7 +57,7 @@ def predict(fit_file, poses, out, level, stance, imu_link, force):
     line = fit.robot.line is not None  # no CoP on a line: the tilt that balances instead
     cols: dict[str, np.ndarray] = {}
     lost, lost_rank = 0, fit.rank
-    for seen, rows in _stances(fit, table, stance, line, poses):
+    for seen, rows in _stances(fit, table, stance, line, (poses, fit_file)):
         part = _columns(seen, table, q, rows, line, level, imu_link)
         for name, values in part.items():
             cols.setdefault(name, np.full(len(q), np.nan))[rows] = values
@@ -76,11 +76,12 @@ def predict(fit_file, poses, out, level, stance, imu_link, force):
     click.echo(f"wrote {out}: {len(q)} poses")
 
 
-def _stances(fit, table, stance, line, poses):
+def _stances(fit, table, stance, line, files):
     """(the fit seen in a stance, the table's rows in it): ``--support`` for every row (its
     column, if any, must agree), else each row's ``support`` column, else the fit's own
     support. Each stance passes the one stance check (``data_stance``): a frame of the model
     where the CoP predicted is measurable (not a held trunk)."""
+    poses, fit_file = files
     kinds = () if line else ("cop",)
     column = support_column(table)
     labels = None
@@ -123,8 +124,8 @@ def _stances(fit, table, stance, line, poses):
         except DataError as exc:
             at = where[label]
             if at == "--support":
-                raise OptionError("support", f"{label}: {exc}") from None
-            raise DataError(f"{at}: '{label}': {exc}") from None
+                raise OptionError("support", f"{label}: {fit_file}: {exc}") from None
+            raise DataError(f"{at}: '{label}': {fit_file}: {exc}") from None
 
 
 def _columns(fit, table, q, rows, line, level, imu_link) -> dict[str, np.ndarray]:
