@@ -276,3 +276,31 @@ def test_a_fit_file_missing_part_of_its_bodies_names_the_field(files, tmp_path):
     bad.write_text(json.dumps(data))
     code, text = run("predict", bad, files / "l.csv", "--out", tmp_path / "x.csv")
     assert code == 2 and f"{bad}: malformed fit file (field 'x' missing)" in text, text
+
+
+def test_torques_on_both_feet_and_report_support_name_file_or_option(tmp_path, files):
+    """`double` on torque rows names the file and row (or the FILE@FRAME); report --support
+    names the option and the fit file."""
+    data = tmp_path / "tau.csv"
+    code, out = run("simulate", "--measure", "tau", "--poses", 40, "--seed", 3, "--clip",
+                    "--out", data)  # fmt: skip
+    assert code == 0, out
+    t = read_table(data)
+    write_table(tmp_path / "d.csv", {c: t.get(c) for c in t.columns} | {"support": np.full(
+        t.n, "double")})  # fmt: skip
+    code, out = run("identify", tmp_path / "d.csv", "--out", tmp_path / "f.json")
+    assert (
+        code == 2 and "d.csv: row 2, column 'support': 'double': joint torques on both feet" in out
+    ), out
+    write_table(tmp_path / "bare.csv", {c: t.get(c) for c in t.columns})
+    code, out = run("identify", f"{tmp_path / 'bare.csv'}@double", "--out", tmp_path / "f.json")
+    assert code == 2 and "bare.csv@double: 'double': joint torques on both feet" in out, out
+    one = tmp_path / "one.json"
+    code, out = run("identify", files / "r.csv", "--allow-outside-limits", "--out", one)
+    assert code == 0, out
+    code, out = run("report", one, files / "l.csv", "--support", "l_sole",
+                    "--out-dir", tmp_path / "rep")  # fmt: skip
+    assert code == 2 and f"support: l_sole: {one}: the fit was made in one stance" in out, out
+    code, out = run("report", one, files / "l.csv", "--support", "nope",
+                    "--out-dir", tmp_path / "rep")  # fmt: skip
+    assert code == 2 and "support: " in out and "unknown support 'nope'" in out, out
