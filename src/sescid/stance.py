@@ -18,6 +18,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal, get_args
 
+from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.model.sole import splits_at_support
 from sescid.robot import DOUBLE, Robot
@@ -30,6 +31,7 @@ __all__ = [
     "held_trunk",
     "parse_stance",
     "parse_stances",
+    "support_column",
 ]
 
 #: how a robot is held in a stance: on one sole, on both feet, by a link in a gantry
@@ -164,3 +166,19 @@ def _refuse(where: str, message: str):
     if where.startswith("--"):
         raise OptionError(where.lstrip("-").replace("-", "_"), message)
     raise DataError(f"{where}: {message}")
+
+
+def support_column(table: Table) -> str | None:
+    """The header of the table's stance column: ``SUPPORT_COLUMN`` in any case ("Support",
+    "SUPPORT"); None without one; DataError for two such headers (which one is meant?)."""
+    if SUPPORT_COLUMN in table.columns or SUPPORT_COLUMN in table.text:
+        found = [SUPPORT_COLUMN]
+    else:
+        found = []
+    found += [c for c in table.names() if c != SUPPORT_COLUMN and c.lower() == SUPPORT_COLUMN]
+    if len(found) > 1:
+        raise DataError(
+            f"{table.path}: columns {', '.join(repr(c) for c in found)} both name each row's "
+            f"stance: keep one, named '{SUPPORT_COLUMN}'"
+        )
+    return found[0] if found else None

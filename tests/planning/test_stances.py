@@ -14,7 +14,7 @@ from oracle import PinOracle, PinStatics
 
 from sescid import planning as design
 from sescid.cli import cli
-from sescid.errors import ModelError, OptionError
+from sescid.errors import OptionError
 from sescid.io import read_table
 from sescid.planning.kinds import design_kinds
 from sescid.planning.plan_stances import PRIOR_TAU

@@ -13,7 +13,6 @@ from sescid.base.columns import (
     SUPPORT_COLUMN,
     Table,
     pose_ids,
-    support_column,
 )
 from sescid.base.files import (
     OutputSet,
@@ -57,7 +56,6 @@ __all__ = [
     "ordered_map",
     "pin_process",
     "pose_ids",
-    "support_column",
     "read_json",
     "usable_cores",
 ]

@@ -391,24 +391,6 @@ TAU_PREFIX, TAU_SE_PREFIX = "tau_", "tau_se_"
 APPROACH_COLUMN = "approach"
 #: the stance of each row (a frame of the model, or "double"): measurement files and raw logs
 SUPPORT_COLUMN = "support"
-
-
-def support_column(table: Table) -> str | None:
-    """The header of the table's stance column: ``SUPPORT_COLUMN`` in any case ("Support",
-    "SUPPORT"); None without one; DataError for two such headers (which one is meant?)."""
-    if SUPPORT_COLUMN in table.columns or SUPPORT_COLUMN in table.text:
-        found = [SUPPORT_COLUMN]
-    else:
-        found = []
-    found += [c for c in table.names() if c != SUPPORT_COLUMN and c.lower() == SUPPORT_COLUMN]
-    if len(found) > 1:
-        raise DataError(
-            f"{table.path}: columns {', '.join(repr(c) for c in found)} both name each row's "
-            f"stance: keep one, named '{SUPPORT_COLUMN}'"
-        )
-    return found[0] if found else None
-
-
 #: N·m beyond which a torque is taken for a unit mistake (mN·m, N·mm)
 MAX_TORQUE_NM = 1e4
 #: m, a lever no humanoid's gravity torque exceeds: a holding torque beyond the whole robot's

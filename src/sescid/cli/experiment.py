@@ -8,7 +8,7 @@ from typing import Any, Literal
 import click
 import numpy as np
 
-from sescid.base import OutputSet, support_column
+from sescid.base import OutputSet
 from sescid.bench import (
     NO_POSE_MEASURED,
     Engine,
@@ -24,7 +24,7 @@ from sescid.errors import DataError, OptionError
 from sescid.io import read_poses, read_table, write_table
 from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
-from sescid.stance import parse_stance
+from sescid.stance import parse_stance, support_column
 
 
 def torque_options(f: Any) -> Any:

@@ -5,14 +5,14 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import G0, SUPPORT_COLUMN, OutputSet, pose_ids, support_column
+from sescid.base import G0, SUPPORT_COLUMN, OutputSet, pose_ids
 from sescid.cli import common
 from sescid.errors import DataError
 from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
 from sescid.robot import DOUBLE
 from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors, pose_list_ids
-from sescid.stance import data_stance
+from sescid.stance import data_stance, support_column
 
 
 def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:

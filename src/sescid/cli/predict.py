@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import OutputSet, support_column
+from sescid.base import OutputSet
 from sescid.cli import common
 from sescid.errors import DataError, OptionError
 from sescid.estimation import (
@@ -18,7 +18,7 @@ from sescid.io import (
     read_table,
     write_table,
 )
-from sescid.stance import data_stance
+from sescid.stance import data_stance, support_column
 
 
 @click.command()

@@ -27,7 +27,6 @@ from sescid.base.columns import (
     read_torques,
     refuse_plan,
     refuse_raw_log,
-    support_column,
 )
 from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
@@ -35,7 +34,7 @@ from sescid.estimation.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
 from sescid.robot import Robot
 from sescid.sensors.imu import table_gravity
-from sescid.stance import data_stance
+from sescid.stance import data_stance, support_column
 
 
 @dataclass

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import SUPPORT_COLUMN, Table, support_column
+from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
@@ -38,6 +38,7 @@ from sescid.sensors.reduce import (
     read_log,
     uses_feet,
 )
+from sescid.stance import support_column
 
 #: raw-log fields with one row per sample
 _ROWS = ("pose", "q", "gravity", "tau", "approach")
