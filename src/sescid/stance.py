@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Literal, get_args
+from typing import Literal, NoReturn, get_args
 
 from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError, ModelError, OptionError
@@ -161,7 +161,7 @@ def data_stance(
     return out, reference.stance(out)
 
 
-def _refuse(where: str, message: str):
+def _refuse(where: str, message: str) -> NoReturn:
     """Raise the error of ``message`` at ``where``: OptionError for an option, else DataError."""
     if where.startswith("--"):
         raise OptionError(where.lstrip("-").replace("-", "_"), message)
