@@ -7,7 +7,13 @@ the dense algebra and of the block workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import G0, MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
+from sescid.base.columns import (
+    G0,
+    MODEL_COP_COLUMNS,
+    SUPPORT_COLUMN,
+    Table,
+    pose_ids,
+)
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -53,6 +59,7 @@ __all__ = [
     "option_spec",
     "ordered_map",
     "pin_process",
+    "pose_ids",
     "read_json",
     "usable_cores",
 ]

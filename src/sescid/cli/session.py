@@ -170,6 +170,13 @@ def session(**opts):
     stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
     if stances and opts["mount"] is not None:
         raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
+    held = [s for s in stances if s.mount == "gantry"]
+    if held and opts["adapter"] in ("mujoco", "kinematic") and not torque_config(opts).joints:
+        raise OptionError(
+            "stances",
+            f"'gantry:{held[0].support}': a robot held in a gantry loads no foot: the bench "
+            "measures nothing there without --torques (the joints with a torque sensor)",
+        )
     if len(stances) == 1:  # one stance: as --support and --mount
         robot, opts["mount"], stances = stance_robot(robot, stances[0]), stances[0].mount, ()
     opts["stances"] = tuple(s.label if s.mount != "gantry" else f"gantry:{s.support}"

@@ -11,6 +11,7 @@ from sescid.base import OutputSet, listed
 from sescid.bench import ExperimentConfig, real_robot
 from sescid.cli import common
 from sescid.cli.flags import flags, record
+from sescid.errors import OptionError
 from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
@@ -74,6 +75,13 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     outs = OutputSet([out], [common.model_input(robot_name)], force=force)
     robot = common.load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
+    if robot.line is not None and measure != "balance":  # identify could not read the file
+        raise OptionError(
+            "measure",
+            f"{measure}: a robot balancing on its line (--line) is measured by its balance "
+            "(--measure balance): it stands on no sole (no CoP), and its joint torques depend "
+            "on the tilt that balances each pose, which this simulation does not write",
+        )
     common.refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
                 f"with --measure {measure}")  # fmt: skip
     common.refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")

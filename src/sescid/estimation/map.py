@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.fit import CopOffset, Fit, MapInfo, PriorShape
+from sescid.estimation.fit import CopOffset, Fit, MapInfo, NuisanceEstimate, PriorShape
 from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.least_squares import (
     fit_from_solution,
@@ -437,7 +437,7 @@ def _map_fit(
         vecs=np.eye(post.x.size),
         lam=np.ones(post.x.size),
     )  # every direction determined (by data or prior)
-    nuisance = nuisance_estimates(system, mapped)
+    nuisance = _by_prior(nuisance_estimates(system, mapped), nuisance_estimates(system, ls))
     offset = None
     cop = [e for e in nuisance if e.kind == "cop"]
     if cop:
@@ -456,3 +456,17 @@ def _map_fit(
         cop_offset=offset,
         nuisance=nuisance,
     )
+
+
+def _by_prior(
+    estimates: tuple[NuisanceEstimate, ...], by_data: tuple[NuisanceEstimate, ...]
+) -> tuple[NuisanceEstimate, ...]:
+    """MAP's nuisance ``estimates`` (each determined, by the data or the prior), each that the
+    data alone (``by_data``: least squares' estimates) do not determine with its reason
+    prefixed "decided by the prior" (a torque offset and friction band of a joint approached
+    from one side only: the data see their sum)."""
+    return tuple(
+        e if d.determined or not e.determined
+        else dataclasses.replace(e, reason=f"decided by the prior: {d.reason}")
+        for e, d in zip(estimates, by_data, strict=True)
+    )  # fmt: skip

@@ -211,11 +211,17 @@ def _sensor_notes(fit: Fit) -> list[str]:
     )
     friction = [e for e in tau if e.what == "friction"]
     if friction:
-        sep = [e for e in friction if e.determined]
+        sep = [e for e in friction if e.determined and not e.reason]  # by the data
+        prior = any(e.determined and e.reason for e in friction)
         out.append(
             f"static friction bands separated from the offsets for {len(sep)} of "
             f"{len(friction)} joints (approach sides"
-            + (")" if len(sep) == len(friction) else "; the others were approached from one side)")
+            + (
+                ")"
+                if len(sep) == len(friction)
+                else "; the others were approached from one side"
+                + (": the prior, not the data, split their offset and band)" if prior else ")")
+            )
         )
     elif fit.robust is None:
         out.append(
