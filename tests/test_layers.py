@@ -28,6 +28,7 @@ LAYERS = {
     "kinematics": 2,
     "sesc": 3,
     "robot": 4,
+    "stance": 4,
     "simulation": 5,
     "estimation": 6,
     "sensors": 7,

@@ -134,7 +134,7 @@ def identify(
             )
         )  # fmt: skip
     fit = fit_measurements(robot, streams, method=method, options=opts, progress=progress)
-    notes = [m for m in (r.limit_message() for r in got) if m is not None]
+    notes = [m for r in got for m in (r.limit_message(), r.missing_message()) if m is not None]
     if notes:
         fit = dataclasses.replace(fit, warnings=tuple(notes) + fit.warnings)
     return fit

@@ -115,6 +115,9 @@ SCRIPT = textwrap.dedent(
         "export": ["export", str(tmp / "fit.json"), "--out", str(tmp / "op2.urdf")],
         "bag": ["bag", str(tmp), "--map", str(tmp / "map.yaml"),
                 "--out", str(tmp.parent / "raw.csv")],
+        "session": ["session", "--budget", "30", "--out-dir", str(tmp / "s1")],
+        "session-kinematic": ["session", "--adapter", "kinematic", "--budget", "30",
+                              "--out-dir", str(tmp / "s2")],
     }
     for name, args in steps.items():
         res = runner.invoke(cli, args)
@@ -176,3 +179,16 @@ def test_main_commands_run_on_a_core_install(core_only):
 def test_the_blocker_blocks(core_only):
     """The optional packages sescid tried to import were refused (the check can fail)."""
     assert {"mujoco", "ruamel"} <= set(core_only["blocked"])
+
+
+def test_session_on_a_core_install_names_the_way_without_the_extras(core_only):
+    """`session` defaults to the physics bench and the live view: each missing extra's line
+    names the flag that does without it."""
+    code, output, _ = core_only["commands"]["session"]
+    assert code == 2 and output.count("\n") == 1, output
+    assert "sescid[mujoco]" in output and output.endswith(
+        "; or run the rigid-statics bench without it: --adapter kinematic\n"
+    )
+    code, output, _ = core_only["commands"]["session-kinematic"]
+    assert code == 2 and output.count("\n") <= 2, output
+    assert "sescid[view]" in output and output.endswith("; or run without it: --no-view\n")

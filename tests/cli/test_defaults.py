@@ -70,6 +70,9 @@ CLI_ONLY = {
     "adapter": "session: which robot adapter class",
     "replay_path": "session: the replay adapter's input",
     "no_view": "session: whether the live view runs",
+    "over": "export: an input file (export_model(over=None))",
+    "repair_inertia": "export: export_model(repair_inertia=False), a keyword of the writer, "
+    "not an options record",
     "online_step": "identify: poses per update once --online is given (IdentifyOptions."
     "online_step None, the default, means not online: checked as --online)",
 }
@@ -162,6 +165,8 @@ def _simulate(d) -> list:
         ("measure", torque_noise(d), _arg(simulate, "torques")),
         ("TorqueNoise", tau, TorqueNoise()),
         ("tilt_noise_deg", math.radians(d["tilt_noise_deg"]), _arg(simulate_balance, "tilt_noise")),
+        # the real robot simulated: the bench's (experiment's) unmodelled mass
+        ("extra_mass", d["extra_mass"], ExperimentConfig().extra_mass_fraction),
     ]
 
 

@@ -320,7 +320,7 @@ def _echo_sensors(fit: Fit) -> None:
             + (f"  {r.get('friction', '—')}" if has_f else "")
             + (f"  {r.get('gain', '—')}" if has_g else "")
         )
-    lost = [e for e in fit.nuisance if e.kind == "tau" and not e.determined]
+    lost = [e for e in fit.nuisance if e.kind == "tau" and (not e.determined or e.reason)]
     for e in lost[:4]:
         click.echo(f"  {e.label}: {e.reason}")
 

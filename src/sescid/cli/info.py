@@ -46,6 +46,7 @@ def info(robot_name, support):
     for i, (b, m) in enumerate(zip(robot.body_names, robot.masses, strict=True)):
         rr = " ".join(f"{v * 1e3:8.3f}" for v in r[i])
         click.echo(f"  {i:2d} {b:24s} {m:8.4f} kg   r = [{rr}] mm")
+    _echo_inertias(robot)
     click.echo("joints (column order of q; limits in degrees):")
     for name, (lo, hi) in zip(robot.joint_names, np.degrees(robot.joint_limits), strict=True):
         click.echo(f"  {name:24s} [{lo:8.1f}, {hi:8.1f}]")
@@ -69,3 +70,19 @@ def _echo_feet(feet, unread: str | None = None, lost: bool = False) -> None:
     click.echo("  is the one to give as --support: level, on the sole plane if one is):")
     for f in feet:
         click.echo(f"  {f.describe()}")
+
+
+def _echo_inertias(robot) -> None:
+    """Every link whose CAD inertia tensor is a point mass's or not physical, by how much."""
+    from sescid.model import inertia_problems
+
+    problems = inertia_problems(robot.model)
+    if not problems:
+        click.echo("inertia tensors: every link with mass has a physical one")
+        return
+    click.echo(
+        f"inertia tensors: {len(problems)} link(s) with mass whose tensor is not positive "
+        "definite or breaks the triangle inequality (export --repair-inertia repairs them):"
+    )
+    for p in problems:
+        click.echo(f"  {p.text()}")

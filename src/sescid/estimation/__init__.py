@@ -17,6 +17,7 @@ from sescid.estimation.api import fit_measurements, to_consistent
 from sescid.estimation.cad_check import cad_violations
 from sescid.estimation.checks import (
     COP_ON_TRUNK,
+    check_com_height,
     check_total_mass,
     fit_warnings,
     outside_limits,
@@ -117,6 +118,7 @@ __all__ = [
     "accumulate",
     "body_boxes",
     "cad_violations",
+    "check_com_height",
     "check_total_mass",
     "balance_interval",
     "com_interval",

@@ -156,9 +156,13 @@ def work(robot: Robot, m: Measurements, n: int) -> int:
 
 def aligned(chunks: Iterable[Measurements], size: int) -> Iterable[Measurements]:
     """Consecutive blocks of ``size`` poses (the last may be shorter) of chunks of any size:
-    views into the chunks, a copy only for a block that spans two of them."""
+    views into the chunks, a copy only for a block that spans two of them; a block never spans
+    two stances (``Measurements.support``: a chunk of another ends the block before it)."""
     carry: Measurements | None = None
     for m in chunks:
+        if carry is not None and carry.support != m.support:  # a block holds one stance
+            yield carry
+            carry = None
         if carry is not None:
             need = size - carry.n
             if m.n < need:

@@ -16,7 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base.text import listed
 from sescid.errors import OptionError
+from sescid.estimation.anchor import com_distance
 from sescid.estimation.fit import Fit
 from sescid.model.sole import splits_at_support
 from sescid.robot import Robot
@@ -24,6 +26,9 @@ from sescid.robot import Robot
 #: a weighed total mass must lie within this factor range of the model's (outside: a unit slip
 #: — grams, pounds — or another robot)
 TOTAL_MASS_RANGE = (0.5, 2.0)
+#: a known CoM height must lie within this factor range of the model's (outside: a unit slip —
+#: inches, centimetres — or another robot)
+COM_HEIGHT_RANGE = (0.5, 2.0)
 #: information matrix worse conditioned than this (on the excited combinations) is flagged
 CONDITION_WARN = 1e8
 #: σ̂ below this (m, or a weighted scale) is an exact fit: constant CoP or noise-free data
@@ -120,12 +125,13 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "data, whose scale is not in the data"
         )
     if fit.weak:
-        names = "; ".join(c.label() for c in fit.weak[:3])
-        more = f" (and {len(fit.weak) - 3} more)" if len(fit.weak) > 3 else ""
+        names = listed(
+            (c.label() for c in fit.weak), sep="; ", where='all in the fit file\'s "weak"'
+        )
         whose = "taken from the prior model" if fit.map is None else "decided by the prior"
         out.append(
             f"{len(fit.weak)} combination(s) barely excited by these poses (information below "
-            f"10⁻⁷ of the largest), {whose}: {names}{more}; vary the joints that move them"
+            f"10⁻⁷ of the largest), {whose}: {names}; vary the joints that move them"
         )
     from sescid.estimation.tilt import TILT_REL_STD_WARN, tilt_direction
 
@@ -214,4 +220,32 @@ def check_total_mass(robot: Robot, total_mass: float | None, name: str = "total_
             name,
             f"{m:g} kg is not this robot's mass: {ratio:.3g} × the model's {model:.4g} kg, "
             f"expected within {lo:g}–{hi:g} ×{unit}",
+        )
+
+
+def check_com_height(
+    robot: Robot, height: float | None, r: np.ndarray | None = None, name: str = "com_height"
+) -> None:
+    """OptionError naming ``name`` unless a known CoM height [m] (the CoM's distance from the
+    support at the zero pose, ``anchor.com_distance``) lies within ``COM_HEIGHT_RANGE`` × the
+    model's (SESC vectors ``r``, default the robot's); None: nothing given."""
+    if height is None:
+        return
+    h = float(height)
+    model = com_distance(robot, robot.sesc_vectors() if r is None else np.asarray(r))
+    if not (math.isfinite(h) and h > 0) or model <= 0:
+        return  # the option's range says so, or the model has no height to compare with
+    lo, hi = COM_HEIGHT_RANGE
+    ratio = h / model
+    if not lo <= ratio <= hi:
+        unit = next(
+            (f" ({u}? the unit is m)" for u, f in (("inches", 39.37), ("centimetres", 100.0),
+             ("millimetres", 1000.0)) if 0.7 * f <= ratio <= 1.4 * f),
+            "",
+        )  # fmt: skip
+        raise OptionError(
+            name,
+            f"{h:g} m is not this robot's CoM height: {ratio:.3g} × the model's {model:.3g} m "
+            f"(its CoM's distance from the support at the zero pose), expected within "
+            f"{lo:g}–{hi:g} ×{unit}",
         )

@@ -207,6 +207,12 @@ class BodyInertials:
     solve_time: float = 0.0  #: s
     cad_masses: np.ndarray | None = None  #: (N,) kg, the model's
     grown_boxes: list[str] = field(default_factory=list)  #: bodies whose box was grown to CAD
+    #: the fit's SESC vectors reproduced exactly (a MAP fit's, ``consistent.exact``)
+    exact: bool = False
+    #: bodies the data carry no information on: CAD's mass and CoM kept
+    undetermined: list[str] = field(default_factory=list)
+    #: what the step could not do as asked (CoMs outside their boxes, masses far from CAD)
+    notes: list[str] = field(default_factory=list)
 
     def worst_mass_change(self) -> tuple[int, float] | None:
         """(body index, relative change) of the body whose mass moved most from CAD."""

@@ -374,7 +374,9 @@ def load_fit(path: str | Path) -> records.Fit:
         changed = _model_change(path, meta, robot)
     except SescidError:
         raise
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
+    except KeyError as exc:
+        raise DataError(f"{path}: malformed fit file (field {exc} missing)") from None
+    except (TypeError, ValueError, IndexError) as exc:
         raise DataError(f"{path}: malformed fit file ({exc.__class__.__name__}: {exc})") from None
     if changed is not None:
         fit = dataclasses.replace(fit, warnings=(changed, *fit.warnings))

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.fit import CopOffset, Fit, MapInfo, PriorShape
+from sescid.estimation.fit import CopOffset, Fit, MapInfo, NuisanceEstimate, PriorShape
 from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.least_squares import (
     fit_from_solution,
@@ -121,15 +121,23 @@ WEAK_REASON_MAP = (
 BODY_COM_SCALE = 0.05
 
 
+def _carrying(robot: Robot) -> np.ndarray:
+    """(N,) 1 for a body that can carry mass, 0 for a frame-only one (``Body.frame_only``: a
+    frame between two hinges of one MJCF body, which the model file cannot give mass): the
+    prior gives it no mass, so the fit's SESC vectors stay reachable by masses the file holds."""
+    return np.array([0.0 if b.frame_only else 1.0 for b in robot.model.bodies])
+
+
 def body_prior(robot: Robot, n_x: int, nuisance_scales: np.ndarray) -> Prior:
     """The per-body prior (``Prior`` "bodies"): body masses m̄_j = m_j + M/(10 N) ± τ m̄_j and
-    first moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r)."""
+    first moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r); a
+    frame-only body ± 0 (``_carrying``)."""
     from sescid.estimation.consistent import H_UNIT, sesc_map
 
     k = sesc_map(robot)  # vec(r) = K [m/M, vec(h)/(M ℓ)]
     masses = robot.masses
     big_m = float(masses.sum())
-    m_bar = (masses + big_m / (10 * masses.size)) / big_m
+    m_bar = _carrying(robot) * (masses + big_m / (10 * masses.size)) / big_m
     d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / H_UNIT) ** 2, 3)])
     sigma0 = (k * d) @ k.T
     sigma0 = (sigma0 + sigma0.T) / 2
@@ -344,6 +352,7 @@ def pooled_body_prior(robot: Robot, nuisance_scales: np.ndarray) -> Prior:
     masses = robot.masses
     big_m = float(masses.sum())
     m_bar = (masses + big_m / (10 * masses.size)) / big_m
+    m_bar = np.where(_carrying(robot) > 0, m_bar, 1e-6 * m_bar)
     d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / PARAM_UNIT) ** 2, 3)])
     return Prior(d.size, nuisance_scales, np.diag(1.0 / d), float(-np.sum(np.log(d))), "bodies")
 
@@ -428,7 +437,7 @@ def _map_fit(
         vecs=np.eye(post.x.size),
         lam=np.ones(post.x.size),
     )  # every direction determined (by data or prior)
-    nuisance = nuisance_estimates(system, mapped)
+    nuisance = _by_prior(nuisance_estimates(system, mapped), nuisance_estimates(system, ls))
     offset = None
     cop = [e for e in nuisance if e.kind == "cop"]
     if cop:
@@ -447,3 +456,17 @@ def _map_fit(
         cop_offset=offset,
         nuisance=nuisance,
     )
+
+
+def _by_prior(
+    estimates: tuple[NuisanceEstimate, ...], by_data: tuple[NuisanceEstimate, ...]
+) -> tuple[NuisanceEstimate, ...]:
+    """MAP's nuisance ``estimates`` (each determined, by the data or the prior), each that the
+    data alone (``by_data``: least squares' estimates) do not determine with its reason
+    prefixed "decided by the prior" (a torque offset and friction band of a joint approached
+    from one side only: the data see their sum)."""
+    return tuple(
+        e if d.determined or not e.determined
+        else dataclasses.replace(e, reason=f"decided by the prior: {d.reason}")
+        for e, d in zip(estimates, by_data, strict=True)
+    )  # fmt: skip

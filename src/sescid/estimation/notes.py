@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from sescid.base.text import listed
 from sescid.estimation.tilt import tilt_direction
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -49,7 +50,7 @@ def _stance_note(fit: Fit) -> str:
     """What each stance determines alone and what pooling them adds."""
     b = fit.bodies
     each = ", ".join(f"{s.support} {s.rank} ({s.n_poses} poses)" for s in b.stances)
-    added = "; ".join(b.added[:3]) + (f" (and {len(b.added) - 3} more)" if len(b.added) > 3 else "")
+    added = listed(b.added, sep="; ")
     gain = f"; pooling adds {len(b.added)}: {added}" if b.added else ""
     return (
         f"stances pooled over the {b.x.size} body parameters (masses, first moments): each "
@@ -157,7 +158,8 @@ def _consistent_notes(fit: Fit) -> list[str]:
     ]
     if b.grown_boxes:
         notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))
-    if active and b.prior_std is None:
+    notes += list(b.notes)
+    if active and b.prior_std is None and not b.exact:
         notes.append(
             "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
             "their bounds; a CAD prior (ConsistentOptions.prior_std, e.g. 0.05) gives "
@@ -211,11 +213,17 @@ def _sensor_notes(fit: Fit) -> list[str]:
     )
     friction = [e for e in tau if e.what == "friction"]
     if friction:
-        sep = [e for e in friction if e.determined]
+        sep = [e for e in friction if e.determined and not e.reason]  # by the data
+        prior = any(e.determined and e.reason for e in friction)
         out.append(
             f"static friction bands separated from the offsets for {len(sep)} of "
             f"{len(friction)} joints (approach sides"
-            + (")" if len(sep) == len(friction) else "; the others were approached from one side)")
+            + (
+                ")"
+                if len(sep) == len(friction)
+                else "; the others were approached from one side"
+                + (": the prior, not the data, split their offset and band)" if prior else ")")
+            )
         )
     elif fit.robust is None:
         out.append(

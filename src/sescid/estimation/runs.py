@@ -239,6 +239,7 @@ def _anchor(robot: Robot, system: System, options: IdentifyOptions):
     CoM height (``options.com_height``), for which the prior model is scaled first — with the
     prior SESC vectors used and the scale's source; the data as they are otherwise."""
     from sescid.estimation import anchor
+    from sescid.estimation.checks import check_com_height
     from sescid.estimation.least_squares import prior_theta
 
     r0 = robot.sesc_vectors() if options.r_prior is None else np.asarray(options.r_prior)
@@ -263,6 +264,7 @@ def _anchor(robot: Robot, system: System, options: IdentifyOptions):
         a[: system.n_x] = lmap.T @ a_r
         return anchor.anchored(system, a, theta0), None, (by, prior_distance, None)
     if options.com_height is not None:
+        check_com_height(robot, options.com_height, r0)
         lam = anchor.rescale(robot, r0, options.com_height)
         r_c = anchor.collapse_point(robot, system)[: system.n_x].reshape(-1, 3)
         r0 = r_c + lam * (r0 - r_c)

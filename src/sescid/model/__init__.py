@@ -11,7 +11,13 @@ the feet a robot can stand on (``feet``). See docs/model.md.
 from sescid.model.feet import FootCandidate, frame_up, root_frame, support_candidates
 from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
-from sescid.model.inertia import inertia_issue, inertia_parts
+from sescid.model.inertia import (
+    InertiaProblem,
+    inertia_issue,
+    inertia_parts,
+    inertia_problems,
+    repair_inertia,
+)
 from sescid.model.load import load_model, model_format
 from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
 from sescid.model.urdf import build_model as build_urdf_model
@@ -33,6 +39,9 @@ __all__ = [
     "build_urdf_model",
     "frame_up",
     "inertia_issue",
+    "inertia_problems",
+    "repair_inertia",
+    "InertiaProblem",
     "inertia_parts",
     "inv_transform",
     "load_model",

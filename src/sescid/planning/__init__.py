@@ -17,10 +17,8 @@ without fast-math and breaks near-ties by index: the same poses on every CPU.
 
 from sescid.planning.blocks import BlockDesign, schur_logdet, select_blocks
 from sescid.planning.candidates import (
-    MOUNTS,
     CandidateOptions,
     Candidates,
-    Mount,
     Sampling,
     candidates,
 )
@@ -111,7 +109,8 @@ from sescid.planning.stability import (
     sole_corners,
     stable_mask,
 )
-from sescid.planning.stances import Stance, parse_stances, stance_robot
+from sescid.planning.stances import stance_robot
+from sescid.stance import MOUNTS, Mount, Stance, parse_stances
 
 __all__ = [
     "PAYLOAD_CANDIDATES",

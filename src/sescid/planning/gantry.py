@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import OptionError, SescidError, check_choice
-from sescid.model.sole import splits_at_support
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
 from sescid.planning.candidates import Candidates, Mount, Sampling
@@ -36,6 +35,7 @@ from sescid.planning.kinds import DesignKind
 from sescid.planning.limits import sampling_limits
 from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
+from sescid.stance import held_trunk
 
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
@@ -53,12 +53,6 @@ class GantryOptions:
     hang_height: float | None = None  #: m, held link above the floor (None: ``gantry_floor``)
     clearance: float = DEFAULT_CLEARANCE  #: m, every body above the floor
     chunk: int = 20_000  #: uniform draws per batch (at most)
-
-
-def held_trunk(robot: Robot) -> bool:
-    """True when the robot's mass splits at its support body (a trunk or pelvis: several heavy
-    branches leave it), False at the end of a limb (a foot)."""
-    return splits_at_support([b.parent for b in robot.model.bodies], robot.masses)
 
 
 def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
