@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -196,8 +195,7 @@ def test_bad_input(op2, carrying, tmp_path):
 def test_balance_on_a_wheel_axle(tmp_path):
     """A wheeled humanoid balancing on its axle: the balancing tilts give the payload (exactly
     from noise-free tilts; within its stated errors from an IMU with 0.2° noise)."""
-    path = Path(__file__).parents[2] / "examples" / "models" / "wheeled_humanoid.urdf"
-    robot = load_robot(path, "axle", line="y")
+    robot = load_robot("wheeled_humanoid", "axle", line="y")
     truth = robot_with_payload(robot, tmp_path, "forearm_r", 0.8, [0.05, 0.02, -0.03])
     for noise in (0.0, math.radians(0.2)):
         sim = simulate_balance(truth, n=16, tilt_noise=noise, seed=3)
