@@ -15,6 +15,7 @@ from sescid.cli import cli
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements
 from sescid.io import read_table, write_table
+from sescid.robots import example_path
 from sescid.stance import data_stance, parse_stance
 
 TRUNK = "MP_BODY"
@@ -249,9 +250,8 @@ def test_stances_that_a_plan_or_a_session_cannot_use(tmp_path):
     """poses --stances with a line support is refused by name (it was read as a gantry and
     failed on --kinds); session --stances with a gantry and no torque sensors is refused before
     anything runs (it ran with a stance it could never measure)."""
-    from pathlib import Path
 
-    wheeled = Path(__file__).parents[1] / "examples" / "models" / "wheeled_humanoid.urdf"
+    wheeled = example_path("wheeled_humanoid")
     code, out = run("poses", "--robot", wheeled, "--support", "axle", "--line", "y",
                     "--stances", "axle,torso", "--out", tmp_path / "p.csv")  # fmt: skip
     assert code == 2 and "--stances: 'axle': the robot balances on a line there" in out, out

@@ -16,6 +16,7 @@ import numpy as np
 
 import sescid
 from sescid.estimation.validation import perturbed_sesc
+from sescid.robots import example_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "helpers"))
 import pinocchio as pin
@@ -26,7 +27,7 @@ TALOS = str(
     Path(pin.__file__).parents[4]
     / "share/example-robot-data/robots/talos_data/robots/talos_reduced.urdf"
 )
-HUM = str(Path(__file__).resolve().parents[1] / "examples/models/humanoid.xml")
+HUM = str(example_path("humanoid"))
 tag = sys.argv[1] if len(sys.argv) > 1 else "this tree"
 
 

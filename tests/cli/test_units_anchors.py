@@ -3,8 +3,6 @@ CoM height in inches, and a simulated file that identify cannot read are refused
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -15,9 +13,10 @@ from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements, check_com_height
 from sescid.estimation.anchor import com_distance
 from sescid.io import read_table, write_table
+from sescid.robots import example_path
 from sescid.simulation import simulate_balance
 
-WHEELED = Path(__file__).parents[2] / "examples" / "models" / "wheeled_humanoid.urdf"
+WHEELED = example_path("wheeled_humanoid")
 ROBOT = ["--robot", str(WHEELED), "--support", "axle", "--line", "y"]
 
 

@@ -19,13 +19,14 @@ from sescid.errors import ModelError
 from sescid.estimation.validation import perturbed_sesc
 from sescid.model import inertia_problems, repair_inertia
 from sescid.model.inertia import physical
+from sescid.robots import example_path
 
 pin = pytest.importorskip("pinocchio")
 TALOS = (
     Path(pin.__file__).parents[4]
     / "share/example-robot-data/robots/talos_data/robots/talos_reduced.urdf"
 )
-HUMANOID = Path(__file__).parents[2] / "examples/models/humanoid.xml"
+HUMANOID = example_path("humanoid")
 
 
 def _fit(robot, seed=1, fraction=0.04, noise=0.00493):

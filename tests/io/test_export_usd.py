@@ -16,6 +16,7 @@ from sescid.errors import MissingExtraError, ModelError
 from sescid.estimation.validation import perturbed_sesc
 from sescid.io import export_usd
 from sescid.io.export import exported_parts
+from sescid.robots import example_path
 
 pxr = pytest.importorskip("pxr")
 from pxr import Gf, Usd, UsdGeom, UsdPhysics  # noqa: E402
@@ -25,7 +26,7 @@ TALOS = (
     Path(pin.__file__).parents[4]
     / "share/example-robot-data/robots/talos_data/robots/talos_reduced.urdf"
 )
-HUMANOID = Path(__file__).parents[2] / "examples/models/humanoid.xml"
+HUMANOID = example_path("humanoid")
 F32 = 2.0**-23  # float32 relative precision
 
 
