@@ -155,6 +155,9 @@ def test_friction_threshold_is_bonferroni():
     for more; the simulated family-wise rate of 20 independent bands stays below the rate."""
     assert friction_threshold(1) == pytest.approx(2.3263, abs=1e-4)
     assert friction_threshold(33) > friction_threshold(20) > 3.2
+    # a standard error of few degrees of freedom: Student's t, wider; many: the normal's
+    assert friction_threshold(20, dof=35) > friction_threshold(20) + 0.25
+    assert friction_threshold(20, dof=1e9) == pytest.approx(friction_threshold(20), abs=1e-6)
     from statistics import NormalDist
 
     exact = 1 - (1 - NormalDist().cdf(-friction_threshold(20))) ** 20
@@ -195,4 +198,4 @@ def test_a_reversed_approach_column_is_named(op2):
     bad = _data(op2, 40, 0.05, 11, friction=f, side_sign=-1.0)
     fit = sescid.identify(op2, bad, total_mass=op2.total_mass, gravity_accel=G0)
     negative, z = negative_bands(fit)
-    assert len(negative) == op2.nq and _warned(fit) and z == friction_threshold(op2.nq)
+    assert len(negative) == op2.nq and _warned(fit) and z >= friction_threshold(op2.nq)

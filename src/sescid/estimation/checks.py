@@ -34,8 +34,9 @@ FEW_DOF = 0.1
 LIMIT_SLACK = math.radians(2.0)
 #: family-wise false-alarm rate of the negative-friction-band warning: a band is called
 #: significantly negative when value/std < −z with z the Bonferroni level over the joints
-#: (``friction_threshold``), so that over many fits of sensors of the right sign (bands ≥ 0) at
-#: most this share warn about any joint
+#: (``friction_threshold``; Student's t with the joint's residual degrees of freedom when its
+#: noise was estimated from them), so that over many fits of sensors of the right sign
+#: (bands ≥ 0) at most this share warn about any joint
 FRICTION_ALARM_RATE = 0.01
 
 
@@ -198,23 +199,34 @@ def _bands(fit: Fit) -> int:
     )
 
 
-def friction_threshold(n_bands: int, rate: float = FRICTION_ALARM_RATE) -> float:
-    """The z that n_bands independent standard normal estimates all stay above (−z) with
-    probability 1 − ``rate`` or more (Bonferroni: the one-sided level rate/n_bands)."""
+def friction_threshold(
+    n_bands: int, rate: float = FRICTION_ALARM_RATE, dof: float = math.inf
+) -> float:
+    """The z that n_bands independent estimates all stay above (−z) with probability
+    1 − ``rate`` or more (Bonferroni: the one-sided level rate/n_bands), each standardised by
+    a standard error of ``dof`` degrees of freedom (Student's t; inf: a normal)."""
+    level = rate / max(n_bands, 1)
+    if math.isfinite(dof) and dof > 0:
+        from scipy.stats import t
+
+        return float(t.isf(level, dof))
     from statistics import NormalDist
 
-    return -NormalDist().inv_cdf(rate / max(n_bands, 1))
+    return -NormalDist().inv_cdf(level)
 
 
 def negative_bands(fit: Fit) -> tuple[list, float]:
     """The friction bands significantly below zero (value/std < −z, ``friction_threshold``
-    over the fit's determined bands), and z."""
+    over the fit's determined bands, with each joint's residual degrees of freedom when its
+    noise was estimated per joint), and the smallest z."""
     bands = [
         e for e in fit.nuisance
         if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
     ]  # fmt: skip
-    z = friction_threshold(len(bands))
-    return [e for e in bands if e.value < -z * e.std], z
+    dof = {r.joint: r.dof for r in fit.torque_noise if r.by == "estimated"}
+    z = {e.name: friction_threshold(len(bands), dof=dof.get(e.name, math.inf)) for e in bands}
+    lowest = min(z.values(), default=friction_threshold(len(bands)))
+    return [e for e in bands if e.value < -z[e.name] * e.std], lowest
 
 
 def _structural(fit: Fit) -> int:
