@@ -44,9 +44,9 @@ from sescid.estimation.normal_equations import ACCUMULATE_BLOCK
 TorqueNoiseModel = Literal["joint", "shared"]
 TORQUE_NOISE_MODELS: tuple[TorqueNoiseModel, ...] = get_args(TorqueNoiseModel)
 #: reweighting passes stop when every σ_j changed by less than this (relative) …
-GLS_TOL = 0.02
+GLS_TOL = 0.05
 #: … or after this many passes
-GLS_PASSES = 5
+GLS_PASSES = 3
 #: a joint with fewer residual degrees of freedom keeps the pooled noise level
 MIN_JOINT_DOF = 5.0
 #: σ_j is never taken below this fraction of the pooled level
