@@ -195,4 +195,5 @@ def test_huber_streamed_in_chunks_is_the_in_memory_fit(robot):
                           compare=False)  # fmt: skip
 
     in_memory = huber_in_memory(run, data, k=opts.huber_k)
-    _same_fit(identify(robot, whole, method="ls", kinds=("tau",)), in_memory)
+    shared = identify(robot, whole, method="ls", kinds=("tau",), tau_noise_model="shared")
+    _same_fit(shared, in_memory)

@@ -105,7 +105,7 @@ SECTIONS = {
     "MAP (--method map or auto)": ("prior_scale", "prior", "prior_select", "noise", "bias"),
     "Consistent masses (--method consistent)": ("total_mass", "mass_floor", "symmetric",
                                                 "box_margin", "via", "cad_std"),
-    "Joint torques": ("tau_noise", "tau_gains", "gain_prior", "gravity_accel"),
+    "Joint torques": ("tau_noise", "tau_noise_model", "tau_gains", "gain_prior", "gravity_accel"),
     "Payload (what the robot carries)": ("payload", "payload_mass", "base"),
     "Output": ("out", "force"),
 }  # fmt: skip
@@ -133,7 +133,8 @@ _, _STEP = option_spec(IdentifyOptions, "online_step")
     "Which measurements of the files to fit: all they have, the CoP only, or the joint "
     "torques only.",
 )
-@flags(IdentifyOptions, "com_height", "weighted", "rtol", "cop_noise", "tau_noise", "tau_gains",
+@flags(IdentifyOptions, "com_height", "weighted", "rtol", "cop_noise", "tau_noise",
+       "tau_noise_model", "tau_gains",
        "gain_prior", "gravity_accel", "allow_exact", "total_mass")  # fmt: skip
 @consistent_options
 @flags(MapOptions, "prior_scale", "prior", "select", "noise", "bias")
@@ -309,16 +310,21 @@ def _echo_sensors(fit: Fit) -> None:
         return
     has_f = any("friction" in r for r in rows.values())
     has_g = any("gain" in r for r in rows.values())
+    noise = {r.joint: r for r in fit.torque_noise}
+    unit = " [× tau_se]" if noise and fit.torque_noise[0].unit == "1" else ""
     click.echo(
         "torque sensors [N·m]: joint  offset"
         + ("  friction" if has_f else "")
         + ("  gain [1]" if has_g else "")
+        + (f"  noise σ_j{unit}" if noise else "")
     )
     for joint, r in rows.items():
+        n = noise.get(joint)
         click.echo(
             f"  {joint}  {r.get('offset', '—')}"
             + (f"  {r.get('friction', '—')}" if has_f else "")
             + (f"  {r.get('gain', '—')}" if has_g else "")
+            + (f"  {n.sigma:.4f}" + (" (pooled)" if n.by == "pooled" else "") if n else "")
         )
     lost = [e for e in fit.nuisance if e.kind == "tau" and (not e.determined or e.reason)]
     for e in lost[:4]:

@@ -21,7 +21,7 @@ from typing import Any
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
 from sescid.estimation.consistent import consistent_from_fit
-from sescid.estimation.fit import Fit, MethodName
+from sescid.estimation.fit import Fit, JointNoise, MethodName
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.options import (
     AutoOptions,
@@ -42,6 +42,7 @@ from sescid.estimation.runs import (
     with_extras,
 )
 from sescid.estimation.sources import as_sources, in_memory
+from sescid.estimation.torque_noise import with_records
 from sescid.robot import Robot
 
 
@@ -75,15 +76,72 @@ def _huber(
         return run_method(robot, method, o, srcs, None, compare=False)
 
     if memory is not None:
-        fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+        fit = huber(
+            run, memory, weighted=opts.weighted, k=opts.huber_k, tau_weighted=opts.tau_weighted
+        )
     else:
-        fit = huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k)
+        fit = huber_sources(
+            run_sources, sources, weighted=opts.weighted, k=opts.huber_k,
+            tau_weighted=opts.tau_weighted,
+        )  # fmt: skip
     if method.method != "ls":
         return fit
     plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
     first = run_method(robot, method, plain, _held(robot, sources, memory), memory)
     extra = tuple(w for w in first.warnings if w.startswith(WORSE_THAN_CAD))
     return dataclasses.replace(fit, warnings=fit.warnings + extra)
+
+
+def _per_joint(opts: IdentifyOptions) -> bool:
+    """Whether the torque rows' noise is estimated per joint (``torque_noise``): the default,
+    unless one level is given or the fit is recursive or estimates gains."""
+    return (
+        opts.tau_noise_model == "joint"
+        and opts.tau_noise is None
+        and opts.online_step is None
+        and not opts.tau_gains
+        and opts.tau_weighted is None
+    )
+
+
+def _joint_noise(robot, method: MethodOptions, opts: IdentifyOptions, sources, memory, first: Fit):
+    """Feasible GLS of the torque rows (``torque_noise.per_joint_noise``) from a plain fit
+    ``first``: the sources (and the data in memory) with each joint's σ_j as its rows'
+    standard errors, the options that weigh them, the records and the last plain fit."""
+    from sescid.estimation.torque_noise import JointScaled, per_joint_noise
+
+    plain = dataclasses.replace(opts, robust=False, tau_weighted=True)
+
+    def run(srcs: list[Any], weighted: bool) -> Fit:
+        del weighted  # the torque rows carry σ_j; the CoP rows stay as asked
+        held = None if memory is None else [x for s in srcs for x in s.chunks()]
+        return run_method(robot, method, plain, srcs, held)
+
+    wrapped, records, last = per_joint_noise(run, list(sources), opts.weighted, first)
+    if wrapped is None:
+        return sources, memory, opts, (), first
+    if memory is not None:
+        sigma = {r.joint: r.sigma for r in records}
+        memory = [
+            next(JointScaled(HeldSource(robot, x), sigma, opts.weighted).chunks()) for x in memory
+        ]
+        wrapped = [HeldSource(robot, x) for x in memory]
+    return wrapped, memory, dataclasses.replace(opts, tau_weighted=True), records, last
+
+
+def _final_records(fit: Fit, sources, used: tuple[JointNoise, ...]):
+    """The σ_j the final fit weighed each joint's rows by (``used``), with the residual RMS,
+    degrees of freedom and share of the parameters under that fit (the sources carry σ_j as
+    their errors: the RMS back in units of the original errors)."""
+    from sescid.estimation.torque_noise import joint_noise, joint_stats
+
+    joints = tuple(r.joint for r in used)
+    st = joint_stats(fit, sources, joints, True, dict.fromkeys(joints, 1.0))
+    new = joint_noise(st, fit, joints)
+    return tuple(
+        dataclasses.replace(u, rms=r.rms * u.sigma, dof=r.dof, params=r.params)
+        for u, r in zip(used, new, strict=True)
+    )
 
 
 def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
@@ -128,7 +186,8 @@ def fit_measurements(
     m = method_options(method)
     opts = options or IdentifyOptions()
     check_method(m, opts)
-    sources = as_sources(robot, data, opts.kinds)
+    weighted = opts.weighted
+    sources = opened = as_sources(robot, data, opts.kinds)
     try:
         robust = opts.robust
         settings = map_settings(m)
@@ -143,6 +202,16 @@ def fit_measurements(
         if robust == "auto" and memory is not None:
             robust = any(x.tau is not None and x.approach is None for x in memory)
         choice = None
+        plain_fit: Fit | None = None  # a plain fit of the data as they are (when made)
+        records: tuple[JointNoise, ...] = ()
+        if _per_joint(opts):
+            plain = dataclasses.replace(opts, robust=False)
+            plain_fit = run_method(robot, m, plain, _held(robot, sources, memory), memory,
+                                   progress)  # fmt: skip
+            if plain_fit.kind(TORQUE) is not None:
+                sources, memory, opts, records, plain_fit = _joint_noise(
+                    robot, m, opts, sources, memory, plain_fit
+                )
         if isinstance(m, AutoOptions) and opts.online_step is not None:
             # a recursive MAP fit needs its prior scale and noise given
             known = m.map.prior_scale is not None and m.map.noise is not None
@@ -161,7 +230,7 @@ def fit_measurements(
         elif robust is True:
             fit = _huber(robot, m, opts, sources, memory)
         else:
-            fit = run_method(robot, m, opts, sources, memory, progress)
+            fit = plain_fit or run_method(robot, m, opts, sources, memory, progress)
             if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
                 choice = fit.choice
                 if isinstance(m, AutoOptions) and choice is not None:
@@ -170,8 +239,10 @@ def fit_measurements(
         if choice is not None:
             fit = dataclasses.replace(fit, choice=choice)
         fit = with_extras(robot, m, opts, fit, memory)
+        if records:
+            fit = with_records(fit, _final_records(fit, sources, records), weighted)
     finally:
-        for s in sources:
+        for s in opened:
             s.close()
     return dataclasses.replace(fit, warnings=warnings_of(fit, opts))
 

@@ -37,6 +37,12 @@ EXACT_FIT = 1e-9
 FEW_DOF = 0.1
 #: angles beyond a limit by less than this are inside (servo play, read-back noise), rad
 LIMIT_SLACK = math.radians(2.0)
+#: family-wise false-alarm rate of the negative-friction-band warning: a band is called
+#: significantly negative when value/std < −z with z the Bonferroni level over the joints
+#: (``friction_threshold``; Student's t with the joint's residual degrees of freedom when its
+#: noise was estimated from them), so that over many fits of sensors of the right sign
+#: (bands ≥ 0) at most this share warn about any joint
+FRICTION_ALARM_RATE = 0.01
 
 
 @dataclass(frozen=True)
@@ -170,16 +176,16 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "noise-free data)"
         )
         out.append(f"σ̂ = 0: {data}; intervals have zero width")
-    negative = [
-        e for e in fit.nuisance
-        if e.kind == "tau" and e.what == "friction" and e.determined and e.value < -2 * e.std
-    ]  # fmt: skip
+    negative, z = negative_bands(fit)
     if negative:
-        shown = ", ".join(f"{e.name} {e.value:+.3f} ± {e.std:.3f}" for e in negative[:4])
+        shown = ", ".join(
+            f"{e.name} {e.value:+.3f} ± {e.std:.3f} ({e.value / e.std:+.1f}σ)" for e in negative[:4]
+        )
         out.append(
-            f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}): "
-            "a band is never below zero — those torque sensors' sign is reversed, or their "
-            "approach column is (+1: reached moving up)"
+            f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}; "
+            f"beyond −{z:.2f}σ, the {FRICTION_ALARM_RATE:.0%} level over the fit's "
+            f"{_bands(fit)} bands): a band is never below zero — those torque sensors' sign is "
+            "reversed, or their approach column is (+1: reached moving up)"
         )
     held = splits_at_support([b.parent for b in fit.robot.model.bodies], fit.robot.masses)
     if held and fit.kind("cop") is not None:
@@ -190,6 +196,43 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"--support); this fit is of a robot standing on '{fit.robot.support}'"
         )
     return out
+
+
+def _bands(fit: Fit) -> int:
+    return sum(
+        e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
+        for e in fit.nuisance
+    )
+
+
+def friction_threshold(
+    n_bands: int, rate: float = FRICTION_ALARM_RATE, dof: float = math.inf
+) -> float:
+    """The z that n_bands independent estimates all stay above (−z) with probability
+    1 − ``rate`` or more (Bonferroni: the one-sided level rate/n_bands), each standardised by
+    a standard error of ``dof`` degrees of freedom (Student's t; inf: a normal)."""
+    level = rate / max(n_bands, 1)
+    if math.isfinite(dof) and dof > 0:
+        from scipy.stats import t
+
+        return float(t.isf(level, dof))
+    from statistics import NormalDist
+
+    return -NormalDist().inv_cdf(level)
+
+
+def negative_bands(fit: Fit) -> tuple[list, float]:
+    """The friction bands significantly below zero (value/std < −z, ``friction_threshold``
+    over the fit's determined bands, with each joint's residual degrees of freedom when its
+    noise was estimated per joint), and the smallest z."""
+    bands = [
+        e for e in fit.nuisance
+        if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
+    ]  # fmt: skip
+    dof = {r.joint: r.dof for r in fit.torque_noise if r.by == "estimated"}
+    z = {e.name: friction_threshold(len(bands), dof=dof.get(e.name, math.inf)) for e in bands}
+    lowest = min(z.values(), default=friction_threshold(len(bands)))
+    return [e for e in bands if e.value < -z[e.name] * e.std], lowest
 
 
 def _structural(fit: Fit) -> int:

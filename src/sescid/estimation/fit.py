@@ -280,6 +280,24 @@ class KindFit:
 
 
 @dataclass(frozen=True)
+class JointNoise:
+    """One torque sensor's noise level under a per-joint noise model
+    (``estimation.torque_noise``): σ_j in ``unit`` (N·m, or "1": a scale on the row's given
+    standard errors), its residual degrees of freedom, its residual RMS in the same unit."""
+
+    joint: str
+    sigma: float
+    dof: float  #: rows − own nuisance columns − its share of the parameters of r
+    rms: float  #: residual RMS per row
+    by: Literal["estimated", "pooled"]  #: pooled: too few degrees of freedom of its own
+    rows: float
+    #: its rows' share of the fit's parameters of vec(r) (the hat matrix's trace over them,
+    #: its own offset and friction band excluded): near 0, the fit is decided elsewhere
+    params: float = float("nan")
+    unit: str = "N·m"
+
+
+@dataclass(frozen=True)
 class NuisanceEstimate:
     """A nuisance parameter's estimate (a sensor offset, a friction band): value and standard
     error in ``unit``; both nan when the data do not determine it (``reason`` says why)."""
@@ -352,6 +370,8 @@ class Fit:
     warnings: tuple[str, ...] = ()  #: data-quality warnings (stored, printed)
     kinds: tuple[KindFit, ...] = ()  #: per measurement kind: rows, noise, residuals
     nuisance: tuple[NuisanceEstimate, ...] = ()  #: sensor offsets, friction bands
+    #: each torque sensor's noise level when it was estimated per joint (``torque_noise``)
+    torque_noise: tuple[JointNoise, ...] = ()
     total_mass: float = float("nan")  #: kg: the scale of torque rows (M·r); nan without torques
     mass_given: bool = False  #: the total mass was weighed (else the model's)
     gravity_accel: float = G0  #: m/s², the magnitude of g behind torque rows

@@ -10,7 +10,8 @@ std, reason, kind}), ``notes`` (generated, for reading), ``warnings``, and one o
 record that is present: ``map``, ``cop_offset``, ``inertials``, ``robust``, ``online``, ``cv``,
 ``joint_noise``, ``truth_cop_rmse``; ``kinds`` (per measurement kind: rows, noise, residuals, in
 its own unit), ``nuisance`` (sensor offsets, friction bands: value, std, determined, reason),
-``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²], and
+``torque_noise`` (each torque sensor's σ_j when estimated per joint: sigma, dof, rms, by, rows,
+unit), ``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²], and
 ``payload`` when one was identified (``payload_record``: body, mass, com, their stds). Lengths in
 m, masses in kg, angles in rad, torques in N·m; a quantity the data do not determine is ``null``.
 Versions 1 and 2 are read (version 1: method-specific results in a free ``extra`` object); a
@@ -131,6 +132,7 @@ def fit_to_json(fit: records.Fit) -> dict:
         "warnings": list(fit.warnings),
         "kinds": [_record_to_json(k) for k in fit.kinds],
         "nuisance": [_record_to_json(e) for e in fit.nuisance],
+        "torque_noise": [_record_to_json(e) for e in fit.torque_noise],
         "total_mass": _plain(fit.total_mass),
         "mass_given": fit.mass_given,
         "gravity_accel": fit.gravity_accel,
@@ -331,6 +333,10 @@ def load_fit(path: str | Path) -> records.Fit:
             fields["nuisance"] = tuple(
                 _record_from_json(records.NuisanceEstimate, e, f"{path}: field 'nuisance'")
                 for e in data.get("nuisance", [])
+            )
+            fields["torque_noise"] = tuple(
+                _record_from_json(records.JointNoise, e, f"{path}: field 'torque_noise'")
+                for e in data.get("torque_noise", [])
             )
             if data.get("total_mass") is not None:
                 fields["total_mass"] = float(data["total_mass"])

@@ -96,11 +96,17 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             f"± {tilt.std * 1e3:.2f} mm (prior model {tilt.prior * 1e3:.2f} mm; rank +1 over "
             "a level sole)"
         )
+    estimated = bool(fit.torque_noise) and fit.torque_noise[0].unit != "1"  # not given errors
     asked = fit.robust.weighted_input if fit.robust is not None else fit.weighted
     if fit.kinds and fit.robust is None:  # several kinds are weighed by their noise anyway
-        asked = any(k.weighted for k in fit.kinds)
+        asked = any(k.weighted and not (k.kind == "tau" and estimated) for k in fit.kinds)
+    if fit.torque_noise:
+        notes.append(_joint_noise_note(fit))
     if asked:
         present = {k.kind for k in fit.kinds if k.weighted or fit.robust is not None} or {"cop"}
+        if estimated:
+            present.discard("tau")
+        present = present or {"cop"}
         given = " and ".join(
             {"cop": "CoP", "tau": "torque"}[k] for k in ("cop", "tau") if k in present
         )
@@ -109,6 +115,24 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             "scale of the normalised residuals (≈ 1 when the standard errors are right)"
         )
     return notes
+
+
+def _joint_noise_note(fit: Fit) -> str:
+    """The per-joint torque noise (``torque_noise``): its range and what sigma_hat then is."""
+    recs = fit.torque_noise
+    lo = min(recs, key=lambda r: r.sigma)
+    hi = max(recs, key=lambda r: r.sigma)
+    given = recs[0].unit == "1"
+    unit = " × tau_se" if given else " N·m"
+    pooled = sum(r.by == "pooled" for r in recs)
+    return (
+        f"torque noise estimated per joint (feasible GLS{', on the given tau_se' if given else ''}"
+        f"): σ_j from {lo.sigma:.3g}{unit} ({lo.joint}) to {hi.sigma:.3g}{unit} ({hi.joint}), "
+        "each joint's rows weighed by 1/σ_j"
+        + (f"; {pooled} joints with too few degrees of freedom keep the pooled level"
+           if pooled else "")
+        + "; the torques' sigma_hat is the scale of the normalised residuals (≈ 1)"
+    )  # fmt: skip
 
 
 def _map_notes(fit: Fit) -> list[str]:

@@ -24,6 +24,7 @@ from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.measurements import COP, TORQUE, Kind
 from sescid.estimation.robust import HUBER_K
 from sescid.estimation.system import RowOptions
+from sescid.estimation.torque_noise import TorqueNoiseModel
 
 #: how MAP chooses its prior scale τ: by marginal likelihood, or by k-fold cross-validation
 PriorSelect = Literal["evidence", "cv"]
@@ -228,9 +229,19 @@ class IdentifyOptions:
     )  # fmt: skip
     tau_noise: float | None = option(
         None,
-        "Known joint-torque noise standard deviation [N·m] (default: estimated).",
+        "Known joint-torque noise standard deviation [N·m], one level shared by every joint "
+        "(default: estimated per joint, see --tau-noise-model).",
         low=0, low_open=True, what="a positive noise level",
     )  # fmt: skip
+    tau_noise_model: TorqueNoiseModel = option(
+        "joint",
+        "Joint-torque noise: one level per joint, estimated from its own residuals by a few "
+        "reweighting passes (joint; a scale on tau_se_<joint> with --weighted), or one level "
+        "shared by every joint (shared).",
+    )
+    #: the torque rows weighted by their tau_se columns (None: as ``weighted``): set by the
+    #: per-joint noise model on the data it rescales, not a flag
+    tau_weighted: bool | None = None
     total_mass: float | None = option(
         None,
         "Weighed total mass [kg]: the scale of the joint-torque rows and of the consistent "
@@ -290,6 +301,7 @@ class IdentifyOptions:
         check_rtol(self.rtol)
         check_ranges(self)
         check_choice("robust", self.robust, Robust)
+        check_choice("tau_noise_model", self.tau_noise_model, TorqueNoiseModel)
         if self.kinds is not None:
             if not self.kinds:
                 raise OptionError("kinds", "must name some measurement kinds, got none")
@@ -313,6 +325,7 @@ class IdentifyOptions:
             total_mass=self.total_mass,
             cop_offset=settings is not None and settings.bias,
             gravity_accel=self.gravity_accel,
+            tau_weighted=self.tau_weighted,
         )
 
     def noise(self) -> dict[Kind, float]:

@@ -164,6 +164,14 @@ class RowOptions:
     total_mass: float | None = None
     cop_offset: bool = False
     gravity_accel: float = G0
+    #: the torque rows weighted by their tau_se columns (None: as ``weighted``); a per-joint
+    #: noise model (``torque_noise``) sets them without weighting the CoP
+    tau_weighted: bool | None = None
+
+    @property
+    def torques_weighted(self) -> bool:
+        """Whether the torque rows are weighted by their standard errors."""
+        return self.weighted if self.tau_weighted is None else self.tau_weighted
 
 
 class Accumulator:
@@ -221,6 +229,7 @@ class Accumulator:
         return RowMaker(
             self.robot, kernels, self.options.weighted, self.mass, self.options.gravity_accel,
             first.tau_joints if first.tau is not None else (), first.approach is not None,
+            self.options.torques_weighted,
         )  # fmt: skip
 
     def _blocks(self, blocks: list[Measurements], progress) -> None:
@@ -338,7 +347,7 @@ class Accumulator:
         tau_sys = System(
             n_x,
             torque_nuisance(first),
-            {TORQUE: KindSums(TORQUE, ne, self.options.weighted)},
+            {TORQUE: KindSums(TORQUE, ne, self.options.torques_weighted)},
             self.mass,
             system.mass_given,
         )
