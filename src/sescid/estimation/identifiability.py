@@ -63,9 +63,17 @@ def structural_rank(robot: Robot) -> int:
     return int(robot.reduction.g.shape[0])
 
 
+def poses_needed(combinations: int, rows_per_pose: float = 2.0) -> int:
+    """Fewest poses whose equations (``rows_per_pose`` each: 2 for a CoP) determine
+    ``combinations`` and leave one degree of freedom to estimate the noise: the one rule
+    behind every minimum (least squares refuses fewer, the planners ask for at least these)."""
+    return max(math.ceil((combinations + 1) / rows_per_pose), 1)
+
+
 def min_poses(robot: Robot) -> int:
-    """Fewest poses whose 2 equations each can determine every identifiable combination."""
-    return math.ceil(structural_rank(robot) / 2)
+    """Fewest CoP poses (2 equations each) that determine every identifiable combination
+    with a degree of freedom left (``poses_needed``)."""
+    return poses_needed(structural_rank(robot))
 
 
 def check_enough_poses(robot: Robot, n: int) -> None:
@@ -75,7 +83,8 @@ def check_enough_poses(robot: Robot, n: int) -> None:
     if n < need:
         raise DataError(
             f"{n} poses are too few for least squares on {robot.name}: its {p} "
-            f"identifiable combinations need at least {need} poses (2 equations each)"
+            f"identifiable combinations need at least {need} poses (2 equations each, one "
+            "left for the noise)"
         )
 
 

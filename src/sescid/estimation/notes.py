@@ -128,6 +128,14 @@ def _map_notes(fit: Fit) -> list[str]:
         f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
         "the prior's value and uncertainty (included in cov)"
     ]
+    from sescid.estimation.map import REPEATED
+
+    if m.prior_scale_by == REPEATED:
+        notes.append(
+            "the CAD model is kept: the data's distinct poses give no more equations than the "
+            "combinations they determine, and repeats of a pose share its error (a sensor's "
+            "bias there), so they cannot show the model to be off; measure more distinct poses"
+        )
     if m.at_lower_bound:
         notes.append(
             "the evidence is largest at the smallest prior scale searched: these data cannot "
