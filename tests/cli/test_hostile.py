@@ -88,7 +88,7 @@ def test_no_partial_output_when_a_later_output_cannot_be_written(bench, tmp_path
     """`poses --figure nodir/f.png` and `experiment --truth nodir/t.json` fail before writing:
     neither the pose CSV nor the raw log is left behind."""
     csv = tmp_path / "p.csv"
-    code, out = run("poses", "--count", 21, "--out", csv, "--figure", tmp_path / "no" / "f.png")
+    code, out = run("poses", "--count", 22, "--out", csv, "--figure", tmp_path / "no" / "f.png")
     assert code == 2 and "does not exist" in out and not csv.exists()
     raw = tmp_path / "raw.csv"
     code, out = run(

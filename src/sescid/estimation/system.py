@@ -176,12 +176,13 @@ class DistinctPoses:
     """The distinct poses of a source (``SAME_POSE``), counted up to ``cap``: beyond it the
     count no longer matters (each pose adds at least one equation) and counting stops."""
 
-    #: rows compared at once
-    BLOCK = 256
+    #: rows hashed at once, and compared at once
+    BLOCK, COMPARE = 8192, 256
 
     def __init__(self, nq: int, cap: int):
         self.cap = cap
         self.kept = np.zeros((0, nq))
+        self.mult = np.random.default_rng(0).integers(1, 2**62, nq, dtype=np.int64) | 1
 
     @property
     def count(self) -> int:
@@ -189,21 +190,27 @@ class DistinctPoses:
         return len(self.kept)
 
     def add(self, q: np.ndarray) -> None:
-        """Count the poses q (n, nq) [rad], ``BLOCK`` rows at a time; a loop step only per new
-        distinct pose."""
+        """Count the poses q (n, nq) [rad]: each block's rows one per grid cell of
+        ``SAME_POSE`` (a hash of the cell), those far from every kept pose, then, per new
+        distinct pose, those far from it too."""
         q = np.asarray(q, dtype=float)
         for start in range(0, q.shape[0], self.BLOCK):
-            rest = q[start : start + self.BLOCK]
-            while rest.shape[0] and self.count < self.cap:
+            if self.count >= self.cap:
+                return
+            blk = q[start : start + self.BLOCK]
+            with np.errstate(over="ignore"):
+                cell = np.floor(blk / SAME_POSE).astype(np.int64) @ self.mult  # wraps: a hash
+            blk = blk[np.sort(np.unique(cell, return_index=True)[1])]
+            for sub in range(0, blk.shape[0], self.COMPARE):
+                if self.count >= self.cap:
+                    return
+                rest = blk[sub : sub + self.COMPARE]
                 if self.count:
                     far = np.abs(rest[:, None, :] - self.kept[None]).max(axis=2) > SAME_POSE
                     rest = rest[far.all(axis=1)]
-                    if not rest.shape[0]:
-                        break
-                self.kept = np.vstack([self.kept, rest[:1]])
-                rest = rest[1:]
-            if self.count >= self.cap:
-                return
+                while rest.shape[0] and self.count < self.cap:
+                    self.kept = np.vstack([self.kept, rest[:1]])
+                    rest = rest[1:][np.abs(rest[1:] - rest[0]).max(axis=1) > SAME_POSE]
 
 
 @dataclass(frozen=True)
