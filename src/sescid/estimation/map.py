@@ -171,7 +171,7 @@ def decoupled(prior: Prior, seen: np.ndarray) -> Prior:
     decoupled, what the data cannot see keeps the prior's value and uncertainty. Fits of CoP
     (and balance) data only: a joint torque's unseen directions — a held body's mass — follow
     from the seen ones by the total mass, a correlation the prior must keep (TALOS in a gantry:
-    8.51 mm decoupled against 6.08 mm, ``tools/defaults_study.py``)."""
+    8.51 mm decoupled against 6.03 mm, ``tools/defaults_study.py``)."""
     n, p = prior.n_x, seen.shape[1]
     if prior.x_precision is None or p in (0, n):
         return prior
