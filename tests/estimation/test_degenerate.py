@@ -138,6 +138,13 @@ def test_a_level_cop_leaves_what_it_cannot_see_at_cad(humanoid):
     unseen = moved - seen @ (seen.T @ moved)
     assert np.linalg.norm(unseen) <= 1e-9 * np.linalg.norm(moved)
     assert any("keep the prior's value" in n for n in fit.notes)
+    # said plainly, with the prior's uncertainty of that height (a closed form from the cov)
+    g = humanoid.regressor(np.zeros((1, humanoid.nq)), (2,))[0, 0]
+    g_unseen = g - seen @ (seen.T @ g)
+    std = math.sqrt(g_unseen @ fit.cov @ g_unseen)
+    assert std > 1e-4
+    (note,) = [n for n in fit.notes if "CoM height a level CoP cannot see" in n]
+    assert f"±{std * 1e3:.2g} mm" in note
 
 
 def _study(robot, case, seeds):
@@ -245,3 +252,38 @@ def test_level_data_get_no_tilted_support_advice(humanoid):
     assert fit.bodies is not None
     text = " ".join(fit.notes + list(fit.warnings))
     assert "tilted support" not in text
+
+
+def _ls_against_cad(robot, seeds, n=60):
+    """(least squares' CoM error > CAD's, warned) per draw: n CoP poses, no bias."""
+    fresh = random_poses(robot, 300, 20, 99, clip=True)
+    out = []
+    for s in seeds:
+        rng = np.random.default_rng(s)
+        r_true = real_sesc(robot, rng)
+        q = random_poses(robot, n, 20, rng, clip=True)
+        cop = robot.cop(q, r_true) + rng.normal(0, SIGMA, (n, 2))
+        fit = sescid.identify(robot, q, cop, method="ls")
+        truth = robot.com(fresh, r_true)
+
+        def err(r, truth=truth):
+            return np.sqrt(np.mean(np.sum((robot.com(fresh, r) - truth) ** 2, axis=1)))
+
+        warned = any("worse than the CAD model" in w for w in fit.warnings)
+        out.append((err(fit.r) > err(robot.sesc_vectors()), warned))
+    return np.array(out)
+
+
+def test_least_squares_worse_than_cad_is_warned(talos):
+    """The warning judges the 3-D CoM over random poses (not the measured rows): every draw
+    where least squares' CoM is worse than the CAD model's is warned (TALOS, 60 CoP poses; the
+    rows-judged warning caught 5 of 13 such draws in 20)."""
+    t = _ls_against_cad(talos, range(6))
+    assert t[:, 0].any() and np.all(t[t[:, 0], 1])
+
+
+@pytest.mark.slow
+def test_least_squares_worse_than_cad_is_warned_over_20_draws(talos, romeo):
+    for robot, n in ((talos, 60), (romeo, 80)):
+        t = _ls_against_cad(robot, range(20), n)
+        assert np.all(t[t[:, 0], 1]), t

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.fit import CopOffset, Fit, MapInfo, PriorShape
+from sescid.estimation.fit import REPEATED, CopOffset, Fit, MapInfo, PriorShape
 from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.least_squares import (
     fit_from_solution,
@@ -388,11 +388,6 @@ def fit_map(
         bodies = body_fit(robot, system, ls, post.x[:n_x], post.cov[:n_x, :n_x], rtol)
         fit = dataclasses.replace(fit, bodies=bodies)
     return fit
-
-
-#: ``MapInfo.prior_scale_by`` of a fit whose distinct poses leave no degrees of freedom
-#: (``repeated_poses``): the prior's scale kept at its smallest, the CAD model as it is
-REPEATED = "kept: too few distinct poses"
 
 
 def repeated_poses(system: System, rank: int) -> str | None:

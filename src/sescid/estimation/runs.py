@@ -162,7 +162,8 @@ def fit_auto(
         )
         return dataclasses.replace(fit, choice=MethodChoice("ls", why))
     seen = mapped.rank
-    from sescid.estimation.map import REPEATED, repeated_poses
+    from sescid.estimation.fit import REPEATED
+    from sescid.estimation.map import repeated_poses
 
     if mapped.map.prior_scale_by == REPEATED:
         why = repeated_poses(system, fit.rank + sum(e.determined for e in fit.nuisance))
