@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 
 from sescid.errors import DataError
 from sescid.estimation.measurements import Kind
+from sescid.estimation.notes import REPEATED
 from sescid.kinematics import as_poses, regressor
 from sescid.sesc import balance_tilt
 
@@ -130,12 +131,6 @@ class MapInfo:
     #: the largest share of the posterior information the prior holds in a direction the data
     #: see (nan: unknown, files of older versions)
     prior_share: float = float("nan")
-
-
-#: ``MapInfo.prior_scale_by`` of a fit whose distinct poses leave no degrees of freedom
-#: (``map.repeated_poses``): the prior's scale kept at its smallest, the CAD model as it is —
-#: its error is not determined, and predictions the data do not see say so
-REPEATED = "kept: too few distinct poses"
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.fit import AXES, Combination, Unseen
+from sescid.estimation.normal_equations import poses_needed
 from sescid.robot import Robot
 
 DEFAULT_RTOL = 1e-6
@@ -61,13 +62,6 @@ def structural_rank(robot: Robot) -> int:
     """Rank of the x/y regressor for generic poses: the dimension of the reduced coordinates
     (3N minus the structural null directions; mimic joints included)."""
     return int(robot.reduction.g.shape[0])
-
-
-def poses_needed(combinations: int, rows_per_pose: float = 2.0) -> int:
-    """Fewest poses whose equations (``rows_per_pose`` each: 2 for a CoP) determine
-    ``combinations`` and leave one degree of freedom to estimate the noise: the one rule
-    behind every minimum (least squares refuses fewer, the planners ask for at least these)."""
-    return max(math.ceil((combinations + 1) / rows_per_pose), 1)
 
 
 def min_poses(robot: Robot) -> int:

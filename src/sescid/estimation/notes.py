@@ -8,6 +8,14 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.estimation.fit import Fit
 
+#: ``MapInfo.prior_scale_by`` of a fit whose distinct poses leave no degrees of freedom
+#: (``map.repeated_poses``): the prior's scale kept at its smallest, the CAD model as it is —
+#: its error is not determined, and predictions the data do not see say so (``Fit.predict_std``)
+REPEATED = "kept: too few distinct poses"
+#: m: an unseen CoM height's prior std below this is a prior scale at the floor of its range
+#: (a kept CAD model), not an uncertainty worth a note
+HEIGHT_NOTE_MIN = 1e-6
+
 
 def fit_notes(fit: Fit) -> list[str]:
     """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
@@ -55,7 +63,7 @@ def _stance_note(fit: Fit) -> str:
 
 def _identifiability_notes(fit: Fit) -> list[str]:
     """Residual degrees of freedom, the unseen directions, a tilted sole's height, weighting."""
-    from sescid.estimation.identifiability import poses_needed
+    from sescid.estimation.normal_equations import poses_needed
 
     notes: list[str] = []
     if fit.method == "ls" or (fit.method == "consistent" and fit.map is None):
@@ -130,9 +138,6 @@ def _map_notes(fit: Fit) -> list[str]:
         f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
         "the prior's value and uncertainty (included in cov)"
     ]
-    from sescid.estimation.fit import REPEATED
-    from sescid.estimation.map import TAU_RANGE
-
     if m.prior_scale_by == REPEATED:
         notes.append(
             "the CAD model is kept: the data's distinct poses give no more equations than the "
@@ -141,7 +146,7 @@ def _map_notes(fit: Fit) -> list[str]:
             "and say nothing of its error; measure more distinct poses"
         )
     height = _unseen_height(fit)
-    if height is not None and m.prior_scale > 1.01 * TAU_RANGE[0]:
+    if height is not None and height >= HEIGHT_NOTE_MIN:
         notes.append(
             "the part of the CoM height a level CoP cannot see stays the CAD model's, with the "
             f"prior's uncertainty: ±{height * 1e3:.2g} mm at the zero pose (in cov and the CoM "
