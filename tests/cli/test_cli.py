@@ -115,6 +115,8 @@ def test_bad_input_gives_one_line_and_no_output(sim_csv, tmp_path):
         tmp_path,
         "identify",
         _rewrite(sim_csv, tmp_path, lambda t: t[:21]),
+        "--method",
+        "ls",
         match="20 poses are too few",
     )
 

@@ -176,6 +176,7 @@ def test_huber_streamed_in_chunks_is_the_in_memory_fit(robot):
     names = tuple(robot.joint_names)
     tau = robot.torques(q, joints=names) + rng.normal(0, 0.05, (n, len(names)))
     tau += rng.uniform(-0.1, 0.1, tau.shape)  # static friction: bounded errors
+    tau[::50, 3] += 2.0  # outlying readings: the default (robust="auto") turns Huber on
     cop = robot.cop(q) + rng.normal(0, SIGMA, (n, 2))
     cop[::50] += 0.03
     whole = Measurements(q=q, cop=cop, tau=tau, tau_joints=names)

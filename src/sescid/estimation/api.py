@@ -15,8 +15,11 @@ and arrays too) is the public entry; ``to_consistent`` makes masses for an exist
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
@@ -48,9 +51,66 @@ from sescid.robot import Robot
 
 def _unsided(fit: Fit) -> bool:
     """A fit of joint torques without approach sides (no friction columns): their static
-    friction acts as bounded errors, for the robust loss of ``robust="auto"``."""
+    friction, unseparated, may leave outliers (``_outlying``) for ``robust="auto"``."""
     has_tau = fit.kind(TORQUE) is not None
     return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
+
+
+#: ``robust="auto"``: a torque residual beyond this many of its expected size is an outlier
+#: (a Gaussian reading is one with probability 2·10⁻⁹; a static-friction band — a bounded
+#: error — never: its largest is 1.6 of its mean's scale)
+OUTLIER_Z = 6.0
+#: the expected size is at least this share of the joint's median |r| (a fitted size near 0 at
+#: no load would make any reading there an outlier)
+OUTLIER_FLOOR = 0.25
+#: … and a joint's readings show outliers when more than this share (and at least two) are
+OUTLIER_SHARE = 0.01
+#: rows of the data that judge it (every k-th row beyond this many)
+OUTLIER_ROWS = 20000
+_ROOT_HALF_PI = math.sqrt(math.pi / 2)  # Gaussian: σ = √(π/2) · E|r|
+
+
+def _outlying(fit: Fit, sources) -> bool:
+    """Whether a plain fit's torque residuals show outliers (``OUTLIER_Z``, ``OUTLIER_SHARE``).
+    Each joint's expected residual size is its own and grows with the load — a + b·|τ̂|, a, b ≥ 0,
+    fitted to |r| without its largest tenth, then without the outliers found — so noise that grows
+    with the torque is not taken for outliers: down-weighting every loaded pose would make the
+    fit, and its rank, follow the noise draw."""
+    import scipy.optimize
+
+    from sescid.estimation.least_squares import residuals
+
+    stride = max(fit.n_poses // OUTLIER_ROWS, 1)
+    res_rows, load_rows, start = [], [], 0
+    for s in sources:
+        for m in s.chunks():
+            if m.tau is not None:
+                part = m.take(np.arange((-start) % stride, m.n, stride))
+                res = residuals(fit, part).get(TORQUE)
+                if res is not None:
+                    res_rows.append(np.abs(res))
+                    load_rows.append(np.abs(part.tau - res))
+            start += m.n
+    if not res_rows:
+        return False
+    r, load = np.vstack(res_rows), np.vstack(load_rows)
+    for j in range(r.shape[1]):
+        ok = np.isfinite(r[:, j]) & np.isfinite(load[:, j])
+        rj, x = r[ok, j], np.column_stack([np.ones(int(ok.sum())), load[ok, j]])
+        if rj.size < 3:
+            continue
+        keep = rj <= np.quantile(rj, 0.9)  # the size fitted without the largest tenth first
+        floor = OUTLIER_FLOOR * float(np.median(rj))
+        for _ in range(2):
+            if keep.sum() < 3:
+                break
+            coef = scipy.optimize.nnls(x[keep], rj[keep])[0]  # a, b ≥ 0
+            size = np.maximum(x @ coef, floor) * _ROOT_HALF_PI
+            keep = rj <= OUTLIER_Z * size
+        n_out = int(rj.size - keep.sum())
+        if n_out >= 2 and n_out > OUTLIER_SHARE * rj.size:
+            return True
+    return False
 
 
 def _held(robot, sources, memory: list[Measurements] | None) -> list[Any]:
@@ -200,7 +260,13 @@ def fit_measurements(
         )
         memory = in_memory(robot, sources) if needs_memory else None
         if robust == "auto" and memory is not None:
-            robust = any(x.tau is not None and x.approach is None for x in memory)
+            unsided = any(x.tau is not None and x.approach is None for x in memory)
+            if unsided:
+                plain = dataclasses.replace(opts, robust=False, cv=None, joint_noise=None,
+                                            tau_gains=False)  # fmt: skip
+                first = run_method(robot, m, plain, _held(robot, sources, memory), memory)
+                unsided = _unsided(first) and _outlying(first, _held(robot, sources, memory))
+            robust = unsided
         choice = None
         plain_fit: Fit | None = None  # a plain fit of the data as they are (when made)
         records: tuple[JointNoise, ...] = ()
@@ -231,7 +297,9 @@ def fit_measurements(
             fit = _huber(robot, m, opts, sources, memory)
         else:
             fit = plain_fit or run_method(robot, m, opts, sources, memory, progress)
-            if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
+            if (
+                robust == "auto" and _unsided(fit) and _outlying(fit, _held(robot, sources, memory))
+            ):  # torques without sides whose residuals show outliers: known after a pass
                 choice = fit.choice
                 if isinstance(m, AutoOptions) and choice is not None:
                     m = m.resolved(choice.chosen)

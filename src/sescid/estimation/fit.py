@@ -110,6 +110,12 @@ class Combination:
         )
 
 
+#: ``MapInfo.prior_scale_by`` of a fit whose distinct poses leave no degrees of freedom
+#: (``map.repeated_poses``): the prior's scale kept at its smallest, the CAD model as it is —
+#: its error is not determined, and predictions the data do not see say so (``Fit.predict_std``)
+REPEATED = "kept: too few distinct poses"
+
+
 @dataclass
 class MapInfo:
     """How a MAP fit weighed the CAD prior N(r_prior, τ²) against the data (m)."""
@@ -442,11 +448,13 @@ class Fit:
         Counts the uncertainty of the identified directions only; the prior-filled part of the
         CoM height is taken as exact here. An x/y row that the data do not determine (it leaves
         the subspace the data excite: too few distinct poses) is nan, "not determined", never 0
-        (a MAP fit's prior determines every direction).
+        (a MAP fit's prior determines every direction, unless it kept the CAD model for too few
+        distinct poses: ``REPEATED``).
         """
         qq = as_poses(q, self.robot.nq)
         out = np.empty((qq.shape[0], len(rows)))
-        xy = np.array([r in (0, 1) for r in rows]) & (self.map is None)
+        prior_decides = self.map is not None and self.map.prior_scale_by != REPEATED
+        xy = np.array([r in (0, 1) for r in rows]) & (not prior_decides)
         for s in range(0, qq.shape[0], 4096):
             phi = regressor(self.robot.tree, qq[s : s + 4096], rows)
             var = np.einsum("nri,ij,nrj->nr", phi, self.cov, phi)

@@ -6,10 +6,15 @@ import math
 from typing import TYPE_CHECKING
 
 from sescid.base.text import listed
+from sescid.estimation.fit import REPEATED
 from sescid.estimation.tilt import tilt_direction
 
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.estimation.fit import Fit
+
+#: m: an unseen CoM height's prior std below this is a prior scale at the floor of its range
+#: (a kept CAD model), not an uncertainty worth a note
+HEIGHT_NOTE_MIN = 1e-6
 
 
 def fit_notes(fit: Fit) -> list[str]:
@@ -60,13 +65,15 @@ def _stance_note(fit: Fit) -> str:
 
 def _identifiability_notes(fit: Fit) -> list[str]:
     """Residual degrees of freedom, the unseen directions, a tilted sole's height, weighting."""
+    from sescid.estimation.normal_equations import poses_needed
+
     notes: list[str] = []
     if fit.method == "ls" or (fit.method == "consistent" and fit.map is None):
         if fit.n_rows - fit.rank <= 0:
             notes.append(
                 f"{fit.n_poses} poses give {fit.n_rows} equations for {fit.rank} identifiable "
                 "combinations: no residual left to estimate the noise "
-                f"(use ≥ {math.ceil(fit.rank / 2) + 1} poses)"
+                f"(use ≥ {poses_needed(fit.rank, fit.n_rows / max(fit.n_poses, 1))} poses)"
             )
         filled = (
             "they come from the CAD-closest masses"
@@ -155,12 +162,40 @@ def _map_notes(fit: Fit) -> list[str]:
         f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
         "the prior's value and uncertainty (included in cov)"
     ]
+    if m.prior_scale_by == REPEATED:
+        notes.append(
+            "the CAD model is kept: the data's distinct poses give no more equations than the "
+            "combinations they determine, and repeats of a pose share its error (a sensor's "
+            "bias there), so they cannot show the model to be off; its intervals assume it exact "
+            "and say nothing of its error; measure more distinct poses"
+        )
+    height = _unseen_height(fit)
+    if height is not None and height >= HEIGHT_NOTE_MIN:
+        notes.append(
+            "the part of the CoM height a level CoP cannot see stays the CAD model's, with the "
+            f"prior's uncertainty: ±{height * 1e3:.2g} mm at the zero pose (in cov and the CoM "
+            "intervals); a tilted support or joint torques see it"
+        )
     if m.at_lower_bound:
         notes.append(
             "the evidence is largest at the smallest prior scale searched: these data cannot "
             "detect any deviation from CAD, and the intervals (±τ) assume there is none"
         )
     return notes
+
+
+def _unseen_height(fit: Fit) -> float | None:
+    """The standard deviation [m] of the zero pose's CoM height along the directions a CoP-only
+    fit of one stance does not see (None for other fits, or when it sees all of it)."""
+    import numpy as np
+
+    if fit.bodies is not None or {k.kind for k in fit.kinds} != {"cop"}:
+        return None
+    g = fit.robot.regressor(np.zeros((1, fit.robot.nq)), (2,))[0, 0]
+    unseen = g - fit.basis @ (fit.basis.T @ g)
+    if np.linalg.norm(unseen) <= 1e-9 * np.linalg.norm(g):
+        return None
+    return math.sqrt(max(float(unseen @ np.nan_to_num(fit.cov) @ unseen), 0.0))
 
 
 def _consistent_notes(fit: Fit) -> list[str]:

@@ -32,7 +32,8 @@ PriorSelect = Literal["evidence", "cv"]
 PriorChoice = Literal["auto", PriorShape]
 #: the consistent step's path (``ConsistentOptions.via``)
 Via = Literal["auto", "prior", "fit"]
-#: Huber IRLS: on, off, or "auto" (on for torques without an approach side)
+#: Huber IRLS: on, off, or "auto" (on for torques without an approach side whose residuals
+#: show outliers)
 Robust = bool | Literal["auto"]
 #: m, the largest prior scale or noise a MAP fit accepts (1 m on a SESC component is already a
 #: flat prior; a larger number is not in metres)
@@ -258,7 +259,8 @@ class IdentifyOptions:
     robust: Robust = option(
         "auto",
         "Huber IRLS, naming the down-weighted poses (default: on for torques without an "
-        "approach column, whose static friction acts as bounded errors; off otherwise).",
+        "approach column whose residuals show outliers, each joint against its own scale; off "
+        "otherwise).",
     )
     huber_k: float = option(HUBER_K, "Huber threshold [σ].", low=0, low_open=True)
     seed: int = option(0, SEED_HELP, low=0)
