@@ -183,7 +183,10 @@ def tilted(op2, sensors):
 
 
 def test_gravity_aware_identify_beats_flat(op2, tilted):
-    """On free-standing bench data the tilted-gravity fit predicts the pad CoP better."""
+    """On free-standing bench data the tilted-gravity fit predicts the pad CoP better: least
+    squares, which only the data steer (2.25 against 2.79 mm here); the default MAP fits, whose
+    prior holds the mass fractions' sum, both well below it (0.96 and 0.79 mm on this draw: the
+    prior, not the tilt, carries most of the default's gain, docs/defaults.md)."""
     from sescid import identify
 
     ex, res = tilted
@@ -193,12 +196,15 @@ def test_gravity_aware_identify_beats_flat(op2, tilted):
     pads = np.array(t.physics.cop_pads)[keep]
     assert res.gravity is not None and np.abs(res.gravity - g).max() < 1e-4
     err, rank, z_prior = {}, {}, {}
-    for label, grav in (("flat", None), ("gravity", res.gravity)):
-        fit = identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav)
-        e = np.linalg.norm(fit.predict_cop(qa, g) - pads, axis=1)
-        err[label], rank[label] = np.sqrt(np.mean(e**2)), fit.rank
-        z_prior[label] = float(np.mean(fit.com_z_prior_fraction(qa)))
-    assert err["gravity"] < 0.95 * err["flat"], err  # see the report's figures
+    for method in ("ls", "auto"):
+        for label, grav in (("flat", None), ("gravity", res.gravity)):
+            fit = identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav, method=method)
+            e = np.linalg.norm(fit.predict_cop(qa, g) - pads, axis=1)
+            err[method, label] = np.sqrt(np.mean(e**2))
+            rank[label] = fit.rank
+            z_prior[label] = float(np.mean(fit.com_z_prior_fraction(qa)))
+    assert err["ls", "gravity"] < 0.95 * err["ls", "flat"], err  # see the report's figures
+    assert max(err["auto", "gravity"], err["auto", "flat"]) < 0.5 * err["ls", "gravity"], err
     assert rank == {"flat": 42, "gravity": 43}  # the tilt adds the CoM-height offset
     assert z_prior["flat"] > 0.1 and z_prior["gravity"] < 1e-6
 

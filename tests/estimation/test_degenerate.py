@@ -20,7 +20,7 @@ import pytest
 from refs import erd, write_humanoid
 
 import sescid
-from sescid.estimation import min_poses
+from sescid.estimation import fit_notes, min_poses
 from sescid.sesc import sesc_vectors
 from sescid.simulation import random_poses
 
@@ -116,7 +116,7 @@ def test_too_few_distinct_poses_keep_the_cad_model(talos, humanoid, case):
     the fit says why."""
     fit, *_ = draw(talos, case, 0)
     assert "distinct" in fit.choice.reason
-    assert any("CAD model is kept" in n for n in fit.notes)
+    assert any("CAD model is kept" in n for n in fit_notes(fit))
     _kept(talos, case, range(3), "talos")
     _kept(humanoid, case, range(3), "humanoid")
 
@@ -137,13 +137,13 @@ def test_a_level_cop_leaves_what_it_cannot_see_at_cad(humanoid):
     moved = (fit.r - fit.r_prior).reshape(-1)
     unseen = moved - seen @ (seen.T @ moved)
     assert np.linalg.norm(unseen) <= 1e-9 * np.linalg.norm(moved)
-    assert any("keep the prior's value" in n for n in fit.notes)
+    assert any("keep the prior's value" in n for n in fit_notes(fit))
     # said plainly, with the prior's uncertainty of that height (a closed form from the cov)
     g = humanoid.regressor(np.zeros((1, humanoid.nq)), (2,))[0, 0]
     g_unseen = g - seen @ (seen.T @ g)
     std = math.sqrt(g_unseen @ fit.cov @ g_unseen)
     assert std > 1e-4
-    (note,) = [n for n in fit.notes if "CoM height a level CoP cannot see" in n]
+    (note,) = [n for n in fit_notes(fit) if "CoM height a level CoP cannot see" in n]
     assert f"±{std * 1e3:.2g} mm" in note
 
 
@@ -239,7 +239,7 @@ def test_level_data_get_no_tilted_support_advice(humanoid):
     from sescid.estimation import Measurements
 
     fit = sescid.identify(humanoid, _torque_data(humanoid, 1), method="ls")
-    text = " ".join(fit.notes + list(fit.warnings))
+    text = " ".join(fit_notes(fit) + list(fit.warnings))
     assert "tilted support" not in text and "gravity columns" not in text
     rng = np.random.default_rng(2)
     data = []
@@ -250,7 +250,7 @@ def test_level_data_get_no_tilted_support_advice(humanoid):
         data.append(Measurements(q=q, cop=cop, support=None if support == "legA_sole" else support))
     fit = sescid.identify(humanoid, data, method="ls")
     assert fit.bodies is not None
-    text = " ".join(fit.notes + list(fit.warnings))
+    text = " ".join(fit_notes(fit) + list(fit.warnings))
     assert "tilted support" not in text
 
 
