@@ -31,9 +31,11 @@ def cli(*args):
     except SystemExit as exc:
         assert not exc.code, exc.code
 
-cli("demo", "--out-dir", str(out / "demo"))
-cli("simulate", "--robot", "op2", "--count", "25000", "--seed", "3", "--out", str(out / "s.csv"))
-cli("identify", str(out / "s.csv"), "--robot", "op2", "--out", str(out / "cli_fit.json"))
+import os
+os.chdir(out)  # files named as a user names them: the fit's messages quote the data file's name
+cli("demo", "--out-dir", "demo")
+cli("simulate", "--robot", "op2", "--count", "25000", "--seed", "3", "--out", "s.csv")
+cli("identify", "s.csv", "--robot", "op2", "--out", "cli_fit.json")
 robot = sescid.load_robot("op2")
 rng = np.random.default_rng(7)
 n = 5000

@@ -72,7 +72,7 @@ def test_talos_planned_poses_clear_by_pinocchio_meshes():
     above the floor, the free sole's rectangle above it by the clearance."""
     path = erd("talos_data/robots/talos_full_v2.urdf")
     robot = sescid.load_robot(path, "right_sole_link")
-    plan = sescid.plan_poses(robot, count=45, n_candidates=300, n_test=80, seed=3)
+    plan = sescid.plan_poses(robot, count=46, n_candidates=300, n_test=80, seed=3)
     geo = PinGeometry(path, robot)
     support_links = set(robot.model.bodies[0].links)
     low, per = geo.lowest(plan.q, support_links)

@@ -37,7 +37,7 @@ def test_mocap_humanoid_plans_clear_and_stands(tmp_path):
     assert free is not None and free.link == "lfoot" and "mirror" in free.note
     model = design.compliance(robot)
     assert "tilt stiffness" in model.source  # a tall robot on a 44 mm wide sole
-    plan = design.plan_poses(robot, 24, seed=0, n_candidates=150, n_test=40)
+    plan = design.plan_poses(robot, 25, seed=0, n_candidates=150, n_test=40)
     per = mj_body_lowest(path, SUPPORT, robot.joint_names, plan.q, skip_body="rfoot")
     floor = robot.floor
     assert np.all(per["lfoot"] > floor + CLEAR) and np.all(per["ltoes"] > floor + CLEAR)

@@ -177,6 +177,10 @@ def body_prior(
     return Prior(n_x, nuisance_scales, precision, float(-np.sum(np.log(lam))), "bodies")
 
 
+#: relative prior variance below which a direction of vec(r) is out of the prior's reach
+OUT_OF_REACH = 1e-9
+
+
 def decoupled(prior: Prior, seen: np.ndarray) -> Prior:
     """The prior with no correlation between the directions of vec(r) the data see (``seen``,
     (n_x, p) orthonormal) and the rest: Σ₀ → PΣ₀P + QΣ₀Q (P the projector on ``seen``,
@@ -194,7 +198,11 @@ def decoupled(prior: Prior, seen: np.ndarray) -> Prior:
     cov = (v / w) @ v.T
     proj = seen @ seen.T
     comp = np.eye(n) - proj
-    cov = proj @ cov @ proj + comp @ cov @ comp
+    split = proj @ cov @ proj + comp @ cov @ comp
+    # kept inside Σ₀'s range: a direction the prior holds at zero (the SESC part of a frame-only
+    # body, which no mass of the file can give) stays at zero when split
+    reach = v[:, 1.0 / w > OUT_OF_REACH * (1.0 / w).max()]
+    cov = reach @ (reach.T @ split @ reach) @ reach.T
     lam, vecs = np.linalg.eigh((cov + cov.T) / 2)
     lam = np.maximum(lam, 1e-12 * lam.max())
     precision = (vecs / lam) @ vecs.T
