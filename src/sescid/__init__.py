@@ -12,11 +12,14 @@ the compiled kernels — load inside the functions that need them):
   ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
+- model files and fits: ``audit`` (score candidate model files against measurements),
+  ``compare`` (what changed between fits);
 - outputs: ``export_model`` (``export_urdf``, ``export_mjcf``), ``write_report``;
 - errors: ``SescidError`` and its subclasses.
 """
 
 from sescid.api import identify
+from sescid.audit import audit, compare
 from sescid.bench import run_experiment
 from sescid.errors import (
     DataError,
@@ -64,6 +67,8 @@ __all__ = [
     "OptionError",
     "Robot",
     "SescidError",
+    "audit",
+    "compare",
     "SolverError",
     "export_mjcf",
     "export_model",
