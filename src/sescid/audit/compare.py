@@ -140,15 +140,16 @@ def _check_same(fits: list[Fit], labels: list[str]) -> None:
     a = fits[0].robot
     for f, lab in zip(fits[1:], labels[1:], strict=True):
         b = f.robot
-        if b.body_names != a.body_names or b.joint_names != a.joint_names:
-            raise ModelError(
-                f"{lab} is a fit of {b.name}, {labels[0]} of {a.name} (other bodies or joints): "
-                "compare fits of one robot"
-            )
-        if b.support != a.support:
+        other = sorted(b.joint_names) != sorted(a.joint_names)
+        if not other and b.support != a.support:
             raise ModelError(
                 f"{lab} is in the support '{b.support}', {labels[0]} in '{a.support}': compare "
                 "fits of one support"
+            )
+        if other or b.body_names != a.body_names:
+            raise ModelError(
+                f"{lab} is a fit of {b.name}, {labels[0]} of {a.name} (other bodies or joints): "
+                "compare fits of one robot"
             )
 
 

@@ -300,7 +300,9 @@ def attribute(
     whitened Jacobian ``a`` (m, 4N) at the body parameters ``theta``: greedily the one whose χ²
     drop is most significant, while its Bonferroni-corrected z reaches ``level``; ``noise_dof``:
     the degrees of freedom of the noise estimate that whitened ``e`` (an F test; inf: the noise
-    is known, χ²). Hypotheses that explain the residual as well (χ² drop within ``TIE_CHI2``)
+    is known, χ²). The first name needs its own test only (the family-wise rate is the
+    Bonferroni bound); each further one also needs what is left beyond the named to exceed the
+    noise. Hypotheses that explain the residual as well (χ² drop within ``TIE_CHI2``)
     are the data's alternatives: the one asking the smallest change of its body (``_relative``)
     is named, the others kept in ``Named.alternatives``. ``residual(θ) → (e, a)``: the rows at
     other parameters (the named changes are then estimated by Gauss–Newton and what is left is
@@ -309,14 +311,19 @@ def attribute(
     seen = _basis(a)
     dof_all = seen.shape[1]
     z_all = z_of_p(tail(float(np.sum((seen.T @ e) ** 2)), dof_all, noise_dof))
-    if z_all < level:
-        return [], z_all, dof_all
     hyps = hypotheses(robot, theta)
     step = MAX_NAMED if residual is None else 1  # relinearised after each name when possible
     picked: list[tuple[int, float, tuple[str, ...]]] = []
     e1, a1 = e, a
     delta = cov = np.zeros((0,))
     while len(picked) < MAX_NAMED:
+        if picked:  # what is left beyond the named must itself exceed the noise
+            qc = _basis(np.column_stack([a1 @ hyps[h][1] for h, _, _ in picked]))
+            seen1 = _basis(a1)
+            left = seen1.T @ e1
+            left_chi = float(left @ left - np.sum((qc.T @ e1) ** 2))
+            if z_of_p(tail(left_chi, seen1.shape[1] - qc.shape[1], noise_dof)) < level:
+                break
         more = _select(e1, a1, hyps, theta, level, noise_dof, [h for h, _, _ in picked], step)
         if not more:
             break
