@@ -28,6 +28,12 @@ from sescid.estimation import Fit, load_fit
 COM_POSES = 64
 #: rad, half-range of those random poses around the zero pose (clipped to the limits)
 COM_RANGE = math.radians(30.0)
+#: why a comparison of MAP fits is conservative
+MAP_NOTE = (
+    "MAP fits share the CAD prior: their difference is drawn toward it while their covariances "
+    "hold its uncertainty, so this comparison is conservative (compare least-squares fits, "
+    "identify --method ls, for its full power)"
+)
 #: a direction counts as determined by a fit when its basis holds this share of it
 DETERMINED = 1 - 1e-6
 
@@ -70,18 +76,21 @@ class CompareResult:
     sessions: tuple[Session, ...] = ()
     repeatability: tuple[Repeat, ...] = ()
     level: float = DEFAULT_Z
+    notes: tuple[str, ...] = ()  #: what a reader should know (MAP fits: a conservative test)
 
     def text(self) -> str:
         """What changed, in plain words."""
-        lines = [
+        lines = [f"note: {n}" for n in self.notes] + [
             f"compare {len(self.fits)} fits of {self.robot} (support {self.support}): "
             f"{self.compared} combinations every fit determines are compared; "
             f"{self.not_compared} that some fit leaves undetermined are not"
         ]
         if len(self.fits) == 2:
             if not self.changed:
-                z = f"z {self.z_overall:.1f} < {self.level:g}"
-                lines.append(f"nothing changed beyond the fits' uncertainty ({z})")
+                lines.append(
+                    f"no body's change reaches z {self.level:g} (the whole difference: "
+                    f"z {self.z_overall:.1f} over {self.compared} combinations)"
+                )
             for c in self.changed:
                 lines.append("changed: " + c.text().replace("this file says", "the first fit"))
             cx, cy, cz = (v * 1e3 for v in self.com_change)
@@ -123,6 +132,7 @@ class CompareResult:
             "com_change_std_mm": self.com_change_std * 1e3,
             "mass_change": None if not math.isfinite(self.mass_change) else self.mass_change,
             "sessions": [{"fit": s.fit, "z": s.z, "outlier": s.outlier} for s in self.sessions],
+            "notes": list(self.notes),
             "repeatability": [
                 {
                     "label": r.label,
@@ -238,6 +248,9 @@ def compare(fits: Sequence[Any], *, level: float = DEFAULT_Z) -> CompareResult:
     cov = _cov(first) + _cov(last)
     var = np.einsum("nap,pk,nak->n", phi, cov, phi)
     m0, m1 = _mass(first), _mass(last)
+    notes = ()
+    if any(f.map is not None for f in loaded):
+        notes = (MAP_NOTE,)
     return CompareResult(
         fits=tuple(labels),
         robot=robot.name,
@@ -253,6 +266,7 @@ def compare(fits: Sequence[Any], *, level: float = DEFAULT_Z) -> CompareResult:
         sessions=sessions,
         repeatability=repeat,
         level=level,
+        notes=notes,
     )
 
 
