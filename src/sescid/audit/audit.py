@@ -56,7 +56,9 @@ class KindError:
     kind: str
     rows: int
     noise: float  #: the data's noise standard deviation
-    prediction: float  #: RMS of measured − the file's prediction
+    #: RMS of measured − the file's prediction (a torque sensor's offset and friction band are
+    #: fitted aside: sescid's fits estimate them too, they are not the file's)
+    prediction: float
     cv: float  #: RMS of measured − held-out prediction of a MAP fit with the file as prior
 
 
@@ -360,6 +362,14 @@ def cv_errors(
     return {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in res.items()}
 
 
+def _orth(a: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of a's column space (an empty one for no columns)."""
+    if a.shape[1] == 0:
+        return np.zeros((a.shape[0], 0))
+    u, s, _ = np.linalg.svd(a, full_matrices=False)
+    return u[:, s > 1e-9 * max(float(s[0]), 1e-300)]
+
+
 # --- the audit --------------------------------------------------------------------------------
 def audit_one(
     robot: Robot,
@@ -377,8 +387,19 @@ def audit_one(
     sigmas = {k.kind: k.noise for k in rows}
     n = len(robot.body_names)
 
+    # the nuisance columns (whitened, every kind's rows, the mass row last): projected out
+    blocks = [k.nuisance / k.noise for k in rows] + ([np.zeros((1, 0))] if weighed else [])
+    total = sum(b.shape[0] for b in blocks)
+    nuis = np.zeros((total, sum(b.shape[1] for b in blocks)))
+    r0 = c0 = 0
+    for b in blocks:
+        nuis[r0 : r0 + b.shape[0], c0 : c0 + b.shape[1]] = b
+        r0, c0 = r0 + b.shape[0], c0 + b.shape[1]
+    qn = _orth(nuis)
+
     def residual(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Whitened residual and Jacobian at body parameters θ (the weighed mass a row)."""
+        """Whitened residual and Jacobian at body parameters θ (the weighed mass a row), the
+        sensor offsets and friction bands projected out."""
         at = rows if th is theta else kind_rows(robot, data, th, sigmas)
         e_parts = [(k.y - k.pred) / k.noise for k in at]
         a_parts = [k.jac / k.noise for k in at]
@@ -387,7 +408,8 @@ def audit_one(
             row = np.zeros((1, 4 * n))
             row[0, :n] = 1.0 / mass_std
             a_parts.append(row)
-        return np.concatenate(e_parts), np.concatenate(a_parts)
+        e, a = np.concatenate(e_parts), np.concatenate(a_parts)
+        return e - qn @ (qn.T @ e), a - qn @ (qn.T @ a)
 
     gap = math.nan if weighed is None else weighed - robot.total_mass
     e, a = residual(theta)
@@ -397,18 +419,18 @@ def audit_one(
     masses = robot.masses
     rejected = tuple(body_change(x, masses, robot) for x in named)
     cv = cv_errors(robot, data, folds, weighed) if folds >= 2 else {}
-    errors = tuple(
-        KindError(
-            k.kind, k.y.size, k.noise, float(np.sqrt(np.mean((k.y - k.pred) ** 2))),
-            cv.get(k.kind, math.nan),
-        )
-        for k in rows
-    )  # fmt: skip
+    errors = []
+    at = 0
+    for k in rows:  # the file's error, what the nuisance columns absorb aside
+        res = e[at : at + k.y.size] * k.noise
+        at += k.y.size
+        rms = float(np.sqrt(np.mean(res**2)))
+        errors.append(KindError(k.kind, k.y.size, k.noise, rms, cv.get(k.kind, math.nan)))
     return CandidateAudit(
         model=label,
         total_mass=robot.total_mass,
         mass_gap=gap,
-        errors=errors,
+        errors=tuple(errors),
         score=float(np.mean(e**2)),
         z_overall=z_all,
         rank=0,

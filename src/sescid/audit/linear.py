@@ -23,6 +23,7 @@ from sescid.errors import DataError
 from sescid.estimation import Measurements
 from sescid.estimation.balance_rows import balance_rows
 from sescid.estimation.map import BODY_COM_SCALE
+from sescid.estimation.torque_rows import nuisance_names
 from sescid.robot import Robot
 
 #: singular values below this fraction of a block's largest count as not seen
@@ -47,6 +48,10 @@ class KindRows:
     jac: np.ndarray  #: (m, 4N) d pred / d θ
     noise: float  #: the data's noise standard deviation (residual of their own fit), same unit
     dof: int  #: degrees of freedom behind ``noise``
+    #: (m, K) the kind's nuisance columns (a torque sensor's offset, its friction band), each
+    #: free whatever the file: sescid's fits estimate them too (``torque_rows.nuisance_names``)
+    nuisance: np.ndarray
+    nuisance_names: tuple[str, ...]
 
 
 def _stance(robot: Robot, m: Measurements) -> Robot:
@@ -63,8 +68,9 @@ def r_jacobian(e: np.ndarray, theta: np.ndarray, n: int) -> tuple[np.ndarray, np
 
 
 def _group_rows(robot: Robot, m: Measurements, theta: np.ndarray) -> dict[str, tuple]:
-    """{kind: (y, pred, jac, ls_x)} for one data set; ``ls_x`` the rows' matrix in the stance's
-    own linear parameters (vec(r), or M·vec(r) for torques), for the noise estimate."""
+    """{kind: (y, pred, jac, ls_x, ls_y, nuisance)} for one data set; ``ls_x``, ``ls_y`` the
+    rows in the stance's own linear parameters (vec(r), or M·vec(r) for torques), for the noise
+    estimate; ``nuisance`` {name: column} (torques: each sensor's offset, friction band)."""
     n = len(robot.body_names)
     rs = _stance(robot, m)
     e = rs.sesc_matrix(robot)
@@ -81,17 +87,25 @@ def _group_rows(robot: Robot, m: Measurements, theta: np.ndarray) -> dict[str, t
         ok = ~np.isnan(m.cop)
         x = phi[ok]  # (rows, 3N)
         pred = d[ok] + x @ r
-        out["cop"] = (m.cop[ok], pred, x @ dr, x, m.cop[ok] - d[ok])
+        out["cop"] = (m.cop[ok], pred, x @ dr, x, m.cop[ok] - d[ok], {})
     if m.tau is not None and m.tau_joints:
         phi_t = rs.torque_regressor(q, list(m.tau_joints), m.gravity, G0)  # (n, J, 3N)
         x = phi_t.reshape(-1, phi_t.shape[2])
         u = e @ theta  # M r
-        y = m.tau.reshape(-1)
-        out["tau"] = (y, x @ u, x @ e, x, y)
+        y = m.tau.reshape(-1)  # rows (pose, joint)
+        nj = len(m.tau_joints)
+        nuis = {}
+        for what, joint in nuisance_names(m):
+            col = np.zeros(y.size)
+            j = m.tau_joints.index(joint)
+            side = m.approach if what == "friction" else None
+            col[j::nj] = 1.0 if side is None else side
+            nuis[f"tau.{what}[{joint}]"] = col
+        out["tau"] = (y, x @ u, x @ e, x, y, nuis)
     if m.balance is not None:
         assert m.gravity is not None
         xb, yb = balance_rows(rs, q, m.balance, m.gravity)
-        out["balance"] = (yb, xb.T @ r, xb.T @ dr, xb.T, yb)
+        out["balance"] = (yb, xb.T @ r, xb.T @ dr, xb.T, yb, {})
     return out
 
 
@@ -103,6 +117,8 @@ def _noise(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, int]:
             continue
         u, s, vt = np.linalg.svd(x, full_matrices=False)
         keep = s > SEEN_RTOL * s[0] if s.size and s[0] > 0 else np.zeros(s.size, bool)
+        if x.shape[0] <= int(keep.sum()):  # a set that its own fit meets exactly
+            continue
         res = y - u[:, keep] @ (u[:, keep].T @ y)
         rss += float(res @ res)
         dof += x.shape[0] - int(keep.sum())
@@ -131,16 +147,23 @@ def kind_rows(
         y = np.concatenate([p[0] for p in parts])
         pred = np.concatenate([p[1] for p in parts])
         jac = np.concatenate([p[2] for p in parts])
+        names = tuple(dict.fromkeys(k for p in parts for k in p[5]))
+        nuis = np.zeros((y.size, len(names)))
+        start = 0
+        for p in parts:
+            for k, col in p[5].items():
+                nuis[start : start + col.size, names.index(k)] = col
+            start += p[0].size
         if noise is not None and kind in noise:
             sigma, dof = float(noise[kind]), 0
         else:
-            sigma, dof = _noise([(p[3], p[4]) for p in parts])
+            sigma, dof = _noise([(np.column_stack([p[3], *p[5].values()]), p[4]) for p in parts])
         if not (math.isfinite(sigma) and sigma > 0):
             raise DataError(
                 f"{data[0].source}: the {kind} rows leave no degrees of freedom to judge their "
                 f"noise ({y.size} rows): measure more poses, or give the noise"
             )
-        out.append(KindRows(kind, y, pred, jac, sigma, dof))
+        out.append(KindRows(kind, y, pred, jac, sigma, dof, nuis, names))
     return out
 
 
