@@ -257,8 +257,9 @@ def _no_options(d) -> list:
 
 
 def _audit(d) -> list:
-    names = ("support", "total_mass", "mass_std", "level", "folds")
-    return [(n, d[n], _arg(audit, n)) for n in names]
+    names = ("support", "line", "total_mass", "mass_std", "level", "folds")
+    noise = None if not d["noise"] else d["noise"]  # --noise KIND=VALUE flags → a dict
+    return [(n, d[n], _arg(audit, n)) for n in names] + [("noise", noise, _arg(audit, "noise"))]
 
 
 def _compare(d) -> list:

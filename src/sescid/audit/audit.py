@@ -257,8 +257,8 @@ class AuditResult:
 
 
 # --- reading the inputs ---------------------------------------------------------------------
-def _load(model: Any, support: str | None) -> Robot:
-    return model if isinstance(model, Robot) else load_robot(model, support)
+def _load(model: Any, support: str | None, line: Any) -> Robot:
+    return model if isinstance(model, Robot) else load_robot(model, support, line)
 
 
 def _label(model: Any) -> str:
@@ -458,6 +458,7 @@ def audit(
     models: Sequence[Any],
     *,
     support: str | None = None,
+    line: Any = None,
     total_mass: float | None = None,
     mass_std: float | None = None,
     level: float = DEFAULT_Z,
@@ -468,8 +469,9 @@ def audit(
 
     ``data``: a data file (``FILE@FRAME`` for a stance), a ``Measurements`` or a list of
     either (pooled). ``models``: model files (URDF/MJCF paths, embedded names) or ``Robot``s,
-    loaded at ``support``. ``total_mass``: the weighed mass [kg], with its standard deviation
-    ``mass_std`` [kg] (default ``WEIGH_REL_STD`` of it). ``level``: the z a change must reach
+    loaded at ``support`` (on the support ``line`` for balance data, ``load_robot``).
+    ``total_mass``: the weighed mass [kg], with its standard deviation ``mass_std`` [kg]
+    (default ``WEIGH_REL_STD`` of it). ``level``: the z a change must reach
     to be named. ``folds``: of the cross-validated error after a fit (0: skip it). ``noise``:
     per-kind noise standard deviations (SI) instead of the data's own estimate."""
     if len(models) < 1:
@@ -479,7 +481,7 @@ def audit(
     if total_mass is not None and not (math.isfinite(total_mass) and total_mass > 0):
         raise OptionError("total_mass", f"the weighed mass must be > 0 kg, got {total_mass}")
     labels = [_label(m) for m in models]
-    robots = [_load(m, support) for m in models]
+    robots = [_load(m, support, line) for m in models]
     _same_robot(robots, labels)
     known = set().union(*(set(r.joint_names) for r in robots))
     std = mass_std if mass_std is not None else (WEIGH_REL_STD * total_mass if total_mass else 1.0)

@@ -30,6 +30,8 @@ from sescid.robot import Robot
 SEEN_RTOL = 1e-6
 #: at most this many hypotheses are named
 MAX_NAMED = 6
+#: the unit a kind's noise is given in on the command line (``--noise KIND=VALUE``)
+NOISE_UNITS = {"cop": "mm", "tau": "N·m", "balance": "degrees"}
 #: a hypothesis: the bodies it names and its directions (4N, k) in the body parameters
 Hypothesis = tuple[tuple[str, ...], np.ndarray]
 #: χ² units within which two hypotheses explain the data equally well
@@ -161,7 +163,8 @@ def kind_rows(
         if not (math.isfinite(sigma) and sigma > 0):
             raise DataError(
                 f"{data[0].source}: the {kind} rows leave no degrees of freedom to judge their "
-                f"noise ({y.size} rows): measure more poses, or give the noise"
+                f"noise ({y.size} rows): measure more poses, or give the noise (--noise "
+                f"{kind}=VALUE, in {NOISE_UNITS[kind]})"
             )
         out.append(KindRows(kind, y, pred, jac, sigma, dof, nuis, names))
     return out
@@ -238,6 +241,8 @@ def _relative(d: np.ndarray, cols: np.ndarray, theta: np.ndarray, n: int) -> flo
 
 #: Gauss–Newton steps of the named changes' estimate (the CoP is divided by the total mass)
 GN_STEPS = 4
+#: halvings of a Gauss–Newton step that raises the misfit before the estimate stops there
+GN_HALVINGS = 4
 
 
 def _select(
@@ -299,12 +304,21 @@ def _estimate(
     for _ in range(GN_STEPS if residual is not None else 1):
         j = a @ cols
         step = np.linalg.lstsq(j, e, rcond=None)[0]
-        delta = delta + step
         if residual is None:
+            delta = delta + step
             e = e - j @ step
             break
-        e, a = residual(theta + cols @ delta)
-        if float(np.linalg.norm(j @ step)) < 1e-9 * max(float(np.linalg.norm(e)), 1.0):
+        for _ in range(GN_HALVINGS):  # a step that does not lower the misfit is halved
+            e_new, a_new = residual(theta + cols @ (delta + step))
+            if float(e_new @ e_new) <= float(e @ e):
+                break
+            step = step / 2
+        else:
+            break
+        delta = delta + step
+        done = float(np.linalg.norm(j @ step)) < 1e-9 * max(float(np.linalg.norm(e)), 1.0)
+        e, a = e_new, a_new
+        if done:
             break
     j = a @ cols
     return delta, np.linalg.pinv(j.T @ j, hermitian=True), e, a
@@ -384,4 +398,5 @@ def attribute(
             ok = m0 > 0 and m1 > 0
             shift = float(np.linalg.norm((h0 + moment) / m1 - h0 / m0)) if ok else math.nan
         out.append(Named(hyps[h][0], mass, mass_std, moment, moment_std, shift, z, zs, alt))
-    return out, z_all, dof_all
+    # a name whose change the joint estimate does not hold beyond the noise is not kept
+    return [x for x in out if x.z >= level], z_all, dof_all

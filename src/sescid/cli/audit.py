@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 import click
@@ -35,6 +36,27 @@ class _Several(click.Option):
             opt.process = process
 
 
+#: ``--noise`` units → SI
+NOISE_SI = {"cop": 1e-3, "tau": 1.0, "balance": math.pi / 180}
+
+
+def _noise(given: tuple[str, ...]) -> dict[str, float] | None:
+    """``--noise KIND=VALUE`` flags as SI standard deviations per kind (None: none given)."""
+    out = {}
+    for g in given:
+        kind, _, value = g.partition("=")
+        if kind not in NOISE_SI:
+            common.fail(f"--noise {g}: KIND is cop, tau or balance")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not (math.isfinite(v) and v > 0):
+            common.fail(f"--noise {g}: VALUE must be a number > 0")
+        out[kind] = v * NOISE_SI[kind]
+    return out or None
+
+
 def _write_json(outs: OutputSet, out: str, doc: dict) -> None:
     with open(outs.path(out), "w") as fh:
         json.dump(doc, fh, indent=1, allow_nan=False)
@@ -47,12 +69,17 @@ def _write_json(outs: OutputSet, out: str, doc: dict) -> None:
               help="A candidate model file (URDF or MJCF, or an embedded robot name); repeat the "
               "flag, or give several after it.")  # fmt: skip
 @click.option("--support", default=None, help="The support frame the data were measured on.")
+@click.option("--line", default=None,
+              help="Balance data: the support line (x, y, -y, … or ax,ay,az).")  # fmt: skip
 @click.option("--total-mass", type=click.FloatRange(0, min_open=True), default=None,
               help="The weighed total mass [kg].")  # fmt: skip
 @click.option("--mass-std", type=click.FloatRange(0, min_open=True), default=None,
               help="Standard deviation of the weighed mass [kg] (default 0.5 %).")  # fmt: skip
 @click.option("--z", "level", type=click.FloatRange(0, min_open=True), default=DEFAULT_Z,
               show_default=True, help="z a change must reach to be named.")  # fmt: skip
+@click.option("--noise", "noise", multiple=True, metavar="KIND=VALUE",
+              help="A kind's noise standard deviation instead of the data's own estimate: "
+              "cop=MM, tau=NM, balance=DEG (repeat for several).")  # fmt: skip
 @click.option("--folds", type=click.IntRange(0, 100), default=DEFAULT_FOLDS, show_default=True,
               help="Folds of the cross-validated error after a fit (0: skip it).")  # fmt: skip
 @common.file_option("--json", "Write the audit as JSON here.", "json_out")
@@ -60,7 +87,7 @@ def _write_json(outs: OutputSet, out: str, doc: dict) -> None:
               help=f"Exit {FAIL_EXIT} when the best candidate is rejected by the data or fails "
               "a model check (for CI).")  # fmt: skip
 @common.force_option
-def audit(data, models, support, total_mass, mass_std, level, folds, json_out,
+def audit(data, models, support, line, total_mass, mass_std, level, noise, folds, json_out,
           fail_on, force):  # fmt: skip
     """Score candidate model files of one robot against measured DATA (CoP, torques, balance;
     files pool; FILE@FRAME for a stance): mass gap, prediction and cross-validated errors per
@@ -71,8 +98,8 @@ def audit(data, models, support, total_mass, mass_std, level, folds, json_out,
         common.fail("--folds: 0 (no cross-validation) or at least 2")
     outs = OutputSet([json_out], list(data) + list(models), force=force)
     result = run_audit(
-        list(data), list(models), support=support, total_mass=total_mass,
-        mass_std=mass_std, level=level, folds=folds,
+        list(data), list(models), support=support, line=line, total_mass=total_mass,
+        mass_std=mass_std, level=level, folds=folds, noise=_noise(noise),
     )  # fmt: skip
     click.echo(result.text())
     if json_out is not None:
