@@ -305,3 +305,20 @@ def test_cli_bad_input_is_one_line(files, data_csv, tmp_path):
     if fit_b.exists():
         _one_line_error(run("compare", fit_a, fit_b), "support")
     _one_line_error(run("compare", fit_a), "two")
+
+
+def test_cli_balance_data_need_their_noise(tmp_path):
+    """Balanced poses on a line: as many unknowns as rows, so the noise is given; the file the
+    data come from is then within it, and its tilt error is in degrees."""
+    data = tmp_path / "b.csv"
+    res = run("simulate", "--robot", "op2", "--line", "y", "--measure", "balance", "--count", 38,
+              "--range-deg", 20, "--seed", 2, "--out", data)  # fmt: skip
+    assert res.exit_code == 0, res.output
+    _one_line_error(run("audit", data, "-m", "op2", "--line", "y"), "--noise balance=")
+    out = tmp_path / "a.json"
+    res = run("audit", data, "-m", "op2", "--line", "y", "--noise", "balance=0.5", "--folds", 0,
+              "--json", out)  # fmt: skip
+    assert res.exit_code == 0, res.output
+    c = json.loads(out.read_text())["candidates"][0]
+    assert c["noise"] == {"balance_deg": pytest.approx(0.5)}
+    assert 0.3 < c["prediction_error"]["balance_deg"] < 0.8 and not c["rejected"]
