@@ -241,6 +241,9 @@ def test_compare_flags_a_moved_mass_and_not_noise(files, moved):
     assert not same.changed
     several = compare([before, again, after, _fit(files["truth"], 14)])
     assert [s.outlier for s in several.sessions] == [False, False, True, False]
+    for r in (res, same, several):  # strict JSON: what is not determined is null
+        doc = json.loads(json.dumps(r.to_json(), allow_nan=False))
+        assert {"changed", "com_change_mm", "mass_change"} <= set(doc)
 
 
 # --- command line ----------------------------------------------------------------------------

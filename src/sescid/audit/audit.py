@@ -127,7 +127,8 @@ def _finite_list(v) -> list[float | None]:
     return [None if not math.isfinite(x) else float(x) for x in v]
 
 
-def _none(x: float) -> float | None:
+def none_if_nan(x: float) -> float | None:
+    """JSON's null for a number that is not finite (not determined)."""
     return None if not math.isfinite(x) else float(x)
 
 
@@ -154,14 +155,14 @@ class CandidateAudit:
         pred, cv, noise = {}, {}, {}
         for e in self.errors:
             suffix, f, _ = UNITS[e.kind]
-            pred[f"{e.kind}_{suffix}"] = _none(e.prediction * f)
-            cv[f"{e.kind}_{suffix}"] = _none(e.cv * f)
-            noise[f"{e.kind}_{suffix}"] = _none(e.noise * f)
+            pred[f"{e.kind}_{suffix}"] = none_if_nan(e.prediction * f)
+            cv[f"{e.kind}_{suffix}"] = none_if_nan(e.cv * f)
+            noise[f"{e.kind}_{suffix}"] = none_if_nan(e.noise * f)
         return {
             "model": self.model,
             "rank": self.rank,
             "total_mass": self.total_mass,
-            "mass_gap": _none(self.mass_gap),
+            "mass_gap": none_if_nan(self.mass_gap),
             "prediction_error": pred,
             "cv_error": cv,
             "noise": noise,
@@ -246,7 +247,7 @@ class AuditResult:
         """The whole audit as JSON (``--json``)."""
         return {
             "format": "sescid-audit",
-            "weighed_mass": _none(self.weighed_mass),
+            "weighed_mass": none_if_nan(self.weighed_mass),
             "n_poses": self.n_poses,
             "z_level": self.level,
             "folds": self.folds,

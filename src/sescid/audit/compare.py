@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from sescid.audit.audit import DEFAULT_Z, BodyChange, body_change
+from sescid.audit.audit import DEFAULT_Z, BodyChange, body_change, none_if_nan
 from sescid.audit.linear import attribute, r_jacobian, tail, z_of_p
 from sescid.errors import ModelError, OptionError
 from sescid.estimation import Fit, load_fit
@@ -124,12 +124,12 @@ class CompareResult:
             "support": self.support,
             "compared": self.compared,
             "not_compared": self.not_compared,
-            "z_overall": self.z_overall,
+            "z_overall": none_if_nan(self.z_overall),
             "z_level": self.level,
             "changed": [c.to_json() for c in self.changed],
-            "com_change_mm": [v * 1e3 for v in self.com_change],
-            "com_change_rms_mm": self.com_change_rms * 1e3,
-            "com_change_std_mm": self.com_change_std * 1e3,
+            "com_change_mm": [none_if_nan(v * 1e3) for v in self.com_change],
+            "com_change_rms_mm": none_if_nan(self.com_change_rms * 1e3),
+            "com_change_std_mm": none_if_nan(self.com_change_std * 1e3),
             "mass_change": None if not math.isfinite(self.mass_change) else self.mass_change,
             "sessions": [{"fit": s.fit, "z": s.z, "outlier": s.outlier} for s in self.sessions],
             "notes": list(self.notes),
@@ -137,9 +137,9 @@ class CompareResult:
                 {
                     "label": r.label,
                     "bodies": list(r.bodies),
-                    "spread": r.spread,
-                    "predicted": r.predicted,
-                    "ratio": r.ratio,
+                    "spread": none_if_nan(r.spread),
+                    "predicted": none_if_nan(r.predicted),
+                    "ratio": none_if_nan(r.ratio),
                 }  # fmt: skip
                 for r in self.repeatability
             ],
