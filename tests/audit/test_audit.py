@@ -325,3 +325,17 @@ def test_cli_balance_data_need_their_noise(tmp_path):
     c = json.loads(out.read_text())["candidates"][0]
     assert c["noise"] == {"balance_deg": pytest.approx(0.5)}
     assert 0.3 < c["prediction_error"]["balance_deg"] < 0.8 and not c["rejected"]
+
+
+def test_the_reports_section_names_what_the_data_reject(files, result):
+    """``sescid report``'s section: the fit's model file judged against the report's data."""
+    from sescid.report.audit_section import audit_section
+    from sescid.report.inputs import ReportOptions, as_measurements, report_content
+
+    data, _ = result
+    robot = sescid.load_robot(str(files["phantom"]), "r_sole")
+    fit = sescid.identify(robot, data, total_mass=sescid.load_robot(str(files["truth"]),
+                                                                     "r_sole").total_mass)  # fmt: skip
+    html = audit_section(report_content(fit, as_measurements(fit, data), ReportOptions()))
+    assert "The model file against the data" in html and HAND in html
+    assert "audit_phantom" in html  # the check, named by link
