@@ -334,8 +334,8 @@ def test_the_reports_section_names_what_the_data_reject(files, result):
 
     data, _ = result
     robot = sescid.load_robot(str(files["phantom"]), "r_sole")
-    fit = sescid.identify(robot, data, total_mass=sescid.load_robot(str(files["truth"]),
-                                                                     "r_sole").total_mass)  # fmt: skip
+    weighed = sescid.load_robot(str(files["truth"]), "r_sole").total_mass
+    fit = sescid.identify(robot, data, total_mass=weighed)
     html = audit_section(report_content(fit, as_measurements(fit, data), ReportOptions()))
     assert "The model file against the data" in html and HAND in html
     assert "audit_phantom" in html  # the check, named by link
