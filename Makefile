@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+CORE   := $(VENV)/.installed-core
 
 LOCK   := requirements-dev.lock
 
@@ -13,9 +14,21 @@ $(STAMP): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[dev]' -c $(LOCK)
+	# the tests' helpers importable by the tools' studies (tools/*.py import them as a library)
+	$(PY) -c "import pathlib, sys, sysconfig; pathlib.Path(sysconfig.get_paths()['purelib'], \
+	    'sescid-test-helpers.pth').write_text(sys.argv[1] + '\\n')" "$(CURDIR)/tests/helpers"
 	touch $(STAMP)
 
-demo: $(STAMP)
+# the demo's environment: the core dependencies only (no extras, no test tools), the lock's
+# versions; a venv that already holds the development set (it includes the core) is kept as is
+$(CORE): pyproject.toml $(LOCK)
+	if [ -f $(STAMP) ] && [ $(STAMP) -nt pyproject.toml ] && [ $(STAMP) -nt $(LOCK) ]; then :; else \
+	  $(PYTHON) -m venv $(VENV) && \
+	  $(PY) -m pip install -q --upgrade pip && \
+	  $(PY) -m pip install -q -e . -c $(LOCK); fi
+	touch $(CORE)
+
+demo: $(CORE)
 	$(VENV)/bin/sescid demo --out-dir demo_out
 
 lint: $(STAMP)
@@ -31,6 +44,7 @@ slow: $(STAMP)
 
 docs: $(STAMP)
 	$(PY) tools/readme_numbers.py
+	$(PY) tools/torques_walkthrough.py
 
 # speed figures, each beside its target and a reference measured in the same run (docs/speed.md)
 bench: $(STAMP)

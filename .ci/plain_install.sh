@@ -36,6 +36,9 @@ set -x
 "$sescid" identify measured.csv --robot op2 --weighted --out fit_w.json
 "$sescid" export fit_w.json --out op2_walkthrough.urdf
 "$sescid" report fit_w.json measured.csv --out-dir report
+# the example models ship in the wheel and load by name from this folder (outside the clone)
+"$sescid" simulate --robot wheeled_humanoid --support axle --line y --count 40 --range-deg 40 --seed 1 --out balance.csv
+"$sescid" identify balance.csv --robot wheeled_humanoid --support axle --line y --method map --out balance_fit.json
 # a command that needs an extra says which, in one line, and exits 2
 mkdir bag_folder
 echo '{"format": "sescid-bag-mapping/1", "joints": {"topic": "/j"},

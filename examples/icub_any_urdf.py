@@ -25,7 +25,7 @@ robot = sescid.load_robot(args.urdf, support=args.support)
 print(robot)
 sim = simulate(robot, args.count, args.range_deg, args.noise, seed=0, clip=True)
 fit = sescid.identify(robot, sim.q, sim.cop)
-print(fit.summary())
+print(sescid.fit_summary(fit))
 reasons: dict[str, int] = {}
 for comb in fit.unidentifiable:
     key = comb.reason.split(":")[0].split(" of ")[0]

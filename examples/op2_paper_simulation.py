@@ -21,7 +21,7 @@ robot = sescid.load_robot("op2", support="r_sole")
 study = paper_study(robot, n=args.count, range_deg=30, noise=0.00493, seed=0, n_fresh=args.fresh)
 fit = study.fit
 print(robot)
-print(fit.summary())
+print(sescid.fit_summary(fit))
 floor = study.noise_floor_mae
 print(f"MAE vs measured CoP   {study.mae * 1e3:.3f} mm (noise floor {floor * 1e3:.3f})")
 print(f"RMSE vs true CoP      {study.rmse_fresh * 1e3:.3f} mm on fresh poses "

@@ -217,15 +217,15 @@ def _export_cop_error(robot, tmp_path, n=300):
     fit = sescid.identify(robot, sim.q, sim.cop, method="map")
     out = tmp_path / f"{robot.name}_exp{robot.model_path.suffix}"
     cfit = sescid.to_consistent(fit)
-    sescid.export_model(cfit, out)
+    sescid.export_model(cfit, out, repair_inertia=True)  # TALOS, iCub: massive point masses
     exp = sescid.load_robot(out, robot.support)
     q = sescid.simulate(robot, 1000, 20, 0.0, seed=9, clip=True).q
     return float(np.abs(exp.cop(q) - fit.predict_cop(q)).max())
 
 
 def test_export_of_map_fit_reproduces_cop_biped(biped, tmp_path):
-    """The export of a MAP fit reproduces its CoP to ≤ 1e-6 m on fresh poses (generated biped)."""
-    assert _export_cop_error(biped, tmp_path) <= 1e-6
+    """The export of a MAP fit reproduces its CoP to ≤ 1e-9 m on fresh poses (generated biped)."""
+    assert _export_cop_error(biped, tmp_path) <= 1e-9
 
 
 # --- public humanoids (example-robot-data) ------------------------------------------------
@@ -293,7 +293,7 @@ def test_icub_sole_from_collada_mesh():
 @pytest.mark.parametrize(("rel", "support"), [HUMANOIDS[0], HUMANOIDS[2], HUMANOIDS[4]])
 def test_public_humanoid_pipeline(rel, support, tmp_path):
     """simulate → identify (MAP) → poses → export on TALOS, iCub, G1: poses clear of the floor,
-    export reproduces the fit's CoP to ≤ 1e-6 m."""
+    export reproduces the fit's CoP to ≤ 1e-9 m."""
     robot = _humanoid(rel, support)
     assert robot.sole is not None and robot.free_sole is not None
     plan = sescid.plan_poses(robot, count=40, n_candidates=1000, n_test=300, seed=0)
@@ -308,5 +308,5 @@ def test_public_humanoid_pipeline(rel, support, tmp_path):
                 continue
             z = org[:, s.body, 2:3] + rot[:, s.body, 2, :] @ s.vertices.T
             assert np.all(z > robot.floor), robot.body_names[s.body]
-    assert _export_cop_error(robot, tmp_path) <= 1e-6
+    assert _export_cop_error(robot, tmp_path) <= 1e-9
     assert math.isfinite(plan.expected_error)

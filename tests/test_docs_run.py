@@ -1,6 +1,7 @@
 """Every runnable code block of README.md and docs/*.md runs as written
-(tests/helpers/docs_blocks.py says which blocks and how): each page's blocks in order, in a
-folder of their own, the commands exiting 0; a Python block in a namespace the page's blocks
+(tests/helpers/docs_blocks.py says which blocks and how): each page's blocks in order, in an
+empty folder of their own outside the repository (nothing of a clone linked in), the commands
+exiting 0; a Python block in a namespace the page's blocks
 share."""
 
 from __future__ import annotations
@@ -43,16 +44,13 @@ def _have(need: str) -> bool:
     return importlib.util.find_spec(need) is not None
 
 
-def _folder(tmp: Path) -> Path:
-    """The run's folder: the repository's examples/ and src/ and example-robot-data's robots
-    linked in (docs name them by those relative paths, as from a clone)."""
-    (tmp / "examples").symlink_to(ROOT / "examples")
-    (tmp / "src").symlink_to(ROOT / "src")
-    erd = _erd_robots()
-    if erd is not None:
-        for d in erd.iterdir():
-            if d.is_dir():
-                (tmp / d.name).symlink_to(d)
+def _folder(tmp: Path, clone: bool = False) -> Path:
+    """The run's folder: an empty one outside the repository, as a user's after `pip install`
+    (the docs name models by an embedded or example name, or by a path they compute); the
+    repository's examples/ linked in only for a page with a ``clone`` block."""
+    assert not tmp.resolve().is_relative_to(ROOT)
+    if clone:
+        (tmp / "examples").symlink_to(ROOT / "examples")
     return tmp
 
 
@@ -77,7 +75,7 @@ def run_page(page: Path, tmp: Path) -> None:
     missing = sorted({m for b in todo for m in b.needs if not _have(m)})
     if missing:
         pytest.skip(f"{page.name} needs {', '.join(missing)}")
-    cwd = _folder(tmp)
+    cwd = _folder(tmp, any(b.clone for b in todo))
     namespace: dict = {"__name__": "__docs__"}
     done_after: set[str] = set()
     old = Path.cwd()
@@ -120,3 +118,15 @@ def test_the_blocks_are_found():
     assert "sescid poses" in readme[0].text and "import sescid" in readme[1].text
     assert all("make demo" not in b.text for b in readme)
     assert shutil.which("bash") is not None
+
+
+def test_no_block_names_a_file_of_the_clone():
+    """No block names a path only a clone has (examples/, src/, tools/, …): a block runs from
+    any folder with a plain install; a ``clone`` block (a file of examples/ to copy, which its
+    page says) is the one exception."""
+    import re
+
+    clone = re.compile(r"(?:^|[\s=\"':])(?:\./)?(?:examples|src|tools|benchmarks|tests)/\S")
+    found = [(b.id, line) for p in PAGES for b in blocks(p) for line in b.text.splitlines()
+             if clone.search(line) and not b.clone]  # fmt: skip
+    assert found == []

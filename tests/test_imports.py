@@ -22,7 +22,7 @@ PACKAGES = ["sescid"] + [
 ]
 #: libraries imported inside the functions that need them, never by ``import sescid``
 HEAVY = ("scipy", "matplotlib", "mujoco", "numba", "pyarrow", "clarabel", "rosbags", "viser",
-         "trimesh", "ruamel", "threadpoolctl")  # fmt: skip
+         "trimesh", "ruamel", "threadpoolctl", "pxr")  # fmt: skip
 
 
 def _source(package: str) -> ast.Module:

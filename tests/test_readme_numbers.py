@@ -62,3 +62,16 @@ def test_readme_quotes_the_physics_bench_run():
     missing = {k: m[k] for k in quoted if m[k] not in section}
     assert not missing, f"docs/walkthrough.md quotes other figures than a run gives: {missing}"
     assert f"{m['skipped']} of the 38 poses topple" in section
+
+
+@pytest.mark.slow
+def test_the_torques_walkthrough_quotes_a_run_of_its_block():
+    """docs/torques.md's walk-through figures are what its own commands give now
+    (tools/torques_walkthrough.py --check runs the page's block)."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("mujoco")
+    tool = ROOT / "tools" / "torques_walkthrough.py"
+    res = subprocess.run([sys.executable, str(tool), "--check"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr

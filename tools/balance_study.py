@@ -24,11 +24,12 @@ from doc_blocks import spliced
 import sescid
 from sescid.estimation import Measurements
 from sescid.estimation.anchor import com_distance
+from sescid.robots import EXAMPLES
 from sescid.sesc import balance_tilt, sesc_vectors
 from sescid.simulation import simulate_balance
 
 ROOT = Path(__file__).resolve().parents[1]
-MODEL = ROOT / "examples" / "models" / "wheeled_humanoid.urdf"
+MODEL = EXAMPLES["wheeled_humanoid"]
 DOC = ROOT / "docs" / "balance.md"
 START, END = "<!-- balance-study: tools/balance_study.py -->", "<!-- /balance-study -->"
 DRAWS, POSES, RANGE_DEG, NOISE_DEG = 20, 40, 40.0, 0.5

@@ -12,7 +12,7 @@ default method, the weighed mass given). Poses that topple on the bench drop out
 the whole-body CoM against the real robot's at 2000 fresh random poses (±0.5 rad), mm.
 
 The independent reference is ``tools/stances_study.py``'s dense pooled MAP over the body
-parameters and the offsets (prior: ``defaults_study.real_bodies``' spread around CAD).
+parameters and the offsets (prior: ``study_refs.real_bodies``' spread around CAD).
 """
 
 from __future__ import annotations
@@ -24,16 +24,12 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from study_refs import body_parameters, pooled_reference, real_bodies
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from defaults_study import body_parameters, real_bodies  # noqa: E402
-from stances_study import reference  # noqa: E402
-
-import sescid  # noqa: E402
-from sescid.bench import load_truth  # noqa: E402
-from sescid.estimation import Measurements  # noqa: E402
-from sescid.io.measurements import read_measurements  # noqa: E402
+import sescid
+from sescid.bench import load_truth
+from sescid.estimation import Measurements
+from sescid.io.measurements import read_measurements
 
 SAMPLES = 20  #: readings per pose
 TAU_SIGMA = 0.05 / np.sqrt(SAMPLES)  #: N·m, a pose's mean torque (the bench's 0.05 per sample)
@@ -107,7 +103,7 @@ def main() -> None:
                     robot, [only(r1, "cop"), only(left, "cop")], method="map"),
             }  # fmt: skip
             rs = {label: fit.r for label, fit in fits.items()}
-            rs["independent pooled MAP, both feet"] = reference(
+            rs["independent pooled MAP, both feet"] = pooled_reference(
                 robot, [tau[0], tau[2]], TAU_SIGMA, mean, var, mass
             )
             rs["CAD model"] = robot.sesc_vectors()

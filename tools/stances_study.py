@@ -3,7 +3,7 @@
     python tools/stances_study.py [--draws 40]           # prints the tables
     python tools/stances_study.py --write                # rewrites them in docs/stances.md
 
-Each draw takes a "real" robot (``defaults_study.real_bodies``: masses ±10 %, CoMs ±5 mm,
+Each draw takes a "real" robot (``study_refs.real_bodies``: masses ±10 %, CoMs ±5 mm,
 5 % of the mass unmodelled on heavy bodies), its body parameters θ shared by every stance
 (``Robot.sesc_matrix``), and measures it through ``sescid.identify`` (the default method):
 
@@ -22,25 +22,15 @@ stance, mm; ranks over the 4N body parameters (pooled) or the stance's own.
 from __future__ import annotations
 
 import argparse
-import sys
 import zlib
 from pathlib import Path
 
 import numpy as np
+from doc_blocks import spliced
+from study_refs import TORQUE_ROBOTS, body_parameters, model_path, pooled_reference, real_bodies
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from defaults_study import (  # noqa: E402
-    TORQUE_ROBOTS,
-    body_parameters,
-    map_solve,
-    model_path,
-    real_bodies,
-)
-from doc_blocks import spliced  # noqa: E402
-
-import sescid  # noqa: E402
-from sescid.estimation import Measurements  # noqa: E402
+import sescid
+from sescid.estimation import Measurements
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "stances.md"
@@ -65,24 +55,6 @@ def measure(ref, theta, support, k, rng, offsets, sigma, kind):
         return Measurements(q=q, cop=cop, support=stance)
     tau = robot.torques(q, r, total_mass=mass) + offsets + rng.normal(0, sigma, (k, robot.nq))
     return Measurements(q=q, tau=tau, tau_joints=tuple(robot.joint_names), support=stance)
-
-
-def reference(ref, data, sigma, mean, var, mass):
-    """Independent pooled MAP over θ and per-joint offsets (dense numpy), the weighed ``mass``
-    given as ``identify`` is; returns r (N, 3)."""
-    n = len(ref.body_names)
-    blocks, ys = [], []
-    for m in data:
-        robot = ref.at(m.support or ref.support)
-        e = robot.sesc_matrix(ref)  # r = E θ / M: τ = M Φ r = Φ E θ
-        phi = robot.torque_regressor(m.q, m.tau_joints)
-        nq, nj = m.tau.shape
-        rows = np.einsum("njp,pk->njk", phi, e).transpose(1, 0, 2).reshape(nq * nj, -1)
-        blocks.append(np.hstack([rows, np.kron(np.eye(nj), np.ones((nq, 1)))]))
-        ys.append(m.tau.T.reshape(-1))
-    a, y = np.vstack(blocks), np.concatenate(ys)
-    theta = map_solve(a / sigma, y / sigma, mean, var, n, mass)
-    return (ref.sesc_matrix() @ theta[: 4 * n] / theta[:n].sum()).reshape(-1, 3)
 
 
 def torque_case(name: str, draws: int) -> list[str]:
@@ -116,7 +88,7 @@ def torque_case(name: str, draws: int) -> list[str]:
             d = ref.com(fresh, fit.r) - ref.com(fresh, r_true)
             err.setdefault(label, []).append(1e3 * float(np.sqrt(np.mean(np.sum(d * d, 1)))))
             ranks[label] = fit.bodies.rank if fit.bodies is not None else fit.rank
-        r_ref = reference(ref, both, sigma, mean, var, mass)
+        r_ref = pooled_reference(ref, both, sigma, mean, var, mass)
         d = ref.com(fresh, r_ref) - ref.com(fresh, r_true)
         err.setdefault("independent pooled MAP, both feet", []).append(
             1e3 * float(np.sqrt(np.mean(np.sum(d * d, 1))))

@@ -113,7 +113,7 @@ def one_seed(seed: int, args) -> dict[str, float]:
         fresh = sescid.simulate(robot, 2000, 30, 0.0, 1000 + seed).q
         tau = data.without("cop")
         cop = data.without("tau")
-        opts = {"total_mass": mass, "robust": False}
+        opts = {"total_mass": mass, "robust": False, "tau_noise_model": args.tau_noise_model}
         ls = identify(robot, tau, method="ls", **opts)
         out["torques, least squares"] = com_error(robot, ls.r, r_true, fresh)
         ref = lstsq_reference(robot, tau, mass, friction=False)
@@ -138,14 +138,35 @@ def one_seed(seed: int, args) -> dict[str, float]:
         tau = data.without("cop")
         tau = Measurements(q=tau.q, tau=tau.tau, tau_joints=tau.tau_joints, tau_se=tau.tau_se,
                            approach=data.approach, source=tau.source)  # fmt: skip
-        band = identify(robot, tau, method="ls", total_mass=truth.true_mass, robust=False)
+        band = identify(
+            robot,
+            tau,
+            method="ls",
+            total_mass=truth.true_mass,
+            robust=False,
+            tau_noise_model=args.tau_noise_model,
+        )
         out["friction: estimated band"] = com_error(robot, band.r, truth.r_true, fresh)
         ref = lstsq_reference(robot, tau, truth.true_mass, friction=True)
         out["friction: reference lstsq with the band"] = com_error(robot, ref, truth.r_true, fresh)
         blind = Measurements(q=tau.q, tau=tau.tau, tau_joints=tau.tau_joints)
-        ign = identify(robot, blind, method="ls", total_mass=truth.true_mass, robust=False)
+        ign = identify(
+            robot,
+            blind,
+            method="ls",
+            total_mass=truth.true_mass,
+            robust=False,
+            tau_noise_model=args.tau_noise_model,
+        )
         out["friction: band ignored (LS)"] = com_error(robot, ign.r, truth.r_true, fresh)
-        rob = identify(robot, blind, method="ls", total_mass=truth.true_mass, robust=True)
+        rob = identify(
+            robot,
+            blind,
+            method="ls",
+            total_mass=truth.true_mass,
+            robust=True,
+            tau_noise_model=args.tau_noise_model,
+        )
         out["friction: band ignored (robust)"] = com_error(robot, rob.r, truth.r_true, fresh)
         est = {e.name: e.value for e in band.nuisance if e.what == "friction" and e.determined}
         true_f = dict(zip(truth.joint_names, truth.torque.friction, strict=True))
@@ -156,10 +177,10 @@ def one_seed(seed: int, args) -> dict[str, float]:
         held = sescid.load_robot("op2", support=torso)
         gantry_poses(folder, held, seed)
         held, data, truth = bench(folder, seed, args, ["--mount", "gantry"], support=torso)
-        gfit = identify(held, data.without("cop"), total_mass=truth.true_mass,
-                        robust=False, method=MapOptions(prior="sesc"))  # fmt: skip
-        gbody = identify(held, data.without("cop"), total_mass=truth.true_mass,
-                         robust=False, method=MapOptions(prior="bodies"))  # fmt: skip
+        gopts = {"total_mass": truth.true_mass, "robust": False,
+                 "tau_noise_model": args.tau_noise_model}  # fmt: skip
+        gfit = identify(held, data.without("cop"), method=MapOptions(prior="sesc"), **gopts)
+        gbody = identify(held, data.without("cop"), method=MapOptions(prior="bodies"), **gopts)
         rng = np.random.default_rng(2000 + seed)
         lim = np.clip(held.joint_limits, -np.pi / 4, np.pi / 4)
         qg = rng.uniform(lim[:, 0], lim[:, 1], (1000, held.nq))
@@ -199,6 +220,13 @@ def main() -> None:
         choices=["cop", "tau", "both"],
         help="the kinds the 38 standing poses are planned for (poses --kinds)",
     )
+    ap.add_argument(
+        "--tau-noise-model",
+        default="joint",
+        choices=["joint", "shared"],
+        help="torque noise per joint (the default; least squares is then a weighted one, not "
+        "the unweighted lstsq reference's) or one shared level",
+    )
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     rows: dict[str, list[float]] = {}
@@ -208,7 +236,7 @@ def main() -> None:
         print(f"seed {seed} done", file=sys.stderr, flush=True)
     print(
         f"engine {args.engine}, poses for {args.plan}, {args.seeds} seeds, 38 poses, "
-        f"{args.samples} samples/pose\n"
+        f"{args.samples} samples/pose, torque noise {args.tau_noise_model}\n"
     )
     print("| figure | mean | per seed |\n|---|---|---|")
     for k, v in rows.items():

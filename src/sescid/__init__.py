@@ -9,7 +9,9 @@ the compiled kernels — load inside the functions that need them):
   ``method`` = "auto" (the default) | "ls" | "map" | "consistent" or that method's options —
   ``AutoOptions``, ``LeastSquaresOptions``, ``MapOptions``, ``ConsistentOptions``; what every
   method shares: ``IdentifyOptions``),
-  ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``;
+  ``to_consistent``, ``OnlineEstimator``, ``Fit``, ``load_fit``, ``save_fit``, ``fit_summary``
+  and ``fit_notes`` (a fit's lines for a reader, made outside the record);
+  ``identify_payload`` (a payload's mass and CoM on a calibrated robot);
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
 - model files and fits: ``audit`` (score candidate model files against measurements),
@@ -18,7 +20,7 @@ the compiled kernels — load inside the functions that need them):
 - errors: ``SescidError`` and its subclasses.
 """
 
-from sescid.api import identify
+from sescid.api import identify, identify_payload
 from sescid.audit import audit, compare
 from sescid.bench import run_experiment
 from sescid.errors import (
@@ -38,6 +40,8 @@ from sescid.estimation import (
     MapOptions,
     Measurements,
     OnlineEstimator,
+    fit_notes,
+    fit_summary,
     load_fit,
     save_fit,
     to_consistent,
@@ -73,8 +77,11 @@ __all__ = [
     "export_mjcf",
     "export_model",
     "export_urdf",
+    "fit_notes",
+    "fit_summary",
     "fsr",
     "identify",
+    "identify_payload",
     "load_fit",
     "load_robot",
     "load_sensors",

@@ -27,12 +27,16 @@ from sescid.estimation import (
     Measurements,
     MethodName,
     MethodOptions,
+    PayloadOptions,
+    check_base,
+    check_payload,
     fit_measurements,
+    payload_fit,
 )
 from sescid.io.measurements import ReadReport, read_measurements
 from sescid.robot import Robot
 
-__all__ = ["file_stance", "identify"]
+__all__ = ["file_stance", "identify", "identify_payload"]
 
 
 def _is_path(x: Any) -> bool:
@@ -130,7 +134,83 @@ def identify(
             )
         )  # fmt: skip
     fit = fit_measurements(robot, streams, method=method, options=opts, progress=progress)
-    notes = [m for m in (r.limit_message() for r in got) if m is not None]
+    notes = [m for r in got for m in (r.limit_message(), r.missing_message()) if m is not None]
     if notes:
         fit = dataclasses.replace(fit, warnings=tuple(notes) + fit.warnings)
     return fit
+
+
+#: the ``IdentifyOptions`` a payload fit uses (any other changed from its default is refused)
+PAYLOAD_OPTIONS = ("rtol", "cop_noise", "tau_noise", "gravity_accel", "kinds", "imu_link",
+                   "allow_outside_limits", "seed", "huber_k", "mc_draws", "gain_prior")  # fmt: skip
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return a is b
+    return bool(a == b)
+
+
+def identify_payload(
+    robot: Robot,
+    data: Any,
+    body: str,
+    *,
+    mass: float | None = None,
+    base: Fit | None = None,
+    options: IdentifyOptions | None = None,
+    **overrides: Any,
+) -> Fit:
+    """Identify a payload on the link ``body``: its mass [kg] (``mass``: weighed, not
+    identified) and CoM [m, ``body``'s frame], the robot's own masses kept as the base.
+
+    ``base``: a previous fit of this robot (any method, any stance; ``load_fit``) or None for
+    the model file's masses. ``data`` as ``identify``'s (files, ``Measurements`` or a list of
+    them; any kind and stance). ``options``/``overrides``: the ``IdentifyOptions`` that apply
+    (``rtol``, ``cop_noise``, ``tau_noise``, ``gravity_accel``, ``kinds``, ``imu_link``,
+    ``allow_outside_limits``). Returns the robot with its payload as a ``Fit`` (its r and total
+    mass include it; ``fit.payload`` the payload with its standard errors, nan for what the
+    poses do not determine and why) — ``estimation.payload``.
+    """
+    opts = (options or IdentifyOptions()).with_overrides(**overrides)
+    idle = [
+        f.name
+        for f in dataclasses.fields(IdentifyOptions)
+        if f.name not in PAYLOAD_OPTIONS
+        and not _same(getattr(opts, f.name), getattr(IdentifyOptions(), f.name))
+    ]
+    if idle:
+        more = f" (nor {', '.join(idle[1:])})" if idle[1:] else ""
+        why = (
+            "give the payload's weighed mass instead (mass=, --payload-mass)"
+            if idle[0] == "total_mass"
+            else "only the payload is fitted, each kind's noise estimated or given (cop_noise, "
+            "tau_noise)"
+        )
+        raise OptionError(idle[0], f"does not apply to a payload fit{more}: {why}")
+    if base is not None:
+        check_base(robot, base, "base")
+    check_payload(robot, body, mass)
+    paths = [data] if _is_path(data) else data
+    chunks: list[Measurements] = []
+    if isinstance(paths, list | tuple) and paths and all(_is_path(p) for p in paths):
+        check_distinct([file_stance(g)[0] for g in paths], "data")
+        for given in paths:
+            p, stance = file_stance(given)
+            chunks += list(
+                read_measurements(
+                    p, robot, imu_link=opts.imu_link,
+                    allow_outside_limits=opts.allow_outside_limits, support=stance,
+                )
+            )  # fmt: skip
+    elif isinstance(data, Measurements):
+        chunks = [data]
+    elif isinstance(data, list | tuple) and all(isinstance(d, Measurements) for d in data):
+        chunks = list(data)
+    else:
+        raise DataError("identify_payload: data must be files, Measurements or a list of them")
+    chunks = [c.only(opts.kinds).checked(robot.stance(c.support)) for c in chunks]
+    popts = PayloadOptions(
+        body, mass, opts.cop_noise, opts.tau_noise, opts.gravity_accel, opts.rtol
+    )
+    return payload_fit(robot, chunks, popts, base)

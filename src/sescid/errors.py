@@ -35,13 +35,15 @@ class SolverError(SescidError):
 
 
 class MissingExtraError(SescidError):
-    """An optional dependency is not installed; ``extra`` names the sescid extra to install."""
+    """An optional dependency is not installed; ``extra`` names the sescid extra to install,
+    ``instead`` (optional) how to do without it (``--no-view``)."""
 
-    def __init__(self, what: str, extra: str):
+    def __init__(self, what: str, extra: str, instead: str = ""):
         super().__init__(
             f"{what} needs the {extra} extra: pip install 'sescid[{extra}]' (in a clone of "
-            f"the repository: pip install '.[{extra}]')"
+            f"the repository: pip install '.[{extra}]')" + (f"; or {instead}" if instead else "")
         )
+        self.what = what
         self.extra = extra
 
 

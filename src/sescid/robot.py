@@ -15,10 +15,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid import kinematics, sesc
+from sescid.base import G0
 from sescid.errors import ModelError
 from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
-from sescid.robots import EMBEDDED, RobotProfile, generic_profile, profile_for
+from sescid.robots import EMBEDDED, EXAMPLES, RobotProfile, generic_profile, profile_for
 
 __all__ = ["DOUBLE", "Robot", "line_direction", "load_robot"]
 
@@ -171,7 +172,7 @@ class Robot:
         q: ArrayLike,
         joints=None,
         gravity: ArrayLike | None = None,
-        g0: float = sesc.STANDARD_GRAVITY,
+        g0: float = G0,
     ) -> np.ndarray:
         """Φ_τ (n, J, 3N) [m/s²]: holding torques τ = M · Φ_τ · vec(r) [N·m] of ``joints``
         (names; None: all) with the support link fixed, gravity (n, 3) directions (None: level)
@@ -186,7 +187,7 @@ class Robot:
         joints=None,
         gravity: ArrayLike | None = None,
         total_mass: float | None = None,
-        g0: float = sesc.STANDARD_GRAVITY,
+        g0: float = G0,
     ) -> np.ndarray:
         """Holding torques (n, J) [N·m] of ``joints`` (None: all) with the support link fixed:
         each balances the gravity moment of the bodies beyond its joint. ``r`` and
@@ -394,7 +395,9 @@ def load_robot(
     support: str | None = None,
     line: ArrayLike | str | None = None,
 ) -> Robot:
-    """Load an embedded robot (``"op2"``) or any URDF/MJCF file, rooted at the frame ``support``.
+    """Load an embedded robot (``"op2"``), an example model shipped with the package
+    (``"wheeled_humanoid"``, ``"humanoid"``: ``sescid.robots.EXAMPLES``) or any URDF/MJCF file,
+    rooted at the frame ``support``.
 
     ``support`` defaults to the profile's (``r_sole`` for the OP2) and is required for other
     model files. Fixed-joint links are merged into their parents (their mass counts); revolute,
@@ -409,14 +412,14 @@ def load_robot(
         assert profile.model_file is not None
         model = load_model(profile.model_file, support or profile.support or "")
         return Robot(model, key, profile, line)
-    path = Path(key)
+    path = EXAMPLES.get(key, Path(key))  # an example model shipped with the package, by name
     if path.suffix.lower() in (".urdf", ".xml", ".mjcf") and not path.is_file():
         kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
         raise ModelError(f"{path}: {kind} file not found")
     if path.suffix.lower() not in (".urdf", ".xml", ".mjcf") and not path.exists():
         raise ModelError(
-            f"unknown robot '{key}': give an embedded name ({', '.join(EMBEDDED)}) "
-            "or a URDF/MJCF file"
+            f"unknown robot '{key}': give an embedded name ({', '.join(EMBEDDED)}), an example "
+            f"model's ({', '.join(EXAMPLES)}) or a URDF/MJCF file"
         )
     if support is None:
         raise ModelError(

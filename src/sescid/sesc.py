@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base import G0
 from sescid.errors import DataError
 from sescid.kinematics import (
     Tree,
@@ -41,9 +42,6 @@ from sescid.kinematics import (
     torque_values,
 )
 from sescid.model import RobotModel
-
-#: standard gravity, m/s² (the magnitude of g; its direction comes from the data or a level sole)
-STANDARD_GRAVITY = 9.80665
 
 
 def subtree_masses(model: RobotModel) -> np.ndarray:
@@ -131,7 +129,7 @@ def tilted_cop(com: np.ndarray, ratios: np.ndarray) -> np.ndarray:
     return com[:, :2] - com[:, 2:3] * ratios
 
 
-def gravity_vectors(gravity: ArrayLike | None, n: int, g0: float = STANDARD_GRAVITY) -> np.ndarray:
+def gravity_vectors(gravity: ArrayLike | None, n: int, g0: float = G0) -> np.ndarray:
     """(n, 3) gravity vectors [m/s²] in the support frame: directions (n, 3) scaled to g0, or
     a level support's (0, 0, −g0) when ``gravity`` is None."""
     if gravity is None:
@@ -167,7 +165,7 @@ def torque_regressor(
     q: ArrayLike,
     cols: ArrayLike,
     gravity: ArrayLike | None = None,
-    g0: float = STANDARD_GRAVITY,
+    g0: float = G0,
 ) -> np.ndarray:
     """Φ_τ (n, J, 3N) [m/s²] with τ[:, j] = M · Φ_τ[:, j] · vec(r) [N·m] for the q columns
     ``cols`` (J,), under gravity (n, 3) directions in the support frame (None: level) of
@@ -184,7 +182,7 @@ def torques(
     total_mass: float,
     cols: ArrayLike | None = None,
     gravity: ArrayLike | None = None,
-    g0: float = STANDARD_GRAVITY,
+    g0: float = G0,
 ) -> np.ndarray:
     """Holding torques (n, J) [N·m] of the q columns ``cols`` (default: all) for SESC vectors
     r (N, 3) [m] and total mass [kg], under gravity (n, 3) directions (None: level) of

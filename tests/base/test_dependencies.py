@@ -96,13 +96,14 @@ SCRIPT = textwrap.dedent(
     extra("mjcf", lambda: sescid.load_robot(tmp / "m.xml", support="a"))
     extra("bag", lambda: read_bag(tmp, mp, ["a"]))
     from sescid.base.files import read_document
-    from sescid.bench.mujoco.spec import mujoco_module as bench_mujoco_module
+    from sescid.bench.mujoco.spec import BENCH_NEEDS
+    from sescid.model.mjcf_compile import mujoco_module
     from sescid.model import meshes
     from sescid.report import live
     extra("yaml", lambda: read_document(tmp / "map.yaml"))
     extra("meshes", lambda: meshes._hull_vertices(str(tmp / "x.obj")))  # STL: numpy alone
     extra("view", lambda: live._viser())
-    extra("bench", lambda: bench_mujoco_module())
+    extra("bench", lambda: mujoco_module(BENCH_NEEDS))
 
     from click.testing import CliRunner
     from sescid.cli import cli
@@ -114,6 +115,9 @@ SCRIPT = textwrap.dedent(
         "export": ["export", str(tmp / "fit.json"), "--out", str(tmp / "op2.urdf")],
         "bag": ["bag", str(tmp), "--map", str(tmp / "map.yaml"),
                 "--out", str(tmp.parent / "raw.csv")],
+        "session": ["session", "--budget", "30", "--out-dir", str(tmp / "s1")],
+        "session-kinematic": ["session", "--adapter", "kinematic", "--budget", "30",
+                              "--out-dir", str(tmp / "s2")],
     }
     for name, args in steps.items():
         res = runner.invoke(cli, args)
@@ -175,3 +179,16 @@ def test_main_commands_run_on_a_core_install(core_only):
 def test_the_blocker_blocks(core_only):
     """The optional packages sescid tried to import were refused (the check can fail)."""
     assert {"mujoco", "ruamel"} <= set(core_only["blocked"])
+
+
+def test_session_on_a_core_install_names_the_way_without_the_extras(core_only):
+    """`session` defaults to the physics bench and the live view: each missing extra's line
+    names the flag that does without it."""
+    code, output, _ = core_only["commands"]["session"]
+    assert code == 2 and output.count("\n") == 1, output
+    assert "sescid[mujoco]" in output and output.endswith(
+        "; or run the rigid-statics bench without it: --adapter kinematic\n"
+    )
+    code, output, _ = core_only["commands"]["session-kinematic"]
+    assert code == 2 and output.count("\n") <= 2, output
+    assert "sescid[view]" in output and output.endswith("; or run without it: --no-view\n")

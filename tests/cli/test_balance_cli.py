@@ -4,7 +4,6 @@ identify → predict → truth, on the example two-wheeled humanoid."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 from click.testing import CliRunner
@@ -13,10 +12,11 @@ import sescid
 from sescid import io
 from sescid.bench import Truth
 from sescid.cli import cli
+from sescid.robots import EXAMPLES
 from sescid.sesc import balance_tilt
 from sescid.simulation import random_poses
 
-WHEELED = Path(__file__).parents[2] / "examples" / "models" / "wheeled_humanoid.urdf"
+WHEELED = EXAMPLES["wheeled_humanoid"]
 ROBOT = ["--robot", str(WHEELED), "--support", "axle", "--line", "y"]
 
 

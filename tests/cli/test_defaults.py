@@ -67,9 +67,16 @@ CLI_ONLY = {
     "noise_force": "calibrate: per-session pairs, none by default",
     "noise_cop": "calibrate: per-session pairs, none by default",
     "level": "predict: no interval columns unless asked",
+    "payload": "identify, poses: the payload's link (identify_payload's and "
+    "plan_payload_poses' required body)",
+    "payload_mass": "identify, poses: the payload's weighed mass (mass=None: identified)",
+    "base": "identify --payload: a file (a fit or a model) read into identify_payload's base",
     "adapter": "session: which robot adapter class",
     "replay_path": "session: the replay adapter's input",
     "no_view": "session: whether the live view runs",
+    "over": "export: an input file (export_model(over=None))",
+    "repair_inertia": "export: export_model(repair_inertia=False), a keyword of the writer, "
+    "not an options record",
     "online_step": "identify: poses per update once --online is given (IdentifyOptions."
     "online_step None, the default, means not online: checked as --online)",
 }
@@ -162,6 +169,8 @@ def _simulate(d) -> list:
         ("measure", torque_noise(d), _arg(simulate, "torques")),
         ("TorqueNoise", tau, TorqueNoise()),
         ("tilt_noise_deg", math.radians(d["tilt_noise_deg"]), _arg(simulate_balance, "tilt_noise")),
+        # the real robot simulated: the bench's (experiment's) unmodelled mass
+        ("extra_mass", d["extra_mass"], ExperimentConfig().extra_mass_fraction),
     ]
 
 
@@ -217,9 +226,10 @@ def _measure(d) -> list:
 
 
 def _calibrate(d) -> list:
-    from sescid.cli.calibrate import calibration_options, session_options
+    from sescid.cli import calibrate
+    from sescid.cli.calibrate import calibration_options
 
-    (one,) = session_options(("s.csv",), d).values()
+    (one,) = calibrate.session_options(("s.csv",), d).values()
     return [
         *_robot(d),
         ("sensors_file", d["sensors_file"], _arg(load_sensors, "path")),

@@ -117,7 +117,8 @@ def test_identify_help_lists_every_option_in_a_section():
     assert sorted(named) == sorted(params) and len(named) == len(set(named))
     out = CliRunner().invoke(cli, ["identify", "--help"]).output
     titles = [t.split(" (")[0] for t in cmd.sections]
-    assert titles == ["Data", "Method", "MAP", "Consistent masses", "Joint torques", "Output"]
+    assert titles == ["Data", "Method", "MAP", "Consistent masses", "Joint torques", "Payload",
+                      "Output"]  # fmt: skip
     at = [out.index(f"\n{t}") for t in cmd.sections]
     assert at == sorted(at) and out.index("--prior-scale") > at[2] > out.index("--seed")
 

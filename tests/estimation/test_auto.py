@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import sescid
+from sescid.estimation import fit_notes
 from sescid.estimation.validation import perturbed_sesc
 from sescid.simulation import random_poses
 
@@ -23,7 +24,7 @@ def test_auto_is_the_default_and_chooses_map_for_38_noisy_poses(op2):
     assert fit.method == "map" and fit.choice is not None and fit.choice.chosen == "map"
     assert fit.map is not None and fit.map.prior == "bodies" and fit.map.prior_share > 0.01
     assert fit.map.prior_scale_by == "evidence"
-    assert fit.notes[0].startswith("method auto chose MAP")
+    assert fit_notes(fit)[0].startswith("method auto chose MAP")
     explicit = sescid.identify(op2, q, cop, method="map")
     np.testing.assert_array_equal(fit.r, explicit.r)
 
@@ -47,10 +48,17 @@ def test_auto_takes_least_squares_when_the_data_determine_everything(op2):
     np.testing.assert_array_equal(fit.r, sescid.identify(op2, q, cop, method="ls").r)
 
 
-def test_auto_refuses_data_without_degrees_of_freedom_like_least_squares(op2):
+def test_auto_fits_what_map_fits_when_least_squares_has_no_degrees_of_freedom(op2):
+    """20 poses (40 equations) for the OP2's 42 combinations: least squares refuses and names
+    the one minimum (``min_poses``), the default fits with MAP and says it has no residual."""
     q = random_poses(op2, 20, 30, 0)
+    cop = op2.cop(q) + np.random.default_rng(0).normal(0, SIGMA, (20, 2))
+    assert sescid.estimation.min_poses(op2) == 22
     with pytest.raises(sescid.SescidError, match="at least 22 poses are needed"):
-        sescid.identify(op2, q, op2.cop(q))
+        sescid.identify(op2, q, cop, method="ls")
+    fit = sescid.identify(op2, q, cop)
+    assert fit.method == "map" and fit.choice is not None and fit.choice.chosen == "map"
+    assert any("no residual degrees of freedom" in w for w in fit.warnings)
 
 
 def test_least_squares_worse_than_cad_says_so(op2):

@@ -17,10 +17,11 @@ from sescid.estimation import MapOptions, Measurements
 from sescid.estimation.anchor import com_distance, homogeneous
 from sescid.estimation.balance_rows import balance_rows
 from sescid.estimation.pooled import accumulate_sources
+from sescid.robots import EXAMPLES
 from sescid.sesc import balance_gravity, balance_tilt, sesc_vectors
 from sescid.simulation import simulate_balance
 
-WHEELED = Path(__file__).parents[2] / "examples" / "models" / "wheeled_humanoid.urdf"
+WHEELED = EXAMPLES["wheeled_humanoid"]
 NOISE = math.radians(0.5)
 
 

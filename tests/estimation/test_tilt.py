@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import sescid
-from sescid.estimation import cop_interval
+from sescid.estimation import cop_interval, fit_notes
 from sescid.estimation.tilt import level_basis, tilt_direction
 from sescid.estimation.validation import cop_std
 
@@ -43,7 +43,7 @@ def test_noise_free_tilt_determines_the_height_offset(op2):
     assert fit.rank == 43 and t is not None
     assert abs(t.value - _offset(op2, t.direction, r)) < 1e-9
     assert abs(t.prior - _offset(op2, t.direction, op2.sesc_vectors())) < 1e-15
-    assert any("CoM-height offset" in n for n in fit.notes)
+    assert any("CoM-height offset" in n for n in fit_notes(fit))
 
 
 def test_ls_warns_map_does_not(op2):

@@ -16,7 +16,7 @@ import sescid
 from sescid import identify
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.estimation import IdentifyOptions, Measurements, perturbed_sesc
+from sescid.estimation import IdentifyOptions, Measurements, fit_summary, perturbed_sesc
 from sescid.io import write_table
 from sescid.simulation import random_poses
 
@@ -192,11 +192,19 @@ def test_noisy_torques_estimate_their_noise_and_pool_with_the_cop(op2):
         tau=_tau(op2, q) + rng.normal(0, 0.05, (80, op2.nq)),
         tau_joints=tuple(op2.joint_names),
     )
-    fit = identify(op2, m, gravity_accel=G0, total_mass=op2.total_mass, method="ls")
+    kw = {"gravity_accel": G0, "total_mass": op2.total_mass, "method": "ls"}
+    fit = identify(op2, m, tau_noise_model="shared", **kw)
     cop, tau = fit.kind("cop"), fit.kind("tau")
     assert cop.sigma == pytest.approx(0.005, rel=0.2) and tau.sigma == pytest.approx(0.05, rel=0.1)
     assert cop.sigma_by == tau.sigma_by == "estimated"
     assert cop.rms < 0.0055 and tau.rms < 0.055
+    # the noise per joint (the default): each σ_j near 0.05, the torques' σ̂ a scale ≈ 1, the
+    # CoP's still in metres
+    joint = identify(op2, m, **kw)
+    cop, tau = joint.kind("cop"), joint.kind("tau")
+    sigma = np.array([r.sigma for r in joint.torque_noise])
+    assert np.all(np.abs(sigma / 0.05 - 1) < 0.3) and tau.weighted and not cop.weighted
+    assert tau.sigma == pytest.approx(1.0, rel=0.1) and cop.sigma == pytest.approx(0.005, rel=0.2)
 
 
 def test_torques_beat_the_cop_on_a_perturbed_robot(op2):
@@ -211,7 +219,8 @@ def test_torques_beat_the_cop_on_a_perturbed_robot(op2):
     joints = tuple(op2.joint_names)
     mass = op2.total_mass
     ls = identify(op2, Measurements(q=q, tau=tau, tau_joints=joints), total_mass=mass,
-                  gravity_accel=G0, robust=False, method="ls")  # fmt: skip
+                  gravity_accel=G0, robust=False, method="ls",
+                  tau_noise_model="shared")  # fmt: skip
     phi = op2.torque_regressor(q, g0=G0) * mass
     a = np.zeros((38 * 20, 63 + 20))
     for j in range(20):
@@ -323,7 +332,11 @@ def test_cli_identifies_from_a_torque_file(op2, tmp_path):
     got = np.array([e.value for e in back.nuisance if e.what == "offset"])
     std = np.array([e.std for e in back.nuisance if e.what == "offset"])
     assert np.all(np.abs(got - off) < 4 * std)  # the support leg's offsets trade with the CoM
-    assert back.kind("tau").sigma == pytest.approx(0.02, rel=0.15) and back.mass_given
+    # the noise per joint (the default): each σ_j near the 0.02 N·m drawn, σ̂ a scale ≈ 1
+    sigma = np.array([r.sigma for r in back.torque_noise])
+    assert sigma.size == op2.nq and np.median(sigma) == pytest.approx(0.02, rel=0.1)
+    assert np.all(np.abs(sigma / 0.02 - 1) < 0.35) and "noise σ_j" in res.output
+    assert back.kind("tau").sigma == pytest.approx(1.0, rel=0.1) and back.mass_given
 
 
 def test_options_check_their_ranges(op2):
@@ -377,7 +390,7 @@ def test_few_or_no_degrees_of_freedom_are_flagged(op2):
     exact = identify(op2, q, op2.cop(q), allow_exact=True, method="ls")
     assert np.isnan(exact.sigma_hat) and any("no degrees of freedom" in w for w in exact.warnings)
     assert all(np.isnan(c.std) for c in exact.base)
-    assert "not determined" in exact.summary()
+    assert "not determined" in fit_summary(exact)
 
 
 def test_simulated_torque_readings_follow_the_sensor_model(op2):
@@ -409,7 +422,9 @@ def test_cli_simulates_and_identifies_torques_alone(op2, tmp_path):
     friction = [e for e in fit.nuisance if e.what == "friction"]
     assert len(friction) == 20
     assert all(abs(e.value - 0.15) < 4 * e.std for e in friction)
-    assert fit.kind("tau").sigma == pytest.approx(0.05, rel=0.1)
+    sigma = np.array([r.sigma for r in fit.torque_noise])
+    assert np.median(sigma) == pytest.approx(0.05, rel=0.1)
+    assert fit.kind("tau").sigma == pytest.approx(1.0, rel=0.1)
 
 
 def test_torque_gains_ratios_from_the_data(op2):

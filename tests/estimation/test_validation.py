@@ -6,6 +6,7 @@ from click.testing import CliRunner
 from fitting import identify_ls, identify_map
 
 from sescid import identify
+from sescid.bench import ExperimentConfig, real_robot
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import load_fit
@@ -153,7 +154,8 @@ def test_cli_identify_reports_error_against_simulated_truth(robot, tmp_path):
         cli, ["identify", str(data), "--out", str(out), "--allow-outside-limits"]
     )
     assert res.exit_code == 0, res.output
-    sim = simulate(robot, 100, 30.0, SIGMA, 3)  # the same draws as the CLI
+    r_true = real_robot(robot, ExperimentConfig())[0]  # the CLI simulates the bench's robot
+    sim = simulate(robot, 100, 30.0, SIGMA, 3, r_true=r_true)  # the same draws as the CLI
     want = np.sqrt(np.mean((load_fit(out).predict_cop(sim.q) - sim.cop_true) ** 2))
     assert load_fit(out).truth_cop_rmse == pytest.approx(want, rel=1e-9)
     assert f"{want * 1e3:.3f} mm" in res.output

@@ -10,10 +10,15 @@ comment on the line just above its fence:
   robots the page names): the page is skipped without;
 - ``<!-- docs-test: slow -->``: runs with ``make slow`` (``-m slow``), not in ``make test``;
 - ``<!-- docs-test: after walkthrough -->``: the page's folder first gets the files of the
-  walk-through's commands (a pose list, raw log, measured file, fit, truth).
+  walk-through's commands (a pose list, raw log, measured file, fit, truth);
+- ``<!-- docs-test: clone -->``: the block names a file of the repository's ``examples/`` (a
+  file to copy, such as a session adapter, which the page says): the folder gets ``examples/``
+  linked in. No other block may name a path of the clone.
 
-Model paths under example-robot-data's ``robots/`` folder (``talos_data/robots/…``) resolve
-because the folder's robots are linked into the run's folder.
+A block runs in an empty folder outside the repository (``clone`` blocks aside): it names models
+by an embedded or
+example name (``op2``, ``wheeled_humanoid``) or by a path it computes (example-robot-data's
+``robots/`` folder from the environment's ``site-packages``), never by a path of the clone.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ class Block:
     needs: tuple[str, ...] = ()  #: modules it imports beyond the core (extras)
     slow: bool = False
     after: str = ""  #: a set of files it needs first ("walkthrough")
+    clone: bool = False  #: names a file of the repository's examples/ (linked in)
 
     @property
     def id(self) -> str:
@@ -57,17 +63,19 @@ def blocks(path: Path) -> list[Block]:
             continue
         line = text.count("\n", 0, m.start()) + 1
         before = text[: m.start()].rstrip("\n").rsplit("\n", 1)[-1]
-        needs, slow, after = [], False, ""
+        needs, slow, after, clone = [], False, "", False
         mark = MARK.search(before)
         for part in (p.strip() for p in (mark.group(1) if mark else "").split(";")):
             if part.startswith("needs "):
                 needs += part[len("needs ") :].split()
             elif part == "slow":
                 slow = True
+            elif part == "clone":
+                clone = True
             elif part.startswith("after "):
                 after = part[len("after ") :]
         rel = path.relative_to(ROOT).as_posix()
-        out.append(Block(rel, line, lang, body, tuple(needs), slow, after))
+        out.append(Block(rel, line, lang, body, tuple(needs), slow, after, clone))
     return out
 
 

@@ -28,10 +28,29 @@ _LEG = """
                       fullinertia="0.0003 0.0006 0.0007 0.00001 0 0"/>
             <geom name="{s}_foot_col" type="box" size="0.07 0.035 0.01" pos="0.02 0 -0.03"
                   contype="0" conaffinity="0"/>
-            <site name="{s}_sole" pos="0.02 0 -0.04"/>
+{sole}{toes}
           </body>
         </body>
       </body>"""
+
+#: toes on a hinge at the front of each foot: a sphere whose bottom lies ``TOE_DIP`` below the
+#: sole at the zero pose (as the CMU humanoid's toes lie below its foot's touch site)
+TOE_DIP = 0.005
+_TOES = """
+            <body name="{s}_toes" pos="0.09 0 -0.03">
+              <joint name="{s}_toe" axis="0 1 0" range="-0.8 0.8"/>
+              <inertial pos="0.015 0 0" mass="0.03" diaginertia="2e-6 2e-6 2e-6"/>
+              <geom type="sphere" size="0.015" pos="0.015 0 0" contype="0" conaffinity="0"/>
+            </body>"""
+
+_SOLE = """
+            <site name="{s}_sole" pos="0.02 0 -0.04"/>"""
+#: sites at the four bottom corners of each foot box (as MuJoCo Playground's Apollo has)
+_CORNERS = "".join(
+    f"""
+            <site name="{{s}}_foot_{n}" pos="{0.02 + 0.07 * x:g} {0.035 * y:g} -0.04"/>"""
+    for n, x, y in (("fl", 1, 1), ("fr", 1, -1), ("bl", -1, 1), ("br", -1, -1))
+)
 
 _ARM = """
       <body name="{s}_upper_arm" pos="0 {y} 0.25">
@@ -87,9 +106,11 @@ def png_2x2() -> bytes:
     )
 
 
-def robot_xml() -> str:
+def robot_xml(toes: bool = False, sole: bool = True, corners: bool = False) -> str:
+    sites = (_SOLE if sole else "") + (_CORNERS if corners else "")
     legs = "".join(
-        _LEG.format(s=s, y=y, mt=mt) for s, y, mt in (("r", -0.08, 0.9), ("l", 0.08, 0.95))
+        _LEG.format(s=s, y=y, mt=mt, toes=_TOES.format(s=s) if toes else "", sole=sites.format(s=s))
+        for s, y, mt in (("r", -0.08, 0.9), ("l", 0.08, 0.95))
     )
     arms = "".join(_ARM.format(s=s, y=y) for s, y in (("r", -0.15), ("l", 0.15)))
     return f"""<mujoco>
@@ -112,15 +133,19 @@ def robot_xml() -> str:
 """
 
 
-def write_humanoid(folder: Path) -> Path:
-    """Write the humanoid's files under ``folder``; the main file's path."""
+def write_humanoid(
+    folder: Path, toes: bool = False, sole: bool = True, corners: bool = False
+) -> Path:
+    """Write the humanoid's files under ``folder`` (``toes``: with toes, ``_TOES``; ``sole``:
+    with the sole sites; ``corners``: with sole-corner sites, ``_CORNERS``); the main file's
+    path."""
     (folder / "parts").mkdir(parents=True)
     (folder / "assets").mkdir()
     (folder / "textures").mkdir()
     (folder / "textures" / "skin.png").write_bytes(png_2x2())
     (folder / "assets" / "tetra.obj").write_text(TETRA_OBJ)
     (folder / "parts" / "assets.xml").write_text(ASSETS)
-    (folder / "parts" / "robot.xml").write_text(robot_xml())
+    (folder / "parts" / "robot.xml").write_text(robot_xml(toes, sole, corners))
     main = folder / "humanoid.xml"
     main.write_text(MAIN)
     return main

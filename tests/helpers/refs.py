@@ -68,13 +68,16 @@ def mj_lowest(path: Path, support: str, joint_names, q, skip_body: str) -> np.nd
     return np.min(list(mj_body_lowest(path, support, joint_names, q, skip_body).values()), axis=0)
 
 
-def mj_body_lowest(path: Path, support: str, joint_names, q, skip_body: str) -> dict:
-    """Body name → (n,) its lowest point [m] by the rule of ``mj_lowest``."""
+def mj_body_lowest(
+    path: Path, support: str, joint_names, q, skip_body: str, only: set[str] | None = None
+) -> dict:
+    """Body name → (n,) its lowest point [m] by the rule of ``mj_lowest`` (``only``: these
+    bodies only)."""
     out: dict[str, list[float]] = {}
     for model, data, rot, pos, _ in _mujoco_states(path, support, joint_names, q, 0):
         for b in range(1, model.nbody):
             name = model.body(b).name
-            if name == skip_body:
+            if name == skip_body or (only is not None and name not in only):
                 continue
             geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == b]
             coll = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]

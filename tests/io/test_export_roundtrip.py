@@ -167,7 +167,7 @@ def test_icub_exports_to_another_folder_and_loads_in_pinocchio(icub_path, tmp_pa
     sim = sescid.simulate(robot, 300, noise=0.002, seed=1)
     fit = identify_consistent(robot, sim.q, sim.cop, total_mass=robot.total_mass * 0.97)
     out = tmp_path / "icub_fit.urdf"
-    warnings = export_urdf(fit, out)
+    warnings = export_urdf(fit, out, repair_inertia=True)
     assert all(_valid(t) for t in _urdf_tensors(out).values())
     src_names = [m.get("filename") for m in ET.parse(icub_path).getroot().iter("mesh")]
     out_names = [m.get("filename") for m in ET.parse(out).getroot().iter("mesh")]
@@ -216,20 +216,20 @@ def bad(tmp_path_factory):
     return folder, robot, fit
 
 
-def test_urdf_invalid_cad_inertias_become_valid_with_a_warning(bad, tmp_path):
-    """A triangle-violating tensor, a zero tensor with mass and a massless link that gets
-    mass: all written valid (MuJoCo, which checks, loads the export), warnings name them."""
+def test_urdf_invalid_cad_inertias_refused_or_repaired_with_a_warning(bad, tmp_path):
+    """A triangle-violating tensor and a zero tensor with mass: refused by name (nothing
+    written) unless repaired; repaired, all written valid (MuJoCo, which checks, loads the
+    export) with a warning naming each; the massless link that gets mass gets a sphere's."""
     import mujoco
 
     folder, robot, fit = bad
     out = tmp_path / "out.urdf"
-    warnings = export_urdf(fit, out)
-    assert any(
-        w.startswith("link base: the model's inertia violates the triangle inequality")
-        for w in warnings
-    )
-
-    assert any(w.startswith("link arm: no inertia in the model") for w in warnings)
+    with pytest.raises(sescid.ModelError, match=r"2 link\(s\).*base: 2 kg, triangle.*arm: 0.4 kg"):
+        export_urdf(fit, out)
+    assert not out.exists()
+    warnings = export_urdf(fit, out, repair_inertia=True)
+    assert any(w.startswith("link base: inertia repaired") for w in warnings)
+    assert any(w.startswith("link arm: inertia repaired") for w in warnings)
     tensors = _urdf_tensors(out)
     assert set(tensors) == {"base", "arm", "hand"} and all(_valid(t) for t in tensors.values())
     shutil.copy(out, folder / "src" / "check.urdf")  # MuJoCo looks for the meshes beside it
@@ -245,7 +245,7 @@ def test_urdf_relative_meshes_resolve_from_the_output(bad, tmp_path):
     folder, _, fit = bad
     out = tmp_path / "deep" / "out.urdf"
     out.parent.mkdir()
-    export_urdf(fit, out)
+    export_urdf(fit, out, repair_inertia=True)
     names = [m.get("filename") for m in ET.parse(out).getroot().iter("mesh")]
     assert (out.parent / names[0]).resolve() == (folder / "src" / "meshes" / "base.stl").resolve()
     assert names[1] == "package://bad_description/meshes/b.stl"
@@ -254,7 +254,7 @@ def test_urdf_relative_meshes_resolve_from_the_output(bad, tmp_path):
     assert 'xmlns:xacro="http://www.ros.org/wiki/xacro"' in text
     assert "<!-- a robot whose CAD inertias are not all physical -->" in text
     same = folder / "src" / "same.urdf"
-    export_urdf(fit, same)
+    export_urdf(fit, same, repair_inertia=True)
     assert [m.get("filename") for m in ET.parse(same).getroot().iter("mesh")][
         0
     ] == "meshes/base.stl"

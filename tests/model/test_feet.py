@@ -160,3 +160,25 @@ def test_info_and_the_support_error_name_the_candidates(hum_path):
     bad = CliRunner().invoke(cli, ["poses", "--robot", str(hum_path), "--out", "x.csv"])
     assert bad.exit_code != 0
     assert "feet found from the tree and the geometry: legA_sole, legB_sole" in bad.output
+
+
+@pytest.mark.parametrize("sole", [True, False])
+def test_sole_corner_sites_are_not_given_as_the_sole(tmp_path, sole):
+    """Sites at the corners of a foot's bottom face (MuJoCo Playground's Apollo) are level and
+    on the sole, but no sole frame: the sole site comes first, else the level foot frame
+    above the sole; the corners follow, labelled at its edge (they used to come first)."""
+    pytest.importorskip("mujoco")
+    from humanoid_mjcf_gen import write_humanoid
+
+    from sescid.model.feet import support_candidates
+
+    path = write_humanoid(tmp_path / "h", sole=sole, corners=True)
+    feet = support_candidates(path)
+    assert sorted(f.body for f in feet) == ["l_foot", "r_foot"]
+    for f in feet:
+        s = f.body[0]
+        names = [n for n, _, _ in f.frames]
+        assert f.support == (f"{s}_sole" if sole else f"{s}_foot"), f.frames
+        corners = {f"{s}_foot_{c}" for c in ("fl", "fr", "bl", "br")}
+        assert set(f.edge) == corners and set(names[-4:]) == corners
+        assert f"{s}_foot_bl (on the sole, level, at its edge)" in f.describe()

@@ -136,7 +136,7 @@ def test_poses_on_both_feet_cli(tmp_path):
     """`sescid poses --mount double` writes support = double and the model CoP (the CoM's
     projection) in the support foot's frame; `--stances double` is the same plan."""
     out = tmp_path / "d.csv"
-    args = ["poses", "--count", "21", "--candidates", "300", "--test-poses", "100"]
+    args = ["poses", "--count", "22", "--candidates", "300", "--test-poses", "100"]
     res = CliRunner().invoke(cli, [*args, "--mount", "double", "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert "stability: CoP inside both feet's" in res.output
@@ -185,7 +185,7 @@ def test_check_mujoco_on_both_feet(tmp_path):
     """`--mount double --check mujoco` runs the chosen poses on both feet on the bench."""
     pytest.importorskip("mujoco")
     out = tmp_path / "d.csv"
-    args = ["poses", "--mount", "double", "--count", "21", "--candidates", "200",
+    args = ["poses", "--mount", "double", "--count", "22", "--candidates", "200",
             "--test-poses", "50", "--check", "mujoco", "--out", str(out)]  # fmt: skip
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output

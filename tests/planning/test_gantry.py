@@ -160,3 +160,29 @@ def test_a_gantry_needs_no_sole(tmp_path):
     assert np.all(lowest_heights(robot, rot, org, exempt=False) > floor + design.DEFAULT_CLEARANCE)
     plan = SessionDesign(robot, SessionOptions(n_candidates=150, mount="gantry", kinds="tau"))
     assert plan.mount == "gantry" and plan.half is None and len(plan.cand.q) == 150
+
+
+@pytest.mark.parametrize(("quat", "tilt"), [("1 0 0 0", None), ("0.9996573 0.0261769 0 0", None),
+                                            ("0.7071068 0.7071068 0 0", 90),
+                                            ("0.9238795 0 0.3826834 0", 45)])  # fmt: skip
+def test_a_held_frame_not_upright_is_said(tmp_path, quat, tilt):
+    """The gantry holds its frame with z vertical: a root body turned in the model's world (the
+    CMU humanoid's is y-up) is named with its tilt (90°: z along −y; 45° about y); upright or
+    within 5° (3° here), nothing is said."""
+    pytest.importorskip("mujoco")
+    from humanoid_mjcf_gen import write_humanoid as write_split_humanoid
+
+    from sescid.planning.gantry import held_tilt
+
+    main = write_split_humanoid(tmp_path / "h")
+    part = main.parent / "parts" / "robot.xml"
+    at = 'name="pelvis" pos="0 0 0.7"'
+    part.write_text(part.read_text().replace(at, f'{at} quat="{quat}"'))
+    for held in ("pelvis", "torso"):
+        note = held_tilt(sescid.load_robot(main, held))
+        if tilt is None:
+            assert note is None
+        else:
+            assert f"the held frame '{held}' is tilted {tilt}° from upright" in note
+    if tilt == 90:
+        assert "z axis along (+0.00, -1.00, +0.00)" in note

@@ -26,7 +26,7 @@ def test_check_mujoco_keeps_only_poses_that_stand(tmp_path, op2):
     """--rigid --check mujoco: the rigid box lets toppling poses in, the check replaces them;
     every written pose stands on the bench (run again here)."""
     out = tmp_path / "p.csv"
-    res = _run("--count", 21, "--select", "random", "--candidates", 400, "--test-poses", 100,
+    res = _run("--count", 22, "--select", "random", "--candidates", 400, "--test-poses", 100,
                "--seed", 1, "--rigid",
                "--check", "mujoco", "--out", out)  # fmt: skip
     assert res.exit_code == 0, res.output
@@ -43,7 +43,7 @@ def test_check_mujoco_without_the_extra_is_one_line(tmp_path, monkeypatch):
         importlib.util, "find_spec", lambda n, *a: None if n == "mujoco" else find(n, *a)
     )
     out = tmp_path / "p.csv"
-    res = _run("--count", 21, "--candidates", 300, "--check", "mujoco", "--out", out)
+    res = _run("--count", 22, "--candidates", 300, "--check", "mujoco", "--out", out)
     assert res.exit_code == 2 and not out.exists()
     assert "needs the mujoco extra: pip install 'sescid[mujoco]'" in res.output
     assert "pip install '.[mujoco]'" in res.output  # the form that works in a clone
@@ -53,7 +53,7 @@ def test_check_mujoco_without_the_extra_is_one_line(tmp_path, monkeypatch):
 def test_support_not_level_is_one_line_naming_the_fix(tmp_path):
     path = write_humanoid(tmp_path)
     out = tmp_path / "p.csv"
-    res = _run("--robot", path, "--support", "legA_heel", "--count", 21, "--out", out)
+    res = _run("--robot", path, "--support", "legA_heel", "--count", 22, "--out", out)
     assert res.exit_code == 2 and not out.exists()
     (msg,) = [x for x in res.output.splitlines() if x.startswith("sescid: error:")]
     assert "'legA_heel' is not level" in msg and "legA_sole" in msg
@@ -70,11 +70,11 @@ def test_unlimited_joint_sampled_within_the_stated_range(tmp_path):
     np.testing.assert_allclose(design.sampling_limits(robot)[robot.joint_names.index("neck")],
                                [-math.pi / 2, math.pi / 2])  # fmt: skip
     out = tmp_path / "p.csv"
-    res = _run("--robot", path, "--support", "legA_sole", "--count", 21, "--candidates", 200,
+    res = _run("--robot", path, "--support", "legA_sole", "--count", 22, "--candidates", 200,
                "--test-poses", 50, "--out", out)  # fmt: skip
     assert res.exit_code == 0, res.output
     assert "1 joint(s) without limits sampled within ±90°: neck" in res.output
-    plan = sescid.plan_poses(robot, count=21, n_candidates=200, n_test=50)
+    plan = sescid.plan_poses(robot, count=22, n_candidates=200, n_test=50)
     assert plan.unlimited == ["neck"] and plan.unlimited_range == pytest.approx(math.pi / 2)
     assert np.all(np.abs(plan.q[:, robot.joint_names.index("neck")]) <= math.pi / 2)
     wide = design.sampling_limits(robot, range_deg=150)[robot.joint_names.index("neck")]

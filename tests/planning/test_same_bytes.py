@@ -19,7 +19,7 @@ GENERIC = {"NUMBA_CPU_NAME": "generic", "OPENBLAS_CORETYPE": "Prescott"}
 
 def _poses(out, robot_args, extra_env) -> bytes:
     env = {k: v for k, v in os.environ.items() if k not in GENERIC} | extra_env
-    args = [*robot_args, "--count", "21", "--candidates", "300", "--test-poses", "100",
+    args = [*robot_args, "--count", "22", "--candidates", "300", "--test-poses", "100",
             "--seed", "0", "--out", str(out)]  # fmt: skip
     code = "import sys; from _sescid_launch import main; sys.argv[:1] = ['sescid', 'poses']; main()"
     res = subprocess.run([sys.executable, "-c", code, *args], env=env, capture_output=True,
@@ -42,7 +42,7 @@ def test_poses_same_bytes_on_a_generic_cpu(tmp_path, which):
     host = _poses(tmp_path / "host.csv", robot_args, {})
     generic = _poses(tmp_path / "generic.csv", robot_args, GENERIC)
     assert host == generic
-    assert host.count(b"\n") == 22  # header + 21 poses
+    assert host.count(b"\n") == 23  # header + 22 poses (the minimum: min_poses)
     if which == "op2-stances":
         used = {r.split(b",")[1] for r in host.split()[1:]}
         assert len(used) >= 2 and used <= {b"double", b"l_sole", b"MP_BODY"}

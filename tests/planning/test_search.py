@@ -62,7 +62,7 @@ def test_synthetic_h1_style_search_poses_checked_by_mujoco(h1_style):
     from mjcf_gen import mujoco_com
 
     path, robot = h1_style
-    plan = sescid.plan_poses(robot, count=21, n_candidates=250, n_test=60, seed=0)
+    plan = sescid.plan_poses(robot, count=22, n_candidates=250, n_test=60, seed=0)
     names = robot.joint_names
     cop = mujoco_com(path, "legA_sole", names, plan.q)[:, :2]
     assert np.all(np.abs(cop - robot.sole_centre) < plan.candidates.half_extents)
@@ -103,7 +103,7 @@ def test_robot_that_cannot_stand_on_one_foot_is_told_so(tmp_path):
     )  # fmt: skip
     assert best > 1.0  # even an optimiser cannot put the CoP in the box
     with pytest.raises(SescidError, match="cannot put its CoP in the stability box") as exc:
-        sescid.plan_poses(robot, count=21, n_candidates=200, n_test=50, seed=0)
+        sescid.plan_poses(robot, count=22, n_candidates=200, n_test=50, seed=0)
     near = float(str(exc.value).split("no nearer than ")[1].split(" times")[0])
     assert near >= best - 1e-6
     assert "sampling range" not in str(exc.value)
@@ -114,4 +114,4 @@ def test_a_support_without_a_sole_is_named(tmp_path):
     support and the fix, not a zero-size box searched to infinity."""
     robot = sescid.load_robot(str(write_humanoid(tmp_path)), "legA_shank")
     with pytest.raises(SescidError, match=r"'legA_shank' has no sole to stand on .* sole frame"):
-        sescid.plan_poses(robot, count=21, seed=0)
+        sescid.plan_poses(robot, count=22, seed=0)

@@ -185,7 +185,9 @@ def test_both_kinds_see_all_the_cop_sees_and_predict_better(op2):
 
 
 def test_too_few_poses_for_the_offsets_is_refused(op2):
-    with pytest.raises(sescid.SescidError, match="at least 3 poses"):
+    # 40 combinations + 20 offsets, 20 rows a pose: 3 poses fit exactly, the 4th leaves the
+    # degree of freedom identify needs (one rule: ``poses_needed``)
+    with pytest.raises(sescid.SescidError, match="at least 4 poses"):
         design.plan_poses(op2, 2, kinds="tau", n_candidates=200, n_test=50)
     with pytest.raises(sescid.SescidError, match="no joint named 'knee'"):
         design.plan_poses(op2, 10, kinds="tau", tau_joints=("knee",), n_candidates=200)

@@ -112,7 +112,7 @@ def test_the_output_folder_is_checked_before_the_first_pose(op2, tmp_path):
     blocker.write_text("not a folder")
     with pytest.raises(DataError, match="cannot create the output folder"):
         Journal.open(blocker / "out", HEADER)
-    args = ["session", "--adapter", "kinematic", "--budget", "21", "--no-view"]
+    args = ["session", "--adapter", "kinematic", "--budget", "22", "--no-view"]
     res = CliRunner().invoke(cli, [*args, "--out-dir", str(blocker / "out")])
     assert res.exit_code == 2 and res.output.count("\n") == 1
     assert "[1/" not in res.output

@@ -184,7 +184,7 @@ def test_user_class_session_converges_to_the_truth(op2, tmp_path):
 def test_cli_python_adapter_and_bad_adapter(tmp_path):
     """`--adapter python:FILE.py:Class` runs; an unknown class is one error line, exit 2."""
     run = CliRunner().invoke
-    args = ["session", "--budget", "21", "--samples", "5", "--candidates", "300", "--no-view"]
+    args = ["session", "--budget", "22", "--samples", "5", "--candidates", "300", "--no-view"]
     res = run(cli, [*args, "--adapter", f"python:{DUMMY}", "--out-dir", str(tmp_path / "d")])
     assert res.exit_code == 0, res.output
     assert (tmp_path / "d" / "fit.json").is_file()

@@ -1,13 +1,19 @@
 """Foundations every layer uses: files written atomically and read with one-line errors
 (``files``), the named columns of a data file (``columns``), options written once (``options``:
 a record's field carries its default, range and help, the CLI's flags are made from it),
-terminal progress (``progress``) and the thread policy of the dense algebra and of the block
-workers (``threads``).
+terminal progress (``progress``), long lists in one line (``text``) and the thread policy of
+the dense algebra and of the block workers (``threads``).
 
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import G0, MODEL_COP_COLUMNS, SUPPORT_COLUMN, Table
+from sescid.base.columns import (
+    G0,
+    MODEL_COP_COLUMNS,
+    SUPPORT_COLUMN,
+    Table,
+    pose_ids,
+)
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -26,9 +32,12 @@ from sescid.base.options import (
     option_spec,
 )
 from sescid.base.progress import TerminalProgress
+from sescid.base.text import listed
 from sescid.base.threads import one_blas_thread, ordered_map, pin_process, usable_cores
+from sescid.base.version import VERSION_MESSAGE
 
 __all__ = [
+    "VERSION_MESSAGE",
     "G0",
     "MODEL_COP_COLUMNS",
     "SEED_HELP",
@@ -42,6 +51,7 @@ __all__ = [
     "check_distinct",
     "check_outputs",
     "check_ranges",
+    "listed",
     "one_blas_thread",
     "option",
     "option_like",
@@ -49,6 +59,7 @@ __all__ = [
     "option_spec",
     "ordered_map",
     "pin_process",
+    "pose_ids",
     "read_json",
     "usable_cores",
 ]

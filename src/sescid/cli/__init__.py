@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 
 import click
 
-from _sescid_launch import VERSION_MESSAGE
+from sescid.base import VERSION_MESSAGE
 from sescid.cli.common import fail, run_guarded, usage_message
 
 

@@ -197,7 +197,8 @@ def robot_options(f: Any) -> Any:
         "robot_name",
         default="op2",
         show_default=True,
-        help="Embedded robot name (op2) or a URDF/MJCF file.",
+        help="Embedded robot name (op2), an example model shipped with sescid "
+        "(wheeled_humanoid, humanoid) or a URDF/MJCF file.",
     )(f)
     return f
 
@@ -307,12 +308,14 @@ def load(robot_name: str, support: str | None) -> Any:
 
 
 def model_input(robot_name: str) -> str | None:
-    """The robot option as an input of a command: the model file it names, or None for an
-    embedded robot (``--robot op2`` beside a folder called op2 names the robot, not the folder,
-    so outputs may go into that folder)."""
-    from sescid.robots import EMBEDDED
+    """The robot option as an input of a command: the model file it names (an example model's
+    shipped file for its name), or None for an embedded robot (``--robot op2`` beside a folder
+    called op2 names the robot, not the folder, so outputs may go into that folder)."""
+    from sescid.robots import EMBEDDED, EXAMPLES
 
-    return None if robot_name in EMBEDDED else robot_name
+    if robot_name in EMBEDDED:
+        return None
+    return str(EXAMPLES[robot_name]) if robot_name in EXAMPLES else robot_name
 
 
 def echo_model_change(fit: Any, fit_file: str) -> None:

@@ -24,6 +24,7 @@ from sescid.errors import DataError, OptionError
 from sescid.io import read_poses, read_table, write_table
 from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
+from sescid.stance import parse_stance, support_column
 
 
 def torque_options(f: Any) -> Any:
@@ -108,9 +109,11 @@ def experiment(**opts):
     bench = mujoco_bench(opts, cfg)
     sensors = bench_sensors(opts["sensors_file"], robot.profile, cfg.torque, cfg.mount)
     table = read_table(opts["poses_file"])
-    q = read_poses(table, robot.joint_names, robot.profile.servo)
+    stance = DOUBLE if cfg.double_support else robot.support  # carried through measure
+    rows = plan_rows(table, robot, stance, opts["poses_file"])
+    q = read_poses(table, robot.joint_names, robot.profile.servo)[rows]
     check_limits(robot, q, str(opts["poses_file"]))
-    ids, samples, seed = pose_list_ids(table), opts["samples"], opts["seed"]
+    ids, samples, seed = pose_list_ids(table)[rows], opts["samples"], opts["seed"]
     try:
         if bench is not None:
             from sescid.bench import run_mujoco_experiment
@@ -122,14 +125,52 @@ def experiment(**opts):
         if str(exc).startswith(NO_POSE_MEASURED):  # about the pose list: name its file
             raise DataError(f"{opts['poses_file']}: {exc}") from None
         raise
-    stance = DOUBLE if cfg.double_support else robot.support  # carried through measure
     with outs:
         write_table(
             outs.path(out), ex.columns | {"support": np.full(len(ex.columns["pose"]), stance)}
         )
         if truth:
             ex.truth.save(outs.path(truth))
-    _report(ex, len(q), opts)
+    _report(ex, len(q), opts, pads=sensors is not None)
+
+
+def plan_rows(table, robot, stance: str, poses_file) -> np.ndarray:
+    """The rows of a pose list the bench measures in its ``stance`` (the robot's support, or
+    "double"): every row, unless the list's ``support`` column names stances — then the rows
+    planned for this one (each planned stance is measured in its own run); an error when none
+    is, naming the flags that stand the robot as planned."""
+    column = support_column(table)
+    if column is None or column not in table.text:
+        return np.arange(table.n)
+    labels = np.array([v.strip() for v in table.text[column]])
+    flags = {}
+    for name in dict.fromkeys(labels.tolist()):
+        row = table.where(int(np.flatnonzero(labels == name)[0]))
+        at = f"{poses_file}: {row}, column '{column}'"
+        if not name:
+            raise DataError(f"{at} is empty (name the stance of every row, or of none)")
+        planned = parse_stance(name, robot, at)  # a stance of this model
+        flags[planned.label] = (
+            "--double-support" if planned.mount == "double"
+            else f"--mount gantry --support {name}" if planned.mount == "gantry"
+            else f"--support {name}"
+        )  # fmt: skip
+    rows = np.flatnonzero(labels == stance)
+    if rows.size == 0:
+        raise DataError(
+            f"{poses_file}: its poses were planned for {', '.join(repr(p) for p in flags)} "
+            f"(column '{column}'), not for '{stance}' the bench stands on: run experiment "
+            f"with {' / '.join(flags.values())} (once per stance)"
+        )
+    if len(flags) > 1:
+        rest = [f"'{p}' ({f})" for p, f in flags.items() if p != stance]
+        click.echo(
+            f"{poses_file}: measuring the {rows.size} poses planned for '{stance}'; its "
+            f"{table.n - rows.size} others are for {', '.join(rest)}: run experiment again for "
+            "each, into another --out",
+            err=True,
+        )
+    return rows
 
 
 def experiment_config(opts: dict) -> ExperimentConfig:
@@ -144,6 +185,8 @@ def experiment_config(opts: dict) -> ExperimentConfig:
             )  # fmt: skip
         feet = ("fsr_noise", "fsr_bias", "fsr_gain", "registers", "sensors_file")
         common.refuse_idle(feet, False, "on a robot held in a gantry (no foot carries its weight)")
+    if opts["mount"] == "double":  # on both feet: the bench's double support, labelled so
+        return record(ExperimentConfig, opts, torque=torque, mount="stand", double_support=True)
     return record(ExperimentConfig, opts, torque=torque)
 
 
@@ -164,19 +207,25 @@ def mujoco_bench(opts: dict, cfg: ExperimentConfig):
     return record(MujocoBenchConfig, opts, double_support=cfg.double_support)
 
 
-def _report(ex, n: int, opts) -> None:
+def _report(ex, n: int, opts, pads: bool) -> None:
+    """The log's summary line: the real robot and the errors of the sensors it logged (foot
+    pads only when ``pads``: a torque-only log has no FSR columns)."""
     t = ex.truth
-    tau = "" if t.torque is None else f", torques on {len(t.torque.joints)} joints"
+    tau = "" if t.torque is None else f"torques on {len(t.torque.joints)} joints"
     sensors = (
         f"IMU noise {opts['imu_noise_deg']:g}°"
         if t.mount == "line"
         else f"FSR noise {opts['fsr_noise']:g} N, bias {opts['fsr_bias']:g} N, gain error "
         f"{opts['fsr_gain']:g}"
+        if pads
+        else ""
     )
+    mount = "double support" if opts["double_support"] or opts["mount"] == "double" else t.mount
+    logged = ", ".join(x for x in (sensors, tau) if x)
     click.echo(
         f"wrote {opts['out']}: {n - len(ex.skipped)} poses × {opts['samples']} samples "
-        f"({t.mount}); real robot {t.true_mass:.4f} kg (model {t.model_mass:.4f} kg), "
-        f"backlash ±{opts['backlash_deg']:g}°, {sensors}{tau}"
+        f"({mount}); real robot {t.true_mass:.4f} kg (model {t.model_mass:.4f} kg), "
+        f"backlash ±{opts['backlash_deg']:g}°, {logged}"
     )
     for pose, why in ex.skipped:
         click.echo(f"  pose {pose} skipped: {why}", err=True)

@@ -5,26 +5,57 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import G0, SUPPORT_COLUMN, OutputSet
+from sescid.base import G0, SUPPORT_COLUMN, OutputSet, listed, pose_ids
 from sescid.cli import common
-from sescid.errors import DataError, ModelError
+from sescid.errors import DataError
 from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
 from sescid.robot import DOUBLE
-from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors
+from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors, pose_list_ids
+from sescid.stance import data_stance, support_column
 
 
-def _log_stances(raw: str, support: str | None) -> list[str]:
-    """The stances of a raw log (its ``support`` column, in order of appearance; empty without
-    the column); an error for a log of one stance unlike ``--support``."""
-    names: dict[str, None] = {}
+def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
+    """The stances of a raw log (its ``support`` column in any case, in order of appearance;
+    empty without the column), each passing the one stance check (``data_stance``). Errors
+    name the row: an empty cell, a pose whose samples switch stance, a pose the plan
+    (``plan``: the pose list, with its own ``support`` column) puts on another stance; and a
+    log of one stance unlike ``--support``."""
+    names: dict[str, str] = {}  # stance → where it first appears
+    first: dict[str, tuple[str, str]] = {}  # pose id → (stance, where)
     for table in iter_table(raw):
-        if SUPPORT_COLUMN not in table.text:
+        column = support_column(table)
+        if column is None or column not in table.text:
             break
-        names |= dict.fromkeys(v.strip() for v in table.text[SUPPORT_COLUMN])
+        labels = np.array([v.strip() for v in table.text[column]])
+        empty = np.flatnonzero(labels == "")
+        if empty.size:
+            raise DataError(
+                f"{raw}: {table.where(int(empty[0]))}, column '{column}' is empty (the stance of "
+                "each sample)"
+            )
+        for name in dict.fromkeys(labels.tolist()):
+            if name not in names:
+                at = f"{raw}: {table.where(int(np.flatnonzero(labels == name)[0]))}"
+                names[name] = at
+                data_stance(robot, name, (), f"{at}, column '{column}'")
+        if "pose" not in table.names():
+            continue
+        ids = pose_ids(table)
+        pairs, at = np.unique(np.char.add(np.char.add(ids, "\x1f"), labels), return_index=True)
+        order = np.argsort(at)  # in file order: the first stance seen is the first named
+        for pair, i in zip(pairs[order].tolist(), at[order].tolist(), strict=True):
+            pose, stance = pair.split("\x1f")
+            seen = first.setdefault(pose, (stance, table.where(i)))
+            if seen[0] != stance:
+                raise DataError(
+                    f"{raw}: pose {pose} switches stance between its samples ('{seen[0]}' at "
+                    f"{seen[1]}, '{stance}' at {table.where(i)}): one pose is measured in one "
+                    "stance; give the samples of the other another pose id, or fix the column"
+                )
+    if plan is not None:
+        _check_plan(raw, plan, first)
     stances = list(names)
-    if "" in names:
-        raise DataError(f"{raw}: the log's '{SUPPORT_COLUMN}' column has empty cells")
     if len(stances) == 1 and support is not None and stances[0] not in (support, DOUBLE):
         raise DataError(
             f"{raw}: the log was measured on '{stances[0]}' (its '{SUPPORT_COLUMN}' column), not "
@@ -33,13 +64,22 @@ def _log_stances(raw: str, support: str | None) -> list[str]:
     return stances
 
 
-def _stance_robot(robot, stance: str, raw: str):
-    """The robot of one stance of a log ("double": the CoP of both feet in ``robot``'s
-    frame); an unknown frame is an error naming the log."""
-    try:
-        return robot.stance(stance)
-    except ModelError as exc:
-        raise DataError(f"{raw}: column '{SUPPORT_COLUMN}': {exc}") from None
+def _check_plan(raw: str, plan, measured: dict[str, tuple[str, str]]) -> None:
+    """DataError for a pose the log measured in another stance than the plan (``plan``, the
+    pose list, with a ``support`` column) put it on."""
+    column = support_column(plan)
+    if column is None or column not in plan.text or not measured:
+        return
+    planned = dict(zip(pose_list_ids(plan).tolist(), (v.strip() for v in plan.text[column]),
+                       strict=True))  # fmt: skip
+    for pose, (stance, at) in measured.items():
+        want = planned.get(pose)
+        if want is not None and want != stance:
+            raise DataError(
+                f"{raw}: {at}: pose {pose} was measured on '{stance}', but {plan.path} plans it "
+                f"on '{want}' (its '{column}' column): the bench stood it otherwise; measure "
+                "it again as planned, or give the plan it followed"
+            )
 
 
 def _sensors(sensors_file, profile):
@@ -75,13 +115,13 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     outs = OutputSet(
         [out], [raw, poses_file, sensors_file, common.model_input(robot_name)], force=force
     )
-    stances = _log_stances(raw, support)
+    pose_list = read_table(poses_file) if poses_file is not None else None
+    stances = _log_stances(raw, common.load(robot_name, support), support, pose_list)
     one = stances[0] if len(stances) == 1 else None
     robot = common.load(robot_name, support or (None if one in (None, DOUBLE) else one))
     config = _sensors(sensors_file, robot.profile)
-    pose_list = read_table(poses_file) if poses_file is not None else None
     if len(stances) > 1:  # each stance's samples reduced in its own frame
-        robots = {st: _stance_robot(robot, st, raw) for st in stances}
+        robots = {st: robot.stance(st) for st in stances}
         res, unmeasured, labels = fsr_stances(
             robots, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
             whole=lambda: read_table(raw),
@@ -121,10 +161,9 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
     for pose, reason in res.dropped:
         click.echo(f"  pose {pose} dropped: {reason}", err=True)
     if unmeasured:
-        more = f" (and {len(unmeasured) - 5} more)" if len(unmeasured) > 5 else ""
         click.echo(
             f"  {len(unmeasured)} poses of the list were not measured: "
-            f"{', '.join(unmeasured[:5])}{more}",
+            f"{listed(unmeasured, first=5)}",
             err=True,
         )
     click.echo(f"wrote {out}")

@@ -10,7 +10,7 @@ import math
 
 import click
 
-from sescid.api import file_stance
+from sescid.api import file_stance, identify_payload
 from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress, option_spec
 from sescid.cli import common
@@ -29,6 +29,9 @@ from sescid.estimation import (
     MapOptions,
     MethodName,
     MethodOptions,
+    check_base,
+    fit_summary,
+    load_fit,
     save_fit,
 )
 from sescid.io import rows_estimate
@@ -102,7 +105,8 @@ SECTIONS = {
     "MAP (--method map or auto)": ("prior_scale", "prior", "prior_select", "noise", "bias"),
     "Consistent masses (--method consistent)": ("total_mass", "mass_floor", "symmetric",
                                                 "box_margin", "via", "cad_std"),
-    "Joint torques": ("tau_noise", "tau_gains", "gain_prior", "gravity_accel"),
+    "Joint torques": ("tau_noise", "tau_noise_model", "tau_gains", "gain_prior", "gravity_accel"),
+    "Payload (what the robot carries)": ("payload", "payload_mass", "base"),
     "Output": ("out", "force"),
 }  # fmt: skip
 _, _NOISE = option_spec(IdentifyOptions, "joint_noise")
@@ -129,7 +133,8 @@ _, _STEP = option_spec(IdentifyOptions, "online_step")
     "Which measurements of the files to fit: all they have, the CoP only, or the joint "
     "torques only.",
 )
-@flags(IdentifyOptions, "com_height", "weighted", "rtol", "cop_noise", "tau_noise", "tau_gains",
+@flags(IdentifyOptions, "com_height", "weighted", "rtol", "cop_noise", "tau_noise",
+       "tau_noise_model", "tau_gains",
        "gain_prior", "gravity_accel", "allow_exact", "total_mass")  # fmt: skip
 @consistent_options
 @flags(MapOptions, "prior_scale", "prior", "select", "noise", "bias")
@@ -147,8 +152,26 @@ _, _STEP = option_spec(IdentifyOptions, "online_step")
     "--online-step", default=1, show_default=True, type=click.IntRange(min=1), help=_STEP.help
 )
 @flags(IdentifyOptions, "seed", "allow_outside_limits", "imu_link")
+@click.option(
+    "--payload",
+    default=None,
+    metavar="BODY",
+    help="Identify only a payload fixed to this link: its mass and CoM in the link's frame, "
+    "the robot's own masses kept as the base (--base).",
+)
+@click.option(
+    "--payload-mass",
+    type=float,
+    default=None,
+    help="The payload's weighed mass [kg] (with --payload): only its CoM is identified.",
+)
+@common.file_option(
+    "--base",
+    "With --payload: the robot's own masses — a previous fit (JSON, any stance) or the model "
+    "file (default: the robot's model).",
+)
 @common.force_option
-def identify(data, robot_name, support, out, method, force, **opts):
+def identify(data, robot_name, support, out, method, force, payload, payload_mass, base, **opts):
     """Identify the robot's mass distribution from CSV/Parquet files of poses (a column per
     joint, radians) and what was measured there: the CoP (cop_x, cop_y, m), joint torques
     (tau_<joint>, N·m) or, for a robot balancing on a line (--line), the gravity direction of
@@ -162,6 +185,13 @@ def identify(data, robot_name, support, out, method, force, **opts):
     parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
     files = [file_stance(d)[0] for d in data]
+    if payload is None:
+        if payload_mass is not None or base is not None:
+            raise OptionError("payload", "--payload-mass and --base go with --payload BODY")
+    else:
+        _identify_payload(data, files, robot_name, support, out, method, force, payload,
+                          payload_mass, base, opts)  # fmt: skip
+        return
     outs = OutputSet([out], [*files, common.model_input(robot_name)], force=force)
     robot = common.load(robot_name, support)
     chosen, options = options_from_flags(method, opts)
@@ -183,11 +213,49 @@ def identify(data, robot_name, support, out, method, force, **opts):
     click.echo(f"wrote {out}")
 
 
+def _identify_payload(data, files, robot_name, support, out, method, force, body, mass, base,
+                      opts) -> None:  # fmt: skip
+    """The payload (identify --payload) on a base (a fit, or the model file)."""
+    from pathlib import Path
+
+    if method != "auto":
+        raise OptionError("method", "--method does not apply with --payload (the base is kept)")
+    base_fit = None
+    source = click.get_current_context().get_parameter_source("robot_name")
+    given = source != click.core.ParameterSource.DEFAULT
+    if base is not None and Path(base).suffix.lower() == ".json":
+        base_fit = load_fit(base)
+        common.echo_model_change(base_fit, base)
+        robot_name = robot_name if given else base_fit.robot.source
+        if given and robot_name != base_fit.robot.source:  # another robot: say so first
+            robot = common.load(robot_name, support)
+        else:
+            robot = common.load(robot_name, support or base_fit.robot.support)
+        check_base(robot, base_fit, base)
+    elif base is not None:
+        if given and Path(robot_name) != Path(base):
+            raise OptionError("base", f"the base model {base} is not --robot {robot_name}")
+        robot_name = base
+        robot = common.load(base, support)
+    else:
+        robot = common.load(robot_name, support)
+    ins = [*files, common.model_input(robot_name)] + ([base] if base else [])
+    outs = OutputSet([out], ins, force=force)
+    shared = options_from_flags("ls", opts)[1]
+    fit = identify_payload(robot, list(data), body, mass=mass, base=base_fit, options=shared)
+    with outs:
+        save_fit(fit, outs.path(out))
+    echo_fit(fit)
+    click.echo(f"wrote {out}")
+
+
 def echo_fit(fit: Fit) -> None:
     """The fit's summary, then what its records hold: online history, sensors, extras."""
     if fit.online is not None:
         _echo_online(fit)
-    click.echo(fit.summary())
+    click.echo(fit_summary(fit))
+    if fit.payload is not None:
+        click.echo(fit.payload.summary())
     if fit.inertials is not None:
         echo_masses(fit)
     if fit.robust is not None:
@@ -242,18 +310,23 @@ def _echo_sensors(fit: Fit) -> None:
         return
     has_f = any("friction" in r for r in rows.values())
     has_g = any("gain" in r for r in rows.values())
+    noise = {r.joint: r for r in fit.torque_noise}
+    unit = " [× tau_se]" if noise and fit.torque_noise[0].unit == "1" else ""
     click.echo(
         "torque sensors [N·m]: joint  offset"
         + ("  friction" if has_f else "")
         + ("  gain [1]" if has_g else "")
+        + (f"  noise σ_j{unit}" if noise else "")
     )
     for joint, r in rows.items():
+        n = noise.get(joint)
         click.echo(
             f"  {joint}  {r.get('offset', '—')}"
             + (f"  {r.get('friction', '—')}" if has_f else "")
             + (f"  {r.get('gain', '—')}" if has_g else "")
+            + (f"  {n.sigma:.4f}" + (" (pooled)" if n.by == "pooled" else "") if n else "")
         )
-    lost = [e for e in fit.nuisance if e.kind == "tau" and not e.determined]
+    lost = [e for e in fit.nuisance if e.kind == "tau" and (not e.determined or e.reason)]
     for e in lost[:4]:
         click.echo(f"  {e.label}: {e.reason}")
 

@@ -39,6 +39,10 @@ def echo_masses(fit: Fit) -> None:
             f"({b.cad_masses[i]:.4f} → {b.masses[i]:.4f} kg)"
             + ("" if b.prior_std is None else f"; CAD prior std {100 * b.prior_std:.1f} %")
         )
+    if b.exact:
+        click.echo("  the fit's SESC vectors reproduced exactly (closest to CAD in its prior)")
+    for note in b.notes:
+        click.echo(f"  note: {note}")
     for c in b.active_constraints[:8]:
         click.echo(f"  active: {c}")
     if len(b.active_constraints) > 8:

@@ -14,6 +14,7 @@ from sescid.estimation import min_poses
 from sescid.io import pose_table, required_paper_convention, write_table
 from sescid.planning import (
     DEFAULT_STANCE_COST,
+    PAYLOAD_CANDIDATES,
     PlanOptions,
     Select,
     block_curve,
@@ -23,6 +24,7 @@ from sescid.planning import (
     free_sole,
     min_block_poses,
     parse_stances,
+    plan_payload_poses,
     plan_poses,
     plan_stances,
     resolve_mount,
@@ -116,6 +118,19 @@ def _sole_notes(robot, capsules) -> list[str]:
     "mujoco: keep only chosen poses that stand on the MuJoCo physics bench (replaced by "
     "the next best until all do; needs the mujoco extra).",
 )
+@click.option(
+    "--payload",
+    default=None,
+    metavar="BODY",
+    help="Plan the few poses that determine a payload on this link best (its mass and CoM; "
+    "identify --payload); --count defaults to 8 then.",
+)
+@click.option(
+    "--payload-mass",
+    type=float,
+    default=None,
+    help="With --payload: its weighed mass [kg] (only its CoM is planned for).",
+)
 @common.force_option
 def poses(**o):
     """Plan stable, collision-free poses for the bench experiment (paper §4), chosen to be
@@ -137,6 +152,10 @@ def poses(**o):
         raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
     if len(chosen) == 1:  # one stance: as --support and --mount
         robot, mount = stance_robot(robot, chosen[0]), chosen[0].mount
+    if o["payload"] is not None:
+        _payload_plan(o, robot, pc, outs)
+        return
+    common.refuse_idle("payload_mass", o["payload_mass"] is None, "without --payload")
     n_candidates = o["candidates"]
     if n_candidates is None:  # several stances share the pool
         n_candidates = default_candidates(robot, select, count, kinds) // max(len(chosen), 1)
@@ -224,6 +243,45 @@ def _echo_plan(robot, plan, opt: PlanOptions, half, table_notes: list[str]) -> N
         f"joint-space path from the zero pose: {plan.path_unordered:.2f} rad in selection "
         f"order → {plan.path_ordered:.2f} rad ordered"
     )
+
+
+def _payload_plan(o, robot, pc, outs: OutputSet) -> None:
+    """Poses --payload: the poses that determine a payload best, and their table."""
+    if o["stances"] is not None or o["mount"] is not None or o["select"] != "d-optimal":
+        raise OptionError("payload", "--payload plans D-optimal poses on the --support foot")
+    source = click.get_current_context().get_parameter_source("count")
+    count = 8 if source == click.core.ParameterSource.DEFAULT else o["count"]
+    n_candidates = o["candidates"] or PAYLOAD_CANDIDATES
+    if n_candidates < count:
+        raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
+    half = cop_half_extents(robot, o["cop_box"], o["margin"], o["sole_size"])
+    opt = record(
+        PlanOptions, o, n_candidates=n_candidates, mount=None, half_extents=half,
+        limits=sampling_limits(robot, paper=not o["urdf_limits"], range_deg=o["range_deg"]),
+        check=None, check_name="", tau_joints=_joint_list(o["tau_joints"]),
+    )  # fmt: skip
+    plan = plan_payload_poses(robot, o["payload"], count, o["seed"], opt, o["payload_mass"],
+                              progress=TerminalProgress("candidates"))  # fmt: skip
+    table = pose_table(robot, plan.q, paper=pc, cop=plan.cop)
+    noise = _error_line_payload(plan.kinds, opt.sigma, opt.tau_noise)
+    n_par = 3 if o["payload_mass"] else 4
+    click.echo(f"payload on {plan.body}: chose {count} of {plan.n_candidates} candidates "
+               f"(D-optimal over its {n_par} parameters, {noise})")  # fmt: skip
+    for label, std in (("chosen", plan.std), (f"{count} random (median)", plan.random_std)):
+        mass = "" if o["payload_mass"] else f"mass ± {std[0] * 1e3:.0f} g, "
+        if label == "chosen":
+            click.echo(f"  (for {plan.nominal_mass:.3g} kg at {plan.body}'s origin; "
+                       "--payload-mass gives yours)")  # fmt: skip
+        com = ", ".join(f"{v * 1e3:.1f}" for v in std[1:])
+        click.echo(f"  expected std, {label}: {mass}CoM ± ({com}) mm")
+    with outs:
+        write_table(outs.path(o["out"]), table.columns)
+    click.echo(f"wrote {o['out']}: {count} poses ({len(table.columns)} columns)")
+
+
+def _error_line_payload(kinds: str, sigma: float, tau_noise: float) -> str:
+    parts = [f"σ = {sigma * 1e3:g} mm"] if kinds in ("cop", "both") else []
+    return ", ".join(parts + ([f"σ_τ = {tau_noise:g} N·m"] if kinds != "cop" else []))
 
 
 def _stance_check(stance, robot):

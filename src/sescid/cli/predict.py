@@ -7,6 +7,7 @@ import numpy as np
 
 from sescid.base import OutputSet
 from sescid.cli import common
+from sescid.errors import DataError, OptionError
 from sescid.estimation import (
     com_interval,
     for_support,
@@ -17,6 +18,7 @@ from sescid.io import (
     read_table,
     write_table,
 )
+from sescid.stance import data_stance, support_column
 
 
 @click.command()
@@ -48,17 +50,94 @@ def predict(fit_file, poses, out, level, stance, imu_link, force):
     balance_tilt [rad], the tilt about the line that balances the robot at each pose (the
     IMU's pitch for an axle along y), with its standard error, instead of the CoP.
     """
-    from sescid.estimation import balance_interval, cop_interval
-    from sescid.sensors import table_gravity
-
     outs = OutputSet([out], [fit_file, poses], force=force)
     fit = load_fit(fit_file)
-    if stance is not None:
-        fit = for_support(fit, stance)
     table = read_table(poses)
     q = read_poses(table, fit.robot.joint_names, fit.robot.profile.servo)
     line = fit.robot.line is not None  # no CoP on a line: the tilt that balances instead
+    cols: dict[str, np.ndarray] = {}
+    lost, lost_rank = 0, fit.rank
+    for seen, rows in _stances(fit, table, stance, line, (poses, fit_file)):
+        part = _columns(seen, table, q, rows, line, level, imu_link)
+        for name, values in part.items():
+            cols.setdefault(name, np.full(len(q), np.nan))[rows] = values
+        n_lost = int(np.sum(np.isnan(part["com_x_std"])))
+        lost, lost_rank = lost + n_lost, seen.rank if n_lost else lost_rank
+    with outs:
+        write_table(outs.path(out), cols)
+    if lost:
+        click.echo(
+            f"sescid: warning: at {lost} of {len(q)} poses the fit's data do not determine the "
+            f"CoP (rank {lost_rank}): their std and interval columns are nan (not determined)",
+            err=True,
+        )
+    for w in fit.warnings:
+        click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
+    if fit.payload is not None:
+        click.echo(f"predictions include the {fit.payload.summary().splitlines()[0]}")
+    click.echo(f"wrote {out}: {len(q)} poses")
+
+
+def _stances(fit, table, stance, line, files):
+    """(the fit seen in a stance, the table's rows in it): ``--support`` for every row (its
+    column, if any, must agree), else each row's ``support`` column, else the fit's own
+    support. Each stance passes the one stance check (``data_stance``): a frame of the model
+    where the CoP predicted is measurable (not a held trunk)."""
+    poses, fit_file = files
+    kinds = () if line else ("cop",)
+    column = support_column(table)
+    labels = None
+    if column is not None and column in table.text:
+        labels = np.array([v.strip() for v in table.text[column]])
+    if stance is not None:
+        label, _ = data_stance(fit.robot, stance, kinds, "--support")
+        if labels is not None:
+            for name in dict.fromkeys(labels.tolist()):
+                row = table.where(int(np.flatnonzero(labels == name)[0]))
+                said, _ = data_stance(fit.robot, name, kinds, f"{poses}: {row}, column '{column}'")
+                if said != label:
+                    raise OptionError(
+                        "support",
+                        f"{stance}, but {poses}: {row}, column '{column}' says "
+                        f"'{name}': drop --support (each row is predicted in its own stance) "
+                        "or fix the column",
+                    )
+        groups = {label: np.arange(table.n)}
+        where = {label: "--support"}
+    elif labels is not None:
+        groups, where = {}, {}
+        for name in dict.fromkeys(labels.tolist()):
+            rows = np.flatnonzero(labels == name)
+            at = f"{poses}: {table.where(int(rows[0]))}, column '{column}'"
+            if not name:
+                raise DataError(f"{at} is empty (name the stance of every row, or of none)")
+            label, _ = data_stance(fit.robot, name, kinds, at)
+            groups.setdefault(label, []).append(rows)
+            where.setdefault(label, at)
+        groups = {k: np.sort(np.concatenate(v)) for k, v in groups.items()}
+    else:
+        groups, where = {None: np.arange(table.n)}, {None: ""}
+    for label, rows in groups.items():
+        if label is None:
+            yield fit, rows
+            continue
+        try:
+            yield for_support(fit, label), rows
+        except DataError as exc:
+            at = where[label]
+            if at == "--support":
+                raise OptionError("support", f"{label}: {fit_file}: {exc}") from None
+            raise DataError(f"{at}: '{label}': {fit_file}: {exc}") from None
+
+
+def _columns(fit, table, q, rows, line, level, imu_link) -> dict[str, np.ndarray]:
+    """The predicted columns of the poses ``q[rows]`` by ``fit`` (in its stance)."""
+    from sescid.estimation import balance_interval, cop_interval
+    from sescid.sensors import table_gravity
+
     gravity = None if line else table_gravity(fit.robot, table, q, imu_link)
+    q = q[rows]
+    gravity = None if gravity is None else gravity[rows]
     com = fit.predict_com(q)
     std = fit.predict_std(q)
     cols: dict[str, np.ndarray] = {}
@@ -88,15 +167,4 @@ def predict(fit_file, poses, out, level, stance, imu_link, force):
             civ = cop_interval(fit, q, level, gravity=gravity)  # with g_xy/g_z · CoM-height
             for j, name in enumerate(("cop_x", "cop_y")):
                 cols[f"{name}_lower"], cols[f"{name}_upper"] = civ.lower[:, j], civ.upper[:, j]
-    with outs:
-        write_table(outs.path(out), cols)
-    lost = int(np.sum(np.isnan(std[:, 0])))
-    if lost:
-        click.echo(
-            f"sescid: warning: at {lost} of {len(q)} poses the fit's data do not determine the "
-            f"CoP (rank {fit.rank}): their std and interval columns are nan (not determined)",
-            err=True,
-        )
-    for w in fit.warnings:
-        click.echo(f"sescid: warning: {fit_file}: {w}", err=True)
-    click.echo(f"wrote {out}: {len(q)} poses")
+    return cols

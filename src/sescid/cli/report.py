@@ -8,6 +8,7 @@ import click
 
 from sescid.base import OutputSet, TerminalProgress
 from sescid.cli import common
+from sescid.errors import DataError, OptionError
 from sescid.estimation import for_support, load_fit
 from sescid.report import (
     KIND_TITLES,
@@ -18,6 +19,7 @@ from sescid.report import (
     with_unit,
     write_report,
 )
+from sescid.stance import data_stance
 
 
 def _residual_line(k: KindNumbers, n: int) -> str:
@@ -61,7 +63,11 @@ def report(fit_file, measured, out_dir, stance, imu_link, force):
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
     if stance is not None:
-        fit = for_support(fit, stance)
+        label, _ = data_stance(fit.robot, stance, (), "--support")  # one stance check
+        try:
+            fit = for_support(fit, label or fit.robot.support)
+        except DataError as exc:
+            raise OptionError("support", f"{stance}: {fit_file}: {exc}") from None
     common.echo_model_change(fit, fit_file)
     data, ids = read_report_data(measured, fit, imu_link)
     options = ReportOptions(pose_ids=ids, progress=TerminalProgress("report files"))

@@ -13,7 +13,7 @@ import numpy as np
 from sescid.cli import common
 from sescid.cli.experiment import TORQUE_FLAGS, bench_sensors, torque_config, torque_options
 from sescid.cli.flags import flags, record
-from sescid.errors import OptionError
+from sescid.errors import MissingExtraError, OptionError
 from sescid.planning import parse_stances, stance_robot
 from sescid.report import mm
 from sescid.session import SessionOptions, session_mount
@@ -170,13 +170,28 @@ def session(**opts):
     stances = parse_stances(opts["stances"], robot) if opts["stances"] is not None else ()
     if stances and opts["mount"] is not None:
         raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
+    held = [s for s in stances if s.mount == "gantry"]
+    if held and opts["adapter"] in ("mujoco", "kinematic") and not torque_config(opts).joints:
+        raise OptionError(
+            "stances",
+            f"'gantry:{held[0].support}': a robot held in a gantry loads no foot: the bench "
+            "measures nothing there without --torques (the joints with a torque sensor)",
+        )
     if len(stances) == 1:  # one stance: as --support and --mount
         robot, opts["mount"], stances = stance_robot(robot, stances[0]), stances[0].mount, ()
     opts["stances"] = tuple(s.label if s.mount != "gantry" else f"gantry:{s.support}"
                             for s in stances)  # fmt: skip
     opt = session_options(opts)
     check_options(robot, opt)
-    bot, sensors, header = _adapter(robot, opts, opt)
+    try:
+        bot, sensors, header = _adapter(robot, opts, opt)
+    except MissingExtraError as exc:
+        if opts["adapter"] != "mujoco":
+            raise
+        raise MissingExtraError(
+            f"--adapter mujoco ({exc.what})", exc.extra,
+            "run the rigid-statics bench without it: --adapter kinematic",
+        ) from None  # fmt: skip
     journal = Journal.open(out_dir, header, restart=opts["force"])
     if journal.finished:
         click.echo(f"{journal.path}: the session finished ({journal.finished}); replaying it")
@@ -187,7 +202,10 @@ def session(**opts):
         if not opts["no_view"]:
             from sescid.report import LiveView
 
-            view = LiveView(robot, port=opts["view_port"])
+            try:
+                view = LiveView(robot, port=opts["view_port"])
+            except MissingExtraError as exc:
+                raise MissingExtraError(exc.what, exc.extra, "run without it: --no-view") from None
             click.echo(f"live view: {view.url} (Ctrl-C stops the session)")
         res = run_session(
             robot, bot, sensors, opt,

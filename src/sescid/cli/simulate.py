@@ -7,9 +7,11 @@ from typing import Literal
 import click
 import numpy as np
 
-from sescid.base import OutputSet
+from sescid.base import OutputSet, listed
+from sescid.bench import ExperimentConfig, real_robot
 from sescid.cli import common
 from sescid.cli.flags import flags, record
+from sescid.errors import OptionError
 from sescid.planning import DesignKind
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
@@ -46,6 +48,7 @@ Measure = Literal[DesignKind, "balance"]
     "--measure balance: error of each pose's measured tilt (the IMU) [degrees].",
 )  # fmt: skip
 @flags(TorqueNoise, "noise", "offset", "friction")
+@flags(ExperimentConfig, "extra_mass_fraction")
 @common.file_option("--out", "Output CSV.", required=True)
 @common.force_option
 def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, tilt_deg, out,
@@ -58,7 +61,12 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     A robot balancing on a line (--line; --measure balance): joints, grav_x/y/z (the measured
     gravity direction of each balanced pose) and balance_tilt_true [rad]. Every file has a
     support column (the stance: files of several stances pool in identify).
+
+    The CoP and torques are those of a robot that differs from its model as the bench's does
+    (--extra-mass: 7 % of unmodelled mass, placed as `experiment` places it), so a fit has
+    something to identify; --extra-mass 0 simulates the model itself (every fit then keeps it).
     """
+    import dataclasses
     import math
 
     from sescid.io import write_table
@@ -67,16 +75,30 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     outs = OutputSet([out], [common.model_input(robot_name)], force=force)
     robot = common.load(robot_name, support)
     measure = kinds["measure"] or ("balance" if robot.line is not None else "cop")
+    if robot.line is not None and measure != "balance":  # identify could not read the file
+        raise OptionError(
+            "measure",
+            f"{measure}: a robot balancing on its line (--line) is measured by its balance "
+            "(--measure balance): it stands on no sole (no CoP), and its joint torques depend "
+            "on the tilt that balances each pose, which this simulation does not write",
+        )
     common.refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
                 f"with --measure {measure}")  # fmt: skip
     common.refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
     common.refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
+    common.refuse_idle("extra_mass", measure != "balance", "with --measure balance")
     if measure == "balance":
         _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
         return
+    r_true, true_mass, placed = real_robot(
+        robot, ExperimentConfig(extra_mass_fraction=kinds["extra_mass"])
+    )
+    sensors = torque_noise(kinds)
+    if sensors is not None and sensors.total_mass is None:
+        sensors = dataclasses.replace(sensors, total_mass=true_mass)
     sim = run_simulate(
         robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
-        torques=torque_noise(kinds),
+        torques=sensors, r_true=r_true,
     )  # fmt: skip
     cols = _columns(robot.joint_names, sim, measure)
     cols["support"] = np.full(sim.q.shape[0], robot.support)  # the stance, for pooling
@@ -88,6 +110,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         "both": f"CoP noise {noise} m, torque noise {kinds['tau_noise']} N·m",
     }[measure]
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, {what}")
+    click.echo(f"  {_real_line(robot, true_mass, placed)}")
     if clip is None:
         clip = robot.profile.paper_limits_file is None  # as simulate() resolved it
     if clip:
@@ -101,6 +124,23 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
             f"  --stable: {sim.n_drawn - poses} of {sim.n_drawn} draws rejected "
             f"(CoP outside the sole {robot.sole.size[0]:.3f} x {robot.sole.size[1]:.3f} m)"
         )
+
+
+def _real_line(robot, true_mass: float, placed: list[dict]) -> str:
+    """What the simulated robot is: the model, or the model plus its unmodelled masses."""
+    import math
+
+    if not placed or math.isclose(true_mass, robot.total_mass, rel_tol=1e-12):
+        return (
+            f"the robot simulated is the model itself ({robot.total_mass:.4f} kg, "
+            "--extra-mass 0): a fit can only keep it"
+        )
+    where = listed(f"{p['body']} {p['mass_kg'] * 1e3:.0f} g" for p in placed)
+    return (
+        f"real robot: the model ({robot.total_mass:.4f} kg) plus "
+        f"{true_mass - robot.total_mass:.4f} kg it lacks ({where}); the *_true columns are its "
+        "noise-free values (--extra-mass 0: the model itself)"
+    )
 
 
 def _balance(robot, poses: int, range_deg: float, seed: int, noise_deg: float, outs, out):

@@ -17,6 +17,7 @@ from sescid.estimation.api import fit_measurements, to_consistent
 from sescid.estimation.cad_check import cad_violations
 from sescid.estimation.checks import (
     COP_ON_TRUNK,
+    check_com_height,
     check_total_mass,
     fit_warnings,
     outside_limits,
@@ -30,6 +31,7 @@ from sescid.estimation.fit import (
     CopOffset,
     CrossValidation,
     Fit,
+    JointNoise,
     JointNoiseEffect,
     KindFit,
     MapInfo,
@@ -48,6 +50,7 @@ from sescid.estimation.identifiability import (
 )
 from sescid.estimation.measurements import KINDS, Kind, Measurements
 from sescid.estimation.normal_equations import NormalEquations, accumulate
+from sescid.estimation.notes import fit_notes
 from sescid.estimation.online import OnlineEstimator
 from sescid.estimation.options import (
     AutoOptions,
@@ -62,7 +65,10 @@ from sescid.estimation.options import (
     Via,
     method_options,
 )
+from sescid.estimation.payload import PayloadOptions, check_base, check_payload, payload_fit
+from sescid.estimation.payload_record import PayloadFit, PayloadKind
 from sescid.estimation.pooled import BodyFit, StanceRank, for_support
+from sescid.estimation.summary import fit_summary
 from sescid.estimation.validation import (
     Interval,
     balance_interval,
@@ -85,6 +91,7 @@ __all__ = [
     "IdentifyOptions",
     "Interval",
     "LeastSquaresOptions",
+    "JointNoise",
     "JointNoiseEffect",
     "KINDS",
     "Kind",
@@ -103,6 +110,9 @@ __all__ = [
     "PriorSelect",
     "OnlineEstimator",
     "OnlineInfo",
+    "PayloadFit",
+    "PayloadKind",
+    "PayloadOptions",
     "Robust",
     "RobustInfo",
     "StanceRank",
@@ -110,6 +120,7 @@ __all__ = [
     "accumulate",
     "body_boxes",
     "cad_violations",
+    "check_com_height",
     "check_total_mass",
     "balance_interval",
     "com_interval",
@@ -119,6 +130,8 @@ __all__ = [
     "for_support",
     "identifiable_eigen",
     "fit_measurements",
+    "fit_notes",
+    "fit_summary",
     "MODEL_CHANGED",
     "OLD_FORMAT",
     "COP_ON_TRUNK",
@@ -126,6 +139,9 @@ __all__ = [
     "method_options",
     "min_poses",
     "outside_limits",
+    "payload_fit",
+    "check_base",
+    "check_payload",
     "perturbed_sesc",
     "save_fit",
     "structural_rank",

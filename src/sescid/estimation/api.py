@@ -15,13 +15,16 @@ and arrays too) is the public entry; ``to_consistent`` makes masses for an exist
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
 from sescid.estimation.consistent import consistent_from_fit
-from sescid.estimation.fit import Fit, MethodName
+from sescid.estimation.fit import Fit, JointNoise, MethodName
 from sescid.estimation.measurements import TORQUE, Measurements
 from sescid.estimation.options import (
     AutoOptions,
@@ -42,14 +45,72 @@ from sescid.estimation.runs import (
     with_extras,
 )
 from sescid.estimation.sources import as_sources, in_memory
+from sescid.estimation.torque_noise import with_records
 from sescid.robot import Robot
 
 
 def _unsided(fit: Fit) -> bool:
     """A fit of joint torques without approach sides (no friction columns): their static
-    friction acts as bounded errors, for the robust loss of ``robust="auto"``."""
+    friction, unseparated, may leave outliers (``_outlying``) for ``robust="auto"``."""
     has_tau = fit.kind(TORQUE) is not None
     return has_tau and not any(e.kind == TORQUE and e.what == "friction" for e in fit.nuisance)
+
+
+#: ``robust="auto"``: a torque residual beyond this many of its expected size is an outlier
+#: (a Gaussian reading is one with probability 2·10⁻⁹; a static-friction band — a bounded
+#: error — never: its largest is 1.6 of its mean's scale)
+OUTLIER_Z = 6.0
+#: the expected size is at least this share of the joint's median |r| (a fitted size near 0 at
+#: no load would make any reading there an outlier)
+OUTLIER_FLOOR = 0.25
+#: … and a joint's readings show outliers when more than this share (and at least two) are
+OUTLIER_SHARE = 0.01
+#: rows of the data that judge it (every k-th row beyond this many)
+OUTLIER_ROWS = 20000
+_ROOT_HALF_PI = math.sqrt(math.pi / 2)  # Gaussian: σ = √(π/2) · E|r|
+
+
+def _outlying(fit: Fit, sources) -> bool:
+    """Whether a plain fit's torque residuals show outliers (``OUTLIER_Z``, ``OUTLIER_SHARE``).
+    Each joint's expected residual size is its own and grows with the load — a + b·|τ̂|, a, b ≥ 0,
+    fitted to |r| without its largest tenth, then without the outliers found — so noise that grows
+    with the torque is not taken for outliers: down-weighting every loaded pose would make the
+    fit, and its rank, follow the noise draw."""
+    import scipy.optimize
+
+    from sescid.estimation.least_squares import residuals
+
+    stride = max(fit.n_poses // OUTLIER_ROWS, 1)
+    res_rows, load_rows, start = [], [], 0
+    for s in sources:
+        for m in s.chunks():
+            if m.tau is not None:
+                part = m.take(np.arange((-start) % stride, m.n, stride))
+                res = residuals(fit, part).get(TORQUE)
+                if res is not None:
+                    res_rows.append(np.abs(res))
+                    load_rows.append(np.abs(part.tau - res))
+            start += m.n
+    if not res_rows:
+        return False
+    r, load = np.vstack(res_rows), np.vstack(load_rows)
+    for j in range(r.shape[1]):
+        ok = np.isfinite(r[:, j]) & np.isfinite(load[:, j])
+        rj, x = r[ok, j], np.column_stack([np.ones(int(ok.sum())), load[ok, j]])
+        if rj.size < 3:
+            continue
+        keep = rj <= np.quantile(rj, 0.9)  # the size fitted without the largest tenth first
+        floor = OUTLIER_FLOOR * float(np.median(rj))
+        for _ in range(2):
+            if keep.sum() < 3:
+                break
+            coef = scipy.optimize.nnls(x[keep], rj[keep])[0]  # a, b ≥ 0
+            size = np.maximum(x @ coef, floor) * _ROOT_HALF_PI
+            keep = rj <= OUTLIER_Z * size
+        n_out = int(rj.size - keep.sum())
+        if n_out >= 2 and n_out > OUTLIER_SHARE * rj.size:
+            return True
+    return False
 
 
 def _held(robot, sources, memory: list[Measurements] | None) -> list[Any]:
@@ -75,15 +136,72 @@ def _huber(
         return run_method(robot, method, o, srcs, None, compare=False)
 
     if memory is not None:
-        fit = huber(run, memory, weighted=opts.weighted, k=opts.huber_k)
+        fit = huber(
+            run, memory, weighted=opts.weighted, k=opts.huber_k, tau_weighted=opts.tau_weighted
+        )
     else:
-        fit = huber_sources(run_sources, sources, weighted=opts.weighted, k=opts.huber_k)
+        fit = huber_sources(
+            run_sources, sources, weighted=opts.weighted, k=opts.huber_k,
+            tau_weighted=opts.tau_weighted,
+        )  # fmt: skip
     if method.method != "ls":
         return fit
     plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
     first = run_method(robot, method, plain, _held(robot, sources, memory), memory)
     extra = tuple(w for w in first.warnings if w.startswith(WORSE_THAN_CAD))
     return dataclasses.replace(fit, warnings=fit.warnings + extra)
+
+
+def _per_joint(opts: IdentifyOptions) -> bool:
+    """Whether the torque rows' noise is estimated per joint (``torque_noise``): the default,
+    unless one level is given or the fit is recursive or estimates gains."""
+    return (
+        opts.tau_noise_model == "joint"
+        and opts.tau_noise is None
+        and opts.online_step is None
+        and not opts.tau_gains
+        and opts.tau_weighted is None
+    )
+
+
+def _joint_noise(robot, method: MethodOptions, opts: IdentifyOptions, sources, memory, first: Fit):
+    """Feasible GLS of the torque rows (``torque_noise.per_joint_noise``) from a plain fit
+    ``first``: the sources (and the data in memory) with each joint's σ_j as its rows'
+    standard errors, the options that weigh them, the records and the last plain fit."""
+    from sescid.estimation.torque_noise import JointScaled, per_joint_noise
+
+    plain = dataclasses.replace(opts, robust=False, tau_weighted=True)
+
+    def run(srcs: list[Any], weighted: bool) -> Fit:
+        del weighted  # the torque rows carry σ_j; the CoP rows stay as asked
+        held = None if memory is None else [x for s in srcs for x in s.chunks()]
+        return run_method(robot, method, plain, srcs, held)
+
+    wrapped, records, last = per_joint_noise(run, list(sources), opts.weighted, first)
+    if wrapped is None:
+        return sources, memory, opts, (), first
+    if memory is not None:
+        sigma = {r.joint: r.sigma for r in records}
+        memory = [
+            next(JointScaled(HeldSource(robot, x), sigma, opts.weighted).chunks()) for x in memory
+        ]
+        wrapped = [HeldSource(robot, x) for x in memory]
+    return wrapped, memory, dataclasses.replace(opts, tau_weighted=True), records, last
+
+
+def _final_records(fit: Fit, sources, used: tuple[JointNoise, ...]):
+    """The σ_j the final fit weighed each joint's rows by (``used``), with the residual RMS,
+    degrees of freedom and share of the parameters under that fit (the sources carry σ_j as
+    their errors: the RMS back in units of the original errors)."""
+    from sescid.estimation.torque_noise import joint_noise, joint_stats
+
+    joints = tuple(r.joint for r in used)
+    st = joint_stats(fit, sources, joints, True, dict.fromkeys(joints, 1.0))
+    new = joint_noise(st, fit, joints)
+    return tuple(
+        dataclasses.replace(u, rms=r.rms * u.sigma, dof=r.dof, params=r.params)
+        for u, r in zip(used, new, strict=True)
+    )
 
 
 def check_method(method: MethodOptions, opts: IdentifyOptions) -> None:
@@ -128,7 +246,8 @@ def fit_measurements(
     m = method_options(method)
     opts = options or IdentifyOptions()
     check_method(m, opts)
-    sources = as_sources(robot, data, opts.kinds)
+    weighted = opts.weighted
+    sources = opened = as_sources(robot, data, opts.kinds)
     try:
         robust = opts.robust
         settings = map_settings(m)
@@ -141,8 +260,24 @@ def fit_measurements(
         )
         memory = in_memory(robot, sources) if needs_memory else None
         if robust == "auto" and memory is not None:
-            robust = any(x.tau is not None and x.approach is None for x in memory)
+            unsided = any(x.tau is not None and x.approach is None for x in memory)
+            if unsided:
+                plain = dataclasses.replace(opts, robust=False, cv=None, joint_noise=None,
+                                            tau_gains=False)  # fmt: skip
+                first = run_method(robot, m, plain, _held(robot, sources, memory), memory)
+                unsided = _unsided(first) and _outlying(first, _held(robot, sources, memory))
+            robust = unsided
         choice = None
+        plain_fit: Fit | None = None  # a plain fit of the data as they are (when made)
+        records: tuple[JointNoise, ...] = ()
+        if _per_joint(opts):
+            plain = dataclasses.replace(opts, robust=False)
+            plain_fit = run_method(robot, m, plain, _held(robot, sources, memory), memory,
+                                   progress)  # fmt: skip
+            if plain_fit.kind(TORQUE) is not None:
+                sources, memory, opts, records, plain_fit = _joint_noise(
+                    robot, m, opts, sources, memory, plain_fit
+                )
         if isinstance(m, AutoOptions) and opts.online_step is not None:
             # a recursive MAP fit needs its prior scale and noise given
             known = m.map.prior_scale is not None and m.map.noise is not None
@@ -161,8 +296,10 @@ def fit_measurements(
         elif robust is True:
             fit = _huber(robot, m, opts, sources, memory)
         else:
-            fit = run_method(robot, m, opts, sources, memory, progress)
-            if robust == "auto" and _unsided(fit):  # torques without sides: known after a pass
+            fit = plain_fit or run_method(robot, m, opts, sources, memory, progress)
+            if (
+                robust == "auto" and _unsided(fit) and _outlying(fit, _held(robot, sources, memory))
+            ):  # torques without sides whose residuals show outliers: known after a pass
                 choice = fit.choice
                 if isinstance(m, AutoOptions) and choice is not None:
                     m = m.resolved(choice.chosen)
@@ -170,8 +307,10 @@ def fit_measurements(
         if choice is not None:
             fit = dataclasses.replace(fit, choice=choice)
         fit = with_extras(robot, m, opts, fit, memory)
+        if records:
+            fit = with_records(fit, _final_records(fit, sources, records), weighted)
     finally:
-        for s in sources:
+        for s in opened:
             s.close()
     return dataclasses.replace(fit, warnings=warnings_of(fit, opts))
 

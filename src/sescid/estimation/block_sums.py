@@ -58,7 +58,8 @@ class BlockSums:
 @dataclass(frozen=True)
 class RowMaker:
     """What turns a source's blocks into sums: the robot, the path (``kernels``), whether rows
-    are weighted, the total mass [kg] and |g| [m/s²] of the torque rows."""
+    are weighted (the torque rows: ``tau_w``), the total mass [kg] and |g| [m/s²] of the
+    torque rows."""
 
     robot: Robot
     kernels: bool
@@ -67,6 +68,12 @@ class RowMaker:
     g0: float
     tau_joints: tuple[str, ...] = ()
     friction: bool = False
+    tau_weighted: bool | None = None  #: torque rows weighted (None: as ``weighted``)
+
+    @property
+    def tau_w(self) -> bool:
+        """Whether the torque rows are weighted by their standard errors."""
+        return self.weighted if self.tau_weighted is None else self.tau_weighted
 
     @cached_property
     def plan(self) -> TorquePlan | None:
@@ -105,7 +112,7 @@ class RowMaker:
             out.cop_red = reduced_sums(self.robot, m.q, y, cop_sw, self.kernels, None)
             out.cop_red.n_rows -= missing
         if has_tau:
-            x, y, sw = torque_columns(self.robot, m, self.mass, self.weighted, self.g0)
+            x, y, sw = torque_columns(self.robot, m, self.mass, self.tau_w, self.g0)
             out.tau_red = NormalEquations.empty(x.shape[0])
             add_columns(out.tau_red, x, y, sw, self.kernels)
         return out
@@ -126,7 +133,7 @@ class RowMaker:
             out.cop_raw, out.cop_rows = raw_c, 2 * m.n
             return True
         tau_sw = None
-        if self.weighted:
+        if self.tau_w:
             if m.tau_se is None:
                 raise DataError(f"{m.source}: weighted torques need tau_se_<joint> columns")
             tau_sw = 1.0 / m.tau_se
@@ -156,9 +163,13 @@ def work(robot: Robot, m: Measurements, n: int) -> int:
 
 def aligned(chunks: Iterable[Measurements], size: int) -> Iterable[Measurements]:
     """Consecutive blocks of ``size`` poses (the last may be shorter) of chunks of any size:
-    views into the chunks, a copy only for a block that spans two of them."""
+    views into the chunks, a copy only for a block that spans two of them; a block never spans
+    two stances (``Measurements.support``: a chunk of another ends the block before it)."""
     carry: Measurements | None = None
     for m in chunks:
+        if carry is not None and carry.support != m.support:  # a block holds one stance
+            yield carry
+            carry = None
         if carry is not None:
             need = size - carry.n
             if m.n < need:

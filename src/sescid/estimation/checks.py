@@ -16,7 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base.text import listed
 from sescid.errors import OptionError
+from sescid.estimation.anchor import com_distance
 from sescid.estimation.fit import Fit
 from sescid.model.sole import splits_at_support
 from sescid.robot import Robot
@@ -24,6 +26,9 @@ from sescid.robot import Robot
 #: a weighed total mass must lie within this factor range of the model's (outside: a unit slip
 #: — grams, pounds — or another robot)
 TOTAL_MASS_RANGE = (0.5, 2.0)
+#: a known CoM height must lie within this factor range of the model's (outside: a unit slip —
+#: inches, centimetres — or another robot)
+COM_HEIGHT_RANGE = (0.5, 2.0)
 #: information matrix worse conditioned than this (on the excited combinations) is flagged
 CONDITION_WARN = 1e8
 #: σ̂ below this (m, or a weighted scale) is an exact fit: constant CoP or noise-free data
@@ -32,6 +37,12 @@ EXACT_FIT = 1e-9
 FEW_DOF = 0.1
 #: angles beyond a limit by less than this are inside (servo play, read-back noise), rad
 LIMIT_SLACK = math.radians(2.0)
+#: family-wise false-alarm rate of the negative-friction-band warning: a band is called
+#: significantly negative when value/std < −z with z the Bonferroni level over the joints
+#: (``friction_threshold``; Student's t with the joint's residual degrees of freedom when its
+#: noise was estimated from them), so that over many fits of sensors of the right sign
+#: (bands ≥ 0) at most this share warn about any joint
+FRICTION_ALARM_RATE = 0.01
 
 
 @dataclass(frozen=True)
@@ -120,12 +131,13 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "data, whose scale is not in the data"
         )
     if fit.weak:
-        names = "; ".join(c.label() for c in fit.weak[:3])
-        more = f" (and {len(fit.weak) - 3} more)" if len(fit.weak) > 3 else ""
+        names = listed(
+            (c.label() for c in fit.weak), sep="; ", where='all in the fit file\'s "weak"'
+        )
         whose = "taken from the prior model" if fit.map is None else "decided by the prior"
         out.append(
             f"{len(fit.weak)} combination(s) barely excited by these poses (information below "
-            f"10⁻⁷ of the largest), {whose}: {names}{more}; vary the joints that move them"
+            f"10⁻⁷ of the largest), {whose}: {names}; vary the joints that move them"
         )
     from sescid.estimation.tilt import TILT_REL_STD_WARN, tilt_direction
 
@@ -164,16 +176,16 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             "noise-free data)"
         )
         out.append(f"σ̂ = 0: {data}; intervals have zero width")
-    negative = [
-        e for e in fit.nuisance
-        if e.kind == "tau" and e.what == "friction" and e.determined and e.value < -2 * e.std
-    ]  # fmt: skip
+    negative, z = negative_bands(fit)
     if negative:
-        shown = ", ".join(f"{e.name} {e.value:+.3f} ± {e.std:.3f}" for e in negative[:4])
+        shown = ", ".join(
+            f"{e.name} {e.value:+.3f} ± {e.std:.3f} ({e.value / e.std:+.1f}σ)" for e in negative[:4]
+        )
         out.append(
-            f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}): "
-            "a band is never below zero — those torque sensors' sign is reversed, or their "
-            "approach column is (+1: reached moving up)"
+            f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}; "
+            f"beyond −{z:.2f}σ, the {FRICTION_ALARM_RATE:.0%} level over the fit's "
+            f"{_bands(fit)} bands): a band is never below zero — those torque sensors' sign is "
+            "reversed, or their approach column is (+1: reached moving up)"
         )
     held = splits_at_support([b.parent for b in fit.robot.model.bodies], fit.robot.masses)
     if held and fit.kind("cop") is not None:
@@ -184,6 +196,43 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"--support); this fit is of a robot standing on '{fit.robot.support}'"
         )
     return out
+
+
+def _bands(fit: Fit) -> int:
+    return sum(
+        e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
+        for e in fit.nuisance
+    )
+
+
+def friction_threshold(
+    n_bands: int, rate: float = FRICTION_ALARM_RATE, dof: float = math.inf
+) -> float:
+    """The z that n_bands independent estimates all stay above (−z) with probability
+    1 − ``rate`` or more (Bonferroni: the one-sided level rate/n_bands), each standardised by
+    a standard error of ``dof`` degrees of freedom (Student's t; inf: a normal)."""
+    level = rate / max(n_bands, 1)
+    if math.isfinite(dof) and dof > 0:
+        from scipy.stats import t
+
+        return float(t.isf(level, dof))
+    from statistics import NormalDist
+
+    return -NormalDist().inv_cdf(level)
+
+
+def negative_bands(fit: Fit) -> tuple[list, float]:
+    """The friction bands significantly below zero (value/std < −z, ``friction_threshold``
+    over the fit's determined bands, with each joint's residual degrees of freedom when its
+    noise was estimated per joint), and the smallest z."""
+    bands = [
+        e for e in fit.nuisance
+        if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
+    ]  # fmt: skip
+    dof = {r.joint: r.dof for r in fit.torque_noise if r.by == "estimated"}
+    z = {e.name: friction_threshold(len(bands), dof=dof.get(e.name, math.inf)) for e in bands}
+    lowest = min(z.values(), default=friction_threshold(len(bands)))
+    return [e for e in bands if e.value < -z[e.name] * e.std], lowest
 
 
 def _structural(fit: Fit) -> int:
@@ -214,4 +263,32 @@ def check_total_mass(robot: Robot, total_mass: float | None, name: str = "total_
             name,
             f"{m:g} kg is not this robot's mass: {ratio:.3g} × the model's {model:.4g} kg, "
             f"expected within {lo:g}–{hi:g} ×{unit}",
+        )
+
+
+def check_com_height(
+    robot: Robot, height: float | None, r: np.ndarray | None = None, name: str = "com_height"
+) -> None:
+    """OptionError naming ``name`` unless a known CoM height [m] (the CoM's distance from the
+    support at the zero pose, ``anchor.com_distance``) lies within ``COM_HEIGHT_RANGE`` × the
+    model's (SESC vectors ``r``, default the robot's); None: nothing given."""
+    if height is None:
+        return
+    h = float(height)
+    model = com_distance(robot, robot.sesc_vectors() if r is None else np.asarray(r))
+    if not (math.isfinite(h) and h > 0) or model <= 0:
+        return  # the option's range says so, or the model has no height to compare with
+    lo, hi = COM_HEIGHT_RANGE
+    ratio = h / model
+    if not lo <= ratio <= hi:
+        unit = next(
+            (f" ({u}? the unit is m)" for u, f in (("inches", 39.37), ("centimetres", 100.0),
+             ("millimetres", 1000.0)) if 0.7 * f <= ratio <= 1.4 * f),
+            "",
+        )  # fmt: skip
+        raise OptionError(
+            name,
+            f"{h:g} m is not this robot's CoM height: {ratio:.3g} × the model's {model:.3g} m "
+            f"(its CoM's distance from the support at the zero pose), expected within "
+            f"{lo:g}–{hi:g} ×{unit}",
         )

@@ -21,8 +21,10 @@ from typing import TYPE_CHECKING, Any, Literal, cast, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sescid.base import G0
 from sescid.errors import DataError
 from sescid.estimation.measurements import Kind
+from sescid.estimation.payload_record import PayloadFit
 from sescid.kinematics import as_poses, regressor
 from sescid.sesc import balance_tilt
 
@@ -106,6 +108,12 @@ class Combination:
             reason=str(d.get("reason", "")),
             kind=cast(Unseen, str(d.get("kind", ""))),
         )
+
+
+#: ``MapInfo.prior_scale_by`` of a fit whose distinct poses leave no degrees of freedom
+#: (``map.repeated_poses``): the prior's scale kept at its smallest, the CAD model as it is —
+#: its error is not determined, and predictions the data do not see say so (``Fit.predict_std``)
+REPEATED = "kept: too few distinct poses"
 
 
 @dataclass
@@ -205,6 +213,12 @@ class BodyInertials:
     solve_time: float = 0.0  #: s
     cad_masses: np.ndarray | None = None  #: (N,) kg, the model's
     grown_boxes: list[str] = field(default_factory=list)  #: bodies whose box was grown to CAD
+    #: the fit's SESC vectors reproduced exactly (a MAP fit's, ``consistent.exact``)
+    exact: bool = False
+    #: bodies the data carry no information on: CAD's mass and CoM kept
+    undetermined: list[str] = field(default_factory=list)
+    #: what the step could not do as asked (CoMs outside their boxes, masses far from CAD)
+    notes: list[str] = field(default_factory=list)
 
     def worst_mass_change(self) -> tuple[int, float] | None:
         """(body index, relative change) of the body whose mass moved most from CAD."""
@@ -269,6 +283,24 @@ class KindFit:
     mae: float  #: mean absolute residual per row (nan when unknown)
     weighted: bool  #: rows weighted by the given standard errors
     unit: str  #: "m" or "N·m"
+
+
+@dataclass(frozen=True)
+class JointNoise:
+    """One torque sensor's noise level under a per-joint noise model
+    (``estimation.torque_noise``): σ_j in ``unit`` (N·m, or "1": a scale on the row's given
+    standard errors), its residual degrees of freedom, its residual RMS in the same unit."""
+
+    joint: str
+    sigma: float
+    dof: float  #: rows − own nuisance columns − its share of the parameters of r
+    rms: float  #: residual RMS per row
+    by: Literal["estimated", "pooled"]  #: pooled: too few degrees of freedom of its own
+    rows: float
+    #: its rows' share of the fit's parameters of vec(r) (the hat matrix's trace over them,
+    #: its own offset and friction band excluded): near 0, the fit is decided elsewhere
+    params: float = float("nan")
+    unit: str = "N·m"
 
 
 @dataclass(frozen=True)
@@ -344,9 +376,13 @@ class Fit:
     warnings: tuple[str, ...] = ()  #: data-quality warnings (stored, printed)
     kinds: tuple[KindFit, ...] = ()  #: per measurement kind: rows, noise, residuals
     nuisance: tuple[NuisanceEstimate, ...] = ()  #: sensor offsets, friction bands
+    #: each torque sensor's noise level when it was estimated per joint (``torque_noise``)
+    torque_noise: tuple[JointNoise, ...] = ()
     total_mass: float = float("nan")  #: kg: the scale of torque rows (M·r); nan without torques
     mass_given: bool = False  #: the total mass was weighed (else the model's)
-    gravity_accel: float = 9.80665  #: m/s², the magnitude of g behind torque rows
+    gravity_accel: float = G0  #: m/s², the magnitude of g behind torque rows
+    #: a payload identified on a base model (``estimation.payload``): r and total_mass include it
+    payload: PayloadFit | None = None
 
     # --- predictions ------------------------------------------------------------------
     def predict_cop(self, q: ArrayLike, gravity: ArrayLike | None = None) -> np.ndarray:
@@ -412,11 +448,13 @@ class Fit:
         Counts the uncertainty of the identified directions only; the prior-filled part of the
         CoM height is taken as exact here. An x/y row that the data do not determine (it leaves
         the subspace the data excite: too few distinct poses) is nan, "not determined", never 0
-        (a MAP fit's prior determines every direction).
+        (a MAP fit's prior determines every direction, unless it kept the CAD model for too few
+        distinct poses: ``REPEATED``).
         """
         qq = as_poses(q, self.robot.nq)
         out = np.empty((qq.shape[0], len(rows)))
-        xy = np.array([r in (0, 1) for r in rows]) & (self.map is None)
+        prior_decides = self.map is not None and self.map.prior_scale_by != REPEATED
+        xy = np.array([r in (0, 1) for r in rows]) & (not prior_decides)
         for s in range(0, qq.shape[0], 4096):
             phi = regressor(self.robot.tree, qq[s : s + 4096], rows)
             var = np.einsum("nri,ij,nrj->nr", phi, self.cov, phi)
@@ -473,53 +511,3 @@ class Fit:
     def cop_bias(self) -> np.ndarray:
         """(2,) estimated constant CoP offset (m); zeros when none was estimated."""
         return np.zeros(2) if self.cop_offset is None else np.asarray(self.cop_offset.value)
-
-    @property
-    def notes(self) -> list[str]:
-        """What a reader should know about this fit, generated from its fields."""
-        from sescid.estimation.notes import fit_notes
-
-        return fit_notes(self)
-
-    def summary(self) -> str:
-        """A few lines: method, poses, rank, each kind's noise and residuals, notes, warnings."""
-        lines = [
-            f"{self.method_label} fit of {self.robot.name} (support {self.robot.support}): "
-            f"{self.n_poses} poses, rank {self.rank} of {self.r.size}"
-        ]
-        kinds = self.kinds or (None,)
-        for k in kinds:
-            lines.append("  " + _kind_line(self, k))
-        lines += [f"  note: {n}" for n in self.notes]
-        lines += [f"  warning: {w}" for w in self.warnings]
-        return "\n".join(lines)
-
-
-def _number(x: float, unit: str) -> str:
-    """A value in a kind's display unit: mm for metres, N·m as is; "not determined" for nan."""
-    if not math.isfinite(x):
-        return "not determined"
-    if unit == "rad":  # an angle: degrees at the boundary
-        return f"{math.degrees(x):.3f}°"
-    return f"{x * 1e3:.3f} mm" if unit == "m" else f"{x:.4f} {unit}"
-
-
-def _kind_line(fit: Fit, k: KindFit | None) -> str:
-    """One kind's noise and residuals (the fit's own figures for a fit without kinds)."""
-    if k is None or len(fit.kinds) == 1:
-        unit = "m" if k is None else k.unit
-        weighted = fit.weighted
-        sigma, rms, mae, name = fit.sigma_hat, fit.rms, fit.mae, "" if k is None else k.kind
-    else:
-        unit, weighted, sigma, rms, mae, name = k.unit, k.weighted, k.sigma, k.rms, k.mae, k.kind
-    label = {"cop": "CoP", "tau": "joint torques", "balance": "balance tilt"}.get(name, name)
-    head = f"{label}: " if label else ""
-    if weighted:
-        scale = "not determined" if not math.isfinite(sigma) else f"{sigma:.3f}"
-        noise = f"sigma_hat {scale} (scale of normalised residuals)"
-    else:
-        noise = f"sigma_hat {_number(sigma, unit)}"
-    if k is not None and k.sigma_by == "given":
-        noise += " (given)"
-    out = f"{head}{noise}, residual RMS {_number(rms, unit)}"
-    return out + ("" if math.isnan(mae) else f", MAE {_number(mae, unit)}")

@@ -10,7 +10,9 @@ std, reason, kind}), ``notes`` (generated, for reading), ``warnings``, and one o
 record that is present: ``map``, ``cop_offset``, ``inertials``, ``robust``, ``online``, ``cv``,
 ``joint_noise``, ``truth_cop_rmse``; ``kinds`` (per measurement kind: rows, noise, residuals, in
 its own unit), ``nuisance`` (sensor offsets, friction bands: value, std, determined, reason),
-``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²]. Lengths in
+``torque_noise`` (each torque sensor's σ_j when estimated per joint: sigma, dof, rms, by, rows,
+unit), ``total_mass`` and ``mass_given`` (the scale of torque rows), ``gravity_accel`` [m/s²], and
+``payload`` when one was identified (``payload_record``: body, mass, com, their stds). Lengths in
 m, masses in kg, angles in rad, torques in N·m; a quantity the data do not determine is ``null``.
 Versions 1 and 2 are read (version 1: method-specific results in a free ``extra`` object); a
 file of another version is refused with a message that says so.
@@ -26,9 +28,12 @@ from typing import Any, cast
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.files import atomic_open, read_json
 from sescid.errors import DataError, SescidError
 from sescid.estimation import fit as records
+from sescid.estimation.notes import fit_notes
+from sescid.estimation.payload_record import payload_from_json, payload_to_json
 from sescid.robot import load_robot
 
 FIT_FORMAT = "sescid-fit/3"
@@ -123,10 +128,11 @@ def fit_to_json(fit: records.Fit) -> dict:
         "base_combinations": [c.to_json() for c in fit.base],
         "unidentifiable": [c.to_json() for c in fit.unidentifiable],
         "weak": [c.to_json() for c in fit.weak],
-        "notes": fit.notes,
+        "notes": fit_notes(fit),
         "warnings": list(fit.warnings),
         "kinds": [_record_to_json(k) for k in fit.kinds],
         "nuisance": [_record_to_json(e) for e in fit.nuisance],
+        "torque_noise": [_record_to_json(e) for e in fit.torque_noise],
         "total_mass": _plain(fit.total_mass),
         "mass_given": fit.mass_given,
         "gravity_accel": fit.gravity_accel,
@@ -149,6 +155,8 @@ def fit_to_json(fit: records.Fit) -> dict:
             "added": list(b.added),
             "total_mass": b.total_mass,
         }
+    if fit.payload is not None:
+        out["payload"] = payload_to_json(fit.payload)
     return out
 
 
@@ -326,11 +334,15 @@ def load_fit(path: str | Path) -> records.Fit:
                 _record_from_json(records.NuisanceEstimate, e, f"{path}: field 'nuisance'")
                 for e in data.get("nuisance", [])
             )
+            fields["torque_noise"] = tuple(
+                _record_from_json(records.JointNoise, e, f"{path}: field 'torque_noise'")
+                for e in data.get("torque_noise", [])
+            )
             if data.get("total_mass") is not None:
                 fields["total_mass"] = float(data["total_mass"])
             fields["mass_given"] = bool(data.get("mass_given", False))
             fields["gravity_accel"] = float(
-                data.get("gravity_accel", fields.get("gravity_accel", 9.80665))
+                data.get("gravity_accel", fields.get("gravity_accel", G0))
             )
             for key, cls in _RECORDS.items():
                 if data.get(key) is not None:
@@ -339,6 +351,8 @@ def load_fit(path: str | Path) -> records.Fit:
                 fields["truth_cop_rmse"] = float(data["truth_cop_rmse"])
             if data.get("bodies") is not None:
                 fields["bodies"] = _bodies_from_json(data["bodies"], len(bodies), path)
+            if data.get("payload") is not None:
+                fields["payload"] = payload_from_json(data["payload"], f"{path}: field 'payload'")
         cov = _matrix(data, "cov", (n, n), path, nullable=True)
         sigma_null = data["sigma_hat"] is None
         if data["format"] != FIT_FORMAT and sigma_null:
@@ -366,7 +380,9 @@ def load_fit(path: str | Path) -> records.Fit:
         changed = _model_change(path, meta, robot)
     except SescidError:
         raise
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
+    except KeyError as exc:
+        raise DataError(f"{path}: malformed fit file (field {exc} missing)") from None
+    except (TypeError, ValueError, IndexError) as exc:
         raise DataError(f"{path}: malformed fit file ({exc.__class__.__name__}: {exc})") from None
     if changed is not None:
         fit = dataclasses.replace(fit, warnings=(changed, *fit.warnings))

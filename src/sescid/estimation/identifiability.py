@@ -18,6 +18,7 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.fit import AXES, Combination, Unseen
+from sescid.estimation.normal_equations import poses_needed
 from sescid.robot import Robot
 
 DEFAULT_RTOL = 1e-6
@@ -64,8 +65,9 @@ def structural_rank(robot: Robot) -> int:
 
 
 def min_poses(robot: Robot) -> int:
-    """Fewest poses whose 2 equations each can determine every identifiable combination."""
-    return math.ceil(structural_rank(robot) / 2)
+    """Fewest CoP poses (2 equations each) that determine every identifiable combination
+    with a degree of freedom left (``poses_needed``)."""
+    return poses_needed(structural_rank(robot))
 
 
 def check_enough_poses(robot: Robot, n: int) -> None:
@@ -75,7 +77,8 @@ def check_enough_poses(robot: Robot, n: int) -> None:
     if n < need:
         raise DataError(
             f"{n} poses are too few for least squares on {robot.name}: its {p} "
-            f"identifiable combinations need at least {need} poses (2 equations each)"
+            f"identifiable combinations need at least {need} poses (2 equations each, one "
+            "left for the noise)"
         )
 
 

@@ -6,9 +6,14 @@ manufacturer / CAD values), ``τ`` the prior scale in metres. The posterior is G
 
     x̂ = x0 + M⁻¹ (Φᵀy − A x0),   cov = σ² M⁻¹,   M = A + (σ²/τ²) I,   A = ΦᵀWΦ.
 
-It fills the directions the data cannot see (there x̂ = x0 with the prior's uncertainty τ) and
-shrinks the poorly determined ones toward CAD. ``τ`` and ``σ`` are chosen, unless given, by
-maximising the marginal likelihood (evidence) of the data,
+It fills the directions the data cannot see (for CoP data x̂ = x0 there, with the prior's
+uncertainty: a per-body prior is decoupled between them and the seen ones, ``decoupled``, so a
+CoP never moves what it cannot see — the CoM height of a level sole — by the prior's shape
+alone; torques keep the correlations, ``decoupled``) and shrinks the poorly determined ones
+toward CAD. The per-body prior holds the mass fractions' sum at 1 (``mass_covariance``). Data
+whose distinct poses leave no degrees of freedom (a pose repeated, ``repeated_poses``) keep the
+CAD model: the scatter of repeats cannot weigh them against it. ``τ`` and ``σ`` are chosen,
+unless given, by maximising the marginal likelihood (evidence) of the data,
 
     log p(y | σ, τ) = −½ [m log 2πσ² + log det M − Σ log(σ²/τᵢ²) + (zᵀz − bᵀM⁻¹b)/σ²],
 
@@ -39,7 +44,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.fit import CopOffset, Fit, MapInfo, PriorShape
+from sescid.estimation.fit import (
+    REPEATED,
+    CopOffset,
+    Fit,
+    MapInfo,
+    NuisanceEstimate,
+    PriorShape,
+)
 from sescid.estimation.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.least_squares import (
     fit_from_solution,
@@ -50,12 +62,12 @@ from sescid.estimation.least_squares import (
     reference_view,
     weak_directions,
 )
-from sescid.estimation.measurements import Kind
+from sescid.estimation.measurements import BALANCE, COP, TORQUE, Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.options import MapOptions
 from sescid.estimation.pooled import body_fit, check_pooled_prior, stance_map
 from sescid.estimation.solve import Solution, solve_system, weighted_sums
-from sescid.estimation.system import System
+from sescid.estimation.system import SAME_POSE, System
 from sescid.robot import Robot
 
 #: search range of the prior scale τ and the noise σ for evidence maximisation, m
@@ -121,22 +133,72 @@ WEAK_REASON_MAP = (
 BODY_COM_SCALE = 0.05
 
 
-def body_prior(robot: Robot, n_x: int, nuisance_scales: np.ndarray) -> Prior:
-    """The per-body prior (``Prior`` "bodies"): body masses m̄_j = m_j + M/(10 N) ± τ m̄_j and
-    first moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r)."""
+def _carrying(robot: Robot) -> np.ndarray:
+    """(N,) 1 for a body that can carry mass, 0 for a frame-only one (``Body.frame_only``: a
+    frame between two hinges of one MJCF body, which the model file cannot give mass): the
+    prior gives it no mass, so the fit's SESC vectors stay reachable by masses the file holds."""
+    return np.array([0.0 if b.frame_only else 1.0 for b in robot.model.bodies])
+
+
+def mass_covariance(m_bar: np.ndarray, fixed_total: bool) -> np.ndarray:
+    """(N, N) prior covariance of the mass fractions m/M per unit τ²: each ±m̄ independently,
+    conditioned on their sum staying 1 when ``fixed_total`` (Σ − Σ1 1ᵀΣ / 1ᵀΣ1). The SESC
+    vectors are first moments per unit of the total mass, so a common growth of every body's
+    fraction is no robot at all: it would scale every SESC vector, moving the CoM along its
+    own position (its height too) by the prior's shape alone."""
+    var = m_bar**2
+    cov = np.diag(var)
+    if fixed_total:
+        cov -= np.outer(var, var) / var.sum()
+    return cov
+
+
+def body_prior(
+    robot: Robot, n_x: int, nuisance_scales: np.ndarray, fixed_total: bool = True
+) -> Prior:
+    """The per-body prior (``Prior`` "bodies"): body masses m̄_j = m_j + M/(10 N) ± τ m̄_j
+    (their sum held at the total mass when ``fixed_total``: ``mass_covariance``) and first
+    moments ± τ·``BODY_COM_SCALE``·m̄_j per axis, independent, mapped to vec(r); a frame-only
+    body ± 0 (``_carrying``)."""
     from sescid.estimation.consistent import H_UNIT, sesc_map
 
     k = sesc_map(robot)  # vec(r) = K [m/M, vec(h)/(M ℓ)]
     masses = robot.masses
     big_m = float(masses.sum())
-    m_bar = (masses + big_m / (10 * masses.size)) / big_m
-    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / H_UNIT) ** 2, 3)])
-    sigma0 = (k * d) @ k.T
+    m_bar = _carrying(robot) * (masses + big_m / (10 * masses.size)) / big_m
+    nb = masses.size
+    k_m, k_h = k[:, :nb], k[:, nb:]
+    d_h = np.repeat((BODY_COM_SCALE * m_bar / H_UNIT) ** 2, 3)
+    sigma0 = k_m @ mass_covariance(m_bar, fixed_total) @ k_m.T + (k_h * d_h) @ k_h.T
     sigma0 = (sigma0 + sigma0.T) / 2
     lam, vecs = np.linalg.eigh(sigma0)
     lam = np.maximum(lam, 1e-12 * lam.max())
     precision = (vecs / lam) @ vecs.T
     return Prior(n_x, nuisance_scales, precision, float(-np.sum(np.log(lam))), "bodies")
+
+
+def decoupled(prior: Prior, seen: np.ndarray) -> Prior:
+    """The prior with no correlation between the directions of vec(r) the data see (``seen``,
+    (n_x, p) orthonormal) and the rest: Σ₀ → PΣ₀P + QΣ₀Q (P the projector on ``seen``,
+    Q = I − P). A per-body prior correlates them, so a CoP along one direction would move its
+    unseen partners (the CoM height a level CoP cannot see) by the prior's shape alone (on
+    TALOS, one shoulder moving: the CoM worse than CAD's in 5 of 10 draws, 0 of 10 decoupled);
+    decoupled, what the data cannot see keeps the prior's value and uncertainty. Fits of CoP
+    (and balance) data only: a joint torque's unseen directions — a held body's mass — follow
+    from the seen ones by the total mass, a correlation the prior must keep (TALOS in a gantry:
+    8.51 mm decoupled against 6.03 mm, ``tools/defaults_study.py``)."""
+    n, p = prior.n_x, seen.shape[1]
+    if prior.x_precision is None or p in (0, n):
+        return prior
+    w, v = np.linalg.eigh((prior.x_precision + prior.x_precision.T) / 2)
+    cov = (v / w) @ v.T
+    proj = seen @ seen.T
+    comp = np.eye(n) - proj
+    cov = proj @ cov @ proj + comp @ cov @ comp
+    lam, vecs = np.linalg.eigh((cov + cov.T) / 2)
+    lam = np.maximum(lam, 1e-12 * lam.max())
+    precision = (vecs / lam) @ vecs.T
+    return dataclasses.replace(prior, x_precision=precision, x_logdet=float(-np.sum(np.log(lam))))
 
 
 def _terms(ne: NormalEquations, x0: np.ndarray):
@@ -307,15 +369,23 @@ def fit_map(
     scales = np.array([n.prior_scale for n in system.nuisance], dtype=float)
     if prior == "auto":  # per body: it serves the CoP and the torques best (docs/defaults.md)
         prior = "bodies"
+    # the SESC vectors are per unit of the total mass: the mass fractions sum to 1, unless
+    # torques without a weighed mass leave the model's mass as their scale (the data see it)
+    fixed_total = system.mass_given or TORQUE not in system.kinds
     if system.space == "bodies":
         check_pooled_prior(prior)
-        pri = pooled_body_prior(robot, scales)
+        pri = pooled_body_prior(robot, scales, fixed_total)
     elif prior == "bodies":
-        pri = body_prior(robot, n_x, scales)
+        pri = body_prior(robot, n_x, scales, fixed_total)
     else:
         pri = Prior(n_x, scales)
+    if set(system.kinds) <= {COP, BALANCE}:  # what a CoP cannot see stays the prior's
+        _, seen, p = marginal_x(ls, n_x, rtol)
+        pri = decoupled(pri, seen[:, :p])
 
     chosen = "given" if prior_scale is not None else "evidence"
+    if prior_scale is None and repeated_poses(system, ls.rank) is not None:
+        prior_scale, chosen = TAU_RANGE[0], REPEATED
     curve = None
     if cv_folds is not None and prior_scale is None:
         folds = [weighted_sums(f.embedded(system.nuisance), ratios) for f in cv_folds]
@@ -335,17 +405,51 @@ def fit_map(
     return fit
 
 
-def pooled_body_prior(robot: Robot, nuisance_scales: np.ndarray) -> Prior:
+def repeated_poses(system: System, rank: int) -> str | None:
+    """Why the data's distinct poses cannot show the CAD model to be off, or None: repeated
+    poses (``system.SAME_POSE``) whose distinct ones give no more equations than the ``rank``
+    combinations the data determine. An error tied to a pose (a CoP sensor's bias there, the
+    foot's compliance) repeats with it: the scatter of repeats measures the noise of a
+    reading, not how far a pose's reading is from the truth, so it cannot weigh the data
+    against the CAD model (the evidence would take every repeat as new information)."""
+    distinct, n = system.distinct_poses, system.n_poses
+    if distinct is None or distinct >= n or n == 0:
+        return None
+    rows = sum(p.ne.n_rows for p in system.parts.values())
+    equations = distinct * rows / n
+    if equations > rank:
+        return None
+    return (
+        f"the {n} poses are {distinct} distinct one(s) (joints within "
+        f"{math.degrees(SAME_POSE):.2g}° counted once), whose ≈{equations:.0f} equations "
+        f"leave no degrees of freedom for the {rank} combinations the data determine: an error "
+        "tied to a pose (a sensor's bias there, the foot's compliance) repeats with it and "
+        "cannot be told from the mass distribution, so these data cannot show the CAD model "
+        "to be off; measure more distinct poses"
+    )
+
+
+def pooled_body_prior(robot: Robot, nuisance_scales: np.ndarray, fixed_total: bool = True) -> Prior:
     """The per-body prior (``body_prior``) over a pooled system's body parameters x
-    (``pooled``): each body's mass ±τ m̄ and first moment ±τ·``BODY_COM_SCALE``·m̄ per axis,
-    independent, m̄ = (m + M/(10 N)) / M."""
+    (``pooled``): each body's mass ±τ m̄ (their sum held when ``fixed_total``:
+    ``mass_covariance``) and first moment ±τ·``BODY_COM_SCALE``·m̄ per axis, independent,
+    m̄ = (m + M/(10 N)) / M."""
     from sescid.estimation.pooled import PARAM_UNIT
 
     masses = robot.masses
     big_m = float(masses.sum())
     m_bar = (masses + big_m / (10 * masses.size)) / big_m
-    d = np.concatenate([m_bar**2, np.repeat((BODY_COM_SCALE * m_bar / PARAM_UNIT) ** 2, 3)])
-    return Prior(d.size, nuisance_scales, np.diag(1.0 / d), float(-np.sum(np.log(d))), "bodies")
+    m_bar = np.where(_carrying(robot) > 0, m_bar, 1e-6 * m_bar)
+    nb = masses.size
+    cov = np.zeros((4 * nb, 4 * nb))
+    cov[:nb, :nb] = mass_covariance(m_bar, fixed_total)
+    cov[nb:, nb:] = np.diag(np.repeat((BODY_COM_SCALE * m_bar / PARAM_UNIT) ** 2, 3))
+    lam, vecs = np.linalg.eigh(cov)
+    lam = np.maximum(lam, 1e-12 * lam.max())
+    return Prior(
+        cov.shape[0], nuisance_scales, (vecs / lam) @ vecs.T, float(-np.sum(np.log(lam))),
+        "bodies",
+    )  # fmt: skip
 
 
 def _prior_decided(
@@ -428,7 +532,7 @@ def _map_fit(
         vecs=np.eye(post.x.size),
         lam=np.ones(post.x.size),
     )  # every direction determined (by data or prior)
-    nuisance = nuisance_estimates(system, mapped)
+    nuisance = _by_prior(nuisance_estimates(system, mapped), nuisance_estimates(system, ls))
     offset = None
     cop = [e for e in nuisance if e.kind == "cop"]
     if cop:
@@ -447,3 +551,17 @@ def _map_fit(
         cop_offset=offset,
         nuisance=nuisance,
     )
+
+
+def _by_prior(
+    estimates: tuple[NuisanceEstimate, ...], by_data: tuple[NuisanceEstimate, ...]
+) -> tuple[NuisanceEstimate, ...]:
+    """MAP's nuisance ``estimates`` (each determined, by the data or the prior), each that the
+    data alone (``by_data``: least squares' estimates) do not determine with its reason
+    prefixed "decided by the prior" (a torque offset and friction band of a joint approached
+    from one side only: the data see their sum)."""
+    return tuple(
+        e if d.determined or not e.determined
+        else dataclasses.replace(e, reason=f"decided by the prior: {d.reason}")
+        for e, d in zip(estimates, by_data, strict=True)
+    )  # fmt: skip

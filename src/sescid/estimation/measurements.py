@@ -319,6 +319,9 @@ class Measurements:
 _ARRAYS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
 
 
+#: a balance offset beyond this many times the model's CoM distance from the support (the zero
+#: pose) is taken for a unit mistake (mm for m), as ``MAX_COP_M`` is for a CoP
+BALANCE_REACH = 2.0
 #: a support line must not point closer to gravity than this (rad): the CoM's offset across it
 #: would be undefined
 MIN_LINE_GRAVITY_ANGLE = 0.1
@@ -327,8 +330,9 @@ MIN_LINE_GRAVITY_ANGLE = 0.1
 def _check_balance(
     robot: Robot, balance: np.ndarray, gravity: np.ndarray | None, where: str, at=str
 ) -> None:
-    """A balance measurement needs a line support and the gravity direction of every pose
-    (``at(i)`` names pose i: "row 7")."""
+    """A balance measurement needs a line support, the gravity direction of every pose and
+    offsets [m] within ``BALANCE_REACH`` × the model's CoM distance (``at(i)`` names pose i:
+    "row 7")."""
     if robot.line is None:
         raise DataError(
             f"{where}: balance rows need a support line (a wheel axle, an edge): give its "
@@ -338,6 +342,14 @@ def _check_balance(
         raise DataError(
             f"{where}: balance rows need the gravity direction of every pose (grav_x/y/z, or "
             "the IMU's imu_roll/imu_pitch)"
+        )
+    reach = BALANCE_REACH * float(np.linalg.norm(robot.com(np.zeros((1, robot.nq)))[0]))
+    big = np.flatnonzero(np.abs(balance) > reach)
+    if big.size:
+        raise DataError(
+            f"{where}: {at(big[0])}, column 'balance': {balance[big[0]]:g} m is not a plausible "
+            f"offset of the CoM from the support line (beyond {reach:.3g} m, {BALANCE_REACH:g} × "
+            "the model's CoM distance from the support): millimetres for metres?"
         )
     g = gravity / np.linalg.norm(gravity, axis=1, keepdims=True)
     bad = np.flatnonzero(np.abs(g @ robot.line) > math.cos(MIN_LINE_GRAVITY_ANGLE))
@@ -368,6 +380,11 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
     if len(parts) == 1:
         return first
     for p in parts[1:]:
+        if p.support != first.support:
+            raise DataError(
+                f"{p.source}: its parts were measured in different stances ('{first.support}', "
+                f"'{p.support}'); cannot be joined"
+            )
         if p.kinds != first.kinds or p.tau_joints != first.tau_joints:
             raise DataError(f"{p.source}: its parts measure different things; cannot be joined")
     arrays: dict[str, Any] = {}

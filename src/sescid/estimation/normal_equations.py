@@ -10,6 +10,7 @@ alone decides), so the same data give the same bits on every machine.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -31,6 +32,13 @@ from sescid.robot import Robot
 
 #: poses per block when accumulating normal equations
 ACCUMULATE_BLOCK = 2048
+
+
+def poses_needed(combinations: int, rows_per_pose: float = 2.0) -> int:
+    """Fewest poses whose equations (``rows_per_pose`` each: 2 for a CoP) determine
+    ``combinations`` and leave one degree of freedom to estimate the noise: the one rule
+    behind every minimum (least squares refuses fewer, the planners ask for at least these)."""
+    return max(math.ceil((combinations + 1) / rows_per_pose), 1)
 
 
 @dataclass

@@ -5,12 +5,22 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from sescid.base.text import listed
+from sescid.estimation.fit import REPEATED
+from sescid.estimation.tilt import tilt_direction
+
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.estimation.fit import Fit
+
+#: m: an unseen CoM height's prior std below this is a prior scale at the floor of its range
+#: (a kept CAD model), not an uncertainty worth a note
+HEIGHT_NOTE_MIN = 1e-6
 
 
 def fit_notes(fit: Fit) -> list[str]:
     """Notes in a fixed order: residual, identifiability, weighting, method, modifiers."""
+    if fit.payload is not None:  # the base is given: what the payload's data show
+        return _payload_notes(fit)
     notes = [fit.choice.note()] if fit.choice is not None else []
     notes += _identifiability_notes(fit)
     if fit.scale is not None:
@@ -45,7 +55,7 @@ def _stance_note(fit: Fit) -> str:
     """What each stance determines alone and what pooling them adds."""
     b = fit.bodies
     each = ", ".join(f"{s.support} {s.rank} ({s.n_poses} poses)" for s in b.stances)
-    added = "; ".join(b.added[:3]) + (f" (and {len(b.added) - 3} more)" if len(b.added) > 3 else "")
+    added = listed(b.added, sep="; ")
     gain = f"; pooling adds {len(b.added)}: {added}" if b.added else ""
     return (
         f"stances pooled over the {b.x.size} body parameters (masses, first moments): each "
@@ -55,13 +65,15 @@ def _stance_note(fit: Fit) -> str:
 
 def _identifiability_notes(fit: Fit) -> list[str]:
     """Residual degrees of freedom, the unseen directions, a tilted sole's height, weighting."""
+    from sescid.estimation.normal_equations import poses_needed
+
     notes: list[str] = []
     if fit.method == "ls" or (fit.method == "consistent" and fit.map is None):
         if fit.n_rows - fit.rank <= 0:
             notes.append(
                 f"{fit.n_poses} poses give {fit.n_rows} equations for {fit.rank} identifiable "
                 "combinations: no residual left to estimate the noise "
-                f"(use ≥ {math.ceil(fit.rank / 2) + 1} poses)"
+                f"(use ≥ {poses_needed(fit.rank, fit.n_rows / max(fit.n_poses, 1))} poses)"
             )
         filled = (
             "they come from the CAD-closest masses"
@@ -84,8 +96,6 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             f"{len(fit.unidentifiable)} of {fit.r.size} directions are not determined by the "
             f"data; {filled} ({seen} predictions do not depend on them, {effect})"
         )
-    from sescid.estimation.tilt import tilt_direction
-
     tilt = tilt_direction(fit) if fit.kind("cop") is not None else None
     if tilt is not None:
         notes.append(
@@ -93,11 +103,17 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             f"± {tilt.std * 1e3:.2f} mm (prior model {tilt.prior * 1e3:.2f} mm; rank +1 over "
             "a level sole)"
         )
+    estimated = bool(fit.torque_noise) and fit.torque_noise[0].unit != "1"  # not given errors
     asked = fit.robust.weighted_input if fit.robust is not None else fit.weighted
     if fit.kinds and fit.robust is None:  # several kinds are weighed by their noise anyway
-        asked = any(k.weighted for k in fit.kinds)
+        asked = any(k.weighted and not (k.kind == "tau" and estimated) for k in fit.kinds)
+    if fit.torque_noise:
+        notes.append(_joint_noise_note(fit))
     if asked:
         present = {k.kind for k in fit.kinds if k.weighted or fit.robust is not None} or {"cop"}
+        if estimated:
+            present.discard("tau")
+        present = present or {"cop"}
         given = " and ".join(
             {"cop": "CoP", "tau": "torque"}[k] for k in ("cop", "tau") if k in present
         )
@@ -106,6 +122,24 @@ def _identifiability_notes(fit: Fit) -> list[str]:
             "scale of the normalised residuals (≈ 1 when the standard errors are right)"
         )
     return notes
+
+
+def _joint_noise_note(fit: Fit) -> str:
+    """The per-joint torque noise (``torque_noise``): its range and what sigma_hat then is."""
+    recs = fit.torque_noise
+    lo = min(recs, key=lambda r: r.sigma)
+    hi = max(recs, key=lambda r: r.sigma)
+    given = recs[0].unit == "1"
+    unit = " × tau_se" if given else " N·m"
+    pooled = sum(r.by == "pooled" for r in recs)
+    return (
+        f"torque noise estimated per joint (feasible GLS{', on the given tau_se' if given else ''}"
+        f"): σ_j from {lo.sigma:.3g}{unit} ({lo.joint}) to {hi.sigma:.3g}{unit} ({hi.joint}), "
+        "each joint's rows weighed by 1/σ_j"
+        + (f"; {pooled} joints with too few degrees of freedom keep the pooled level"
+           if pooled else "")
+        + "; the torques' sigma_hat is the scale of the normalised residuals (≈ 1)"
+    )  # fmt: skip
 
 
 def _map_notes(fit: Fit) -> list[str]:
@@ -128,12 +162,40 @@ def _map_notes(fit: Fit) -> list[str]:
         f"MAP with {shape}; {len(fit.unidentifiable)} directions the data cannot see keep "
         "the prior's value and uncertainty (included in cov)"
     ]
+    if m.prior_scale_by == REPEATED:
+        notes.append(
+            "the CAD model is kept: the data's distinct poses give no more equations than the "
+            "combinations they determine, and repeats of a pose share its error (a sensor's "
+            "bias there), so they cannot show the model to be off; its intervals assume it exact "
+            "and say nothing of its error; measure more distinct poses"
+        )
+    height = _unseen_height(fit)
+    if height is not None and height >= HEIGHT_NOTE_MIN:
+        notes.append(
+            "the part of the CoM height a level CoP cannot see stays the CAD model's, with the "
+            f"prior's uncertainty: ±{height * 1e3:.2g} mm at the zero pose (in cov and the CoM "
+            "intervals); a tilted support or joint torques see it"
+        )
     if m.at_lower_bound:
         notes.append(
             "the evidence is largest at the smallest prior scale searched: these data cannot "
             "detect any deviation from CAD, and the intervals (±τ) assume there is none"
         )
     return notes
+
+
+def _unseen_height(fit: Fit) -> float | None:
+    """The standard deviation [m] of the zero pose's CoM height along the directions a CoP-only
+    fit of one stance does not see (None for other fits, or when it sees all of it)."""
+    import numpy as np
+
+    if fit.bodies is not None or {k.kind for k in fit.kinds} != {"cop"}:
+        return None
+    g = fit.robot.regressor(np.zeros((1, fit.robot.nq)), (2,))[0, 0]
+    unseen = g - fit.basis @ (fit.basis.T @ g)
+    if np.linalg.norm(unseen) <= 1e-9 * np.linalg.norm(g):
+        return None
+    return math.sqrt(max(float(unseen @ np.nan_to_num(fit.cov) @ unseen), 0.0))
 
 
 def _consistent_notes(fit: Fit) -> list[str]:
@@ -155,7 +217,8 @@ def _consistent_notes(fit: Fit) -> list[str]:
     ]
     if b.grown_boxes:
         notes.append("CoM boxes grown to contain the CAD CoM: " + ", ".join(b.grown_boxes))
-    if active and b.prior_std is None:
+    notes += list(b.notes)
+    if active and b.prior_std is None and not b.exact:
         notes.append(
             "active constraints: the fit's noisiest combinations pull masses/CoMs onto "
             "their bounds; a CAD prior (ConsistentOptions.prior_std, e.g. 0.05) gives "
@@ -209,11 +272,17 @@ def _sensor_notes(fit: Fit) -> list[str]:
     )
     friction = [e for e in tau if e.what == "friction"]
     if friction:
-        sep = [e for e in friction if e.determined]
+        sep = [e for e in friction if e.determined and not e.reason]  # by the data
+        prior = any(e.determined and e.reason for e in friction)
         out.append(
             f"static friction bands separated from the offsets for {len(sep)} of "
             f"{len(friction)} joints (approach sides"
-            + (")" if len(sep) == len(friction) else "; the others were approached from one side)")
+            + (
+                ")"
+                if len(sep) == len(friction)
+                else "; the others were approached from one side"
+                + (": the prior, not the data, split their offset and band)" if prior else ")")
+            )
         )
     elif fit.robust is None:
         out.append(
@@ -221,3 +290,22 @@ def _sensor_notes(fit: Fit) -> list[str]:
             "gravity torque) is left in the residuals; a robust fit or approach sides separate it"
         )
     return out
+
+
+def _payload_notes(fit: Fit) -> list[str]:
+    """A payload fit: its base, what is not determined, the noise left undetermined."""
+    p = fit.payload
+    assert p is not None
+    notes = [
+        f"the robot's own masses are the base ({p.base}, {p.base_mass:.4g} kg), kept as given; "
+        f"only the payload on {p.body} was identified from {p.n_poses} poses ({p.n_rows} rows)"
+    ]
+    if p.reason:
+        notes.append(p.reason)
+    lost = [k.kind for k in p.kinds if k.sigma_by == "not determined"]
+    if lost:
+        notes.append(
+            f"no residual left to estimate the {', '.join(lost)} noise: the payload's standard "
+            "errors are not determined (more poses, or give the noise)"
+        )
+    return notes

@@ -15,7 +15,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from sescid.base import SEED_HELP, check_ranges, option
+from sescid.base import G0, SEED_HELP, check_ranges, option
 from sescid.errors import OptionError, check_choice
 from sescid.estimation.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.consistent.prior import evidence_prior_std, least_squares_view
@@ -24,7 +24,7 @@ from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.measurements import COP, TORQUE, Kind
 from sescid.estimation.robust import HUBER_K
 from sescid.estimation.system import RowOptions
-from sescid.sesc import STANDARD_GRAVITY
+from sescid.estimation.torque_noise import TorqueNoiseModel
 
 #: how MAP chooses its prior scale τ: by marginal likelihood, or by k-fold cross-validation
 PriorSelect = Literal["evidence", "cv"]
@@ -32,7 +32,8 @@ PriorSelect = Literal["evidence", "cv"]
 PriorChoice = Literal["auto", PriorShape]
 #: the consistent step's path (``ConsistentOptions.via``)
 Via = Literal["auto", "prior", "fit"]
-#: Huber IRLS: on, off, or "auto" (on for torques without an approach side)
+#: Huber IRLS: on, off, or "auto" (on for torques without an approach side whose residuals
+#: show outliers)
 Robust = bool | Literal["auto"]
 #: m, the largest prior scale or noise a MAP fit accepts (1 m on a SESC component is already a
 #: flat prior; a larger number is not in metres)
@@ -229,16 +230,26 @@ class IdentifyOptions:
     )  # fmt: skip
     tau_noise: float | None = option(
         None,
-        "Known joint-torque noise standard deviation [N·m] (default: estimated).",
+        "Known joint-torque noise standard deviation [N·m], one level shared by every joint "
+        "(default: estimated per joint, see --tau-noise-model).",
         low=0, low_open=True, what="a positive noise level",
     )  # fmt: skip
+    tau_noise_model: TorqueNoiseModel = option(
+        "joint",
+        "Joint-torque noise: one level per joint, estimated from its own residuals by a few "
+        "reweighting passes (joint; a scale on tau_se_<joint> with --weighted), or one level "
+        "shared by every joint (shared).",
+    )
+    #: the torque rows weighted by their tau_se columns (None: as ``weighted``): set by the
+    #: per-joint noise model on the data it rescales, not a flag
+    tau_weighted: bool | None = None
     total_mass: float | None = option(
         None,
         "Weighed total mass [kg]: the scale of the joint-torque rows and of the consistent "
         "masses (default: the model's, with a warning when torques are fitted).",
     )
     gravity_accel: float = option(
-        STANDARD_GRAVITY, "|g| behind the torque rows [m/s²] (local gravity).",
+        G0, "|g| behind the torque rows [m/s²] (local gravity).",
         low=1, high=30, what="|g| in m/s² (1–30)",
     )  # fmt: skip
     allow_exact: bool = option(
@@ -248,7 +259,8 @@ class IdentifyOptions:
     robust: Robust = option(
         "auto",
         "Huber IRLS, naming the down-weighted poses (default: on for torques without an "
-        "approach column, whose static friction acts as bounded errors; off otherwise).",
+        "approach column whose residuals show outliers, each joint against its own scale; off "
+        "otherwise).",
     )
     huber_k: float = option(HUBER_K, "Huber threshold [σ].", low=0, low_open=True)
     seed: int = option(0, SEED_HELP, low=0)
@@ -291,6 +303,7 @@ class IdentifyOptions:
         check_rtol(self.rtol)
         check_ranges(self)
         check_choice("robust", self.robust, Robust)
+        check_choice("tau_noise_model", self.tau_noise_model, TorqueNoiseModel)
         if self.kinds is not None:
             if not self.kinds:
                 raise OptionError("kinds", "must name some measurement kinds, got none")
@@ -314,6 +327,7 @@ class IdentifyOptions:
             total_mass=self.total_mass,
             cop_offset=settings is not None and settings.bias,
             gravity_accel=self.gravity_accel,
+            tau_weighted=self.tau_weighted,
         )
 
     def noise(self) -> dict[Kind, float]:

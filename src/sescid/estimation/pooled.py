@@ -40,6 +40,7 @@ from sescid.estimation.normal_equations import NormalEquations, matmul_fixed
 from sescid.estimation.solve import Solution, marginal_x
 from sescid.estimation.system import KindSums, RowOptions, System, accumulate_stances
 from sescid.robot import DOUBLE, Robot
+from sescid.stance import Stance
 
 #: ℓ, the length unit of the pooled first moments (m): keeps x's columns of one scale
 PARAM_UNIT = 0.1
@@ -102,12 +103,8 @@ def pooled(robot: Robot, systems: dict[str, System]) -> System:
     """The system over x of every stance's sums (support → its System over its r_s)."""
     lifted: dict[str, System] = {}
     for support, system in systems.items():
-        if support == DOUBLE and TORQUE in system.kinds:
-            raise DataError(
-                "joint torques on both feet: the floor's forces under two feet are not "
-                "determined by statics, so the torques cannot be fitted (measure them on one "
-                "foot or in a fixture)"
-            )
+        if support == DOUBLE and TORQUE in system.kinds:  # data_stance refuses it first
+            raise DataError(str(Stance(robot.support, "double").cannot(TORQUE)))
         if any(n.kind == "cop" for n in system.nuisance):
             raise DataError(
                 "a CoP offset (bias) per foot is not fitted across stances: fit one stance"

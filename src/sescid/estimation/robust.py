@@ -53,12 +53,17 @@ def _standardised(fit: Fit, m: Measurements, base: dict[str, np.ndarray]) -> dic
     return out
 
 
-def _base_errors(m: Measurements, weighted: bool) -> dict[str, np.ndarray]:
+def _base_errors(
+    m: Measurements, weighted: bool, tau_weighted: bool | None = None
+) -> dict[str, np.ndarray]:
+    """Each kind's given errors (ones when not weighted; the torques' by ``tau_weighted``,
+    None: as ``weighted``)."""
     out: dict[str, np.ndarray] = {}
+    tau_w = weighted if tau_weighted is None else tau_weighted
     if m.cop is not None:
         out[COP] = m.cop_se if (weighted and m.cop_se is not None) else np.ones((m.n, 2))
     if m.tau is not None:
-        se = m.tau_se if (weighted and m.tau_se is not None) else None
+        se = m.tau_se if (tau_w and m.tau_se is not None) else None
         out[TORQUE] = se if se is not None else np.ones(m.tau.shape)
     return out
 
@@ -81,16 +86,16 @@ class _Reweighted:
     """A source's chunks with the IRLS step's errors (``base · scale / √w``) as their standard
     errors: computed chunk by chunk from the spilled sizes, never held for the whole source."""
 
-    def __init__(self, source: _Sources, sizes: dict[str, Spill], scale, k, weighted):
+    def __init__(self, source: _Sources, sizes: dict[str, Spill], scale, k, weighted, tau_w=None):
         self.source, self.sizes, self.scale, self.k = source, sizes, scale, k
-        self.weighted = weighted
+        self.weighted, self.tau_w = weighted, tau_w
         self.name = getattr(source, "name", "data")
 
     def chunks(self) -> Iterator[Measurements]:
         """The reweighted chunks, in the source's order."""
         per_kind = {kd: iter(sp) for kd, sp in self.sizes.items()}
         for m in self.source.chunks():
-            base = _base_errors(m, self.weighted)
+            base = _base_errors(m, self.weighted, self.tau_w)
             w = {kd: _weights(next(per_kind[kd]), self.scale[kd], self.k) for kd in base}
             yield _with_errors(m, base, w, self.scale)
 
@@ -98,13 +103,15 @@ class _Reweighted:
         """The source is its caller's to close."""
 
 
-def _spill_sizes(fit: Fit, sources: Sequence[_Sources], weighted: bool) -> _Sizes:
+def _spill_sizes(
+    fit: Fit, sources: Sequence[_Sources], weighted: bool, tau_w: bool | None = None
+) -> _Sizes:
     """One pass: every chunk's standardised sizes under ``fit``, spilled per source and kind."""
     out: _Sizes = []
     for src in sources:
         spills: dict[str, Spill] = {}
         for m in src.chunks():
-            for kd, u in _standardised(fit, m, _base_errors(m, weighted)).items():
+            for kd, u in _standardised(fit, m, _base_errors(m, weighted, tau_w)).items():
                 spills.setdefault(kd, Spill()).write(u)
         out.append(spills)
     return out
@@ -137,6 +144,7 @@ def huber_sources(
     k: float = HUBER_K,
     max_iter: int = 50,
     tol: float = 1e-4,
+    tau_weighted: bool | None = None,
 ) -> Fit:
     """Huber IRLS around a fitting method ``run(sources, weighted)`` over data sources that can
     be read more than once (each ``.chunks()`` gives its chunks again, in the same order):
@@ -147,7 +155,8 @@ def huber_sources(
     the spilled sizes (the exact median, ``base.spill.median``): the result is the in-memory
     IRLS's, bit for bit. Each kind's residuals are standardised by a robust scale (median of a
     CoP pose's 2-D norm over √(2 ln 2), of a torque row's |e| over 0.6745) and by the given
-    errors when ``weighted``; rows beyond ``k`` get weight k/u. ``fit.robust`` lists the poses
+    errors when ``weighted`` (the torques' when ``tau_weighted``, None: as ``weighted``); rows
+    beyond ``k`` get weight k/u. ``fit.robust`` lists the poses
     whose weight fell (the lowest weight of their rows), lowest first; σ̂ and each kind's σ are
     in the data's units again (or a scale on the given errors when ``weighted``).
     """
@@ -160,7 +169,7 @@ def huber_sources(
     iterations = 0
     try:
         for iterations in range(1, max_iter + 1):  # noqa: B007 (reported after the loop)
-            sizes = _spill_sizes(fit, sources, weighted)
+            sizes = _spill_sizes(fit, sources, weighted, tau_weighted)
             kinds = list(dict.fromkeys(kd for spills in sizes for kd in spills))
             scale = {}
             for kd in kinds:
@@ -173,13 +182,13 @@ def huber_sources(
             _close(used)
             used, used_scale = sizes, scale
             reweighted = [
-                _Reweighted(src, spills, scale, k, weighted)
+                _Reweighted(src, spills, scale, k, weighted, tau_weighted)
                 for src, spills in zip(sources, sizes, strict=True)
             ]
             fit = run(reweighted, True)
             if change < tol:
                 break
-        return _robust_fit(fit, used, used_scale, scale, k, iterations, weighted)
+        return _robust_fit(fit, used, used_scale, scale, k, iterations, weighted, tau_weighted)
     finally:
         _close(used)
 
@@ -192,6 +201,7 @@ def huber(
     k: float = HUBER_K,
     max_iter: int = 50,
     tol: float = 1e-4,
+    tau_weighted: bool | None = None,
 ) -> Fit:
     """Huber IRLS around a fitting method ``run(data, weighted)`` on data in memory
     (``huber_sources``, each data set one chunk)."""
@@ -200,7 +210,10 @@ def huber(
         return run([m for src in sources for m in src.chunks()], w)
 
     held = [_Held(m) for m in data]
-    return huber_sources(run_held, held, weighted=weighted, k=k, max_iter=max_iter, tol=tol)
+    return huber_sources(
+        run_held, held, weighted=weighted, k=k, max_iter=max_iter, tol=tol,
+        tau_weighted=tau_weighted,
+    )  # fmt: skip
 
 
 class _Held:
@@ -223,7 +236,9 @@ def _with_errors(m: Measurements, base, w, scale) -> Measurements:
     return dataclasses.replace(m, **changes)
 
 
-def _robust_fit(fit: Fit, used: _Sizes | None, used_scale, scale, k, iterations, weighted) -> Fit:
+def _robust_fit(
+    fit: Fit, used: _Sizes | None, used_scale, scale, k, iterations, weighted, tau_w=None
+) -> Fit:
     """The last IRLS fit in the data's units, with the down-weighted poses named (from the
     spilled sizes behind its weights; none when no step reweighted)."""
     low = []
@@ -241,7 +256,7 @@ def _robust_fit(fit: Fit, used: _Sizes | None, used_scale, scale, k, iterations,
         dataclasses.replace(
             kf,
             sigma=kf.sigma * scale.get(kf.kind, math.nan),
-            weighted=weighted,
+            weighted=bool(tau_w) if (kf.kind == TORQUE and tau_w is not None) else weighted,
         )
         for kf in fit.kinds
     )
@@ -253,7 +268,7 @@ def _robust_fit(fit: Fit, used: _Sizes | None, used_scale, scale, k, iterations,
         fit,
         kinds=kinds,
         sigma_hat=sigma_hat,
-        weighted=weighted if len(kinds) == 1 else True,
+        weighted=kinds[0].weighted if len(kinds) == 1 else True,
         robust=RobustInfo(
             k=k,
             scale=scale.get(main, math.nan),

@@ -126,6 +126,9 @@ AUTO_LS_SHARE = 0.01
 #: OP2, 38 poses, it took the share of draws worse than CAD from 12.5 % to 2.5 %, the mean CoP
 #: error from 1.33 to 1.40 mm, the CAD model's 2.22 mm)
 AUTO_EVIDENCE = 2.0
+#: … and never when the evidence's best scale lies at this share of the top of its range
+#: (``map.TAU_RANGE``): an evidence still growing there has no maximum, it runs away
+AUTO_EDGE = 0.99
 
 
 def fit_auto(
@@ -136,12 +139,14 @@ def fit_auto(
     well (``AUTO_LS_SHARE``)."""
     from sescid.estimation.fit import MethodChoice
 
-    # least squares first: it refuses data without residual degrees of freedom (no noise level
-    # to weigh a prior against either), and it is the answer when the data determine enough
+    # least squares first: the answer when the data determine enough; data without residual
+    # degrees of freedom (fewer poses than ``poses_needed``) it cannot fit, MAP can (its noise
+    # and intervals then rest on the evidence, and the fit says so)
     fit = fit_least_squares(
         robot, system, rtol=options.rtol, noise=options.noise(), r_prior=r_prior,
-        allow_exact=options.allow_exact,
+        allow_exact=True,
     )  # fmt: skip
+    exact = fit.n_rows - fit.rank - sum(e.determined for e in fit.nuisance) <= 0
     mapped = fit_map(
         robot, system, settings, rtol=options.rtol, kind_noise=options.noise(), r_prior=r_prior
     )
@@ -150,13 +155,20 @@ def fit_auto(
     if settings.bias:
         why = "a constant CoP offset is separated from the support body's r by the prior only"
         return dataclasses.replace(mapped, choice=MethodChoice("map", why))
-    if share < AUTO_LS_SHARE:
+    if share < AUTO_LS_SHARE and not (exact and not options.allow_exact):
         why = (
             f"the data determine every direction they see (the prior would hold at most "
             f"{share:.2%} of the information in any)"
         )
         return dataclasses.replace(fit, choice=MethodChoice("ls", why))
     seen = mapped.rank
+    from sescid.estimation.fit import REPEATED
+    from sescid.estimation.map import repeated_poses
+
+    if mapped.map.prior_scale_by == REPEATED:
+        why = repeated_poses(system, fit.rank + sum(e.determined for e in fit.nuisance))
+        why = f"{why}: the model is kept, its prior holding every direction"
+        return dataclasses.replace(mapped, choice=MethodChoice("map", why))
     if settings.prior_scale is None and mapped.map.prior_scale_by == "evidence":
         # the CAD model stays unless the data show it is off: the evidence of the best prior
         # scale against (almost) none, a Bayes factor of at least e^AUTO_EVIDENCE
@@ -169,6 +181,15 @@ def fit_auto(
         )  # fmt: skip
         assert cad.map is not None
         gain = mapped.map.log_evidence - cad.map.log_evidence
+        if mapped.map.prior_scale >= AUTO_EDGE * TAU_RANGE[1]:
+            why = (
+                f"the evidence grows up to the widest prior scale searched "
+                f"({mapped.map.prior_scale:.3g}): the data would take any deviation from the "
+                "CAD model, which no error of a robot's masses explains — an error the model "
+                "lacks (a sensor's bias, repeated or nearly repeated poses) fitted as mass; "
+                "the model is kept, its prior holding every direction"
+            )
+            return dataclasses.replace(cad, choice=MethodChoice("map", why))
         if gain < AUTO_EVIDENCE:
             why = (
                 f"the data do not show the CAD model to be off (the evidence of the best prior "
@@ -186,28 +207,41 @@ def fit_auto(
 
 #: the start of the warning of a least-squares fit expected to be worse than the CAD model
 WORSE_THAN_CAD = (
-    "least squares is expected to predict these data worse than the CAD model it would replace"
+    "least squares is expected to predict the CoM worse than the CAD model it would replace"
 )
+#: the poses over which that expectation is taken: this many, uniform within ±``JUDGE_RANGE``
+#: (rad) of the zero pose and the joint limits, from a fixed seed
+JUDGE_POSES, JUDGE_RANGE = 200, math.radians(30)
+
+
+def com_information(robot: Robot) -> np.ndarray:
+    """(3N, 3N) the mean over ``JUDGE_POSES`` poses of Φ_comᵀΦ_com: ``δᵀ S δ`` is the mean
+    squared 3-D CoM error (m²) of SESC vectors off by δ."""
+    from sescid.simulation import random_poses
+
+    q = random_poses(robot, JUDGE_POSES, math.degrees(JUDGE_RANGE), 0, clip=True)
+    phi = robot.regressor(q, (0, 1, 2)).reshape(-1, 3 * len(robot.body_names))
+    return phi.T @ phi / JUDGE_POSES
 
 
 def expected_errors(ls: Fit, mapped: Fit) -> tuple[float, float]:
-    """(least squares, CAD) expected error of the data's predicted measurements per row, in
-    the rows' weighted units, both judged by a MAP fit: least squares' own variance
-    tr(S C_ls) / n, the CAD model's distance from the MAP estimate and its variance,
-    (δᵀSδ + tr(S C_map)) / n, with S the data's information about vec(r) (``Fit.basis``,
-    ``Fit.singular_values``) and δ = r_map − r_cad."""
-    s = (ls.basis * ls.singular_values[: ls.rank] ** 2) @ ls.basis.T
-    n = max(ls.n_rows, 1)
+    """(least squares, CAD) expected RMS 3-D CoM error [m] over ``JUDGE_POSES`` poses
+    (``com_information``, S), along the directions the data see (both take the others from the
+    CAD model), judged by a MAP fit: least squares' own variance tr(S C_ls), the CAD model's
+    distance from the MAP estimate and its variance, δᵀSδ + tr(S C_map), with S projected on
+    the seen subspace (``Fit.basis``) and δ = r_map − r_cad."""
+    basis = ls.basis
+    s = basis @ (basis.T @ com_information(ls.robot) @ basis) @ basis.T
     delta = (mapped.r - mapped.r_prior).reshape(-1)
-    ls_var = float(np.sum(s * ls.cov)) / n
-    cad = (float(delta @ s @ delta) + float(np.sum(s * mapped.cov))) / n
+    ls_var = float(np.sum(s * ls.cov))
+    cad = float(delta @ s @ delta) + float(np.sum(s * mapped.cov))
     return math.sqrt(max(ls_var, 0.0)), math.sqrt(max(cad, 0.0))
 
 
 def _against_cad(robot: Robot, system: System, options: IdentifyOptions, r_prior, ls: Fit) -> Fit:
-    """Least squares with a warning when it is expected to predict the data's measurements
-    worse than the CAD model it would replace (judged by a MAP fit of the same data)."""
-    if not np.all(np.isfinite(ls.cov)):
+    """Least squares with a warning when it is expected to predict the CoM worse than the CAD
+    model it would replace (``expected_errors``, judged by a MAP fit of the same data)."""
+    if not np.all(np.isfinite(ls.cov)) or ls.rank == 0:
         return ls
     mapped = fit_map(
         robot, system, MapOptions(), rtol=options.rtol, kind_noise=options.noise(),
@@ -216,22 +250,13 @@ def _against_cad(robot: Robot, system: System, options: IdentifyOptions, r_prior
     ls_err, cad_err = expected_errors(ls, mapped)
     if not ls_err > cad_err:
         return ls
-    (kind,) = ls.kinds if len(ls.kinds) == 1 else (None,)
-    if kind is not None and not kind.weighted:
-        size = f"{_length(ls_err, kind.unit)} against {_length(cad_err, kind.unit)}"
-    else:
-        size = f"{ls_err:.3g} against {cad_err:.3g} in units of the noise"
     warning = (
-        f"{WORSE_THAN_CAD} (its error per row ≈ {size} for the CAD model, judged with the CAD "
-        "prior): "
-        "the data are too few or too noisy for it; the default method (auto) or --method map "
-        "keeps what they show without their noise"
+        f"{WORSE_THAN_CAD} (its 3-D CoM error over random poses ≈ {ls_err * 1e3:.2f} mm against "
+        f"{cad_err * 1e3:.2f} mm for the CAD model, judged with the CAD prior): the data are "
+        "too few or too noisy for it; the default method (auto) or --method map keeps what they "
+        "show without their noise"
     )
     return dataclasses.replace(ls, warnings=(*ls.warnings, warning))
-
-
-def _length(x: float, unit: str) -> str:
-    return f"{x * 1e3:.2f} mm" if unit == "m" else f"{x:.3g} {unit}"
 
 
 def _anchor(robot: Robot, system: System, options: IdentifyOptions):
@@ -239,6 +264,7 @@ def _anchor(robot: Robot, system: System, options: IdentifyOptions):
     CoM height (``options.com_height``), for which the prior model is scaled first — with the
     prior SESC vectors used and the scale's source; the data as they are otherwise."""
     from sescid.estimation import anchor
+    from sescid.estimation.checks import check_com_height
     from sescid.estimation.least_squares import prior_theta
 
     r0 = robot.sesc_vectors() if options.r_prior is None else np.asarray(options.r_prior)
@@ -263,6 +289,7 @@ def _anchor(robot: Robot, system: System, options: IdentifyOptions):
         a[: system.n_x] = lmap.T @ a_r
         return anchor.anchored(system, a, theta0), None, (by, prior_distance, None)
     if options.com_height is not None:
+        check_com_height(robot, options.com_height, r0)
         lam = anchor.rescale(robot, r0, options.com_height)
         r_c = anchor.collapse_point(robot, system)[: system.n_x].reshape(-1, 3)
         r0 = r_c + lam * (r0 - r_c)

@@ -24,7 +24,13 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.fit import NoiseSource
-from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol, eigen_descending, rank_of
+from sescid.estimation.identifiability import (
+    DEFAULT_RTOL,
+    check_rtol,
+    eigen_descending,
+    poses_needed,
+    rank_of,
+)
 from sescid.estimation.measurements import BALANCE, COP, TORQUE, Kind
 from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.system import System
@@ -144,8 +150,7 @@ def solve_system(
     n_rows = sum(system.parts[k].ne.n_rows for k in kinds)
     dof_total = n_rows - p
     if dof_total <= 0 and not allow_exact:
-        rows_per_pose = n_rows / max(system.n_poses, 1)
-        need = system.n_poses + math.ceil((max(p, structural) + 1 - n_rows) / rows_per_pose)
+        need = poses_needed(max(p, structural), n_rows / max(system.n_poses, 1))
         poses = f"{system.n_poses} pose" + (" is" if system.n_poses == 1 else "s are")
         where = f"{', '.join(system.sources)}: " if system.sources else ""
         raise DataError(

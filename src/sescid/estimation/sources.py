@@ -21,15 +21,26 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation.measurements import Measurements
 from sescid.robot import Robot
+from sescid.stance import data_stance
 
 _FIELDS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
+
+
+def _checked(robot: Robot, m: Measurements) -> Measurements:
+    """``m`` validated on the robot of its stance, after the one stance check
+    (``sescid.stance.data_stance``; its support then the stance's label)."""
+    where = m.source if m.row_of is None else f"{m.source}: {m.at(0)}"
+    support, stanced = data_stance(robot, m.support, m.kinds, where)
+    if support != m.support:
+        m = dataclasses.replace(m, support=support)
+    return m.checked(stanced)
 
 
 class MemorySource:
     """Measurements held in memory (validated once)."""
 
     def __init__(self, robot: Robot, data: Measurements):
-        self.data = data.checked(robot.stance(data.support))
+        self.data = _checked(robot, data)
         self.name = data.source
 
     def chunks(self) -> Iterator[Measurements]:
@@ -72,7 +83,7 @@ class StreamSource:
         source, self._chunks = self._chunks, None
         self._spill = tempfile.TemporaryFile(prefix="sescid-")
         for chunk in source:
-            m = chunk.checked(self.robot.stance(chunk.support))
+            m = _checked(self.robot, chunk)
             shapes = []
             for f in _FIELDS:
                 a = getattr(m, f)
@@ -140,11 +151,14 @@ def _stream(d: Any) -> bool:
 
 
 def in_memory(robot: Robot, sources: list[Source]) -> list[Measurements]:
-    """Each source's data joined in memory (for methods that revisit poses: robust, cv)."""
+    """Each source's data joined in memory, one set per stance it holds (for methods that
+    revisit poses: robust, cv)."""
     from sescid.estimation.measurements import concatenate
 
     out = []
     for s in sources:
-        parts = list(s.chunks())
-        out.append(concatenate(parts) if parts else None)
-    return [m for m in out if m is not None]
+        stances: dict[str | None, list[Measurements]] = {}
+        for part in s.chunks():  # one per stance of the source (a support column)
+            stances.setdefault(part.support, []).append(part)
+        out += [concatenate(parts) for parts in stances.values()]
+    return out

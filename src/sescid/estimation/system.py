@@ -16,11 +16,13 @@ offset, which on one support foot is confounded with the support body's own x/y 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
+from sescid.base import G0
 from sescid.base.threads import ordered_map
 from sescid.errors import DataError
 from sescid.estimation.block_sums import BlockSums, RowMaker, aligned, work
@@ -30,7 +32,6 @@ from sescid.estimation.normal_equations import ACCUMULATE_BLOCK, NormalEquations
 from sescid.estimation.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.kinematics import fold_torque, reduced_order, use_kernels
 from sescid.robot import Robot
-from sescid.sesc import STANDARD_GRAVITY
 
 #: MAP prior standard deviation of a constant CoP offset: effectively flat, m
 NUISANCE_PRIOR_COP = 1.0
@@ -90,12 +91,15 @@ class System:
     mass_given: bool  #: the total mass was weighed, not taken from the model
     n_poses: int = 0
     sources: list[str] = field(default_factory=list)
-    gravity_accel: float = STANDARD_GRAVITY  #: |g| behind the torque rows, m/s²
+    gravity_accel: float = G0  #: |g| behind the torque rows, m/s²
     #: the parameters: "sesc" (vec(r) of the robot's support, 3N) or "bodies" (the body
     #: parameters x = [m/M; vec(m c)/(M ℓ)], 4N, that several stances share: ``pooled``)
     space: Space = "sesc"
     #: a pooled system: each stance's own sums over the same x (support → System)
     stances: dict[str, System] = field(default_factory=dict)
+    #: distinct poses (``DistinctPoses``: counted up to its cap, more count as the cap); None:
+    #: not counted
+    distinct_poses: int | None = None
 
     @property
     def size(self) -> int:
@@ -150,9 +154,63 @@ class System:
                 mine.ne.n_poses + part.ne.n_poses,
             )
             parts[kind] = dataclasses.replace(mine, ne=ne)
-        return dataclasses.replace(
-            a, parts=parts, n_poses=a.n_poses + b.n_poses, sources=a.sources + b.sources
+        distinct = (
+            None
+            if a.distinct_poses is None or b.distinct_poses is None
+            else a.distinct_poses + b.distinct_poses
         )
+        return dataclasses.replace(
+            a, parts=parts, n_poses=a.n_poses + b.n_poses, sources=a.sources + b.sources,
+            distinct_poses=distinct,
+        )  # fmt: skip
+
+
+#: joint angles within this of a counted pose's, in every joint, are that pose again, rad: an
+#: error tied to the pose (a CoP sensor's bias there, the foot's compliance, a servo's play)
+#: repeats with it, so repeating a pose adds no information beyond its noise (a servo's play
+#: scatters the readings of one commanded pose over ~1°: the OP2 bench, 30 repeats)
+SAME_POSE = math.radians(2.0)
+
+
+class DistinctPoses:
+    """The distinct poses of a source (``SAME_POSE``), counted up to ``cap``: beyond it the
+    count no longer matters (each pose adds at least one equation) and counting stops."""
+
+    #: rows hashed at once, and compared at once
+    BLOCK, COMPARE = 8192, 256
+
+    def __init__(self, nq: int, cap: int):
+        self.cap = cap
+        self.kept = np.zeros((0, nq))
+        self.mult = np.random.default_rng(0).integers(1, 2**62, nq, dtype=np.int64) | 1
+
+    @property
+    def count(self) -> int:
+        """Distinct poses so far (at most ``cap``)."""
+        return len(self.kept)
+
+    def add(self, q: np.ndarray) -> None:
+        """Count the poses q (n, nq) [rad]: each block's rows one per grid cell of
+        ``SAME_POSE`` (a hash of the cell), those far from every kept pose, then, per new
+        distinct pose, those far from it too."""
+        q = np.asarray(q, dtype=float)
+        for start in range(0, q.shape[0], self.BLOCK):
+            if self.count >= self.cap:
+                return
+            blk = q[start : start + self.BLOCK]
+            with np.errstate(over="ignore"):
+                cell = np.floor(blk / SAME_POSE).astype(np.int64) @ self.mult  # wraps: a hash
+            blk = blk[np.sort(np.unique(cell, return_index=True)[1])]
+            for sub in range(0, blk.shape[0], self.COMPARE):
+                if self.count >= self.cap:
+                    return
+                rest = blk[sub : sub + self.COMPARE]
+                if self.count:
+                    far = np.abs(rest[:, None, :] - self.kept[None]).max(axis=2) > SAME_POSE
+                    rest = rest[far.all(axis=1)]
+                while rest.shape[0] and self.count < self.cap:
+                    self.kept = np.vstack([self.kept, rest[:1]])
+                    rest = rest[1:][np.abs(rest[1:] - rest[0]).max(axis=1) > SAME_POSE]
 
 
 @dataclass(frozen=True)
@@ -163,7 +221,15 @@ class RowOptions:
     weighted: bool = False
     total_mass: float | None = None
     cop_offset: bool = False
-    gravity_accel: float = STANDARD_GRAVITY
+    gravity_accel: float = G0
+    #: the torque rows weighted by their tau_se columns (None: as ``weighted``); a per-joint
+    #: noise model (``torque_noise``) sets them without weighting the CoP
+    tau_weighted: bool | None = None
+
+    @property
+    def torques_weighted(self) -> bool:
+        """Whether the torque rows are weighted by their standard errors."""
+        return self.weighted if self.tau_weighted is None else self.tau_weighted
 
 
 class Accumulator:
@@ -190,6 +256,7 @@ class Accumulator:
         self.n_poses = 0
         self.progress = None
         self.maker: RowMaker | None = None  #: set when the path is decided
+        self.distinct = DistinctPoses(robot.nq, self.p_red + 1)
 
     def add(self, m: Measurements, progress=None) -> None:
         """Add validated measurements (``Measurements.checked``) of this source;
@@ -201,6 +268,7 @@ class Accumulator:
         elif (m.approach is None) != (self.first.approach is None):
             raise DataError(f"{m.source}: the approach column is missing in part of the data")
         self.progress = progress
+        self.distinct.add(m.q)
         self.pending.append(m)
         self.n_pending += m.n
         if self.maker is None:
@@ -221,6 +289,7 @@ class Accumulator:
         return RowMaker(
             self.robot, kernels, self.options.weighted, self.mass, self.options.gravity_accel,
             first.tau_joints if first.tau is not None else (), first.approach is not None,
+            self.options.torques_weighted,
         )  # fmt: skip
 
     def _blocks(self, blocks: list[Measurements], progress) -> None:
@@ -320,6 +389,7 @@ class Accumulator:
         if self.tau_red is not None:
             system = self._with_torques(system, parts)
         system.n_poses = self.n_poses
+        system.distinct_poses = self.distinct.count
         system.sources = [first.source]
         system.gravity_accel = self.options.gravity_accel
         return system
@@ -338,7 +408,7 @@ class Accumulator:
         tau_sys = System(
             n_x,
             torque_nuisance(first),
-            {TORQUE: KindSums(TORQUE, ne, self.options.weighted)},
+            {TORQUE: KindSums(TORQUE, ne, self.options.torques_weighted)},
             self.mass,
             system.mass_given,
         )

@@ -48,7 +48,12 @@ def level_basis(robot) -> np.ndarray:
 
 
 def tilt_direction(fit: Fit) -> TiltDirection | None:
-    """The direction of ``fit.basis`` outside the level subspace (None when there is none)."""
+    """The direction of ``fit.basis`` outside the level subspace (None when there is none).
+    Only a fit of one stance's CoP alone has one from a tilt: joint torques see beyond the
+    level CoP's subspace on level ground, and so do stances pooled over the body parameters."""
+    kinds = {k.kind for k in fit.kinds}
+    if fit.bodies is not None or (kinds and kinds != {"cop"}):
+        return None
     level = level_basis(fit.robot)
     extra = fit.basis - level @ (level.T @ fit.basis)
     if extra.size == 0:

@@ -33,9 +33,11 @@ from sescid.io.bags import (
     read_bag,
 )
 from sescid.io.export.assets import model_files
+from sescid.io.export.inertia import check_inertias
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
+from sescid.io.export.usd import USD_SUFFIXES, export_usd
 from sescid.io.measurements import rows_estimate
 from sescid.io.pose_table import PoseTable, pose_table, required_paper_convention
 from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
@@ -57,9 +59,12 @@ __all__ = [
     "TorqueSource",
     "atomic_open",
     "atomic_path",
+    "check_inertias",
     "export_mjcf",
     "export_model",
     "export_urdf",
+    "export_usd",
+    "USD_SUFFIXES",
     "iter_table",
     "load_fit",
     "load_mapping",

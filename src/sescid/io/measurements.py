@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 
 from sescid.base.columns import (
-    SUPPORT_COLUMN,
     Table,
     read_approach,
     read_cop,
@@ -29,12 +28,13 @@ from sescid.base.columns import (
     refuse_plan,
     refuse_raw_log,
 )
-from sescid.errors import DataError, ModelError
+from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
 from sescid.estimation.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
 from sescid.robot import Robot
 from sescid.sensors.imu import table_gravity
+from sescid.stance import data_stance, support_column
 
 
 @dataclass
@@ -47,17 +47,32 @@ class ReadReport:
     limits: list[tuple[int, LimitViolation]] = field(default_factory=list)
     #: the file row and column of the first violation ("row 7, column 'r_knee'")
     first_limit_at: str | None = None
+    #: CoP cells left empty (CSV) or null (Parquet) in a cop_x/cop_y column the file has
+    cop_missing: int = 0
+    #: the file row and column of the first of them
+    first_missing_at: str | None = None
+
+    def missing_message(self) -> str | None:
+        """One line about the CoP cells not measured, or None."""
+        if not self.cop_missing:
+            return None
+        return (
+            f"{self.path}: {self.cop_missing} CoP coordinate(s) not measured (empty or null "
+            f"cells; first: {self.first_missing_at}): those poses are fitted on the coordinate "
+            "they have"
+        )
 
     def limit_message(self) -> str | None:
-        """One line about the poses outside the joint limits, or None."""
+        """One line about the poses outside the joint limits, naming the file, or None."""
         if not self.limits:
             return None
         start, first = self.limits[0]
         n_bad = sum(v.n_poses for _, v in self.limits)
         row = first.row + start
-        return dataclasses.replace(first, row=row, n_poses=n_bad).message(
+        text = dataclasses.replace(first, row=row, n_poses=n_bad).message(
             self.n_poses, self.first_limit_at
         )
+        return f"{self.path}: {text}"
 
 
 def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> Measurements:
@@ -147,10 +162,11 @@ def read_measurements(
     """The file's chunks as ``Measurements``, read once, as they are parsed (module docstring).
     ``report`` collects the poses outside the limits and whether the data are simulated;
     ``support``: the stance of rows without a ``support`` column (None: the robot's own)."""
-    if support is not None:
-        robot.stance(support)  # an unknown frame: the one-line error now
-        support = None if support == robot.support else support
+    given = support
+    if support is not None:  # FILE@FRAME: the one stance check, naming the file and frame
+        support, _ = data_stance(robot, support, where=f"{path}@{support}")
     rep = report if report is not None else ReadReport(str(path))
+    at = None if given is None else f"{path}@{given}"
     for table in read_ahead(iter_table(path)):
         m = measurements_of(table, robot, imu_link)
         simulated = m.cop_true is not None or any(c.startswith("true_tau_") for c in table.names())
@@ -160,40 +176,64 @@ def read_measurements(
             if not rep.limits:
                 rep.first_limit_at = m.cell(bad.row, _joint_column(table, bad.joint))
             rep.limits.append((rep.n_poses, bad))
+        _count_missing(rep, table, m)
         rep.n_poses += m.n
         if bad is not None and not (allow_outside_limits or rep.simulated):
             raise DataError(
-                f"{path}: {rep.limit_message()}; degrees in a radian column, or another "
+                f"{rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
-        yield from by_support(table, robot, dataclasses.replace(m, support=support))
+        yield from by_support(table, robot, dataclasses.replace(m, support=support), at)
 
 
-def by_support(table: Table, robot: Robot, m: Measurements) -> Iterator[Measurements]:
-    """The rows of a chunk grouped by their ``support`` column (each group in file order, the
-    groups in order of first appearance); the chunk as it is (its ``support``) without the
-    column. An unknown support is an error naming the row."""
-    if SUPPORT_COLUMN not in table.text and SUPPORT_COLUMN not in table.columns:
+def by_support(
+    table: Table, robot: Robot, m: Measurements, given: str | None = None
+) -> Iterator[Measurements]:
+    """The rows of a chunk grouped by their ``support`` column (its header in any case; each
+    group in file order, the groups in order of first appearance); the chunk as it is (its
+    ``support``) without the column. Each row's stance passes ``sescid.stance.data_stance``
+    (a frame of the model that can measure the row's kinds): an error names the row. ``given``
+    (``FILE@FRAME``) must agree with the column where both name a stance."""
+    column = support_column(table)
+    if column is None:
+        if given is not None:  # what FILE@FRAME's stance can measure
+            data_stance(robot, m.support, m.kinds, given)
         yield m
         return
-    if SUPPORT_COLUMN in table.columns:  # all numbers: no frame is named so
+    if column in table.columns:  # all numbers: no frame is named so
         raise DataError(
-            f"{table.path}: {table.where(0)}, column '{SUPPORT_COLUMN}': "
-            f"'{table.columns[SUPPORT_COLUMN][0]:g}' is not a frame of the model"
+            f"{table.path}: {table.where(0)}, column '{column}': "
+            f"'{table.columns[column][0]:g}' is not a frame of the model"
         )
-    names = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    names = np.array([v.strip() for v in table.text[column]])
     for name in dict.fromkeys(names.tolist()):
         rows = np.flatnonzero(names == name)
+        where = f"{table.path}: {table.where(rows[0])}, column '{column}'"
         if not name:
-            raise DataError(f"{table.path}: {table.where(rows[0])}, column 'support' is empty")
-        try:
-            robot.stance(name)
-        except ModelError as exc:
+            raise DataError(f"{where} is empty (name the stance of every row, or of none)")
+        part = m.take(rows)
+        support, _ = data_stance(robot, name, part.kinds, where)
+        if given is not None and support != m.support:
+            said = support or robot.support
             raise DataError(
-                f"{table.path}: {table.where(rows[0])}, column 'support': {exc}"
-            ) from None
-        support = None if name == robot.support else name
-        yield dataclasses.replace(m.take(rows), support=support)
+                f"{where} says '{said}', but {given} names the stance "
+                f"'{m.support or robot.support}': give the file without @ (its column says "
+                "each row's stance) or fix the column"
+            )
+        yield dataclasses.replace(part, support=support)
+
+
+def _count_missing(rep: ReadReport, table: Table, m: Measurements) -> None:
+    """Add the chunk's empty or null CoP cells (in the cop_x/cop_y columns it has) to ``rep``."""
+    if m.cop is None:
+        return
+    has = np.array([c in table.names() for c in ("cop_x", "cop_y")])
+    miss = np.isnan(m.cop) & has
+    count = int(np.count_nonzero(miss))
+    if count and not rep.cop_missing:
+        i, j = np.argwhere(miss)[0]
+        rep.first_missing_at = m.cell(int(i), f"cop_{'xy'[int(j)]}")
+    rep.cop_missing += count
 
 
 def _joint_column(table: Table, joint: str) -> str:

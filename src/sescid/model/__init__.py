@@ -8,48 +8,20 @@ geometry; ``inertia_parts`` the inertia tensors the file gives, per body; ``supp
 the feet a robot can stand on (``feet``). See docs/model.md.
 """
 
-from pathlib import Path
-from xml.etree import ElementTree
-
-from sescid.errors import ModelError
-from sescid.model.feet import FootCandidate, root_frame, support_candidates
+from sescid.model.feet import FootCandidate, frame_up, root_frame, support_candidates
 from sescid.model.geometry import Shape, ShapeKind, ShapeRole, body_hulls, shape_hull
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
-from sescid.model.inertia import inertia_issue, inertia_parts
+from sescid.model.inertia import (
+    InertiaProblem,
+    inertia_issue,
+    inertia_parts,
+    inertia_problems,
+    repair_inertia,
+)
+from sescid.model.load import load_model, model_format
 from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
 from sescid.model.urdf import build_model as build_urdf_model
 from sescid.model.urdf_parse import load_urdf, parse_inertial
-
-
-def model_format(path: Path) -> ModelFormat:
-    """The format, "urdf" or "mjcf", from the root element (ModelError if it is neither)."""
-    if not path.is_file():
-        kind = "URDF" if path.suffix.lower() == ".urdf" else "model"
-        raise ModelError(f"{path}: {kind} file not found")
-    try:
-        for _, el in ElementTree.iterparse(path, events=("start",)):
-            tag = el.tag
-            break
-        else:  # pragma: no cover - an empty document is a ParseError
-            tag = ""
-    except (ElementTree.ParseError, OSError, UnicodeDecodeError) as exc:
-        raise ModelError(f"{path}: malformed model file (XML: {exc})") from None
-    if tag == "robot":
-        return "urdf"
-    if tag == "mujoco":
-        return "mjcf"
-    raise ModelError(f"{path}: root element <{tag}> is neither URDF <robot> nor MJCF <mujoco>")
-
-
-def load_model(path: str | Path, support: str) -> RobotModel:
-    """Read a URDF or MJCF file into the body tree rooted at the frame ``support``."""
-    p = Path(path)
-    if model_format(p) == "mjcf":
-        from sescid.model.mjcf import build_model as build_mjcf_model
-
-        return build_mjcf_model(p, support)
-    return build_urdf_model(p, support)
-
 
 __all__ = [
     "Body",
@@ -65,7 +37,11 @@ __all__ = [
     "ShapeRole",
     "body_hulls",
     "build_urdf_model",
+    "frame_up",
     "inertia_issue",
+    "inertia_problems",
+    "repair_inertia",
+    "InertiaProblem",
     "inertia_parts",
     "inv_transform",
     "load_model",

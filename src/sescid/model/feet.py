@@ -9,7 +9,8 @@ foot, whose body is the one with the largest face under it (``model.sole.footpri
 when none has a face under it (a foot tilted at q = 0), the largest flat face
 (``model.sole.largest_footprint``). A foot's frames (links welded into it, MJCF sites on
 it) are ranked by ``model.sole.level_check``: level frames on the sole plane (a sole frame),
-then level frames above it (a foot frame), then the others.
+then level frames above it (a foot frame), then level frames at the edge of the face under them
+(a sole-corner site), then the others.
 """
 
 from __future__ import annotations
@@ -35,6 +36,10 @@ FOOT_BAND = 0.05
 ON_SOLE = 0.002
 #: m²: a foot's largest flat face is at least this (10 x 10 mm): a shin's line is no sole
 MIN_FACE = 1e-4
+#: a frame whose origin lies beyond this share of the half-length or half-width of the face
+#: under it from the face's middle is at its edge (a sole-corner site; iCub's r_sole, above its
+#: ankle, lies at 0.63 of the half-length)
+EDGE = 0.9
 
 
 @dataclass(frozen=True)
@@ -45,6 +50,8 @@ class FootCandidate:
     size: tuple[float, float]  #: the lowest face under its best frame, along that frame's x, y
     #: (frame, height above the sole plane [m], level) for each frame on the foot, best first
     frames: tuple[tuple[str, float, bool], ...]
+    #: the frames whose origin lies at the edge of the face under them (a sole-corner site)
+    edge: tuple[str, ...] = ()
 
     @property
     def support(self) -> str:
@@ -56,8 +63,11 @@ class FootCandidate:
         parts = []
         for name, h, level in self.frames[:4]:
             where = "on the sole" if abs(h) <= ON_SOLE else f"{h * 1e3:+.0f} mm"
-            parts.append(f"{name} ({where}{', level' if level else ', not level'})")
+            edge = ", at its edge" if level and name in self.edge else ""
+            parts.append(f"{name} ({where}{', level' if level else ', not level'}{edge})")
         more = " …" if len(self.frames) > 4 else ""
+        if self.frames and self.frames[0][2] and self.support in self.edge:
+            more += " (no level frame near the sole's middle: the CoP box stays centred on it)"
         return (
             f"{self.body}: lowest face {self.size[0]:.3f} x {self.size[1]:.3f} m; frames: "
             + ", ".join(parts)
@@ -67,7 +77,7 @@ class FootCandidate:
 
 def root_frame(path: str | Path) -> tuple[str, np.ndarray]:
     """(the model file's root link or top body, its rotation (3, 3) in the file's world)."""
-    from sescid.model import model_format
+    from sescid.model.load import model_format
 
     path = Path(path)
     if model_format(path) == "mjcf":
@@ -187,23 +197,43 @@ def _foot(model: RobotModel, shapes, b: int, on_body: dict) -> FootCandidate:
         h = -float(pts[:, 2].min())  # the frame above the lowest point under its −z
         touch = pts[pts[:, 2] < pts[:, 2].min() + CONTACT_TOL]
         ext = touch[:, :2].max(axis=0) - touch[:, :2].min(axis=0)
-        rank = 0 if chk.level and abs(h) <= ON_SOLE else 1 if chk.level else 2
+        mid = (touch[:, :2].max(axis=0) + touch[:, :2].min(axis=0)) / 2
+        edge = bool(np.any(np.abs(mid) > EDGE * ext / 2))
+        # level frames on the sole, then level ones above it, then level ones at the face's
+        # edge (a corner site is no sole frame), then the rest
+        rank = 3 if not chk.level else 2 if edge else 0 if abs(h) <= ON_SOLE else 1
         # ties: the frame nearer the middle of the face under it, then by name
-        off = float(np.hypot(*(touch[:, :2].max(axis=0) + touch[:, :2].min(axis=0)) / 2))
+        off = float(np.hypot(*mid))
         size = (float(ext[0]), float(ext[1]))
-        ranked.append((rank, round(abs(h), 4), round(off, 4), name, h, chk.level, size))
+        ranked.append((rank, round(abs(h), 4), round(off, 4), name, h, chk.level, size, edge))
     ranked.sort()
-    frames = tuple((name, h, level) for *_, name, h, level, _ in ranked)
-    return FootCandidate(model.bodies[b].name, ranked[0][6] if ranked else (0.0, 0.0), frames)
+    frames = tuple((name, h, level) for *_, name, h, level, _, _ in ranked)
+    edges = tuple(r[3] for r in ranked if r[7])
+    size = ranked[0][6] if ranked else (0.0, 0.0)
+    return FootCandidate(model.bodies[b].name, size, frames, edges)
+
+
+def frame_up(path: str | Path, frame: str) -> np.ndarray:
+    """(3,) the z axis of frame ``frame`` in the model file's world (z up) at q = 0: (0, 0, 1)
+    for a frame held upright; the CMU humanoid's y-up root gives (0, −1, 0)."""
+    from sescid.model.load import load_model
+
+    root, up = root_frame(path)
+    model = load_model(path, root)
+    if frame not in model.link_frames:
+        raise ModelError(f"{Path(path).name}: no frame '{frame}'")
+    b, x = model.link_frames[frame]
+    rot, _ = zero_pose(model.bodies)
+    return up @ rot[b] @ x[:3, 2]
 
 
 def support_candidates(path: str | Path) -> list[FootCandidate]:
     """The feet of the model file ``path`` (``find_feet`` on the model rooted at its root)."""
-    from sescid.model import load_model
+    from sescid.model.load import load_model
 
     root, up = root_frame(path)
     return find_feet(load_model(path, root), up)
 
 
-__all__ = ["FOOT_BAND", "FootCandidate", "find_feet", "root_frame", "support_candidates",
-           "zero_pose"]  # fmt: skip
+__all__ = ["FOOT_BAND", "FootCandidate", "find_feet", "frame_up", "root_frame",
+           "support_candidates", "zero_pose"]  # fmt: skip

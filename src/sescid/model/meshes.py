@@ -1,18 +1,23 @@
-"""Mesh files of a URDF's shapes: resolve ``package://``, ``file://`` and relative paths, load
-the vertices (in the body frame) on demand: STL files (binary or ASCII) with numpy, their
-distinct vertices; other formats with trimesh, their convex hull's vertices (Collada files turned
-to Z up from their ``<up_axis>``, as Assimp does). Either set has the hull's vertices, so the
-lowest point in any direction is exact.
+"""Mesh files of a URDF's shapes: resolve ``package://`` (the model's own package folders, then
+``ROS_PACKAGE_PATH``), ``file://`` and relative paths, and load the vertices (in the body frame)
+on demand: STL files (binary or ASCII) with numpy, their distinct vertices; other formats with
+trimesh, their convex hull's vertices. Collada files are turned to Z up from their
+``<asset><up_axis>`` (trimesh and pycollada return the file's coordinates as written, and so
+does Pinocchio's Assimp loader: iCub's Y-up legs would stick out sideways). Either set has the
+hull's vertices, so the lowest point in any direction is exact.
 
 Loading is lazy (``with_mesh_vertices`` is called by the robot when a consumer needs geometry:
 the sole, ground clearance, self-collision); a visual mesh is loaded only on a body without
 collision shapes (nothing else uses it). A mesh that cannot be found or read keeps
-``vertices=None`` and is named in the returned notes. MJCF shapes carry MuJoCo's compiled
-vertices already and pass through unchanged.
+``vertices=None`` and is named in the returned notes (with how to resolve ``package://``); a
+mesh that needs the ``meshes`` extra (trimesh, and pycollada for Collada) raises
+``MissingExtraError``: a floor check without the geometry would pass poses through the floor.
+MJCF shapes carry MuJoCo's compiled vertices already and pass through unchanged.
 """
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import replace
 from functools import lru_cache
@@ -29,23 +34,72 @@ def resolve_mesh(filename: str, model_path: Path) -> Path | None:
     """The file a mesh name refers to, or None when it does not exist.
 
     ``package://PKG/rest``: the first ancestor directory of the model file named PKG, or holding
-    a directory PKG, that contains ``rest``; ``file://`` and absolute paths as they are; other
-    names relative to the model file's directory.
+    a directory PKG, that contains ``rest``; else the package PKG on ``ROS_PACKAGE_PATH``
+    (``ros_package``); ``file://`` and absolute paths as they are; other names relative to the
+    model file's directory.
     """
     if not filename:
         return None
-    if filename.startswith("package://"):
-        pkg, _, rest = filename[len("package://") :].partition("/")
+    if filename.startswith(PACKAGE):
+        pkg, _, rest = filename[len(PACKAGE) :].partition("/")
         for d in Path(model_path).resolve().parents:
             for cand in (d / rest if d.name == pkg else None, d / pkg / rest):
                 if cand is not None and cand.is_file():
                     return cand
-        return None
+        root = ros_package(pkg)
+        return root / rest if root is not None and (root / rest).is_file() else None
     name = filename[len("file://") :] if filename.startswith("file://") else filename
     p = Path(name)
     if not p.is_absolute():
         p = Path(model_path).resolve().parent / p
     return p if p.is_file() else None
+
+
+#: the URI scheme of a mesh inside a ROS package
+PACKAGE = "package://"
+#: directories below a ``ROS_PACKAGE_PATH`` root searched for a package's ``package.xml``
+ROS_DEPTH = 4
+
+
+def ros_package(pkg: str) -> Path | None:
+    """The folder of ROS package ``pkg`` on ``ROS_PACKAGE_PATH`` (roots separated by
+    ``os.pathsep``), as ROS finds it: a root that is the package, ``ROOT/PKG``, or a folder
+    below a root (at most ``ROS_DEPTH`` deep) whose ``package.xml`` names it; None if none."""
+    env = os.environ.get("ROS_PACKAGE_PATH", "")
+    return _ros_packages(env).get(pkg) if env else None
+
+
+@lru_cache(maxsize=8)
+def _ros_packages(env: str) -> dict[str, Path]:
+    """Package name → folder for the roots of ``env`` (the first root to hold a name wins)."""
+    out: dict[str, Path] = {}
+    for root in (Path(r).expanduser() for r in env.split(os.pathsep) if r):
+        if not root.is_dir():
+            continue
+        found: dict[str, Path] = {}
+        for d, dirs, files in os.walk(root):
+            here = Path(d)
+            depth = len(here.relative_to(root).parts)
+            if "package.xml" in files:
+                found.setdefault(_package_name(here / "package.xml") or here.name, here)
+            if depth <= 1:  # the root itself, or ROOT/PKG, by its folder's name
+                found.setdefault(here.name, here)
+            if "package.xml" in files or depth >= ROS_DEPTH:
+                dirs[:] = []  # ROS does not look inside a package for others
+            else:
+                dirs[:] = sorted(x for x in dirs if not x.startswith("."))
+        for name, where in found.items():
+            out.setdefault(name, where)
+    return out
+
+
+def _package_name(path: Path) -> str | None:
+    """The ``<name>`` of a ROS ``package.xml`` (None when unreadable or without one)."""
+    try:
+        m = re.search(r"<name>\s*([^<\s]+)\s*</name>", path.read_text(errors="replace"))
+    except OSError:
+        return None
+    return m.group(1) if m else None
 
 
 def _stl_vertices(path: str) -> np.ndarray | None:
@@ -89,8 +143,14 @@ def _hull_vertices(path: str) -> np.ndarray | None:
             return _distinct_rows(verts)
     try:
         import trimesh  # lazy: only needed for mesh geometry
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise MissingExtraError("reading mesh geometry", "meshes") from None
+    except ImportError:
+        raise MissingExtraError(f"reading mesh files ({Path(path).name})", "meshes") from None
+    if path.lower().endswith(".dae"):
+        try:
+            import collada  # noqa: F401 - trimesh reads Collada through pycollada
+        except ImportError:
+            what = f"reading Collada meshes ({Path(path).name})"
+            raise MissingExtraError(what, "meshes") from None
 
     try:
         mesh: Any = trimesh.load(path, force="mesh", process=False)
@@ -109,17 +169,24 @@ def _hull_vertices(path: str) -> np.ndarray | None:
     return verts
 
 
-#: Collada up axis → Z up, as Assimp (hence Pinocchio/hpp-fcl, RViz) applies it
+#: Collada up axis → Z up, from the axes the COLLADA spec gives each (right, up, in): Y_UP
+#: (+x, +y, +z), X_UP (−y, +x, +z), Z_UP (+x, +z, −y)
 _UP = {
     "Y_UP": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
-    "X_UP": np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+    "X_UP": np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]),
 }
 
 
+#: characters of a Collada file searched for its ``<asset>`` (long contributor notes included)
+ASSET_CHARS = 1 << 16
+
+
 def _collada_up(path: str) -> np.ndarray:
-    """Rotation taking a Collada file's coordinates to Z up (identity for Z_UP or none)."""
+    """Rotation taking a Collada file's coordinates to Z up (identity for Z_UP or none): the
+    ``<up_axis>`` of its ``<asset>``, which opens the file (read up to ``ASSET_CHARS``)."""
     with open(path, encoding="utf-8", errors="replace") as fh:
-        head = fh.read(8192)
+        head = fh.read(ASSET_CHARS)
+    head = head[: head.find("</asset>")] if "</asset>" in head else head
     m = re.search(r"<up_axis>\s*([XYZ]_UP)\s*</up_axis>", head)
     return _UP.get(m.group(1) if m else "Z_UP", np.eye(3))
 
@@ -153,6 +220,15 @@ def with_mesh_vertices(shapes: list[Shape], model_path: Path) -> tuple[list[Shap
                 + ", ".join(names[:3])
                 + (" …" if len(names) > 3 else "")
             )
+    pkgs = sorted({n.split(PACKAGE, 1)[1].split("/", 1)[0] for n in missing if PACKAGE in n})
+    if pkgs:
+        count = sum(PACKAGE in n for n in missing)
+        notes.append(
+            f"{count} of them are {PACKAGE} meshes of package(s) {', '.join(pkgs)} found neither "
+            "in a folder above the model file nor on ROS_PACKAGE_PATH: add the folder that holds "
+            "each package to ROS_PACKAGE_PATH (folders separated by ':'), or keep the model "
+            "inside its package"
+        )
     return out, notes
 
 

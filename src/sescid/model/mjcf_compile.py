@@ -42,12 +42,13 @@ _KIND = {
 }
 
 
-def mujoco_module() -> Any:
-    """The ``mujoco`` module, imported on first use (MissingExtraError without the extra)."""
+def mujoco_module(what: str = "reading MJCF") -> Any:
+    """The ``mujoco`` module, imported on first use (MissingExtraError naming ``what`` needs the
+    mujoco extra, without it): the one import of MuJoCo for the model files and the benches."""
     try:
         import mujoco
     except ImportError:
-        raise MissingExtraError("reading MJCF", "mujoco") from None
+        raise MissingExtraError(what, "mujoco") from None
     return mujoco
 
 

@@ -283,6 +283,24 @@ def supporting_leg(parents: list[int], masses: np.ndarray) -> tuple[list[int], i
     return leg[:-1] if len(leg) > 1 else leg, cur
 
 
+def beyond_support(parents: list[int], masses: np.ndarray) -> list[int]:
+    """The bodies beyond the support foot (its toes): every body below a child of the support
+    body (0) other than its heaviest child (the supporting leg's side), that child included;
+    empty when the mass splits at the support body (a trunk held in a gantry)."""
+    if splits_at_support(parents, masses):
+        return []
+    sub = _subtree_mass(parents, masses)
+    kids = _children(parents).get(0, [])
+    if len(kids) < 2:
+        return []
+    leg = min(kids, key=lambda c: (-sub[c], c))
+    out: list[int] = []
+    for c in kids:
+        if c != leg:
+            out += [c, *_descendants(parents, c)]
+    return sorted(out)
+
+
 def splits_at_support(parents: list[int], masses: np.ndarray) -> bool:
     """True when the robot's mass splits at its support body (a trunk or pelvis, held in a
     gantry: no foot carries a load), False at the end of a limb (a foot) or for one body."""

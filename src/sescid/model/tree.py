@@ -154,7 +154,10 @@ def _walk(graph: Graph, support: str) -> tuple[list[_Row], dict[str, tuple[int, 
 
 
 def _root_name(graph: Graph, links: list[str], support: str) -> str:
-    """The support body's name: its first frame that no fixed edge hangs from a parent."""
+    """A body's name: its first frame that no fixed edge hangs from a parent — the link the
+    model file itself makes the top of the merged group (a moving joint's child, or the model's
+    root), whichever way the tree is rooted (Romeo re-rooted at a sole: ``base_link``, not the
+    ``body`` link fixed below it); ``support`` when every frame hangs by a fixed edge."""
     fixed_child = {e.child for e in graph.edges if e.drive is None}
     return next((lk for lk in links if lk not in fixed_child), support)
 
@@ -176,7 +179,7 @@ def reroot(graph: Graph, support: str) -> tuple[list[Body], dict[str, tuple[int,
         jcol, mult, off = (-1, 1.0, 0.0) if e is None or e.drive is None else e.drive
         bodies.append(
             Body(
-                name=_root_name(graph, row.links, support) if i == 0 else row.links[0],
+                name=_root_name(graph, row.links, support if i == 0 else row.links[0]),
                 links=tuple(row.links),
                 parent=row.parent,
                 joint=jcol,

@@ -10,16 +10,15 @@ choice and its expected CoP error (``doptimal``), optionally checked on a physic
 for joint torques, alone or with the CoP (``PlanOptions.kinds``): each pose's rows of those
 kinds with a torque offset per joint as nuisance (``kinds``), chosen D-optimally in blocks
 (``blocks``), the expected CoM x/y error (``plan_kinds``); a robot held in a fixture
-(``gantry``): no balance, only joint limits, the floor and self-collision. Every kernel runs
+(``gantry``): no balance, only joint limits, the floor and self-collision; a payload on a
+calibrated robot (``payload``): the few poses that determine its mass and CoM. Every kernel runs
 without fast-math and breaks near-ties by index: the same poses on every CPU.
 """
 
 from sescid.planning.blocks import BlockDesign, schur_logdet, select_blocks
 from sescid.planning.candidates import (
-    MOUNTS,
     CandidateOptions,
     Candidates,
-    Mount,
     Sampling,
     candidates,
 )
@@ -79,6 +78,12 @@ from sescid.planning.limits import (
     unlimited_joints,
 )
 from sescid.planning.ordering import order_poses, path_length
+from sescid.planning.payload import (
+    PAYLOAD_CANDIDATES,
+    PayloadPlan,
+    payload_rows,
+    plan_payload_poses,
+)
 from sescid.planning.plan import design_curve, plan_poses
 from sescid.planning.plan_kinds import block_curve, choose_blocks
 from sescid.planning.plan_stances import (
@@ -104,9 +109,14 @@ from sescid.planning.stability import (
     sole_corners,
     stable_mask,
 )
-from sescid.planning.stances import Stance, parse_stances, stance_robot
+from sescid.planning.stances import stance_robot
+from sescid.stance import MOUNTS, Mount, Stance, parse_stances
 
 __all__ = [
+    "PAYLOAD_CANDIDATES",
+    "PayloadPlan",
+    "payload_rows",
+    "plan_payload_poses",
     "DEFAULT_CLEARANCE",
     "DEFAULT_TAU_NOISE",
     "DESIGN_KINDS",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal, get_args
+from typing import Literal
 
 import numpy as np
 
@@ -35,6 +35,7 @@ from sescid.planning.stability import (
 )
 from sescid.robot import Robot
 from sescid.robots import PoseSampler
+from sescid.stance import Mount
 
 SWITCH_AFTER = 400_000  #: uniform draws before the adjusted draws may take over
 SWITCH_RATE = 1e-4  #: accepted share of uniform draws below which they do
@@ -42,10 +43,6 @@ SWITCH_RATE = 1e-4  #: accepted share of uniform draws below which they do
 GIVE_UP_BOX = 30_000
 GIVE_UP = 200_000  #: adjusted draws without one accepted pose: something else stops them all
 
-#: how the robot is held: standing on its support foot, or its support link held in a fixture
-#: (no balance: only the joint limits, the floor and self-collision)
-Mount = Literal["stand", "gantry", "double"]
-MOUNTS: tuple[Mount, ...] = get_args(Mount)
 #: a candidate pool's mount: one of ``Mount``, or "stances" for the union of several
 PoolMount = Literal[Mount, "stances"]
 #: how candidates were drawn: uniform, adjusted (``planning.adjust``), or uniform draws that

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import OptionError, SescidError, check_choice
-from sescid.model.sole import splits_at_support
 from sescid.planning.adjust import draw
 from sescid.planning.broadphase import collision_free_mask_broad
 from sescid.planning.candidates import Candidates, Mount, Sampling
@@ -36,6 +35,7 @@ from sescid.planning.kinds import DesignKind
 from sescid.planning.limits import sampling_limits
 from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
+from sescid.stance import held_trunk
 
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
@@ -53,12 +53,6 @@ class GantryOptions:
     hang_height: float | None = None  #: m, held link above the floor (None: ``gantry_floor``)
     clearance: float = DEFAULT_CLEARANCE  #: m, every body above the floor
     chunk: int = 20_000  #: uniform draws per batch (at most)
-
-
-def held_trunk(robot: Robot) -> bool:
-    """True when the robot's mass splits at its support body (a trunk or pelvis: several heavy
-    branches leave it), False at the end of a limb (a foot)."""
-    return splits_at_support([b.parent for b in robot.model.bodies], robot.masses)
 
 
 def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
@@ -190,4 +184,33 @@ def gantry_candidates(
     )
     out.notes.append(f"gantry: {how}; every body ≥ {clearance * 1e3:g} mm above it")
     out.notes += checks.notes[:1]
+    tilt = held_tilt(robot)
+    if tilt is not None:
+        out.notes.append(tilt)
     return out
+
+
+#: rad: a held frame whose z axis is farther than this from the model's world up is not upright
+HELD_TILT = math.radians(5.0)
+
+
+def held_tilt(robot: Robot) -> str | None:
+    """A warning when the held frame is not upright in the model file's world at q = 0 (the
+    gantry holds it with its z axis vertical: a frame tilted 90°, as the CMU humanoid's y-up
+    root, hangs the robot on its side), None when it is (within ``HELD_TILT``) or the model
+    file cannot say."""
+    from sescid.model import frame_up
+
+    try:
+        z = frame_up(robot.model_path, robot.support)
+    except (SescidError, OSError):
+        return None
+    tilt = math.acos(min(1.0, max(-1.0, float(z[2]))))
+    if tilt <= HELD_TILT:
+        return None
+    along = ", ".join(f"{v:+.2f}" for v in z)
+    return (
+        f"the held frame '{robot.support}' is tilted {math.degrees(tilt):.0f}° from upright in "
+        f"the model's world (its z axis along ({along})): held with its z vertical, the robot "
+        "hangs tilted as much (on its side at 90°); hold a frame whose z points up"
+    )

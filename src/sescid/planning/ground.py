@@ -3,14 +3,17 @@ clearance.
 
 Every body but the support body is checked, on the best geometry it has: its collision shapes;
 its visual shapes where it has no collision shape (a model whose collision geometry is only
-the feet, as MuJoCo Playground models are); its origin as a last resort (no geometry, or only
-mesh files that could not be read). Each shape's lowest point is exact: a sphere or capsule is
-its segment less its radius, a cylinder its end discs' lowest rim points, a box its corners, a
-mesh its hull vertices (checked only in the poses where the capsules that cover it dip below
-the floor, ``collision.mesh_capsules``). The floor is ``Robot.floor`` (z = 0 of a sole frame, or
-the plane under a foot frame derived from the foot's geometry). A body other than the free foot
+the feet, as MuJoCo Playground models are); as a last resort (no geometry, or only mesh files
+that could not be read) its origin and the origins of the frames on it (a sole frame). Each
+shape's lowest point is exact: a sphere or capsule is its segment less its radius, a cylinder
+its end discs' lowest rim points, a box its corners, a mesh its hull vertices (checked only in
+the poses where the capsules that cover it dip below the floor, ``collision.mesh_capsules``).
+The floor is ``Robot.floor`` (z = 0 of a sole frame, or the plane under a foot frame derived
+from the foot's geometry). A body other than the free foot
 that already reaches below the floor at the zero pose (a conservative covering of an ankle link)
-is not checked, with a note — as self-collision skips pairs that touch at the zero pose. The
+is not checked, with a note — as self-collision skips pairs that touch at the zero pose —
+unless it lies beyond the support foot (toes on a joint of the support foot: they touch the
+floor the foot stands on, so they must stay above it whatever they do at the zero pose). The
 free foot (``Robot.free_sole``) and the bodies beyond it (toes) must clear the floor by the
 foot clearance on all of their geometry, and its sole's corners too: a foot that grazes the
 floor is not single support on a real robot.
@@ -24,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.model.geometry import BOX, CAPSULE, CYLINDER, MESH, SPHERE
-from sescid.model.sole import profile_sole
+from sescid.model.sole import beyond_support, profile_sole
 from sescid.planning.collision import Capsules, mesh_capsules
 from sescid.robot import Robot
 
@@ -90,8 +93,20 @@ def _body_shapes(robot: Robot, b: int) -> tuple[list, str]:
     return [], "origin"
 
 
-def _build(shapes: list, origins: list[int]) -> GroundChecks:
-    """The exact lowest-point representation of ``shapes`` and of the bodies in ``origins``."""
+def _origin_points(robot: Robot, bodies: list[int]) -> list[tuple[int, np.ndarray]]:
+    """(body, point (3,) [m] in its frame): the origin of each body in ``bodies`` and of every
+    frame on it (a sole frame, a link welded to it): what a body without geometry is checked by."""
+    out: list[tuple[int, np.ndarray]] = []
+    for b in bodies:
+        pts = [np.zeros(3)]
+        pts += [x[:3, 3] for bb, x in robot.model.link_frames.values() if bb == b]
+        out += [(b, p) for p in np.unique(np.round(np.array(pts), 12), axis=0)]
+    return out
+
+
+def _build(shapes: list, origins: list[tuple[int, np.ndarray]]) -> GroundChecks:
+    """The exact lowest-point representation of ``shapes`` and of the points ``origins``
+    ((body, point in its frame), ``_origin_points``)."""
     sb, p0, p1, rad, flat = [], [], [], [], []
     cb, cv, vb, vv, mb, m0, m1, mr = [], [], [], [], [], [], [], []
     for s in shapes:
@@ -114,10 +129,10 @@ def _build(shapes: list, origins: list[int]) -> GroundChecks:
             m0.append(e0 @ r.T + t)
             m1.append(e1 @ r.T + t)
             mr += [rr] * len(e0)
-    for b in origins:
+    for b, pt in origins:
         sb.append(b)
-        p0.append(np.zeros(3))
-        p1.append(np.zeros(3))
+        p0.append(pt)
+        p1.append(pt)
         rad.append(0.0)
         flat.append(False)
     seg = Segments(
@@ -159,9 +174,9 @@ def ground_checks(robot: Robot, cap: Capsules | None = None, exempt: bool = True
         shapes += use
         if role == "origin":
             origins.append(b)
-    g = _build(shapes, origins)
+    g = _build(shapes, _origin_points(robot, origins))
     if feet:
-        g.free = _build(foot_shapes, foot_origins)
+        g.free = _build(foot_shapes, _origin_points(robot, foot_origins))
         g.free_bodies = [names[b] for b in sorted(feet)]
     below = _exempt(robot, g) if exempt else set()
     if below:
@@ -202,7 +217,12 @@ def _exempt(robot: Robot, g: GroundChecks) -> set[int]:
             out |= {int(b) for b in body[z < below]}
     free = robot.free_sole
     out.discard(-1 if free is None else free.body)
-    return out
+    return out - set(_beyond_support(robot))
+
+
+def _beyond_support(robot: Robot) -> list[int]:
+    """The bodies beyond the support foot (its toes: ``model.sole.beyond_support``)."""
+    return beyond_support([bd.parent for bd in robot.model.bodies], robot.masses)
 
 
 def _notes(robot: Robot, g: GroundChecks) -> list[str]:
@@ -211,10 +231,19 @@ def _notes(robot: Robot, g: GroundChecks) -> list[str]:
     notes = [
         f"floor check on every body but the support: {len(by['collision'])} by their collision "
         f"shapes, {len(by['visual'])} by their visual shapes (no collision shape), "
-        f"{len(by['origin'])} by their origin only (no usable geometry)"
+        f"{len(by['origin'])} by their origin and frames only (no usable geometry)"
     ]
     if by["origin"]:
-        notes.append("bodies checked by their origin only: " + ", ".join(by["origin"][:6]))
+        notes.append(
+            "bodies checked by their origin and frames only: " + ", ".join(by["origin"][:6])
+        )
+    toes = [robot.body_names[b] for b in _beyond_support(robot)]
+    if toes:
+        notes.append(
+            f"{len(toes)} body(ies) beyond the support foot held above the floor too: "
+            + ", ".join(toes[:6])
+            + (" …" if len(toes) > 6 else "")
+        )
     if g.exempt:
         notes.append(
             f"{len(g.exempt)} body(ies) reach below the floor at q = 0 and are not checked "
@@ -338,7 +367,7 @@ def beyond_free_foot(robot: Robot) -> tuple[GroundChecks | None, float]:
         use, role = _body_shapes(robot, b)
         shapes += use
         origins += [b] if role == "origin" else []
-    g = _build(shapes, origins)
+    g = _build(shapes, _origin_points(robot, origins))
     rot, org = robot.forward(np.zeros((1, robot.nq)))
     low = float(_lowest(g, rot, org)[0])
     return g, min(robot.floor, low) - _TOUCH

@@ -293,5 +293,6 @@ def random_com_error(
 def min_block_poses(rows_per_pose: int, p: int, n_nuisance: int) -> int:
     """Fewest poses whose rows can determine p SESC coordinates and the offsets: K·r ≥ p + K_o
     (and two poses for an offset to be told from the torque it shifts)."""
-    need = math.ceil((p + n_nuisance) / max(rows_per_pose, 1))
-    return max(need, 2 if n_nuisance else 1)
+    from sescid.estimation.identifiability import poses_needed
+
+    return max(poses_needed(p + n_nuisance, max(rows_per_pose, 1)), 2 if n_nuisance else 1)

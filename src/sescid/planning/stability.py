@@ -35,8 +35,9 @@ COARSE_MIN_POSES = 1_000
 SOLE_BOX_FRACTION = 0.5
 
 
-#: m: a support whose lowest face is narrower than this has no sole to stand on
-MIN_SOLE = 0.005
+#: m: a support whose sole (as ``model.sole`` derives it: sides below its ``MIN_SOLE`` widened to
+#: the foot's extent) is still narrower than this has no sole to stand on
+NO_SOLE_BELOW = 0.005
 
 
 def cop_half_extents(
@@ -55,7 +56,7 @@ def cop_half_extents(
     if margin is None and cop_box is None and robot.profile.cop_box is None:
         sole = robot.sole
         if sole is not None:
-            if min(sole.size) < MIN_SOLE:
+            if min(sole.size) < NO_SOLE_BELOW:
                 raise SescidError(
                     f"the support '{robot.support}' has no sole to stand on (its lowest face is "
                     f"{sole.size[0] * 1e3:.1f} x {sole.size[1] * 1e3:.1f} mm): give --support a "

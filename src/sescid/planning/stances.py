@@ -25,78 +25,15 @@ not measure), over [θ̃ (4N); o (J)], each divided by its noise.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
-
 import numpy as np
 
-from sescid.errors import OptionError
-from sescid.planning.candidates import Mount
-from sescid.planning.gantry import held_trunk
 from sescid.planning.kinds import DesignKinds
-from sescid.robot import DOUBLE, Robot
+from sescid.robot import Robot
+from sescid.stance import Stance, parse_stances
 
-#: the mounts a stance can have
-STANCE_MOUNTS = ("stand", "double", "gantry")
+__all__ = ["Stance", "StanceRows", "parse_stances", "stance_robot", "theta_information"]
 #: poses per block of rows (bounds the memory of Φ_τ: block × J × 4N)
 ROW_BLOCK = 1_000
-
-
-@dataclass(frozen=True)
-class Stance:
-    """One stance: the frame the robot is rooted at (double: the reference foot) and how it is
-    held there."""
-
-    support: str
-    mount: Mount  #: "stand", "double" or "gantry"
-
-    @property
-    def label(self) -> str:
-        """Its name in a pose file's ``support`` column: the frame, or ``double``
-        (``sescid.robot.DOUBLE``, as ``Measurements.support``)."""
-        return DOUBLE if self.mount == "double" else self.support
-
-    def describe(self) -> str:
-        """One phrase: on which foot, or held by which link."""
-        if self.mount == "double":
-            return f"on both feet (CoP in {self.support}'s frame)"
-        if self.mount == "gantry":
-            return f"held by {self.support} in a gantry"
-        return f"standing on {self.support}"
-
-
-def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, ...]:
-    """The stances of ``spec``: a comma-separated list (or a sequence) of ``<frame>`` (standing
-    on that sole; a frame where the mass splits, a trunk, is held in a gantry), ``double``
-    (both feet, the reference robot's support as the reference foot), ``stand:<frame>`` or
-    ``gantry:<frame>``. OptionError for an empty list, an unknown prefix or a stance named
-    twice; ModelError for a frame the model lacks."""
-    items = [s.strip() for s in spec.split(",")] if isinstance(spec, str) else list(spec)
-    items = [s for s in items if s]
-    if not items:
-        raise OptionError("stances", "name at least one stance (a sole frame, double, gantry:…)")
-    out: list[Stance] = []
-    for item in items:
-        mount, sep, frame = item.partition(":")
-        if not sep:
-            mount, frame = "", item
-        if frame == DOUBLE and not sep:
-            st = Stance(reference.support, "double")
-        elif mount in ("", "stand", "gantry"):
-            robot = reference.at(frame)  # ModelError naming an unknown frame
-            how: Mount = (
-                "gantry" if mount == "gantry" or (not mount and held_trunk(robot)) else "stand"
-            )
-            st = Stance(frame, how)
-        else:
-            raise OptionError(
-                "stances",
-                f"'{item}': a stance is a sole frame, double, stand:<frame> or gantry:<frame>",
-            )
-        if any(s.label == st.label for s in out):
-            raise OptionError("stances", f"'{st.label}' is named twice")
-        out.append(st)
-    return tuple(out)
 
 
 def stance_robot(reference: Robot, stance: Stance) -> Robot:

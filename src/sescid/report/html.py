@@ -32,6 +32,7 @@ from sescid.report.model_sections import (
     sesc_section,
 )
 from sescid.report.parallel import run_figures
+from sescid.report.payload_section import payload_section
 from sescid.report.sections import cop_section, summary_section, torque_section
 from sescid.report.text import esc
 from sescid.report.view3d import scene_data, view3d_html
@@ -99,6 +100,7 @@ def page(c: ReportContent, figs: dict[str, str]) -> str:
     )
     sections = [
         summary_section(c),
+        payload_section(c),
         view3d_html(scene),
         cop_section(c, figs),
         torque_section(c, figs),

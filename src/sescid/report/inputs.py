@@ -125,16 +125,17 @@ def read_report_data(
     """A measurement file's data for the fit's robot (any kinds it holds: ``cop_x``/``cop_y``,
     ``tau_<joint>``, ``approach``, gravity or IMU columns) and its pose ids (``pose`` column,
     else row numbers). Errors name the file and the column."""
-    from sescid.base.columns import SUPPORT_COLUMN
     from sescid.io import read_table
     from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
+    from sescid.stance import support_column
 
     table = read_table(path)
     data = measurements_of(table, fit.robot, imu_link)
     ids = pose_list_ids(table)
-    if SUPPORT_COLUMN in table.text:  # the rows of the fit's stance (the others: --support)
-        stance = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    column = support_column(table)
+    if column in table.text:  # the rows of the fit's stance (the others: --support)
+        stance = np.array([v.strip() for v in table.text[column]])
         mine = np.flatnonzero(stance == fit.robot.support)
         if mine.size == 0:
             raise DataError(

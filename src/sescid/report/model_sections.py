@@ -7,6 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from sescid.estimation import fit_notes
 from sescid.report.coverage import Coverage
 from sescid.report.figures import body_labels, paper_order, r_magnitude_std
 from sescid.report.inputs import ReportContent
@@ -229,6 +230,6 @@ def com_section(c: ReportContent, figs: Mapping[str, str]) -> str:
 
 def notes_section(c: ReportContent) -> str:
     """The fit's notes and warnings."""
-    notes = "".join(f"<li>{esc(t)}</li>" for t in c.fit.notes)
+    notes = "".join(f"<li>{esc(t)}</li>" for t in fit_notes(c.fit))
     warns = "".join(f'<li class="warn">warning: {esc(t)}</li>' for t in c.fit.warnings)
     return f"<h2>Notes</h2><ul>{notes}{warns}</ul>"

@@ -182,3 +182,62 @@ def mass_rows(fit: Fit) -> list[MassRow] | None:
             )
         )
     return out
+
+
+#: a joint is called worse than CAD when its residual RMS exceeds CAD's by more than this
+WORSE_MARGIN = 0.10
+#: … and "lightly loaded" when CAD's residual RMS there is below this share of the largest
+LIGHT_SHARE = 0.25
+#: … and "decided elsewhere" when its rows carry less than this share of the fit's parameters
+DECIDED_ELSEWHERE = 0.5
+
+
+@dataclass(frozen=True)
+class WorseJoint:
+    """A joint whose identified residual RMS exceeds the manufacturer model's, and why."""
+
+    joint: str
+    rms: float  #: identified, N·m
+    cad_rms: float  #: manufacturer model, N·m
+    reason: str
+
+
+def worse_joints(fit: Fit, k: KindNumbers) -> tuple[WorseJoint, ...]:
+    """The joints whose identified residual RMS exceeds CAD's by over ``WORSE_MARGIN``, each
+    with the likeliest reason, from the fit's records: one noise level shared by light and
+    heavy joints; a residual within the joint's own noise σ_j; rows that carry little of the
+    fit (``JointNoise.params`` < ``DECIDED_ELSEWHERE``: the bodies beyond it decided by the
+    prior and the other joints); else other joints' data pulling those bodies from CAD."""
+    noise = {r.joint: r for r in fit.torque_noise}
+    fit_s, cad_s = k.stats[IDENTIFIED][:-1], k.stats[CAD][:-1]
+    largest = max((s.rms for s in cad_s if math.isfinite(s.rms)), default=math.nan)
+    out = []
+    for f, c in zip(fit_s, cad_s, strict=True):
+        if not (f.rms > (1 + WORSE_MARGIN) * c.rms):
+            continue
+        n = noise.get(f.name)
+        if n is None and c.rms < LIGHT_SHARE * largest:
+            why = (
+                f"lightly loaded: CAD's residual here ({c.rms:.3g} N·m) weighs little against "
+                f"the most loaded joint's ({largest:.3g} N·m) under one shared noise level"
+            )
+        elif n is None:
+            why = "one noise level shared by every joint"
+        elif n.unit == "N·m" and f.rms <= (1 + WORSE_MARGIN) * n.sigma:
+            why = (
+                f"within this joint's own noise (σ_j {n.sigma:.3g} N·m): CAD fits these rows "
+                "as well to within the noise"
+            )
+        elif math.isfinite(n.params) and n.params < DECIDED_ELSEWHERE:
+            why = (
+                f"its rows carry {n.params:.2f} of the fit's parameters: the bodies beyond it "
+                "are decided by the prior and the other joints' data, not by its own torques"
+            )
+        else:
+            why = (
+                "the other joints' data move the bodies beyond it away from CAD (its rows "
+                f"carry {n.params:.2f} of the fit's parameters): an error the model cannot "
+                "represent (unmodelled mass, joint play, a sensor's gain) lands here"
+            )
+        out.append(WorseJoint(f.name, f.rms, c.rms, why))
+    return tuple(out)

@@ -9,7 +9,7 @@ import numpy as np
 
 from sescid.estimation import Fit, Kind, NuisanceEstimate
 from sescid.report.inputs import ReportContent
-from sescid.report.numbers import CAD, IDENTIFIED, KindNumbers
+from sescid.report.numbers import CAD, IDENTIFIED, WORSE_MARGIN, KindNumbers, worse_joints
 from sescid.report.text import (
     KIND_TITLES,
     NOT_DETERMINED,
@@ -106,23 +106,59 @@ def cop_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     )
 
 
-def _torque_table(k: KindNumbers) -> str:
+def _torque_table(k: KindNumbers, fit: Fit) -> str:
+    noise = {r.joint: r for r in fit.torque_noise}
+    scaled = bool(noise) and fit.torque_noise[0].unit == "1"
     rows = []
     for fit_s, cad_s in zip(k.stats[IDENTIFIED], k.stats[CAD], strict=True):
         name = "all joints" if fit_s.name == "all" else fit_s.name
-        rows.append(
-            [
-                f"<b>{esc(name)}</b>" if fit_s.name == "all" else f"<code>{esc(name)}</code>",
-                str(fit_s.n_rows),
-                cell(nm(fit_s.rms, 4)),
-                cell(nm(fit_s.mae, 4)),
-                cell(nm(cad_s.rms, 4)),
-                cell(nm(cad_s.mae, 4)),
-            ]
-        )
+        row = [
+            f"<b>{esc(name)}</b>" if fit_s.name == "all" else f"<code>{esc(name)}</code>",
+            str(fit_s.n_rows),
+            cell(nm(fit_s.rms, 4)),
+            cell(nm(fit_s.mae, 4)),
+            cell(nm(cad_s.rms, 4)),
+            cell(nm(cad_s.mae, 4)),
+        ]
+        if noise:
+            n = noise.get(fit_s.name)
+            row.append("" if n is None else cell(nm(n.sigma, 4)))
+        rows.append(row)
     head = ["joint", "rows", "RMS identified", "MAE identified", "RMS manufacturer",
             "MAE manufacturer"]  # fmt: skip
+    if noise:
+        head.append("noise σ_j [× tau_se]" if scaled else "noise σ_j [N·m]")
     return table(head, rows)
+
+
+def worse_than_cad(k: KindNumbers, fit: Fit) -> str:
+    """Where the identified model's torque residual exceeds the manufacturer model's (by over
+    ``WORSE_MARGIN``), joint by joint, with the reason; one line when nowhere."""
+    worse = worse_joints(fit, k)
+    n = len(k.columns)
+    if not worse:
+        return (
+            f"<p>On every one of the {n} joints the identified model's residual RMS is below "
+            f"the manufacturer model's or within {WORSE_MARGIN:.0%} of it.</p>"
+        )
+    rows = [
+        [f"<code>{esc(w.joint)}</code>", cell(nm(w.rms, 4)), cell(nm(w.cad_rms, 4)),
+         esc(w.reason)]
+        for w in worse
+    ]  # fmt: skip
+    shared = ""
+    if not fit.torque_noise:
+        shared = (
+            " This fit shared one noise level among all joints: the most loaded joints' "
+            "residuals outweigh the light ones', which the fit then trades away; fitting "
+            "with a noise level per joint (the default, <code>--tau-noise-model joint</code>) "
+            "weighs each joint by its own."
+        )
+    return (
+        f"<p><b>Worse than the manufacturer model</b> on {len(worse)} of {n} joints (residual "
+        f"RMS over {WORSE_MARGIN:.0%} above it), and why.{shared}</p>\n"
+        + table(["joint", "RMS identified", "RMS manufacturer", "why"], rows, "lrrl")
+    )
 
 
 def _value(e: NuisanceEstimate | None) -> str:
@@ -187,6 +223,19 @@ def _friction_words(fit: Fit) -> str:
     )
 
 
+def _noise_words(fit: Fit) -> str:
+    """How the torque rows were weighed: per joint (σ_j in the table) or one shared level."""
+    if fit.torque_noise:
+        return (
+            "<p>Each joint's rows were weighed by its own noise σ_j, estimated from its "
+            "residuals (feasible generalised least squares; a lightly loaded joint is not "
+            "outweighed by the support leg).</p>\n"
+        )
+    if fit.kind("tau") is not None:
+        return "<p>One noise level was shared by every joint's rows.</p>\n"
+    return ""
+
+
 def torque_section(c: ReportContent, figs: Mapping[str, str]) -> str:
     """Joint torques: residuals per joint (table and map), sensor offsets and friction bands,
     the support leg's torques."""
@@ -201,7 +250,8 @@ def torque_section(c: ReportContent, figs: Mapping[str, str]) -> str:
         "offsets and friction bands, and for the manufacturer model a constant offset (and "
         "friction band) per joint of the same form, so the two are compared on their masses."
         "</p>\n"
-        f"{_torque_table(k)}\n{_figure(figs, 'torque_residuals.png')}\n"
+        f"{_torque_table(k, c.fit)}\n{worse_than_cad(k, c.fit)}\n{_noise_words(c.fit)}"
+        f"{_figure(figs, 'torque_residuals.png')}\n"
         f"<h3>Torque sensor offsets and friction bands{gains}</h3>\n"
         f"<p>{esc(_friction_words(c.fit))}</p>\n{nuisance_table(c.fit, k.columns)}\n"
         f"<h3>Support leg</h3>{_figure(figs, 'torque_support_leg.png')}"

@@ -117,8 +117,9 @@ def default_sensors_path(profile: RobotProfile) -> Path:
     """The foot-sensor layout shipped in a robot's profile."""
     if profile.sensors_file is None:
         raise DataError(
-            f"no foot-sensor layout ships for robot '{profile.name}': give a sensor file "
-            "(copy src/sescid/robots/op2/op2_fsr.json and adapt it)"
+            f"no foot-sensor layout ships for robot '{profile.name}': write one for its foot "
+            "pads and give it with --sensors FILE (docs/sensors.md#a-layout-for-your-robot), or "
+            "measure joint torques instead (--torques all)"
         )
     return profile.sensors_file
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from sescid.base import G0
 from sescid.base.columns import Table, pose_ids
+from sescid.base.text import listed
 from sescid.errors import DataError
 from sescid.sensors.feet import REASONS, PadWatch, Status, check_pads, foot_samples, support_cop
 from sescid.sensors.measured import Measured, MeasuredFrom
@@ -344,8 +345,8 @@ def check_pose_ids(measured_ids: np.ndarray, list_ids: np.ndarray, where: str) -
     known = set(list_ids.tolist())
     unknown = [p for p in dict.fromkeys(measured_ids.tolist()) if p not in known]
     if unknown:
-        more = f" (and {len(unknown) - 1} more)" if len(unknown) > 1 else ""
-        raise DataError(f"{where}: pose id '{unknown[0]}'{more} is not in the pose list")
+        ids = listed((f"'{p}'" for p in unknown), first=1)
+        raise DataError(f"{where}: pose id {ids} is not in the pose list")
     seen = set(measured_ids.tolist())
     return [p for p in list_ids.tolist() if p not in seen]
 

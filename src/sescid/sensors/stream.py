@@ -38,6 +38,7 @@ from sescid.sensors.reduce import (
     read_log,
     uses_feet,
 )
+from sescid.stance import support_column
 
 #: raw-log fields with one row per sample
 _ROWS = ("pose", "q", "gravity", "tau", "approach")
@@ -181,7 +182,8 @@ def _rows(table: Table, keep: np.ndarray) -> Table:
 
 def _stance_rows(table: Table, stance: str) -> Table:
     """The samples of one stance (its ``support`` column stripped)."""
-    labels = np.array([v.strip() for v in table.text[SUPPORT_COLUMN]])
+    column = support_column(table) or SUPPORT_COLUMN
+    labels = np.array([v.strip() for v in table.text[column]])
     return _rows(table, np.flatnonzero(labels == stance))
 
 

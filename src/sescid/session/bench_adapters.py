@@ -126,7 +126,12 @@ class KinematicAdapter(_BenchAdapter):
         self.foot = next((f for f in boards if f.sole_frame == robot.support), None)
         self.held = self.config.mount == "gantry"
         if self.foot is None and not self.held and feet:
-            raise DataError(f"no foot sensor board sits on the support link '{robot.support}'")
+            boards_on = ", ".join(f.sole_frame for f in boards) or "no layout"
+            raise DataError(
+                f"no foot sensor board sits on the support link '{robot.support}' (boards: "
+                f"{boards_on}): give a layout with one (--sensors), or --no-foot-sensors for a "
+                "robot that logs its joint torques only (--torques all)"
+            )
         self.bodies, _ = real_bodies(robot, self.config)
         self._pads = np.zeros(4)
         self._feet: dict[str, np.ndarray] | None = None  #: on both feet: pad forces per foot

@@ -40,6 +40,7 @@ from collections.abc import Callable
 import numpy as np
 
 from sescid.base.columns import Table
+from sescid.base.text import listed
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
 from sescid.planning import DesignKind
@@ -185,8 +186,8 @@ class _Run:
             common = max(set(values), key=values.count)
             odd = [f"'{c}' has {k}" for c, k in lengths.items() if k != common]
             raise DataError(
-                f"{where}: the columns differ in length ({', '.join(odd[:4])}"
-                f"{' …' if len(odd) > 4 else ''}; the others {common} samples)"
+                f"{where}: the columns differ in length ({listed(odd, first=4)}; "
+                f"the others {common} samples)"
             )
         if self.names is None:
             self.names = list(arrays)

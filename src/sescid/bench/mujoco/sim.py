@@ -18,13 +18,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.bench.mujoco.spec import (
+    BENCH_NEEDS,
     build_spec,
-    mujoco_module,
     standing_feet,
     support_sole_plane,
 )
 from sescid.bench.real_robot import ExperimentConfig
 from sescid.errors import OptionError
+from sescid.model.mjcf_compile import mujoco_module
 from sescid.sensors.pads import SensorConfig
 
 
@@ -51,7 +52,7 @@ class Simulation:
     """A compiled model with index maps, simulating one pose at a time."""
 
     def __init__(self, robot, sensors: SensorConfig | None, config: ExperimentConfig, bench):
-        mujoco = mujoco_module()
+        mujoco = mujoco_module(BENCH_NEEDS)
         self.mj = mujoco
         self.robot, self.sensors, self.bench = robot, sensors, bench
         self.weld = bench.weld_foot or config.mount == "gantry"

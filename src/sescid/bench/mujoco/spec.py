@@ -25,7 +25,8 @@ import numpy as np
 
 from sescid.base import G0, option
 from sescid.bench.real_robot import ExperimentConfig, extra_masses, real_bodies
-from sescid.errors import DataError, MissingExtraError, ModelError, OptionError, SescidError
+from sescid.errors import DataError, ModelError, OptionError, SescidError
+from sescid.model.mjcf_compile import mujoco_module
 from sescid.planning import collision_capsules
 from sescid.robots.profile import ServoGains
 from sescid.sensors.pads import SensorConfig
@@ -88,13 +89,8 @@ class MujocoBenchConfig:
             raise OptionError("sample_steps", f"must be ≥ 1, got {self.sample_steps}")
 
 
-def mujoco_module():
-    """The ``mujoco`` module, or MissingExtraError naming the extra."""
-    try:
-        import mujoco
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise MissingExtraError("the physics bench", "mujoco") from None
-    return mujoco
+#: what needs MuJoCo here, for the missing extra's message
+BENCH_NEEDS = "the physics bench"
 
 
 def servo_gains(robot, bench: MujocoBenchConfig) -> ServoGains:
@@ -320,7 +316,7 @@ def _add_pads(mujoco, robot, sensors: SensorConfig | None, bench, mj_bodies: lis
 
 def build_spec(robot, sensors: SensorConfig | None, config: ExperimentConfig, bench):
     """The MuJoCo model spec of the real robot on a floor (module docstring)."""
-    mujoco = mujoco_module()
+    mujoco = mujoco_module(BENCH_NEEDS)
     spec = mujoco.MjSpec()
     spec.modelname = f"sescid_{robot.name}"
     spec.option.timestep = bench.timestep

@@ -12,6 +12,13 @@ import numpy as np
 from sescid.errors import SescidError, check_choice
 from sescid.estimation.checks import check_total_mass
 from sescid.estimation.consistent.boxes import Box, body_boxes, mirror_pairs, mirror_plane
+from sescid.estimation.consistent.exact import (
+    exact_parameters,
+    impossible,
+    mass_notes,
+    outside_boxes,
+    solve_exact,
+)
 from sescid.estimation.consistent.qp import COM_SCALE, FIT_TOL, H_UNIT, sesc_map, solve_qp
 from sescid.estimation.consistent.record import consistent_model, make_fit, model_coms, tidy
 from sescid.estimation.fit import Fit
@@ -229,6 +236,8 @@ def consistent_from_fit(fit: Fit, *, spread: Spread = "uniform", **settings) -> 
             "symmetric: no left/right body pairs found (names like *_R/*_L, r_*/l_*, …)"
         )
     t0 = time.perf_counter()
+    if fit.method == "map" and opts.prior_std is None:
+        return _exact(fit, opts, big_m, frame, box_list, pairs, t0)
     term = data_term(fit, sesc_map(robot))
     nv = 4 * len(names) + term.d_mat.shape[0]
     a_eq, b_eq = equalities(robot, term, frame, pairs)
@@ -254,3 +263,36 @@ def consistent_from_fit(fit: Fit, *, spread: Spread = "uniform", **settings) -> 
         "solve_time": elapsed,
     }
     return make_fit(fit, r, masses, coms, (box_list, pairs), d_rss, info)
+
+
+def _exact(fit: Fit, opts: MassSettings, big_m, frame, box_list, pairs, t0) -> Fit:
+    """A MAP fit's SESC vectors reproduced exactly (``consistent.exact``)."""
+    robot = fit.robot
+    nb = len(robot.body_names)
+    empty = DataTerm(np.zeros((0, 4 * nb)), np.zeros(0), 1.0, 1.0, max(fit.n_rows, 1))
+    a_eq, b_eq = equalities(robot, empty, frame, pairs)
+    a_in, b_in = inequalities(4 * nb, frame, opts.mass_floor, big_m, box_list)
+    x, statuses, iterations, unseen, dropped = solve_exact(
+        fit, big_m, (a_eq, b_eq), (a_in, b_in), (a_in[:nb], b_in[:nb]), opts.com_scale
+    )
+    masses, coms, h = exact_parameters(fit, x, big_m, opts.mass_floor, frame, unseen)
+    outside = outside_boxes(coms, masses, box_list, robot.body_names) if dropped else []
+    r = sesc_vectors(consistent_model(robot, masses, coms))
+    sv = fit.singular_values[: fit.rank]
+    du = sv * (fit.basis[:, : fit.rank].T @ (r - fit.r).reshape(-1))
+    info = {
+        "total_mass": big_m,
+        "mass_floor": opts.mass_floor,
+        "symmetric": bool(opts.symmetric),
+        "com_scale": opts.com_scale,
+        "fit_tol": 0.0,
+        "prior_std": None,
+        "solver_status": statuses,
+        "solver_iterations": iterations,
+        "solve_time": time.perf_counter() - t0,
+        "exact": True,
+        "undetermined": [n for n, u in zip(robot.body_names, unseen, strict=True) if u],
+        "notes": impossible(fit, masses, h, big_m)
+        + mass_notes(fit, masses, big_m, opts.com_scale, unseen, outside),
+    }
+    return make_fit(fit, r, masses, coms, (box_list, pairs), float(du @ du), info)

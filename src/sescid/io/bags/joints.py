@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from sescid.base.text import listed
 from sescid.errors import DataError
 from sescid.io.bags.mapping import TORQUE_NM, BagMapping
 from sescid.io.bags.messages import bag_names, by_index, by_name
@@ -35,10 +36,9 @@ def joint_angles(c: Clocked, mp: BagMapping, joint_names: list[str], notes) -> n
         missing = [j for j in joint_names if j not in seen]
         if missing:
             have = bag_names(c.topic)
-            more = f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""
             raise DataError(
-                f"{where}: joint '{missing[0]}'{more} is not in {c.topic.name} (its names: "
-                f"{', '.join(have[:8])}{', …' if len(have) > 8 else ''}); "
+                f"{where}: joint {listed([repr(m) for m in missing], first=1)} is not in "
+                f"{c.topic.name} (its names: {listed(have, first=8)}); "
                 "add joints.rename: {bag_name: model_name}"
             )
         if empty:

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.errors import DataError, SescidError
 from sescid.io.bags.mapping import BagMapping
 from sescid.io.bags.messages import pose_ids
 from sescid.io.bags.segments import topic_labels
+from sescid.stance import data_stance
 
 
 def row_stances(
@@ -35,11 +35,9 @@ def row_stances(
 
 
 def check_stances(stance: np.ndarray, robot, where: str) -> None:
-    """Each stance a frame of the model or "double" (without a robot: not checked)."""
+    """Each stance one ``sescid.stance.parse_stance`` reads: a frame of the model or "double"
+    (without a robot: not checked); a DataError starting with ``where``."""
     if robot is None:
         return
     for name in dict.fromkeys(stance.tolist()):
-        try:
-            robot.stance(name)
-        except SescidError as exc:
-            raise DataError(f"{where}: {exc}") from None
+        data_stance(robot, name, (), where)

@@ -170,3 +170,19 @@ def model_files(path: str | Path) -> list[Path]:
                     f = Path(folder) / name
                     found.append(f if f.is_absolute() else main.parent / f)
     return found
+
+
+def missing_assets(path: str | Path) -> list[str]:
+    """One warning line when asset files the model names (meshes, textures, …) do not exist:
+    the export names them relative to its own folder as the source does, so neither loads in
+    a simulator until they exist; [] when every one is there."""
+    main = Path(path)
+    files = model_files(main)[1:]
+    gone = sorted({str(f) for f in files if not f.is_file()})
+    if not gone:
+        return []
+    return [
+        f"{len(gone)} asset file(s) that {main.name} names do not exist (e.g. {gone[0]}): the "
+        "export points to them relative to its folder, and neither file loads in MuJoCo until "
+        "they exist"
+    ]

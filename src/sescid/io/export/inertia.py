@@ -1,19 +1,21 @@
 """What export writes into an inertial, whatever the format: the identified mass and CoM spread
-over the file's parts of a (merged) body, an inertia tensor that is physically valid, and a
-warning when a body's mass leaves the CAD's neighbourhood.
+over the file's parts of a (merged) body, the rotational inertia closest to CAD's that is
+physically consistent, and a warning when a body's mass leaves the CAD's neighbourhood.
 
 - A sescid body may merge several file bodies (URDF fixed joints, MJCF bodies without joints).
-  Its identified mass m and CoM c are spread over the parts that carried mass: each part's mass
-  and inertia × m / m_CAD and its CoM + (c − c_CAD), so the parts keep their layout and the
-  merged body has exactly (m, c). Inertias keep their axes and scale with the mass: static data
-  do not identify them.
-- A body that was massless, or whose tensor is (nearly) zero, gets the inertia of a solid
-  sphere of radius ``NEW_BODY_RADIUS``.
-- Every written tensor is checked: positive definite and physical by the model's rule
-  (``sescid.model.inertia_issue``: symmetric, principal moments a ≤ b ≤ c with a + b ≥ c, what
-  MuJoCo demands and any rigid body has). A CAD tensor that is not is replaced by a valid one on
-  the same axes (moments floored at ``MIN_MOMENT`` × the largest, the largest lowered to
-  a + b), with a warning.
+  Its identified mass m and first moment h = m c are spread over the parts that carried mass:
+  each part's mass × m / m_CAD and its CoM + (c − c_CAD), so the parts keep their layout and
+  the merged body has exactly (m, c).
+- Rotational inertia: with a part's mass and first moment fixed, the pseudo-inertia
+  J = [[Σ, h], [hᵀ, m]] closest to CAD's in the log-det (Bregman) divergence
+  tr(J J_CAD⁻¹) − log det(J J_CAD⁻¹) − 4 has the Schur complement Σ − h hᵀ/m of CAD's: the
+  second moment about the CoM, hence the inertia tensor about the CoM, is CAD's, unchanged
+  (static data say nothing about it; scaling it with the mass would invent a change).
+- A CAD tensor that is not consistent (a massive point mass, a negative principal moment, the
+  triangle inequality broken: ``sescid.model.inertia_problems``) has no such neighbour: export
+  refuses, naming the links, unless asked to repair them (``repair_inertia``: Σ = ½ tr(I)·1 − I
+  clipped at zero, a point mass given a ``NEW_BODY_RADIUS`` sphere's), each change reported.
+- A body that was massless gets the inertia of a solid sphere of radius ``NEW_BODY_RADIUS``.
 - A body whose exported mass leaves ±``MASS_WARN`` (50 %) of the CAD's is reported.
 """
 
@@ -24,12 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from sescid.errors import ModelError
-from sescid.model.inertia import INERTIA_ATOL, inertia_issue
+from sescid.model.inertia import NEW_BODY_RADIUS, inertia_problems, repair_inertia
 
-#: m, radius of the solid sphere whose inertia a newly massive body gets
-NEW_BODY_RADIUS = 0.01
-#: smallest principal moment written, relative to the largest (a flat plate keeps a sliver)
-MIN_MOMENT = 1e-6
 #: relative change of a body's mass from the CAD's beyond which export warns
 MASS_WARN = 0.5
 
@@ -56,40 +54,108 @@ def merged_body_change(
     return mass / m_old, com - body.com
 
 
+def merged_correction(masses, coms, ratio: float) -> np.ndarray:
+    """ΔI (3, 3) kg·m², body-frame axes, to add to one part's tensor so that a merged body
+    whose parts (CAD ``masses`` (k,) kg, CoMs (k, 3) m in the body frame) all scale by
+    ``ratio`` and shift together keeps CAD's second moment about its CoM: the parts' spread
+    term Σ m_k d_k d_kᵀ scales with the masses, so the parts' own second moments make up
+    (1 − ratio)·S (zero for a single part)."""
+    m = np.asarray(masses, dtype=float)
+    c = np.asarray(coms, dtype=float).reshape(-1, 3)
+    if m.size < 2 or not m.sum() > 0:
+        return np.zeros((3, 3))
+    d = c - (m @ c) / m.sum()
+    sigma = (1.0 - ratio) * (d.T * m) @ d
+    return np.trace(sigma) * np.eye(3) - sigma
+
+
+def principal(tensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(moments (3,) kg·m², quaternion (4,) w x y z): ``tensor`` = R diag(moments) Rᵀ with R the
+    rotation of the quaternion (columns: the principal axes in the tensor's frame)."""
+    t = 0.5 * (np.asarray(tensor, dtype=float) + np.asarray(tensor, dtype=float).T)
+    w, v = np.linalg.eigh(t)
+    if np.linalg.det(v) < 0:
+        v[:, 2] = -v[:, 2]
+    return w, quaternion(v)
+
+
+def quaternion(r: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z), w ≥ 0, of a rotation matrix (3, 3) (Shepperd's method)."""
+    tr = float(np.trace(r))
+    if tr > 0:
+        s = 2.0 * np.sqrt(tr + 1.0)
+        q = np.array([0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s,
+                      (r[1, 0] - r[0, 1]) / s])  # fmt: skip
+    else:
+        i = int(np.argmax(np.diag(r)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(max(1.0 + r[i, i] - r[j, j] - r[k, k], 0.0))
+        q = np.zeros(4)
+        q[0] = (r[k, j] - r[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (r[j, i] + r[i, j]) / s
+        q[1 + k] = (r[k, i] + r[i, k]) / s
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
 def sphere_inertia(mass: float) -> np.ndarray:
     """Principal moments (3,) kg·m² of a solid sphere of ``NEW_BODY_RADIUS`` and ``mass``."""
     return np.full(3, 0.4 * mass * NEW_BODY_RADIUS**2)
 
 
-def valid_inertia(tensor: np.ndarray, mass: float, where: str) -> tuple[np.ndarray, str | None]:
-    """``tensor`` (3, 3) kg·m² about the CoM if positive definite and physical (the model's
-    rule, ``sescid.model.inertia_issue``), else a valid tensor on the same principal axes and a
-    warning naming ``where``. A body with mass whose tensor is zero (a point mass, within the
-    rule's absolute tolerance) gets the sphere's; a massless body's tensor is left as it is."""
+def exported_inertia(
+    tensor: np.ndarray, mass: float, where: str, repair: bool
+) -> tuple[np.ndarray, str | None]:
+    """The rotational inertia (3, 3) kg·m² about the CoM written for a part whose CAD tensor
+    about its CoM is ``tensor`` and whose exported mass is ``mass`` kg, and a note.
+
+    With the mass and first moment fixed, the pseudo-inertia closest to CAD's in the log-det
+    (Bregman) divergence keeps CAD's second moment about the CoM: a consistent CAD tensor is
+    written unchanged (not scaled with the mass). A tensor that is not (a point mass, or
+    ``repair_inertia``'s rule broken) raises ModelError unless ``repair``: then the smallest
+    change (``sescid.model.repair_inertia``) is written and named in the note."""
     t = 0.5 * (np.asarray(tensor, dtype=float) + np.asarray(tensor, dtype=float).T)
     if not np.isfinite(t).all():
         raise ModelError(f"{where}: the inertia tensor is not finite")
     if mass <= 0:
         return t, None
-    w, v = np.linalg.eigh(t)  # ascending
-    top = float(w[-1])
-    if top <= INERTIA_ATOL:
-        return np.diag(sphere_inertia(mass)), (
-            f"{where}: no inertia in the model (largest principal moment {top:.3g} kg·m² for "
-            f"{mass:.4g} kg); written as a {NEW_BODY_RADIUS * 1000:g} mm solid sphere's"
-        )
-    issue = inertia_issue(t)
-    if issue is None and w[0] > 0:
+    fixed, changed = repair_inertia(t, mass)
+    if not changed:
         return t, None
-    fixed = np.maximum(w, MIN_MOMENT * top)
-    if fixed[0] + fixed[1] < fixed[2]:
-        fixed[2] = (fixed[0] + fixed[1]) * (1 - 1e-12)  # strictly inside after round-off
-    out = (v * fixed) @ v.T
-    return 0.5 * (out + out.T), (
-        f"{where}: the model's inertia {issue or 'has a zero principal moment'}; written as a "
-        f"valid tensor on the same axes (principal moments "
-        f"{', '.join(f'{x:.3g}' for x in fixed)} kg·m²)"
-    )
+    before = ", ".join(f"{x:.3g}" for x in np.linalg.eigvalsh(t))
+    after = ", ".join(f"{x:.3g}" for x in np.linalg.eigvalsh(fixed))
+    if not repair:
+        raise ModelError(
+            f"{where}: the inertia tensor (principal moments {before} kg·m²) is not physically "
+            "consistent; export --repair-inertia repairs it with the smallest change"
+        )
+    return fixed, f"{where}: inertia repaired (principal moments {before} → {after} kg·m²)"
+
+
+def check_inertias(model, src: Path, repair: bool) -> None:
+    """ModelError naming every link of ``model`` with mass whose CAD tensor is not physically
+    consistent (``inertia_problems``), unless ``repair``."""
+    problems = inertia_problems(model)
+    if problems and not repair:
+        shown = "; ".join(p.text() for p in problems[:3])
+        more = f" and {len(problems) - 3} more" if len(problems) > 3 else ""
+        raise ModelError(
+            f"{src}: {len(problems)} link(s) with mass have an inertia tensor that is not "
+            f"physically consistent ({shown}{more}; `sescid info` lists them): export "
+            "--repair-inertia (repair_inertia=True) repairs them with the smallest change"
+        )
+
+
+def kept_notes(fit) -> list[str]:
+    """The export's lines about bodies the data never determined (CAD's values kept)."""
+    b = fit.inertials
+    if b is None or not b.undetermined:
+        return []
+    return [
+        f"{len(b.undetermined)} body(ies) not determined by the data keep CAD's mass, CoM and "
+        f"inertia: {', '.join(b.undetermined)}"
+    ]
 
 
 def mass_warnings(model, masses: np.ndarray) -> list[str]:

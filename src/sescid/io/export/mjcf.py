@@ -6,8 +6,9 @@ asset paths then rewritten to resolve from the output's folder), and only ``<ine
 elements change (see ``sescid.io.export.inertia`` for how a merged body's parts move):
 
 - an MJCF body whose inertia MuJoCo inferred from its geoms gets an explicit ``<inertial>``
-  (first child) with MuJoCo's compiled principal frame (``quat``) and ``diaginertia`` × the
-  mass ratio; explicit inertials keep their orientation (``quat``/``fullinertia`` axes);
+  (first child) with MuJoCo's compiled principal frame (``quat``) and ``diaginertia``;
+  explicit inertials keep their orientation (``quat``/``fullinertia`` axes); the tensor about
+  the CoM is CAD's (``sescid.io.export.inertia``);
 - a sescid body that was massless gets its mass on its MJCF body with a small sphere's inertia.
   The massless frames between the hinges of one MJCF body (``Body.frame_only``) cannot carry
   mass in MJCF; the consistent step keeps them at 0, and a fit that gives one more than 1e-12 ×
@@ -35,13 +36,9 @@ import numpy as np
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
 from sescid.io.export.assets import relocate_mjcf, resolve_includes
-from sescid.io.export.inertia import (
-    fmt,
-    mass_warnings,
-    merged_body_change,
-    sphere_inertia,
-    valid_inertia,
-)
+from sescid.io.export.inertia import fmt, merged_body_change, principal
+from sescid.io.export.parts import Part, exported_parts
+from sescid.io.export.payload import add_payload
 from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
 from sescid.model.mjcf import object_names
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
@@ -61,55 +58,85 @@ class _Target:
     warnings: list[str]
 
 
-def _full_tensor(values: list[float]) -> np.ndarray:
-    """MJCF fullinertia 'ixx iyy izz ixy ixz iyz' → (3, 3)."""
-    xx, yy, zz, xy, xz, yz = values
-    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+def _rotation(quat) -> np.ndarray:
+    """(3, 3) rotation of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = (float(v) for v in quat)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
-def _write(t: _Target, bid: int, mass: float, pos: np.ndarray, scale: float | None) -> None:
-    """Set MJCF body ``bid``'s mass (kg) and CoM (m, body frame); inertia × ``scale`` (None: a
-    newly massive body, a small sphere's)."""
+def _write(t: _Target, bid: int, part: Part) -> None:
+    """Put ``part`` (mass, CoM and tensor in MJCF body ``bid``'s frame) into the body's
+    ``<inertial>``: an explicit one keeps its ``fullinertia`` or its orientation when the
+    tensor is diagonal there; otherwise the tensor's principal frame (``quat``) and moments.
+    An unchanged CAD tensor is written with MuJoCo's own numbers."""
     el, m = t.elements[bid - 1], t.m
     name = f"body {el.get('name') or bid}"
+    mass = part.mass
     if m.body_dofnum[bid] > 0 and mass < MIN_MOVING_MASS:
         t.warnings.append(
             f"{name}: the fit leaves it {mass:.3g} kg; written as {MIN_MOVING_MASS:g} kg "
             "(MuJoCo needs a moving body to have mass)"
         )
-        scale = None if scale is None else scale * MIN_MOVING_MASS / max(mass, 1e-300)
         mass = MIN_MOVING_MASS
     inertial = el.find("inertial")
-    if inertial is not None and not t.from_geom and scale is not None:
-        inertial.set("mass", repr(float(mass)))
-        inertial.set("pos", fmt(pos))
-        if inertial.get("fullinertia") is not None:
-            full = _full_tensor([float(v) * scale for v in inertial.get("fullinertia", "").split()])
-            full, warning = valid_inertia(full, mass, name)
-            inertial.set("fullinertia", fmt(full[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]))
-        else:
-            diag = [float(v) * scale for v in inertial.get("diaginertia", "0 0 0").split()]
-            full, warning = valid_inertia(np.diag(diag), mass, name)
-            inertial.set("diaginertia", fmt(np.diag(full)))
-        if warning:
-            t.warnings.append(warning)
+    explicit = inertial is not None and not t.from_geom and not part.new
+    if explicit and inertial is not None and inertial.get("fullinertia") is not None:
+        write_inertial(inertial, mass, part.com, part.inertia, None)
         return
-    if scale is None:
-        diag, quat = sphere_inertia(mass), np.array([1.0, 0.0, 0.0, 0.0])
+    rot = np.eye(3) if part.new else _rotation(m.body_iquat[bid])
+    d = rot.T @ part.inertia @ rot
+    cad = np.asarray(m.body_inertia[bid], dtype=float)
+    scale = max(float(np.abs(d).max()), 1e-300)
+    diagonal = float(np.abs(d - np.diag(np.diag(d))).max()) <= 1e-12 * scale
+    if diagonal and not part.new and np.abs(np.diag(d) - cad).max() <= 1e-12 * scale:
+        d = np.diag(cad)  # CAD's, exactly
+    if explicit and inertial is not None and diagonal:
+        write_inertial(inertial, mass, part.com, d, None)
+        return
+    if diagonal:
+        quat = np.array([1.0, 0.0, 0.0, 0.0]) if part.new else np.asarray(m.body_iquat[bid])
+        moments = np.diag(d)
     else:
-        diag = np.asarray(m.body_inertia[bid], dtype=float) * scale
-        quat = m.body_iquat[bid]
-    full, warning = valid_inertia(np.diag(diag), mass, name)
-    if warning:
-        t.warnings.append(warning)
+        moments, quat = principal(part.inertia)
     if inertial is None:
         inertial = new_child(el, "inertial", first=True)
-    for key in (*_ORIENT, "fullinertia", "diaginertia"):
-        inertial.attrib.pop(key, None)
-    inertial.set("pos", fmt(pos))
-    inertial.set("quat", fmt(quat))
+    write_inertial(inertial, mass, part.com, np.diag(moments), quat)
+
+
+def _compiled(m, bid: int) -> Part:
+    """MJCF body ``bid`` as MuJoCo compiled it (a body the fit does not touch)."""
+    rot = _rotation(m.body_iquat[bid])
+    tensor = rot @ np.diag(m.body_inertia[bid]) @ rot.T
+    return Part(m.body(bid).name, float(m.body_mass[bid]), np.asarray(m.body_ipos[bid]), tensor)
+
+
+def write_inertial(
+    inertial: ET.Element, mass: float, pos: np.ndarray, tensor: np.ndarray, quat
+) -> None:
+    """Set an MJCF ``<inertial>``: mass (kg), pos (m, body frame), the tensor (3, 3) kg·m²
+    about the CoM in the inertial's frame — its own orientation kept when ``quat`` is None
+    (``fullinertia`` stays full, else ``diaginertia``), else the frame ``quat`` (w x y z) with
+    a diagonal tensor. The one place an MJCF inertial is written."""
+    if quat is not None:
+        for key in (*_ORIENT, "fullinertia", "diaginertia"):
+            inertial.attrib.pop(key, None)
+        inertial.set("pos", fmt(pos))
+        inertial.set("quat", fmt(quat))
+        inertial.set("mass", repr(float(mass)))
+        inertial.set("diaginertia", fmt(np.diag(tensor)))
+        return
     inertial.set("mass", repr(float(mass)))
-    inertial.set("diaginertia", fmt(np.diag(full)))
+    inertial.set("pos", fmt(pos))
+    if inertial.get("fullinertia") is not None:
+        inertial.set("fullinertia", fmt(tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]))
+    else:
+        inertial.set("diaginertia", fmt(np.diag(tensor)))
 
 
 def _compiler_edits(root: ET.Element, warnings: list[str]) -> None:
@@ -144,67 +171,55 @@ def _target(src: Path) -> tuple[_Target, XmlDoc, Any]:
     return target, doc, spec
 
 
-def export_mjcf(fit: Fit, path: str | Path, source_path: str | Path | None = None) -> list[str]:
+def export_mjcf(
+    fit: Fit,
+    path: str | Path,
+    source_path: str | Path | None = None,
+    repair_inertia: bool = False,
+) -> list[str]:
     """Write ``fit.robot``'s MJCF with the fit's body masses and CoMs to ``path`` (atomically).
 
     ``source_path``: the MJCF the fit's model was built from (default: the model's path).
-    ``fit`` must hold masses (method "consistent"). Returns warnings (compiler attributes
-    changed, bodies whose mass leaves ±50 % of the CAD's, inertias made valid).
+    ``fit`` must hold masses (method "consistent"). Inertias: CAD's about each CoM
+    (``exported_inertia``); inconsistent CAD tensors raise ModelError unless
+    ``repair_inertia``. Returns warnings (compiler attributes changed, bodies whose mass leaves
+    ±50 % of the CAD's, bodies kept at CAD, tensors repaired).
     """
-    masses, coms = fit_inertials(fit)
+    masses, _ = fit_inertials(fit)
     model = fit.robot.model
     src = Path(source_path if source_path is not None else model.path)
     t, doc, spec = _target(src)
     m = t.m
-    total_set = spec.compiler.settotalmass > 0
-    t.warnings += mass_warnings(model, masses)
-    _compiler_edits(doc.root, t.warnings)
     names = object_names(m, "body", m.nbody, "body")
     body_id = {n: i for i, n in enumerate(names) if i}
-    written = _write_bodies(t, model, body_id, masses, coms, src)
+    for body in model.bodies:  # the file the fit's model was read from, unchanged since?
+        m_file = sum(float(m.body_mass[body_id[n]]) for n in body.links if n in body_id)
+        merged_body_change(src, "MJCF", body, m_file, body.mass, body.com)
+    parts, warnings = exported_parts(fit, repair_inertia)
+    t.warnings += warnings
+    total_set = spec.compiler.settotalmass > 0
+    _compiler_edits(doc.root, t.warnings)
+    written: set[int] = set()
+    for part in parts:
+        bid = body_id.get(part.link)
+        if bid is None:
+            raise ModelError(f"{src}: body '{part.link}' of the fit's model is missing")
+        _write(t, bid, part)
+        written.add(bid)
     if t.from_geom or total_set:  # every other massive body needs its compiled inertial written
         for bid in range(1, m.nbody):
             if bid not in written and m.body_mass[bid] > 0:
-                _write(t, bid, float(m.body_mass[bid]), m.body_ipos[bid], 1.0)
+                _write(t, bid, _compiled(m, bid))
     root = doc.root
     add_note(
         root,
         f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
         f"total mass {float(masses.sum()):.6f} kg); other elements as in the source MJCF",
     )
+    if fit.payload is not None:  # a payload fit: its payload as one more fixed body
+        add_note(root, add_payload(root, fit, "mjcf"))
     out = Path(path)
     if out.resolve().parent != src.resolve().parent:
         relocate_mjcf(root, src.parent.resolve(), out.resolve().parent)
     write_xml(doc, out)
     return t.warnings
-
-
-def _write_bodies(t: _Target, model, body_id, masses, coms, src: Path) -> set[int]:
-    """Write every sescid body's mass and CoM onto its MJCF bodies; the MJCF body ids written."""
-    m = t.m
-    written: set[int] = set()
-    big_m = float(masses.sum())
-    for b, body in enumerate(model.bodies):
-        parts = []  # (MJCF body id, mass, CoM in the MJCF body frame, name)
-        for name in body.links:
-            bid = body_id.get(name)
-            if bid is not None and m.body_mass[bid] > 0:
-                parts.append((bid, float(m.body_mass[bid]), m.body_ipos[bid], name))
-        change = merged_body_change(src, "MJCF", body, sum(p[1] for p in parts), masses[b], coms[b])
-        if change is not None:
-            ratio, shift = change
-            for bid, mk, ck, name in parts:
-                x = model.link_frames[name][1]
-                _write(t, bid, mk * ratio, ck + x[:3, :3].T @ shift, ratio)
-                written.add(bid)
-        elif masses[b] > 1e-12 * big_m:
-            bid = body_id.get(body.name)
-            if bid is None or body.frame_only:
-                raise ModelError(
-                    f"{src}: the fit gives {masses[b]:.6g} kg to '{body.name}', a massless frame "
-                    "between two hinges of one MJCF body, which cannot carry mass in MJCF"
-                )
-            x = model.link_frames[body.name][1]
-            _write(t, bid, masses[b], x[:3, :3].T @ (coms[b] - x[:3, 3]), None)
-            written.add(bid)
-    return written

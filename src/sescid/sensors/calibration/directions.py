@@ -15,13 +15,13 @@ import numpy as np
 
 from sescid.estimation.identifiability import label_columns, sparse_terms
 from sescid.sensors.calibration.model import (
-    NOT_EXCITED,
     OFFSET_TWIST,
+    PAD_NOT_EXCITED,
     SUPPORT_CONFOUNDED,
     UNLOADED_FOOT,
     SensorDirection,
     SensorParameter,
-    Unseen,
+    SensorUnseen,
 )
 from sescid.sensors.calibration.rows import Column, Rows
 
@@ -115,7 +115,7 @@ class _Namer:
         self.found: list[np.ndarray] = []
         self.out: list[SensorDirection] = []
 
-    def take(self, v: np.ndarray, kind: Unseen, reason: str) -> None:
+    def take(self, v: np.ndarray, kind: SensorUnseen, reason: str) -> None:
         v = v / np.linalg.norm(v)
         if np.linalg.norm(self.proj @ v) > 1 - 1e-6:
             self.found.append(v)
@@ -189,7 +189,7 @@ def unseen_directions(robot, sessions, pb: Problem, sw: np.ndarray) -> list[Sens
             namer.out.append(
                 SensorDirection(
                     terms,
-                    NOT_EXCITED,
+                    PAD_NOT_EXCITED,
                     "the pads' load pattern did not vary independently of the CoP in these "
                     "poses (e.g. a split linear in the CoP), so these gains are not separated",
                 )

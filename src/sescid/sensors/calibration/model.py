@@ -24,12 +24,14 @@ NOISE_FLOOR_COP = 1e-6
 #: a pad parameter: a sensor set's gain, or a session's offset
 ParameterKind = Literal["gain", "offset"]
 #: why a sensor direction is not determined (``SensorDirection.kind``; the package docstring)
-Unseen = Literal["unloaded-foot", "offset-twist", "support-confounded", "scale", "not-excited"]
-UNLOADED_FOOT: Unseen = "unloaded-foot"
-OFFSET_TWIST: Unseen = "offset-twist"
-SUPPORT_CONFOUNDED: Unseen = "support-confounded"
-SCALE: Unseen = "scale"
-NOT_EXCITED: Unseen = "not-excited"
+SensorUnseen = Literal[
+    "unloaded-foot", "offset-twist", "support-confounded", "scale", "not-excited"
+]
+UNLOADED_FOOT: SensorUnseen = "unloaded-foot"
+OFFSET_TWIST: SensorUnseen = "offset-twist"
+SUPPORT_CONFOUNDED: SensorUnseen = "support-confounded"
+SCALE: SensorUnseen = "scale"
+PAD_NOT_EXCITED: SensorUnseen = "not-excited"
 
 
 @dataclass(frozen=True)
@@ -122,7 +124,7 @@ class SensorDirection:
     """A sensor direction the sessions do not determine: terms (label, coefficient), why."""
 
     terms: list[tuple[str, float]]
-    kind: Unseen
+    kind: SensorUnseen
     reason: str
     #: SESC components that move with it (body, axis, coefficient), for support-confounded
     mass_terms: list[tuple[str, str, float]] = field(default_factory=list)

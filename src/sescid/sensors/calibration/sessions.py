@@ -76,6 +76,7 @@ def pad_session(
     # the median is not while under half the samples floor, so such pads take the median and
     # poses where a loaded pad floors in FLOOR_SHARE of the samples or more are dropped
     out, fixes = [], []
+    floored: list[tuple[int, str]] = []  # (poses dropped, the pad's column) per pad
     for f in feet:
         arr = np.nan_to_num(log.forces[f.name]) * config.force_unit
         on = ok & (arr.sum(axis=1) >= config.min_foot_force)
@@ -84,11 +85,17 @@ def pad_session(
         hits = np.stack([np.bincount(g[hit[:, j]], minlength=k) for j in range(4)], 1)
         share = hits / np.maximum(count, 1)[:, None]
         keep &= ~np.any(share >= FLOOR_SHARE, axis=1)
+        floored += [(int(np.sum(share[:, j] >= FLOOR_SHARE)), f"{f.columns}{j + 1}")
+                    for j in range(4)]  # fmt: skip
         for i, j in zip(*np.nonzero((share > 0) & (share < FLOOR_SHARE)), strict=True):
             y[i, j] = float(np.median(arr[ok & (g == i), j]))  # few (pose, pad) pairs
         fixes.append(y)
     if not keep.any():
-        raise DataError(f"{table.path}: every pose has a loaded pad reading 0 too often")
+        n_dropped, pad = max(floored)
+        raise DataError(
+            f"{table.path}: every pose has a loaded pad reading 0 too often: column '{pad}' "
+            f"reads 0 in {n_dropped} of {k} poses while its foot is loaded (a dead pad?)"
+        )
     q = mean(log.q)[keep]
     for f, y in zip(feet, fixes, strict=True):
         y = y[keep]
