@@ -37,6 +37,7 @@ LAYERS = {
     "session": 10,
     "study": 10,
     "io": 11,
+    "audit": 12,
     "api": 12,
     "report": 12,
     "cli": 13,

@@ -14,11 +14,14 @@ the compiled kernels — load inside the functions that need them):
   ``identify_payload`` (a payload's mass and CoM on a calibrated robot);
 - experiments: ``plan_poses``, ``run_experiment``, ``measure``, ``fsr``, ``load_sensors``,
   ``paper_study``;
+- model files and fits: ``audit`` (score candidate model files against measurements),
+  ``compare`` (what changed between fits);
 - outputs: ``export_model`` (``export_urdf``, ``export_mjcf``), ``write_report``;
 - errors: ``SescidError`` and its subclasses.
 """
 
 from sescid.api import identify, identify_payload
+from sescid.audit import audit, compare
 from sescid.bench import run_experiment
 from sescid.errors import (
     DataError,
@@ -68,6 +71,8 @@ __all__ = [
     "OptionError",
     "Robot",
     "SescidError",
+    "audit",
+    "compare",
     "SolverError",
     "export_mjcf",
     "export_model",

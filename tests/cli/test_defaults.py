@@ -18,6 +18,7 @@ import click
 import pytest
 
 from sescid.api import identify
+from sescid.audit import audit, compare
 from sescid.bench import (
     ExperimentConfig,
     MujocoBenchConfig,
@@ -58,6 +59,9 @@ CLI_ONLY = {
     "engine": "experiment: which bench function runs (run_experiment, run_mujoco_experiment)",
     "measure": "simulate: which kinds are written (torques=None for cop only)",
     "paper_convention": "poses: extra output columns",
+    "models": "audit: the candidate model files (inputs)",
+    "json_out": "audit, compare: the JSON output file",
+    "fail_on": "audit: the exit code for CI (the result is the same)",
     "offsets_from": "calibrate: which session's offsets go to the sensor file (default: last)",
     "sensor_sets": "calibrate: per-session pairs, none by default",
     "noise_force": "calibrate: per-session pairs, none by default",
@@ -262,6 +266,16 @@ def _no_options(d) -> list:
     return []
 
 
+def _audit(d) -> list:
+    names = ("support", "line", "total_mass", "mass_std", "level", "folds")
+    noise = None if not d["noise"] else d["noise"]  # --noise KIND=VALUE flags → a dict
+    return [(n, d[n], _arg(audit, n)) for n in names] + [("noise", noise, _arg(audit, "noise"))]
+
+
+def _compare(d) -> list:
+    return [("level", d["level"], _arg(compare, "level"))]
+
+
 CHECKS: dict[str, Callable[[_Read], list]] = {
     "simulate": _simulate,
     "demo": _demo,
@@ -279,6 +293,8 @@ CHECKS: dict[str, Callable[[_Read], list]] = {
     "truth": _truth,
     "session": _session,
     "precompile": _no_options,
+    "audit": _audit,
+    "compare": _compare,
 }
 
 

@@ -18,7 +18,7 @@ from sescid.cli import COMMANDS, cli
 from sescid.cli.common import force_option
 
 #: options naming a file or folder the command writes
-OUTPUT_OPTIONS = {"out", "out_dir", "truth", "fit_out", "figure"}
+OUTPUT_OPTIONS = {"out", "out_dir", "truth", "fit_out", "figure", "json_out"}
 REFUSED = "the file is write-protected (--force replaces it)"
 
 
@@ -96,6 +96,8 @@ CASES = {
         "sess/fit.json",
     ),
     "report": ("report {fit} {data} --out-dir {tmp}/rep", "rep/report.html"),
+    "audit": ("audit {x}/d.csv --models {x}/m.urdf --json {ro}", "a.json"),
+    "compare": ("compare {x}/a.json {x}/b.json --json {ro}", "c.json"),
 }
 
 

@@ -44,6 +44,10 @@ COMMANDS: dict[str, Command] = {
     "calibrate": Command("Foot-pad gains and offsets, estimated with the masses."),
     "report": Command("Figures and one HTML page from a fit and what was measured."),
     "truth": Command("Compare a fit with a virtual experiment's truth file."),
+    "audit": Command("Score candidate model files against measurements; rank them."),
+    "compare": Command(
+        "What changed between fits of one robot (bodies, CoM, mass).", "audit", "compare_cmd"
+    ),  # fmt: skip
     "session": Command("Guided session: the next-best pose (and stance) until converged."),
     "precompile": Command("Compile the numba kernels now (pip install does it)."),
 }

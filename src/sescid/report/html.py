@@ -15,6 +15,7 @@ from pathlib import Path
 from sescid.base.files import atomic_open
 from sescid.errors import DataError
 from sescid.estimation import Fit, Measurements
+from sescid.report.audit_section import audit_section
 from sescid.report.figure_jobs import FigureJob, figure_jobs
 from sescid.report.inputs import (
     ReportContent,
@@ -107,6 +108,7 @@ def page(c: ReportContent, figs: dict[str, str]) -> str:
         masses_section(c),
         sesc_section(c, figs),
         com_section(c, figs),
+        audit_section(c),
         notes_section(c),
     ]
     body = "\n".join(s for s in sections if s)
