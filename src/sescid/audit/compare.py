@@ -23,6 +23,7 @@ from sescid.audit.audit import DEFAULT_Z, BodyChange, body_change, none_if_nan
 from sescid.audit.linear import attribute, r_jacobian, tail, z_of_p
 from sescid.errors import ModelError, OptionError
 from sescid.estimation import Fit, load_fit
+from sescid.estimation.least_squares import DETERMINED
 
 #: poses the CoM change is judged on (the zero pose and random ones within the joint limits)
 COM_POSES = 64
@@ -34,8 +35,6 @@ MAP_NOTE = (
     "hold its uncertainty, so this comparison is conservative (compare least-squares fits, "
     "identify --method ls, for its full power)"
 )
-#: a direction counts as determined by a fit when its basis holds this share of it
-DETERMINED = 1 - 1e-6
 
 
 @dataclass(frozen=True)

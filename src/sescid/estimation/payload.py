@@ -36,20 +36,18 @@ import numpy as np
 
 from sescid.base import G0
 from sescid.errors import DataError, ModelError, OptionError
+from sescid.estimation.balance_rows import MIN_RHO
 from sescid.estimation.fit import Fit, KindFit, NuisanceEstimate
 from sescid.estimation.identifiability import DEFAULT_RTOL
 from sescid.estimation.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.estimation.payload_record import PayloadFit, PayloadKind
 from sescid.estimation.pooled import PARAM_UNIT
+from sescid.estimation.solve import UNITS
 from sescid.robot import DOUBLE, Robot
 from sescid.sesc import gravity_ratios, line_across, line_distance
 
-#: a balance row's smallest lever (the base model's CoM distance from the line), m
-MIN_RHO = 1e-3
 #: noise levels the first Gauss–Newton pass weighs the kinds by (m, N·m, rad)
 START_SIGMA: dict[str, float] = {COP: 1e-3, TORQUE: 1e-2, BALANCE: 1e-2}
-#: units of each kind
-UNITS: dict[str, str] = {COP: "m", TORQUE: "N·m", BALANCE: "rad"}
 #: most rows whose base-fit errors are propagated (a dense R × R covariance)
 BASE_ROWS = 3000
 #: names of p's components as reported
