@@ -229,7 +229,7 @@ def _calibrate(d) -> list:
     from sescid.cli import calibrate
     from sescid.cli.calibrate import calibration_options
 
-    (one,) = calibrate.session_options(("s.csv",), d).values()
+    (one,) = calibrate.pad_session_options(("s.csv",), d).values()
     return [
         *_robot(d),
         ("sensors_file", d["sensors_file"], _arg(load_sensors, "path")),

@@ -19,8 +19,8 @@ from sescid.errors import MissingExtraError, ModelError, OptionError
 from sescid.estimation import consistent
 from sescid.io import export_mjcf, export_model, load_fit
 from sescid.model import load_model
-from sescid.model.mjcf import build_model as build_mjcf
-from sescid.model.urdf import build_model as build_urdf
+from sescid.model.mjcf import build_mjcf_model as build_mjcf
+from sescid.model.urdf import build_urdf_model as build_urdf
 from sescid.robot import Robot, load_robot
 from sescid.robots import embedded_path
 from sescid.sesc import sesc_vectors

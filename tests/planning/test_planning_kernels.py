@@ -156,7 +156,7 @@ def test_block_kernels_give_the_bits_of_the_scalar_loops(seed):
     import math
 
     from sescid.planning.block_kernels import (
-        Rows,
+        KernelRows,
         Sandwiches,
         sandwich_blocks,
         swap_gains,
@@ -168,7 +168,7 @@ def test_block_kernels_give_the_bits_of_the_scalar_loops(seed):
     x = rng.normal(size=(n, r, p)) * 10.0 ** rng.integers(-2, 3)
     col = np.array([-1, 0, -1, 1] if seed % 2 else [1, -1, 0, -1], dtype=np.int64)
     val = rng.uniform(0.5, 5.0, size=r) * (col >= 0)
-    rows = Rows(x, col, val)
+    rows = KernelRows(x, col, val)
     dense = np.zeros((n, r, p + k))  # A_j = [x_j, nuisance]
     dense[:, :, :p] = x
     dense[:, col >= 0, p + col[col >= 0]] = val[col >= 0]

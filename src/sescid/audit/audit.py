@@ -41,17 +41,17 @@ DEFAULT_FOLDS = 5
 #: a candidate sharing fewer of its joints than this with the others is another robot
 SAME_ROBOT_SHARE = 0.5
 #: display unit of each kind: (JSON suffix, factor from SI, printed unit)
-UNITS = {
+AUDIT_UNITS = {
     "cop": ("mm", 1e3, "mm"),
     "tau": ("Nm", 1.0, "N·m"),
     "balance": ("deg", 180 / math.pi, "°"),
 }
-KIND_TITLES = {"cop": "CoP", "tau": "torques", "balance": "balance tilt"}
+AUDIT_TITLES = {"cop": "CoP", "tau": "torques", "balance": "balance tilt"}
 
 
 @dataclass(frozen=True)
 class KindError:
-    """One kind's errors for a candidate, SI (m, N·m, rad): ``UNITS`` converts them."""
+    """One kind's errors for a candidate, SI (m, N·m, rad): ``AUDIT_UNITS`` converts them."""
 
     kind: str
     rows: int
@@ -154,7 +154,7 @@ class CandidateAudit:
         """The candidate's JSON object (``audit`` docs)."""
         pred, cv, noise = {}, {}, {}
         for e in self.errors:
-            suffix, f, _ = UNITS[e.kind]
+            suffix, f, _ = AUDIT_UNITS[e.kind]
             pred[f"{e.kind}_{suffix}"] = none_if_nan(e.prediction * f)
             cv[f"{e.kind}_{suffix}"] = none_if_nan(e.cv * f)
             noise[f"{e.kind}_{suffix}"] = none_if_nan(e.noise * f)
@@ -222,8 +222,8 @@ class AuditResult:
             head += f", weighed {self.weighed_mass:.3f} kg"
         lines = [head]
         for e in self.candidates[0].errors:
-            suffix, f, unit = UNITS[e.kind]
-            title = KIND_TITLES[e.kind]
+            suffix, f, unit = AUDIT_UNITS[e.kind]
+            title = AUDIT_TITLES[e.kind]
             lines.append(f"  {title} noise of the data: {e.noise * f:.3g} {unit} ({e.rows} rows)")
         for c in self.ranked:
             parts = [f"#{c.rank} {c.model}: {c.total_mass:.3f} kg"]
@@ -232,9 +232,9 @@ class AuditResult:
             for k in kinds:
                 e = c.error(k)
                 assert e is not None
-                _, f, unit = UNITS[k]
+                _, f, unit = AUDIT_UNITS[k]
                 cv = f" (cv {e.cv * f:.3g})" if math.isfinite(e.cv) else ""
-                parts.append(f"{KIND_TITLES[k]} {e.prediction * f:.3g} {unit}{cv}")
+                parts.append(f"{AUDIT_TITLES[k]} {e.prediction * f:.3g} {unit}{cv}")
             parts.append(f"score {c.score:.2f}")
             lines.append("  " + ", ".join(parts))
             for r in c.rejected:

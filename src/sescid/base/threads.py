@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-T = TypeVar("T")
+_T = TypeVar("_T")
 R = TypeVar("R")
 
 #: environment variables read by OpenBLAS, MKL, BLIS and OpenMP at load time
@@ -129,7 +129,7 @@ def usable_cores() -> int:
 MAX_WORKERS = 8
 
 
-def ordered_map(fn: Callable[[T], R], items: Sequence[T]) -> Iterator[R]:
+def ordered_map(fn: Callable[[_T], R], items: Sequence[_T]) -> Iterator[R]:
     """``map(fn, items)`` on the usable cores, results yielded in the items' order; in this
     thread alone when there is one core or one item. ``fn`` must release the GIL to gain."""
     workers = min(usable_cores(), MAX_WORKERS, len(items))

@@ -31,7 +31,7 @@ def calibration_options(opts: dict) -> CalibrationOptions:
     return record(CalibrationOptions, opts)
 
 
-def session_options(raw: tuple[str, ...], opts: dict) -> dict[str, PadSessionOptions]:
+def pad_session_options(raw: tuple[str, ...], opts: dict) -> dict[str, PadSessionOptions]:
     """Each session's options (its name is its file's stem) from the SESSION=VALUE flags."""
     names = [Path(p).stem for p in raw]
     if len(set(names)) != len(names):
@@ -132,7 +132,7 @@ def calibrate(**opts):
         check_total_mass(robot, options.total_mass, "--total-mass")
     config = load_sensors(opts["sensors_file"], robot.profile)
     source = opts["sensors_file"] or default_sensors_path(robot.profile)
-    per_session = session_options(raw, opts)
+    per_session = pad_session_options(raw, opts)
     sessions = [
         pad_session(robot, read_table(path), config, name, o)
         for path, (name, o) in zip(raw, per_session.items(), strict=True)

@@ -19,7 +19,7 @@ import click
 from sescid.base import OptionSpec, option_names, option_spec
 from sescid.errors import choices
 
-T = TypeVar("T")
+_T = TypeVar("_T")
 
 
 def _hint(cls: type, name: str) -> Any:
@@ -121,7 +121,7 @@ def flags(cls: type, *names: str) -> Callable[[Any], Any]:
     return wrap
 
 
-def record(cls: type[T], opts: dict, **given: Any) -> T:
+def record(cls: type[_T], opts: dict, **given: Any) -> _T:
     """The options record ``cls`` from a handler's flags: each option field of ``cls`` that is
     a flag of the command, and the ``given`` values (which win)."""
     keys = {n: param_name(cls, n) for n in option_names(cls) if n not in given}

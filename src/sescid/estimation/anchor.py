@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from sescid.estimation.normal_equations import NormalEquations
-from sescid.estimation.system import System, pinned
+from sescid.estimation.system import System, pinned_system
 from sescid.robot import Robot
 
 #: the collapse point's residual below this share of the prior model's marks homogeneous data
@@ -81,7 +81,7 @@ def scale_functional(robot: Robot, n_params: int, r_prior: np.ndarray) -> np.nda
 def anchored(system: System, a: np.ndarray, theta0: np.ndarray) -> System:
     """The system restricted to aᵀθ = aᵀθ0 (``system.pinned`` along a): the residual of every
     model in that set is the data's, and no solver moves along a."""
-    return pinned(system, a[:, None], theta0)
+    return pinned_system(system, a[:, None], theta0)
 
 
 def com_distance(robot: Robot, r: np.ndarray) -> float:

@@ -34,7 +34,7 @@ from sescid.estimation.normal_equations import NormalEquations
 from sescid.estimation.pooled import body_fit, prior_x, stance_map, view, x_labels
 from sescid.estimation.residual_sums import residual_sums
 from sescid.estimation.solve import UNITS, Solution, marginal_x, solve_system
-from sescid.estimation.system import KindSums, System, pinned
+from sescid.estimation.system import KindSums, System, pinned_system
 from sescid.robot import Robot
 
 #: a nuisance direction is determined when this much of it lies in the identifiable subspace
@@ -247,7 +247,7 @@ def fit_least_squares(
         lifted = np.zeros((system.size, weak.shape[1]))
         lifted[: system.n_x] = weak
         sol = solve_system(
-            pinned(system, lifted, theta0), theta0, rtol=rtol, noise=noise,
+            pinned_system(system, lifted, theta0), theta0, rtol=rtol, noise=noise,
             allow_exact=allow_exact, structural=count,
         )  # fmt: skip
     view_system, view_sol = reference_view(robot, system, sol, rtol)

@@ -224,7 +224,7 @@ def com_information(robot: Robot) -> np.ndarray:
     return phi.T @ phi / JUDGE_POSES
 
 
-def expected_errors(ls: Fit, mapped: Fit) -> tuple[float, float]:
+def expected_row_errors(ls: Fit, mapped: Fit) -> tuple[float, float]:
     """(least squares, CAD) expected RMS 3-D CoM error [m] over ``JUDGE_POSES`` poses
     (``com_information``, S), along the directions the data see (both take the others from the
     CAD model), judged by a MAP fit: least squares' own variance tr(S C_ls), the CAD model's
@@ -240,14 +240,14 @@ def expected_errors(ls: Fit, mapped: Fit) -> tuple[float, float]:
 
 def _against_cad(robot: Robot, system: System, options: IdentifyOptions, r_prior, ls: Fit) -> Fit:
     """Least squares with a warning when it is expected to predict the CoM worse than the CAD
-    model it would replace (``expected_errors``, judged by a MAP fit of the same data)."""
+    model it would replace (``expected_row_errors``, judged by a MAP fit of the same data)."""
     if not np.all(np.isfinite(ls.cov)) or ls.rank == 0:
         return ls
     mapped = fit_map(
         robot, system, MapOptions(), rtol=options.rtol, kind_noise=options.noise(),
         r_prior=r_prior,
     )  # fmt: skip
-    ls_err, cad_err = expected_errors(ls, mapped)
+    ls_err, cad_err = expected_row_errors(ls, mapped)
     if not ls_err > cad_err:
         return ls
     warning = (

@@ -417,7 +417,7 @@ class Accumulator:
         return tau_sys
 
 
-def pinned(system: System, directions: np.ndarray, theta0: np.ndarray) -> System:
+def pinned_system(system: System, directions: np.ndarray, theta0: np.ndarray) -> System:
     """The system restricted to the models that equal θ0 along ``directions`` (P, k): each
     kind's sums with P = I − UUᵀ (U an orthonormal basis of the directions), A' = PAP,
     b' = P(b − Aθ0) + A'θ0 and yᵀy' such that every such model's residual is the data's. The

@@ -28,7 +28,7 @@ from sescid.robot import Robot
 from sescid.sesc import sesc_vectors
 
 #: a fitting function: list of validated Measurements → Fit (``api.make_fitter``)
-Fitter = Callable[..., Fit]
+CvFitter = Callable[..., Fit]
 
 
 def residual_dof(fit: Fit) -> float:
@@ -147,7 +147,7 @@ def folds(n: int, k: int, seed: int = 0) -> list[np.ndarray]:
 
 
 def cross_validate(
-    fitter: Fitter, data, k: int = 5, seed: int = 0, progress=None
+    fitter: CvFitter, data, k: int = 5, seed: int = 0, progress=None
 ) -> CrossValidation:
     """k-fold cross-validated error of a fitting method (``fitter([Measurements]) -> Fit``) on
     validated data: the CoP's when the data have one (m), else the torques' (N·m).

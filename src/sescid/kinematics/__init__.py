@@ -32,7 +32,7 @@ from sescid.kinematics._kernels.fused import (
     reduced_order,
     split_augmented,
 )
-from sescid.kinematics._kernels.gram import gram_columns, gram_numpy, padded
+from sescid.kinematics._kernels.gram import LANES, gram_columns, gram_numpy, padded
 from sescid.kinematics._kernels.reduced import Reduction, reduced_columns, reduction
 from sescid.kinematics._kernels.residuals import cop_residual_sums, torque_residual_sums
 from sescid.kinematics._kernels.torque_plan import TorquePlan, torque_plan
@@ -59,6 +59,7 @@ from sescid.kinematics.compile import (
 from sescid.kinematics.tree import Tree, as_poses
 
 __all__ = [
+    "LANES",
     "CHAIN_BLOCK",
     "GRAM_BLOCK",
     "MAX_ANGLE",

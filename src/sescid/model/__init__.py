@@ -20,7 +20,7 @@ from sescid.model.inertia import (
 )
 from sescid.model.load import load_model, model_format
 from sescid.model.tree import Body, ModelFormat, RobotModel, inv_transform, reroot, rot_axis
-from sescid.model.urdf import build_model as build_urdf_model
+from sescid.model.urdf import build_urdf_model as build_urdf_model
 from sescid.model.urdf_parse import load_urdf, parse_inertial
 
 __all__ = [

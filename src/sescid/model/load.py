@@ -5,7 +5,7 @@ from xml.etree import ElementTree
 
 from sescid.errors import ModelError
 from sescid.model.tree import ModelFormat, RobotModel
-from sescid.model.urdf import build_model as build_urdf_model
+from sescid.model.urdf import build_urdf_model as build_urdf_model
 
 
 def model_format(path: Path) -> ModelFormat:
@@ -32,7 +32,7 @@ def load_model(path: str | Path, support: str) -> RobotModel:
     """Read a URDF or MJCF file into the body tree rooted at the frame ``support``."""
     p = Path(path)
     if model_format(p) == "mjcf":
-        from sescid.model.mjcf import build_model as build_mjcf_model
+        from sescid.model.mjcf import build_mjcf_model as build_mjcf_model
 
         return build_mjcf_model(p, support)
     return build_urdf_model(p, support)

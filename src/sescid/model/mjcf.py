@@ -181,7 +181,7 @@ def mjcf_graph(path: Path, m: Any, in_robot: list[int], joints: MjcfJoints) -> G
     return graph
 
 
-def build_model(path: str | Path, support: str) -> RobotModel:
+def build_mjcf_model(path: str | Path, support: str) -> RobotModel:
     """Compile an MJCF file with MuJoCo and build the body tree rooted at ``support``.
 
     ``support``: an MJCF body or site name. ``RobotModel.notes`` receives informational lines
@@ -249,4 +249,4 @@ def _shapes(spec, m, body_names, in_robot: set[int], link_frames) -> list[Shape]
     return out
 
 
-__all__ = ["build_model", "compile_mjcf", "mjcf_graph", "mujoco_module", "object_names"]
+__all__ = ["build_mjcf_model", "compile_mjcf", "mjcf_graph", "mujoco_module", "object_names"]

@@ -16,7 +16,7 @@ from sescid.errors import ModelError
 from sescid.model.geometry import BOX, CYLINDER, MESH, SPHERE, Shape, ShapeRole
 from sescid.model.graph import Edge, Frame, Graph, LinkInertial
 from sescid.model.tree import RobotModel, rooted_model
-from sescid.model.urdf_check import UrdfTree, check_urdf, finite
+from sescid.model.urdf_check import UrdfTree, check_urdf, finite_array
 from sescid.model.urdf_parse import load_urdf, parse_inertial
 from sescid.model.urdf_records import Link, Urdf
 
@@ -52,7 +52,7 @@ def urdf_graph(path: Path, tree: UrdfTree) -> Graph:
     return Graph(path, frames, edges)
 
 
-def build_model(path: str | Path, support: str) -> RobotModel:
+def build_urdf_model(path: str | Path, support: str) -> RobotModel:
     """Parse a URDF and build the body tree rooted at the link ``support``."""
     path = Path(path)
     tree = check_urdf(path, load_urdf(path), support)
@@ -73,7 +73,7 @@ def build_model(path: str | Path, support: str) -> RobotModel:
 def _size(path: Path, what: str, size, n: int, signed: bool = False) -> np.ndarray:
     """A shape's ``n`` sizes [m], finite and ≥ 0 (a mesh scale: 1 or 3 finite numbers, any
     sign); ModelError naming ``what`` otherwise."""
-    size = finite(path, what, size)
+    size = finite_array(path, what, size)
     if signed and size.ndim == 0:
         size = np.full(n, float(size))
     if size.shape != (n,) or (not signed and np.any(size < 0)):
@@ -97,7 +97,7 @@ def _shapes(path: Path, links: dict[str, Link], link_frames: dict) -> list[Shape
                 if g is None:
                     continue
                 org = np.eye(4) if el.origin is None else np.asarray(el.origin, dtype=float)
-                pose = finite(path, f"link '{name}' {role} origin", x @ org)
+                pose = finite_array(path, f"link '{name}' {role} origin", x @ org)
                 mesh, scale, what = "", np.ones(3), f"link '{name}' {role}"
                 if g.box is not None and g.box.size is not None:
                     kind, size = BOX, _size(path, f"{what} box size", g.box.size, 3)
@@ -117,4 +117,4 @@ def _shapes(path: Path, links: dict[str, Link], link_frames: dict) -> list[Shape
     return out
 
 
-__all__ = ["Urdf", "build_model", "load_urdf", "parse_inertial", "urdf_graph"]
+__all__ = ["Urdf", "build_urdf_model", "load_urdf", "parse_inertial", "urdf_graph"]

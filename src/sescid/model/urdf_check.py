@@ -41,7 +41,7 @@ class UrdfTree:
     notes: list[str] = field(default_factory=list)
 
 
-def finite(path: Path, what: str, values: Any) -> np.ndarray:
+def finite_array(path: Path, what: str, values: Any) -> np.ndarray:
     """``values`` as a float array; ModelError naming ``what`` if a number is not finite."""
     arr = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(arr)):
@@ -134,7 +134,7 @@ def _drives(path: Path, joints: list[Joint]) -> tuple[list[str], dict[str, tuple
             )
         mult = 1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)
         off = 0.0 if j.mimic.offset is None else float(j.mimic.offset)
-        finite(path, f"joint '{j.name}' mimic", [mult, off])
+        finite_array(path, f"joint '{j.name}' mimic", [mult, off])
         drive[j.name] = (col[master.name], mult, off)
     return joint_names, drive
 
@@ -171,9 +171,9 @@ def _inertials(path: Path, links: dict[str, Link], notes: list[str]) -> None:
                 f"{path}: link '{name}' has an invalid mass {m} (a mass is a finite number ≥ 0 kg)"
             )
         if inertial.origin is not None:
-            finite(path, f"link '{name}' inertial origin", inertial.origin)
+            finite_array(path, f"link '{name}' inertial origin", inertial.origin)
         if inertial.inertia is not None:
-            tensors[name] = finite(path, f"link '{name}' inertia", inertial.inertia)
+            tensors[name] = finite_array(path, f"link '{name}' inertia", inertial.inertia)
             if not m:
                 del tensors[name]  # a massless link's tensor means nothing
     ok = physical(np.array(list(tensors.values()))) if tensors else np.zeros(0, bool)
@@ -214,7 +214,7 @@ def check_urdf(path: Path, urdf: Urdf, support: str) -> UrdfTree:
     given = [j for j in joints if j.origin is not None]
     if given and not np.all(np.isfinite(np.array([j.origin for j in given]))):
         for j in given:  # name the first culprit
-            finite(path, f"joint '{j.name}' origin", j.origin)
+            finite_array(path, f"joint '{j.name}' origin", j.origin)
     origins = {j.name: np.eye(4) if j.origin is None else j.origin for j in joints}
     axes = {j.name: _axis(path, j) for j in joints if j.type != "fixed"}
     _inertials(path, links, notes)

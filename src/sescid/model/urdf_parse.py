@@ -17,7 +17,6 @@ import numpy as np
 
 from sescid.errors import ModelError
 from sescid.model.urdf_records import (
-    Box,
     Cylinder,
     Element,
     Geometry,
@@ -27,9 +26,10 @@ from sescid.model.urdf_records import (
     Link,
     Mesh,
     Mimic,
-    Robot,
     Sphere,
     Urdf,
+    UrdfBox,
+    UrdfRobot,
 )
 
 _XACRO_NS = "{http://www.ros.org/wiki/xacro}"
@@ -69,7 +69,7 @@ def _geometry_el(el: ElementTree.Element | None) -> Geometry | None:
         raise ValueError("<geometry> has no shape")
     g, shape = Geometry(), el[0]
     if shape.tag == "box":
-        g.box = Box(np.array(_floats(shape.attrib["size"]), dtype=float))
+        g.box = UrdfBox(np.array(_floats(shape.attrib["size"]), dtype=float))
     elif shape.tag == "cylinder":
         g.cylinder = Cylinder(float(shape.attrib["radius"]), float(shape.attrib["length"]))
     elif shape.tag == "sphere":
@@ -202,7 +202,7 @@ def load_urdf(path: str | Path) -> Urdf:
             raise ModelError(f"{path}: malformed URDF, <{kind}> '{el.get('name')}' ({what})")
     if not parsed["link"]:
         raise ModelError(f"{path}: malformed URDF (no links)")
-    return Urdf(Robot(root.get("name") or "", parsed["link"], parsed["joint"]))
+    return Urdf(UrdfRobot(root.get("name") or "", parsed["link"], parsed["joint"]))
 
 
 __all__ = ["Inertial", "Joint", "Link", "Urdf", "load_urdf", "parse_inertial"]

@@ -14,14 +14,14 @@ import numpy as np
 class Geometry:
     """One of box (size), cylinder (radius, length), sphere (radius) or mesh (file, scale)."""
 
-    box: Box | None = None
+    box: UrdfBox | None = None
     cylinder: Cylinder | None = None
     sphere: Sphere | None = None
     mesh: Mesh | None = None
 
 
 @dataclass
-class Box:
+class UrdfBox:
     """A box: full sizes (3,), m."""
 
     size: np.ndarray
@@ -109,7 +109,7 @@ class Joint:
 
 
 @dataclass
-class Robot:
+class UrdfRobot:
     """The <robot>: its name, links and joints in file order."""
 
     name: str
@@ -121,4 +121,4 @@ class Robot:
 class Urdf:
     """A parsed URDF file (``.robot`` holds its links and joints, in file order)."""
 
-    robot: Robot
+    robot: UrdfRobot

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sescid.kinematics import lazy_njit
+from sescid.kinematics import LANES, lazy_njit
 from sescid.kinematics.compile import simd_intrinsic
 
 vload = simd_intrinsic("vload")
@@ -33,7 +33,7 @@ vdiv = simd_intrinsic("vdiv")
 vsqrt = simd_intrinsic("vsqrt")
 
 
-class Rows(NamedTuple):
+class KernelRows(NamedTuple):
     """The candidates' rows A_j = [x_j, nuisance] as the kernels read them (``BlockRows``)."""
 
     x: np.ndarray  #: (n, r, p) SESC part
@@ -58,10 +58,6 @@ class Sandwiches(NamedTuple):
 def split(u: np.ndarray, p: int) -> Split:
     """``u`` (p + K, c) split at row ``p``, each part contiguous."""
     return Split(np.ascontiguousarray(u[:p]), np.ascontiguousarray(u[p:]))
-
-
-#: candidates per vector: lane l of a block holds candidate j0 + l (``simd.LANES``)
-LANES = 8
 
 
 @lazy_njit(cache=True, nogil=True)
@@ -350,14 +346,16 @@ def _swap(rows, u, s, s_o, chosen, out):  # pragma: no cover - compiled
             out[j] = -math.inf if chosen[j] or f8[lane] == -math.inf else f8[lane] + q8[lane]
 
 
-def sandwich_blocks(rows: Rows, minv: np.ndarray, out: Sandwiches) -> None:
+def sandwich_blocks(rows: KernelRows, minv: np.ndarray, out: Sandwiches) -> None:
     """S_j = A_j M⁻¹ A_jᵀ and log det(I + S_j) of every candidate, into ``out`` (s (n, r, r),
     gain (n,)); M⁻¹ (p + K, p + K) positive definite."""
     low = np.linalg.cholesky(minv)
     _sandwich(rows, split(low, rows.x.shape[2]), out)
 
 
-def update_blocks(rows: Rows, u: np.ndarray, g: np.ndarray, sign: float, out: Sandwiches) -> None:
+def update_blocks(
+    rows: KernelRows, u: np.ndarray, g: np.ndarray, sign: float, out: Sandwiches
+) -> None:
     """S_j += sign · (A_j U) G (A_j U)ᵀ and the gains, for every candidate, in ``out``;
     U (p + K, r), G (r, r) symmetric."""
     gs = np.ascontiguousarray((g + g.T) / 2)
@@ -365,7 +363,7 @@ def update_blocks(rows: Rows, u: np.ndarray, g: np.ndarray, sign: float, out: Sa
 
 
 def swap_gains(
-    rows: Rows, u: np.ndarray, s: np.ndarray, s_o: np.ndarray, chosen: np.ndarray
+    rows: KernelRows, u: np.ndarray, s: np.ndarray, s_o: np.ndarray, chosen: np.ndarray
 ) -> np.ndarray:
     """(n,) log det rise of swapping the chosen o (U = M⁻¹A_oᵀ (p + K, r), S_o (r, r)) for
     each unchosen candidate (S_j in ``s`` (n, r, r)); −inf for the chosen and where the swap is

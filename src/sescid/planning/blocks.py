@@ -21,7 +21,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import SescidError
 from sescid.planning.block_kernels import (
-    Rows,
+    KernelRows,
     Sandwiches,
     sandwich_blocks,
     swap_gains,
@@ -61,9 +61,9 @@ class BlockDesign:
         self.chosen = np.zeros(n, dtype=bool)
         self.refresh()
 
-    def _rows(self) -> Rows:
+    def _rows(self) -> KernelRows:
         r = self.rows
-        return Rows(r.x, r.col, r.val)
+        return KernelRows(r.x, r.col, r.val)
 
     def _out(self) -> Sandwiches:
         return Sandwiches(self.s, self.gain)
@@ -176,7 +176,7 @@ def _gains(rows: BlockRows, idx: np.ndarray | None, minv: np.ndarray) -> np.ndar
     sub = rows if idx is None else rows.take(idx)
     n, r = sub.x.shape[:2]
     out = Sandwiches(np.empty((n, r, r)), np.empty(n))
-    sandwich_blocks(Rows(sub.x, sub.col, sub.val), minv, out)
+    sandwich_blocks(KernelRows(sub.x, sub.col, sub.val), minv, out)
     return np.where(np.isfinite(out.gain), out.gain, -np.inf)
 
 

@@ -23,7 +23,7 @@ on the floor plane, z up, at the placement, to ``closure.CLOSE_TOL``). A closed 
    on the trunk) are checked on the draws first (``rigid_pairs``).
 
 The draws are uniform within the limits when the profile asks for them (the OP2), handing over
-to draws near accepted poses (``adjust.draw``) when fewer than ``SWITCH_RATE`` are kept; else
+to draws near accepted poses (``adjust.draw``) when fewer than ``DOUBLE_SWITCH_RATE`` are kept; else
 (a humanoid whose uniform draws almost never clear themselves) draws near the zero pose and
 near accepted ones from the start. The candidates' ``cop`` is the CoM's projection, the CoP of
 the whole robot on both feet: the same rows as on one foot, in the reference foot's frame.
@@ -61,9 +61,9 @@ PLACE_SHARE = (0.5, 0.5)
 #: ... and turned within ± this about the vertical
 PLACE_YAW = math.radians(15.0)
 START_SHARE = 0.5  #: the loop's joints start at this share of their drawn angles
-SWITCH_AFTER = 20_000  #: uniform draws before the draws near accepted poses may take over
-SWITCH_RATE = 0.02  #: accepted share of uniform draws below which they do
-GIVE_UP = 200_000  #: draws without one accepted pose
+DOUBLE_SWITCH_AFTER = 20_000  #: uniform draws before the draws near accepted poses may take over
+DOUBLE_SWITCH_RATE = 0.02  #: accepted share of uniform draws below which they do
+DOUBLE_GIVE_UP = 200_000  #: draws without one accepted pose
 _CHUNK = 20_000  #: draws per batch at most
 
 
@@ -293,9 +293,14 @@ def double_candidates(
         done, drawn = int(run.counts[4]), int(run.counts[0])
         if progress is not None:
             progress(min(done, n), n)
-        if not done and drawn >= GIVE_UP:
+        if not done and drawn >= DOUBLE_GIVE_UP:
             raise SescidError(run.nothing())
-        if sampler == "uniform" and done and drawn >= SWITCH_AFTER and done < SWITCH_RATE * drawn:
+        if (
+            sampler == "uniform"
+            and done
+            and drawn >= DOUBLE_SWITCH_AFTER
+            and done < DOUBLE_SWITCH_RATE * drawn
+        ):
             sampler = "uniform+near"  # the draws near accepted poses take over
         rate = done / drawn
         want = 1.05 * (n - done) / rate + 500 if rate > 0 else _CHUNK

@@ -8,9 +8,9 @@ the lowest point of its geometry at the zero pose (every body but the held one; 
 shapes, else visual, else the origin: ``ground``). A candidate is kept when every such point
 stays ``clearance`` above the floor and no two collision capsules touch (pairs touching at the
 zero pose skipped, ``collision``). Candidates are uniform draws within the sampling limits;
-when fewer than ``SWITCH_RATE`` of them are accepted (a many-jointed robot whose limbs cross),
-the rest are drawn near accepted poses (``adjust.draw``: a quarter uniform, the others a random
-30 % of the joints moved by a quarter of their range from an accepted pose).
+when fewer than ``GANTRY_SWITCH_RATE`` of them are accepted (a many-jointed robot whose limbs
+cross), the rest are drawn near accepted poses (``adjust.draw``: a quarter uniform, the others
+a random 30 % of the joints moved by a quarter of their range from an accepted pose).
 
 The mount follows from the support unless given: a support at which the robot's mass splits
 into several heavy branches (a trunk, ``model.sole.supporting_leg``) is held in a gantry; a
@@ -40,9 +40,9 @@ from sescid.stance import held_trunk
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
 #: draws without one accepted pose after which the gantry search gives up
-GIVE_UP = 200_000
+GANTRY_GIVE_UP = 200_000
 #: accepted share of the first uniform chunk below which the draws move near accepted poses
-SWITCH_RATE = 0.05
+GANTRY_SWITCH_RATE = 0.05
 
 
 @dataclass(frozen=True)
@@ -151,14 +151,14 @@ def gantry_candidates(
         qs.append(q[free])
         counts[2] += int(free.sum())
         rate = int(free.sum()) / size  # of the last chunk's draws
-        if sampler == "uniform" and counts[2] < min(SWITCH_RATE * counts[0], n):
+        if sampler == "uniform" and counts[2] < min(GANTRY_SWITCH_RATE * counts[0], n):
             sampler, size = "uniform+adjusted", 1_000
         else:  # what is missing at the last rate, at most 4× the last chunk: rates climb
             want = 1.05 * (n - counts[2]) / rate + 500 if rate > 0 else chunk
             size = int(min(chunk, 4 * size, max(1_000, want)))
         if progress is not None:
             progress(int(min(counts[2], n)), n)
-        if not counts[2] and counts[0] >= GIVE_UP:
+        if not counts[2] and counts[0] >= GANTRY_GIVE_UP:
             stage = "the floor" if not counts[1] else "self-collision"
             raise SescidError(
                 f"no pose of {robot.name} held by '{robot.support}' passes: of {counts[0]} draws "

@@ -209,7 +209,7 @@ class _Pool:
         return np.concatenate(parts)
 
 
-def expected_errors(pool: _Pool, rows: np.ndarray) -> tuple[float, float]:
+def expected_com_errors(pool: _Pool, rows: np.ndarray) -> tuple[float, float]:
     """(3-D, x/y) expected RMS CoM errors [m] on the test poses of a MAP fit of ``rows``."""
     robot = pool.robot
     e = robot.sesc_matrix(robot) * theta_scale(robot)[None, :] / robot.total_mass
@@ -319,8 +319,8 @@ def _result(pool: _Pool, sel: Selection, chosen, subsets, checked) -> StancePlan
     x_ref = pool.rows[ref].projected(pool.q[ref], own)
     sel_ref = _choose(x_ref, min(count, len(x_ref)), seed, np.ones(len(x_ref), bool))
     ref_rows = np.concatenate([x for _, x in pool.rows[ref].blocks(pool.q[ref][sel_ref.index])])
-    com, com_xy = expected_errors(pool, pool.full_rows(sel.index))
-    ref_com, ref_xy = expected_errors(pool, ref_rows)
+    com, com_xy = expected_com_errors(pool, pool.full_rows(sel.index))
+    ref_com, ref_xy = expected_com_errors(pool, ref_rows)
     reports = []
     for s, st in enumerate(stances):
         others = [t for t in range(len(stances)) if t != s]

@@ -18,7 +18,7 @@ MAX_POSES = 4000
 def audit_section(c: ReportContent) -> str:
     """What the data say of the fit's model file before any fit (``sescid.audit``)."""
     from sescid.audit import audit
-    from sescid.audit.audit import KIND_TITLES, UNITS
+    from sescid.audit.audit import AUDIT_TITLES, AUDIT_UNITS
 
     m = c.data
     note = ""
@@ -35,8 +35,8 @@ def audit_section(c: ReportContent) -> str:
     cand = res.candidates[0]
     rows = []
     for e in cand.errors:
-        _, f, unit = UNITS[e.kind]
-        rows.append([esc(KIND_TITLES[e.kind]), f"{e.noise * f:.3g} {esc(unit)}",
+        _, f, unit = AUDIT_UNITS[e.kind]
+        rows.append([esc(AUDIT_TITLES[e.kind]), f"{e.noise * f:.3g} {esc(unit)}",
                      f"{e.prediction * f:.3g} {esc(unit)}", str(e.rows)])  # fmt: skip
     out = head + (
         f"<p>{esc(fit.robot.model_path.name)}'s own predictions, before any fit{esc(note)}: "

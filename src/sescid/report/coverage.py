@@ -17,10 +17,10 @@ import numpy as np
 
 from sescid.estimation import Combination, Fit, Kind, Measurements, identifiable_eigen
 from sescid.estimation.identifiability import label_columns, unidentifiable
-from sescid.report.numbers import project_out, sensor_columns
+from sescid.report.numbers import project_out, torque_nuisance_columns
 
 #: rows per block when summing ΦᵀΦ (bounded memory for long data sets)
-BLOCK = 512
+COVERAGE_BLOCK = 512
 
 
 @dataclass(frozen=True)
@@ -59,8 +59,10 @@ def cop_information(fit: Fit, data: Measurements) -> np.ndarray:
             x = project_out(phi[:, a] * sw[:, a, None], sw[:, a, None])
             ata += x.T @ x
         return ata
-    for s in range(0, data.n, BLOCK):
-        phi = _cop_rows(fit, data, slice(s, s + BLOCK)) * sw[s : s + BLOCK, :, None]
+    for s in range(0, data.n, COVERAGE_BLOCK):
+        phi = (
+            _cop_rows(fit, data, slice(s, s + COVERAGE_BLOCK)) * sw[s : s + COVERAGE_BLOCK, :, None]
+        )
         ata += np.einsum("mai,maj->ij", phi, phi)
     return ata
 
@@ -74,7 +76,7 @@ def torque_information(fit: Fit, data: Measurements) -> np.ndarray:
     weighted = k is not None and k.weighted and data.tau_se is not None
     mass = fit.total_mass if math.isfinite(fit.total_mass) else robot.total_mass
     phi = mass * robot.torque_regressor(data.q, data.tau_joints, data.gravity, fit.gravity_accel)
-    nuis = sensor_columns(data.n, data.approach)
+    nuis = torque_nuisance_columns(data.n, data.approach)
     ata = np.zeros((phi.shape[2],) * 2)
     for j in range(len(data.tau_joints)):  # per joint: its own offset (and band)
         sw = 1.0 / data.tau_se[:, j] if weighted and data.tau_se is not None else np.ones(data.n)

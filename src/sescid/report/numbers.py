@@ -86,7 +86,7 @@ def project_out(x: np.ndarray, cols: np.ndarray) -> np.ndarray:
     return x - cols @ coef
 
 
-def sensor_columns(n: int, approach: np.ndarray | None) -> np.ndarray:
+def torque_nuisance_columns(n: int, approach: np.ndarray | None) -> np.ndarray:
     """(n, 1 or 2) a torque sensor's nuisance columns: its offset, and the approach side that
     multiplies its friction band when known."""
     ones = np.ones((n, 1))
@@ -116,7 +116,9 @@ def torque_numbers(fit: Fit, data: Measurements) -> KindNumbers | None:
     if data.tau is None or not data.tau_joints:
         return None
     res = residuals(fit, data)["tau"]
-    cad = project_out(data.tau - cad_torques(fit, data), sensor_columns(data.n, data.approach))
+    cad = project_out(
+        data.tau - cad_torques(fit, data), torque_nuisance_columns(data.n, data.approach)
+    )
     return _kind_numbers("tau", "N·m", data.tau_joints, data.tau, {CAD: cad, IDENTIFIED: res})
 
 

@@ -29,7 +29,7 @@ OFF_FLOOR_M = 0.010
 OFF_FLOOR_TILT = math.radians(5.0)
 
 
-class Status:
+class SampleStatus:
     """Per-sample status: −1 usable, else the index of the first reason in ``REASONS``."""
 
     def __init__(self, m: int):
@@ -70,7 +70,7 @@ def source_mode(log: RawLog, feet: list[Foot]) -> FootMode:
     return "forces"
 
 
-def foot_samples(log: RawLog, config: SensorConfig, status: Status) -> FootSamples:
+def foot_samples(log: RawLog, config: SensorConfig, status: SampleStatus) -> FootSamples:
     """Each foot's per-sample CoP and load; rejects missing, saturated and unloaded samples."""
     feet = [
         f
@@ -176,7 +176,7 @@ def check_pads(log: RawLog, config: SensorConfig) -> None:
     watch.check(log.path)
 
 
-def _pad_cop(foot: Foot, arr: np.ndarray, config: SensorConfig, status: Status):
+def _pad_cop(foot: Foot, arr: np.ndarray, config: SensorConfig, status: SampleStatus):
     """A board's per-sample CoP (m, 2), loaded (m,) and total force (m,) from its counts."""
     status.reject(~np.all(np.isfinite(arr), axis=1), "missing")
     status.reject(np.any(arr >= config.saturation, axis=1), "saturated")
@@ -189,7 +189,7 @@ def _pad_cop(foot: Foot, arr: np.ndarray, config: SensorConfig, status: Status):
     return c, on, total
 
 
-def _logged_cop(log: RawLog, foot: Foot, config: SensorConfig, status: Status):
+def _logged_cop(log: RawLog, foot: Foot, config: SensorConfig, status: SampleStatus):
     """A logged CoP (already in the sole frame): CoP (m, 2), loaded (m,), force (m,)."""
     arr = log.cop[foot.name]
     given = np.all(np.isfinite(arr), axis=1)
@@ -207,7 +207,7 @@ def _logged_cop(log: RawLog, foot: Foot, config: SensorConfig, status: Status):
     return np.where(on[:, None], arr, 0.0), on, total
 
 
-def support_cop(robot, fs: FootSamples, q_mean: np.ndarray, g: np.ndarray, status: Status):
+def support_cop(robot, fs: FootSamples, q_mean: np.ndarray, g: np.ndarray, status: SampleStatus):
     """(m, 2) CoP of the loaded feet in the support frame and (m,) their total weight.
 
     Each foot's sole is placed by the model at its pose's mean read-backs ``q_mean`` (k, nq);

@@ -28,7 +28,14 @@ from sescid.base import G0
 from sescid.base.columns import Table, pose_ids
 from sescid.base.text import listed
 from sescid.errors import DataError
-from sescid.sensors.feet import REASONS, PadWatch, Status, check_pads, foot_samples, support_cop
+from sescid.sensors.feet import (
+    REASONS,
+    PadWatch,
+    SampleStatus,
+    check_pads,
+    foot_samples,
+    support_cop,
+)
 from sescid.sensors.measured import Measured, MeasuredFrom
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
@@ -53,13 +60,13 @@ class _Samples:
     """The reduction's per-sample state: groups, status, mean read-backs."""
 
     groups: PoseGroups
-    status: Status
+    status: SampleStatus
     q_mean: np.ndarray  #: (k, nq)
 
 
 def _start(log: RawLog) -> _Samples:
     groups = PoseGroups.of(log.pose)
-    status = Status(len(groups.g))
+    status = SampleStatus(len(groups.g))
     q_ok = np.all(np.isfinite(log.q), axis=1)  # mean read-backs where every joint is present
     q_mean = groups.mean(log.q, q_ok)
     status.reject(~q_ok, "missing")
@@ -191,7 +198,7 @@ def uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
         return False
     if log.tau is None:
         return True
-    probe = Status(len(log.pose))
+    probe = SampleStatus(len(log.pose))
     fs = foot_samples(log, config, probe)
     return bool(fs.loaded.any())
 

@@ -122,7 +122,7 @@ class CopEstimate:
         return self.est.fit()
 
 
-def as_measurements(m: Measured, kinds: DesignKind, source: str) -> Measurements:
+def pose_measurements(m: Measured, kinds: DesignKind, source: str) -> Measurements:
     """One reduced pose as ``Measurements`` of the session's ``kinds`` (DataError when a
     torque is not determined, or an approach side missing)."""
     cop = kinds in ("cop", "both")

@@ -49,7 +49,7 @@ from sescid.robot import Robot
 from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
 from sescid.session.adapters import RobotAdapter
 from sescid.session.design import SessionDesign, session_mount, unsafe_pose
-from sescid.session.estimate import BatchEstimate, CopEstimate, as_measurements
+from sescid.session.estimate import BatchEstimate, CopEstimate, pose_measurements
 from sescid.session.journal import Journal, JournalEntry, ResumingAdapter
 from sescid.session.records import (
     BODY_PRIOR_SCALE,
@@ -264,7 +264,7 @@ class _Run:
             st = self.est.update(meas)
         else:
             try:
-                data = as_measurements(meas, kinds, f"pose {step.pose}")
+                data = pose_measurements(meas, kinds, f"pose {step.pose}")
             except DataError as exc:
                 step.reason = str(exc).split(": ", 1)[1]
                 return False

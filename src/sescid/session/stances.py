@@ -308,7 +308,7 @@ def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tu
     support."""
     from sescid.estimation import IdentifyOptions, fit_measurements
     from sescid.sensors import measure, read_log, table_from_columns
-    from sescid.session.estimate import as_measurements
+    from sescid.session.estimate import pose_measurements
 
     labels = np.asarray(raw["support"])
     parts, data = [], []
@@ -324,7 +324,7 @@ def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tu
         kinds = "cop" if st.mount == "double" else "tau" if st.mount == "gantry" else plan.kinds
         if kinds == "both" and meas.tau is None:
             kinds = "cop"
-        m = as_measurements(meas, kinds, f"{st.label} poses")
+        m = pose_measurements(meas, kinds, f"{st.label} poses")
         data.append(dataclasses.replace(m, support=st.label))
     if not data:
         raise DataError("the session measured no pose")

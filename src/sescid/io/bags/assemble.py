@@ -23,7 +23,7 @@ from sescid.io.bags.feet import FootSource
 from sescid.io.bags.fields import Stamp
 from sescid.io.bags.joints import check_joint_values, joint_angles, joint_torques
 from sescid.io.bags.mapping import BagMapping, load_mapping
-from sescid.io.bags.messages import foot_values, pose_ids
+from sescid.io.bags.messages import foot_values, message_pose_ids
 from sescid.io.bags.recording import bag_paths, check_type, read_topics
 from sescid.io.bags.segments import segment_labels, topic_labels
 from sescid.io.bags.stamps import Clocked, fill_recent, nearest, one_clock, topic_stamps
@@ -207,7 +207,9 @@ def read_bag(
     masks["missing_joint"] = (ij >= 0) & np.isnan(q[np.maximum(ij, 0)]).any(axis=1)
     if mp.pose is not None:
         cp = clocks["pose"]
-        pose, more = topic_labels(cp.stamps, pose_ids(cp.topic, mp.pose.field, cp.where), t_clock)
+        pose, more = topic_labels(
+            cp.stamps, message_pose_ids(cp.topic, mp.pose.field, cp.where), t_clock
+        )
     else:
         pose, more = segment_labels(ij, tj, q, mp, poses, notes)
     stance = row_stances(mp, clocks, t_clock, pose, poses, pose_support, more)

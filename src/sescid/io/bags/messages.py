@@ -121,6 +121,6 @@ def foot_values(topic: Topic, foot: FootSource, where: str) -> np.ndarray:
     return out.reshape(m, -1) * foot.scale
 
 
-def pose_ids(topic: Topic, field: str, where: str) -> np.ndarray:
+def message_pose_ids(topic: Topic, field: str, where: str) -> np.ndarray:
     """The pose id of each message as text (stripped)."""
     return np.array([str(get(msg, field, where)).strip() for msg in topic.msgs])

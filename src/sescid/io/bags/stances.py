@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from sescid.io.bags.mapping import BagMapping
-from sescid.io.bags.messages import pose_ids
+from sescid.io.bags.messages import message_pose_ids
 from sescid.io.bags.segments import topic_labels
 from sescid.stance import data_stance
 
@@ -23,7 +23,7 @@ def row_stances(
         return np.full(n, mp.support)
     if mp.support_topic is not None:
         c = clocks["support"]
-        said = pose_ids(c.topic, mp.support_topic.field, c.where)
+        said = message_pose_ids(c.topic, mp.support_topic.field, c.where)
         names, labels = topic_labels(c.stamps, said, t_clock)
         masks["no_support"] = labels["no_pose"] | (names == "")
         return names

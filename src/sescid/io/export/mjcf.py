@@ -87,7 +87,7 @@ def _write(t: _Target, bid: int, part: Part) -> None:
     inertial = el.find("inertial")
     explicit = inertial is not None and not t.from_geom and not part.new
     if explicit and inertial is not None and inertial.get("fullinertia") is not None:
-        write_inertial(inertial, mass, part.com, part.inertia, None)
+        write_mjcf_inertial(inertial, mass, part.com, part.inertia, None)
         return
     rot = np.eye(3) if part.new else _rotation(m.body_iquat[bid])
     d = rot.T @ part.inertia @ rot
@@ -97,7 +97,7 @@ def _write(t: _Target, bid: int, part: Part) -> None:
     if diagonal and not part.new and np.abs(np.diag(d) - cad).max() <= 1e-12 * scale:
         d = np.diag(cad)  # CAD's, exactly
     if explicit and inertial is not None and diagonal:
-        write_inertial(inertial, mass, part.com, d, None)
+        write_mjcf_inertial(inertial, mass, part.com, d, None)
         return
     if diagonal:
         quat = np.array([1.0, 0.0, 0.0, 0.0]) if part.new else np.asarray(m.body_iquat[bid])
@@ -106,7 +106,7 @@ def _write(t: _Target, bid: int, part: Part) -> None:
         moments, quat = principal(part.inertia)
     if inertial is None:
         inertial = new_child(el, "inertial", first=True)
-    write_inertial(inertial, mass, part.com, np.diag(moments), quat)
+    write_mjcf_inertial(inertial, mass, part.com, np.diag(moments), quat)
 
 
 def _compiled(m, bid: int) -> Part:
@@ -116,7 +116,7 @@ def _compiled(m, bid: int) -> Part:
     return Part(m.body(bid).name, float(m.body_mass[bid]), np.asarray(m.body_ipos[bid]), tensor)
 
 
-def write_inertial(
+def write_mjcf_inertial(
     inertial: ET.Element, mass: float, pos: np.ndarray, tensor: np.ndarray, quat
 ) -> None:
     """Set an MJCF ``<inertial>``: mass (kg), pos (m, body frame), the tensor (3, 3) kg·m²

@@ -35,7 +35,7 @@ def _mass(link: ET.Element) -> float:
         raise ModelError(f"link {link.get('name')}: malformed mass '{text}'") from None
 
 
-def write_inertial(link: ET.Element, mass: float, com: np.ndarray, tensor: np.ndarray) -> None:
+def write_urdf_inertial(link: ET.Element, mass: float, com: np.ndarray, tensor: np.ndarray) -> None:
     """Set a link's inertial: mass (kg), CoM (m, link frame) and inertia tensor (3, 3) kg·m²
     about the CoM in the inertial's frame (its ``origin rpy``, identity when new). The one
     place a URDF inertial is written."""
@@ -94,7 +94,7 @@ def export_urdf(fit: Fit, path: str | Path, repair_inertia: bool = False) -> lis
         # the tensor goes in the frame of the inertial's origin rpy (identity when written new)
         has_rpy = el.find("inertial/origin") is not None and inertial is not None
         rot = inertial.frame[:3, :3] if has_rpy and inertial is not None else np.eye(3)
-        write_inertial(el, part.mass, part.com, rot.T @ part.inertia @ rot)
+        write_urdf_inertial(el, part.mass, part.com, rot.T @ part.inertia @ rot)
     add_note(
         doc.root,
         f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
