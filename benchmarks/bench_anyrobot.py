@@ -23,7 +23,7 @@ import numpy as np
 import sescid
 from sescid.estimation import min_poses
 from sescid.planning import CandidateOptions, candidates
-from sescid.planning.ground import lowest_heights
+from sescid.planning.feasibility.ground import lowest_heights
 
 ROBOTS = {
     "op2": ("op2", None),

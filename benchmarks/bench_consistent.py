@@ -14,7 +14,7 @@ from timing import best_of
 
 import sescid
 from sescid import ConsistentOptions
-from sescid.estimation.consistent import consistent_from_fit
+from sescid.estimation.solvers.consistent import consistent_from_fit
 
 
 def main() -> None:

@@ -27,7 +27,7 @@ from timing import best_of, environment, load, verdict
 
 import sescid
 from sescid.estimation import Measurements, accumulate
-from sescid.estimation.system import Accumulator, RowOptions
+from sescid.estimation.sums.system import Accumulator, RowOptions
 from sescid.kinematics import gram_columns, load_kernels
 
 TARGET_CEILING = 0.70  #: fused pass per core / BLAS ceiling

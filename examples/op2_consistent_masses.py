@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import sescid
-from sescid.estimation.consistent import consistent_from_fit
+from sescid.estimation.solvers.consistent import consistent_from_fit
 from sescid.sesc import sesc_vectors
 
 HEAVIER = {"MP_BODY": 1.03, "MP_ARM_LOW_R": 1.03, "MP_HEAD": 1.03}

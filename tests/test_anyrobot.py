@@ -13,10 +13,10 @@ import pytest
 import sescid
 from sescid.model.meshes import resolve_mesh
 from sescid.planning import collision_capsules, collision_free_mask
-from sescid.planning.adjust import _subtrees, adjust_support_leg, support_chain
-from sescid.planning.broadphase import collision_free_mask_broad
-from sescid.planning.collision import mesh_capsules, segment_distance
-from sescid.planning.ground import ground_checks
+from sescid.planning.feasibility.adjust import _subtrees, adjust_support_leg, support_chain
+from sescid.planning.feasibility.broadphase import collision_free_mask_broad
+from sescid.planning.feasibility.collision import mesh_capsules, segment_distance
+from sescid.planning.feasibility.ground import ground_checks
 
 ANKLE = 0.06  #: m, ankle frame above the foot box's bottom in the generated biped
 FOOT = (0.16, 0.08, 0.03)  #: m, foot box

@@ -126,10 +126,12 @@ def test_import_sescid_loads_no_heavy_library_and_shows_only_its_names():
 
 
 def test_a_public_name_that_is_also_a_submodule_stays_the_public_object():
-    """``planning.candidates`` is the function, though ``planning/candidates.py`` is a module:
-    the package binds the name after the module has loaded."""
+    """``planning.candidates`` is the function, though
+    ``planning/feasibility/candidates.py`` is a module: the package binds the name after the
+    module has loaded."""
     code = (
-        "import sescid.planning.candidates, sescid.bench.real_robot, sescid.report.coverage\n"
+        "import sescid.planning.feasibility.candidates, sescid.bench.real_robot\n"
+        "import sescid.report.coverage\n"
         "import sescid.planning as p, sescid.bench as b, sescid.report as r\n"
         "from sescid.planning import candidates, compliance\n"
         "print(callable(p.candidates), callable(candidates), callable(compliance),\n"

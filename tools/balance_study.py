@@ -23,7 +23,7 @@ from doc_blocks import spliced
 
 import sescid
 from sescid.estimation import Measurements
-from sescid.estimation.anchor import com_distance
+from sescid.estimation.data.anchor import com_distance
 from sescid.robots import EXAMPLES
 from sescid.sesc import balance_tilt, sesc_vectors
 from sescid.simulation import simulate_balance

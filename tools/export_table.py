@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 import sescid
-from sescid.estimation.validation import perturbed_sesc
+from sescid.estimation.result.validation import perturbed_sesc
 from sescid.robots import example_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "helpers"))

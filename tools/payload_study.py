@@ -36,7 +36,7 @@ from study_refs import body_parameters, model_path, real_bodies
 
 import sescid
 from sescid.estimation import Measurements
-from sescid.estimation.payload import payload_map
+from sescid.estimation.solvers.payload import payload_map
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "payload.md"

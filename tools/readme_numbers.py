@@ -115,7 +115,7 @@ def _physics_figures(fit, table, q, cop) -> dict[str, str]:
 
     from sescid import identify
     from sescid.bench import load_truth
-    from sescid.estimation.tilt import tilt_direction
+    from sescid.estimation.result.tilt import tilt_direction
     from sescid.io import read_cop_se
     from sescid.sensors.imu import table_gravity
 

@@ -30,7 +30,7 @@ import numpy as np
 import sescid
 from sescid.bench import compare_truth, load_truth
 from sescid.estimation import IdentifyOptions
-from sescid.estimation.measurements import concatenate
+from sescid.estimation.data.measurements import concatenate
 from sescid.io.measurements import read_measurements
 from sescid.report.numbers import CAD, IDENTIFIED, torque_numbers
 

@@ -36,7 +36,7 @@ import sescid
 from sescid import identify
 from sescid.bench import load_truth
 from sescid.estimation import MapOptions, Measurements
-from sescid.estimation.measurements import concatenate
+from sescid.estimation.data.measurements import concatenate
 from sescid.io.measurements import read_measurements
 
 SESCID = str(Path(sys.executable).with_name("sescid"))

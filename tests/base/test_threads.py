@@ -30,7 +30,7 @@ def test_one_thread_inside_and_the_callers_setting_after():
 
 def test_identify_runs_on_one_blas_thread(op2, rng, monkeypatch):
     """``sescid.identify`` does its dense algebra inside the one-thread context."""
-    from sescid.estimation import solve
+    from sescid.estimation.solvers import solve
 
     seen = []
     real = solve._estimate

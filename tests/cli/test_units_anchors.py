@@ -11,7 +11,7 @@ import sescid
 from sescid.cli import cli
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements, check_com_height
-from sescid.estimation.anchor import com_distance
+from sescid.estimation.data.anchor import com_distance
 from sescid.io import read_table, write_table
 from sescid.robots import example_path
 from sescid.simulation import simulate_balance

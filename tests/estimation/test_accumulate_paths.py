@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import sescid
-from sescid.estimation.block_sums import work
-from sescid.estimation.measurements import Measurements
-from sescid.estimation.system import Accumulator, RowOptions
-from sescid.estimation.torque_rows import torque_columns
+from sescid.estimation.data.measurements import Measurements
+from sescid.estimation.data.torque_rows import torque_columns
+from sescid.estimation.sums.block_sums import work
+from sescid.estimation.sums.system import Accumulator, RowOptions
 from sescid.kinematics import NUMPY_JOB
 
 
@@ -75,7 +75,7 @@ def test_a_small_source_stays_in_numpy_whatever_was_loaded(op2):
 def test_every_path_equals_the_explicit_rows(op2, kernels):
     """Weighted CoP and torques with friction columns, small (numpy) or large (compiled): the
     reduced sums equal the explicit rows' product by BLAS to rounding."""
-    from sescid.estimation.block_sums import RowMaker
+    from sescid.estimation.sums.block_sums import RowMaker
     from sescid.kinematics import fold_torque, reduced_order
 
     m = _data(op2, 600, 3)
@@ -118,7 +118,7 @@ def test_the_paths_agree_on_a_fit(op2):
 def test_residual_pass_kernel_equals_numpy_and_streams(op2):
     """The compiled residual sums (a large fit) equal numpy's to rounding, the true-error too,
     and a source streamed in odd chunks gives the MAE's and RMS's bits of the arrays."""
-    from sescid.estimation.residual_sums import block_sums
+    from sescid.estimation.sums.residual_sums import block_sums
     from sescid.simulation import simulate
 
     sim = simulate(op2, 30_000, seed=5)
@@ -141,7 +141,7 @@ def test_residual_pass_kernel_equals_numpy_and_streams(op2):
 
 def test_torque_residual_pass_kernel_equals_numpy(op2):
     """The compiled torque residual sums (offsets, friction sides) equal numpy's to rounding."""
-    from sescid.estimation.residual_sums import block_sums
+    from sescid.estimation.sums.residual_sums import block_sums
 
     m = _data(op2, 3000, 6, kinds=("tau",), approach=True, weighted=False)
     fit = sescid.identify(op2, m, total_mass=3.0, method="ls")

@@ -9,7 +9,7 @@ import pytest
 
 import sescid
 from sescid.estimation import fit_notes
-from sescid.estimation.validation import perturbed_sesc
+from sescid.estimation.result.validation import perturbed_sesc
 from sescid.simulation import random_poses
 
 SIGMA = 0.00493

@@ -14,9 +14,9 @@ import sescid
 from sescid import identify
 from sescid.errors import DataError
 from sescid.estimation import MapOptions, Measurements
-from sescid.estimation.anchor import com_distance, homogeneous
-from sescid.estimation.balance_rows import balance_rows
-from sescid.estimation.pooled import accumulate_sources
+from sescid.estimation.data.anchor import com_distance, homogeneous
+from sescid.estimation.data.balance_rows import balance_rows
+from sescid.estimation.sums.pooled import accumulate_sources
 from sescid.robots import EXAMPLES
 from sescid.sesc import balance_gravity, balance_tilt, sesc_vectors
 from sescid.simulation import simulate_balance

@@ -10,7 +10,7 @@ from fitting import identify_consistent
 
 import sescid
 from sescid.errors import SescidError
-from sescid.estimation.consistent import (
+from sescid.estimation.solvers.consistent import (
     body_boxes,
     consistent_from_fit,
     consistent_model,

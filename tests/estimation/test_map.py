@@ -9,8 +9,8 @@ from fitting import identify_ls, identify_map
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import accumulate, load_fit
-from sescid.estimation.map import Prior, body_prior, log_evidence
-from sescid.estimation.validation import perturbed_sesc, truth_error
+from sescid.estimation.result.validation import perturbed_sesc, truth_error
+from sescid.estimation.solvers.map import Prior, body_prior, log_evidence
 from sescid.simulation import simulate
 
 SIGMA = 0.00493

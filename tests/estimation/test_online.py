@@ -10,8 +10,8 @@ from fitting import identify_ls, identify_map
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import load_fit
-from sescid.estimation.online import OnlineEstimator
-from sescid.estimation.validation import perturbed_sesc
+from sescid.estimation.result.validation import perturbed_sesc
+from sescid.estimation.solvers.online import OnlineEstimator
 from sescid.simulation import simulate
 
 SIGMA = 0.00493

@@ -85,7 +85,7 @@ def test_the_messages_list_the_choices_of_the_alias():
     ``bool`` flattened."""
     assert choices(Method) == METHODS == ("ls", "map", "consistent")
     assert choices(MethodName) == METHOD_CHOICES == ("auto", "ls", "map", "consistent")
-    from sescid.estimation.options import PriorChoice, Robust
+    from sescid.estimation.solvers.options import PriorChoice, Robust
 
     assert choices(PriorChoice) == ("auto", "sesc", "bodies")
     assert choices(Robust) == (True, False, "auto")

@@ -12,7 +12,7 @@ import sescid
 from sescid import identify
 from sescid.errors import DataError
 from sescid.estimation import Measurements
-from sescid.estimation.pooled import PARAM_UNIT, for_support, prior_x
+from sescid.estimation.sums.pooled import PARAM_UNIT, for_support, prior_x
 from sescid.simulation import random_poses
 
 

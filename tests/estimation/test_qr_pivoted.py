@@ -3,7 +3,7 @@
 import numpy as np
 import scipy.linalg
 
-from sescid.estimation.identifiability import qr_pivoted
+from sescid.estimation.result.identifiability import qr_pivoted
 
 
 def test_qr_pivoted_is_scipy_bit_for_bit():

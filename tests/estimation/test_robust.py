@@ -11,9 +11,9 @@ from sescid import identify
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import IdentifyOptions, LeastSquaresOptions, Measurements, load_fit
-from sescid.estimation.robust import joint_noise_mc
-from sescid.estimation.runs import make_fitter
-from sescid.estimation.validation import truth_error
+from sescid.estimation.result.validation import truth_error
+from sescid.estimation.solvers.robust import joint_noise_mc
+from sescid.estimation.solvers.runs import make_fitter
 from sescid.simulation import random_poses, simulate
 
 SIGMA = 0.00493
@@ -167,8 +167,8 @@ def test_huber_streamed_in_chunks_is_the_in_memory_fit(robot):
     spilled, their median exact) gives the fit of the same data in memory, bit for bit — the
     default fit of torques without approach sides (robust="auto") and an explicit robust CoP
     fit; and the in-memory IRLS around a fitter (``robust.huber``) gives it too."""
-    from sescid.estimation.robust import huber as huber_in_memory
-    from sescid.estimation.runs import HeldSource, run_method
+    from sescid.estimation.solvers.robust import huber as huber_in_memory
+    from sescid.estimation.solvers.runs import HeldSource, run_method
 
     rng = np.random.default_rng(21)
     n = 1500

@@ -6,8 +6,8 @@ import numpy as np
 
 import sescid
 from sescid.estimation import cop_interval, fit_notes
-from sescid.estimation.tilt import level_basis, tilt_direction
-from sescid.estimation.validation import cop_std
+from sescid.estimation.result.tilt import level_basis, tilt_direction
+from sescid.estimation.result.validation import cop_std
 
 
 def _data(robot, n, tilt, noise, seed):

@@ -10,9 +10,9 @@ import pytest
 
 import sescid
 from sescid.estimation import IdentifyOptions, Measurements
-from sescid.estimation.checks import FRICTION_ALARM_RATE, friction_threshold, negative_bands
-from sescid.estimation.runs import HeldSource
-from sescid.estimation.torque_noise import joint_stats, leverages
+from sescid.estimation.data.checks import FRICTION_ALARM_RATE, friction_threshold, negative_bands
+from sescid.estimation.solvers.runs import HeldSource
+from sescid.estimation.solvers.torque_noise import joint_stats, leverages
 from sescid.simulation import random_poses
 
 G0 = 9.81
@@ -97,7 +97,7 @@ def test_per_joint_noise_is_closer_to_the_truth_than_one_shared_level(op2):
     """A perturbed robot whose torque noise grows with the joint's load (as joint play makes
     it): over 10 draws, the default fit (MAP, noise per joint) predicts the CoM better than the
     same fit with one shared noise level, and never worse than the CAD model."""
-    from sescid.estimation.validation import perturbed_sesc
+    from sescid.estimation.result.validation import perturbed_sesc
 
     r_true = perturbed_sesc(op2, 0.05, offset=0.01, seed=5)
     qf = random_poses(op2, 1000, 30, 6)

@@ -10,7 +10,7 @@ from sescid.bench import ExperimentConfig, real_robot
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import load_fit
-from sescid.estimation.validation import (
+from sescid.estimation.result.validation import (
     com_interval,
     cop_interval,
     folds,

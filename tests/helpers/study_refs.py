@@ -90,8 +90,8 @@ def reference_map(
     """MAP over body parameters θ and per-joint offsets (flat), dense numpy (module docstring),
     given the weighed total ``mass`` as ``identify`` is (a pseudo-observation Σ m_i = mass);
     returns the SESC vectors (N, 3)."""
-    from sescid.estimation.consistent import sesc_map
-    from sescid.estimation.consistent.qp import H_UNIT
+    from sescid.estimation.solvers.consistent import sesc_map
+    from sescid.estimation.solvers.consistent.qp import H_UNIT
 
     n = len(robot.body_names)
     k = sesc_map(robot) * np.concatenate([np.ones(n), np.full(3 * n, 1 / H_UNIT)])[None, :]

@@ -16,7 +16,7 @@ from oracle import PinOracle, PinStatics
 
 import sescid
 from sescid.errors import ModelError
-from sescid.estimation.validation import perturbed_sesc
+from sescid.estimation.result.validation import perturbed_sesc
 from sescid.model import inertia_problems, repair_inertia
 from sescid.model.inertia import physical
 from sescid.robots import example_path

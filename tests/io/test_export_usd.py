@@ -13,7 +13,7 @@ import pytest
 
 import sescid
 from sescid.errors import MissingExtraError, ModelError
-from sescid.estimation.validation import perturbed_sesc
+from sescid.estimation.result.validation import perturbed_sesc
 from sescid.io import export_usd
 from sescid.io.export import exported_parts
 from sescid.robots import example_path

@@ -11,8 +11,8 @@ from oracle import PinStatics
 from urdf_gen import random_urdf
 
 import sescid
-from sescid.estimation.measurements import Measurements
-from sescid.estimation.torque_rows import torque_columns
+from sescid.estimation.data.measurements import Measurements
+from sescid.estimation.data.torque_rows import torque_columns
 from sescid.kinematics import TorqueBlock, gram_fused, gram_reduced, torque_plan
 
 G0 = 9.81

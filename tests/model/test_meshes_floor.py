@@ -17,7 +17,7 @@ import sescid
 from sescid.cli import cli
 from sescid.errors import MissingExtraError
 from sescid.model import meshes, support_candidates
-from sescid.planning.ground import clear_above, ground_checks, ground_clear
+from sescid.planning.feasibility.ground import clear_above, ground_checks, ground_clear
 
 pytest.importorskip("trimesh")
 pytest.importorskip("collada")
@@ -54,7 +54,7 @@ def test_collada_up_axis_read_as_the_stl_robot(tmp_path, up):
     assert abs(dae.floor - stl.floor) < 1e-7
     q = np.random.default_rng(0).uniform(-0.4, 0.4, (50, stl.nq))
     rot, org = stl.forward(q)
-    from sescid.planning.ground import lowest_heights
+    from sescid.planning.feasibility.ground import lowest_heights
 
     np.testing.assert_allclose(
         lowest_heights(dae, rot, org), lowest_heights(stl, rot, org), atol=1e-7

@@ -16,7 +16,7 @@ from mjcf_gen import mujoco_com, mujoco_geom_poses, random_mjcf
 
 from sescid.cli import cli
 from sescid.errors import MissingExtraError, ModelError, OptionError
-from sescid.estimation import consistent
+from sescid.estimation.solvers import consistent
 from sescid.io import export_mjcf, export_model, load_fit
 from sescid.model import load_model
 from sescid.model.mjcf import build_mjcf_model as build_mjcf

@@ -9,8 +9,8 @@ import pytest
 from sescid import kinematics
 from sescid import planning as design
 from sescid.errors import DataError
-from sescid.planning.collision import collision_capsules, collision_free_mask
-from sescid.planning.stability import (
+from sescid.planning.feasibility.collision import collision_capsules, collision_free_mask
+from sescid.planning.feasibility.stability import (
     DEFAULT_CLEARANCE,
     coarse_cop_tree,
     ground_clear_mask,

@@ -13,7 +13,7 @@ from refs import G, compliant_cop_by_hand, erd, write_humanoid
 import sescid
 from sescid import planning as design
 from sescid.bench.standing import stands
-from sescid.planning.compliance import DYNAMIC_FACTOR, GENERIC_SAG, GENERIC_SINK
+from sescid.planning.feasibility.compliance import DYNAMIC_FACTOR, GENERIC_SAG, GENERIC_SINK
 
 
 def _fd_jacobian(com_fn, q, nq, eps=1e-6):

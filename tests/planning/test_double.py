@@ -17,8 +17,14 @@ from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import OptionError, SescidError
 from sescid.io import read_table
-from sescid.planning.closure import CLOSE_TOL, close_chain, loop_of, placement_error, placements
-from sescid.planning.double import PLACE_SHARE, PLACE_YAW, hull_margin
+from sescid.planning.feasibility.closure import (
+    CLOSE_TOL,
+    close_chain,
+    loop_of,
+    placement_error,
+    placements,
+)
+from sescid.planning.feasibility.double import PLACE_SHARE, PLACE_YAW, hull_margin
 
 
 @pytest.fixture(scope="module")

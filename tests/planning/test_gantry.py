@@ -155,7 +155,7 @@ def test_a_gantry_needs_no_sole(tmp_path):
     q = np.column_stack([read_table(out).columns[j] for j in robot.joint_names])
     rot, org = robot.forward(q)
     floor, _ = design.gantry_floor(robot, None, design.DEFAULT_CLEARANCE)
-    from sescid.planning.ground import lowest_heights
+    from sescid.planning.feasibility.ground import lowest_heights
 
     assert np.all(lowest_heights(robot, rot, org, exempt=False) > floor + design.DEFAULT_CLEARANCE)
     plan = SessionDesign(robot, SessionOptions(n_candidates=150, mount="gantry", kinds="tau"))
@@ -172,7 +172,7 @@ def test_a_held_frame_not_upright_is_said(tmp_path, quat, tilt):
     pytest.importorskip("mujoco")
     from humanoid_mjcf_gen import write_humanoid as write_split_humanoid
 
-    from sescid.planning.gantry import held_tilt
+    from sescid.planning.feasibility.gantry import held_tilt
 
     main = write_split_humanoid(tmp_path / "h")
     part = main.parent / "parts" / "robot.xml"

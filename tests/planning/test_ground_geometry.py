@@ -12,7 +12,7 @@ from refs import PinGeometry, erd, mj_body_lowest, mj_geom_corners, mj_lowest, w
 
 import sescid
 from sescid import planning as design
-from sescid.planning.ground import ground_checks, ground_clear, lowest_heights
+from sescid.planning.feasibility.ground import ground_checks, ground_clear, lowest_heights
 
 
 @pytest.fixture(scope="module")

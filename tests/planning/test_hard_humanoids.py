@@ -19,7 +19,7 @@ from refs import mj_body_lowest, write_humanoid
 import sescid
 from sescid import planning as design
 from sescid.bench.standing import stands
-from sescid.planning.compliance import GENERIC_SINK
+from sescid.planning.feasibility.compliance import GENERIC_SINK
 
 CLEAR = design.DEFAULT_CLEARANCE
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sescid import planning as design
-from sescid.planning.doptimal_kernels import rank2, sandwich
+from sescid.planning.design.doptimal_kernels import rank2, sandwich
 
 
 def _spd(rng, p):
@@ -155,7 +155,7 @@ def test_block_kernels_give_the_bits_of_the_scalar_loops(seed):
     fill its last vector, matrices that are not positive definite (−inf) and chosen candidates."""
     import math
 
-    from sescid.planning.block_kernels import (
+    from sescid.planning.design.block_kernels import (
         KernelRows,
         Sandwiches,
         sandwich_blocks,

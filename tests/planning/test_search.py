@@ -14,7 +14,7 @@ from scipy.optimize import minimize
 import sescid
 from sescid import planning as design
 from sescid.errors import SescidError
-from sescid.planning.candidates import SWITCH_AFTER
+from sescid.planning.feasibility.candidates import SWITCH_AFTER
 from sescid.robot import Robot
 from sescid.robots import RobotProfile
 

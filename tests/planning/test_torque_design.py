@@ -18,7 +18,7 @@ from sescid import planning as design
 from sescid.cli import cli
 from sescid.estimation import Measurements, perturbed_sesc
 from sescid.io import read_table
-from sescid.planning.blocks import BlockDesign
+from sescid.planning.design.blocks import BlockDesign
 from sescid.simulation import PAPER_NOISE, TorqueNoise, simulate_torques
 
 SIGMA_TAU = 0.05

@@ -106,13 +106,13 @@ def test_html_is_self_contained(case):
 
 def test_report_never_refits(case, monkeypatch, tmp_path):
     robot, q, cop, fit, *_ = case
-    import sescid.estimation.least_squares
+    import sescid.estimation.solvers.least_squares
 
     def boom(*a, **k):
         raise AssertionError("the report must not fit")
 
-    monkeypatch.setattr(sescid.estimation.solve, "solve_system", boom)
-    monkeypatch.setattr(sescid.estimation.least_squares, "solve_system", boom)
+    monkeypatch.setattr(sescid.estimation.solvers.solve, "solve_system", boom)
+    monkeypatch.setattr(sescid.estimation.solvers.least_squares, "solve_system", boom)
     write_report(fit, Measurements(q=q[:5], cop=cop[:5]), tmp_path, ReportOptions(n_side=2))
     assert (tmp_path / "report.html").stat().st_size > 10000
 

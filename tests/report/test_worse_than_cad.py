@@ -11,7 +11,7 @@ import pytest
 
 import sescid
 from sescid.estimation import JointNoise, Measurements
-from sescid.estimation.validation import perturbed_sesc
+from sescid.estimation.result.validation import perturbed_sesc
 from sescid.report.numbers import CAD, IDENTIFIED, _kind_numbers, torque_numbers, worse_joints
 from sescid.report.sections import worse_than_cad
 from sescid.simulation import random_poses

@@ -21,7 +21,7 @@ from sescid.planning import (
     information,
     projected_regressor,
 )
-from sescid.planning.sequential import SequentialDesign
+from sescid.planning.design.sequential import SequentialDesign
 from sescid.sensors import load_sensors
 from sescid.session.adapters import ReplayAdapter, RobotAdapter, load_adapter_class
 from sescid.session.loop import SessionOptions, run_session

@@ -19,7 +19,7 @@ from sescid.cli import cli
 from sescid.errors import DataError
 from sescid.io import read_table
 from sescid.planning import block_rows, candidates, design_kinds, kind_basis
-from sescid.planning.sequential import SequentialDesign
+from sescid.planning.design.sequential import SequentialDesign
 from sescid.sensors import load_sensors
 from sescid.session import (
     KinematicAdapter,

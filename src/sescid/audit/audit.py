@@ -29,7 +29,7 @@ from sescid.estimation import (
     fit_measurements,
     for_support,
 )
-from sescid.estimation.balance_rows import balance_residuals
+from sescid.estimation.data.balance_rows import balance_residuals
 from sescid.robot import Robot, load_robot
 
 #: relative standard deviation of a weighed total mass when none is given

@@ -23,7 +23,7 @@ from sescid.audit.audit import DEFAULT_Z, BodyChange, body_change, none_if_nan
 from sescid.audit.linear import attribute, r_jacobian, tail, z_of_p
 from sescid.errors import ModelError, OptionError
 from sescid.estimation import Fit, load_fit
-from sescid.estimation.least_squares import DETERMINED
+from sescid.estimation.solvers.least_squares import DETERMINED
 
 #: poses the CoM change is judged on (the zero pose and random ones within the joint limits)
 COM_POSES = 64
@@ -271,7 +271,7 @@ def compare(fits: Sequence[Any], *, level: float = DEFAULT_Z) -> CompareResult:
 
 def _repeatability(fits: list[Fit], u: np.ndarray) -> list[Repeat]:
     """The first fit's named combinations that every fit determines, most spread first."""
-    from sescid.estimation.identifiability import combination_vector
+    from sescid.estimation.result.identifiability import combination_vector
 
     out = []
     for comb in fits[0].base:

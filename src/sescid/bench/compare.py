@@ -107,7 +107,7 @@ def _fresh(q: np.ndarray, n_fresh: int, within_deg: float, seed: int) -> np.ndar
 
 def _compare_line(fit: Fit, t: Truth, n_fresh: int, within_deg: float, seed: int):
     """A robot balancing on its line: the tilt that balances it, per model (rad)."""
-    from sescid.estimation.anchor import com_distance
+    from sescid.estimation.data.anchor import com_distance
     from sescid.sesc import balance_tilt
 
     robot = fit.robot

@@ -32,7 +32,7 @@ import numpy as np
 from sescid.base import G0
 from sescid.bench.kinematic import ExperimentConfig
 from sescid.errors import DataError, MissingExtraError, ModelError
-from sescid.planning.compliance import GENERIC_SINK, compliance
+from sescid.planning.feasibility.compliance import GENERIC_SINK, compliance
 from sescid.robot import Robot
 
 GENERIC_KV = 1.0 / 320.0  #: s, servo damping / stiffness without profile gains (the OP2's)
@@ -108,7 +108,7 @@ def free_pads(robot: Robot) -> tuple[str, str, np.ndarray]:
 def _bench(robot: Robot, double: bool = False):
     """The bench settings: the profile's servo gains, else scaled from the compliant model."""
     from sescid.bench.mujoco import MujocoBenchConfig
-    from sescid.planning.ground import ground_checks
+    from sescid.planning.feasibility.ground import ground_checks
 
     exempt = tuple(ground_checks(robot).exempt)
     bench = MujocoBenchConfig(

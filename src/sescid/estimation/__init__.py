@@ -13,17 +13,16 @@ vectors, sensor offsets, their uncertainty, and physical masses.
   truth), checks at the data boundary; ``accumulate`` (CoP normal equations, for planning).
 """
 
-from sescid.estimation.api import fit_measurements, to_consistent
-from sescid.estimation.cad_check import cad_violations
-from sescid.estimation.checks import (
+from sescid.estimation.data.checks import (
     COP_ON_TRUNK,
     check_com_height,
     check_total_mass,
     fit_warnings,
     outside_limits,
 )
-from sescid.estimation.consistent import body_boxes, fit_inertials
-from sescid.estimation.fit import (
+from sescid.estimation.data.measurements import KINDS, Kind, Measurements
+from sescid.estimation.result.cad_check import cad_violations
+from sescid.estimation.result.fit import (
     METHOD_CHOICES,
     METHODS,
     BodyInertials,
@@ -41,18 +40,28 @@ from sescid.estimation.fit import (
     OnlineInfo,
     RobustInfo,
 )
-from sescid.estimation.fit_json import MODEL_CHANGED, OLD_FORMAT, load_fit, save_fit
-from sescid.estimation.identifiability import (
+from sescid.estimation.result.fit_json import MODEL_CHANGED, OLD_FORMAT, load_fit, save_fit
+from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
     identifiable_eigen,
     min_poses,
     structural_rank,
 )
-from sescid.estimation.measurements import KINDS, Kind, Measurements
-from sescid.estimation.normal_equations import NormalEquations, accumulate
-from sescid.estimation.notes import fit_notes
-from sescid.estimation.online import OnlineEstimator
-from sescid.estimation.options import (
+from sescid.estimation.result.notes import fit_notes
+from sescid.estimation.result.payload_record import PayloadFit, PayloadKind
+from sescid.estimation.result.summary import fit_summary
+from sescid.estimation.result.validation import (
+    Interval,
+    balance_interval,
+    com_interval,
+    cop_interval,
+    perturbed_sesc,
+    truth_error,
+)
+from sescid.estimation.solvers.api import fit_measurements, to_consistent
+from sescid.estimation.solvers.consistent import body_boxes, fit_inertials
+from sescid.estimation.solvers.online import OnlineEstimator
+from sescid.estimation.solvers.options import (
     AutoOptions,
     ConsistentOptions,
     IdentifyOptions,
@@ -65,18 +74,9 @@ from sescid.estimation.options import (
     Via,
     method_options,
 )
-from sescid.estimation.payload import PayloadOptions, check_base, check_payload, payload_fit
-from sescid.estimation.payload_record import PayloadFit, PayloadKind
-from sescid.estimation.pooled import BodyFit, StanceRank, for_support
-from sescid.estimation.summary import fit_summary
-from sescid.estimation.validation import (
-    Interval,
-    balance_interval,
-    com_interval,
-    cop_interval,
-    perturbed_sesc,
-    truth_error,
-)
+from sescid.estimation.solvers.payload import PayloadOptions, check_base, check_payload, payload_fit
+from sescid.estimation.sums.normal_equations import NormalEquations, accumulate
+from sescid.estimation.sums.pooled import BodyFit, StanceRank, for_support
 
 __all__ = [
     "AutoOptions",

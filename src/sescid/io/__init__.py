@@ -18,7 +18,7 @@ from sescid.base.columns import (
     read_poses,
 )
 from sescid.base.files import atomic_open, atomic_path, read_json
-from sescid.estimation.fit_json import FIT_FORMAT, load_fit, save_fit
+from sescid.estimation.result.fit_json import FIT_FORMAT, load_fit, save_fit
 from sescid.io.bags import (
     MAPPING_FORMAT,
     BagMapping,

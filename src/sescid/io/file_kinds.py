@@ -56,7 +56,7 @@ def _json_kind(path: Path) -> str:
     import json
 
     from sescid.bench.truth import TRUTH_FORMAT
-    from sescid.estimation.fit_json import FIT_FORMAT
+    from sescid.estimation.result.fit_json import FIT_FORMAT
     from sescid.sensors.pads import FSR_FORMAT
     from sescid.sensors.wrench import PLATE_FORMAT
 

@@ -30,7 +30,7 @@ from sescid.base.columns import (
 )
 from sescid.errors import DataError
 from sescid.estimation import Measurements, outside_limits
-from sescid.estimation.checks import LimitViolation
+from sescid.estimation.data.checks import LimitViolation
 from sescid.io.tables import iter_table, read_ahead
 from sescid.robot import Robot
 from sescid.sensors.imu import table_gravity

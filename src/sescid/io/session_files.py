@@ -21,7 +21,7 @@ import numpy as np
 
 from sescid.base.files import atomic_open, check_outputs, read_json
 from sescid.errors import SescidError
-from sescid.estimation.fit_json import save_fit
+from sescid.estimation.result.fit_json import save_fit
 from sescid.io.pose_table import pose_table
 from sescid.io.tables import write_table
 

@@ -15,25 +15,8 @@ calibrated robot (``payload``): the few poses that determine its mass and CoM. E
 without fast-math and breaks near-ties by index: the same poses on every CPU.
 """
 
-from sescid.planning.blocks import BlockDesign, schur_logdet, select_blocks
-from sescid.planning.candidates import (
-    CandidateOptions,
-    Candidates,
-    Sampling,
-    candidates,
-)
-from sescid.planning.collision import (
-    Capsules,
-    box_capsules,
-    collision_capsules,
-    collision_free_mask,
-    collision_free_mask_numpy,
-    first_contact,
-    segment_distance,
-)
-from sescid.planning.com import ComState, com_state, level_cop
-from sescid.planning.compliance import Compliance, compliance, compliant_margin, dynamic_cop
-from sescid.planning.doptimal import (
+from sescid.planning.design.blocks import BlockDesign, schur_logdet, select_blocks
+from sescid.planning.design.doptimal import (
     Selection,
     expected_cop_error,
     identifiable_basis,
@@ -43,18 +26,7 @@ from sescid.planning.doptimal import (
     random_cop_error,
     select_d_optimal,
 )
-from sescid.planning.double import double_candidates
-from sescid.planning.gantry import (
-    GANTRY_LIFT,
-    GantryOptions,
-    gantry_candidates,
-    gantry_floor,
-    held_trunk,
-    resolve_mount,
-    standing_height,
-)
-from sescid.planning.ground import GroundChecks, ground_checks
-from sescid.planning.kinds import (
+from sescid.planning.design.kinds import (
     DEFAULT_TAU_NOISE,
     DESIGN_KINDS,
     BlockRows,
@@ -70,20 +42,63 @@ from sescid.planning.kinds import (
     random_com_error,
     schur_information,
 )
-from sescid.planning.limits import (
+from sescid.planning.design.payload import (
+    PAYLOAD_CANDIDATES,
+    PayloadPlan,
+    payload_rows,
+    plan_payload_poses,
+)
+from sescid.planning.design.stances import stance_robot
+from sescid.planning.feasibility.candidates import (
+    CandidateOptions,
+    Candidates,
+    Sampling,
+    candidates,
+)
+from sescid.planning.feasibility.collision import (
+    Capsules,
+    box_capsules,
+    collision_capsules,
+    collision_free_mask,
+    collision_free_mask_numpy,
+    first_contact,
+    segment_distance,
+)
+from sescid.planning.feasibility.com import ComState, com_state, level_cop
+from sescid.planning.feasibility.compliance import (
+    Compliance,
+    compliance,
+    compliant_margin,
+    dynamic_cop,
+)
+from sescid.planning.feasibility.double import double_candidates
+from sescid.planning.feasibility.gantry import (
+    GANTRY_LIFT,
+    GantryOptions,
+    gantry_candidates,
+    gantry_floor,
+    held_trunk,
+    resolve_mount,
+    standing_height,
+)
+from sescid.planning.feasibility.ground import GroundChecks, ground_checks
+from sescid.planning.feasibility.limits import (
     PaperConvention,
     load_paper_convention,
     paper_convention,
     sampling_limits,
     unlimited_joints,
 )
-from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.payload import (
-    PAYLOAD_CANDIDATES,
-    PayloadPlan,
-    payload_rows,
-    plan_payload_poses,
+from sescid.planning.feasibility.stability import (
+    DEFAULT_CLEARANCE,
+    FALLBACK_COP_BOX,
+    cop_half_extents,
+    free_sole,
+    ground_clear_mask,
+    sole_corners,
+    stable_mask,
 )
+from sescid.planning.ordering import order_poses, path_length
 from sescid.planning.plan import design_curve, plan_poses
 from sescid.planning.plan_kinds import block_curve, choose_blocks
 from sescid.planning.plan_stances import (
@@ -100,16 +115,6 @@ from sescid.planning.plan_types import (
     Select,
     default_candidates,
 )
-from sescid.planning.stability import (
-    DEFAULT_CLEARANCE,
-    FALLBACK_COP_BOX,
-    cop_half_extents,
-    free_sole,
-    ground_clear_mask,
-    sole_corners,
-    stable_mask,
-)
-from sescid.planning.stances import stance_robot
 from sescid.stance import MOUNTS, Mount, Stance, parse_stances
 
 __all__ = [

@@ -13,8 +13,8 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError, check_choice
 from sescid.estimation import min_poses, structural_rank
 from sescid.kinematics import load_kernels
-from sescid.planning import doptimal
-from sescid.planning.gantry import resolve_mount
+from sescid.planning.design import doptimal
+from sescid.planning.feasibility.gantry import resolve_mount
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,

@@ -11,11 +11,11 @@ from collections.abc import Callable
 import numpy as np
 
 from sescid.errors import OptionError, SescidError
-from sescid.planning import kinds
-from sescid.planning.blocks import schur_logdet, select_blocks
-from sescid.planning.candidates import Candidates, Mount
-from sescid.planning.doptimal import Selection, per_row_information, projected_regressor
-from sescid.planning.gantry import GantryOptions, gantry_candidates
+from sescid.planning.design import kinds
+from sescid.planning.design.blocks import schur_logdet, select_blocks
+from sescid.planning.design.doptimal import Selection, per_row_information, projected_regressor
+from sescid.planning.feasibility.candidates import Candidates, Mount
+from sescid.planning.feasibility.gantry import GantryOptions, gantry_candidates
 from sescid.planning.plan_types import (
     PlanOptions,
     PosePlan,

@@ -36,12 +36,19 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import DEFAULT_RTOL, identifiable_eigen
 from sescid.kinematics import load_kernels
-from sescid.planning.blocks import select_blocks
-from sescid.planning.candidates import Candidates
-from sescid.planning.com import level_cop
-from sescid.planning.doptimal import Selection, select_d_optimal
-from sescid.planning.gantry import GantryOptions, gantry_candidates
-from sescid.planning.kinds import BlockRows, DesignKinds, design_kinds, min_block_poses
+from sescid.planning.design.blocks import select_blocks
+from sescid.planning.design.doptimal import Selection, select_d_optimal
+from sescid.planning.design.kinds import BlockRows, DesignKinds, design_kinds, min_block_poses
+from sescid.planning.design.stances import (
+    Stance,
+    StanceRows,
+    stance_robot,
+    theta_information,
+    theta_scale,
+)
+from sescid.planning.feasibility.candidates import Candidates
+from sescid.planning.feasibility.com import level_cop
+from sescid.planning.feasibility.gantry import GantryOptions, gantry_candidates
 from sescid.planning.plan_types import (
     PlanOptions,
     PoseCheck,
@@ -50,13 +57,6 @@ from sescid.planning.plan_types import (
     sampling_range,
     standing_candidates,
     visiting_order,
-)
-from sescid.planning.stances import (
-    Stance,
-    StanceRows,
-    stance_robot,
-    theta_information,
-    theta_scale,
 )
 from sescid.robot import Robot
 

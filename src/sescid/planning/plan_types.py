@@ -14,14 +14,14 @@ import numpy as np
 
 from sescid.base import check_ranges, option
 from sescid.errors import OptionError, SescidError
-from sescid.planning.candidates import CandidateOptions, Candidates, Mount, candidates
-from sescid.planning.com import level_cop
-from sescid.planning.compliance import Compliance, compliance
-from sescid.planning.doptimal import Selection
-from sescid.planning.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
-from sescid.planning.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
+from sescid.planning.design.doptimal import Selection
+from sescid.planning.design.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
+from sescid.planning.feasibility.candidates import CandidateOptions, Candidates, Mount, candidates
+from sescid.planning.feasibility.com import level_cop
+from sescid.planning.feasibility.compliance import Compliance, compliance
+from sescid.planning.feasibility.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
+from sescid.planning.feasibility.stability import DEFAULT_CLEARANCE
 from sescid.planning.ordering import order_poses, path_length
-from sescid.planning.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
@@ -257,7 +257,7 @@ def standing_candidates(
         limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
     )
     if double:
-        from sescid.planning.double import double_candidates
+        from sescid.planning.feasibility.double import double_candidates
 
         return double_candidates(robot, n, seed, draw, progress=progress)
     return candidates(robot, n, seed, draw, progress=progress)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.estimation import Combination, Fit, Kind, Measurements, identifiable_eigen
-from sescid.estimation.identifiability import label_columns, unidentifiable
+from sescid.estimation.result.identifiability import label_columns, unidentifiable
 from sescid.report.numbers import project_out, torque_nuisance_columns
 
 #: rows per block when summing ΦᵀΦ (bounded memory for long data sets)

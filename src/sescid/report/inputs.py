@@ -16,7 +16,7 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation import Fit, Measurements
-from sescid.estimation.measurements import concatenate
+from sescid.estimation.data.measurements import concatenate
 from sescid.report.coverage import Coverage, coverage
 from sescid.report.numbers import (
     KindNumbers,

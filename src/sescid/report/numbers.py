@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.estimation import Fit, Kind, Measurements
-from sescid.estimation.least_squares import residuals
+from sescid.estimation.solvers.least_squares import residuals
 
 #: the two models every residual is shown for
 CAD, IDENTIFIED = "manufacturer model", "identified"

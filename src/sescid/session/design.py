@@ -36,7 +36,7 @@ from sescid.planning import (
     projected_regressor,
     resolve_mount,
 )
-from sescid.planning.sequential import SequentialDesign
+from sescid.planning.design.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.session.records import SessionOptions
 

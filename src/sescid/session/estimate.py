@@ -32,8 +32,8 @@ from sescid.estimation import (
     OnlineEstimator,
     fit_measurements,
 )
-from sescid.estimation.fit import Fit
-from sescid.estimation.measurements import concatenate
+from sescid.estimation.data.measurements import concatenate
+from sescid.estimation.result.fit import Fit
 from sescid.planning import DesignKind, Quantity
 from sescid.robot import Robot
 from sescid.sensors import Measured

@@ -44,7 +44,7 @@ from sescid.base.text import listed
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
 from sescid.planning import DesignKind
-from sescid.planning.sequential import SequentialDesign
+from sescid.planning.design.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
 from sescid.session.adapters import RobotAdapter

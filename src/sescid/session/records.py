@@ -11,7 +11,7 @@ import numpy as np
 
 from sescid.base import SEED_HELP, check_ranges, option, option_like
 from sescid.errors import check_choice
-from sescid.estimation.fit import Fit
+from sescid.estimation.result.fit import Fit
 from sescid.planning import (
     DEFAULT_STANCE_COST,
     Candidates,

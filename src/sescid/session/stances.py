@@ -33,7 +33,7 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation import DEFAULT_RTOL, identifiable_eigen
-from sescid.estimation.fit import Fit
+from sescid.estimation.result.fit import Fit
 from sescid.planning import (
     CandidateOptions,
     DesignKind,
@@ -48,11 +48,11 @@ from sescid.planning import (
     stance_robot,
 )
 from sescid.planning import candidates as single_candidates
-from sescid.planning.double import hull_margin, place_points
-from sescid.planning.kinds import BlockRows
+from sescid.planning.design.kinds import BlockRows
+from sescid.planning.design.sequential import NextPose, SequentialDesign
+from sescid.planning.design.stances import StanceRows, theta_information, theta_scale
+from sescid.planning.feasibility.double import hull_margin, place_points
 from sescid.planning.plan_stances import PRIOR_TAU
-from sescid.planning.sequential import NextPose, SequentialDesign
-from sescid.planning.stances import StanceRows, theta_information, theta_scale
 from sescid.robot import Robot
 from sescid.sensors import Measured, concat_measured
 from sescid.session.design import KindSwitch, unsafe_pose

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.estimation.identifiability import label_columns, sparse_terms
+from sescid.estimation.result.identifiability import label_columns, sparse_terms
 from sescid.sensors.calibration.model import (
     OFFSET_TWIST,
     PAD_NOT_EXCITED,

@@ -8,8 +8,8 @@ from typing import Literal
 import numpy as np
 
 from sescid.base import check_ranges, option
-from sescid.estimation.fit import Fit
-from sescid.estimation.identifiability import DEFAULT_RTOL, check_rtol
+from sescid.estimation.result.fit import Fit
+from sescid.estimation.result.identifiability import DEFAULT_RTOL, check_rtol
 
 #: default prior standard deviations: relative gain, offset (N)
 GAIN_PRIOR = 0.2

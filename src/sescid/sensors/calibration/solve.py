@@ -16,12 +16,12 @@ import numpy as np
 
 from sescid.base import G0
 from sescid.errors import DataError, OptionError
-from sescid.estimation.checks import check_total_mass
-from sescid.estimation.fit import Fit
-from sescid.estimation.least_squares import cop_system
-from sescid.estimation.map import TAU_RANGE, fit_map
-from sescid.estimation.normal_equations import NormalEquations
-from sescid.estimation.options import MapOptions
+from sescid.estimation.data.checks import check_total_mass
+from sescid.estimation.result.fit import Fit
+from sescid.estimation.solvers.least_squares import cop_system
+from sescid.estimation.solvers.map import TAU_RANGE, fit_map
+from sescid.estimation.solvers.options import MapOptions
+from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.robot import Robot
 from sescid.sensors.calibration.directions import Problem, parameters, unseen_directions
 from sescid.sensors.calibration.model import (

@@ -1,0 +1,18 @@
+"""The methods that turn the sums into a fit: least squares, MAP, robust, online, physically
+consistent masses, and the auto choice."""
+
+#: the sub-package's modules (imported where used: no import here)
+__all__ = [
+    "api",
+    "consistent",
+    "gains",
+    "least_squares",
+    "map",
+    "online",
+    "options",
+    "payload",
+    "robust",
+    "runs",
+    "solve",
+    "torque_noise",
+]
