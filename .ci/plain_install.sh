@@ -36,6 +36,9 @@ set -x
 "$sescid" identify measured.csv --robot op2 --weighted --out fit_w.json
 "$sescid" export fit_w.json --out op2_walkthrough.urdf
 "$sescid" report fit_w.json measured.csv --out-dir report
+"$sescid" audit measured.csv --models op2 --json audit.json
+"$sescid" compare fit.json fit_w.json --json compare.json
+"$sescid" identify measured.csv --robot op2 --payload MP_ARM_LOW_R --base fit_w.json --out payload.json
 # the example models ship in the wheel and load by name from this folder (outside the clone)
 "$sescid" simulate --robot wheeled_humanoid --support axle --line y --count 40 --range-deg 40 --seed 1 --out balance.csv
 "$sescid" identify balance.csv --robot wheeled_humanoid --support axle --line y --method map --out balance_fit.json
