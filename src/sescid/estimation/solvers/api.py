@@ -177,26 +177,29 @@ def _joint_noise(robot, method: MethodOptions, opts: IdentifyOptions, sources, m
         held = None if memory is None else [x for s in srcs for x in s.chunks()]
         return run_method(robot, method, plain, srcs, held)
 
-    wrapped, records, last = per_joint_noise(run, list(sources), opts.weighted, first)
+    wrapped, records, last, unit = per_joint_noise(run, list(sources), opts.weighted, first)
     if wrapped is None:
-        return sources, memory, opts, (), first
+        return sources, memory, opts, (), first, None
     if memory is not None:
         sigma = {r.joint: r.sigma for r in records}
         memory = [
             next(JointScaled(HeldSource(robot, x), sigma, opts.weighted).chunks()) for x in memory
         ]
         wrapped = [HeldSource(robot, x) for x in memory]
-    return wrapped, memory, dataclasses.replace(opts, tau_weighted=True), records, last
+    return wrapped, memory, dataclasses.replace(opts, tau_weighted=True), records, last, unit
 
 
-def _final_records(fit: Fit, sources, used: tuple[JointNoise, ...]):
+def _final_records(fit: Fit, sources, used: tuple[JointNoise, ...], unit):
     """The σ_j the final fit weighed each joint's rows by (``used``), with the residual RMS,
     degrees of freedom and share of the parameters under that fit (the sources carry σ_j as
-    their errors: the RMS back in units of the original errors)."""
+    their errors: the RMS back in units of the original errors; ``unit``: the Gram sums at
+    scale 1 of the passes that found σ_j, scaled by it)."""
     from sescid.estimation.solvers.torque_noise import joint_noise, joint_stats
 
     joints = tuple(r.joint for r in used)
-    st = joint_stats(fit, sources, joints, True, dict.fromkeys(joints, 1.0))
+    # the sources carry σ_j in their errors: Gram sums made from them are at the fit's weights
+    scale = {r.joint: r.sigma for r in used} if unit is not None else dict.fromkeys(joints, 1.0)
+    st = joint_stats(fit, sources, joints, True, scale, unit)
     new = joint_noise(st, fit, joints)
     return tuple(
         dataclasses.replace(u, rms=r.rms * u.sigma, dof=r.dof, params=r.params)
@@ -270,12 +273,13 @@ def fit_measurements(
         choice = None
         plain_fit: Fit | None = None  # a plain fit of the data as they are (when made)
         records: tuple[JointNoise, ...] = ()
+        unit = None  # the torque rows' Gram sums at scale 1 (torque_noise.joint_stats)
         if _per_joint(opts):
             plain = dataclasses.replace(opts, robust=False)
             plain_fit = run_method(robot, m, plain, _held(robot, sources, memory), memory,
                                    progress)  # fmt: skip
             if plain_fit.kind(TORQUE) is not None:
-                sources, memory, opts, records, plain_fit = _joint_noise(
+                sources, memory, opts, records, plain_fit, unit = _joint_noise(
                     robot, m, opts, sources, memory, plain_fit
                 )
         if isinstance(m, AutoOptions) and opts.online_step is not None:
@@ -308,7 +312,7 @@ def fit_measurements(
             fit = dataclasses.replace(fit, choice=choice)
         fit = with_extras(robot, m, opts, fit, memory)
         if records:
-            fit = with_records(fit, _final_records(fit, sources, records), weighted)
+            fit = with_records(fit, _final_records(fit, sources, records, unit), weighted)
     finally:
         for s in opened:
             s.close()

@@ -71,6 +71,7 @@ class _Stats:
     a0: np.ndarray | None = None  #: (J,) Σ w s (approach side s)
     a1: np.ndarray | None = None  #: (J, 3N) Σ w s φ
     leverage_ok: bool = True
+    unit: _Stats | None = None  #: the Gram sums at scale 1 (``joint_stats``)
 
 
 def _base(m: Measurements, weighted: bool) -> np.ndarray:
@@ -82,13 +83,21 @@ def _base(m: Measurements, weighted: bool) -> np.ndarray:
 
 
 def joint_stats(
-    fit: Fit, chunks_of: Sequence[Any], joints: tuple[str, ...], weighted: bool, scale
+    fit: Fit,
+    chunks_of: Sequence[Any],
+    joints: tuple[str, ...],
+    weighted: bool,
+    scale,
+    unit: _Stats | None = None,
 ) -> _Stats:
     """One pass over the sources (each ``.chunks()``): each joint's residual squares in units
     of its base errors, its rows, and the Gram sums of its rows at the weights the fit used
-    (1 / (base · scale_j)²)."""
+    (1 / (base · scale_j)²). The Gram sums at scale 1 do not depend on the fit: kept in the
+    result's ``unit`` and, given back as ``unit`` (with the base errors they were made with),
+    scaled instead of summed again — the regressor rows are made once for every pass."""
     nj = len(joints)
     st = _Stats(np.zeros(nj), np.zeros(nj), np.zeros(nj))
+    gram = _Stats(np.zeros(nj), np.zeros(nj), np.zeros(nj)) if unit is None else unit
     index = {j: i for i, j in enumerate(joints)}
     mass = fit.total_mass if math.isfinite(fit.total_mass) else fit.robot.total_mass
     for src in chunks_of:
@@ -106,10 +115,20 @@ def joint_stats(
             if m.support is not None and m.support != fit.robot.support:
                 st.leverage_ok = False
                 continue
-            phi = fit.robot.torque_regressor(m.q, m.tau_joints, m.gravity, fit.gravity_accel)
-            phi = phi * mass  # (n, J, 3N)
-            w = 1.0 / (base * np.asarray([scale[j] for j in m.tau_joints])) ** 2  # (n, J)
-            _add_gram(st, cols, phi, w, m.approach, len(joints))
+            if unit is None:
+                phi = fit.robot.torque_regressor(m.q, m.tau_joints, m.gravity, fit.gravity_accel)
+                _add_gram(gram, cols, phi * mass, 1.0 / base**2, m.approach, nj)  # (n, J, 3N)
+    if unit is None:
+        gram.leverage_ok = st.leverage_ok
+    st.unit = gram
+    st.leverage_ok = st.leverage_ok and gram.leverage_ok
+    if gram.s0 is not None:
+        f = 1.0 / np.asarray([scale[j] for j in joints], dtype=float) ** 2  # (J,)
+        assert gram.s1 is not None and gram.s2 is not None and gram.a0 is not None
+        assert gram.a1 is not None
+        st.s0, st.a0 = gram.s0 * f, gram.a0 * f
+        st.s1, st.a1 = gram.s1 * f[:, None], gram.a1 * f[:, None]
+        st.s2 = gram.s2 * f[:, None, None]
     return st
 
 
@@ -205,30 +224,33 @@ def tau_joints_of(sources: Sequence[Any]) -> tuple[str, ...]:
 def per_joint_noise(run, sources: Sequence[Any], weighted: bool, first: Fit):
     """Feasible GLS (module docstring) from a fit ``first`` of ``sources`` with the rows'
     base weights; ``run(sources, weighted)`` fits. Returns (the sources wrapped with each
-    joint's σ_j, the records, the last fit) — (None, (), first) when the data give no
-    positive pooled level (noise-free rows keep one shared noise)."""
+    joint's σ_j, the records, the last fit, the Gram sums at scale 1 for ``joint_stats``) —
+    (None, (), first, None) when the data give no positive pooled level (noise-free rows keep
+    one shared noise)."""
     joints = tau_joints_of(sources)
     if not joints:
-        return None, (), first
+        return None, (), first, None
     scale = dict.fromkeys(joints, 1.0)
     fit, records, wrapped = first, (), None
+    unit: _Stats | None = None
     for _ in range(GLS_PASSES):
-        st = joint_stats(fit, sources, joints, weighted, scale)
+        st = joint_stats(fit, sources, joints, weighted, scale, unit)
+        unit = st.unit
         new = joint_noise(st, fit, joints)
         sig = {r.joint: r.sigma for r in new}
         size = math.sqrt(st.yy / max(float(st.rows.sum()), 1.0))
         rms = math.sqrt(float(st.rss.sum()) / max(float(st.rows.sum()), 1.0))
         if wrapped is None and not rms > NOISE_FREE * size:
-            return None, (), first
+            return None, (), first, None
         if not all(math.isfinite(v) and v > 0 for v in sig.values()):
-            return (wrapped, records, fit) if wrapped is not None else (None, (), first)
+            return (wrapped, records, fit, unit) if wrapped is not None else (None, (), first, None)
         moved = max(abs(sig[j] / scale[j] - 1.0) for j in joints)
         records, scale = new, sig
         wrapped = [JointScaled(s, sig, weighted) for s in sources]
         fit = run(wrapped, True)
         if moved < GLS_TOL:
             break
-    return wrapped, records, fit
+    return wrapped, records, fit, unit
 
 
 def with_records(fit: Fit, records: tuple[JointNoise, ...], weighted: bool) -> Fit:
