@@ -14,7 +14,7 @@ stance can measure what the data hold (no CoP under a held trunk, no joint torqu
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal, NoReturn, get_args
 
@@ -22,6 +22,10 @@ from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.model.sole import splits_at_support
 from sescid.robot import DOUBLE, Robot
+
+#: what gave a stance, for its errors: text, or a function that makes it (a file's row number
+#: costs a scan of the file up to that row: made only when an error names it)
+Where = str | Callable[[], str]
 
 __all__ = [
     "MOUNTS",
@@ -89,7 +93,7 @@ def held_trunk(robot: Robot) -> bool:
     return bool(cache[0])
 
 
-def parse_stance(text: str, reference: Robot, where: str = "--stances") -> Stance:
+def parse_stance(text: str, reference: Robot, where: Where = "--stances") -> Stance:
     """The stance ``text`` spells: ``<frame>`` (standing on that sole; a frame where the mass
     splits, a trunk, is held in a gantry), ``double`` (both feet, ``reference``'s support as
     the reference foot), ``stand:<frame>`` or ``gantry:<frame>``. ``where`` names what gave it
@@ -142,7 +146,7 @@ def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, 
 
 
 def data_stance(
-    reference: Robot, label: str | None, kinds: Iterable[str] = (), where: str = "data"
+    reference: Robot, label: str | None, kinds: Iterable[str] = (), where: Where = "data"
 ) -> tuple[str | None, Robot]:
     """The stance of data labelled ``label`` (any ``parse_stance`` spelling; None: the
     reference's own support) after the one check every measurement's stance passes: a frame of
@@ -161,8 +165,9 @@ def data_stance(
     return out, reference.stance(out)
 
 
-def _refuse(where: str, message: str) -> NoReturn:
+def _refuse(where: Where, message: str) -> NoReturn:
     """Raise the error of ``message`` at ``where``: OptionError for an option, else DataError."""
+    where = where() if callable(where) else where
     if where.startswith("--"):
         raise OptionError(where.lstrip("-").replace("-", "_"), message)
     raise DataError(f"{where}: {message}")

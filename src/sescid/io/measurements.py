@@ -208,15 +208,18 @@ def by_support(
     names = np.array([v.strip() for v in table.text[column]])
     for name in dict.fromkeys(names.tolist()):
         rows = np.flatnonzero(names == name)
-        where = f"{table.path}: {table.where(rows[0])}, column '{column}'"
+
+        def where(first: int = int(rows[0])) -> str:  # made only for an error (a file scan)
+            return f"{table.path}: {table.where(first)}, column '{column}'"
+
         if not name:
-            raise DataError(f"{where} is empty (name the stance of every row, or of none)")
+            raise DataError(f"{where()} is empty (name the stance of every row, or of none)")
         part = m.take(rows)
         support, _ = data_stance(robot, name, part.kinds, where)
         if given is not None and support != m.support:
             said = support or robot.support
             raise DataError(
-                f"{where} says '{said}', but {given} names the stance "
+                f"{where()} says '{said}', but {given} names the stance "
                 f"'{m.support or robot.support}': give the file without @ (its column says "
                 "each row's stance) or fix the column"
             )

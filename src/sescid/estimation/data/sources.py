@@ -29,7 +29,10 @@ _FIELDS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravit
 def _checked(robot: Robot, m: Measurements) -> Measurements:
     """``m`` validated on the robot of its stance, after the one stance check
     (``sescid.stance.data_stance``; its support then the stance's label)."""
-    where = m.source if m.row_of is None else f"{m.source}: {m.at(0)}"
+
+    def where() -> str:  # made only when an error names it (a row number scans the file)
+        return m.source if m.row_of is None else f"{m.source}: {m.at(0)}"
+
     support, stanced = data_stance(robot, m.support, m.kinds, where)
     if support != m.support:
         m = dataclasses.replace(m, support=support)
