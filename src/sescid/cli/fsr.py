@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
+
 import click
 import numpy as np
 
@@ -22,7 +25,9 @@ def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
     (``plan``: the pose list, with its own ``support`` column) puts on another stance; and a
     log of one stance unlike ``--support``."""
     names: dict[str, str] = {}  # stance → where it first appears
-    first: dict[str, tuple[str, str]] = {}  # pose id → (stance, where)
+    # pose id → (stance, where: its row's name, made only for an error — a row number scans
+    # the file up to it)
+    first: dict[str, tuple[str, Callable[[], str]]] = {}
     for table in iter_table(raw):
         column = support_column(table)
         if column is None or column not in table.text:
@@ -46,11 +51,11 @@ def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
         order = np.argsort(at)  # in file order: the first stance seen is the first named
         for pair, i in zip(pairs[order].tolist(), at[order].tolist(), strict=True):
             pose, stance = pair.split("\x1f")
-            seen = first.setdefault(pose, (stance, table.where(i)))
+            seen = first.setdefault(pose, (stance, functools.partial(table.rows.where, i)))
             if seen[0] != stance:
                 raise DataError(
                     f"{raw}: pose {pose} switches stance between its samples ('{seen[0]}' at "
-                    f"{seen[1]}, '{stance}' at {table.where(i)}): one pose is measured in one "
+                    f"{seen[1]()}, '{stance}' at {table.where(i)}): one pose is measured in one "
                     "stance; give the samples of the other another pose id, or fix the column"
                 )
     if plan is not None:
@@ -64,7 +69,7 @@ def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
     return stances
 
 
-def _check_plan(raw: str, plan, measured: dict[str, tuple[str, str]]) -> None:
+def _check_plan(raw: str, plan, measured: dict[str, tuple[str, Callable[[], str]]]) -> None:
     """DataError for a pose the log measured in another stance than the plan (``plan``, the
     pose list, with a ``support`` column) put it on."""
     column = support_column(plan)
@@ -76,7 +81,7 @@ def _check_plan(raw: str, plan, measured: dict[str, tuple[str, str]]) -> None:
         want = planned.get(pose)
         if want is not None and want != stance:
             raise DataError(
-                f"{raw}: {at}: pose {pose} was measured on '{stance}', but {plan.path} plans it "
+                f"{raw}: {at()}: pose {pose} was measured on '{stance}', but {plan.path} plans it "
                 f"on '{want}' (its '{column}' column): the bench stood it otherwise; measure "
                 "it again as planned, or give the plan it followed"
             )
