@@ -8,10 +8,9 @@ import re
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_run import outcome as run
 
 import sescid
-from sescid.cli import cli
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements
 from sescid.io import read_table, write_table
@@ -19,14 +18,6 @@ from sescid.robots import example_path
 from sescid.stance import data_stance, parse_stance
 
 TRUNK = "MP_BODY"
-
-
-def run(*args) -> tuple[int, str]:
-    """Exit code and combined output of ``sescid ARGS``."""
-    res = CliRunner().invoke(cli, [str(a) for a in args])
-    if res.exception is not None and not isinstance(res.exception, SystemExit):
-        raise res.exception
-    return res.exit_code, res.output
 
 
 def _relabel(table, label: str | None, header: str = "support") -> dict[str, np.ndarray]:

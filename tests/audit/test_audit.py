@@ -11,13 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from audit_gen import variant_urdf
-from click.testing import CliRunner
+from cli_run import invoke as run
 
 import sescid
 from sescid.audit import audit, compare, model_checks
 from sescid.audit.linear import ALL_BODIES
 from sescid.base import G0
-from sescid.cli import cli
 from sescid.estimation import Measurements
 from sescid.simulation import TorqueNoise
 
@@ -247,12 +246,6 @@ def test_compare_flags_a_moved_mass_and_not_noise(files, moved):
 
 
 # --- command line ----------------------------------------------------------------------------
-def run(*args):
-    result = CliRunner().invoke(cli, [str(a) for a in args])
-    assert "Traceback" not in result.output
-    if result.exception is not None and not isinstance(result.exception, SystemExit):
-        raise result.exception
-    return result
 
 
 @pytest.fixture(scope="module")

@@ -6,26 +6,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from click.testing import CliRunner
+from cli_run import invoke as run
 
 import sescid
 from sescid import io
 from sescid.bench import Truth
-from sescid.cli import cli
 from sescid.robots import EXAMPLES
 from sescid.sesc import balance_tilt
 from sescid.simulation import random_poses
 
 WHEELED = EXAMPLES["wheeled_humanoid"]
 ROBOT = ["--robot", str(WHEELED), "--support", "axle", "--line", "y"]
-
-
-def run(*args):
-    res = CliRunner().invoke(cli, [str(a) for a in args])
-    assert "Traceback" not in res.output, res.output
-    if res.exception is not None and not isinstance(res.exception, SystemExit):
-        raise res.exception
-    return res
 
 
 def test_line_bench_to_fit(tmp_path):

@@ -7,17 +7,9 @@ import re
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_run import outcome as run
 
-from sescid.cli import cli
 from sescid.io import read_table
-
-
-def run(*args) -> tuple[int, str]:
-    res = CliRunner().invoke(cli, [str(a) for a in args])
-    if res.exception is not None and not isinstance(res.exception, SystemExit):
-        raise res.exception
-    return res.exit_code, res.output
 
 
 @pytest.fixture(scope="module")

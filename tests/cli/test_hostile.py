@@ -11,18 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_run import STICK_URDF
+from cli_run import outcome as run
 from click.testing import CliRunner
 
 from sescid.cli import cli
 from sescid.io import read_table
-
-
-def run(*args) -> tuple[int, str]:
-    """Exit code and combined output of ``sescid ARGS``."""
-    res = CliRunner().invoke(cli, [str(a) for a in args])
-    if res.exception is not None and not isinstance(res.exception, SystemExit):
-        raise res.exception  # a traceback is a failure of the case, never an answer
-    return res.exit_code, res.output
 
 
 @pytest.fixture(scope="module")
@@ -553,14 +547,6 @@ ONE_BODY = """<robot name="block"><link name="foot"><inertial><origin xyz="0.01 
 <mass value="2"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
 </inertial><collision><origin xyz="0 0 0.1"/><geometry><box size="0.1 0.08 0.2"/></geometry>
 </collision></link></robot>"""
-ONE_JOINT = """<robot name="stick"><link name="foot"><inertial><origin xyz="0 0 0.02"/>
-<mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
-</inertial><collision><origin xyz="0 0 0.02"/><geometry><box size="0.2 0.12 0.04"/>
-</geometry></collision></link><link name="body"><inertial><origin xyz="0 0 0.15"/>
-<mass value="2"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
-</inertial></link><joint name="ankle" type="revolute"><parent link="foot"/>
-<child link="body"/><origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
-<limit lower="-0.5" upper="0.5" effort="10" velocity="1"/></joint></robot>"""
 
 
 def test_robots_with_nothing_to_measure(tmp_path):
@@ -569,7 +555,7 @@ def test_robots_with_nothing_to_measure(tmp_path):
     that says what is not determined (it failed in LAPACK)."""
     block, stick = tmp_path / "block.urdf", tmp_path / "stick.urdf"
     block.write_text(ONE_BODY)
-    stick.write_text(ONE_JOINT)
+    stick.write_text(STICK_URDF)
     b = ("--robot", block, "--support", "foot")
     out = tmp_path / "o.csv"
     code, text = run("simulate", *b, "--measure", "tau", "--count", 10, "--out", out)
@@ -726,7 +712,7 @@ def test_columns_that_disagree_or_go_unused(bench, tmp_path):
     code, out = run("predict", bench["fit"], ticks, "--out", tmp_path / "o.csv")
     assert code == 2 and "t.csv: row 7: columns 'l_el' (" in out and "100 ticks" in out, out
     stick = tmp_path / "stick.urdf"
-    stick.write_text(ONE_JOINT)
+    stick.write_text(STICK_URDF)
     s = ("--robot", stick, "--support", "foot")
     sim = tmp_path / "s.csv"
     assert run("simulate", *s, "--count", 20, "--out", sim)[0] == 0
@@ -786,7 +772,7 @@ def test_dead_pads_and_forces_in_kilonewtons_are_named(bench, tmp_path):
     assert code == 2 and "ft.csv: column 'r_fz': at most 0.0301 N" in out and "kN" in out, out
     assert not (tmp_path / "m.csv").exists()
     stick = tmp_path / "stick.urdf"
-    stick.write_text(ONE_JOINT)
+    stick.write_text(STICK_URDF)
     s = ("--robot", stick, "--support", "foot")
     assert run("simulate", *s, "--count", 20, "--out", tmp_path / "s.csv")[0] == 0
     assert run("identify", tmp_path / "s.csv", *s, "--out", tmp_path / "f.json")[0] == 0

@@ -2,31 +2,15 @@
 
 from __future__ import annotations
 
-from click.testing import CliRunner
-
-from sescid.cli import cli
-
-#: a two-body robot standing on a box foot (no profile, no sensor layout)
-STICK = """<robot name="stick"><link name="foot"><inertial><origin xyz="0 0 0.02"/>
-<mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
-</inertial><collision><origin xyz="0 0 0.02"/><geometry><box size="0.2 0.12 0.04"/>
-</geometry></collision></link><link name="body"><inertial><origin xyz="0 0 0.15"/>
-<mass value="2"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
-</inertial></link><joint name="ankle" type="revolute"><parent link="foot"/>
-<child link="body"/><origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
-<limit lower="-0.5" upper="0.5" effort="10" velocity="1"/></joint></robot>"""
-
-
-def run(*args) -> tuple[int, str]:
-    res = CliRunner().invoke(cli, [str(a) for a in args])
-    return res.exit_code, res.output
+from cli_run import STICK_URDF
+from cli_run import outcome as run
 
 
 def test_a_robot_without_a_layout_is_told_how_to_measure(tmp_path):
     """No sensor layout ships: the error names --sensors and --torques all (not a clone's
     path); with --torques all the log's line names no foot-pad noise it never applied."""
     urdf = tmp_path / "stick.urdf"
-    urdf.write_text(STICK)
+    urdf.write_text(STICK_URDF)
     r = ("--robot", urdf, "--support", "foot")
     poses = tmp_path / "poses.csv"
     code, text = run("simulate", *r, "--count", 5, "--range-deg", 10, "--out", poses)
@@ -43,7 +27,7 @@ def test_a_robot_without_a_layout_is_told_how_to_measure(tmp_path):
 
 def test_simulate_extra_mass_zero_is_the_model_itself(tmp_path):
     urdf = tmp_path / "stick.urdf"
-    urdf.write_text(STICK)
+    urdf.write_text(STICK_URDF)
     out = tmp_path / "s.csv"
     code, text = run("simulate", "--robot", urdf, "--support", "foot", "--count", 5,
                      "--extra-mass", 0, "--out", out)  # fmt: skip

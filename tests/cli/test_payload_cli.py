@@ -5,23 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_run import invoke as run
 from payload_gen import robot_with_payload
 from refs import erd
 
 import sescid
-from sescid.cli import cli
 from sescid.simulation import TorqueNoise, simulate
 
 HAND = "MP_ARM_LOW_R"
-
-
-def run(*args):
-    result = CliRunner().invoke(cli, [str(a) for a in args])
-    assert "Traceback" not in result.output
-    if result.exception is not None and not isinstance(result.exception, SystemExit):
-        raise result.exception
-    return result
 
 
 @pytest.fixture(scope="module")

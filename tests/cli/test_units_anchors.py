@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from cli_run import outcome as run
 
 import sescid
-from sescid.cli import cli
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements, check_com_height
 from sescid.estimation.data.anchor import com_distance
@@ -18,13 +17,6 @@ from sescid.simulation import simulate_balance
 
 WHEELED = example_path("wheeled_humanoid")
 ROBOT = ["--robot", str(WHEELED), "--support", "axle", "--line", "y"]
-
-
-def run(*args) -> tuple[int, str]:
-    res = CliRunner().invoke(cli, [str(a) for a in args])
-    if res.exception is not None and not isinstance(res.exception, SystemExit):
-        raise res.exception
-    return res.exit_code, res.output
 
 
 @pytest.fixture(scope="module")

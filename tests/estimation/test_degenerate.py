@@ -18,6 +18,7 @@ import math
 import numpy as np
 import pytest
 from refs import erd, write_humanoid
+from study_refs import real_bodies
 
 import sescid
 from sescid.estimation import fit_notes, min_poses
@@ -49,25 +50,8 @@ def humanoid(tmp_path_factory):
 
 
 def real_sesc(robot, rng) -> np.ndarray:
-    """SESC vectors of a "real" robot (module docstring)."""
-    heavy = np.argsort(-robot.masses, kind="stable")[:8]
-    out = []
-    for b in robot.model.bodies:
-        if b.mass <= 0:
-            out.append(b)
-            continue
-        m = max(b.mass * (1 + rng.normal(0, 0.1)), 0.1 * b.mass)
-        out.append(dataclasses.replace(b, mass=m, com=b.com + rng.normal(0, 0.005, 3)))
-    total = robot.total_mass * 0.05
-    for i, share in zip(
-        rng.choice(heavy, 4, replace=False), rng.dirichlet(np.ones(4)), strict=True
-    ):
-        b = out[i]
-        me, at = share * total, b.com + rng.normal(0, 0.02, 3)
-        out[i] = dataclasses.replace(
-            b, mass=b.mass + me, com=(b.mass * b.com + me * at) / (b.mass + me)
-        )
-    return sesc_vectors(dataclasses.replace(robot.model, bodies=out))
+    """SESC vectors of a "real" robot (module docstring; ``study_refs.real_bodies``)."""
+    return sesc_vectors(dataclasses.replace(robot.model, bodies=real_bodies(robot, rng)))
 
 
 def poses(robot, case: str, rng) -> np.ndarray:
