@@ -237,6 +237,44 @@ def test_measure_checks_each_samples_stance(tmp_path):
         assert not (tmp_path / "x.csv").exists()
 
 
+def test_every_spelling_of_a_stance_in_a_plan_and_a_log(tmp_path):
+    """A plan and a raw log whose support cells spell a held trunk ``gantry:TRUNK`` (a user's
+    or a planner's spelling) and a foot: experiment measures the trunk's poses (it found none,
+    "planned for 'MP_BODY', not for 'MP_BODY'"), and measure reduces the log exactly as the
+    one labelled ``TRUNK`` (it refused the spelling as an unknown link)."""
+    plan = tmp_path / "p.csv"
+    code, out = run("poses", "--stances", "r_sole", "--count", 24, "--candidates", 300,
+                    "--out", plan)  # fmt: skip
+    assert code == 0, out
+    table = read_table(plan)
+    spelled = np.array(["r_sole", f"gantry:{TRUNK}"] * (table.n // 2) + ["r_sole"] * (table.n % 2))
+    cols = {c: table.get(c) for c in table.columns}
+    write_table(plan, cols | {"support": spelled})
+    raws = []
+    for flags in (["--support", "r_sole"], ["--support", TRUNK, "--mount", "gantry"]):
+        raws.append(tmp_path / f"raw{len(raws)}.csv")
+        code, out = run("experiment", "--poses", plan, *flags, "--torques", "all",
+                        "--samples", 10, "--out", raws[-1])  # fmt: skip
+        assert code == 0, out
+        assert f"measuring the {table.n // 2} poses planned for" in out, out
+    logs = [read_table(r) for r in raws]
+    joined = {c: np.concatenate([g.get(c) for g in logs]) for c in logs[1].columns}
+    labels = np.concatenate([np.array(g.text["support"]) for g in logs])
+    assert set(labels) == {"r_sole", TRUNK}
+    results = []
+    for name, cells in (
+        ("label", labels),
+        ("spelled", np.where(labels == TRUNK, f"gantry:{TRUNK}", labels)),
+    ):
+        write_table(tmp_path / f"{name}.csv", joined | {"support": cells})
+        code, out = run("measure", tmp_path / f"{name}.csv", "--poses", plan,
+                        "--out", tmp_path / f"m_{name}.csv")  # fmt: skip
+        assert code == 0, out
+        results.append((tmp_path / f"m_{name}.csv").read_bytes())
+    assert results[0] == results[1]
+    assert set(read_table(tmp_path / "m_spelled.csv").text["support"]) == {"r_sole", TRUNK}
+
+
 def test_stances_that_a_plan_or_a_session_cannot_use(tmp_path):
     """poses --stances with a line support is refused by name (it was read as a gantry and
     failed on --kinds); session --stances with a gantry and no torque sensors is refused before
