@@ -333,3 +333,23 @@ def test_torques_on_both_feet_and_report_support_name_file_or_option(tmp_path, f
     code, out = run("report", one, files / "l.csv", "--support", "nope",
                     "--out-dir", tmp_path / "rep")  # fmt: skip
     assert code == 2 and "support: " in out and "unknown support 'nope'" in out, out
+
+
+def test_report_of_rows_on_both_feet(tmp_path, files):
+    """A file of rows on both feet (``double``: the CoP of the whole robot in the reference
+    sole's frame, as on that sole) is reported with --support double (it was refused: "no row of
+    the stance 'r_sole'") with the same residuals as the same rows labelled with the sole; without
+    the flag the error names it."""
+    one = tmp_path / "one.json"
+    code, out = run("identify", files / "r.csv", "--allow-outside-limits", "--out", one)
+    assert code == 0, out
+    r = read_table(files / "r.csv")
+    write_table(tmp_path / "d.csv", _relabel(r, "double"))
+    code, out = run("report", one, tmp_path / "d.csv", "--out-dir", tmp_path / "x")
+    assert code == 2 and "(--support double)" in out and out.count("\n") == 1, out
+    lines = []
+    for data, flags in ((tmp_path / "d.csv", ["--support", "double"]), (files / "r.csv", [])):
+        code, out = run("report", one, data, *flags, "--out-dir", tmp_path / f"rep{len(lines)}")
+        assert code == 0, out
+        lines.append(next(x for x in out.splitlines() if x.startswith("CoP residual")))
+    assert lines[0] == lines[1] and "over 60 poses" in lines[0], lines
