@@ -31,6 +31,7 @@ import numpy as np
 
 from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX
 from sescid.bench.real_robot import ExperimentConfig, Registers, SensorErrors
+from sescid.robot import Robot
 from sescid.sensors.pads import Foot, SensorConfig
 
 
@@ -72,7 +73,7 @@ class RawLogWriter:
 
     def __init__(
         self,
-        robot,
+        robot: Robot,
         sensors: SensorConfig | None,
         config: ExperimentConfig,
         errors: SensorErrors,
