@@ -33,7 +33,6 @@ from sescid.planning import (
     PlanOptions,
     cop_half_extents,
     plan_poses,
-    plan_stances,
     sampling_limits,
 )
 from sescid.report import LiveView
@@ -196,7 +195,7 @@ def _poses(d) -> list:
         ("urdf_limits", not d["urdf_limits"], _arg(sampling_limits, "paper")),
         ("range_deg", d["range_deg"], _arg(sampling_limits, "range_deg")),
         *[(n, d[n], _arg(cop_half_extents, n)) for n in ("cop_box", "margin", "sole_size")],
-        ("stance_cost", d["stance_cost"], _arg(plan_stances, "cost")),
+        ("stance_cost", d["stance_cost"], _arg(plan_poses, "cost")),
         ("stances", d["stances"], None),  # none: the support alone (plan_poses)
     ]
 
