@@ -46,7 +46,7 @@ from sescid.study import paper_study
 CLI_ONLY = {
     "stance": "predict, report: the stance of a pooled fit to answer in (estimation.for_support)",
     "check": "poses: a physics bench to check the chosen poses on (PlanOptions.check takes "
-    "the check itself)",
+    "each stance's check itself)",
     "out": "the output file",
     "out_dir": "the output folder",
     "truth": "experiment: a second output file",
