@@ -165,8 +165,9 @@ def poses(**o):
     table = pose_table(robot, plan.q, support=label, paper=pc,
                        cop=None if plan.mount == "gantry" else plan.cop)  # fmt: skip
     _echo_plan(robot, plan, opt, table.notes)
-    progress = TerminalProgress("figure: K values")
-    curve = design_curve(plan, o["seed"], progress=progress) if figure else None
+    curve = None
+    if figure is not None:
+        curve = design_curve(plan, o["seed"], progress=TerminalProgress("figure: K values"))
     with outs:
         write_table(outs.path(out), table.columns)
         if curve is not None:
