@@ -167,7 +167,7 @@ def poses(**o):
     _echo_plan(robot, plan, opt, table.notes)
     curve = None
     if figure is not None:
-        curve = design_curve(plan, o["seed"], progress=TerminalProgress("figure: K values"))
+        curve = design_curve(plan, seed=o["seed"], progress=TerminalProgress("figure: K values"))
     with outs:
         write_table(outs.path(out), table.columns)
         if curve is not None:

@@ -196,13 +196,16 @@ def _kind_notes(spec: kinds.DesignKinds, mount: Mount) -> list[str]:
 
 def design_curve(
     plan: PosePlan,
+    ks=None,
     seed: int = 0,
     draws: int = 50,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, np.ndarray]:
     """The plan's expected error (``PosePlan.quantity``) vs K for D-optimal and random choices
-    from its pool (``engine.error_curve``), at K from its fewest poses to its count."""
-    count, pool = len(plan.q), plan.rows.x.shape[0]
-    ks = [plan.min_count, 25, 30, 38, 50, 70, 100, 150, 200, count]
-    ks = sorted({k for k in ks if plan.min_count <= k <= min(pool, max(200, count))})
+    from its pool (``engine.error_curve``), at the pose counts ``ks`` (None: from its fewest
+    poses to its count)."""
+    if ks is None:
+        count, pool = len(plan.q), plan.rows.x.shape[0]
+        ks = [plan.min_count, 25, 30, 38, 50, 70, 100, 150, 200, count]
+        ks = sorted({k for k in ks if plan.min_count <= k <= min(pool, max(200, count))})
     return engine.error_curve(plan.rows, plan.c_test, ks, seed, draws, plan.error_scale, progress)
