@@ -258,12 +258,12 @@ class Robot:
 
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
-    def _geometry(self) -> tuple[list[Shape], list[str]]:
+    def _geometry(self) -> tuple[list[Shape], list[str], list[str]]:
         from sescid.model.meshes import with_mesh_vertices
 
         if self.model.format == "urdf":
             return with_mesh_vertices(self.model.shapes, self.model.path)
-        return list(self.model.shapes), []
+        return list(self.model.shapes), [], []
 
     @property
     def shapes(self) -> list[Shape]:
@@ -274,6 +274,12 @@ class Robot:
     def geometry_notes(self) -> list[str]:
         """What could not be loaded of the shapes (missing or unreadable mesh files)."""
         return list(self._geometry[1])
+
+    @property
+    def unloaded_meshes(self) -> list[str]:
+        """The mesh files the model names that could not be found or read ("link (role:
+        file)"): their shapes are missing from ``shapes``."""
+        return list(self._geometry[2])
 
     @cached_property
     def sole(self) -> Sole | None:

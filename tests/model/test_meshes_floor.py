@@ -157,3 +157,24 @@ def test_bodies_without_geometry_are_checked_by_their_frames_too(tmp_path, monke
     assert np.all(sole[ok, 2] > robot.floor + 0.005) and np.all(foot[ok, 2] > robot.floor + 0.005)
     # the sole frame decides poses the foot body's origin alone would pass
     assert np.any((sole[:, 2] <= robot.floor + 0.005) & (foot[:, 2] > robot.floor + 0.005))
+
+
+def test_poses_refuse_a_model_whose_meshes_are_not_found(tmp_path, monkeypatch):
+    """`poses` on a URDF copied out of its package: it planned, its floor and self-collision
+    checks blind to the 10 missing meshes (a note among others); it now refuses in one line
+    naming the files, ROS_PACKAGE_PATH and --allow-missing-meshes, which plans as before."""
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    inside = write_mesh_robot(tmp_path / "ws" / "bot_description", package="bot_description")
+    away = tmp_path / "elsewhere" / "bot.urdf"
+    away.parent.mkdir()
+    shutil.copy(inside, away)
+    out = tmp_path / "p.csv"
+    args = ["poses", "--robot", str(away), "--support", "r_sole", "--count", 20,
+            "--candidates", 300, "--test-poses", 50, "--out", str(out)]  # fmt: skip
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 2 and not out.exists() and len(res.output.splitlines()) == 1
+    assert "10 mesh file(s) it names are not found" in res.output, res.output
+    assert "ROS_PACKAGE_PATH" in res.output and "--allow-missing-meshes" in res.output
+    res = CliRunner().invoke(cli, [*args, "--allow-missing-meshes"])
+    assert res.exit_code == 0 and out.exists(), res.output
+    assert "10 mesh file(s) not found, their shapes ignored" in res.output

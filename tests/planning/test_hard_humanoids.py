@@ -72,7 +72,8 @@ def test_a_small_mesh_only_robot(tmp_path):
     """~3 kg, collision meshes only: the sole comes from the foot mesh; planned poses keep the
     free foot's mesh ≥ 5 mm up (its box corners placed by Pinocchio) and stand on the bench.
     With the foot meshes missing there is no sole: the compliant margin's contacts come from
-    the CoP box (said) and poses are planned, not refused."""
+    the CoP box (said); poses are refused unless planned without the meshes on purpose (the
+    floor check would not see the feet)."""
     from oracle import PinOracle
 
     path = write_mesh_robot(tmp_path / "bot")
@@ -97,7 +98,11 @@ def test_a_small_mesh_only_robot(tmp_path):
     bare = sescid.load_robot(path, "r_sole")
     assert bare.sole is None
     assert "no sole known" in design.compliance(bare).source
-    assert len(design.plan_poses(bare, 20, seed=0, n_candidates=100, n_test=30).q) == 20
+    with pytest.raises(sescid.SescidError, match="2 mesh file.*--allow-missing-meshes"):
+        design.plan_poses(bare, 20, seed=0, n_candidates=100, n_test=30)
+    plan = design.plan_poses(bare, 20, seed=0, n_candidates=100, n_test=30,
+                             allow_missing_meshes=True)  # fmt: skip
+    assert len(plan.q) == 20
 
 
 CHAIN = """<mujoco model="chain_biped">

@@ -82,7 +82,7 @@ def _sole_notes(robot, capsules) -> list[str]:
     is_flag=True,
     help="Add <joint>_paper_deg columns (the paper's Table 2 angle convention; op2).",
 )
-@flags(PlanOptions, "rigid", "kinds", "tau_noise")
+@flags(PlanOptions, "rigid", "allow_missing_meshes", "kinds", "tau_noise")
 @click.option(
     "--tau-joints",
     default="all",

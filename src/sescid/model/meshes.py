@@ -191,10 +191,12 @@ def _collada_up(path: str) -> np.ndarray:
     return _UP.get(m.group(1) if m else "Z_UP", np.eye(3))
 
 
-def with_mesh_vertices(shapes: list[Shape], model_path: Path) -> tuple[list[Shape], list[str]]:
+def with_mesh_vertices(
+    shapes: list[Shape], model_path: Path
+) -> tuple[list[Shape], list[str], list[str]]:
     """``shapes`` with each mesh's vertices (body frame, scaled) loaded where its file resolves
     (visual meshes only on bodies without a usable collision shape); notes name the meshes that
-    could not be found or read."""
+    could not be found or read; and those meshes ("link (role: file)")."""
     out = list(shapes)
     missing: list[str] = []
     unreadable: list[str] = []
@@ -229,7 +231,7 @@ def with_mesh_vertices(shapes: list[Shape], model_path: Path) -> tuple[list[Shap
             "each package to ROS_PACKAGE_PATH (folders separated by ':'), or keep the model "
             "inside its package"
         )
-    return out, notes
+    return out, notes, missing + unreadable
 
 
 def _usable(s: Shape) -> bool:

@@ -8,7 +8,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sescid.errors import SescidError
+from sescid.base.text import listed
+from sescid.errors import ModelError, SescidError
 from sescid.planning.design.doptimal import Selection
 from sescid.planning.feasibility.candidates import CandidateOptions, Candidates, candidates
 from sescid.planning.feasibility.compliance import compliance
@@ -42,7 +43,9 @@ def stance_candidates(
     """``n`` candidates of ``robot`` (rooted at the stance's frame) held as ``mount``: in a
     gantry (joint limits, floor, self-collision: ``gantry``), else standing on its support foot
     (``double``: on both feet) with a level support checked, the compliant-robot margin unless
-    ``opt.rigid``, the floor and self-collision."""
+    ``opt.rigid``, the floor and self-collision. ModelError when mesh files the model names
+    are missing, unless ``opt.allow_missing_meshes`` (``check_meshes``)."""
+    check_meshes(robot, opt)
     if mount == "gantry":
         held = GantryOptions(limits=lim, hang_height=opt.hang_height, clearance=opt.clearance)
         return gantry_candidates(robot, n, seed, held, progress=progress)
@@ -54,6 +57,32 @@ def stance_candidates(
     if mount == "double":
         return double_candidates(robot, n, seed, draw, progress=progress)
     return candidates(robot, n, seed, draw, progress=progress)
+
+
+def check_meshes(robot: Robot, opt: PlanOptions) -> None:
+    """ModelError when mesh files the model names were not found or could not be read (the
+    floor and self-collision checks would see those bodies by their origins only: a pose
+    through the floor or through itself would pass), unless ``opt.allow_missing_meshes``."""
+    missing = robot.unloaded_meshes
+    if missing and not opt.allow_missing_meshes:
+        hint = next((n for n in robot.geometry_notes if "ROS_PACKAGE_PATH" in n), None)
+        how = (
+            "add the folder holding each package to ROS_PACKAGE_PATH"
+            if hint is not None
+            else "keep the model file where its mesh paths point"
+        )
+        files = listed(_short(m) for m in missing)
+        raise ModelError(
+            f"{robot.model_path}: {len(missing)} mesh file(s) it names are not found or cannot "
+            f"be read ({files}): the floor and self-collision checks would not see those "
+            f"shapes; {how}, or plan without them (--allow-missing-meshes)"
+        )
+
+
+def _short(mesh: str) -> str:
+    """A missing mesh by its file: 'link (role: path/to/file.stl)' → 'link (file.stl)'."""
+    link, _, rest = mesh.partition(" (")
+    return f"{link} ({rest.rstrip(')').split(': ', 1)[-1].rsplit('/', 1)[-1]})"
 
 
 def checked_choice(

@@ -69,6 +69,11 @@ class PlanOptions:
         "Stability: the CoP box only, no compliant-robot margin (servo sag, sole tilt, "
         "backlash from the robot profile).",
     )
+    allow_missing_meshes: bool = option(
+        False,
+        "Plan even when mesh files the model names are not found or cannot be read: their "
+        "bodies are then kept off the floor and apart by their origins and frames only.",
+    )
     #: a stance's physics check (a bench): keeps only chosen poses it passes
     check: StanceCheck | None = None
     check_name: str = ""  #: what ``check`` is, for the notes
