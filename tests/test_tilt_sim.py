@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 import sescid
 from sescid.cli import cli
-from sescid.io import read_table
+from sescid.tables import read_table
 
 
 def test_simulate_tilt_draws_gravity(op2):

@@ -15,7 +15,7 @@ import sescid
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import OptionError, SescidError
-from sescid.io import read_table
+from sescid.tables import read_table
 
 CLEARANCE = 0.005
 

@@ -14,8 +14,8 @@ from sescid import load_robot
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.io import read_poses, read_table
 from sescid.robots import MX28
+from sescid.tables import read_poses, read_table
 
 
 @pytest.fixture(scope="module")

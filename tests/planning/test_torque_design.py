@@ -17,9 +17,9 @@ from sescid import identify
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.estimation import Measurements, perturbed_sesc
-from sescid.io import read_table
 from sescid.planning.design.blocks import BlockDesign
 from sescid.simulation import PAPER_NOISE, TorqueNoise, simulate_torques
+from sescid.tables import read_table
 
 SIGMA_TAU = 0.05
 

@@ -69,8 +69,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     import dataclasses
     import math
 
-    from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
+    from sescid.tables import write_table
 
     outs = OutputSet([out], [common.model_input(robot_name)], force=force)
     robot = common.load(robot_name, support)
@@ -147,8 +147,8 @@ def _balance(robot, poses: int, range_deg: float, seed: int, noise_deg: float, o
     """Balanced poses of a robot on its line: joints, measured gravity, the true tilt."""
     import math
 
-    from sescid.io import write_table
     from sescid.simulation import simulate_balance
+    from sescid.tables import write_table
 
     sim = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}

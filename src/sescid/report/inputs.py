@@ -125,10 +125,10 @@ def read_report_data(
     """A measurement file's data for the fit's robot (any kinds it holds: ``cop_x``/``cop_y``,
     ``tau_<joint>``, ``approach``, gravity or IMU columns) and its pose ids (``pose`` column,
     else row numbers). Errors name the file and the column."""
-    from sescid.io import read_table
     from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
     from sescid.stance import support_column
+    from sescid.tables import read_table
 
     table = read_table(path)
     data = measurements_of(table, fit.robot, imu_link)

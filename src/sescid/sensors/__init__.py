@@ -8,7 +8,6 @@ calibration of pad gains and offsets together with the mass model (``calibration
 total mass is checked by ``sescid.estimation.check_total_mass``.
 """
 
-from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.calibration import (
     CalibrationOptions,
     KnownSensors,
@@ -51,6 +50,7 @@ from sescid.sensors.wrench import (
     plate_to_sole,
     rpy_matrix,
 )
+from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 
 __all__ = [
     "APPROACH_COLUMN",

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.base import G0
-from sescid.base.columns import Table, pose_ids
 from sescid.base.text import listed
 from sescid.errors import DataError
 from sescid.sensors.feet import (
@@ -48,6 +47,7 @@ from sescid.sensors.torque import (
     check_torque_scale,
     pose_approach,
 )
+from sescid.tables import Table, pose_ids
 
 #: outlier rule without a sensor file (a torque-only log)
 DEFAULT_OUTLIER_K = 4.0

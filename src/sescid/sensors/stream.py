@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
@@ -39,6 +38,7 @@ from sescid.sensors.reduce import (
     uses_feet,
 )
 from sescid.stance import support_column
+from sescid.tables import SUPPORT_COLUMN, Table
 
 #: raw-log fields with one row per sample
 _ROWS = ("pose", "q", "gravity", "tau", "approach")

@@ -39,7 +39,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sescid.base.columns import Table
 from sescid.base.text import listed
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
@@ -59,6 +58,7 @@ from sescid.session.records import (
     SessionStep,
 )
 from sescid.session.stances import PooledEstimate, StanceDesign, stance_result
+from sescid.tables import Table
 
 __all__ = [
     "BODY_PRIOR_SCALE",
