@@ -39,7 +39,15 @@ from sescid.sensors.pads import (
     load_sensors,
 )
 from sescid.sensors.raw import RawLog, read_raw, table_from_columns
-from sescid.sensors.reduce import Measured, fsr, measure, pose_list_ids, read_log
+from sescid.sensors.reduce import (
+    SESSION_POSE,
+    LogPart,
+    Measured,
+    fsr,
+    measure,
+    pose_list_ids,
+    read_log,
+)
 from sescid.sensors.stream import fsr_chunks, fsr_stances
 from sescid.sensors.wrench import (
     Plate,
@@ -88,6 +96,8 @@ __all__ = [
     "load_plate",
     "load_sensors",
     "measure",
+    "LogPart",
+    "SESSION_POSE",
     "pad_session",
     "plate_to_sole",
     "pose_list_ids",

@@ -29,6 +29,7 @@ from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
 from sescid.sensors.raw import RawLog
 from sescid.sensors.reduce import (
+    LogPart,
     check_pose_ids,
     finish_measured,
     fsr,
@@ -112,7 +113,7 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
             raise _Revisited
         seen.update(ids)
         parts.append(
-            measure(robot, log, config, min_samples, feet=decided, finish=False, pads=pads)
+            measure(robot, log, config, min_samples, LogPart(decided, finish=False, pads=pads))
         )
 
     for table in chunks:

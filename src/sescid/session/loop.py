@@ -45,7 +45,14 @@ from sescid.estimation import check_total_mass, min_poses
 from sescid.planning import DesignKind
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.robot import Robot
-from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
+from sescid.sensors import (
+    SESSION_POSE,
+    RawLog,
+    SensorConfig,
+    measure,
+    read_log,
+    table_from_columns,
+)
 from sescid.session.adapters import RobotAdapter
 from sescid.session.design import SessionDesign, session_mount, unsafe_pose
 from sescid.session.estimate import BatchEstimate, CopEstimate, pose_measurements
@@ -234,7 +241,7 @@ class _Run:
         """The pose's samples read and reduced as ``sescid measure`` does (DataError for
         samples that cannot be read: such a pose is never journaled)."""
         log = _read_log(robot, part, self.sensors, self.source)
-        return measure(robot, log, self.sensors, self.opt.min_samples, whole_log=False)
+        return measure(robot, log, self.sensors, self.opt.min_samples, SESSION_POSE)
 
     def measure(self, step: SessionStep, part: dict, meas) -> bool:
         """Update the estimate with the pose's reduced samples; False when it gave nothing."""
