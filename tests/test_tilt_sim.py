@@ -44,7 +44,7 @@ def test_kinematic_bench_tilt(op2, tmp_path):
     from sescid.bench import ExperimentConfig, run_experiment
     from sescid.planning import candidates
     from sescid.sensors import fsr, load_sensors
-    from sescid.session.loop import raw_table
+    from sescid.session.samples import raw_table
 
     sensors = load_sensors(None, op2.profile)
     q = candidates(op2, 60, seed=2).q
