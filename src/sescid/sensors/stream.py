@@ -1,6 +1,6 @@
 """A raw log reduced in chunks (``sescid measure`` on a file): flat memory for any length.
 
-The log is read chunk by chunk (the caller's reader: ``io.iter_table`` of a file); each chunk
+The log is read chunk by chunk (the caller's reader: ``tables.iter_table`` of a file); each chunk
 is parsed (``read_log``) and its poses reduced (``measure``) as soon as all their samples are
 in: the samples of the pose that ends a chunk wait for the next one. The result is the
 whole-log reduction's, pose for pose, wherever every pose's samples are consecutive in the log
