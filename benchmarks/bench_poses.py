@@ -44,6 +44,9 @@ import numpy as np
 import sescid
 from sescid import planning as design
 from sescid.errors import SescidError
+from sescid.planning.design.blocks import select_blocks
+from sescid.planning.design.doptimal import per_row_information, select_d_optimal
+from sescid.planning.design.engine import cop_block_rows, expected_error, random_errors
 from sescid.simulation import PAPER_NOISE
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "helpers"))
@@ -175,14 +178,14 @@ def op2_pool(repeat: int, n: int = 100_000, k: int = 38, subset: int = 1_000) ->
     q, q_test = cand.q[:n], cand.q[n:]
     basis = design.identifiable_basis(robot, q)
     a = design.projected_regressor(robot, q, basis)
-    c = design.per_row_information(design.projected_regressor(robot, q_test, basis))
-    sel, t_sel, c_sel = timed(lambda: design.select_d_optimal(a, k, seed=0))
-    greedy, t_greedy, _ = timed(lambda: design.select_d_optimal(a, k, seed=0, max_passes=0))
+    c = per_row_information(design.projected_regressor(robot, q_test, basis))
+    sel, t_sel, c_sel = timed(lambda: select_d_optimal(a, k, seed=0))
+    greedy, t_greedy, _ = timed(lambda: select_d_optimal(a, k, seed=0, max_passes=0))
     t = time.perf_counter()
     naive_greedy(a[:subset], k)
     t_naive = (time.perf_counter() - t) * n / subset
-    err = design.expected_cop_error(a[sel.index], c, PAPER_NOISE)
-    rand = np.median(design.random_cop_error(a, k, c, PAPER_NOISE, draws=50, seed=0))
+    err = expected_error(cop_block_rows(a), sel.index, c, PAPER_NOISE)
+    rand = np.median(random_errors(cop_block_rows(a), k, c, 50, 0, PAPER_NOISE))
     print(f"3. OP2: {k} poses from {n} candidates (p = {basis.shape[1]}), best of {repeat}")
     print(f"   candidates: {cand.summary()}")
     print(f"   generate candidates          {t_cand:7.2f} s (CPU {c_cand:.2f} s)")
@@ -225,20 +228,20 @@ def torque_designs(repeat: int, tmp: Path, k: int = 38) -> None:
     basis = design.kind_basis(robot, q, spec)
     rows_tau = design.block_rows(robot, q, spec, basis)
     t_rows = time.process_time() - t
-    c = design.per_row_information(design.projected_regressor(robot, q_test, basis))
+    c = per_row_information(design.projected_regressor(robot, q_test, basis))
     t = time.process_time()
-    greedy = design.select_blocks(rows_tau, k, 0, max_passes=0)
+    greedy = select_blocks(rows_tau, k, 0, max_passes=0)
     t_greedy = time.process_time() - t
     t = time.process_time()
-    sel = design.select_blocks(rows_tau, k, 0)
+    sel = select_blocks(rows_tau, k, 0)
     t_sel = time.process_time() - t
     a = design.projected_regressor(robot, q, design.identifiable_basis(robot, q))
     t = time.process_time()
-    design.select_d_optimal(a, k, seed=0)
+    select_d_optimal(a, k, seed=0)
     t_cop = time.process_time() - t
-    err = design.expected_com_error(rows_tau, sel.index, c)
-    err_g = design.expected_com_error(rows_tau, greedy.index, c)
-    rand = np.median(design.random_com_error(rows_tau, k, c, 50, 0))
+    err = expected_error(rows_tau, sel.index, c)
+    err_g = expected_error(rows_tau, greedy.index, c)
+    rand = np.median(random_errors(rows_tau, k, c, 50, 0))
     print(f"   OP2 in-process, {k} of {n} candidates, CPU seconds: candidates {t_cand:.2f}, "
           f"basis and rows {t_rows:.2f}, block greedy {t_greedy:.2f}, greedy + exchange "
           f"{t_sel:.2f} ({sel.exchanges} exchanges in {sel.passes} passes); the CoP design on "

@@ -26,7 +26,7 @@ def main(out_dir: Path, n_candidates: int = 20_000) -> None:
     print(f"identifiable subspace p = {plan.rank}; CoP noise σ = {plan.sigma * 1e3:g} mm")
 
     ks = [k for k in (21, 25, 30, 38, 50, 60, 70, 85, 100, 150, 200) if k <= n_candidates]
-    curve = design.design_curve(plan.a_pool, plan.c_test, ks, plan.sigma, seed=0)
+    curve = design.design_curve(plan, ks, seed=0)
     print(" K   D-optimal   random (median)   [expected noise-free CoP error, mm]")
     for k, d, r in zip(curve["k"], curve["d_optimal"], curve["random_median"], strict=True):
         print(f"{k:3d}   {d * 1e3:8.2f}   {r * 1e3:8.2f}")

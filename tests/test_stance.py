@@ -237,6 +237,44 @@ def test_measure_checks_each_samples_stance(tmp_path):
         assert not (tmp_path / "x.csv").exists()
 
 
+def test_every_spelling_of_a_stance_in_a_plan_and_a_log(tmp_path):
+    """A plan and a raw log whose support cells spell a held trunk ``gantry:TRUNK`` (a user's
+    or a planner's spelling) and a foot: experiment measures the trunk's poses (it found none,
+    "planned for 'MP_BODY', not for 'MP_BODY'"), and measure reduces the log exactly as the
+    one labelled ``TRUNK`` (it refused the spelling as an unknown link)."""
+    plan = tmp_path / "p.csv"
+    code, out = run("poses", "--stances", "r_sole", "--count", 24, "--candidates", 300,
+                    "--out", plan)  # fmt: skip
+    assert code == 0, out
+    table = read_table(plan)
+    spelled = np.array(["r_sole", f"gantry:{TRUNK}"] * (table.n // 2) + ["r_sole"] * (table.n % 2))
+    cols = {c: table.get(c) for c in table.columns}
+    write_table(plan, cols | {"support": spelled})
+    raws = []
+    for flags in (["--support", "r_sole"], ["--support", TRUNK, "--mount", "gantry"]):
+        raws.append(tmp_path / f"raw{len(raws)}.csv")
+        code, out = run("experiment", "--poses", plan, *flags, "--torques", "all",
+                        "--samples", 10, "--out", raws[-1])  # fmt: skip
+        assert code == 0, out
+        assert f"measuring the {table.n // 2} poses planned for" in out, out
+    logs = [read_table(r) for r in raws]
+    joined = {c: np.concatenate([g.get(c) for g in logs]) for c in logs[1].columns}
+    labels = np.concatenate([np.array(g.text["support"]) for g in logs])
+    assert set(labels) == {"r_sole", TRUNK}
+    results = []
+    for name, cells in (
+        ("label", labels),
+        ("spelled", np.where(labels == TRUNK, f"gantry:{TRUNK}", labels)),
+    ):
+        write_table(tmp_path / f"{name}.csv", joined | {"support": cells})
+        code, out = run("measure", tmp_path / f"{name}.csv", "--poses", plan,
+                        "--out", tmp_path / f"m_{name}.csv")  # fmt: skip
+        assert code == 0, out
+        results.append((tmp_path / f"m_{name}.csv").read_bytes())
+    assert results[0] == results[1]
+    assert set(read_table(tmp_path / "m_spelled.csv").text["support"]) == {"r_sole", TRUNK}
+
+
 def test_stances_that_a_plan_or_a_session_cannot_use(tmp_path):
     """poses --stances with a line support is refused by name (it was read as a gantry and
     failed on --kinds); session --stances with a gantry and no torque sensors is refused before
@@ -295,3 +333,23 @@ def test_torques_on_both_feet_and_report_support_name_file_or_option(tmp_path, f
     code, out = run("report", one, files / "l.csv", "--support", "nope",
                     "--out-dir", tmp_path / "rep")  # fmt: skip
     assert code == 2 and "support: " in out and "unknown support 'nope'" in out, out
+
+
+def test_report_of_rows_on_both_feet(tmp_path, files):
+    """A file of rows on both feet (``double``: the CoP of the whole robot in the reference
+    sole's frame, as on that sole) is reported with --support double (it was refused: "no row of
+    the stance 'r_sole'") with the same residuals as the same rows labelled with the sole; without
+    the flag the error names it."""
+    one = tmp_path / "one.json"
+    code, out = run("identify", files / "r.csv", "--allow-outside-limits", "--out", one)
+    assert code == 0, out
+    r = read_table(files / "r.csv")
+    write_table(tmp_path / "d.csv", _relabel(r, "double"))
+    code, out = run("report", one, tmp_path / "d.csv", "--out-dir", tmp_path / "x")
+    assert code == 2 and "(--support double)" in out and out.count("\n") == 1, out
+    lines = []
+    for data, flags in ((tmp_path / "d.csv", ["--support", "double"]), (files / "r.csv", [])):
+        code, out = run("report", one, data, *flags, "--out-dir", tmp_path / f"rep{len(lines)}")
+        assert code == 0, out
+        lines.append(next(x for x in out.splitlines() if x.startswith("CoP residual")))
+    assert lines[0] == lines[1] and "over 60 poses" in lines[0], lines

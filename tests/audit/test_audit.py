@@ -305,10 +305,11 @@ def test_cli_bad_input_is_one_line(files, data_csv, tmp_path):
 
 def test_cli_balance_data_need_their_noise(tmp_path):
     """Balanced poses on a line: as many unknowns as rows, so the noise is given; the file the
-    data come from is then within it, and its tilt error is in degrees."""
+    data come from (the model itself: --extra-mass 0) is then within it, and its tilt error is
+    in degrees."""
     data = tmp_path / "b.csv"
     res = run("simulate", "--robot", "op2", "--line", "y", "--measure", "balance", "--count", 38,
-              "--range-deg", 20, "--seed", 2, "--out", data)  # fmt: skip
+              "--range-deg", 20, "--seed", 2, "--extra-mass", 0, "--out", data)  # fmt: skip
     assert res.exit_code == 0, res.output
     _one_line_error(run("audit", data, "-m", "op2", "--line", "y"), "--noise balance=")
     out = tmp_path / "a.json"

@@ -33,7 +33,6 @@ from sescid.planning import (
     PlanOptions,
     cop_half_extents,
     plan_poses,
-    plan_stances,
     sampling_limits,
 )
 from sescid.report import LiveView
@@ -47,7 +46,7 @@ from sescid.study import paper_study
 CLI_ONLY = {
     "stance": "predict, report: the stance of a pooled fit to answer in (estimation.for_support)",
     "check": "poses: a physics bench to check the chosen poses on (PlanOptions.check takes "
-    "the check itself)",
+    "each stance's check itself)",
     "out": "the output file",
     "out_dir": "the output folder",
     "truth": "experiment: a second output file",
@@ -196,7 +195,7 @@ def _poses(d) -> list:
         ("urdf_limits", not d["urdf_limits"], _arg(sampling_limits, "paper")),
         ("range_deg", d["range_deg"], _arg(sampling_limits, "range_deg")),
         *[(n, d[n], _arg(cop_half_extents, n)) for n in ("cop_box", "margin", "sole_size")],
-        ("stance_cost", d["stance_cost"], _arg(plan_stances, "cost")),
+        ("stance_cost", d["stance_cost"], _arg(plan_poses, "cost")),
         ("stances", d["stances"], None),  # none: the support alone (plan_poses)
     ]
 

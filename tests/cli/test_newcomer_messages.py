@@ -32,3 +32,30 @@ def test_simulate_extra_mass_zero_is_the_model_itself(tmp_path):
     code, text = run("simulate", "--robot", urdf, "--support", "foot", "--count", 5,
                      "--extra-mass", 0, "--out", out)  # fmt: skip
     assert code == 0 and "the robot simulated is the model itself (3.0000 kg" in text, text
+
+
+def test_simulate_balance_is_of_a_robot_that_differs_from_its_model(tmp_path):
+    """--measure balance simulates the real robot too (it refused --extra-mass and balanced the
+    model itself, so a fit could only keep it): its true tilts are not the model's, and with
+    --extra-mass 0 they are, to rounding."""
+    import numpy as np
+
+    import sescid
+    from sescid.sesc import balance_tilt
+    from sescid.tables import read_table
+
+    robot = sescid.load_robot("wheeled_humanoid", support="axle", line="y")
+    tilts = []
+    for extra in ("0.07", "0"):
+        out = tmp_path / f"b{extra}.csv"
+        code, text = run("simulate", "--robot", "wheeled_humanoid", "--support", "axle",
+                         "--line", "y", "--count", 30, "--extra-mass", extra,
+                         "--out", out)  # fmt: skip
+        assert code == 0, text
+        t = read_table(out)
+        q = np.column_stack([t.get(j) for j in robot.joint_names])
+        model, _ = balance_tilt(robot.tree, robot.line, q, robot.sesc_vectors())
+        tilts.append((t.get("balance_tilt_true"), model))
+    (real, model), (itself, model0) = tilts
+    assert np.max(np.abs(real - model)) > 1e-3  # rad: the unmodelled masses tilt it
+    np.testing.assert_allclose(itself, model0, atol=1e-12)

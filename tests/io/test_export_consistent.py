@@ -125,6 +125,24 @@ def test_talos_inertias_are_cads_about_the_com_or_repaired(talos, tmp_path):
     assert kept >= a.njoints - 5 and moved > 5  # the masses moved, the tensors stayed
 
 
+def test_cli_names_the_repaired_tensors_in_one_line(talos, tmp_path):
+    """`export --repair-inertia` of TALOS: its five repaired tensors in one warning line (a
+    line each before: dozens on a robot with many sensor frames), with the count and the first
+    links' moments before → after."""
+    from cli_run import outcome
+
+    _, _, cons = talos
+    fit = tmp_path / "fit.json"
+    sescid.save_fit(cons, fit)
+    code, out = outcome("export", fit, "--repair-inertia", "--out", tmp_path / "t.urdf")
+    assert code == 0, out
+    lines = [x for x in out.splitlines() if "inertia" in x and "repaired" in x]
+    assert len(lines) == 1, out
+    assert lines[0].startswith("sescid: warning: 5 links' inertia tensors repaired"), lines
+    assert "rgbd_optical_frame (0, 0, 0 → 3.8e-07, 3.8e-07, 3.8e-07)" in lines[0]  # 10 mm sphere
+    assert "(and 2 more; each in the file written)" in lines[0]
+
+
 def test_repair_is_the_smallest_change_and_leaves_consistent_tensors_alone():
     """Σ = ½ tr(I)·1 − I clipped at zero: a triangle-breaking tensor becomes the nearest
     consistent one (Σ's negative eigenvalue → 0, the others unchanged); consistent untouched."""

@@ -14,6 +14,7 @@ from sescid.planning.feasibility.stability import (
     DEFAULT_CLEARANCE,
     coarse_cop_tree,
     ground_clear_mask,
+    stable_mask,
     stable_subset,
 )
 
@@ -36,7 +37,7 @@ def test_stable_subset_equals_stable_mask(op2):
     near = np.argsort(np.abs(np.abs(cop[:, 0]) - half[0]))[:50]  # closest to the edge
     half_edge = np.array([abs(cop[near[0], 0]), half[1]])  # one pose exactly on the edge
     for h in (half, half_edge):
-        ref, ref_cop = design.stable_mask(op2, q, h)
+        ref, ref_cop = stable_mask(op2, q, h)
         mask, kept = stable_subset(op2, q, h)
         assert np.array_equal(mask, ref) and mask.sum() > 100
         assert np.array_equal(kept, ref_cop[ref])
@@ -49,7 +50,7 @@ def test_uniform_candidates_equal_the_plain_checks(op2):
     cand = design.candidates(op2, n, seed)
     lim = design.sampling_limits(op2)
     q = lim[:, 0] + (lim[:, 1] - lim[:, 0]) * np.random.default_rng(seed).random((100_000, op2.nq))
-    ok, cop = design.stable_mask(op2, q, design.cop_half_extents(op2))
+    ok, cop = stable_mask(op2, q, design.cop_half_extents(op2))
     q, cop = q[ok], cop[ok]
     cap = collision_capsules(op2)
     rot, org = op2.forward(q)

@@ -13,7 +13,14 @@ from refs import G, compliant_cop_by_hand, erd, write_humanoid
 import sescid
 from sescid import planning as design
 from sescid.bench.standing import stands
-from sescid.planning.feasibility.compliance import DYNAMIC_FACTOR, GENERIC_SAG, GENERIC_SINK
+from sescid.planning.feasibility.com import com_state
+from sescid.planning.feasibility.compliance import (
+    DYNAMIC_FACTOR,
+    GENERIC_SAG,
+    GENERIC_SINK,
+    compliant_margin,
+    dynamic_cop,
+)
 
 
 def _fd_jacobian(com_fn, q, nq, eps=1e-6):
@@ -35,7 +42,7 @@ def test_com_and_jacobian_against_pinocchio_talos():
     }
     pin = PinOracle(robot.model_path, robot.support, robot.joint_names, mimic)
     q = np.random.default_rng(0).uniform(-0.5, 0.5, (4, robot.nq))
-    st = design.com_state(robot, q)
+    st = com_state(robot, q)
     np.testing.assert_allclose(st.com, pin.com(q), atol=1e-12)
     np.testing.assert_allclose(st.jac, _fd_jacobian(pin.com, q, robot.nq), atol=1e-7)
 
@@ -51,7 +58,7 @@ def test_com_and_jacobian_against_mujoco_humanoid(tmp_path):
     def com(x):
         return mujoco_com(path, "legA_sole", robot.joint_names, x)
 
-    st = design.com_state(robot, q)
+    st = com_state(robot, q)
     np.testing.assert_allclose(st.com, com(q), atol=1e-12)
     np.testing.assert_allclose(st.jac, _fd_jacobian(com, q, robot.nq), atol=1e-7)
 
@@ -64,14 +71,14 @@ def test_dynamic_cop_by_hand_op2_profile(op2):
     assert model.kp == 320.0 and model.contact_stiffness == 17_000.0
     np.testing.assert_allclose(model.half, [0.0425, 0.0265])
     q = design.candidates(op2, 50, seed=4).q
-    st = design.com_state(op2, q)
+    st = com_state(op2, q)
     ref = compliant_cop_by_hand(st.com, st.jac, op2.total_mass * G, 320.0, 17_000.0,
                                 model.contacts, 0.0, DYNAMIC_FACTOR)  # fmt: skip
-    e = design.dynamic_cop(model, st)
+    e = dynamic_cop(model, st)
     np.testing.assert_allclose(e, ref, atol=1e-12)
     jn = np.linalg.norm(st.jac[:, :2], axis=2)
     room = model.half - np.abs(e) - 2 * math.radians(1) / math.sqrt(3) * jn
-    np.testing.assert_allclose(design.compliant_margin(model, st), room.min(axis=1) - 0.003)
+    np.testing.assert_allclose(compliant_margin(model, st), room.min(axis=1) - 0.003)
 
 
 def test_generic_defaults_stated_and_applied(tmp_path):
@@ -91,7 +98,7 @@ def test_margin_against_the_mujoco_bench(op2):
     """Of box-stable OP2 candidates (the paper's ±23 mm), the 8 the compliant margin keeps
     closest to its edge all stand on the MuJoCo bench; of the 8 it rejects most, most topple."""
     q = design.candidates(op2, 600, seed=5).q
-    margin = design.compliant_margin(design.compliance(op2), design.com_state(op2, q))
+    margin = compliant_margin(design.compliance(op2), com_state(op2, q))
     kept = np.flatnonzero(margin > 0)
     close = kept[np.argsort(margin[kept])[:8]]
     worst = np.argsort(margin)[:8]
@@ -104,7 +111,7 @@ def test_margin_against_the_mujoco_bench_humanoid(tmp_path):
     """The synthetic humanoid (generic stiffness defaults): planned poses stand on the bench."""
     robot = sescid.load_robot(write_humanoid(tmp_path), "legA_sole")
     plan = sescid.plan_poses(robot, count=22, n_candidates=200, n_test=50, seed=2)
-    margin = design.compliant_margin(plan.compliance, design.com_state(robot, plan.q))
+    margin = compliant_margin(plan.compliance, com_state(robot, plan.q))
     assert np.all(margin > 0)
     res = stands(robot, plan.q[np.argsort(margin)[:8]])  # the 8 nearest the edge
     assert res.mask.all(), res.reasons

@@ -15,6 +15,8 @@ import sescid
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import OptionError, SescidError
+from sescid.planning.feasibility.gantry import GANTRY_LIFT, gantry_floor, standing_height
+from sescid.planning.feasibility.stability import DEFAULT_CLEARANCE
 from sescid.tables import read_table
 
 CLEARANCE = 0.005
@@ -58,7 +60,7 @@ def _check_held_plan(path, robot, plan, hang_height: float | None):
     held = set(robot.model.bodies[0].links)
     low0, _ = geo.lowest(np.zeros((1, robot.nq)), held)
     standing = -float(low0[0])  # the held link's height when the robot stands at q = 0
-    floor = -(standing + design.GANTRY_LIFT if hang_height is None else hang_height)
+    floor = -(standing + GANTRY_LIFT if hang_height is None else hang_height)
     low, _ = geo.lowest(plan.q, held)
     assert np.all(low > floor + CLEARANCE)
     assert _capsule_contacts(geo, robot, plan.q) == []
@@ -82,7 +84,7 @@ def test_op2_held_by_its_torso_clears_the_floor_and_itself(op2):
     leg swung); the kept ones clear it by the clearance and touch nothing, by coal."""
     torso = op2.model.model_root
     robot = sescid.load_robot("op2", support=torso)
-    standing = design.standing_height(robot)
+    standing = standing_height(robot)
     hang = standing + 0.015
     plan = design.plan_poses(robot, 25, kinds="tau", seed=1, n_candidates=300, n_test=100,
                              hang_height=hang)  # fmt: skip
@@ -154,10 +156,10 @@ def test_a_gantry_needs_no_sole(tmp_path):
     assert "held by legA_thigh (gantry)" in res.output and "stability" not in res.output
     q = np.column_stack([read_table(out).columns[j] for j in robot.joint_names])
     rot, org = robot.forward(q)
-    floor, _ = design.gantry_floor(robot, None, design.DEFAULT_CLEARANCE)
+    floor, _ = gantry_floor(robot, None, DEFAULT_CLEARANCE)
     from sescid.planning.feasibility.ground import lowest_heights
 
-    assert np.all(lowest_heights(robot, rot, org, exempt=False) > floor + design.DEFAULT_CLEARANCE)
+    assert np.all(lowest_heights(robot, rot, org, exempt=False) > floor + DEFAULT_CLEARANCE)
     plan = SessionDesign(robot, SessionOptions(n_candidates=150, mount="gantry", kinds="tau"))
     assert plan.mount == "gantry" and plan.half is None and len(plan.cand.q) == 150
 

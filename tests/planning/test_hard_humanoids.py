@@ -19,9 +19,11 @@ from refs import mj_body_lowest, write_humanoid
 import sescid
 from sescid import planning as design
 from sescid.bench.standing import stands
-from sescid.planning.feasibility.compliance import GENERIC_SINK
+from sescid.planning.feasibility.com import com_state
+from sescid.planning.feasibility.compliance import GENERIC_SINK, compliant_margin
+from sescid.planning.feasibility.stability import DEFAULT_CLEARANCE
 
-CLEAR = design.DEFAULT_CLEARANCE
+CLEAR = DEFAULT_CLEARANCE
 
 
 def test_mocap_humanoid_plans_clear_and_stands(tmp_path):
@@ -43,7 +45,7 @@ def test_mocap_humanoid_plans_clear_and_stands(tmp_path):
     assert np.all(per["lfoot"] > floor + CLEAR) and np.all(per["ltoes"] > floor + CLEAR)
     others = [v for k, v in per.items() if k not in ("lfoot", "ltoes", "rtoes", "world")]
     assert np.min(others) > floor
-    margin = design.compliant_margin(model, design.com_state(robot, plan.q))
+    margin = compliant_margin(model, com_state(robot, plan.q))
     res = stands(robot, plan.q[np.argsort(margin)[:3]])
     assert res.mask.all(), res.reasons
 
@@ -57,9 +59,9 @@ def test_a_33kg_robot_on_a_narrow_sole_is_not_refused(tmp_path):
     model = design.compliance(robot)
     old = dataclasses.replace(model, contact_stiffness=model.weight / (4 * GENERIC_SINK))
     q = design.candidates(robot, 300, 0, design.CandidateOptions(compliance=None)).q
-    st = design.com_state(robot, q)
-    assert not np.any(design.compliant_margin(old, st) > 0)
-    margin = design.compliant_margin(model, st)
+    st = com_state(robot, q)
+    assert not np.any(compliant_margin(old, st) > 0)
+    margin = compliant_margin(model, st)
     assert np.mean(margin > 0) > 0.5
     kept = np.flatnonzero(margin > 0)
     res = stands(robot, q[kept[np.argsort(margin[kept])[:3]]])

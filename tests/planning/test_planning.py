@@ -14,6 +14,16 @@ from sescid import load_robot
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import SescidError
+from sescid.planning.design.doptimal import information, per_row_information, select_d_optimal
+from sescid.planning.design.engine import cop_block_rows, expected_error, random_errors
+from sescid.planning.feasibility.collision import (
+    box_capsules,
+    collision_free_mask_numpy,
+    first_contact,
+    segment_distance,
+)
+from sescid.planning.feasibility.stability import ground_clear_mask, sole_corners, stable_mask
+from sescid.planning.ordering import order_poses, path_length
 from sescid.robots import MX28
 from sescid.tables import read_poses, read_table
 
@@ -30,7 +40,7 @@ def pool(op2):
     q, q_test = cand.q[:3000], cand.q[3000:]
     basis = design.identifiable_basis(op2, q)
     a = design.projected_regressor(op2, q, basis)
-    c = design.per_row_information(design.projected_regressor(op2, q_test, basis))
+    c = per_row_information(design.projected_regressor(op2, q_test, basis))
     return cand, q, q_test, basis, a, c
 
 
@@ -97,7 +107,7 @@ def test_candidates_are_stable_by_an_independent_cop(pool, op2):
 def test_stable_mask_agrees_with_the_box_on_random_poses(op2):
     lim = design.sampling_limits(op2)
     q = lim[:, 0] + np.ptp(lim, axis=1) * np.random.default_rng(3).random((4000, op2.nq))
-    mask, _ = design.stable_mask(op2, q, (0.023, 0.023))
+    mask, _ = stable_mask(op2, q, (0.023, 0.023))
     expect = np.all(np.abs(_cop_from_bodies(op2, q)) < 0.023, axis=1)
     np.testing.assert_array_equal(mask, expect)
     assert 0 < mask.sum() < len(q)
@@ -113,19 +123,19 @@ def test_free_sole_clearance_closed_form(op2):
     cap = design.collision_capsules(op2)
     q0 = np.zeros((1, op2.nq))
     np.testing.assert_allclose(
-        design.sole_corners(op2, q0, "l_sole", op2.profile.sole_size)[0, :, 2], 0.0, atol=1e-12
+        sole_corners(op2, q0, "l_sole", op2.profile.sole_size)[0, :, 2], 0.0, atol=1e-12
     )
     rot, org = op2.forward(q0)
-    assert not design.ground_clear_mask(op2, q0, cap, rot, org, 0.005)[0]
+    assert not ground_clear_mask(op2, q0, cap, rot, org, 0.005)[0]
     # lift the left foot, sole kept level: hip flexion 0.5, knee flexion 1.0, ankle -0.5
     q = q0.copy()
     j = op2.joint_names.index
     q[0, j("l_hip_pitch")], q[0, j("l_knee")], q[0, j("l_ank_pitch")] = 0.5, -1.0, -0.5
-    z = design.sole_corners(op2, q, "l_sole", op2.profile.sole_size)[0, :, 2]
+    z = sole_corners(op2, q, "l_sole", op2.profile.sole_size)[0, :, 2]
     np.testing.assert_allclose(z, 2 * 0.093 * (1 - math.cos(0.5)), atol=1e-12)
     rot, org = op2.forward(q)
-    assert design.ground_clear_mask(op2, q, cap, rot, org, 0.005)[0]
-    assert not design.ground_clear_mask(op2, q, cap, rot, org, 0.03)[0]
+    assert ground_clear_mask(op2, q, cap, rot, org, 0.005)[0]
+    assert not ground_clear_mask(op2, q, cap, rot, org, 0.03)[0]
 
 
 # --- collisions --------------------------------------------------------------------------------
@@ -135,7 +145,7 @@ def test_segment_distance_matches_dense_sampling():
     q1[:20] = q0[:20]  # point vs segment
     p1[20:40] = p0[20:40] + 1e-13  # degenerate first segment
     q1[40:60] = q0[40:60] + (p1[40:60] - p0[40:60])  # parallel segments
-    got = design.segment_distance(p0, p1, q0, q1)
+    got = segment_distance(p0, p1, q0, q1)
     t = np.linspace(0, 1, 301)
     a = p0[:, None, :] + t[None, :, None] * (p1 - p0)[:, None, :]
     b = q0[:, None, :] + t[None, :, None] * (q1 - q0)[:, None, :]
@@ -145,7 +155,7 @@ def test_segment_distance_matches_dense_sampling():
 
 
 def test_box_capsules_stay_inside_and_reach_the_box_faces():
-    e0, e1, r = design.box_capsules((0.1, 0.04, 0.03))
+    e0, e1, r = box_capsules((0.1, 0.04, 0.03))
     ends = np.vstack([e0, e1])
     hi = np.abs(ends).max(axis=0) + r
     np.testing.assert_allclose(hi, [0.05, 0.02, 0.015], atol=1e-15)
@@ -164,7 +174,7 @@ def test_arm_pushed_into_the_torso_collides(op2):
     q = np.zeros((2, op2.nq))
     q[:, op2.joint_names.index("r_sho_roll")] = [-0.6, -1.6]  # arm 15° out, arm 47° across body
     rot, org = op2.forward(q)
-    hit = design.first_contact(cap, rot, org)
+    hit = first_contact(cap, rot, org)
     assert hit[0] == -1
     i, j = cap.pairs[hit[1]]
     assert {cap.link[i], cap.link[j]} == {"MP_BODY", "MP_ARM_HIGH_R"}
@@ -176,7 +186,7 @@ def test_compiled_collision_check_matches_numpy(op2):
     q = lim[:, 0] + np.ptp(lim, axis=1) * np.random.default_rng(5).random((1500, op2.nq))
     rot, org = op2.forward(q)
     fast = design.collision_free_mask(cap, rot, org)
-    ref = design.collision_free_mask_numpy(cap, rot, org)
+    ref = collision_free_mask_numpy(cap, rot, org)
     np.testing.assert_array_equal(fast, ref)
     assert 0.5 < fast.mean() < 0.99
 
@@ -218,7 +228,7 @@ def test_other_urdf_uses_its_own_boxes_cylinders_spheres(tmp_path):
     rot, org = robot.forward(q)
     np.testing.assert_array_equal(design.collision_free_mask(cap, rot, org), [True, False])
     # the sphere at the tip of l2 (0.02 m) is 0.65 m above ground when straight, below when folded
-    clear = design.ground_clear_mask(robot, q, cap, rot, org, 0.005)
+    clear = ground_clear_mask(robot, q, cap, rot, org, 0.005)
     np.testing.assert_array_equal(clear, [True, False])
 
 
@@ -226,14 +236,14 @@ def test_other_urdf_uses_its_own_boxes_cylinders_spheres(tmp_path):
 def test_d_optimal_beats_random_and_greedy(pool):
     _, _, _, basis, a, c = pool
     assert basis.shape[1] == 42
-    sel = design.select_d_optimal(a, 38, seed=0)
+    sel = select_d_optimal(a, 38, seed=0)
     assert len(set(sel.index.tolist())) == 38
-    greedy = design.select_d_optimal(a, 38, seed=0, max_passes=0)
+    greedy = select_d_optimal(a, 38, seed=0, max_passes=0)
     assert sel.logdet >= greedy.logdet
-    sign, ld = np.linalg.slogdet(design.information(a[sel.index]))
+    sign, ld = np.linalg.slogdet(information(a[sel.index]))
     assert sign > 0 and ld == pytest.approx(sel.logdet, abs=1e-9)
-    err = design.expected_cop_error(a[sel.index], c, 0.00493)
-    rand = design.random_cop_error(a, 38, c, 0.00493, draws=30, seed=0)
+    err = expected_error(cop_block_rows(a), sel.index, c, 0.00493)
+    rand = random_errors(cop_block_rows(a), 38, c, 30, 0, 0.00493)
     assert err < 0.8 * np.median(rand)
     assert err < rand.min()
 
@@ -242,10 +252,9 @@ def test_d_optimal_matches_exhaustive_search_on_a_small_problem():
     rng = np.random.default_rng(6)
     a = rng.normal(size=(14, 2, 4)) * rng.uniform(0.2, 2.0, size=(14, 1, 1))
     best = max(
-        np.linalg.slogdet(design.information(a[list(s)]))[1]
-        for s in itertools.combinations(range(14), 3)
+        np.linalg.slogdet(information(a[list(s)]))[1] for s in itertools.combinations(range(14), 3)
     )
-    sel = design.select_d_optimal(a, 3, seed=0)
+    sel = select_d_optimal(a, 3, seed=0)
     assert sel.logdet == pytest.approx(best, abs=1e-9)
 
 
@@ -260,16 +269,16 @@ def test_greedy_woodbury_updates_match_determinants_from_scratch():
         ld[chosen] = -np.inf
         chosen.append(int(np.argmax(ld)))
         m = m + a[chosen[-1]].T @ a[chosen[-1]]
-    np.testing.assert_array_equal(design.select_d_optimal(a, 12, max_passes=0).index, chosen)
+    np.testing.assert_array_equal(select_d_optimal(a, 12, max_passes=0).index, chosen)
 
 
 def test_expected_error_formula_matches_monte_carlo(op2, pool):
     """Identify on simulated noisy CoPs at the chosen poses; RMS error on held-out poses."""
     _, q, q_test, _, a, c = pool
     sigma = 0.00493
-    sel = design.select_d_optimal(a, 38, seed=0)
+    sel = select_d_optimal(a, 38, seed=0)
     q_sel = q[sel.index]
-    formula = design.expected_cop_error(a[sel.index], c, sigma)
+    formula = expected_error(cop_block_rows(a), sel.index, c, sigma)
     rng = np.random.default_rng(7)
     true_sel, true_test = op2.cop(q_sel), op2.cop(q_test)
     # least squares on the full 63-column regressor, 2000 noise draws at once (min-norm solution;
@@ -294,17 +303,17 @@ def test_ordering_recovers_points_on_a_line():
     x = np.linspace(0.1, 2.0, 20)
     perm_in = np.random.default_rng(8).permutation(20)
     q = np.column_stack([x[perm_in], 2 * x[perm_in]])
-    order = design.order_poses(q)
+    order = order_poses(q)
     np.testing.assert_array_equal(x[perm_in][order], x)
-    assert design.path_length(q[order], np.zeros(2)) == pytest.approx(2.0 * math.sqrt(5))
+    assert path_length(q[order], np.zeros(2)) == pytest.approx(2.0 * math.sqrt(5))
 
 
 def test_ordering_shortens_the_path_of_chosen_poses(pool):
     q = pool[1][:38]
-    order = design.order_poses(q)
+    order = order_poses(q)
     assert sorted(order.tolist()) == list(range(38))
     z = np.zeros(q.shape[1])
-    assert design.path_length(q[order], z) < 0.8 * design.path_length(q, z)
+    assert path_length(q[order], z) < 0.8 * path_length(q, z)
 
 
 # --- CLI -------------------------------------------------------------------------------------

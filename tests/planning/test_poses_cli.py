@@ -15,6 +15,7 @@ import sescid
 from sescid import planning as design
 from sescid.bench.standing import stands
 from sescid.cli import cli
+from sescid.planning.feasibility.limits import unlimited_joints
 from sescid.tables import read_poses, read_table
 
 
@@ -66,7 +67,7 @@ def test_unlimited_joint_sampled_within_the_stated_range(tmp_path):
                                     ' axis="0 1 0"')  # fmt: skip
     path.write_text(text)
     robot = sescid.load_robot(path, "legA_sole")
-    assert design.unlimited_joints(robot) == ["neck"]
+    assert unlimited_joints(robot) == ["neck"]
     np.testing.assert_allclose(design.sampling_limits(robot)[robot.joint_names.index("neck")],
                                [-math.pi / 2, math.pi / 2])  # fmt: skip
     out = tmp_path / "p.csv"
@@ -89,7 +90,7 @@ def test_unlimited_joint_urdf_humanoid(tmp_path):
     path = tmp_path / "icub.urdf"
     path.write_text(text)
     robot = sescid.load_robot(path, "r_sole")
-    assert design.unlimited_joints(robot) == ["neck_pitch"]
+    assert unlimited_joints(robot) == ["neck_pitch"]
     k = robot.joint_names.index("neck_pitch")
     np.testing.assert_allclose(design.sampling_limits(robot)[k], [-math.pi / 2, math.pi / 2])
 

@@ -15,6 +15,8 @@ import sescid
 from sescid import planning as design
 from sescid.errors import SescidError
 from sescid.planning.feasibility.candidates import SWITCH_AFTER
+from sescid.planning.feasibility.com import com_state
+from sescid.planning.feasibility.compliance import compliant_margin
 from sescid.robot import Robot
 from sescid.robots import RobotProfile
 
@@ -34,7 +36,7 @@ def test_icub_uniform_finds_nothing_the_search_finds_poses():
     cop = PinOracle(robot.model_path, "r_sole", robot.joint_names).com(plan.q)[:, :2]
     half = plan.candidates.half_extents
     assert np.all(np.abs(cop - robot.sole_centre) < half)
-    assert np.all(design.compliant_margin(model, design.com_state(robot, plan.q)) > 0)
+    assert np.all(compliant_margin(model, com_state(robot, plan.q)) > 0)
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from sescid.cli import cli
 from sescid.errors import OptionError
 from sescid.planning.design.kinds import design_kinds
 from sescid.planning.design.stances import StanceRows, theta_scale
-from sescid.planning.plan_stances import PRIOR_TAU
+from sescid.planning.pooled import PRIOR_TAU
 from sescid.simulation import random_poses
 from sescid.tables import read_table
 
@@ -71,7 +71,7 @@ def test_cop_from_both_feet_determines_more(op2):
     """CoP on r_sole and on l_sole: the plan's ranks over θ are those of the stacked rows' singular
     values (each foot alone, both pooled), and pooling determines more than either foot."""
     st = design.parse_stances("r_sole,l_sole", op2)
-    plan = design.plan_stances(op2, st, 40, 0, kinds="cop", **SMALL)
+    plan = design.plan_poses(op2, 40, stances=st, kinds="cop", **SMALL)
     spec = design_kinds(op2, "cop")
     q = random_poses(op2, 300, 30.0, 2)
     x = [np.concatenate([b for _, b in StanceRows(op2, s, spec, op2.total_mass).blocks(q)])
@@ -85,7 +85,7 @@ def test_cop_from_both_feet_determines_more(op2):
 @pytest.fixture(scope="module")
 def tau_plan(op2):
     st = design.parse_stances("r_sole,l_sole", op2)
-    return design.plan_stances(op2, st, 30, 0, kinds="tau", **SMALL)
+    return design.plan_poses(op2, 30, stances=st, kinds="tau", **SMALL)
 
 
 def test_torques_from_both_feet(tau_plan):
@@ -134,7 +134,7 @@ def test_gantry_and_a_foot_pooled(op2):
     """Torques held by the torso and on r_sole: pooled, more directions than either alone; the
     poses are visited stance by stance in the given order, the change costing 5 poses."""
     st = design.parse_stances("gantry:MP_BODY,r_sole", op2)
-    plan = design.plan_stances(op2, st, 30, 0, kinds="tau", cost=5.0, **SMALL)
+    plan = design.plan_poses(op2, 30, stances=st, kinds="tau", cost=5.0, **SMALL)
     assert plan.rank > max(r.rank for r in plan.reports)
     labels = list(dict.fromkeys(plan.stance))
     assert labels == ["MP_BODY", "r_sole"] and len(plan.q) == 25
@@ -147,7 +147,7 @@ def test_a_stance_that_adds_nothing_must_pay_for_its_change(op2):
     """Double support adds no direction to r_sole and l_sole for the CoP: at a cost of 5 poses it
     is left out (0 poses), the subsets tried say so."""
     st = design.parse_stances("r_sole,l_sole,double", op2)
-    plan = design.plan_stances(op2, st, 40, 0, kinds="cop", **SMALL)
+    plan = design.plan_poses(op2, 40, stances=st, kinds="cop", **SMALL)
     rep = {r.stance.label: r for r in plan.reports}
     assert rep["double"].adds == 0 and rep["double"].poses == 0
     tried = {labels: k for labels, k, _ in plan.subsets}

@@ -14,12 +14,8 @@ from click.testing import CliRunner
 import sescid
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.planning import (
-    candidates,
-    identifiable_basis,
-    information,
-    projected_regressor,
-)
+from sescid.planning import candidates, identifiable_basis, projected_regressor
+from sescid.planning.design.doptimal import information
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.sensors import load_sensors
 from sescid.session.adapters import ReplayAdapter, RobotAdapter, load_adapter_class

@@ -50,6 +50,7 @@ from sescid.bench.real_robot import (
 from sescid.bench.statics import ExternalForce, holding_torques
 from sescid.bench.truth import Truth, common_fields, settings_of, torque_truth
 from sescid.errors import DataError
+from sescid.robot import Robot
 from sescid.sensors.feet import OFF_FLOOR_M, OFF_FLOOR_TILT
 from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
 from sescid.sesc import balance_gravity, balance_tilt
@@ -80,13 +81,15 @@ class Experiment:
         return Experiment(cols, truth, skipped)
 
 
-def pads_in_support(robot, foot, q: np.ndarray) -> np.ndarray:
+def pads_in_support(robot: Robot, foot, q: np.ndarray) -> np.ndarray:
     """(n, 4, 2) a foot's pad centres in the support frame (x, y) at poses q (n, nq)."""
     rot, org = robot.link_poses(q, foot.sole_frame)
     return org[:, None, :2] + np.einsum("nij,kj->nki", rot[:, :2, :2], foot.sensors)
 
 
-def two_foot_split(robot, sensors: SensorConfig, q: np.ndarray, cop: np.ndarray, weight: float):
+def two_foot_split(
+    robot: Robot, sensors: SensorConfig, q: np.ndarray, cop: np.ndarray, weight: float
+):
     """Pad forces of every foot on the floor: the elastic split of the weight over the pads
     that press (unilateral: a pad does not pull).
 
@@ -143,7 +146,7 @@ class _Stance:
     where: str
 
 
-def _stance(robot, sensors, config, cop_true, q_act, weight) -> _Stance:
+def _stance(robot: Robot, sensors, config, cop_true, q_act, weight) -> _Stance:
     """Pad forces of a standing robot (or none in a gantry) and the poses that would tip."""
     n = len(q_act)
     feet = sensors.feet if sensors is not None else ()
@@ -167,7 +170,7 @@ def _stance(robot, sensors, config, cop_true, q_act, weight) -> _Stance:
     return _Stance(forces, tips, f"the sensor rectangle of {robot.support}")
 
 
-def _support_foot(robot, sensors: SensorConfig):
+def _support_foot(robot: Robot, sensors: SensorConfig):
     support = [f for f in sensors.feet if f.sole_frame == robot.support]
     if not support:
         raise DataError(
@@ -177,7 +180,7 @@ def _support_foot(robot, sensors: SensorConfig):
     return support[0]
 
 
-def floor_forces(robot, sensors, forces: dict, q_act, grav) -> tuple[ExternalForce, ...]:
+def floor_forces(robot: Robot, sensors, forces: dict, q_act, grav) -> tuple[ExternalForce, ...]:
     """The floor's push on the pads of feet other than the support (double support)."""
     out = []
     up = -(np.tile([0.0, 0.0, -1.0], (len(q_act), 1)) if grav is None else grav)
@@ -193,7 +196,7 @@ def floor_forces(robot, sensors, forces: dict, q_act, grav) -> tuple[ExternalFor
     return tuple(out)
 
 
-def _cop_expected(robot, sensors, forces, errors, q_act) -> np.ndarray | None:
+def _cop_expected(robot: Robot, sensors, forces, errors, q_act) -> np.ndarray | None:
     """(n, 2) noise-free measured CoP: what a perfect average of the biased pads gives."""
     if sensors is None or not forces or not any(np.any(f) for f in forces.values()):
         return None
@@ -210,7 +213,7 @@ def _cop_expected(robot, sensors, forces, errors, q_act) -> np.ndarray | None:
         return num / den[:, None]
 
 
-def _imu_angles(robot, config, q: np.ndarray, grav: np.ndarray) -> np.ndarray:
+def _imu_angles(robot: Robot, config, q: np.ndarray, grav: np.ndarray) -> np.ndarray:
     """(n, 2) roll, pitch [rad] an IMU on the line mount's IMU link reads under gravity
     (n, 3) (support frame): g_link = (sin θ, −cos θ sin φ, −cos θ cos φ)."""
     link = config.imu_link or robot.profile.imu_link or robot.support
@@ -221,7 +224,7 @@ def _imu_angles(robot, config, q: np.ndarray, grav: np.ndarray) -> np.ndarray:
     return np.stack([roll, pitch], axis=1)
 
 
-def _check_inputs(robot, q_cmd, sensors, samples, config) -> None:
+def _check_inputs(robot: Robot, q_cmd, sensors, samples, config) -> None:
     if samples < 1:
         raise DataError(f"samples per pose must be ≥ 1, got {samples}")
     n = q_cmd.shape[0]
@@ -241,7 +244,7 @@ def _check_inputs(robot, q_cmd, sensors, samples, config) -> None:
 
 
 def run_experiment(
-    robot,
+    robot: Robot,
     q_cmd: np.ndarray,
     sensors: SensorConfig | None,
     samples: int = 100,
@@ -264,6 +267,7 @@ def run_experiment(
     q_act = q_cmd + delta
     grav = None
     if config.mount == "line":  # balanced: the tilt about the line that puts the CoM above it
+        assert robot.line is not None  # _check_inputs: a line mount needs a line support
         grav = balance_gravity(robot.line, balance_tilt(robot.tree, robot.line, q_act, r_true)[0])
     elif config.tilt_deg > 0:  # roll φ, pitch θ of the support: (sin θ, −cos θ sin φ, −cos θ cos φ)
         roll, pitch = rng.normal(0.0, math.radians(config.tilt_deg), size=(2, n))

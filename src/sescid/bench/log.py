@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sescid.bench.real_robot import ExperimentConfig, Registers, SensorErrors
+from sescid.robot import Robot
 from sescid.sensors.pads import Foot, SensorConfig
 from sescid.tables import APPROACH_COLUMN, TAU_PREFIX
 
@@ -72,7 +73,7 @@ class RawLogWriter:
 
     def __init__(
         self,
-        robot,
+        robot: Robot,
         sensors: SensorConfig | None,
         config: ExperimentConfig,
         errors: SensorErrors,

@@ -32,6 +32,7 @@ import numpy as np
 from sescid.base import check_ranges, option
 from sescid.errors import DataError, check_choice
 from sescid.planning import Mount
+from sescid.robot import Robot
 from sescid.sensors.pads import SensorConfig
 from sescid.sesc import sesc_vectors
 
@@ -182,7 +183,7 @@ class ExperimentConfig:
         self.torque.check()
 
 
-def generic_extra(robot, n: int = 4) -> tuple[ExtraMass, ...]:
+def generic_extra(robot: Robot, n: int = 4) -> tuple[ExtraMass, ...]:
     """Unmodelled mass on the ``n`` heaviest bodies in proportion to their masses, 2 cm behind
     and 1 cm beside their frames' origins (cables and boards of a robot without a known list)."""
     order = np.argsort(-robot.masses, kind="stable")[:n]
@@ -194,7 +195,7 @@ def generic_extra(robot, n: int = 4) -> tuple[ExtraMass, ...]:
     )
 
 
-def default_rooting(robot):
+def default_rooting(robot: Robot):
     """The robot rooted where the default unmodelled masses are written: its profile's support
     (the OP2's right sole), else the model file's own root link. Every stance's bench carries
     them from there (``carried``), so every stance stands the same physical robot."""
@@ -202,7 +203,7 @@ def default_rooting(robot):
     return robot.stance(home) if home else robot  # kept by the robot: loaded once
 
 
-def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
+def extra_masses(robot: Robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
     """The unmodelled masses of ``config`` on ``robot`` (``ExperimentConfig.extra``, offsets in
     ``robot``'s body frames); the defaults are those of ``default_rooting`` carried over."""
     if config.extra is not None:
@@ -215,7 +216,7 @@ def extra_masses(robot, config: ExperimentConfig) -> tuple[ExtraMass, ...]:
     return base if home is robot else carried(home, robot, base)
 
 
-def carried(reference, robot, extra: tuple[ExtraMass, ...]) -> tuple[ExtraMass, ...]:
+def carried(reference: Robot, robot: Robot, extra: tuple[ExtraMass, ...]) -> tuple[ExtraMass, ...]:
     """Unmodelled masses with offsets in the body frames of ``reference`` carried into those of
     ``robot`` (the same model rooted elsewhere, ``Robot.at``) through each body's first link:
     the same physical masses."""
@@ -229,7 +230,7 @@ def carried(reference, robot, extra: tuple[ExtraMass, ...]) -> tuple[ExtraMass, 
     return tuple(out)
 
 
-def stance_config(reference, robot, config: ExperimentConfig) -> ExperimentConfig:
+def stance_config(reference: Robot, robot: Robot, config: ExperimentConfig) -> ExperimentConfig:
     """``config`` for the same real robot in another stance: its unmodelled masses (those of
     ``extra_masses(reference, config)``, offsets in the reference robot's body frames) carried
     into the body frames of ``robot`` (``carried``), so every stance stands the same physical
@@ -239,7 +240,7 @@ def stance_config(reference, robot, config: ExperimentConfig) -> ExperimentConfi
     )
 
 
-def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
+def real_bodies(robot: Robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
     """The real robot's bodies (the model's plus the unmodelled masses) and the masses placed."""
     if not (0 <= config.extra_mass_fraction < 1):
         raise DataError(f"extra mass fraction must be in [0, 1), got {config.extra_mass_fraction}")
@@ -265,14 +266,14 @@ def real_bodies(robot, config: ExperimentConfig) -> tuple[list, list[dict]]:
     return bodies, placed
 
 
-def real_robot(robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
+def real_robot(robot: Robot, config: ExperimentConfig) -> tuple[np.ndarray, float, list[dict]]:
     """True SESC vectors (N, 3) [m] and mass [kg] of the model plus the unmodelled masses."""
     bodies, placed = real_bodies(robot, config)
     model = dataclasses.replace(robot.model, bodies=bodies)
     return sesc_vectors(model), float(sum(b.mass for b in bodies)), placed
 
 
-def check_limits(robot, q: np.ndarray, where: str = "poses") -> None:
+def check_limits(robot: Robot, q: np.ndarray, where: str = "poses") -> None:
     """Error naming the first pose/joint outside the robot's joint limits."""
     lim = robot.joint_limits
     bad = np.argwhere((q < lim[:, 0]) | (q > lim[:, 1]))
@@ -318,7 +319,7 @@ def pad_gains(sensors: SensorConfig | None, config: ExperimentConfig, seed: int 
     return out
 
 
-def draw_errors(robot, sensors, config: ExperimentConfig, seed, rng) -> SensorErrors:
+def draw_errors(robot: Robot, sensors, config: ExperimentConfig, seed, rng) -> SensorErrors:
     """The run's sensor errors: pad biases from ``rng`` (the bench's stream, in foot order),
     pad gains and torque errors from their own streams of ``seed``."""
     feet = sensors.feet if sensors is not None else ()

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike
 
 from sescid.base import G0
 from sescid.kinematics import as_poses
+from sescid.robot import Robot
 
 
 @dataclass(frozen=True)
@@ -36,7 +37,7 @@ class ExternalForce:
 
 
 def holding_torques(
-    robot,
+    robot: Robot,
     q: ArrayLike,
     bodies: list | None = None,
     gravity: ArrayLike | None = None,

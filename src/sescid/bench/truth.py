@@ -22,6 +22,7 @@ from sescid.base.files import atomic_open, read_json
 from sescid.bench.log import expected_torques
 from sescid.bench.real_robot import BenchMount, Engine
 from sescid.errors import DataError, choices
+from sescid.robot import Robot
 
 TRUTH_FORMAT = "sescid-experiment-truth/1"
 
@@ -288,7 +289,7 @@ def settings_of(config, sensors) -> dict:
     }
 
 
-def common_fields(robot, real: tuple, errors, run: tuple) -> dict:
+def common_fields(robot: Robot, real: tuple, errors, run: tuple) -> dict:
     """The ``Truth`` fields every bench fills alike: ``real`` = (r_true, mass, placed) of
     ``real_robot``, ``errors`` the run's ``SensorErrors``, ``run`` = (seed, samples)."""
     r_true, mass, placed = real

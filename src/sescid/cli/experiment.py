@@ -143,19 +143,20 @@ def plan_rows(table, robot, stance: str, poses_file) -> np.ndarray:
     if column is None or column not in table.text:
         return np.arange(table.n)
     labels = np.array([v.strip() for v in table.text[column]])
-    flags = {}
+    flags, label_of = {}, {}  # a stance's flags by its label; each spelling's label
     for name in dict.fromkeys(labels.tolist()):
         row = table.where(int(np.flatnonzero(labels == name)[0]))
         at = f"{poses_file}: {row}, column '{column}'"
         if not name:
             raise DataError(f"{at} is empty (name the stance of every row, or of none)")
-        planned = parse_stance(name, robot, at)  # a stance of this model
+        planned = parse_stance(name, robot, at)  # a stance of this model, in any spelling
+        label_of[name] = planned.label
         flags[planned.label] = (
             "--double-support" if planned.mount == "double"
-            else f"--mount gantry --support {name}" if planned.mount == "gantry"
-            else f"--support {name}"
+            else f"--mount gantry --support {planned.support}" if planned.mount == "gantry"
+            else f"--support {planned.support}"
         )  # fmt: skip
-    rows = np.flatnonzero(labels == stance)
+    rows = np.flatnonzero([label_of[v] == stance for v in labels.tolist()])
     if rows.size == 0:
         raise DataError(
             f"{poses_file}: its poses were planned for {', '.join(repr(p) for p in flags)} "

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import copy
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 
 import click
 import numpy as np
@@ -14,17 +15,21 @@ from sescid.errors import DataError
 from sescid.report import mm
 from sescid.robot import DOUBLE
 from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors, pose_list_ids
-from sescid.stance import data_stance, support_column
-from sescid.tables import SUPPORT_COLUMN, iter_table, pose_ids, read_table, write_table
+from sescid.stance import data_stance, parse_stance, support_column
+from sescid.tables import SUPPORT_COLUMN, Table, iter_table, pose_ids, read_table, write_table
 
 
-def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
+def _log_stances(
+    raw: str, robot, support: str | None, plan=None
+) -> tuple[list[str], dict[str, str]]:
     """The stances of a raw log (its ``support`` column in any case, in order of appearance;
-    empty without the column), each passing the one stance check (``data_stance``). Errors
-    name the row: an empty cell, a pose whose samples switch stance, a pose the plan
-    (``plan``: the pose list, with its own ``support`` column) puts on another stance; and a
-    log of one stance unlike ``--support``."""
-    names: dict[str, str] = {}  # stance → where it first appears
+    empty without the column) as their labels (``Stance.label``), each passing the one stance
+    check (``data_stance``), and the spellings that are not their label (``gantry:TRUNK``)
+    → label. Errors name the row: an empty cell, a pose whose samples switch stance, a pose the
+    plan (``plan``: the pose list, with its own ``support`` column) puts on another stance; and
+    a log of one stance unlike ``--support``."""
+    names: dict[str, str] = {}  # stance label → where it first appears
+    rename: dict[str, str] = {}  # spelling → its label, where they differ
     # pose id → (stance, where: its row's name, made only for an error — a row number scans
     # the file up to it)
     first: dict[str, tuple[str, Callable[[], str]]] = {}
@@ -40,10 +45,15 @@ def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
                 "each sample)"
             )
         for name in dict.fromkeys(labels.tolist()):
-            if name not in names:
+            if name not in names and name not in rename:
                 at = f"{raw}: {table.where(int(np.flatnonzero(labels == name)[0]))}"
-                names[name] = at
                 data_stance(robot, name, (), f"{at}, column '{column}'")
+                label = parse_stance(name, robot, at).label
+                names.setdefault(label, at)
+                if label != name:
+                    rename[name] = label
+        if rename:
+            labels = np.array([rename.get(v, v) for v in labels.tolist()])
         if "pose" not in table.names():
             continue
         ids = pose_ids(table)
@@ -59,23 +69,39 @@ def _log_stances(raw: str, robot, support: str | None, plan=None) -> list[str]:
                     "stance; give the samples of the other another pose id, or fix the column"
                 )
     if plan is not None:
-        _check_plan(raw, plan, first)
+        _check_plan(raw, plan, first, robot)
     stances = list(names)
     if len(stances) == 1 and support is not None and stances[0] not in (support, DOUBLE):
         raise DataError(
             f"{raw}: the log was measured on '{stances[0]}' (its '{SUPPORT_COLUMN}' column), not "
             f"on --support {support}"
         )
-    return stances
+    return stances, rename
 
 
-def _check_plan(raw: str, plan, measured: dict[str, tuple[str, Callable[[], str]]]) -> None:
+def _relabelled(tables: Iterable[Table], rename: dict[str, str]) -> Iterator[Table]:
+    """The tables with their ``support`` cells spelled as labels (``rename``: spelling → label)."""
+    for table in tables:
+        column = support_column(table)
+        if rename and column is not None and column in table.text:
+            table = copy.copy(table)
+            table.text = {
+                **table.text,
+                column: [rename.get(v.strip(), v) for v in table.text[column]],
+            }
+        yield table
+
+
+def _check_plan(raw: str, plan, measured: dict[str, tuple[str, Callable[[], str]]], robot) -> None:
     """DataError for a pose the log measured in another stance than the plan (``plan``, the
-    pose list, with a ``support`` column) put it on."""
+    pose list, with a ``support`` column, in any spelling of a stance) put it on."""
     column = support_column(plan)
     if column is None or column not in plan.text or not measured:
         return
-    planned = dict(zip(pose_list_ids(plan).tolist(), (v.strip() for v in plan.text[column]),
+    spelled = [v.strip() for v in plan.text[column]]
+    label = {v: parse_stance(v, robot, f"{plan.path}, column '{column}'").label
+             for v in dict.fromkeys(spelled) if v}  # fmt: skip
+    planned = dict(zip(pose_list_ids(plan).tolist(), (label.get(v, v) for v in spelled),
                        strict=True))  # fmt: skip
     for pose, (stance, at) in measured.items():
         want = planned.get(pose)
@@ -121,21 +147,26 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
         [out], [raw, poses_file, sensors_file, common.model_input(robot_name)], force=force
     )
     pose_list = read_table(poses_file) if poses_file is not None else None
-    stances = _log_stances(raw, common.load(robot_name, support), support, pose_list)
+    stances, rename = _log_stances(raw, common.load(robot_name, support), support, pose_list)
     one = stances[0] if len(stances) == 1 else None
     robot = common.load(robot_name, support or (None if one in (None, DOUBLE) else one))
     config = _sensors(sensors_file, robot.profile)
     if len(stances) > 1:  # each stance's samples reduced in its own frame
         robots = {st: robot.stance(st) for st in stances}
         res, unmeasured, labels = fsr_stances(
-            robots, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
-            whole=lambda: read_table(raw),
+            robots, lambda: _relabelled(iter_table(raw), rename), config, min_samples,
+            pose_list, imu_link, whole=lambda: next(_relabelled([read_table(raw)], rename)),
         )  # fmt: skip
     else:
         res, unmeasured = fsr_chunks(
-            robot, lambda: iter_table(raw), config, min_samples, pose_list, imu_link,
+            robot,
+            lambda: iter_table(raw),
+            config,
+            min_samples,
+            pose_list,
+            imu_link,
             whole=lambda: read_table(raw),
-        )  # fmt: skip
+        )  # fmt: skip  (one stance: its cells are not read again)
         labels = np.full(len(res.pose), one) if one is not None else None
     columns = res.columns(robot.joint_names)
     if labels is not None:  # the stance each pose was measured in, for identify to pool

@@ -2,32 +2,25 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import click
 
 from sescid.base import OutputSet, TerminalProgress
 from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
-from sescid.estimation import min_poses
 from sescid.io import pose_table, required_paper_convention
 from sescid.planning import (
     DEFAULT_STANCE_COST,
     PAYLOAD_CANDIDATES,
     PlanOptions,
     Select,
-    block_curve,
+    StancePlan,
     cop_half_extents,
-    default_candidates,
     design_curve,
     free_sole,
-    min_block_poses,
     parse_stances,
     plan_payload_poses,
     plan_poses,
-    plan_stances,
-    resolve_mount,
     sampling_limits,
     stance_robot,
 )
@@ -148,65 +141,48 @@ def poses(**o):
     robot = common.load(o["robot_name"], o["support"])
     pc = required_paper_convention(robot) if o["paper_convention"] else None
     chosen = parse_stances(o["stances"], robot) if o["stances"] is not None else ()
-    mount = o["mount"]
-    if chosen and mount is not None:
-        raise OptionError("mount", "--stances names each stance's mount (gantry:<link>, double)")
-    if len(chosen) == 1:  # one stance: as --support and --mount
-        robot, mount = stance_robot(robot, chosen[0]), chosen[0].mount
+    if len(chosen) == 1:  # one stance: as --support and --mount (printed in its frame)
+        robot = stance_robot(robot, chosen[0])
     if o["payload"] is not None:
         _payload_plan(o, robot, pc, outs)
         return
     common.refuse_idle("payload_mass", o["payload_mass"] is None, "without --payload")
-    n_candidates = o["candidates"]
-    if n_candidates is None:  # several stances share the pool
-        n_candidates = default_candidates(robot, select, count, kinds) // max(len(chosen), 1)
-    held = len(chosen) < 2 and resolve_mount(robot, mount, kinds) == "gantry"  # said first
-    need = min_poses(robot)
-    if count < need and kinds == "cop":
-        raise OptionError("count", f"{count}: at least {need} poses are needed on {robot.name}")
-    if n_candidates < count:
-        raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
+    if len(chosen) > 1 and figure is not None:
+        raise OptionError("stances", "several stances are planned D-optimally, no figure")
     box = o["cop_box"], o["margin"], o["sole_size"]
-    half = None if held else cop_half_extents(robot, *box)
-    pose_check = None
-    if o["check"] == "mujoco" and len(chosen) < 2:
-        from sescid.bench import standing_check
-
-        pose_check = standing_check(robot, mount == "double")
     opt = record(
-        PlanOptions, o, n_candidates=n_candidates, mount=mount, half_extents=half,
+        PlanOptions, o, n_candidates=o["candidates"], mount=o["mount"],
+        half_extents=None if box[:2] == (None, None) else cop_half_extents(robot, *box),
         limits=sampling_limits(robot, paper=not o["urdf_limits"], range_deg=o["range_deg"]),
-        check=pose_check, check_name="MuJoCo bench", tau_joints=_joint_list(o["tau_joints"]),
+        check=_stance_check if o["check"] == "mujoco" else None, check_name="MuJoCo bench",
+        tau_joints=_joint_list(o["tau_joints"]),
     )  # fmt: skip
-    if len(chosen) > 1:
-        if select != "d-optimal" or figure is not None:
-            raise OptionError("stances", "several stances are planned D-optimally, no figure")
-        opt = dataclasses.replace(opt, half_extents=None if box[:2] == (None, None) else half,
-                                  mount=None)  # fmt: skip
-        checks = (lambda st, rb: _stance_check(st, rb)) if o["check"] == "mujoco" else None
-        sp = plan_stances(robot, chosen, count, o["seed"], opt, o["stance_cost"], check=checks,
-                          progress=TerminalProgress("candidates"))  # fmt: skip
-        _write_stance_plan(robot, sp, out, outs, pc)
+    plan = plan_poses(robot, count, select, o["seed"], opt, stances=chosen, cost=o["stance_cost"],
+                      progress=TerminalProgress("candidates"))  # fmt: skip
+    if isinstance(plan, StancePlan):
+        _write_stance_plan(robot, plan, out, outs, pc)
         return
-    plan = plan_poses(robot, count, select, o["seed"], opt, progress=TerminalProgress("candidates"))
     label = chosen[0].label if chosen else "double" if plan.mount == "double" else None
     table = pose_table(robot, plan.q, support=label, paper=pc,
                        cop=None if plan.mount == "gantry" else plan.cop)  # fmt: skip
-    _echo_plan(robot, plan, opt, half, table.notes)
-    curve = _curve(plan, need, count, n_candidates, opt.sigma, o["seed"]) if figure else None
+    _echo_plan(robot, plan, opt, table.notes)
+    curve = None
+    if figure is not None:
+        curve = design_curve(plan, seed=o["seed"], progress=TerminalProgress("figure: K values"))
     with outs:
         write_table(outs.path(out), table.columns)
         if curve is not None:
-            what = "" if plan.rows is None else f" ({kinds} rows, CoM x/y error)"
+            what = "" if plan.quantity == "CoP" else f" ({kinds} rows, CoM x/y error)"
             design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection{what}")
     click.echo(f"wrote {out}: {count} poses ({len(table.columns)} columns)")
     if curve is not None:
         click.echo(f"wrote {figure}")
 
 
-def _echo_plan(robot, plan, opt: PlanOptions, half, table_notes: list[str]) -> None:
+def _echo_plan(robot, plan, opt: PlanOptions, table_notes: list[str]) -> None:
     """What the plan found: the candidates, the checks, notes, the expected error, the path."""
     echo = click.echo
+    half = None if plan.mount == "gantry" else plan.candidates.half_extents
     capsules = plan.candidates.capsules
     notes = list(capsules.notes) if capsules is not None else []
     if plan.mount != "gantry":
@@ -331,20 +307,7 @@ def _joint_list(spec: str) -> tuple[str, ...] | None:
 
 def _error_line(plan, noise: float, tau_noise: float) -> str:
     """What the expected error is of, and the noise it assumes."""
-    if plan.rows is None:
+    if plan.quantity == "CoP":
         return f"CoP error on fresh poses (σ = {noise * 1e3:g} mm)"
     sig = f"σ_τ = {tau_noise:g} N·m" + (f", σ = {noise * 1e3:g} mm" if plan.kinds == "both" else "")
     return f"CoM x/y error on fresh poses ({sig})"
-
-
-def _curve(plan, need: int, count: int, n_candidates: int, noise: float, seed: int):
-    """The figure's expected error vs K (the CoP's, or the CoM's for torque rows)."""
-    progress = TerminalProgress("figure: K values")
-    if plan.rows is not None:
-        r = plan.rows
-        need = min_block_poses(r.x.shape[1], r.p, r.n_nuisance)
-    ks = [need, 25, 30, 38, 50, 70, 100, 150, 200, count]
-    ks = sorted({k for k in ks if need <= k <= min(n_candidates, max(200, count))})
-    if plan.rows is not None:
-        return block_curve(plan.rows, plan.c_test, ks, seed, progress=progress)
-    return design_curve(plan.a_pool, plan.c_test, ks, noise, seed, progress=progress)

@@ -62,14 +62,16 @@ def report(fit_file, measured, out_dir, stance, imu_link, force):
     """
     outs = OutputSet([], [fit_file, measured], folders=[out_dir], force=force)
     fit = load_fit(fit_file)
+    rows = None  # the stance of the rows reported: the fit's own support by default
     if stance is not None:
         label, _ = data_stance(fit.robot, stance, (), "--support")  # one stance check
+        rows = label or fit.robot.support
         try:
-            fit = for_support(fit, label or fit.robot.support)
+            fit = for_support(fit, rows)  # both feet: the fit's own frame
         except DataError as exc:
             raise OptionError("support", f"{stance}: {fit_file}: {exc}") from None
     common.echo_model_change(fit, fit_file)
-    data, ids = read_report_data(measured, fit, imu_link)
+    data, ids = read_report_data(measured, fit, imu_link, rows)
     options = ReportOptions(pose_ids=ids, progress=TerminalProgress("report files"))
     with outs:
         res = write_report(fit, data, outs.folder(out_dir), options)

@@ -62,9 +62,10 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     gravity direction of each balanced pose) and balance_tilt_true [rad]. Every file has a
     support column (the stance: files of several stances pool in identify).
 
-    The CoP and torques are those of a robot that differs from its model as the bench's does
-    (--extra-mass: 7 % of unmodelled mass, placed as `experiment` places it), so a fit has
-    something to identify; --extra-mass 0 simulates the model itself (every fit then keeps it).
+    The CoP, torques and balance are those of a robot that differs from its model as the
+    bench's does (--extra-mass: 7 % of unmodelled mass, placed as `experiment` places it), so a
+    fit has something to identify; --extra-mass 0 simulates the model itself (every fit then
+    keeps it).
     """
     import dataclasses
     import math
@@ -86,13 +87,13 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
                 f"with --measure {measure}")  # fmt: skip
     common.refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
     common.refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
-    common.refuse_idle("extra_mass", measure != "balance", "with --measure balance")
-    if measure == "balance":
-        _balance(robot, poses, range_deg, seed, kinds["tilt_noise_deg"], outs, out)
-        return
     r_true, true_mass, placed = real_robot(
         robot, ExperimentConfig(extra_mass_fraction=kinds["extra_mass"])
     )
+    if measure == "balance":
+        _balance(robot, (poses, range_deg, seed), kinds["tilt_noise_deg"], r_true, outs, out)
+        click.echo(f"  {_real_line(robot, true_mass, placed)}")
+        return
     sensors = torque_noise(kinds)
     if sensors is not None and sensors.total_mass is None:
         sensors = dataclasses.replace(sensors, total_mass=true_mass)
@@ -143,14 +144,16 @@ def _real_line(robot, true_mass: float, placed: list[dict]) -> str:
     )
 
 
-def _balance(robot, poses: int, range_deg: float, seed: int, noise_deg: float, outs, out):
-    """Balanced poses of a robot on its line: joints, measured gravity, the true tilt."""
+def _balance(robot, draw: tuple[int, float, int], noise_deg: float, r_true, outs, out):
+    """Balanced poses of the real robot (SESC vectors ``r_true``) on its line: joints, measured
+    gravity, the true tilt; ``draw``: poses, range [degrees], seed."""
     import math
 
     from sescid.simulation import simulate_balance
     from sescid.tables import write_table
 
-    sim = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed)
+    poses, range_deg, seed = draw
+    sim = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed, r_true)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
     cols["balance_tilt_true"] = sim.tilt

@@ -1,6 +1,5 @@
-"""What a pose plan is given and gives (``PlanOptions``, ``PosePlan``), the default pool, the
-physics check's choose-again loop and the plan's notes: shared by the CoP plan (``plan``) and
-the torque plan (``plan_kinds``)."""
+"""What a pose plan is given and gives: ``PlanOptions``, the plan family (``Plan``: one stance,
+``PosePlan``; several, ``StancePlan``), the default pool and the plan's notes."""
 
 from __future__ import annotations
 
@@ -13,20 +12,21 @@ from typing import Literal
 import numpy as np
 
 from sescid.base import check_ranges, option
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError
 from sescid.planning.design.doptimal import Selection
 from sescid.planning.design.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
-from sescid.planning.feasibility.candidates import CandidateOptions, Candidates, Mount, candidates
-from sescid.planning.feasibility.com import level_cop
-from sescid.planning.feasibility.compliance import Compliance, compliance
-from sescid.planning.feasibility.limits import UNLIMITED_RANGE, sampling_limits, unlimited_joints
+from sescid.planning.feasibility.candidates import Candidates, Mount
+from sescid.planning.feasibility.compliance import Compliance
+from sescid.planning.feasibility.limits import UNLIMITED_RANGE
 from sescid.planning.feasibility.stability import DEFAULT_CLEARANCE
-from sescid.planning.ordering import order_poses, path_length
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
+from sescid.stance import Stance
 
 #: (k, nq) poses [rad] → (k,) True where the pose stands (a physics bench, ``bench.standing``)
 PoseCheck = Callable[[np.ndarray], np.ndarray]
+#: (stance, the robot rooted at its frame) → that stance's ``PoseCheck``, or None (none there)
+StanceCheck = Callable[[Stance, Robot], PoseCheck | None]
 
 
 #: how a plan chooses its poses from the candidates: D-optimally, or at random (a reference)
@@ -69,7 +69,8 @@ class PlanOptions:
         "Stability: the CoP box only, no compliant-robot margin (servo sag, sole tilt, "
         "backlash from the robot profile).",
     )
-    check: PoseCheck | None = None  #: keeps only chosen poses it passes (a physics bench)
+    #: a stance's physics check (a bench): keeps only chosen poses it passes
+    check: StanceCheck | None = None
     check_name: str = ""  #: what ``check`` is, for the notes
     max_check_rounds: int = 20  #: choose again at most this often after failed checks
     kinds: DesignKind = option(
@@ -102,40 +103,53 @@ class PlanOptions:
         check_ranges(self)
 
 
-@dataclass
-class PosePlan:
-    """K chosen poses in visiting order, with what the choice is expected to achieve."""
+@dataclass(kw_only=True)
+class Plan:
+    """K chosen poses in visiting order and what the choice is expected to achieve: the fields
+    every plan has (one stance: ``PosePlan``; several: ``StancePlan``)."""
 
-    q: np.ndarray  #: (K, nq) rad, ordered
-    cop: np.ndarray  #: (K, 2) model CoP on a level floor, m (CPU-independent bits; nan: gantry)
+    q: np.ndarray  #: (K, nq) rad, in visiting order
+    cop: np.ndarray  #: (K, 2) model CoP [m] in its stance's frame (CPU-independent; nan: held)
+    kinds: DesignKind = "cop"  #: the kinds the design counts
+    rank: int  #: dimension p of the identifiable subspace the design spans
+    logdet: float  #: log det of the chosen poses' information on it
+    selection: Selection
+    notes: list[str] = field(default_factory=list)
+    n_checked: int = 0  #: poses the physics check ran
+    n_check_failed: int = 0  #: of which did not stand (replaced)
+
+
+@dataclass(kw_only=True)
+class PosePlan(Plan):
+    """A plan in one stance (its candidates, the expected error of least squares)."""
+
     method: Select
     #: m, expected noise-free error of least squares on these poses: of the CoP (a CoP design),
     #: else of the CoM x/y (``quantity``) on fresh poses
     expected_error: float
     random_error: float  #: m, the same for K random candidates (median over draws)
     sigma: float  #: m, CoP noise assumed
-    rank: int  #: dimension p of the identifiable subspace
-    logdet: float
     path_unordered: float  #: rad, joint-space path length in selection order
     path_ordered: float  #: rad, after ordering
     candidates: Candidates
-    selection: Selection
     basis: np.ndarray  #: (3N, p)
-    a_pool: np.ndarray = field(repr=False)  #: (n, 2, p)
     c_test: np.ndarray = field(repr=False)  #: (p, p)
     #: joints the model leaves unlimited, sampled within ±``unlimited_range``
     unlimited: list[str] = field(default_factory=list)
     unlimited_range: float = UNLIMITED_RANGE  #: rad (the default, or what ``limits`` gave)
     compliance: Compliance | None = None  #: the compliant-stability model (None: rigid)
-    n_checked: int = 0  #: poses the physics check ran
-    n_check_failed: int = 0  #: of which did not stand (replaced)
-    notes: list[str] = field(default_factory=list)
-    kinds: DesignKind = "cop"  #: the kinds the design counts
     quantity: Quantity = "CoP"  #: what ``expected_error`` is the error of
     mount: Mount = "stand"  #: "stand", "gantry" or "double"
-    rows: BlockRows | None = field(default=None, repr=False)  #: the pool's rows (kinds ≠ cop)
+    rows: BlockRows = field(repr=False)  #: the pool's rows (the CoP's not divided by ``sigma``)
+    min_count: int  #: fewest poses that can determine the ``rank`` combinations (and offsets)
     #: of the ``rank`` combinations, how many the chosen poses determine (None: all of them)
     determined: int | None = None
+
+    @property
+    def error_scale(self) -> float:
+        """What the rows' errors are multiplied by (``engine.expected_error``): σ for the CoP's
+        rows, 1 for rows divided by their noise."""
+        return self.sigma if self.quantity == "CoP" else 1.0
 
     @property
     def poses_for_all(self) -> int | None:
@@ -144,6 +158,41 @@ class PosePlan:
         if self.determined is None or self.determined >= self.rank:
             return None
         return math.ceil(len(self.q) * self.rank / max(self.determined, 1))
+
+
+@dataclass(frozen=True)
+class StanceReport:
+    """What one stance contributes to a plan over several."""
+
+    stance: Stance
+    poses: int  #: poses of the plan in this stance
+    rank: int  #: directions of θ its candidates determine alone
+    adds: int  #: directions the pool loses without it
+    candidates: Candidates
+
+
+@dataclass(kw_only=True)
+class StancePlan(Plan):
+    """A plan over several stances, grouped by stance in visiting order (``rank``: directions
+    of θ, 4N, the pool determines), and what pooling gains."""
+
+    stance: np.ndarray  #: (K,) each pose's stance label (``Stance.label``)
+    stances: tuple[Stance, ...]
+    reports: list[StanceReport]
+    reference: Stance  #: the stance the pooled plan is compared with
+    n_theta: int  #: 4N
+    cost: float  #: poses per stance change
+    changes: int  #: stance changes in the visiting order
+    #: m, expected RMS error of the CoM on fresh poses (reference frame) of a MAP fit of these
+    #: poses (``PRIOR_TAU``): 3-D, and x/y
+    expected_com: float
+    expected_com_xy: float
+    #: m, the same for K poses of the reference stance alone (its own D-optimal choice)
+    reference_com: float
+    reference_com_xy: float
+    path_length: float  #: rad, joint-space path summed over the stance groups
+    subsets: list[tuple[tuple[str, ...], int, float]]  #: (labels, poses, log det) tried
+    test_q: np.ndarray = field(repr=False)  #: (n, nq) rad, the fresh poses of the errors
 
 
 def default_candidates(robot: Robot, select: Select, count: int, kinds: DesignKind = "cop") -> int:
@@ -168,47 +217,16 @@ def options_with(options: PlanOptions | None, overrides: dict) -> PlanOptions:
     return dataclasses.replace(opt, **overrides)
 
 
-def checked_choice(
-    choose: Callable[[np.ndarray], Selection],
-    q: np.ndarray,
-    opt: PlanOptions,
-    by_index: Callable[[np.ndarray], np.ndarray] | None = None,
-) -> tuple[Selection, int, int]:
-    """(selection, poses checked, failed): ``choose(keep)`` among the pool poses ``q`` where
-    ``keep``, run ``opt.check`` (or ``by_index``, given the pool indices) on the chosen poses
-    not checked yet, drop those that fail from the pool and choose again, until all stand."""
-    keep = np.ones(len(q), dtype=bool)
-    sel = choose(keep)
-    if opt.check is None and by_index is None:
-        return sel, 0, 0
-    check = by_index or (lambda idx: opt.check(q[idx]))  # type: ignore[misc]
-    stands: dict[int, bool] = {}
-    for _ in range(opt.max_check_rounds):
-        new = [int(i) for i in sel.index if int(i) not in stands]
-        if new:
-            ok = np.asarray(check(np.asarray(new, dtype=np.int64)), dtype=bool)
-            stands |= dict(zip(new, ok.tolist(), strict=True))
-        bad = [int(i) for i in sel.index if not stands[int(i)]]
-        if not bad:
-            return sel, len(stands), sum(not v for v in stands.values())
-        keep[bad] = False
-        sel = choose(keep)
-    raise SescidError(
-        f"after {opt.max_check_rounds} rounds some chosen poses still fail the "
-        f"{opt.check_name or 'physics'} check ({sum(not v for v in stands.values())} of "
-        f"{len(stands)} checked failed): more candidates (--candidates) or a tighter box"
-    )
-
-
 def plan_notes(
     free: list[str],
     free_range: float,
     opt: PlanOptions,
     model: Compliance | None,
-    checked: tuple[int, int],
+    checked: tuple[int, int] | None,
     held: bool = False,
 ) -> list[str]:
-    """What the plan assumed and checked, one line each (``held``: a gantry, no balance)."""
+    """What the plan assumed and checked (``checked``: poses the physics check ran and failed,
+    None: no check), one line each (``held``: a gantry, no balance)."""
     out = []
     if free:
         out.append(
@@ -222,81 +240,9 @@ def plan_notes(
         out.append("stability: the CoP box only (rigid robot)")
     else:
         out.append(f"compliant-robot margin: {model.source}")
-    if opt.check is not None:
+    if checked is not None:
         out.append(
             f"{opt.check_name or 'physics'} check: {checked[0]} poses simulated, {checked[1]} "
             "did not stand and were replaced"
         )
     return out
-
-
-def sampling_range(robot: Robot, opt: PlanOptions) -> tuple[np.ndarray, list[str], float]:
-    """The joint ranges (nq, 2) [rad] candidates are drawn in (``opt.limits`` or the robot's),
-    the joints the model leaves unlimited, and the widest range given to them (rad; 0: none)."""
-    lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
-    free = unlimited_joints(robot)
-    free_range = float(np.abs(lim[[robot.joint_names.index(j) for j in free]]).max()) if free else 0
-    return lim, free, free_range
-
-
-def standing_candidates(
-    robot: Robot,
-    n: int,
-    seed: int,
-    opt: PlanOptions,
-    lim: np.ndarray,
-    progress,
-    double: bool = False,
-) -> Candidates:
-    """``n`` candidates for a robot standing on its support foot (``double``: on both feet,
-    ``planning.double``): a level support checked, the compliant-robot margin unless
-    ``opt.rigid``, the floor and self-collision."""
-    robot.check_support_level()
-    model = None if opt.rigid else compliance(robot)
-    draw = CandidateOptions(
-        limits=lim, half_extents=opt.half_extents, clearance=opt.clearance, compliance=model
-    )
-    if double:
-        from sescid.planning.feasibility.double import double_candidates
-
-        return double_candidates(robot, n, seed, draw, progress=progress)
-    return candidates(robot, n, seed, draw, progress=progress)
-
-
-def visiting_order(q_sel: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """The chosen poses (k, nq) in visiting order (``ordering.order_poses``), and the length of
-    the joint-space path from the zero pose through them before and after ordering (rad)."""
-    q_ord = q_sel[order_poses(q_sel)]
-    zero = np.zeros(q_sel.shape[1])
-    return q_ord, path_length(q_sel, zero), path_length(q_ord, zero)
-
-
-def pose_plan(
-    robot: Robot,
-    chosen: tuple[Candidates, np.ndarray, Selection],
-    opt: PlanOptions,
-    sampled: tuple[list[str], float],
-    **fields,
-) -> PosePlan:
-    """The plan of the selection of ``chosen`` = (candidates, pool poses (n, nq), selection),
-    in visiting order, with what every design reports (the sampled range of ``sampled`` = (the
-    unlimited joints, their range), the compliance model); ``fields``: what the design adds
-    (its errors, basis, notes, …). ``cop``: False leaves the model CoP nan (a held robot)."""
-    cand, pool_q, sel = chosen
-    q_ord, path_unordered, path_ordered = visiting_order(pool_q[sel.index])
-    free, free_range = sampled
-    level = fields.pop("cop", True)
-    return PosePlan(
-        q=q_ord,
-        cop=level_cop(robot, q_ord) if level else np.full((len(q_ord), 2), np.nan),
-        sigma=opt.sigma,
-        logdet=sel.logdet,
-        path_unordered=path_unordered,
-        path_ordered=path_ordered,
-        candidates=cand,
-        selection=sel,
-        unlimited=free,
-        unlimited_range=free_range if free else UNLIMITED_RANGE,
-        compliance=cand.compliance,
-        **fields,
-    )

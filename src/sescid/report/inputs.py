@@ -120,27 +120,35 @@ def report_content(fit: Fit, data: Measurements, options: ReportOptions) -> Repo
 
 
 def read_report_data(
-    path: str | Path, fit: Fit, imu_link: str | None = None
+    path: str | Path, fit: Fit, imu_link: str | None = None, stance: str | None = None
 ) -> tuple[Measurements, tuple[str, ...]]:
     """A measurement file's data for the fit's robot (any kinds it holds: ``cop_x``/``cop_y``,
     ``tau_<joint>``, ``approach``, gravity or IMU columns) and its pose ids (``pose`` column,
-    else row numbers). Errors name the file and the column."""
+    else row numbers). A file with a ``support`` column gives the rows of ``stance`` (a stance
+    label, "double" for both feet; default: the fit's support), its cells in any spelling of a
+    stance. Errors name the file and the column."""
     from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
-    from sescid.stance import support_column
+    from sescid.stance import parse_stance, support_column
     from sescid.tables import read_table
 
     table = read_table(path)
     data = measurements_of(table, fit.robot, imu_link)
     ids = pose_list_ids(table)
     column = support_column(table)
-    if column in table.text:  # the rows of the fit's stance (the others: --support)
-        stance = np.array([v.strip() for v in table.text[column]])
-        mine = np.flatnonzero(stance == fit.robot.support)
+    want = stance or fit.robot.support
+    if column in table.text:  # the rows of that stance (the others: --support)
+        cells = [v.strip() for v in table.text[column]]
+        label = {v: parse_stance(v, fit.robot, f"{path}, column '{column}'").label
+                 for v in dict.fromkeys(cells) if v}  # fmt: skip
+        labels = np.array([label.get(v, v) for v in cells])
+        mine = np.flatnonzero(labels == want)
         if mine.size == 0:
+            names = sorted(set(labels.tolist()))
             raise DataError(
-                f"{path}: no row of the stance '{fit.robot.support}' (column 'support' names "
-                f"{', '.join(sorted(set(stance.tolist())))}): report the fit in one of those"
+                f"{path}: no row of the stance '{want}' (column '{column}' names "
+                f"{', '.join(names)}): report the fit in one of those (--support "
+                f"{' / '.join(names)})"
             )
         data, ids = data.take(mine), ids[mine]
     return data.checked(fit.robot), tuple(str(i) for i in ids)

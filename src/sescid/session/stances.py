@@ -15,7 +15,7 @@ robot is set down afresh), else it stays (the ``near`` rule from the current pos
 first measured pose every direction is unknown: the session starts in the first stance.
 
 Estimate (``PooledEstimate``): the MAP of θ̃ with the per-body CAD prior at
-``planning.plan_stances.PRIOR_TAU`` (the planner's expected error, as data come in) from every
+``planning.pooled.PRIOR_TAU`` (the planner's expected error, as data come in) from every
 measured pose's rows — the CoP weighted by its standard error, under the gravity the robot logs,
 each joint torque by its own, an offset per joint shared by the stances. Its stop quantity is
 the predicted RMS standard error of the CoM x/y in the reference frame over the reference poses
@@ -52,7 +52,7 @@ from sescid.planning.design.kinds import BlockRows
 from sescid.planning.design.sequential import NextPose, SequentialDesign
 from sescid.planning.design.stances import StanceRows, theta_information, theta_scale
 from sescid.planning.feasibility.double import hull_margin, place_points
-from sescid.planning.plan_stances import PRIOR_TAU
+from sescid.planning.pooled import PRIOR_TAU
 from sescid.robot import Robot
 from sescid.sensors import Measured, concat_measured
 from sescid.session.design import KindSwitch, unsafe_pose

@@ -44,6 +44,7 @@ from sescid.bench.truth import (
     torque_truth,
 )
 from sescid.errors import DataError
+from sescid.robot import Robot
 from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
 from sescid.sesc import tilted_cop
 
@@ -78,7 +79,7 @@ def pose_readings(sim: Simulation, res: PoseResult, reads: list[PoseResult], uns
     )
 
 
-def _check(robot, q_cmd, sensors, samples, config, bench) -> None:
+def _check(robot: Robot, q_cmd, sensors, samples, config, bench) -> None:
     if q_cmd.ndim != 2 or q_cmd.shape[1] != robot.nq:
         raise DataError(f"poses must be shaped (n, {robot.nq}), got {q_cmd.shape}")
     if samples < 1:
@@ -113,7 +114,9 @@ def _pad_cops(sensors, errors: SensorErrors, runs, readings) -> tuple[np.ndarray
         return cop / fsum[:, None], cop_b / fsum_b[:, None]
 
 
-def _physics(robot, runs, target, r_true, q_act, cops, timings) -> tuple[PhysicsTruth, np.ndarray]:
+def _physics(
+    robot: Robot, runs, target, r_true, q_act, cops, timings
+) -> tuple[PhysicsTruth, np.ndarray]:
     """The physics truth per pose, and the gravity direction in the sole frame (k, 3)."""
     rot = np.array([r.rot for r, _ in runs])
     pos = np.array([r.pos for r, _ in runs])
@@ -137,7 +140,7 @@ def _physics(robot, runs, target, r_true, q_act, cops, timings) -> tuple[Physics
 
 
 def run_mujoco_experiment(
-    robot,
+    robot: Robot,
     q_cmd: np.ndarray,
     sensors: SensorConfig | None,
     samples: int = 100,

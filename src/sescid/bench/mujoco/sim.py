@@ -26,6 +26,7 @@ from sescid.bench.mujoco.spec import (
 from sescid.bench.real_robot import ExperimentConfig
 from sescid.errors import OptionError
 from sescid.model.mjcf_compile import mujoco_module
+from sescid.robot import Robot
 from sescid.sensors.pads import SensorConfig
 
 
@@ -51,7 +52,7 @@ class PoseResult:
 class Simulation:
     """A compiled model with index maps, simulating one pose at a time."""
 
-    def __init__(self, robot, sensors: SensorConfig | None, config: ExperimentConfig, bench):
+    def __init__(self, robot: Robot, sensors: SensorConfig | None, config: ExperimentConfig, bench):
         mujoco = mujoco_module(BENCH_NEEDS)
         self.mj = mujoco
         self.robot, self.sensors, self.bench = robot, sensors, bench

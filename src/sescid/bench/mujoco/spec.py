@@ -28,6 +28,7 @@ from sescid.bench.real_robot import ExperimentConfig, extra_masses, real_bodies
 from sescid.errors import DataError, ModelError, OptionError, SescidError
 from sescid.model.mjcf_compile import mujoco_module
 from sescid.planning import collision_capsules
+from sescid.robot import Robot
 from sescid.robots.profile import ServoGains
 from sescid.sensors.pads import SensorConfig
 
@@ -93,7 +94,7 @@ class MujocoBenchConfig:
 BENCH_NEEDS = "the physics bench"
 
 
-def servo_gains(robot, bench: MujocoBenchConfig) -> ServoGains:
+def servo_gains(robot: Robot, bench: MujocoBenchConfig) -> ServoGains:
     """The bench's servo gains: the profile's, each overridden by ``bench`` when set."""
     base = robot.profile.servo_gains
     kp = bench.kp if bench.kp is not None else (base.kp if base else None)
@@ -111,7 +112,7 @@ def servo_gains(robot, bench: MujocoBenchConfig) -> ServoGains:
     return ServoGains(**values)
 
 
-def _urdf_inertias(robot) -> dict[int, list[tuple[float, np.ndarray, np.ndarray]]]:
+def _urdf_inertias(robot: Robot) -> dict[int, list[tuple[float, np.ndarray, np.ndarray]]]:
     """Per body: (mass, CoM in the body frame, inertia about that CoM in body axes) per link."""
     from sescid.model.urdf import load_urdf
 
@@ -147,14 +148,14 @@ def _body_inertia(parts, com: np.ndarray) -> np.ndarray:
     return inertia
 
 
-def sole_body(robot, sole: str) -> tuple[int, np.ndarray]:
+def sole_body(robot: Robot, sole: str) -> tuple[int, np.ndarray]:
     """(body index, link frame (4, 4) in it) of a sensor board's sole link."""
     if sole not in robot.model.link_frames:
         raise ModelError(f"sensor board on unknown link '{sole}' in {robot.model_path.name}")
     return robot.model.link_frames[sole]
 
 
-def standing_feet(robot, sensors: SensorConfig | None, config, bench) -> set[str]:
+def standing_feet(robot: Robot, sensors: SensorConfig | None, config, bench) -> set[str]:
     """Names of the feet that stand on the floor (their pads collide; no capsules)."""
     if sensors is None or config.mount == "gantry":
         return set()
@@ -180,7 +181,7 @@ def _inertia_list(own, extra, b, model_b, bench) -> list[float]:
             inertia[1, 2]]  # fmt: skip
 
 
-def _add_bodies(mujoco, spec, robot, config, bench, standing_bodies: set[int]) -> list:
+def _add_bodies(mujoco, spec, robot: Robot, config, bench, standing_bodies: set[int]) -> list:
     """The body tree with its joints and (for bodies not standing) collision capsules."""
     bodies, _ = real_bodies(robot, config)
     parts = _urdf_inertias(robot)
@@ -230,7 +231,7 @@ def _add_bodies(mujoco, spec, robot, config, bench, standing_bodies: set[int]) -
     return mj_bodies
 
 
-def _add_meshes(mujoco, spec, body, robot, i: int, name: str) -> None:
+def _add_meshes(mujoco, spec, body, robot: Robot, i: int, name: str) -> None:
     """Body ``i``'s collision meshes whose vertices are loaded, as MuJoCo meshes (their convex
     hulls: exactly the points the planner's floor check uses; they touch the floor only)."""
     from sescid.model.geometry import MESH
@@ -268,7 +269,7 @@ def _add_capsules(mujoco, body, caps, i: int, name: str) -> None:
         g.mass = 0.0
 
 
-def support_sole_plane(robot, sole_frame: str) -> float:
+def support_sole_plane(robot: Robot, sole_frame: str) -> float:
     """Height [m] of the sole plane in the frame ``sole_frame``: the floor under the support
     frame derived from the foot's geometry (``Robot.floor``: a foot frame above its sole, as
     the G1's ankle frame) when it is the support; the free foot's derived sole below its
@@ -284,7 +285,7 @@ def support_sole_plane(robot, sole_frame: str) -> float:
     return 0.0
 
 
-def _add_pads(mujoco, robot, sensors: SensorConfig | None, bench, mj_bodies: list) -> None:
+def _add_pads(mujoco, robot: Robot, sensors: SensorConfig | None, bench, mj_bodies: list) -> None:
     """Each board's four pad spheres on its sole plane and a site at its sole frame."""
     for f in sensors.feet if sensors is not None else ():
         b, x = sole_body(robot, f.sole_frame)
@@ -314,7 +315,7 @@ def _add_pads(mujoco, robot, sensors: SensorConfig | None, bench, mj_bodies: lis
         site.quat = quat.tolist()
 
 
-def build_spec(robot, sensors: SensorConfig | None, config: ExperimentConfig, bench):
+def build_spec(robot: Robot, sensors: SensorConfig | None, config: ExperimentConfig, bench):
     """The MuJoCo model spec of the real robot on a floor (module docstring)."""
     mujoco = mujoco_module(BENCH_NEEDS)
     spec = mujoco.MjSpec()

@@ -1,11 +1,10 @@
-"""D-optimal pose selection and the expected CoP error of a pose set.
+"""D-optimal choice of poses that give two CoP rows each: ``engine``'s fast path.
 
 ``log det M``, ``M = Σ AᵢᵀAᵢ``, ``Aᵢ = Φ_xy(qᵢ) V`` the x/y regressor projected on an orthonormal
 basis ``V`` of the identifiable subspace (from the candidate pool). Greedy, then Fedorov
 exchange; each candidate's ``Aᵢ M⁻¹ Aᵢᵀ`` is kept up to date by rank-2 Woodbury updates (O(n p)
 per step instead of O(n p²)); exchange passes search a shortlist of the most informative
-candidates, refreshed every pass. Least squares on K poses with CoP noise σ predicts the
-noise-free CoP of fresh poses with RMS error ``σ · sqrt(trace(Φ_test M⁻¹ Φ_testᵀ) / rows)``.
+candidates, refreshed every pass.
 """
 
 from __future__ import annotations
@@ -222,16 +221,6 @@ def select_d_optimal(
     )
 
 
-def expected_cop_error(a_sel: np.ndarray, c_test: np.ndarray, sigma: float) -> float:
-    """Expected RMS error [m] of least-squares CoP predictions on fresh poses.
-
-    ``a_sel`` (K, 2, p) projected regressor of the chosen poses, ``c_test`` = Σ_t A_tᵀA_t / rows
-    over test poses, ``sigma`` CoP noise [m]: σ · sqrt(trace(M⁻¹ c_test)). inf if M is singular.
-    """
-    val = inverse_trace(information(a_sel), c_test)
-    return sigma * math.sqrt(val) if 0 < val < math.inf else math.inf
-
-
 def inverse_trace(m: np.ndarray, c: np.ndarray) -> float:
     """trace(M⁻¹ C) for M (p, p) symmetric, by Cholesky; inf when M is not positive definite."""
     try:
@@ -246,16 +235,3 @@ def inverse_trace(m: np.ndarray, c: np.ndarray) -> float:
 def per_row_information(a_test: np.ndarray) -> np.ndarray:
     """c_test = Σ_t A_tᵀA_t / rows for A_test (n, 2, p)."""
     return information(a_test) / (2 * len(a_test))
-
-
-def random_cop_error(
-    a_pool: np.ndarray, k: int, c_test: np.ndarray, sigma: float, draws: int = 50, seed=0
-) -> np.ndarray:
-    """Expected CoP errors [m] (draws,) of ``k`` poses drawn at random from the pool."""
-    rng = np.random.default_rng(seed)
-    return np.array(
-        [
-            expected_cop_error(a_pool[rng.choice(len(a_pool), k, replace=False)], c_test, sigma)
-            for _ in range(draws)
-        ]
-    )

@@ -28,7 +28,6 @@ import numpy as np
 from sescid.errors import OptionError, check_choice
 from sescid.estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
 from sescid.kinematics import as_poses
-from sescid.planning.design.doptimal import inverse_trace
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
@@ -268,26 +267,6 @@ def determined(rows: BlockRows, idx) -> int:
     than their rows count when a pose's rows repeat one another (two parallel joints of the
     support leg add about one combination a pose, not two)."""
     return len(identifiable_eigen(schur_information(rows, idx))[0])
-
-
-def expected_com_error(rows: BlockRows, idx, c_test: np.ndarray) -> float:
-    """Expected RMS error [m] of least-squares CoM x/y predictions on fresh poses from the
-    candidates ``idx``: sqrt(trace(F⁻¹_zz c_test)), ``c_test`` (p, p) the test poses' mean
-    CoM-row information (``per_row_information`` of their projected x/y regressor); inf when
-    the poses do not determine every coordinate."""
-    val = inverse_trace(schur_information(rows, idx), c_test)
-    return math.sqrt(val) if 0 < val < math.inf else math.inf
-
-
-def random_com_error(
-    rows: BlockRows, k: int, c_test: np.ndarray, draws: int = 50, seed=0
-) -> np.ndarray:
-    """Expected CoM x/y errors [m] (draws,) of ``k`` candidates drawn at random."""
-    rng = np.random.default_rng(seed)
-    n = rows.x.shape[0]
-    return np.array(
-        [expected_com_error(rows, rng.choice(n, k, replace=False), c_test) for _ in range(draws)]
-    )
 
 
 def min_block_poses(rows_per_pose: int, p: int, n_nuisance: int) -> int:

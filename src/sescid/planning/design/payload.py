@@ -1,6 +1,6 @@
 """Poses that determine a payload best: a D-optimal choice over its 4 (or 3) parameters.
 
-The candidates are the planner's own (``plan_types.standing_candidates``: stable on the support
+The candidates are the planner's own (``funnel.stance_candidates``: stable on the support
 foot, clear of the floor, free of self-collision). Each candidate's rows in the payload's
 parameters p = (m, h = m c) are those of ``estimation.payload``, linearised at a nominal payload
 (its weighed mass, else ``NOMINAL_SHARE`` of the robot's mass, at BODY's origin): the CoP's two
@@ -21,8 +21,9 @@ import numpy as np
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import check_payload
 from sescid.estimation.solvers.payload import payload_map
+from sescid.planning.funnel import sampling_range, stance_candidates
 from sescid.planning.ordering import order_poses
-from sescid.planning.plan_types import PlanOptions, sampling_range, standing_candidates
+from sescid.planning.plan_types import PlanOptions
 from sescid.robot import Robot
 
 #: the nominal payload mass the rows are linearised at, as a share of the robot's mass
@@ -148,7 +149,7 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
         raise OptionError("count", "a payload needs at least 2 poses (its CoM seen twice)")
     n_cand = opt.n_candidates or PAYLOAD_CANDIDATES
     lim, _, _ = sampling_range(robot, opt)
-    cand = standing_candidates(robot, n_cand, seed, opt, lim, progress)
+    cand = stance_candidates(robot, "stand", n_cand, seed, opt, lim, progress)
     q = cand.q
     nominal = mass if mass is not None else NOMINAL_SHARE * robot.total_mass
     rows = payload_rows(robot, body, q, opt.kinds, nominal, opt.sigma, opt.tau_noise,

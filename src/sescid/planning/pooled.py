@@ -1,12 +1,12 @@
-"""A pose plan over a set of stances: each stance's own candidates, one D-optimal design over
+"""``plan_poses`` over a set of stances: each stance's own candidates, one D-optimal design over
 their union in the body parameters every stance shares, a cost per stance change.
 
-Candidates per stance (``stances``): standing on a foot, the single-support rules (CoP box,
+Candidates per stance (``funnel``): standing on a foot, the single-support rules (CoP box,
 compliant margin, floor, self-collision); on both feet, ``double``; held, ``gantry`` (no
 balance). Each candidate's rows over [θ̃; o] (``stances.StanceRows``) are projected on the
 pooled identifiable subspace of θ̃ (the union's information, the torque offsets marginalised:
-``estimation``'s rank rule); the design maximises the log-determinant there (greedy and exchange,
-``doptimal`` for CoP rows alone, ``blocks`` otherwise; the offsets are columns of the design).
+``estimation``'s rank rule); the design maximises the log-determinant there (``design.engine``;
+the offsets are columns of the design).
 
 A stance change costs ``cost`` poses: a plan using m stances chooses K − cost (m − 1) poses. Every
 subset of the stances that determines the whole pooled subspace is tried with its pose count
@@ -24,20 +24,15 @@ and x/y) on fresh poses in the reference frame of a MAP fit with the per-body CA
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, SescidError
 from sescid.estimation import DEFAULT_RTOL, identifiable_eigen
-from sescid.kinematics import load_kernels
-from sescid.planning.design.blocks import select_blocks
-from sescid.planning.design.doptimal import Selection, select_d_optimal
+from sescid.planning.design import engine
+from sescid.planning.design.doptimal import Selection
 from sescid.planning.design.kinds import BlockRows, DesignKinds, design_kinds, min_block_poses
 from sescid.planning.design.stances import (
     Stance,
@@ -48,16 +43,8 @@ from sescid.planning.design.stances import (
 )
 from sescid.planning.feasibility.candidates import Candidates
 from sescid.planning.feasibility.com import level_cop
-from sescid.planning.feasibility.gantry import GantryOptions, gantry_candidates
-from sescid.planning.plan_types import (
-    PlanOptions,
-    PoseCheck,
-    checked_choice,
-    options_with,
-    sampling_range,
-    standing_candidates,
-    visiting_order,
-)
+from sescid.planning.funnel import checked_choice, sampling_range, stance_candidates, visiting_order
+from sescid.planning.plan_types import PlanOptions, StancePlan, StanceReport
 from sescid.robot import Robot
 
 #: poses a stance change costs by default (moving the robot to another foot or into a gantry)
@@ -65,60 +52,6 @@ DEFAULT_STANCE_COST = 5.0
 #: relative prior std of the body parameters for the expected errors (masses ±10 %, CoMs ±5 mm
 #: per unit mass: ``estimation.map``'s "bodies" prior)
 PRIOR_TAU = 0.1
-#: candidates per stance by default
-STANCE_CANDIDATES = 5_000
-
-
-@dataclass(frozen=True)
-class StanceReport:
-    """What one stance contributes to a plan over several."""
-
-    stance: Stance
-    poses: int  #: poses of the plan in this stance
-    rank: int  #: directions of θ its candidates determine alone
-    adds: int  #: directions the pool loses without it
-    candidates: Candidates
-
-
-@dataclass
-class StancePlan:
-    """K poses over several stances, grouped by stance in visiting order, and what pooling gains."""
-
-    q: np.ndarray  #: (K, nq) rad, in visiting order
-    stance: np.ndarray  #: (K,) each pose's stance label (``Stance.label``)
-    cop: np.ndarray  #: (K, 2) model CoP [m] in its stance's frame (nan: held in a gantry)
-    stances: tuple[Stance, ...]
-    reports: list[StanceReport]
-    reference: Stance  #: the stance the pooled plan is compared with
-    kinds: str
-    rank: int  #: directions of θ (4N) the pool determines
-    n_theta: int  #: 4N
-    cost: float  #: poses per stance change
-    changes: int  #: stance changes in the visiting order
-    logdet: float  #: log det of the design's information on the pooled subspace
-    #: m, expected RMS error of the CoM on fresh poses (reference frame) of a MAP fit of these
-    #: poses (``PRIOR_TAU``): 3-D, and x/y
-    expected_com: float
-    expected_com_xy: float
-    #: m, the same for K poses of the reference stance alone (its own D-optimal choice)
-    reference_com: float
-    reference_com_xy: float
-    path_length: float  #: rad, joint-space path summed over the stance groups
-    subsets: list[tuple[tuple[str, ...], int, float]]  #: (labels, poses, log det) tried
-    selection: Selection
-    test_q: np.ndarray = field(repr=False)  #: (n, nq) rad, the fresh poses of the errors
-    notes: list[str] = field(default_factory=list)
-    n_checked: int = 0  #: poses the physics check ran
-    n_check_failed: int = 0  #: of which did not stand (replaced)
-
-
-def _candidates(reference: Robot, st: Stance, n: int, rng, opt: PlanOptions, lim, progress):
-    """``n`` candidates of stance ``st``."""
-    robot = stance_robot(reference, st)
-    if st.mount == "gantry":
-        held = GantryOptions(limits=lim, hang_height=opt.hang_height, clearance=opt.clearance)
-        return gantry_candidates(robot, n, rng, held, progress=progress)
-    return standing_candidates(robot, n, rng, opt, lim, progress, st.mount == "double")
 
 
 def _check_kinds(stances: tuple[Stance, ...], spec: DesignKinds) -> None:
@@ -137,18 +70,10 @@ def _check_kinds(stances: tuple[Stance, ...], spec: DesignKinds) -> None:
 
 
 def _choose(x: np.ndarray, count: int, seed: int, keep: np.ndarray) -> Selection:
-    """``count`` of the rows x (n, r, p) where ``keep``, D-optimal."""
-    idx = np.flatnonzero(keep)
-    if len(idx) < count:
-        raise SescidError(f"only {len(idx)} candidates left to choose {count} poses from")
-    sub = np.ascontiguousarray(x[idx])
-    if sub.shape[1] == 2:
-        sel = select_d_optimal(sub, count, seed)
-    else:
-        r = sub.shape[1]
-        rows = BlockRows(sub, -np.ones(r, dtype=np.int64), np.zeros(r), 0)
-        sel = select_blocks(rows, count, seed)
-    return dataclasses.replace(sel, index=idx[sel.index])
+    """``count`` of the rows x (n, r, p) where ``keep``, D-optimal (offsets are columns of x)."""
+    r = x.shape[1]
+    rows = BlockRows(x, -np.ones(r, dtype=np.int64), np.zeros(r), 0)
+    return engine.choose(rows, count, "d-optimal", seed, keep)
 
 
 def _logdet(x: np.ndarray, p: int) -> float:
@@ -169,7 +94,7 @@ class _Pool:
     def __init__(self, robot, stances, spec, opt, seed, progress):
         self.robot, self.stances, self.spec = robot, stances, spec
         lim, self.free, _ = sampling_range(robot, opt)
-        n = opt.n_candidates or STANCE_CANDIDATES
+        n = opt.n_candidates
         mass = robot.total_mass
         self.rows = [StanceRows(robot, st, spec, mass) for st in stances]
         self.n_theta = self.rows[0].e.shape[1]
@@ -183,7 +108,8 @@ class _Pool:
                     progress(k * n + done, total)
 
             rng = np.random.default_rng([seed, k])
-            self.cand.append(_candidates(robot, st, n + extra, rng, opt, lim, part))
+            rb = stance_robot(robot, st)
+            self.cand.append(stance_candidates(rb, st.mount, n + extra, rng, opt, lim, part))
         self.test_q = self.cand[0].q[n:]
         self.q = [c.q[:n] for c in self.cand]
         self.info = [r.information(q) for r, q in zip(self.rows, self.q, strict=True)]
@@ -191,6 +117,7 @@ class _Pool:
             theta_information(sum(self.info), self.n_theta), DEFAULT_RTOL
         )[1]
         self.x = [r.projected(q, self.basis) for r, q in zip(self.rows, self.q, strict=True)]
+        self.x_all = np.concatenate(self.x)
         self.owner = np.concatenate([np.full(len(q), k) for k, q in enumerate(self.q)])
         self.local = np.concatenate([np.arange(len(q)) for q in self.q])
 
@@ -224,32 +151,26 @@ def expected_com_errors(pool: _Pool, rows: np.ndarray) -> tuple[float, float]:
     )
 
 
-@one_blas_thread()
-def plan_stances(
+def plan_pooled(
     robot: Robot,
     stances: tuple[Stance, ...],
-    count: int = 38,
-    seed: int = 0,
-    options: PlanOptions | None = None,
-    cost: float = DEFAULT_STANCE_COST,
-    *,
-    check: Callable[[Stance, Robot], PoseCheck | None] | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    **overrides,
+    count: int,
+    seed: int,
+    opt: PlanOptions,
+    cost: float,
+    progress=None,
 ) -> StancePlan:
-    """Plan ``count`` poses over ``stances`` (module docstring); ``robot`` is the reference (its
-    support the frame results are reported in). ``options`` as for ``plan_poses``
-    (``n_candidates``: per stance, default ``STANCE_CANDIDATES``; ``half_extents``: every
-    standing stance's CoP box, None: each its own); ``check(stance, robot)`` gives a stance's
-    physics check (or None)."""
-    opt = options_with(options, overrides)
-    if not stances:
-        raise OptionError("stances", "name at least one stance")
+    """``plan_poses`` over several ``stances`` (module docstring); ``robot`` is the reference
+    (its support the frame results are reported in); ``opt.n_candidates`` (set): per stance;
+    ``opt.half_extents``: every standing stance's CoP box (None: each its own); ``opt.check``
+    gives each stance's physics check."""
+    assert opt.n_candidates is not None
+    if count > opt.n_candidates:
+        raise OptionError("count", f"must not exceed --candidates ({opt.n_candidates})")
     if not (math.isfinite(cost) and cost >= 0):
         raise OptionError("stance_cost", f"must be a number of poses ≥ 0, got {cost}")
     spec = design_kinds(robot, opt.kinds, opt.sigma, opt.tau_noise, opt.tau_joints)
     _check_kinds(stances, spec)
-    load_kernels()  # the plan runs compiled kernels anyway: its small kinematics jobs too
     pool = _Pool(robot, stances, spec, opt, seed, progress)
     p, full = pool.basis.shape[1], len(stances)
     subsets, best = [], None
@@ -260,8 +181,8 @@ def plan_stances(
             if k < need or pool.rank(sub) < p:
                 continue
             keep = np.isin(pool.owner, sub)
-            sel = _choose(np.concatenate(pool.x), k, seed, keep)
-            ld = _logdet(np.concatenate(pool.x)[sel.index], p)
+            sel = _choose(pool.x_all, k, seed, keep)
+            ld = _logdet(pool.x_all[sel.index], p)
             subsets.append((tuple(stances[s].label for s in sub), k, ld))
             if best is None or ld > best[2] + 1e-9:
                 best = (sub, k, ld, sel)
@@ -273,7 +194,7 @@ def plan_stances(
             f"costs {cost:g} poses"
         )
     sub, k, _, sel = best
-    x_all = np.concatenate(pool.x)
+    check = opt.check
     checks = {s: (check(stances[s], stance_robot(robot, stances[s])) if check else None)
               for s in sub}  # fmt: skip
     n_checked = n_failed = 0
@@ -290,7 +211,7 @@ def plan_stances(
 
         keep0 = np.isin(pool.owner, sub)
         sel, n_checked, n_failed = checked_choice(
-            lambda keep: _choose(x_all, k, seed, keep & keep0), q_all, opt, by_index
+            lambda keep: _choose(pool.x_all, k, seed, keep & keep0), len(q_all), by_index, opt
         )
     return _result(pool, sel, (sub, k, cost, seed), subsets, (n_checked, n_failed))
 
@@ -349,7 +270,7 @@ def _result(pool: _Pool, sel: Selection, chosen, subsets, checked) -> StancePlan
         n_theta=pool.n_theta,
         cost=cost,
         changes=len(qs) - 1,
-        logdet=_logdet(np.concatenate(pool.x)[sel.index], p),
+        logdet=_logdet(pool.x_all[sel.index], p),
         expected_com=com,
         expected_com_xy=com_xy,
         reference_com=ref_com,
