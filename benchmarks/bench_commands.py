@@ -180,7 +180,7 @@ def readers(path: Path) -> dict[str, float]:
     """Seconds to read ``path``: sescid's streamed reader, pyarrow.read_csv, the csv module."""
     import pyarrow.csv as pcsv
 
-    from sescid.io import iter_table
+    from sescid.tables import iter_table
 
     out = {
         "sescid iter_table": best_of(lambda: sum(t.n for t in iter_table(path)), 3),
@@ -202,7 +202,8 @@ def writers(path: Path, out: Path) -> dict[str, float]:
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
-    from sescid.io import read_table, tables, write_table
+    from sescid.io import tables
+    from sescid.tables import read_table, write_table
 
     cols = read_table(path).columns
     table = pa.table(cols)
@@ -315,7 +316,7 @@ def huge_csv(n: int, d: Path) -> tuple[float, float]:
 #: the whole-log reduction in memory (the reference of the chunked ``measure``)
 _MEASURE_WHOLE = """
 import sescid
-from sescid.io import read_table
+from sescid.tables import read_table
 from sescid.sensors import fsr, load_sensors
 robot = sescid.load_robot("op2")
 fsr(robot, read_table("raw.csv"), load_sensors(None, robot.profile))

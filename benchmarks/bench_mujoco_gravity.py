@@ -12,11 +12,11 @@ import numpy as np
 
 import sescid
 from sescid import identify
-from sescid.base.columns import Table
 from sescid.bench import ExperimentConfig, real_robot
 from sescid.bench.mujoco import MujocoBenchConfig, run_mujoco_experiment
 from sescid.planning import candidates
 from sescid.sensors import load_sensors, measure, read_raw
+from sescid.tables import Table
 
 
 def rms(e: np.ndarray) -> float:

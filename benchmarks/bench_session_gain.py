@@ -29,7 +29,7 @@ import sescid
 from sescid.planning import candidates, plan_poses
 from sescid.sensors import load_sensors, measure, read_raw
 from sescid.session import MujocoAdapter, SessionOptions, run_session
-from sescid.session.loop import raw_table
+from sescid.session.samples import raw_table
 
 
 def measure_poses(robot, sensors, q, seed, samples):

@@ -13,8 +13,8 @@ import numpy as np
 
 import sescid
 from sescid import planning as design
-from sescid.io import write_table
 from sescid.report import design_figure
+from sescid.tables import write_table
 
 
 def main(out_dir: Path, n_candidates: int = 20_000) -> None:

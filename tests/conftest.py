@@ -52,7 +52,7 @@ def rng():
 @pytest.fixture(scope="session")
 def write_dataset(op2):
     """Write OP2 poses (n, 20) [rad] and CoPs (n, 2) [m] as the CSV ``sescid identify`` reads."""
-    from sescid.io import write_table
+    from sescid.tables import write_table
 
     def write(path, q, cop):
         cols = {name: q[:, j] for j, name in enumerate(op2.joint_names)}

@@ -55,10 +55,10 @@ def mutate(data: bytes, ops) -> bytes:
 @pytest.fixture(scope="module")
 def seeds(tmp_path_factory):
     """One valid file per reader, as bytes, with its suffix and the reader."""
-    from sescid.io import read_cop, read_poses, read_table, write_table
     from sescid.io.bags import load_mapping
     from sescid.sensors import fsr as run_fsr
     from sescid.sensors import load_sensors
+    from sescid.tables import read_cop, read_poses, read_table, write_table
 
     d = tmp_path_factory.mktemp("seeds")
     robot = sescid.load_robot("op2")

@@ -13,9 +13,9 @@ from cli_run import outcome as run
 import sescid
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements
-from sescid.io import read_table, write_table
 from sescid.robots import example_path
 from sescid.stance import data_stance, parse_stance
+from sescid.tables import read_table, write_table
 
 TRUNK = "MP_BODY"
 

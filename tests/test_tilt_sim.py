@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 import sescid
 from sescid.cli import cli
-from sescid.io import read_table
+from sescid.tables import read_table
 
 
 def test_simulate_tilt_draws_gravity(op2):
@@ -44,7 +44,7 @@ def test_kinematic_bench_tilt(op2, tmp_path):
     from sescid.bench import ExperimentConfig, run_experiment
     from sescid.planning import candidates
     from sescid.sensors import fsr, load_sensors
-    from sescid.session.loop import raw_table
+    from sescid.session.samples import raw_table
 
     sensors = load_sensors(None, op2.profile)
     q = candidates(op2, 60, seed=2).q

@@ -100,9 +100,9 @@ def cop_case(draws: int, work: Path, rows: list) -> None:
     from sescid.bench import ExperimentConfig, ExtraMass, load_truth, run_mujoco_experiment
     from sescid.cli import cli
     from sescid.estimation.data.measurements import concatenate
-    from sescid.io import read_poses, read_table, write_table
     from sescid.io.measurements import read_measurements
     from sescid.sensors import load_sensors
+    from sescid.tables import read_poses, read_table, write_table
 
     robot = sescid.load_robot("op2")
     rng = np.random.default_rng(4930)

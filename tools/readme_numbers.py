@@ -46,9 +46,9 @@ def walk_through(engine: str = "kinematic") -> dict[str, str]:
     from sescid.bench import compare_truth
     from sescid.cli import cli
     from sescid.estimation import load_fit
-    from sescid.io import read_cop, read_poses, read_table
     from sescid.report import in_unit, read_report_data, with_unit
     from sescid.report.numbers import CAD, IDENTIFIED, cop_numbers
+    from sescid.tables import read_cop, read_poses, read_table
 
     here = os.getcwd()
     with tempfile.TemporaryDirectory() as tmp:
@@ -116,8 +116,8 @@ def _physics_figures(fit, table, q, cop) -> dict[str, str]:
     from sescid import identify
     from sescid.bench import load_truth
     from sescid.estimation.result.tilt import tilt_direction
-    from sescid.io import read_cop_se
     from sescid.sensors.imu import table_gravity
+    from sescid.tables import read_cop_se
 
     t = load_truth("truth.json")
     assert t.physics is not None and t.cop_true is not None

@@ -46,13 +46,14 @@ from sescid.estimation import (
     save_fit,
     to_consistent,
 )
-from sescid.io import export_mjcf, export_model, export_urdf, read_table, write_table
+from sescid.io import export_mjcf, export_model, export_urdf
 from sescid.planning import plan_poses
 from sescid.report import write_report
 from sescid.robot import Robot, load_robot
 from sescid.sensors import fsr, load_sensors, measure
 from sescid.simulation import simulate
 from sescid.study import paper_study
+from sescid.tables import read_table, write_table
 
 __version__ = "0.1.0"
 

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sescid.base import G0, check_ranges, option
-from sescid.base.columns import MAX_COP_NOISE_M
 from sescid.errors import OptionError
+from sescid.tables.columns import MAX_COP_NOISE_M
 
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.robot import Robot

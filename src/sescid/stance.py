@@ -18,10 +18,10 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal, NoReturn, get_args
 
-from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.model.sole import splits_at_support
 from sescid.robot import DOUBLE, Robot
+from sescid.tables import SUPPORT_COLUMN, Table
 
 #: what gave a stance, for its errors: text, or a function that makes it (a file's row number
 #: costs a scan of the file up to that row: made only when an error names it)

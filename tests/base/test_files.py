@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from sescid.base.files import OutputSet, atomic_open, atomic_path, check_outputs
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.io import write_table
+from sescid.tables import write_table
 
 TEMP = re.compile(r"\.tmp|/\.[^/\s]*\.[0-9a-f]{8}")  # atomic_* and OutputSet temporaries
 

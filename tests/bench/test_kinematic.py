@@ -16,10 +16,10 @@ import sescid
 from sescid.bench import ExperimentConfig, ExtraMass, real_robot, run_experiment
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.io import Table, write_table
 from sescid.report import cop_offset_stats
 from sescid.robots import MX28, profile_for
 from sescid.sensors import load_sensors, measure, read_raw
+from sescid.tables import Table, write_table
 
 G = 9.80665
 

@@ -10,7 +10,6 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from sescid.base.columns import Table  # noqa: E402
 from sescid.bench import ExperimentConfig, load_truth
 from sescid.bench.kinematic import real_robot  # noqa: E402
 from sescid.bench.mujoco import (  # noqa: E402
@@ -23,6 +22,7 @@ from sescid.planning import candidates  # noqa: E402
 from sescid.robots.profile import mx28_kp  # noqa: E402
 from sescid.sensors import load_sensors, measure, read_raw  # noqa: E402
 from sescid.sesc import sesc_vectors  # noqa: E402
+from sescid.tables import Table  # noqa: E402
 
 #: the OP2 profile's servo gains, quick settling
 STIFF = MujocoBenchConfig(settle_time=6.0)
@@ -227,7 +227,7 @@ def test_cli_experiment_mujoco(op2, poses, tmp_path):
     from click.testing import CliRunner
 
     from sescid.cli import cli
-    from sescid.io import read_table, write_table
+    from sescid.tables import read_table, write_table
 
     plist = tmp_path / "poses.csv"
     write_table(plist, {j: poses[:3, i] for i, j in enumerate(op2.joint_names)})

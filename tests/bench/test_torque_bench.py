@@ -12,8 +12,8 @@ from sescid.bench import ExperimentConfig, TorqueConfig, Truth, holding_torques,
 from sescid.bench.real_robot import real_bodies
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.io import read_table, write_table
 from sescid.sensors import fsr, load_sensors, table_from_columns
+from sescid.tables import read_table, write_table
 
 #: no joint play or unmodelled mass: the actual pose is the command
 EXACT = dict(extra_mass_fraction=0.0, backlash_deg=0.0)

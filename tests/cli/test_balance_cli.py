@@ -9,7 +9,7 @@ import numpy as np
 from cli_run import invoke as run
 
 import sescid
-from sescid import io
+from sescid import tables
 from sescid.bench import Truth
 from sescid.robots import EXAMPLES
 from sescid.sesc import balance_tilt
@@ -22,7 +22,9 @@ ROBOT = ["--robot", str(WHEELED), "--support", "axle", "--line", "y"]
 def test_line_bench_to_fit(tmp_path):
     robot = sescid.load_robot(WHEELED, "axle", line="y")
     q = random_poses(robot, 40, 40.0, 1, clip=True)
-    io.write_table(tmp_path / "poses.csv", {j: q[:, i] for i, j in enumerate(robot.joint_names)})
+    tables.write_table(
+        tmp_path / "poses.csv", {j: q[:, i] for i, j in enumerate(robot.joint_names)}
+    )
     res = run(
         "experiment", *ROBOT, "--mount", "line", "--poses", tmp_path / "poses.csv",
         "--samples", 20, "--imu-noise-deg", 2, "--out", tmp_path / "raw.csv",
@@ -30,7 +32,7 @@ def test_line_bench_to_fit(tmp_path):
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     assert "(line)" in res.output and "IMU noise 2°" in res.output
-    raw = io.read_table(tmp_path / "raw.csv")
+    raw = tables.read_table(tmp_path / "raw.csv")
     assert {"imu_roll", "imu_pitch"} <= set(raw.names()) and "grav_x" not in raw.names()
     truth = Truth.load(tmp_path / "truth.json")
     # the bench balanced each pose: the logged gravity puts the true CoM over the axle
@@ -52,7 +54,7 @@ def test_line_bench_to_fit(tmp_path):
     res = run("predict", tmp_path / "fit.json", tmp_path / "poses.csv", "--level", 0.95,
               "--out", tmp_path / "pred.csv")  # fmt: skip
     assert res.exit_code == 0, res.output
-    pred = io.read_table(tmp_path / "pred.csv")
+    pred = tables.read_table(tmp_path / "pred.csv")
     assert "cop_x" not in pred.names()
     np.testing.assert_allclose(pred.get("balance_tilt"), fit.predict_balance(q), atol=1e-15)
     assert np.all(pred.get("balance_tilt_lower") < pred.get("balance_tilt"))
@@ -64,10 +66,10 @@ def test_line_bench_to_fit(tmp_path):
 def test_line_robot_file_errors(tmp_path):
     robot = sescid.load_robot(WHEELED, "axle", line="y")
     cols = {j: np.zeros(3) for j in robot.joint_names}
-    io.write_table(tmp_path / "a.csv", cols | {"cop_x": np.zeros(3)})
+    tables.write_table(tmp_path / "a.csv", cols | {"cop_x": np.zeros(3)})
     res = run("identify", tmp_path / "a.csv", *ROBOT, "--out", tmp_path / "f.json")
     assert res.exit_code == 2 and "has no centre of pressure" in res.output
-    io.write_table(tmp_path / "b.csv", cols)
+    tables.write_table(tmp_path / "b.csv", cols)
     res = run("identify", tmp_path / "b.csv", *ROBOT, "--out", tmp_path / "f.json")
     assert res.exit_code == 2 and "needs the gravity direction" in res.output
     res = run("identify", tmp_path / "b.csv", "--robot", WHEELED, "--support", "axle",

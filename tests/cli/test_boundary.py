@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from cli_run import outcome as run
 
-from sescid.io import read_table
+from sescid.tables import read_table
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +65,7 @@ def test_every_pose_approached_from_one_side_is_said(tmp_path):
     """Torques with every pose approached from one side: the offset and the friction band are
     confounded; the default fit (MAP) said the bands were "separated for 20 of 20 joints", it
     now says none is and that the prior split them; both sides: separated."""
-    from sescid.io import write_table
+    from sescid.tables import write_table
 
     data = tmp_path / "tau.csv"
     code, out = run("simulate", "--measure", "tau", "--tau-friction", 0.02, "--poses", 80,

@@ -8,7 +8,7 @@ from cli_run import invoke as run
 from click.testing import CliRunner
 
 import sescid
-from sescid import io
+from sescid import tables
 from sescid.bench import ExperimentConfig, real_robot
 from sescid.cli import cli
 
@@ -22,12 +22,12 @@ def sim_csv(tmp_path_factory):
 
 
 def test_simulate_identify_predict(sim_csv, tmp_path):
-    table = io.read_table(sim_csv)
+    table = tables.read_table(sim_csv)
     op2 = sescid.load_robot("op2")
     assert table.n == 300
     columns = ["cop_x", "cop_y", "cop_x_true", "cop_y_true", "support"]
     assert set(op2.joint_names + columns) == set(table.names())
-    q = io.read_poses(table, op2.joint_names)
+    q = tables.read_poses(table, op2.joint_names)
     # the robot simulated is the bench's real robot (7 % unmodelled mass), not the model
     r_true = real_robot(op2, ExperimentConfig())[0]
     true = np.column_stack([table.get("cop_x_true"), table.get("cop_y_true")])
@@ -40,8 +40,8 @@ def test_simulate_identify_predict(sim_csv, tmp_path):
     pred = tmp_path / "pred.csv"
     res = run("predict", fit_path, sim_csv, "--out", pred)
     assert res.exit_code == 0, res.output
-    out = io.read_table(pred)
-    fit = sescid.identify(op2, q, io.read_cop(table))
+    out = tables.read_table(pred)
+    fit = sescid.identify(op2, q, tables.read_cop(table))
     np.testing.assert_allclose(out.get("cop_x"), fit.predict_cop(q)[:, 0], atol=1e-15)
     np.testing.assert_allclose(out.get("com_z"), fit.predict_com(q)[:, 2], atol=1e-15)
     assert np.all(out.get("com_z_std") > 0)
@@ -54,7 +54,7 @@ def test_demo_prints_the_papers_numbers(tmp_path):
     assert "paper: 4.0 mm" in res.output and "noise floor" in res.output
     for name in ("fit.json", "fig3a_r_magnitudes.png", "fig3b_cop.png", "summary.csv"):
         assert (tmp_path / "d" / name).stat().st_size > 1000 or name == "summary.csv"
-    summary = io.read_table(tmp_path / "d" / "summary.csv")
+    summary = tables.read_table(tmp_path / "d" / "summary.csv")
     values = dict(zip(summary.text["quantity"], summary.get("value"), strict=True))
     assert values["rank"] == 42
     assert values["mae_m"] == pytest.approx(values["noise_floor_mae_m"], rel=0.03)

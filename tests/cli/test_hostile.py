@@ -16,7 +16,7 @@ from cli_run import outcome as run
 from click.testing import CliRunner
 
 from sescid.cli import cli
-from sescid.io import read_table
+from sescid.tables import read_table
 
 
 @pytest.fixture(scope="module")

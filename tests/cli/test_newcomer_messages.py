@@ -41,8 +41,8 @@ def test_simulate_balance_is_of_a_robot_that_differs_from_its_model(tmp_path):
     import numpy as np
 
     import sescid
-    from sescid.io import read_table
     from sescid.sesc import balance_tilt
+    from sescid.tables import read_table
 
     robot = sescid.load_robot("wheeled_humanoid", support="axle", line="y")
     tilts = []

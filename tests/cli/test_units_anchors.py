@@ -11,9 +11,9 @@ import sescid
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements, check_com_height
 from sescid.estimation.data.anchor import com_distance
-from sescid.io import read_table, write_table
 from sescid.robots import example_path
 from sescid.simulation import simulate_balance
+from sescid.tables import read_table, write_table
 
 WHEELED = example_path("wheeled_humanoid")
 ROBOT = ["--robot", str(WHEELED), "--support", "axle", "--line", "y"]

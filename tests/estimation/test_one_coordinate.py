@@ -42,7 +42,7 @@ def test_missing_coordinates_are_rows_not_fitted(op2, rng, n):
 
 
 def test_a_file_with_one_coordinate(op2, tmp_path, rng):
-    from sescid.io import write_table
+    from sescid.tables import write_table
 
     lim = op2.joint_limits
     q = rng.uniform(np.maximum(lim[:, 0], -0.5), np.minimum(lim[:, 1], 0.5), (200, op2.nq))

@@ -110,7 +110,7 @@ def test_torques_of_both_feet_share_their_sensors(op2):
 
 
 def test_a_support_column_pools_the_rows_of_one_file(op2, tmp_path, rng):
-    from sescid.io import write_table
+    from sescid.tables import write_table
 
     theta = real(op2, rng)
     data = [cop_data(op2, theta, s, 60, rng) for s in ("r_sole", "l_sole")]
@@ -153,7 +153,7 @@ def test_pooled_fit_on_the_command_line_and_in_its_file(tmp_path):
     from click.testing import CliRunner
 
     from sescid.cli import cli
-    from sescid.io import read_table
+    from sescid.tables import read_table
 
     def run(*args):
         res = CliRunner().invoke(cli, [str(a) for a in args])
@@ -178,7 +178,7 @@ def test_pooled_fit_on_the_command_line_and_in_its_file(tmp_path):
     np.testing.assert_allclose(table.get("cop_x"), seen.predict_cop(ql)[:, 0], atol=1e-15)
     # a file without the column, named with its stance
     cols = {c: data.get(c) for c in op2.joint_names + ["cop_x", "cop_y"]}
-    from sescid.io import write_table
+    from sescid.tables import write_table
 
     write_table(tmp_path / "bare.csv", cols)
     run("identify", tmp_path / "r.csv", f"{tmp_path / 'bare.csv'}@l_sole", "--method", "ls",
@@ -192,7 +192,7 @@ def test_the_bench_carries_the_stance_through_measure_and_truth(tmp_path):
     from click.testing import CliRunner
 
     from sescid.cli import cli
-    from sescid.io import read_table
+    from sescid.tables import read_table
 
     def run(*args):
         res = CliRunner().invoke(cli, [str(a) for a in args])

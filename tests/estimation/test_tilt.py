@@ -81,7 +81,7 @@ def test_cli_identify_warns_with_gravity_ls(op2, tmp_path):
     from click.testing import CliRunner
 
     from sescid.cli import cli
-    from sescid.io import write_table
+    from sescid.tables import write_table
 
     q, g, _, cop = _data(op2, 60, 0.005, 0.001, 4)
     cols = {j: q[:, i] for i, j in enumerate(op2.joint_names)}

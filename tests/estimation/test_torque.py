@@ -17,8 +17,8 @@ from sescid import identify
 from sescid.cli import cli
 from sescid.errors import DataError
 from sescid.estimation import IdentifyOptions, Measurements, fit_summary, perturbed_sesc
-from sescid.io import write_table
 from sescid.simulation import random_poses
+from sescid.tables import write_table
 
 G0 = 9.81  #: Pinocchio's and MuJoCo's default |g|, m/s²
 JOINTS_OP2 = 20

@@ -17,8 +17,8 @@ from sescid.estimation.result.validation import (
     perturbed_sesc,
     quantile,
 )
-from sescid.io import read_table
 from sescid.simulation import random_poses, simulate
+from sescid.tables import read_table
 
 SIGMA = 0.00493
 

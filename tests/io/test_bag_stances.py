@@ -20,13 +20,16 @@ from bag_gen import (  # noqa: E402
 )
 from click.testing import CliRunner  # noqa: E402
 
-from sescid.base.columns import pose_ids  # noqa: E402
 from sescid.cli import cli  # noqa: E402
 from sescid.errors import SescidError  # noqa: E402
-from sescid.io import read_table, write_table  # noqa: E402
 from sescid.io.bags import parse_mapping, read_bag  # noqa: E402
 from sescid.sensors import fsr, load_sensors  # noqa: E402
 from sescid.sensors.raw import table_from_columns  # noqa: E402
+from sescid.tables import (  # noqa: E402
+    pose_ids,  # noqa: E402
+    read_table,
+    write_table,
+)
 
 STANCES = ["r_sole", "r_sole", "l_sole", "l_sole"]  # the session's four poses
 

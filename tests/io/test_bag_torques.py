@@ -188,7 +188,7 @@ def test_cli_bag_writes_torque_columns(tmp_path, robot):
     from click.testing import CliRunner
 
     from sescid.cli import cli
-    from sescid.io import read_table
+    from sescid.tables import read_table
 
     s = make_session(robot.joint_names, n_poses=2)
     s.joint_names = robot.joint_names

@@ -111,8 +111,8 @@ def test_bag_without_definitions_needs_the_mapping_types(tmp_path, robot):
 
 def test_end_to_end_through_the_fsr_step(tmp_path, robot):
     """The pads table, written as CSV, gives the fsr step the session's CoP per pose."""
-    from sescid.io import read_table, write_table
     from sescid.sensors import fsr, load_sensors
+    from sescid.tables import read_table, write_table
 
     s = make_session(robot.joint_names)
     b = Builder(ros1=False)
@@ -447,7 +447,7 @@ def test_cli_bag_then_fsr(tmp_path, robot):
     from click.testing import CliRunner
 
     from sescid.cli import cli
-    from sescid.io import read_table, write_table
+    from sescid.tables import read_table, write_table
 
     s = make_session(robot.joint_names)
     b = Builder(ros1=False)

@@ -34,7 +34,7 @@ def test_mapping_examples_load(tmp_path):
 
 def test_documented_messages(tmp_path, op2):
     """The table error and the mass warning quoted in the page are the code's."""
-    from sescid.io import read_cop, read_table
+    from sescid.tables import read_cop, read_table
 
     (tmp_path / "measured.csv").write_text("cop_x,cop_y\n" + "0,0\n" * 5 + '"1,5",0\n')
     with pytest.raises(Exception) as exc:

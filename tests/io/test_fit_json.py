@@ -10,7 +10,7 @@ import pytest
 from fitting import identify_ls
 
 import sescid
-from sescid import io
+from sescid import io, tables
 from sescid.simulation import simulate
 
 
@@ -80,7 +80,7 @@ def _csv(tmp_path, text: str):
 def test_table_errors_name_row_and_column(tmp_path, text, message):
     path = _csv(tmp_path, text)
     with pytest.raises(sescid.SescidError, match=message):
-        table = io.read_table(path)
+        table = tables.read_table(path)
         table.get("a")
         table.get("b")
 
@@ -90,29 +90,29 @@ def test_read_poses_checks_columns_and_units(op2, tmp_path):
     header = ",".join(names)
     row = ",".join(["0.1"] * 20)
     with pytest.raises(sescid.SescidError, match="missing joint column 'head_tilt'"):
-        io.read_poses(
-            io.read_table(_csv(tmp_path, ",".join(names[:-1]) + "\n" + row[4:] + "\n")), names
+        tables.read_poses(
+            tables.read_table(_csv(tmp_path, ",".join(names[:-1]) + "\n" + row[4:] + "\n")), names
         )
     deg = ",".join(["0.1"] * 19 + ["30"])
     with pytest.raises(
         sescid.SescidError, match=r"row 3, column 'head_tilt': 30 looks like degrees"
     ):
-        io.read_poses(io.read_table(_csv(tmp_path, f"{header}\n{row}\n{deg}\n")), names)
-    q = io.read_poses(io.read_table(_csv(tmp_path, f"{header}\n{row}\n")), names)
+        tables.read_poses(tables.read_table(_csv(tmp_path, f"{header}\n{row}\n{deg}\n")), names)
+    q = tables.read_poses(tables.read_table(_csv(tmp_path, f"{header}\n{row}\n")), names)
     assert q.shape == (1, 20) and q[0, 0] == 0.1
 
 
 def test_parquet_round_trip(tmp_path):
     cols = {"a": np.arange(5.0), "b": np.linspace(0, 1, 5)}
-    io.write_table(tmp_path / "t.parquet", cols)
-    table = io.read_table(tmp_path / "t.parquet")
+    tables.write_table(tmp_path / "t.parquet", cols)
+    table = tables.read_table(tmp_path / "t.parquet")
     np.testing.assert_array_equal(table.get("b"), cols["b"])
 
 
 def test_write_table_csv_keeps_full_precision(tmp_path):
     x = np.array([np.pi, -1e-9, 0.1 + 0.2])
-    io.write_table(tmp_path / "t.csv", {"x": x})
-    np.testing.assert_array_equal(io.read_table(tmp_path / "t.csv").get("x"), x)
+    tables.write_table(tmp_path / "t.csv", {"x": x})
+    np.testing.assert_array_equal(tables.read_table(tmp_path / "t.csv").get("x"), x)
 
 
 def test_version_1_fit_files_are_read(tmp_path):

@@ -8,8 +8,8 @@ import pytest
 
 import sescid
 from sescid.errors import DataError
-from sescid.io import write_table
 from sescid.io.measurements import read_measurements
+from sescid.tables import write_table
 
 
 def _file(path, robot, n=12, **extra):

@@ -16,7 +16,6 @@ import sescid
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import OptionError, SescidError
-from sescid.io import read_table
 from sescid.planning.feasibility.closure import (
     CLOSE_TOL,
     close_chain,
@@ -25,6 +24,7 @@ from sescid.planning.feasibility.closure import (
     placements,
 )
 from sescid.planning.feasibility.double import PLACE_SHARE, PLACE_YAW, hull_margin
+from sescid.tables import read_table
 
 
 @pytest.fixture(scope="module")

@@ -15,9 +15,9 @@ import sescid
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import OptionError, SescidError
-from sescid.io import read_table
 from sescid.planning.feasibility.gantry import GANTRY_LIFT, gantry_floor, standing_height
 from sescid.planning.feasibility.stability import DEFAULT_CLEARANCE
+from sescid.tables import read_table
 
 CLEARANCE = 0.005
 

@@ -14,7 +14,6 @@ from sescid import load_robot
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.io import read_poses, read_table
 from sescid.planning.design.doptimal import information, per_row_information, select_d_optimal
 from sescid.planning.design.engine import cop_block_rows, expected_error, random_errors
 from sescid.planning.feasibility.collision import (
@@ -26,6 +25,7 @@ from sescid.planning.feasibility.collision import (
 from sescid.planning.feasibility.stability import ground_clear_mask, sole_corners, stable_mask
 from sescid.planning.ordering import order_poses, path_length
 from sescid.robots import MX28
+from sescid.tables import read_poses, read_table
 
 
 @pytest.fixture(scope="module")

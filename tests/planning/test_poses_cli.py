@@ -15,8 +15,8 @@ import sescid
 from sescid import planning as design
 from sescid.bench.standing import stands
 from sescid.cli import cli
-from sescid.io import read_poses, read_table
 from sescid.planning.feasibility.limits import unlimited_joints
+from sescid.tables import read_poses, read_table
 
 
 def _run(*args):

@@ -16,11 +16,11 @@ from sescid import planning as design
 from sescid.base import G0
 from sescid.cli import cli
 from sescid.errors import OptionError
-from sescid.io import read_table
 from sescid.planning.design.kinds import design_kinds
 from sescid.planning.design.stances import StanceRows, theta_scale
 from sescid.planning.pooled import PRIOR_TAU
 from sescid.simulation import random_poses
+from sescid.tables import read_table
 
 SMALL = {"n_candidates": 400, "n_test": 200}
 

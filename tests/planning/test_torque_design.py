@@ -17,11 +17,11 @@ from sescid import identify
 from sescid import planning as design
 from sescid.cli import cli
 from sescid.estimation import Measurements, perturbed_sesc
-from sescid.io import read_table
 from sescid.planning.design.blocks import BlockDesign
 from sescid.planning.design.engine import random_errors
 from sescid.planning.design.kinds import pool_information, schur_information
 from sescid.simulation import PAPER_NOISE, TorqueNoise, simulate_torques
+from sescid.tables import read_table
 
 SIGMA_TAU = 0.05
 

@@ -20,9 +20,9 @@ from op2_stance import stable_poses
 import sescid
 from sescid.cli import cli
 from sescid.estimation import Measurements
-from sescid.io import write_table
 from sescid.report import ReportOptions, cop_offset_stats, write_report
 from sescid.report.text import RESIDUAL_DEFINITION
+from sescid.tables import write_table
 
 FIGURES = 5
 

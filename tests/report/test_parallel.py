@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sescid.report import figures, parallel, run_figures
+from sescid.report.inputs import ComNumbers
 
 needs_fork = pytest.mark.skipif(not parallel.can_fork(), reason="no fork or one core")
 
@@ -109,7 +110,8 @@ def test_fixed_layout_keeps_every_text_inside(monkeypatch, tmp_path):
         pred = {"manufacturer model": cop + wobble, "identified": cop - 0.5 * wobble}
         figures.plot_cop_comparison(idx, cop, pred, tmp_path / "a.png", title="title")
         z, note = com[:, 2], "22% of the CoM height comes from the prior model"
-        figures.plot_com_height(idx, z, z, z * 0.01, tmp_path / "b.png", caveat=note)
+        heights = ComNumbers(com, com, z * 0.01, from_prior=z * 0, prior_fraction=z * 0)
+        figures.plot_com_height(idx, heights, tmp_path / "b.png", caveat=note)
         figures.plot_residuals(idx, cop, pred, tmp_path / "c.png")
         figures.plot_side_view(robot, q[:4], cop[:4], {"identified": com[:4]}, tmp_path / "d.png")
     from matplotlib.backends.backend_agg import FigureCanvasAgg

@@ -21,10 +21,10 @@ import sescid
 from sescid import identify
 from sescid.cli import cli
 from sescid.estimation import Measurements
-from sescid.io import write_table
 from sescid.report import ReportOptions, coverage, write_report
 from sescid.report.numbers import support_leg_joints
 from sescid.report.text import NOT_DETERMINED
+from sescid.tables import write_table
 
 CHROMIUM = pytest.mark.skipif(_chromium() is None, reason="no chromium (apt-get install chromium)")
 #: the OP2's right leg from its sole up to the trunk (MP_BODY), as its URDF chains them

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sescid.base.columns import Table
 from sescid.errors import DataError, OptionError
 from sescid.sensors.imu import gravity_from_imu, gravity_in_link, read_imu, table_gravity
+from sescid.tables import Table
 
 
 def test_gravity_in_link_is_zyx_euler():

@@ -12,9 +12,9 @@ from click.testing import CliRunner
 import sescid
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.io import read_table, write_table
 from sescid.robots import profile_for
 from sescid.sensors import REASONS, fsr, load_sensors, measure, read_raw
+from sescid.tables import read_table, write_table
 
 # Sensor centres of fsr.md §4–§6 written out by hand (sole frame, m): pads 10 mm in from the
 # front/rear and 6.5 mm in from the side edges of the 0.105 × 0.066 m sole → x ±0.0425,

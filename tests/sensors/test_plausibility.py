@@ -14,9 +14,9 @@ from op2_stance import stable_poses
 from sescid.bench import ExperimentConfig, run_experiment
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.io import read_table, write_table
 from sescid.robots import profile_for
 from sescid.sensors import fsr, load_sensors, measure, read_raw, table_from_columns
+from sescid.tables import read_table, write_table
 
 OP2_FSR = Path(profile_for("op2").sensors_file)
 G = 9.80665

@@ -14,15 +14,15 @@ from click.testing import CliRunner
 
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.io import iter_table, read_table, tables
 from sescid.sensors import fsr, fsr_chunks, load_sensors
+from sescid.tables import iter_table, read, read_table
 
 
 @pytest.fixture
 def small_chunks(monkeypatch):
     """CSV chunks of ~100 rows (a pose's 30 samples span chunks)."""
-    monkeypatch.setattr(tables, "CSV_BLOCK_BYTES", 1 << 12)
-    monkeypatch.setattr(tables, "CSV_CHUNK_ROWS", 100)
+    monkeypatch.setattr(read, "CSV_BLOCK_BYTES", 1 << 12)
+    monkeypatch.setattr(read, "CSV_CHUNK_ROWS", 100)
 
 
 @pytest.fixture(scope="module")

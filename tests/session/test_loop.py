@@ -14,13 +14,13 @@ from click.testing import CliRunner
 import sescid
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.io import read_table
 from sescid.planning import candidates, identifiable_basis, projected_regressor
 from sescid.planning.design.doptimal import information
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.sensors import load_sensors
 from sescid.session.adapters import ReplayAdapter, RobotAdapter, load_adapter_class
 from sescid.session.loop import SessionOptions, run_session
+from sescid.tables import read_table
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 DUMMY = f"{EXAMPLES / 'op2_dummy_robot_session.py'}:DummyRobot"

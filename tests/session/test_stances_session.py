@@ -14,9 +14,9 @@ from sescid.bench import ExperimentConfig, TorqueConfig
 from sescid.bench.real_robot import real_robot
 from sescid.cli import cli
 from sescid.errors import OptionError
-from sescid.io import read_table
 from sescid.sensors import load_sensors
 from sescid.session import KinematicAdapter, SessionObserver, SessionOptions, run_session
+from sescid.tables import read_table
 
 SMALL = {"samples": 8, "n_candidates": 300, "window": 3}
 

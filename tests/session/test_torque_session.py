@@ -17,7 +17,6 @@ from sescid.bench import ExperimentConfig
 from sescid.bench.real_robot import TorqueConfig
 from sescid.cli import cli
 from sescid.errors import DataError
-from sescid.io import read_table
 from sescid.planning import block_rows, candidates, design_kinds, kind_basis
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.sensors import load_sensors
@@ -28,6 +27,7 @@ from sescid.session import (
     SessionOptions,
     run_session,
 )
+from sescid.tables import read_table
 
 TORQUES = ExperimentConfig(torque=TorqueConfig("all"))  # 0.05 N·m noise, 0.05 N·m offsets
 

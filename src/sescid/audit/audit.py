@@ -279,7 +279,7 @@ def _same_robot(robots: list[Robot], labels: list[str]) -> None:
 
 def _file_joints(path: Path, known: set[str]) -> set[str]:
     """The joints a data file names (angle or torque columns), among the ``known`` ones."""
-    from sescid.io.tables import iter_table
+    from sescid.tables import iter_table
 
     table = next(iter(iter_table(path)))
     out = set()

@@ -1,5 +1,5 @@
 """Foundations every layer uses: files written atomically and read with one-line errors
-(``files``), the named columns of a data file (``columns``), options written once (``options``:
+(``files``), standard gravity (``constants``), options written once (``options``:
 a record's field carries its default, range and help, the CLI's flags are made from it),
 terminal progress (``progress``), long lists in one line (``text``) and the thread policy of
 the dense algebra and of the block workers (``threads``).
@@ -7,13 +7,7 @@ the dense algebra and of the block workers (``threads``).
 Nothing here knows about robots; everything above may import it.
 """
 
-from sescid.base.columns import (
-    G0,
-    MODEL_COP_COLUMNS,
-    SUPPORT_COLUMN,
-    Table,
-    pose_ids,
-)
+from sescid.base.constants import G0
 from sescid.base.files import (
     OutputSet,
     atomic_open,
@@ -39,12 +33,9 @@ from sescid.base.version import VERSION_MESSAGE
 __all__ = [
     "VERSION_MESSAGE",
     "G0",
-    "MODEL_COP_COLUMNS",
     "SEED_HELP",
-    "SUPPORT_COLUMN",
     "OptionSpec",
     "OutputSet",
-    "Table",
     "TerminalProgress",
     "atomic_open",
     "atomic_path",
@@ -59,7 +50,6 @@ __all__ = [
     "option_spec",
     "ordered_map",
     "pin_process",
-    "pose_ids",
     "read_json",
     "usable_cores",
 ]

@@ -29,10 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX
 from sescid.bench.real_robot import ExperimentConfig, Registers, SensorErrors
 from sescid.robot import Robot
 from sescid.sensors.pads import Foot, SensorConfig
+from sescid.tables import APPROACH_COLUMN, TAU_PREFIX
 
 
 @dataclass(frozen=True)

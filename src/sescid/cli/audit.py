@@ -87,20 +87,17 @@ def _write_json(outs: OutputSet, out: str, doc: dict) -> None:
               help=f"Exit {FAIL_EXIT} when the best candidate is rejected by the data or fails "
               "a model check (for CI).")  # fmt: skip
 @common.force_option
-def audit(data, models, support, line, total_mass, mass_std, level, noise, folds, json_out,
-          fail_on, force):  # fmt: skip
+def audit(data, models, noise, folds, json_out, fail_on, force, **keywords):
     """Score candidate model files of one robot against measured DATA (CoP, torques, balance;
     files pool; FILE@FRAME for a stance): mass gap, prediction and cross-validated errors per
     kind, the bodies the data reject, model checks, a ranking and a verdict."""
+    # keywords: the flags named as sescid.audit's own (support, line, total_mass, mass_std, level)
     from sescid.audit import audit as run_audit
 
     if folds == 1:
         common.fail("--folds: 0 (no cross-validation) or at least 2")
     outs = OutputSet([json_out], list(data) + list(models), force=force)
-    result = run_audit(
-        list(data), list(models), support=support, line=line, total_mass=total_mass,
-        mass_std=mass_std, level=level, folds=folds, noise=_noise(noise),
-    )  # fmt: skip
+    result = run_audit(list(data), list(models), folds=folds, noise=_noise(noise), **keywords)
     click.echo(result.text())
     if json_out is not None:
         with outs:

@@ -5,11 +5,12 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from sescid.base import SUPPORT_COLUMN, OutputSet
+from sescid.base import OutputSet
 from sescid.cli import common
 from sescid.errors import DataError
-from sescid.io import read_bag, read_poses, read_table, write_table
+from sescid.io import read_bag
 from sescid.sensors import pose_list_ids
+from sescid.tables import SUPPORT_COLUMN, read_poses, read_table, write_table
 
 
 @click.command()

@@ -13,7 +13,6 @@ from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.estimation import check_total_mass, save_fit
-from sescid.io import read_table
 from sescid.report import mm
 from sescid.sensors import (
     CalibrationOptions,
@@ -24,6 +23,7 @@ from sescid.sensors import (
     load_sensors,
     pad_session,
 )
+from sescid.tables import read_table
 
 
 def calibration_options(opts: dict) -> CalibrationOptions:

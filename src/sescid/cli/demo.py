@@ -80,8 +80,8 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
 
 def _demo_files(robot, st, out: Path) -> None:
     """The demo's fit, figures and summary, written into ``out``."""
-    from sescid.io import write_table
     from sescid.report import plot_cop_comparison, plot_r_magnitudes, run_figures
+    from sescid.tables import write_table
 
     fit = st.fit
     p = fit.rank

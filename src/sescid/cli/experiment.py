@@ -21,10 +21,10 @@ from sescid.bench import (
 from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import DataError, OptionError
-from sescid.io import read_poses, read_table, write_table
 from sescid.robot import DOUBLE
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 from sescid.stance import parse_stance, support_column
+from sescid.tables import read_poses, read_table, write_table
 
 
 def torque_options(f: Any) -> Any:

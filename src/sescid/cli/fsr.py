@@ -9,14 +9,14 @@ from collections.abc import Callable, Iterable, Iterator
 import click
 import numpy as np
 
-from sescid.base import G0, SUPPORT_COLUMN, OutputSet, Table, listed, pose_ids
+from sescid.base import G0, OutputSet, listed
 from sescid.cli import common
 from sescid.errors import DataError
-from sescid.io import iter_table, read_table, write_table
 from sescid.report import mm
 from sescid.robot import DOUBLE
 from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors, pose_list_ids
 from sescid.stance import data_stance, parse_stance, support_column
+from sescid.tables import SUPPORT_COLUMN, Table, iter_table, pose_ids, read_table, write_table
 
 
 def _log_stances(

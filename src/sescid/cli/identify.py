@@ -7,6 +7,7 @@ show), make one call to ``sescid.identify`` on the files, print the fit.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import click
 
@@ -171,7 +172,7 @@ _, _STEP = option_spec(IdentifyOptions, "online_step")
     "file (default: the robot's model).",
 )
 @common.force_option
-def identify(data, robot_name, support, out, method, force, payload, payload_mass, base, **opts):
+def identify(data, robot_name, support, out, method, force, **opts):
     """Identify the robot's mass distribution from CSV/Parquet files of poses (a column per
     joint, radians) and what was measured there: the CoP (cop_x, cop_y, m), joint torques
     (tau_<joint>, N·m) or, for a robot balancing on a line (--line), the gravity direction of
@@ -185,41 +186,46 @@ def identify(data, robot_name, support, out, method, force, payload, payload_mas
     parameters they share). FILE@FRAME reads FILE as measured in the stance FRAME.
     """
     files = [file_stance(d)[0] for d in data]
+    payload, mass, base = opts.pop("payload"), opts.pop("payload_mass"), opts.pop("base")
     if payload is None:
-        if payload_mass is not None or base is not None:
+        if mass is not None or base is not None:
             raise OptionError("payload", "--payload-mass and --base go with --payload BODY")
-    else:
-        _identify_payload(data, files, robot_name, support, out, method, force, payload,
-                          payload_mass, base, opts)  # fmt: skip
-        return
-    outs = OutputSet([out], [*files, common.model_input(robot_name)], force=force)
-    robot = common.load(robot_name, support)
-    chosen, options = options_from_flags(method, opts)
-    size = sum(rows_estimate(f) or 0 for f in files) or None
-    with TerminalProgress("identifying poses") as bar:
-        fit = run_identify(
-            robot,
-            list(data),
-            method=chosen,
-            options=options,
-            progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
-        )
-    trunk = next((w for w in fit.warnings if w.startswith(COP_ON_TRUNK)), None)
-    if trunk is not None:
-        raise DataError(f"{', '.join(map(str, data))}: {trunk}")
+        outs = OutputSet([out], [*files, common.model_input(robot_name)], force=force)
+        robot = common.load(robot_name, support)
+        chosen, options = options_from_flags(method, opts)
+        size = sum(rows_estimate(f) or 0 for f in files) or None
+        with TerminalProgress("identifying poses") as bar:
+            fit = run_identify(
+                robot,
+                list(data),
+                method=chosen,
+                options=options,
+                progress=lambda d, n: bar(d, max(n or size or d + 1, d + 1)),
+            )
+        trunk = next((w for w in fit.warnings if w.startswith(COP_ON_TRUNK)), None)
+        if trunk is not None:
+            raise DataError(f"{', '.join(map(str, data))}: {trunk}")
+    else:  # the payload on a base (a fit, or the model file)
+        if method != "auto":
+            raise OptionError("method", "--method does not apply with --payload (the base is kept)")
+        robot, model, base_fit = _payload_base(robot_name, support, base)
+        ins = [*files, common.model_input(model)] + ([base] if base else [])
+        outs = OutputSet([out], ins, force=force)
+        shared = options_from_flags("ls", opts)[1]
+        fit = identify_payload(robot, list(data), payload, mass=mass, base=base_fit, options=shared)
     with outs:
         save_fit(fit, outs.path(out))
     echo_fit(fit)
     click.echo(f"wrote {out}")
 
 
-def _identify_payload(data, files, robot_name, support, out, method, force, body, mass, base,
-                      opts) -> None:  # fmt: skip
-    """The payload (identify --payload) on a base (a fit, or the model file)."""
+def _payload_base(
+    robot_name: str, support: str | None, base: str | None
+) -> tuple[Any, str, Fit | None]:
+    """The robot a payload is identified on, the model it names and the base fit (None: the
+    model's own masses): ``--base`` a fit (JSON) or a model file, else ``--robot``."""
     from pathlib import Path
 
-    if method != "auto":
-        raise OptionError("method", "--method does not apply with --payload (the base is kept)")
     base_fit = None
     source = click.get_current_context().get_parameter_source("robot_name")
     given = source != click.core.ParameterSource.DEFAULT
@@ -239,14 +245,7 @@ def _identify_payload(data, files, robot_name, support, out, method, force, body
         robot = common.load(base, support)
     else:
         robot = common.load(robot_name, support)
-    ins = [*files, common.model_input(robot_name)] + ([base] if base else [])
-    outs = OutputSet([out], ins, force=force)
-    shared = options_from_flags("ls", opts)[1]
-    fit = identify_payload(robot, list(data), body, mass=mass, base=base_fit, options=shared)
-    with outs:
-        save_fit(fit, outs.path(out))
-    echo_fit(fit)
-    click.echo(f"wrote {out}")
+    return robot, robot_name, base_fit
 
 
 def echo_fit(fit: Fit) -> None:

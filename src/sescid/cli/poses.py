@@ -8,7 +8,7 @@ from sescid.base import OutputSet, TerminalProgress
 from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
-from sescid.io import pose_table, required_paper_convention, write_table
+from sescid.io import pose_table, required_paper_convention
 from sescid.planning import (
     DEFAULT_STANCE_COST,
     PAYLOAD_CANDIDATES,
@@ -25,6 +25,7 @@ from sescid.planning import (
     stance_robot,
 )
 from sescid.report import design_figure, mm
+from sescid.tables import write_table
 
 
 def _sole_notes(robot, capsules) -> list[str]:

@@ -13,12 +13,8 @@ from sescid.estimation import (
     for_support,
     load_fit,
 )
-from sescid.io import (
-    read_poses,
-    read_table,
-    write_table,
-)
 from sescid.stance import data_stance, support_column
+from sescid.tables import read_poses, read_table, write_table
 
 
 @click.command()

@@ -290,8 +290,9 @@ def _replay_files(adapter: str, replay_path: str | None) -> tuple[Path | None, P
 
 def _bot(robot, opts, sensors, opt: SessionOptions):
     """The robot the session commands: a bench, a recorded session, or the user's class."""
-    from sescid.io import read_session_reasons, read_table
+    from sescid.io import read_session_reasons
     from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
+    from sescid.tables import read_table
 
     adapter = opts["adapter"]
     if adapter in ("mujoco", "kinematic"):

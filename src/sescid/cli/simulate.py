@@ -70,8 +70,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
     import dataclasses
     import math
 
-    from sescid.io import write_table
     from sescid.simulation import simulate as run_simulate
+    from sescid.tables import write_table
 
     outs = OutputSet([out], [common.model_input(robot_name)], force=force)
     robot = common.load(robot_name, support)
@@ -149,8 +149,8 @@ def _balance(robot, draw: tuple[int, float, int], noise_deg: float, r_true, outs
     gravity, the true tilt; ``draw``: poses, range [degrees], seed."""
     import math
 
-    from sescid.io import write_table
     from sescid.simulation import simulate_balance
+    from sescid.tables import write_table
 
     poses, range_deg, seed = draw
     sim = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed, r_true)

@@ -1,22 +1,14 @@
-"""Files in and out: pose/CoP/torque tables (CSV, Parquet), the fit file, model export, ROS bags.
+"""Files in and out: the fit file, measurement files, a session's files, model export, ROS bags.
 
-``read_table``/``write_table`` (CSV or Parquet by suffix, atomic), ``read_poses``/``read_cop``/
-``read_cop_se`` (column conventions of ``sescid.base.columns``), ``save_fit``/``load_fit`` (the fit
-JSON), ``export_model`` (the fit's model file with identified masses and CoMs: ``export_urdf``,
-``export_mjcf``; ``sescid.io.export``), ``pose_table`` (the pose list a bench reads), ``read_bag``
+Tables themselves (CSV, Parquet) and their columns are ``sescid.tables``'s. ``save_fit``/
+``load_fit`` (the fit JSON), ``rows_estimate`` (a measurement file's rows), ``export_model``
+(the fit's model file with identified masses and CoMs: ``export_urdf``, ``export_mjcf``;
+``sescid.io.export``), ``pose_table`` (the pose list a bench reads), ``read_bag``
 (a ROS bag and a mapping file → the raw log: joints, joint torques, foot forces;
 ``sescid.io.bags``, the ``bags`` extra). Outputs are never written over an input nor inside an
 input folder (``sescid.base.files``).
 """
 
-from sescid.base.columns import (
-    Table,
-    read_cop,
-    read_cop_se,
-    read_gravity,
-    read_joint_columns,
-    read_poses,
-)
 from sescid.base.files import atomic_open, atomic_path, read_json
 from sescid.estimation.result.fit_json import FIT_FORMAT, load_fit, save_fit
 from sescid.io.bags import (
@@ -41,7 +33,6 @@ from sescid.io.export.usd import USD_SUFFIXES, export_usd
 from sescid.io.measurements import rows_estimate
 from sescid.io.pose_table import PoseTable, pose_table, required_paper_convention
 from sescid.io.session_files import SESSION_FILES, read_session_reasons, write_session
-from sescid.io.tables import iter_table, read_table, write_table
 
 __all__ = [
     "FIT_FORMAT",
@@ -55,7 +46,6 @@ __all__ = [
     "PoseTable",
     "RawLogTable",
     "Segment",
-    "Table",
     "TorqueSource",
     "atomic_open",
     "atomic_path",
@@ -65,24 +55,16 @@ __all__ = [
     "export_urdf",
     "export_usd",
     "USD_SUFFIXES",
-    "iter_table",
     "load_fit",
     "load_mapping",
     "model_files",
     "parse_mapping",
     "pose_table",
     "read_bag",
-    "read_cop",
-    "read_cop_se",
-    "read_gravity",
-    "read_joint_columns",
     "read_json",
-    "read_poses",
     "read_session_reasons",
-    "read_table",
     "required_paper_convention",
     "rows_estimate",
     "save_fit",
     "write_session",
-    "write_table",
 ]

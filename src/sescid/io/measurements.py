@@ -19,8 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import (
+from sescid.errors import DataError
+from sescid.estimation import Measurements, outside_limits
+from sescid.estimation.data.checks import LimitViolation
+from sescid.robot import Robot
+from sescid.sensors.imu import table_gravity
+from sescid.stance import data_stance, support_column
+from sescid.tables import (
     Table,
+    iter_table,
+    read_ahead,
     read_approach,
     read_cop,
     read_poses,
@@ -28,13 +36,6 @@ from sescid.base.columns import (
     refuse_plan,
     refuse_raw_log,
 )
-from sescid.errors import DataError
-from sescid.estimation import Measurements, outside_limits
-from sescid.estimation.data.checks import LimitViolation
-from sescid.io.tables import iter_table, read_ahead
-from sescid.robot import Robot
-from sescid.sensors.imu import table_gravity
-from sescid.stance import data_stance, support_column
 
 
 @dataclass

@@ -7,10 +7,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sescid.base import MODEL_COP_COLUMNS
 from sescid.errors import OptionError, SescidError
 from sescid.planning import PaperConvention, paper_convention
 from sescid.robot import Robot
+from sescid.tables import MODEL_COP_COLUMNS
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from sescid.base.files import atomic_open, check_outputs, read_json
 from sescid.errors import SescidError
 from sescid.estimation.result.fit_json import save_fit
 from sescid.io.pose_table import pose_table
-from sescid.io.tables import write_table
+from sescid.tables import write_table
 
 SESSION_FORMAT = "sescid-session/1"
 #: file names inside a session's output folder

@@ -126,9 +126,7 @@ def figure_jobs(c: ReportContent, out: Path, options: ReportOptions) -> list[Fig
             "CoM height per pose (paper Fig. 8)",
             lambda: plot_com_height(
                 idx,
-                c.com.prior[:, 2],
-                c.com.fit[:, 2],
-                c.com.std_z,
+                c.com,
                 out / "fig8_com_height.png",
                 caveat=com_caveat(c),
                 labels=c.labels,

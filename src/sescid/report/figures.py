@@ -3,12 +3,15 @@ backend switch); never re-fits."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sescid.base.files import atomic_path
 from sescid.robots import body_table
+
+if TYPE_CHECKING:
+    from sescid.report.inputs import ComNumbers
 
 #: resolution of the paper's figures (Figs. 3, 6, 7, pose selection) and of the report's others
 PAPER_DPI = 120
@@ -136,14 +139,14 @@ def plot_cop_comparison(
 
 
 # --- the experiment report (paper §4: Figs. 6-8 and more) ------------------------------------
-def plot_com_height(
-    idx, z_prior, z_fit, std, path, caveat: str = "", title=None, labels=None
-) -> None:
+def plot_com_height(idx, com: ComNumbers, path, caveat: str = "", title=None, labels=None) -> None:
     """CoM height per pose: prior (manufacturer) vs identified ± 2σ band (paper Fig. 8).
 
-    ``z_prior``, ``z_fit``, ``std`` (n,) in m; ``caveat`` is printed under the curves (say how
-    much of the identified height comes from the prior).
+    ``com``: the CoM of both models per pose and the identified height's standard error, in m;
+    ``caveat`` is printed under the curves (say how much of the identified height comes from
+    the prior).
     """
+    z_prior, z_fit, std = com.prior[:, 2], com.fit[:, 2], com.std_z
     fig, ax = new_figure(figsize=(10, 3.8))
     ax.plot(idx, z_prior * 1e3, "s--", color="0.2", ms=3, label="manufacturer model")
     ax.plot(idx, z_fit * 1e3, "o-", color="tab:blue", ms=3, label="identified")

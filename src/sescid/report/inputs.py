@@ -127,10 +127,10 @@ def read_report_data(
     else row numbers). A file with a ``support`` column gives the rows of ``stance`` (a stance
     label, "double" for both feet; default: the fit's support), its cells in any spelling of a
     stance. Errors name the file and the column."""
-    from sescid.io import read_table
     from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
     from sescid.stance import parse_stance, support_column
+    from sescid.tables import read_table
 
     table = read_table(path)
     data = measurements_of(table, fit.robot, imu_link)

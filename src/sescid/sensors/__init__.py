@@ -8,7 +8,6 @@ calibration of pad gains and offsets together with the mass model (``calibration
 total mass is checked by ``sescid.estimation.check_total_mass``.
 """
 
-from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.calibration import (
     CalibrationOptions,
     KnownSensors,
@@ -40,7 +39,15 @@ from sescid.sensors.pads import (
     load_sensors,
 )
 from sescid.sensors.raw import RawLog, read_raw, table_from_columns
-from sescid.sensors.reduce import Measured, fsr, measure, pose_list_ids, read_log
+from sescid.sensors.reduce import (
+    SESSION_POSE,
+    LogPart,
+    Measured,
+    fsr,
+    measure,
+    pose_list_ids,
+    read_log,
+)
 from sescid.sensors.stream import fsr_chunks, fsr_stances
 from sescid.sensors.wrench import (
     Plate,
@@ -51,6 +58,7 @@ from sescid.sensors.wrench import (
     plate_to_sole,
     rpy_matrix,
 )
+from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 
 __all__ = [
     "APPROACH_COLUMN",
@@ -88,6 +96,8 @@ __all__ = [
     "load_plate",
     "load_sensors",
     "measure",
+    "LogPart",
+    "SESSION_POSE",
     "pad_session",
     "plate_to_sole",
     "pose_list_ids",

@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.base.columns import GRAVITY_COLUMNS, Table, read_gravity
 from sescid.errors import DataError, OptionError
+from sescid.tables import GRAVITY_COLUMNS, Table, read_gravity
 
 #: raw-log / data columns of an IMU's roll and pitch (rad)
 IMU_COLUMNS = ("imu_roll", "imu_pitch")

@@ -9,8 +9,8 @@ from typing import Literal
 
 import numpy as np
 
-from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 from sescid.sensors.feet import REASONS, FootMode
+from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 
 #: what a measurement was reduced from: the feet's sources (``FootMode``), joint torques only,
 #: or an IMU only (a robot balancing on a line)

@@ -27,7 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import (
+from sescid.errors import DataError
+from sescid.robots import ServoEncoding
+from sescid.sensors.pads import Foot, SensorConfig
+from sescid.tables import (
     GRAVITY_COLUMNS,
     Table,
     column_with_missing,
@@ -37,9 +40,6 @@ from sescid.base.columns import (
     read_joint_columns,
     read_torques,
 )
-from sescid.errors import DataError
-from sescid.robots import ServoEncoding
-from sescid.sensors.pads import Foot, SensorConfig
 
 #: a logged CoP farther than this from its sole origin is not in metres
 COP_MAX_M = 2.0
@@ -68,7 +68,7 @@ class RawLog:
     first_row: int = 2  #: the file's row number of sample 0
     #: in-memory samples: sample i → its name ("pose 3, sample 2" of a session)
     row_of: Callable[[int], str] | None = None
-    #: a file's data row (0-based over the file) → its row number (``base.columns.RowNumbers``)
+    #: a file's data row (0-based over the file) → its row number (``tables.rows.RowNumbers``)
     numbers: Callable[[int], int] | None = None
 
     def where(self, i) -> str:

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.base import G0
-from sescid.base.columns import Table, pose_ids
 from sescid.base.text import listed
 from sescid.errors import DataError
 from sescid.sensors.feet import (
@@ -48,6 +47,7 @@ from sescid.sensors.torque import (
     check_torque_scale,
     pose_approach,
 )
+from sescid.tables import Table, pose_ids
 
 #: outlier rule without a sensor file (a torque-only log)
 DEFAULT_OUTLIER_K = 4.0
@@ -203,20 +203,10 @@ def uses_feet(log: RawLog, config: SensorConfig | None) -> bool:
     return bool(fs.loaded.any())
 
 
-def measure(
-    robot,
-    log: RawLog,
-    config: SensorConfig | None,
-    min_samples: int = 5,
-    feet: bool | None = None,
-    whole_log: bool = True,
-    finish: bool = True,
-    pads: PadWatch | None = None,
-) -> Measured:
-    """Per-pose means and standard errors of a raw log (module docstring).
+@dataclass(frozen=True)
+class LogPart:
+    """Where a reduced log sits in a longer one (``measure``; the default: a whole log).
 
-    Poses left with fewer than ``min_samples`` usable samples are listed in ``dropped`` with
-    the reason. The foot poses come from ``robot.link_poses`` at each pose's mean read-backs.
     ``feet``: whether the foot sensors give the CoP (None: ``uses_feet`` of this log; a part
     of a longer log takes the whole log's answer). ``whole_log`` (not one of a session's
     poses): a dead or stuck foot pad is an error, and ``finish_measured`` may leave out a
@@ -225,10 +215,33 @@ def measure(
     joined). ``pads``: a part of a longer log adds its samples to the whole log's dead-pad
     check instead of being judged alone.
     """
+
+    feet: bool | None = None
+    whole_log: bool = True
+    finish: bool = True
+    pads: PadWatch | None = None
+
+
+#: a whole log, reduced and finished alone
+WHOLE_LOG = LogPart()
+#: one of a session's poses (its pads and torque columns judged over the session)
+SESSION_POSE = LogPart(whole_log=False)
+
+
+def measure(
+    robot, log: RawLog, config: SensorConfig | None, min_samples: int = 5, part: LogPart = WHOLE_LOG
+) -> Measured:
+    """Per-pose means and standard errors of a raw log (module docstring).
+
+    Poses left with fewer than ``min_samples`` usable samples are listed in ``dropped`` with
+    the reason. The foot poses come from ``robot.link_poses`` at each pose's mean read-backs.
+    ``part``: where the log sits in a longer one (``LogPart``).
+    """
     if min_samples < 2:
         raise DataError(f"min_samples must be ≥ 2 (a standard error needs 2), got {min_samples}")
     s = _start(log)
-    feet = uses_feet(log, config) if feet is None else feet
+    feet = uses_feet(log, config) if part.feet is None else part.feet
+    whole_log, pads = part.whole_log, part.pads
     out = np.zeros(len(log.pose), dtype=bool)
     mode: MeasuredFrom
     if feet:
@@ -278,7 +291,7 @@ def measure(
         tau_se=None if tau_se is None else tau_se[keep],
         approach=approach,
     )
-    return finish_measured(m, whole_log) if finish else m
+    return finish_measured(m, whole_log) if part.finish else m
 
 
 #: fields of ``Measured`` with one row per kept pose

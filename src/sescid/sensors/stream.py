@@ -1,6 +1,6 @@
 """A raw log reduced in chunks (``sescid measure`` on a file): flat memory for any length.
 
-The log is read chunk by chunk (the caller's reader: ``io.iter_table`` of a file); each chunk
+The log is read chunk by chunk (the caller's reader: ``tables.iter_table`` of a file); each chunk
 is parsed (``read_log``) and its poses reduced (``measure``) as soon as all their samples are
 in: the samples of the pose that ends a chunk wait for the next one. The result is the
 whole-log reduction's, pose for pose, wherever every pose's samples are consecutive in the log
@@ -23,13 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import SUPPORT_COLUMN, Table
 from sescid.errors import DataError
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
 from sescid.sensors.raw import RawLog
 from sescid.sensors.reduce import (
+    LogPart,
     check_pose_ids,
     finish_measured,
     fsr,
@@ -39,6 +39,7 @@ from sescid.sensors.reduce import (
     uses_feet,
 )
 from sescid.stance import support_column
+from sescid.tables import SUPPORT_COLUMN, Table
 
 #: raw-log fields with one row per sample
 _ROWS = ("pose", "q", "gravity", "tau", "approach")
@@ -112,7 +113,7 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
             raise _Revisited
         seen.update(ids)
         parts.append(
-            measure(robot, log, config, min_samples, feet=decided, finish=False, pads=pads)
+            measure(robot, log, config, min_samples, LogPart(decided, finish=False, pads=pads))
         )
 
     for table in chunks:

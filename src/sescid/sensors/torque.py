@@ -1,5 +1,5 @@
 """Joint torques in a raw log: ``tau_<joint>`` samples and the ``approach`` side of each pose
-(read by ``base.columns.read_torques``/``read_approach``, the one reader of those columns).
+(read by ``tables.columns.read_torques``/``read_approach``, the one reader of those columns).
 
 Columns (the data contract): ``tau_<joint>`` [N·m], the torque the actuator applies to hold the
 pose, about the joint's axis with the model's sign, for any subset of the model's joints (named
@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.base.columns import APPROACH_COLUMN, TAU_PREFIX, TORQUE_REACH_M, torque_bound
 from sescid.errors import DataError
+from sescid.tables.columns import APPROACH_COLUMN, TAU_PREFIX, TORQUE_REACH_M, torque_bound
 
 #: N·m, smallest robust scale of a torque in the outlier rule
 TORQUE_OUTLIER_FLOOR = 1e-3

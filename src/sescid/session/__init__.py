@@ -4,7 +4,8 @@
 observer), its candidates and design for the kinds the robot reports (``design``: the CoP, joint
 torques or both; standing or held in a gantry) and its estimate (``estimate``); ``journal``
 writes every pose to disk as it is done and resumes an interrupted session; ``adapters`` is the
-small protocol a session drives, the replay of a recorded log and a user's Python class;
+small protocol a session drives, the replay of a recorded log and a user's Python class, and
+``samples`` checks what an adapter hands over;
 ``bench_adapters`` the benches as robots (rigid statics, MuJoCo).
 """
 

@@ -41,8 +41,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from sescid.base.columns import Table, pose_ids, read_joint_columns, read_poses
 from sescid.errors import DataError, OptionError
+from sescid.tables import Table, pose_ids, read_joint_columns, read_poses
 
 #: rad, a replayed command must equal the recorded one to this
 REPLAY_TOL = 1e-9

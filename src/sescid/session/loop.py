@@ -34,19 +34,16 @@ command order.
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable
 
 import numpy as np
 
-from sescid.base.columns import Table
-from sescid.base.text import listed
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
 from sescid.planning import DesignKind
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.robot import Robot
-from sescid.sensors import RawLog, SensorConfig, measure, read_log, table_from_columns
+from sescid.sensors import SESSION_POSE, SensorConfig, measure
 from sescid.session.adapters import RobotAdapter
 from sescid.session.design import SessionDesign, session_mount, unsafe_pose
 from sescid.session.estimate import BatchEstimate, CopEstimate, pose_measurements
@@ -58,6 +55,14 @@ from sescid.session.records import (
     SessionResult,
     SessionStep,
 )
+from sescid.session.samples import (
+    adapter_call,
+    kept_on_error,
+    pose_columns,
+    raw_log,
+    read_samples,
+    samples_source,
+)
 from sescid.session.stances import PooledEstimate, StanceDesign, stance_result
 
 __all__ = [
@@ -66,28 +71,8 @@ __all__ = [
     "SessionOptions",
     "SessionResult",
     "SessionStep",
-    "raw_table",
     "run_session",
 ]
-
-
-def raw_table(cols: dict[str, np.ndarray], source: str = "session raw log") -> Table:
-    """In-memory raw-log table (as ``read_table`` gives it: numbers as float, text as text);
-    errors name ``source`` (the adapter or the journal), the pose and the sample."""
-    pose, sample = cols.get("pose"), cols.get("sample")
-
-    def label(i: int) -> str:
-        k = sample[i] if sample is not None else i
-        return f"pose {pose[i]}, sample {k}" if pose is not None else f"sample {k}"
-
-    return table_from_columns(cols, source, label)
-
-
-def _read_log(
-    robot: Robot, cols: dict[str, np.ndarray], sensors: SensorConfig, source: str
-) -> RawLog:
-    """The raw log of these columns as ``sescid measure`` reads it (IMU gravity included)."""
-    return read_log(robot, raw_table(cols, source), sensors)
 
 
 def check_options(robot: Robot, opt: SessionOptions) -> int:
@@ -173,34 +158,10 @@ class _Run:
     def columns(self, pose: str, cols: dict, source: str) -> dict[str, np.ndarray]:
         """The pose's raw part (pose, sample, the adapter's columns), checked; ``source``
         (the adapter or the journal) names where the samples came from in the errors."""
-        where = f"{source}: pose {pose}"
-        if not cols:
-            raise DataError(f"{where}: read() returned no columns")
-        arrays = {str(c): np.asarray(v) for c, v in cols.items()}
-        bad = next((c for c, v in arrays.items() if v.ndim != 1), None)
-        if bad is not None:
-            raise DataError(f"{where}: column '{bad}' is not one value per sample")
-        lengths = {c: len(v) for c, v in arrays.items()}
-        if len(set(lengths.values())) != 1:
-            values = list(lengths.values())
-            common = max(set(values), key=values.count)
-            odd = [f"'{c}' has {k}" for c, k in lengths.items() if k != common]
-            raise DataError(
-                f"{where}: the columns differ in length ({listed(odd, first=4)}; "
-                f"the others {common} samples)"
-            )
+        arrays = pose_columns(f"{source}: pose {pose}", cols, self.names)
         if self.names is None:
             self.names = list(arrays)
-        elif set(arrays) != set(self.names):
-            gone = sorted(set(self.names) - set(arrays))
-            new = sorted(set(arrays) - set(self.names))
-            raise DataError(
-                f"{where}: the columns changed since the first pose (missing {gone or 'none'}, "
-                f"new {new or 'none'})"
-            )
-        m = next(iter(lengths.values()))
-        if m == 0:
-            raise DataError(f"{where}: read() returned no samples")
+        m = len(next(iter(arrays.values())))
         self.source = source
         out = {"pose": np.full(m, pose), "sample": np.arange(m)}
         if isinstance(self.plan, StanceDesign) and self.stance is not None:
@@ -233,8 +194,8 @@ class _Run:
     def reduce(self, part: dict, robot: Robot):
         """The pose's samples read and reduced as ``sescid measure`` does (DataError for
         samples that cannot be read: such a pose is never journaled)."""
-        log = _read_log(robot, part, self.sensors, self.source)
-        return measure(robot, log, self.sensors, self.opt.min_samples, whole_log=False)
+        log = raw_log(robot, part, self.sensors, self.source)
+        return measure(robot, log, self.sensors, self.opt.min_samples, SESSION_POSE)
 
     def measure(self, step: SessionStep, part: dict, meas) -> bool:
         """Update the estimate with the pose's reduced samples; False when it gave nothing."""
@@ -308,7 +269,7 @@ class _Run:
             measured, fit = stance_result(self.plan, raw, self.sensors)
             pooled = self.est.body_parameters()
         else:
-            log = _read_log(self.robot, raw, self.sensors, "session raw log")
+            log = raw_log(self.robot, raw, self.sensors, "session raw log")
             measured = measure(self.robot, log, self.sensors, self.opt.min_samples)
             assert not isinstance(self.est, PooledEstimate)
             fit = self.est.fit()
@@ -366,22 +327,22 @@ def run_session(
                 st = run.plan.stances[ks]
                 if ks != run.stance:  # ask for the change (the first stance too)
                     obs.stance(k, st.label, st.describe())
-                    with _adapter_call(bot, pose, journal):
+                    with adapter_call(bot, pose, journal):
                         bot.change_stance(st.support, st.mount)  # type: ignore[attr-defined]
                     run.stance = ks
                 step.stance = st.label
             obs.planned(k, pose, q, run.q_cur)
-            with _adapter_call(bot, pose, journal):
+            with adapter_call(bot, pose, journal):
                 bot.move(pose, q)
                 run.q_cur = q
                 why = bot.wait_settled()
                 if not isinstance(why, str):
                     raise DataError(f"wait_settled returned {type(why).__name__}, not a text")
-                cols = None if why else _samples(bot.read(opt.samples), opt.samples)
+                cols = None if why else read_samples(bot.read(opt.samples), opt.samples)
             meas = part = None
             if cols is not None:
-                with _kept_on_error(journal):
-                    part = run.columns(pose, cols, _source(bot, journal))
+                with kept_on_error(journal):
+                    part = run.columns(pose, cols, samples_source(bot, journal))
                     meas = run.reduce(part, run.robot_at(nxt.index))
             if journal is not None and not getattr(bot, "replaying", False):
                 journal.append(JournalEntry(pose, q, why, cols))
@@ -395,68 +356,11 @@ def run_session(
                 stop = reason
                 break
     finally:
-        with _adapter_call(bot, "", journal, "stop"):
+        with adapter_call(bot, "", journal, "stop"):
             bot.stop()
     result = run.result(stop)
     obs.stopped(result)
     return result
-
-
-@contextlib.contextmanager
-def _adapter_call(bot, pose: str, journal: Journal | None, what: str = ""):
-    """An adapter's own exception (a servo error, a bug in the user's class) as one
-    DataError naming the pose; the journal keeps the poses measured before it."""
-    try:
-        yield
-    except (SescidError, KeyboardInterrupt):
-        raise
-    except Exception as exc:
-        live = getattr(bot, "live", bot)
-        name = type(live).__name__
-        at = f"at pose {pose}" if pose else f"in {what}()"
-        raise DataError(
-            f"the robot adapter {name} failed {at}: {type(exc).__name__}: {exc}{_kept(journal)}"
-        ) from None
-
-
-@contextlib.contextmanager
-def _kept_on_error(journal: Journal | None):
-    """A pose's data error, saying what the journal keeps for a resume."""
-    try:
-        yield
-    except DataError as exc:
-        kept = _kept(journal)
-        if not kept:
-            raise
-        raise DataError(f"{exc}{kept}") from None
-
-
-def _kept(journal: Journal | None) -> str:
-    """'; JOURNAL keeps the N poses …' when the journal holds poses to resume from."""
-    n = 0 if journal is None else len(journal.entries)
-    if not n:
-        return ""
-    assert journal is not None
-    return (
-        f"; {journal.path} keeps the {n} poses journaled before it: run the same command "
-        "again to resume"
-    )
-
-
-def _samples(cols, n: int) -> dict[str, np.ndarray]:
-    """The adapter's ``read`` result as columns (DataError when it is not a mapping)."""
-    if not hasattr(cols, "items"):
-        raise DataError(f"read({n}) returned {type(cols).__name__}, not columns by name")
-    return dict(cols)
-
-
-def _source(bot, journal: Journal | None) -> str:
-    """Where a pose's samples come from, for the reader's errors: the journal (a resumed
-    pose) or the adapter."""
-    if journal is not None and getattr(bot, "replaying", False):
-        return str(journal.path)
-    live = getattr(bot, "live", bot)
-    return f"adapter {type(live).__name__}"
 
 
 def _box(half: np.ndarray | None) -> np.ndarray:

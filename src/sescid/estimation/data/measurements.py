@@ -17,10 +17,10 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
-from sescid.base.columns import MAX_ANGLE_RAD, MAX_COP_M, TORQUE_REACH_M, torque_bound
 from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
+from sescid.tables.columns import MAX_ANGLE_RAD, MAX_COP_M, TORQUE_REACH_M, torque_bound
 
 #: poses a torque column's sign is checked on at most (spread over the data), and at least
 SIGN_POSES, SIGN_MIN_POSES = 256, 10

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.base.columns import SUPPORT_COLUMN
 from sescid.errors import DataError, SescidError
 from sescid.io.bags.feet import FootSource
 from sescid.io.bags.fields import Stamp
@@ -30,6 +29,7 @@ from sescid.io.bags.stamps import Clocked, fill_recent, nearest, one_clock, topi
 from sescid.io.bags.stances import check_stances, row_stances
 from sescid.sensors.raw import reversed_force
 from sescid.sensors.wrench import cop_from_plate, cop_from_wrench
+from sescid.tables import SUPPORT_COLUMN
 
 #: reasons a clock sample is left out, in the order they are counted
 DROP_REASONS = (

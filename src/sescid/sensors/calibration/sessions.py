@@ -20,13 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.columns import Table
 from sescid.base.files import read_json
 from sescid.errors import DataError
 from sescid.sensors.calibration.model import PadFoot, PadSession, SensorCalibration
 from sescid.sensors.pads import FSR_FORMAT, FSR_FORMAT_2, SensorConfig, check_sensors
 from sescid.sensors.raw import read_raw
 from sescid.sensors.stats import PoseGroups
+from sescid.tables import Table
 
 #: a pose is dropped when this share of its samples has a loaded pad reading 0 (censored);
 #: below it, such a pad's reading is the median of its samples (unbiased by the floor)

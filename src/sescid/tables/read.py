@@ -1,33 +1,28 @@
-"""Pose and CoP tables on disk: CSV (header row) and Parquet, read into ``Table`` columns and
-written atomically with floats in their shortest exact form (a CSV round trip is lossless).
+"""Tables on disk read: CSV (header row) and Parquet files into ``Table`` columns, in chunks.
 
 Files are read in streamed chunks by pyarrow (its CSV reader, Parquet row batches):
 ``iter_table`` yields one ``Table`` per chunk, whose ``first_row`` keeps every error naming the
 file's own row, so a fit can be accumulated over a file of any length in flat memory
 (``read_table`` is the same chunks joined). A file pyarrow cannot parse as a whole (a short row,
 a number column that turns to text further down) is read again by the plain ``csv`` reader,
-which has the final word on what the file holds and on the error message. Float64 columns are
-written in blocks by the compiled formatter of ``float_text`` (each number as ``repr`` writes
-it, so the bytes are the ``csv`` module's), other number columns by pyarrow's CSV writer.
-
-The column conventions and the joint/CoP readers are ``sescid.base.columns``'s.
+which has the final word on what the file holds and on the error message. Writing is
+``sescid.tables.write``'s; the column conventions and the joint/CoP readers are
+``sescid.tables.columns``'s.
 """
 
 from __future__ import annotations
 
 import csv
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sescid.base.columns import Table
-from sescid.base.files import atomic_open, atomic_path
-from sescid.base.rows import RowNumbers
 from sescid.errors import DataError
-from sescid.io.file_kinds import refuse_other_content
+from sescid.tables.file_kinds import refuse_other_content
+from sescid.tables.rows import RowNumbers
+from sescid.tables.table import Table
 
 #: bytes of CSV text per block that pyarrow parses (about 540 OP2 poses); pyarrow's reader
 #: keeps up to 32 blocks read ahead, so its memory is ~32 times this
@@ -37,18 +32,10 @@ CSV_BLOCK_BYTES = 1 << 18
 CSV_CHUNK_ROWS = 1 << 14
 #: rows per streamed Parquet chunk, and per chunk of a CSV write of non-float64 columns
 CHUNK_ROWS = 1 << 16
-#: rows per block of a float64 CSV write (24 OP2 columns: ~7 MB of text), and its threads
-WRITE_BLOCK_ROWS = 1 << 14
-WRITE_THREADS = 2
-#: numbers up to which a float64 CSV is formatted by Python's repr while numba is not loaded
-#: (≤ ~0.2 s, against ~0.5 s to import numba and load the compiled formatter)
-PYTHON_WRITE_NUMBERS = 1 << 18
-#: the same for a table with text columns, by the csv module (~0.6 µs a number: ≤ ~2.5 s,
-#: against ~90 MB of memory and ~0.5 s to load the compiled formatter for `measure`'s output)
-PLAIN_MIXED_NUMBERS = 1 << 22
 
 
-def _is_parquet(path: Path) -> bool:
+def is_parquet(path: Path) -> bool:
+    """True for a file named as Parquet (``.parquet``, ``.pq``); any other name is CSV."""
     return path.suffix.lower() in (".parquet", ".pq")
 
 
@@ -71,7 +58,7 @@ def iter_table(path: str | Path, chunk_rows: int | None = None) -> Iterator[Tabl
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: file not found")
-    if _is_parquet(path):
+    if is_parquet(path):
         yield from _iter_parquet(path, chunk_rows or CHUNK_ROWS)
         return
     refuse_other_content(path)
@@ -335,163 +322,3 @@ def _join(path: Path, chunks: list[Table]) -> Table:
 
 def _exact(x: float) -> str:
     return repr(float(x))
-
-
-# --- writing -----------------------------------------------------------------------------
-
-
-def write_table(path: str | Path, columns: dict[str, np.ndarray]) -> None:
-    """Write float (or string) columns as CSV (or Parquet by suffix), atomically.
-
-    Floats are written in their shortest exact form, so a CSV round trip is lossless: float64
-    columns as ``repr`` writes them, by the compiled formatter (``float_text``) on two threads;
-    other number columns in chunks of ``CHUNK_ROWS`` rows by pyarrow's writer.
-    """
-    path = Path(path)
-    names = list(columns)
-    cols = [np.asarray(columns[k]) for k in names]
-    if not names:  # a header-less file would read back as nothing: say so instead
-        raise DataError(f"{path}: nothing to write (no column)")
-    try:
-        import pyarrow as pa
-    except ImportError:  # pragma: no cover - pyarrow is a dependency; plain writer otherwise
-        _write_csv_plain(path, names, cols)
-        return
-    if _is_parquet(path):
-        import pyarrow.parquet as pq
-
-        with atomic_path(path) as tmp:
-            pq.write_table(pa.table(dict(zip(names, cols, strict=True))), tmp)
-        return
-    if any(c.dtype.kind not in "fiu" for c in cols):  # text or flags beside the numbers
-        if len(cols) == 1 or _small_write(len(cols[0]) * len(cols), PLAIN_MIXED_NUMBERS):
-            _write_csv_plain(path, names, cols)
-        else:
-            _write_csv_mixed(path, names, cols)
-        return
-    if cols and all(c.dtype == np.float64 for c in cols):
-        _write_csv_floats(path, names, cols)
-        return
-    import pyarrow.csv as pcsv
-
-    n = len(cols[0]) if cols else 0
-    opts = pcsv.WriteOptions(include_header=False, batch_size=CHUNK_ROWS)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write((",".join(_csv_field(k) for k in names) + "\n").encode())
-            for s in range(0, n, CHUNK_ROWS):
-                part = [c[s : s + CHUNK_ROWS] for c in cols]
-                table = pa.Table.from_arrays([pa.array(c) for c in part], names=names)
-                pcsv.write_csv(table, fh, opts)
-
-
-def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
-    """Float64 columns as CSV, each number as ``repr`` writes it (``float_text``): blocks of
-    ``WRITE_BLOCK_ROWS`` rows formatted by ``WRITE_THREADS`` threads (the compiled formatter
-    holds no GIL) while this thread writes the finished ones in order; a small table by
-    Python's ``repr`` itself while numba is not loaded."""
-    from collections import deque
-    from concurrent.futures import ThreadPoolExecutor
-
-    n, k = len(cols[0]), len(cols)
-    header = (",".join(_csv_field(name) for name in names) + "\n").encode()
-    if _small_write(n * k):
-        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-            fh.write(header)
-            fh.write(_rows_repr(cols))
-        return
-    import queue
-
-    from sescid.io.float_text import format_rows, text_bytes
-
-    rows = max(1, min(WRITE_BLOCK_ROWS, n))
-    free: queue.SimpleQueue = queue.SimpleQueue()  # (numbers, text) buffers written out
-
-    def block(start: int) -> tuple[tuple, np.ndarray]:
-        try:
-            bufs = free.get_nowait()
-        except queue.Empty:  # at most WRITE_THREADS + 2 pairs of buffers, reused
-            bufs = (np.empty((rows, k)), np.empty(text_bytes((rows, k)), dtype=np.uint8))
-        x = bufs[0][: min(start + rows, n) - start]
-        for j, c in enumerate(cols):
-            x[:, j] = c[start : start + len(x)]
-        return bufs, format_rows(x, bufs[1])
-
-    def write(done: Any) -> None:
-        bufs, text = done.result()
-        fh.write(text)
-        free.put(bufs)
-
-    format_rows(np.zeros((1, 1)))  # the kernel loaded here, once, before two threads call it
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write(header)
-        with ThreadPoolExecutor(max_workers=WRITE_THREADS, thread_name_prefix="sescid-csv") as pool:
-            pending: deque = deque()
-            for start in range(0, n, rows):
-                pending.append(pool.submit(block, start))
-                if len(pending) > WRITE_THREADS:  # at most this many blocks wait in memory
-                    write(pending.popleft())
-            while pending:
-                write(pending.popleft())
-
-
-def _write_csv_mixed(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
-    """Columns of any kind as CSV, the bytes ``_write_csv_plain`` writes (its CRLF line ends
-    too): each run of float64
-    columns by the compiled formatter, the other cells as the csv module writes them, joined
-    row by row in blocks of ``WRITE_BLOCK_ROWS`` (a text column such as ``support`` beside 10⁶
-    rows of numbers took the csv module 15 s)."""
-    from sescid.io.float_text import format_rows
-
-    runs, j = [], 0  # (first, last + 1, float64?) of consecutive columns
-    while j < len(cols):
-        k, fl = j + 1, cols[j].dtype == np.float64
-        while fl and k < len(cols) and cols[k].dtype == np.float64:
-            k += 1
-        runs.append((j, k, fl))
-        j = k
-    n = len(cols[0])
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write((",".join(_csv_field(k) for k in names) + "\r\n").encode())  # the csv module's
-        for s in range(0, n, WRITE_BLOCK_ROWS):
-            e, parts = min(s + WRITE_BLOCK_ROWS, n), []
-            for a, b, fl in runs:
-                if fl:
-                    x = np.column_stack([c[s:e] for c in cols[a:b]])
-                    parts.append(format_rows(x).tobytes().split(b"\n")[:-1])
-                else:
-                    parts.append([_csv_cell(v) for v in cols[a][s:e].tolist()])
-            fh.write(b"".join(b",".join(row) + b"\r\n" for row in zip(*parts, strict=True)))
-
-
-def _csv_cell(v: Any) -> bytes:
-    """One cell as the csv module writes it (quoted when it holds , " or a line break)."""
-    if v is None:
-        return b""
-    return _csv_field(repr(v) if isinstance(v, float) else str(v)).encode()
-
-
-def _small_write(numbers: int, limit: int = PYTHON_WRITE_NUMBERS) -> bool:
-    """True for a table small enough (``limit`` numbers) to format in Python while numba is
-    not loaded (a prediction of a few dozen poses need not load it)."""
-    return numbers <= limit and "numba" not in sys.modules
-
-
-def _rows_repr(cols: list[np.ndarray]) -> bytes:
-    """The CSV rows of float64 columns by Python's ``repr``: the compiled formatter's bytes."""
-    rows = zip(*[c.tolist() for c in cols], strict=True)
-    return "".join(",".join(map(repr, row)) + "\n" for row in rows).encode()
-
-
-def _csv_field(name: str) -> str:
-    if any(ch in name for ch in ',"\r\n'):
-        return '"' + name.replace('"', '""') + '"'
-    return name
-
-
-def _write_csv_plain(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
-    with atomic_open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(names)
-        text = [c.tolist() for c in cols]  # Python floats: repr is the shortest exact form
-        w.writerows(zip(*text, strict=True))

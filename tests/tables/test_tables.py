@@ -7,20 +7,26 @@ import pytest
 from fitting import identify_ls, identify_stream
 
 from sescid import identify
-from sescid.base.columns import read_cop, read_poses
 from sescid.errors import DataError
 from sescid.estimation import Measurements
-from sescid.io import iter_table, read_table, tables, write_table
-from sescid.io.tables import read_ahead
 from sescid.simulation import simulate
+from sescid.tables import (
+    iter_table,
+    read,
+    read_ahead,
+    read_cop,
+    read_poses,
+    read_table,
+    write_table,
+)
 
 
 @pytest.fixture(params=[1, 40])
 def small_blocks(monkeypatch, request):
     """Parsed blocks of 4 kB, each its own chunk or joined into chunks of ≥ 40 rows, so a
     small file streams in many chunks."""
-    monkeypatch.setattr(tables, "CSV_BLOCK_BYTES", 4096)
-    monkeypatch.setattr(tables, "CSV_CHUNK_ROWS", request.param)
+    monkeypatch.setattr(read, "CSV_BLOCK_BYTES", 4096)
+    monkeypatch.setattr(read, "CSV_CHUNK_ROWS", request.param)
 
 
 def _columns(op2, n, seed=3):
@@ -37,8 +43,8 @@ def test_streamed_csv_equals_plain_reader(op2, tmp_path, small_blocks):
     write_table(path, cols)
     chunks = list(iter_table(path))
     assert len(chunks) > 5
-    assert all(c.n >= tables.CSV_CHUNK_ROWS for c in chunks[:-1])
-    plain = tables._read_csv_plain(path)
+    assert all(c.n >= read.CSV_CHUNK_ROWS for c in chunks[:-1])
+    plain = read._read_csv_plain(path)
     assert [c.first_row for c in chunks][:2] == [2, 2 + chunks[0].n]
     for name in plain.names():
         joined = np.concatenate([c.columns[name] for c in chunks])
@@ -118,3 +124,29 @@ def test_read_ahead_same_chunks_errors_and_early_exit(op2, tmp_path, small_block
         list(read_ahead(failing()))
     for _ in read_ahead(iter_table(path), depth=1):
         break  # leaving early must not hang on the reader thread
+
+
+def test_json_kinds_are_the_formats_of_the_layers_above(tmp_path):
+    """The table reader names a JSON file by its format's name (``JSON_KINDS``, low in the
+    layers): those names are the formats the fit, truth, foot-sensor and plate files carry,
+    and a file of each is refused as a table in one line naming what it is."""
+    import json
+    import re
+
+    from sescid.bench.truth import TRUTH_FORMAT
+    from sescid.estimation.result.fit_json import FIT_FORMAT
+    from sescid.sensors.pads import FSR_FORMAT
+    from sescid.sensors.wrench import PLATE_FORMAT
+    from sescid.tables.file_kinds import JSON_KINDS
+
+    formats = (FIT_FORMAT, TRUTH_FORMAT, FSR_FORMAT, PLATE_FORMAT)
+    assert sorted(JSON_KINDS) == sorted(f.split("/")[0] for f in formats)
+    for fmt in formats:
+        path = tmp_path / "x.csv"
+        path.write_text(json.dumps({"format": fmt}))
+        what = f"{JSON_KINDS[fmt.split('/')[0]]}, format {fmt}, not a table"
+        with pytest.raises(DataError, match=re.escape(what)):
+            read_table(path)
+    path.write_text(json.dumps({"format": "other/1"}))
+    with pytest.raises(DataError, match=r"a JSON file \(format other/1\), not a table"):
+        read_table(path)

@@ -51,21 +51,21 @@ def _binary(head: bytes) -> bool:
     return False
 
 
+#: what a sescid JSON file is, by the name of its ``format`` (before the ``/version``); the
+#: formats are ``FIT_FORMAT``, ``TRUTH_FORMAT``, ``FSR_FORMAT`` and ``PLATE_FORMAT`` of the
+#: layers above (a test holds these names to them)
+JSON_KINDS = {
+    "sescid-fit": "a fit (sescid identify --out)",
+    "sescid-experiment-truth": "an experiment's truth (sescid experiment --truth)",
+    "sescid-fsr": "a foot-sensor file (--sensors)",
+    "sescid-plate": "a force-plate file",
+}
+
+
 def _json_kind(path: Path) -> str:
     """What a JSON file is, by its ``format`` field: 'a fit (…)' or 'a JSON file'."""
     import json
 
-    from sescid.bench.truth import TRUTH_FORMAT
-    from sescid.estimation.result.fit_json import FIT_FORMAT
-    from sescid.sensors.pads import FSR_FORMAT
-    from sescid.sensors.wrench import PLATE_FORMAT
-
-    kinds = {
-        FIT_FORMAT: "a fit (sescid identify --out)",
-        TRUTH_FORMAT: "an experiment's truth (sescid experiment --truth)",
-        FSR_FORMAT: "a foot-sensor file (--sensors)",
-        PLATE_FORMAT: "a force-plate file",
-    }
     try:
         with path.open(encoding="utf-8") as fh:
             doc = json.load(fh)
@@ -73,7 +73,6 @@ def _json_kind(path: Path) -> str:
         return "a JSON file"
     fmt = doc.get("format") if isinstance(doc, dict) else None
     name = str(fmt).split("/")[0] if fmt is not None else ""
-    for known, what in kinds.items():
-        if name and known.split("/")[0] == name:
-            return f"{what}, format {fmt}"
+    if name in JSON_KINDS:
+        return f"{JSON_KINDS[name]}, format {fmt}"
     return f"a JSON file (format {fmt})" if fmt is not None else "a JSON file"

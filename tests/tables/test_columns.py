@@ -10,16 +10,17 @@ import pytest
 from click.testing import CliRunner
 
 import sescid
-from sescid.base.columns import (
-    MAX_TORQUE_NM,
+from sescid.cli import cli
+from sescid.errors import DataError
+from sescid.tables import (
     read_approach,
     read_gravity,
     read_joint_columns,
+    read_table,
     read_torques,
+    write_table,
 )
-from sescid.cli import cli
-from sescid.errors import DataError
-from sescid.io import read_table, write_table
+from sescid.tables.columns import MAX_TORQUE_NM
 
 
 def _table(tmp_path, cols, name="t.csv"):
@@ -158,7 +159,7 @@ def test_row_numbers_read_only_as_far_as_asked(tmp_path):
     """A row named in a warning about the first pose of a big file is found without reading
     the rest: a blank line makes the first data row the file's row 3, and a cell beyond the
     CSV reader's field limit further down (which would stop a whole-file scan) is never read."""
-    from sescid.base.rows import RowNumbers
+    from sescid.tables.rows import RowNumbers
 
     path = tmp_path / "t.csv"
     path.write_text("a,b\n\n1,2\n3,4\n5," + "9" * 200_000 + "\n")
@@ -171,9 +172,9 @@ def test_measurements_of_a_streamed_file_keep_row_names_not_the_chunks(tmp_path,
     the file's row numbers), not a bound ``Table.where`` that would keep the chunk's columns
     alive as long as the fit keeps the row names (10⁶ poses: 636 → 321 MB peak); the names are
     the same."""
-    from sescid.base.rows import RowNames
-    from sescid.io import write_table
     from sescid.io.measurements import read_measurements
+    from sescid.tables import write_table
+    from sescid.tables.rows import RowNames
 
     q = np.zeros((5, op2.nq))
     cols = {j: q[:, k] for k, j in enumerate(op2.joint_names)}

@@ -12,10 +12,9 @@ from fitting import identify_ls
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sescid.base.columns import read_cop, read_poses
-from sescid.io import iter_table, read_table, tables, write_table
-from sescid.io.float_text import float_text, format_rows
 from sescid.simulation import simulate
+from sescid.tables import iter_table, read, read_cop, read_poses, read_table, write, write_table
+from sescid.tables.float_text import float_text, format_rows
 
 
 def _reference(values) -> list[str]:
@@ -105,8 +104,8 @@ def test_format_rows_is_csv_rows():
 def test_float_csv_equals_the_csv_module_writer(tmp_path, monkeypatch):
     """The threaded float64 writer (many small blocks) writes the csv module's bytes, reread
     bit for bit by both readers."""
-    monkeypatch.setattr(tables, "WRITE_BLOCK_ROWS", 7)
-    monkeypatch.setattr(tables, "PYTHON_WRITE_NUMBERS", 0)  # the compiled path, however small
+    monkeypatch.setattr(write, "WRITE_BLOCK_ROWS", 7)
+    monkeypatch.setattr(write, "PYTHON_WRITE_NUMBERS", 0)  # the compiled path, however small
     rng = np.random.default_rng(2)
     cols = {
         "a": rng.normal(size=101),
@@ -117,9 +116,9 @@ def test_float_csv_equals_the_csv_module_writer(tmp_path, monkeypatch):
     cols["d"][~np.isfinite(cols["d"])] = 1.0
     fast, plain = tmp_path / "fast.csv", tmp_path / "plain.csv"
     write_table(fast, cols)
-    tables._write_csv_plain(plain, list(cols), list(cols.values()))
+    write._write_csv_plain(plain, list(cols), list(cols.values()))
     assert fast.read_bytes() == plain.read_bytes().replace(b"\r\n", b"\n")
-    for table in (read_table(fast), tables._read_csv_plain(fast)):
+    for table in (read_table(fast), read._read_csv_plain(fast)):
         for name, values in cols.items():
             np.testing.assert_array_equal(
                 table.columns[name].view(np.uint64), values.view(np.uint64)
@@ -131,10 +130,10 @@ def test_small_table_in_python_same_bytes(tmp_path, monkeypatch):
     x = np.random.default_rng(5).normal(size=(40, 5)) * np.logspace(-8, 8, 5)
     x[0] = [0.0, -0.0, 1.0, 5e-324, 1e16]
     cols = {f"c{j}": x[:, j] for j in range(5)}
-    monkeypatch.setattr(tables, "_small_write", lambda numbers: True)
+    monkeypatch.setattr(write, "_small_write", lambda numbers: True)
     small, big = tmp_path / "small.csv", tmp_path / "big.csv"
     write_table(small, cols)
-    monkeypatch.setattr(tables, "_small_write", lambda numbers: False)
+    monkeypatch.setattr(write, "_small_write", lambda numbers: False)
     write_table(big, cols)
     assert small.read_bytes() == big.read_bytes()
     assert small.read_bytes().split(b"\n", 1)[1] == format_rows(x).tobytes()
@@ -143,9 +142,9 @@ def test_small_table_in_python_same_bytes(tmp_path, monkeypatch):
 def test_simulated_file_round_trip_and_fit(op2, tmp_path, monkeypatch):
     """A simulate-style file: every number reread bit for bit in streamed chunks, and the fit
     of the file is the in-memory fit of the same arrays, bit for bit."""
-    monkeypatch.setattr(tables, "WRITE_BLOCK_ROWS", 500)
-    monkeypatch.setattr(tables, "CSV_BLOCK_BYTES", 1 << 16)
-    monkeypatch.setattr(tables, "CSV_CHUNK_ROWS", 1)
+    monkeypatch.setattr(write, "WRITE_BLOCK_ROWS", 500)
+    monkeypatch.setattr(read, "CSV_BLOCK_BYTES", 1 << 16)
+    monkeypatch.setattr(read, "CSV_CHUNK_ROWS", 1)
     sim = simulate(op2, 3000, seed=11)
     cols = {name: sim.q[:, j] for j, name in enumerate(op2.joint_names)}
     cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
@@ -174,7 +173,7 @@ def test_other_number_columns_keep_their_writer(tmp_path, dtype):
 @pytest.mark.parametrize("small", [True, False])
 def test_no_rows_header_only(tmp_path, monkeypatch, small):
     """Float columns of no rows: the header alone, by either path."""
-    monkeypatch.setattr(tables, "_small_write", lambda numbers: small)
+    monkeypatch.setattr(write, "_small_write", lambda numbers: small)
     path = tmp_path / "empty.csv"
     write_table(path, {"a": np.zeros(0), "b": np.zeros(0)})
     assert path.read_bytes() == b"a,b\n"
@@ -185,10 +184,10 @@ def test_text_beside_numbers_is_written_as_the_csv_module_writes_it(tmp_path):
     is written by the compiled formatter and joined row by row, byte for byte the csv module's
     file: floats of every kind (nan, ±inf, −0.0, subnormal, huge), integer and bool columns,
     text that needs quoting (commas, quotes, line breaks), empty cells; over several blocks."""
-    from sescid.io import tables
+    from sescid.tables import write
 
     rng = np.random.default_rng(5)
-    n = 2 * tables.WRITE_BLOCK_ROWS + 7
+    n = 2 * write.WRITE_BLOCK_ROWS + 7
     special = np.array([np.nan, np.inf, -np.inf, -0.0, 5e-324, 1.7976931348623157e308, 0.1])
     a = rng.standard_normal(n) * 10.0 ** rng.integers(-12, 12, n)
     a[: len(special)] = special
@@ -203,6 +202,6 @@ def test_text_beside_numbers_is_written_as_the_csv_module_writes_it(tmp_path):
         "z": rng.standard_normal(n),
     }
     names, arrays = list(cols), [np.asarray(v) for v in cols.values()]
-    tables._write_csv_plain(tmp_path / "plain.csv", names, arrays)
-    tables._write_csv_mixed(tmp_path / "mixed.csv", names, arrays)
+    write._write_csv_plain(tmp_path / "plain.csv", names, arrays)
+    write._write_csv_mixed(tmp_path / "mixed.csv", names, arrays)
     assert (tmp_path / "mixed.csv").read_bytes() == (tmp_path / "plain.csv").read_bytes()
