@@ -184,7 +184,12 @@ def _demo(d) -> list:
 def _poses(d) -> list:
     pairs = [("count", "count"), ("select", "select"), ("seed", "seed")]
     fields = [("candidates", "n_candidates"), ("test_poses", "n_test")]
-    fields += [("foot_clearance", "clearance"), ("noise", "sigma"), ("rigid", "rigid")]
+    fields += [
+        ("foot_clearance", "clearance"),
+        ("noise", "sigma"),
+        ("rigid", "rigid"),
+        ("allow_missing_meshes", "allow_missing_meshes"),
+    ]
     fields += [(n, n) for n in ("kinds", "tau_noise", "mount", "hang_height")]
     joints = None if d["tau_joints"] == "all" else d["tau_joints"]
     return [
