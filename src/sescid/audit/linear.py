@@ -23,7 +23,7 @@ from sescid.errors import DataError
 from sescid.estimation import Measurements
 from sescid.estimation.data.balance_rows import balance_rows
 from sescid.estimation.data.torque_rows import nuisance_names
-from sescid.estimation.solvers.map import BODY_COM_SCALE
+from sescid.estimation.solvers.map_prior import BODY_COM_SCALE
 from sescid.robot import Robot
 
 #: singular values below this fraction of a block's largest count as not seen

@@ -8,6 +8,7 @@ __all__ = [
     "gains",
     "least_squares",
     "map",
+    "map_prior",
     "online",
     "options",
     "payload",
