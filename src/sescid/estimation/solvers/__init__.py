@@ -12,6 +12,7 @@ __all__ = [
     "online",
     "options",
     "payload",
+    "payload_rows",
     "robust",
     "runs",
     "solve",
