@@ -25,20 +25,10 @@ from sescid.estimation.result.cad_check import cad_violations
 from sescid.estimation.result.fit import (
     METHOD_CHOICES,
     METHODS,
-    BodyInertials,
     Combination,
-    CopOffset,
-    CrossValidation,
     Fit,
-    JointNoise,
-    JointNoiseEffect,
-    KindFit,
-    MapInfo,
     Method,
     MethodName,
-    NuisanceEstimate,
-    OnlineInfo,
-    RobustInfo,
 )
 from sescid.estimation.result.fit_json import MODEL_CHANGED, OLD_FORMAT, load_fit, save_fit
 from sescid.estimation.result.identifiability import (
@@ -49,6 +39,18 @@ from sescid.estimation.result.identifiability import (
 )
 from sescid.estimation.result.notes import fit_notes
 from sescid.estimation.result.payload_record import PayloadFit, PayloadKind
+from sescid.estimation.result.records import (
+    BodyInertials,
+    CopOffset,
+    CrossValidation,
+    JointNoise,
+    JointNoiseEffect,
+    KindFit,
+    MapInfo,
+    NuisanceEstimate,
+    OnlineInfo,
+    RobustInfo,
+)
 from sescid.estimation.result.summary import fit_summary
 from sescid.estimation.result.validation import (
     Interval,

@@ -7,12 +7,13 @@ manufacturer / CAD values), ``τ`` the prior scale in metres. The posterior is G
     x̂ = x0 + M⁻¹ (Φᵀy − A x0),   cov = σ² M⁻¹,   M = A + (σ²/τ²) I,   A = ΦᵀWΦ.
 
 It fills the directions the data cannot see (for CoP data x̂ = x0 there, with the prior's
-uncertainty: a per-body prior is decoupled between them and the seen ones, ``map_prior.decoupled``, so a
-CoP never moves what it cannot see — the CoM height of a level sole — by the prior's shape
-alone; torques keep the correlations, ``decoupled``) and shrinks the poorly determined ones
-toward CAD. The per-body prior holds the mass fractions' sum at 1 (``map_prior.mass_covariance``). Data
-whose distinct poses leave no degrees of freedom (a pose repeated, ``repeated_poses``) keep the
-CAD model: the scatter of repeats cannot weigh them against it. ``τ`` and ``σ`` are chosen,
+uncertainty: a per-body prior is decoupled between them and the seen ones,
+``map_prior.decoupled``, so a CoP never moves what it cannot see — the CoM height of a level
+sole — by the prior's shape alone; torques keep the correlations) and shrinks the poorly
+determined ones toward CAD. The per-body prior holds the mass fractions' sum at 1
+(``map_prior.mass_covariance``). Data whose distinct poses leave no degrees of freedom (a pose
+repeated, ``repeated_poses``) keep the CAD model: the scatter of repeats cannot weigh them
+against it. ``τ`` and ``σ`` are chosen,
 unless given, by maximising the marginal likelihood (evidence) of the data,
 
     log p(y | σ, τ) = −½ [m log 2πσ² + log det M − Σ log(σ²/τᵢ²) + (zᵀz − bᵀM⁻¹b)/σ²],
@@ -45,8 +46,9 @@ import numpy as np
 
 from sescid.errors import SescidError
 from sescid.estimation.data.measurements import Kind
-from sescid.estimation.result.fit import REPEATED, CopOffset, Fit, MapInfo, NuisanceEstimate
+from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.identifiability import DEFAULT_RTOL, combination_vector
+from sescid.estimation.result.records import REPEATED, CopOffset, MapInfo, NuisanceEstimate
 from sescid.estimation.solvers.least_squares import (
     fit_from_solution,
     marginal_x,

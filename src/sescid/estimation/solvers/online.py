@@ -22,8 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.result.fit import Fit, OnlineInfo
+from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.identifiability import DEFAULT_RTOL, identifiable_eigen
+from sescid.estimation.result.records import OnlineInfo
 from sescid.estimation.solvers.least_squares import cop_system, fit_least_squares
 from sescid.estimation.solvers.map import fit_map
 from sescid.estimation.solvers.options import MapOptions

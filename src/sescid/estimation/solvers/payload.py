@@ -36,9 +36,10 @@ import numpy as np
 from sescid.base import G0
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Measurements
-from sescid.estimation.result.fit import Fit, KindFit, NuisanceEstimate
+from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.identifiability import DEFAULT_RTOL
 from sescid.estimation.result.payload_record import PayloadFit, PayloadKind
+from sescid.estimation.result.records import KindFit, NuisanceEstimate
 from sescid.estimation.solvers.payload_rows import (
     PayloadRows,
     base_parameters,

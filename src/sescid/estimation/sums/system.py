@@ -27,7 +27,7 @@ from sescid.base.threads import ordered_map
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
 from sescid.estimation.data.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
-from sescid.estimation.result.fit import NuisanceWhat
+from sescid.estimation.result.records import NuisanceWhat
 from sescid.estimation.sums.block_sums import BlockSums, RowMaker, aligned, work
 from sescid.estimation.sums.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
 from sescid.kinematics import fold_torque, reduced_order, use_kernels
