@@ -61,9 +61,10 @@ from sescid.estimation.solvers.least_squares import (
 from sescid.estimation.solvers.map_prior import BODY_COM_SCALE, Prior, system_prior
 from sescid.estimation.solvers.options import MapOptions
 from sescid.estimation.solvers.solve import Solution, solve_system, weighted_sums
+from sescid.estimation.sums.distinct import SAME_POSE
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import body_fit, stance_map
-from sescid.estimation.sums.system import SAME_POSE, System
+from sescid.estimation.sums.system import System
 from sescid.robot import Robot
 
 #: search range of the prior scale τ and the noise σ for evidence maximisation, m
@@ -287,7 +288,7 @@ def fit_map(
 
 def repeated_poses(system: System, rank: int) -> str | None:
     """Why the data's distinct poses cannot show the CAD model to be off, or None: repeated
-    poses (``system.SAME_POSE``) whose distinct ones give no more equations than the ``rank``
+    poses (``distinct.SAME_POSE``) whose distinct ones give no more equations than the ``rank``
     combinations the data determine. An error tied to a pose (a CoP sensor's bias there, the
     foot's compliance) repeats with it: the scatter of repeats measures the noise of a
     reading, not how far a pose's reading is from the truth, so it cannot weigh the data
