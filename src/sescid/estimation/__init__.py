@@ -77,8 +77,9 @@ from sescid.estimation.solvers.options import (
     method_options,
 )
 from sescid.estimation.solvers.payload import PayloadOptions, check_base, check_payload, payload_fit
-from sescid.estimation.sums.normal_equations import NormalEquations, accumulate
+from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import BodyFit, StanceRank, for_support
+from sescid.estimation.sums.system import accumulate
 
 __all__ = [
     "AutoOptions",

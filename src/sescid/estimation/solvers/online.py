@@ -28,7 +28,8 @@ from sescid.estimation.result.records import OnlineInfo
 from sescid.estimation.solvers.least_squares import cop_system, fit_least_squares
 from sescid.estimation.solvers.map import fit_map
 from sescid.estimation.solvers.options import MapOptions
-from sescid.estimation.sums.normal_equations import NormalEquations, accumulate
+from sescid.estimation.sums.normal_equations import NormalEquations
+from sescid.estimation.sums.system import accumulate
 from sescid.robot import Robot
 from sescid.simulation import random_poses
 

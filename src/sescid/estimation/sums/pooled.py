@@ -38,7 +38,7 @@ from sescid.estimation.result.identifiability import (
 )
 from sescid.estimation.solvers.solve import Solution, marginal_x
 from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
-from sescid.estimation.sums.system import KindSums, RowOptions, System, accumulate_stances
+from sescid.estimation.sums.system import Accumulator, KindSums, RowOptions, System
 from sescid.robot import DOUBLE, Robot
 from sescid.stance import Stance
 
@@ -91,12 +91,39 @@ def accumulate_sources(
     robot: Robot, sources, options: RowOptions | None = None, progress=None
 ) -> System:
     """The system of several sources, each an iterable of ``Measurements`` chunks (validated;
-    ``system.accumulate_stances``): over the robot's SESC vectors when every row was measured in
+    ``accumulate_stances``): over the robot's SESC vectors when every row was measured in
     its own support, else over the body parameters the stances share (``pooled``)."""
     systems = accumulate_stances(robot, sources, options or RowOptions(), progress)
     if list(systems) == [robot.support]:
         return systems[robot.support]
     return pooled(robot, systems)
+
+
+def accumulate_stances(
+    robot: Robot, sources, options: RowOptions, progress=None
+) -> dict[str, System]:
+    """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
+    (validated): support → System over that stance's SESC vectors, each summed with its own
+    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
+    sources. ``accumulate_sources`` makes one system of them."""
+    systems: dict[str, System] = {}
+    before = 0
+    for chunks in sources:
+        accs: dict[str, Accumulator] = {}
+        start = before
+        report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
+        for m in chunks:
+            key = m.support or robot.support
+            if key not in accs:
+                accs[key] = Accumulator(robot.stance(m.support), options)
+            accs[key].add(m, report)
+        for key, acc in accs.items():
+            part = acc.finish()
+            before += part.n_poses
+            systems[key] = part if key not in systems else systems[key].merged(part)
+    if not systems:
+        raise DataError("no data to identify from")
+    return systems
 
 
 def pooled(robot: Robot, systems: dict[str, System]) -> System:

@@ -7,6 +7,8 @@ removed in closed form) and expanded exactly at the end; a CoP under tilted grav
 CoM-height component) is accumulated in full coordinates. Rows are added in fixed blocks of
 ``ACCUMULATE_BLOCK`` poses counted from the first pose of a source, whatever the chunks they
 arrive in: a file streamed in chunks gives the same sums, bit for bit, as its arrays in memory.
+``Accumulator`` is the one accumulator: ``pooled.accumulate_sources`` feeds it files and
+stances, ``accumulate`` CoP arrays (the planners' information, the online estimator).
 
 Nuisance parameters are columns of the same system: a constant offset per measured torque, a
 friction band per torque when the approach side is known, and (for a MAP fit) a constant CoP
@@ -16,21 +18,28 @@ offset, which on one support foot is confounded with the support body's own x/y 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
 from sescid.base import G0
-from sescid.base.threads import ordered_map
+from sescid.base.threads import one_blas_thread, ordered_map
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
 from sescid.estimation.data.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.estimation.result.records import NuisanceWhat
 from sescid.estimation.sums.block_sums import BlockSums, RowMaker, aligned, work
 from sescid.estimation.sums.distinct import DistinctPoses
-from sescid.estimation.sums.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
-from sescid.kinematics import fold_torque, reduced_order, use_kernels
+from sescid.estimation.sums.normal_equations import (
+    ACCUMULATE_BLOCK,
+    NormalEquations,
+    check_cop,
+    cop_errors,
+    expand,
+)
+from sescid.kinematics import as_poses, fold_torque, reduced_order, use_kernels
 from sescid.robot import Robot
 
 #: MAP prior standard deviation of a constant CoP offset: effectively flat, m
@@ -402,28 +411,36 @@ def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
     return NormalEquations(ata, atb, ne.yty, ne.n_rows, ne.n_poses)
 
 
-def accumulate_stances(
-    robot: Robot, sources, options: RowOptions = RowOptions(), progress=None
-) -> dict[str, System]:
-    """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
-    (validated): support → System over that stance's SESC vectors, each summed with its own
-    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
-    sources. ``pooled.accumulate_sources`` makes one system of them."""
-    systems: dict[str, System] = {}
-    before = 0
-    for chunks in sources:
-        accs: dict[str, Accumulator] = {}
-        start = before
-        report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
-        for m in chunks:
-            key = m.support or robot.support
-            if key not in accs:
-                accs[key] = Accumulator(robot.stance(m.support), options)
-            accs[key].add(m, report)
-        for key, acc in accs.items():
-            part = acc.finish()
-            before += part.n_poses
-            systems[key] = part if key not in systems else systems[key].merged(part)
-    if not systems:
-        raise DataError("no data to identify from")
-    return systems
+@one_blas_thread()
+def accumulate(
+    robot: Robot, chunks: Iterable[tuple], ne: NormalEquations | None = None
+) -> NormalEquations:
+    """The CoP's normal equations over vec(r) of one source given as chunks ``(q, cop)``,
+    ``(q, cop, sigma)`` or ``(q, cop, sigma, gravity)``: q (n, nq) [rad], cop (n, 2) [m], sigma
+    per-pose standard errors (n,) or (n, 2) [m] (weighted rows), gravity (n, 3) the per-pose
+    direction in the support frame (tilted rows); added to ``ne`` when given. The
+    ``Accumulator``'s sums (the same path and bits as ``identify``'s), for the planners and the
+    online estimator."""
+    acc: Accumulator | None = None
+    n_poses = 0
+    for chunk in chunks:
+        q = as_poses(chunk[0], robot.nq)
+        cop = check_cop(chunk[1], q.shape[0])
+        sigma = chunk[2] if len(chunk) > 2 else None
+        gravity = chunk[3] if len(chunk) > 3 else None
+        if acc is None:
+            acc = Accumulator(robot, RowOptions(weighted=sigma is not None))
+        elif acc.options.weighted != (sigma is not None):
+            raise DataError("sigma: give the CoP's standard errors with every chunk or with none")
+        se = None if sigma is None else cop_errors(sigma, q.shape[0])
+        g = None if gravity is None else np.asarray(gravity, dtype=float)
+        acc.add(Measurements(q=q, cop=cop, cop_se=se, gravity=g))
+        n_poses += q.shape[0]
+    if acc is None or n_poses == 0:
+        return ne or NormalEquations.empty(3 * len(robot.body_names))
+    part = acc.finish().parts[COP].ne
+    if ne is None:
+        return part
+    ne.add_sums(part)
+    ne.n_poses += part.n_poses
+    return ne
