@@ -201,7 +201,7 @@ class Accumulator:
     (until then its poses wait, at most that budget's worth), so a file streamed in chunks and
     the same data in memory take the same path and give the same bits."""
 
-    def __init__(self, robot: Robot, options: RowOptions = RowOptions()):
+    def __init__(self, robot: Robot, options: RowOptions = RowOptions(), distinct: bool = True):
         self.robot, self.options = robot, options
         self.mass = robot.total_mass if options.total_mass is None else float(options.total_mass)
         self.p_red = robot.reduction.g.shape[0]
@@ -217,7 +217,8 @@ class Accumulator:
         self.n_poses = 0
         self.progress = None
         self.maker: RowMaker | None = None  #: set when the path is decided
-        self.distinct = DistinctPoses(robot.nq, self.p_red + 1)
+        #: the distinct poses counted (``System.distinct_poses``), unless not asked for
+        self.distinct = DistinctPoses(robot.nq, self.p_red + 1) if distinct else None
 
     def add(self, m: Measurements, progress=None) -> None:
         """Add validated measurements (``Measurements.checked``) of this source;
@@ -229,7 +230,8 @@ class Accumulator:
         elif (m.approach is None) != (self.first.approach is None):
             raise DataError(f"{m.source}: the approach column is missing in part of the data")
         self.progress = progress
-        self.distinct.add(m.q)
+        if self.distinct is not None:
+            self.distinct.add(m.q)
         self.pending.append(m)
         self.n_pending += m.n
         if self.maker is None:
@@ -350,7 +352,7 @@ class Accumulator:
         if self.tau_red is not None:
             system = self._with_torques(system, parts)
         system.n_poses = self.n_poses
-        system.distinct_poses = self.distinct.count
+        system.distinct_poses = None if self.distinct is None else self.distinct.count
         system.sources = [first.source]
         system.gravity_accel = self.options.gravity_accel
         return system
@@ -429,7 +431,7 @@ def accumulate(
         sigma = chunk[2] if len(chunk) > 2 else None
         gravity = chunk[3] if len(chunk) > 3 else None
         if acc is None:
-            acc = Accumulator(robot, RowOptions(weighted=sigma is not None))
+            acc = Accumulator(robot, RowOptions(weighted=sigma is not None), distinct=False)
         elif acc.options.weighted != (sigma is not None):
             raise DataError("sigma: give the CoP's standard errors with every chunk or with none")
         se = None if sigma is None else cop_errors(sigma, q.shape[0])
