@@ -187,6 +187,19 @@ def _null(m: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     return vt[rank:].T
 
 
+def _seen_through(t: np.ndarray, unseen: np.ndarray, ainv: np.ndarray, rtol: float):
+    """The information on y = T x of data with pseudo-inverse information ``ainv`` that leave
+    x's directions ``unseen`` (orthonormal columns) undetermined: on the directions of y whose
+    preimage the data see ({g : Tᵀg ∈ range(A)}); its eigen-decomposition (descending) and
+    rank."""
+    g = _null(unseen.T @ t.T)
+    core = g.T @ t @ ainv @ t.T @ g
+    ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
+    ata = (ata + ata.T) / 2
+    lam, vecs = eigen_descending(ata)
+    return ata, lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+
+
 def view(sol: Solution, lmap: np.ndarray, n_x: int, rtol: float) -> Solution:
     """The x-space solution seen in [vec(r_s); nuisance] (r_s = L x): estimate and covariance
     mapped, the information of the r_s-directions the data determine ({g : Lᵀg ∈ range(A)}),
@@ -197,14 +210,7 @@ def view(sol: Solution, lmap: np.ndarray, n_x: int, rtol: float) -> Solution:
     t[lmap.shape[0] :, n_x:] = np.eye(k)
     p = sol.rank
     vp, lp = sol.vecs[:, :p], sol.lam[:p]
-    unseen = sol.vecs[:, p:]
-    g = _null(unseen.T @ t.T)  # directions of [r; ν] whose preimage the data see
-    ainv = (vp / lp) @ vp.T
-    core = g.T @ t @ ainv @ t.T @ g
-    ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
-    ata = (ata + ata.T) / 2
-    lam, vecs = eigen_descending(ata)
-    rank = rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    ata, lam, vecs, rank = _seen_through(t, sol.vecs[:, p:], (vp / lp) @ vp.T, rtol)
     return dataclasses.replace(
         sol,
         theta=t @ sol.theta,
@@ -270,14 +276,10 @@ def for_support(fit, support: str):
     lmap = stance_map(fit.robot, support)
     r = (lmap @ b.x).reshape(-1, 3)
     cov = lmap @ b.cov @ lmap.T
-    g = _null(_null(b.information).T @ lmap.T)  # determined directions of r_s
     w, v = np.linalg.eigh((b.information + b.information.T) / 2)
     keep = w > 1e-12 * max(float(w.max()), 1e-300)
     ainv = (v[:, keep] / w[keep]) @ v[:, keep].T
-    core = g.T @ lmap @ ainv @ lmap.T @ g
-    ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
-    lam, vecs = eigen_descending((ata + ata.T) / 2)
-    rank = rank_of(np.sqrt(np.clip(lam, 0, None)), fit.rtol)
+    _, lam, vecs, rank = _seen_through(lmap, _null(b.information), ainv, fit.rtol)
     sv = np.sqrt(np.clip(lam, 0, None))
     labels = label_columns(robot)
     base = tuple(base_combinations(sv, vecs, rank, labels, r, cov))
