@@ -10,7 +10,8 @@ vectors, sensor offsets, their uncertainty, and physical masses.
   existing fit; ``OnlineEstimator`` — pose by pose;
 - ``Fit`` (frozen) and its typed records; ``save_fit`` / ``load_fit``;
 - identifiability (the rank rule, ``min_poses``), validation (intervals, error against a known
-  truth), checks at the data boundary; ``accumulate`` (CoP normal equations, for planning).
+  truth), checks at the data boundary; ``accumulate`` (CoP normal equations from arrays, by
+  the one accumulator ``identify`` uses: for planning and the online estimator).
 """
 
 from sescid.estimation.data.checks import (
