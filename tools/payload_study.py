@@ -20,8 +20,8 @@ errors within 2 stated standard errors (all identified components; 95 % is ideal
 than 3 × parameters widen the t-tails); the RMS prediction error at 500 fresh poses of the
 payload fit and of the base alone (the CoP in mm, or the torques in N·m, against the noise-free
 truth); the median time of one fit. The truth's payload is put on the body parameters θ with
-``estimation.payload.payload_map`` (tests check that map against the model file with the box
-added as a link, and against Pinocchio).
+``estimation.solvers.payload_rows.payload_map`` (tests check that map against the model file
+with the box added as a link, and against Pinocchio).
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from study_refs import body_parameters, model_path, real_bodies
 
 import sescid
 from sescid.estimation import Measurements
-from sescid.estimation.solvers.payload import payload_map
+from sescid.estimation.solvers.payload_rows import payload_map
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "payload.md"

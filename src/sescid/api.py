@@ -43,6 +43,32 @@ def _is_path(x: Any) -> bool:
     return isinstance(x, str | Path)
 
 
+def _paths(data: Any) -> list | None:
+    """The data files given (a path or a list of paths), or None for data of another form."""
+    paths = [data] if _is_path(data) else data
+    ok = isinstance(paths, list | tuple) and paths and all(_is_path(p) for p in paths)
+    return list(paths) if ok else None
+
+
+def _read_files(robot: Robot, paths: list, opts: IdentifyOptions, reports: list | None) -> list:
+    """Each file (``FILE@FRAME``: in the stance FRAME, ``file_stance``) as a stream of
+    ``Measurements``, read once; ``reports``: each file's ``ReadReport`` appended there."""
+    check_distinct([file_stance(g)[0] for g in paths], "data")
+    streams = []
+    for given in paths:
+        p, stance = file_stance(given)
+        rep = None if reports is None else ReadReport(str(p))
+        if reports is not None:
+            reports.append(rep)
+        streams.append(
+            read_measurements(
+                p, robot, imu_link=opts.imu_link,
+                allow_outside_limits=opts.allow_outside_limits, report=rep, support=stance,
+            )
+        )  # fmt: skip
+    return streams
+
+
 def _arrays(data: Any, cop: Any, sigma: Any, gravity: Any) -> Any:
     """Joint angles with ``cop=`` (and ``sigma=``, ``gravity=``) as Measurements; anything
     else as given."""
@@ -114,25 +140,14 @@ def identify(
     opts = (options or IdentifyOptions()).with_overrides(**overrides)
     if sigma is not None:
         opts = dataclasses.replace(opts, weighted=True)
-    paths = [data] if _is_path(data) else data
-    if not (isinstance(paths, list | tuple) and paths and all(_is_path(p) for p in paths)):
+    paths = _paths(data)
+    if paths is None:
         data = _arrays(data, cop, sigma, gravity)
         return fit_measurements(robot, data, method=method, options=opts, progress=progress)
     if cop is not None or sigma is not None or gravity is not None:
         raise OptionError("cop", "cop=, sigma= and gravity= go with joint angles, not with files")
-    check_distinct([file_stance(g)[0] for g in paths], "data")
     got: list[ReadReport] = []
-    streams = []
-    for given in paths:
-        p, stance = file_stance(given)
-        rep = ReadReport(str(p))
-        got.append(rep)
-        streams.append(
-            read_measurements(
-                p, robot, imu_link=opts.imu_link,
-                allow_outside_limits=opts.allow_outside_limits, report=rep, support=stance,
-            )
-        )  # fmt: skip
+    streams = _read_files(robot, paths, opts, got)
     fit = fit_measurements(robot, streams, method=method, options=opts, progress=progress)
     notes = [m for r in got for m in (r.limit_message(), r.missing_message()) if m is not None]
     if notes:
@@ -191,18 +206,10 @@ def identify_payload(
     if base is not None:
         check_base(robot, base, "base")
     check_payload(robot, body, mass)
-    paths = [data] if _is_path(data) else data
+    paths = _paths(data)
     chunks: list[Measurements] = []
-    if isinstance(paths, list | tuple) and paths and all(_is_path(p) for p in paths):
-        check_distinct([file_stance(g)[0] for g in paths], "data")
-        for given in paths:
-            p, stance = file_stance(given)
-            chunks += list(
-                read_measurements(
-                    p, robot, imu_link=opts.imu_link,
-                    allow_outside_limits=opts.allow_outside_limits, support=stance,
-                )
-            )  # fmt: skip
+    if paths is not None:
+        chunks = [m for stream in _read_files(robot, paths, opts, None) for m in stream]
     elif isinstance(data, Measurements):
         chunks = [data]
     elif isinstance(data, list | tuple) and all(isinstance(d, Measurements) for d in data):

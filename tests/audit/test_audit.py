@@ -14,9 +14,10 @@ from audit_gen import variant_urdf
 from cli_run import invoke as run
 
 import sescid
-from sescid.audit import audit, compare, model_checks
+from sescid.audit import AuditOptions, audit, compare, model_checks
 from sescid.audit.linear import ALL_BODIES
 from sescid.base import G0
+from sescid.errors import OptionError
 from sescid.estimation import Measurements
 from sescid.simulation import TorqueNoise
 
@@ -157,6 +158,24 @@ def test_cop_alone_with_the_weighed_mass(files):
     no_mass = audit(data, models, support="r_sole", folds=0)
     low = next(c for c in no_mass.candidates if "low" in c.model)
     assert not low.rejected  # the same CoP: nothing to reject without the weighed mass
+
+
+def test_the_options_record_is_the_keywords(files):
+    """``AuditOptions`` gives the audit the keywords give (the JSON, every number), keywords
+    override its fields, and bad values or names are an OptionError naming the option."""
+    truth = sescid.load_robot(str(files["truth"]), "r_sole")
+    data = _data(files["truth"], 5, torques=False)
+    models = [str(files["low"]), str(files["near"])]
+    kw = audit(data, models, support="r_sole", total_mass=truth.total_mass, folds=0)
+    opts = AuditOptions(support="r_sole", total_mass=truth.total_mass, folds=0)
+    assert audit(data, models, opts).to_json() == kw.to_json()
+    over = audit(data, models, AuditOptions(support="r_sole", folds=0), total_mass=truth.total_mass)
+    assert over.to_json() == kw.to_json()
+    for bad, name in (({"folds": 1}, "folds"), ({"total_mass": -1.0}, "total_mass")):
+        with pytest.raises(OptionError, match=name):
+            AuditOptions(**bad)
+    with pytest.raises(OptionError, match="z_level"):
+        audit(data, models, z_level=2.0)
 
 
 def test_another_robot_talos(tmp_path):

@@ -18,7 +18,7 @@ import click
 import pytest
 
 from sescid.api import identify
-from sescid.audit import audit, compare
+from sescid.audit import AuditOptions, compare
 from sescid.bench import (
     ExperimentConfig,
     MujocoBenchConfig,
@@ -273,7 +273,9 @@ def _no_options(d) -> list:
 def _audit(d) -> list:
     names = ("support", "line", "total_mass", "mass_std", "level", "folds")
     noise = None if not d["noise"] else d["noise"]  # --noise KIND=VALUE flags → a dict
-    return [(n, d[n], _arg(audit, n)) for n in names] + [("noise", noise, _arg(audit, "noise"))]
+    return [(n, d[n], _field(AuditOptions, n)) for n in names] + [
+        ("noise", noise, _field(AuditOptions, "noise"))
+    ]
 
 
 def _compare(d) -> list:

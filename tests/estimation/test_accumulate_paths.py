@@ -149,3 +149,29 @@ def test_torque_residual_pass_kernel_equals_numpy(op2):
     assert fast[0][3] == slow[0][3] == m.tau.size
     assert fast[0][1] == pytest.approx(slow[0][1], rel=1e-12)
     assert fast[0][2] == pytest.approx(slow[0][2], rel=1e-12)
+
+
+@pytest.mark.parametrize("n", [300, 12_000])
+def test_accumulate_is_the_accumulators_cop_sums(op2, n):
+    """``accumulate`` (CoP arrays: planning, the online estimator) gives the bits of the
+    accumulator ``identify`` uses, and CoP chunks give the bits of their arrays in memory, on
+    the numpy path (300 poses) and the compiled one; its sums equal the explicit rows' to
+    rounding."""
+    from sescid.estimation import accumulate
+
+    m = _data(op2, n, 7, kinds=("cop",), weighted=False)
+    whole = accumulate(op2, [(m.q, m.cop)])
+    cut = n // 3 + 5
+    parts = accumulate(op2, [(m.q[:cut], m.cop[:cut]), (m.q[cut:], m.cop[cut:])])
+    ref = _system(op2, [m], weighted=False).finish().parts["cop"].ne
+    for ne in (whole, parts):
+        assert np.array_equal(ne.ata, ref.ata) and np.array_equal(ne.atb, ref.atb)
+        assert (ne.yty, ne.n_rows, ne.n_poses) == (ref.yty, ref.n_rows, ref.n_poses) == (
+            ref.yty, 2 * n, n,
+        )  # fmt: skip
+    phi = op2.regressor(m.q, (0, 1)).reshape(-1, 3 * len(op2.body_names))
+    y = (m.cop - op2.d[:2]).reshape(-1)
+    np.testing.assert_allclose(
+        whole.ata, phi.T @ phi, rtol=0, atol=1e-12 * np.abs(phi.T @ phi).max()
+    )
+    np.testing.assert_allclose(whole.atb, phi.T @ y, rtol=0, atol=1e-12 * np.abs(phi.T @ y).max())

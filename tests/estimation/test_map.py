@@ -10,7 +10,8 @@ from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.estimation import accumulate, load_fit
 from sescid.estimation.result.validation import perturbed_sesc, truth_error
-from sescid.estimation.solvers.map import Prior, body_prior, log_evidence
+from sescid.estimation.solvers.map import log_evidence
+from sescid.estimation.solvers.map_prior import Prior, body_prior
 from sescid.simulation import simulate
 
 SIGMA = 0.00493

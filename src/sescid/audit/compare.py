@@ -19,8 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from sescid.audit.audit import DEFAULT_Z, BodyChange, body_change, none_if_nan
+from sescid.audit.audit import DEFAULT_Z
 from sescid.audit.linear import attribute, r_jacobian, tail, z_of_p
+from sescid.audit.result import BodyChange, body_change, none_if_nan
 from sescid.errors import ModelError, OptionError
 from sescid.estimation import Fit, load_fit
 from sescid.estimation.solvers.least_squares import DETERMINED

@@ -23,7 +23,7 @@ from sescid.errors import DataError
 from sescid.estimation import Measurements
 from sescid.estimation.data.balance_rows import balance_rows
 from sescid.estimation.data.torque_rows import nuisance_names
-from sescid.estimation.solvers.map import BODY_COM_SCALE
+from sescid.estimation.solvers.map_prior import BODY_COM_SCALE
 from sescid.robot import Robot
 
 #: singular values below this fraction of a block's largest count as not seen
@@ -245,18 +245,27 @@ GN_STEPS = 4
 GN_HALVINGS = 4
 
 
+@dataclass(frozen=True)
+class _Test:
+    """The test a change must pass: the z ``level`` it must reach, and the degrees of freedom
+    of the noise estimate that whitened the residual (inf: the noise is known)."""
+
+    level: float
+    noise_dof: float
+
+
 def _select(
     e: np.ndarray,
     a: np.ndarray,
     hyps: list[Hypothesis],
     theta: np.ndarray,
-    level: float,
-    noise_dof: float,
+    test: _Test,
     start: list[int],
     limit: int = MAX_NAMED,
 ) -> list[tuple[int, float, tuple[str, ...]]]:
     """Greedy selection beyond ``start`` (their blocks projected out first): (hypothesis, its
-    Bonferroni-corrected z, the equally good alternatives) while the z reaches ``level``."""
+    Bonferroni-corrected z, the equally good alternatives) while the z reaches the level."""
+    level, noise_dof = test.level, test.noise_dof
     n = (theta.size) // 4
     blocks = [a @ cols for _, cols in hyps]
     chosen = list(start)
@@ -361,7 +370,8 @@ def attribute(
             left_chi = float(left @ left - np.sum((qc.T @ e1) ** 2))
             if z_of_p(tail(left_chi, seen1.shape[1] - qc.shape[1], noise_dof)) < level:
                 break
-        more = _select(e1, a1, hyps, theta, level, noise_dof, [h for h, _, _ in picked], step)
+        test = _Test(level, noise_dof)
+        more = _select(e1, a1, hyps, theta, test, [h for h, _, _ in picked], step)
         if not more:
             break
         picked += more

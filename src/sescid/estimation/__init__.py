@@ -10,7 +10,8 @@ vectors, sensor offsets, their uncertainty, and physical masses.
   existing fit; ``OnlineEstimator`` — pose by pose;
 - ``Fit`` (frozen) and its typed records; ``save_fit`` / ``load_fit``;
 - identifiability (the rank rule, ``min_poses``), validation (intervals, error against a known
-  truth), checks at the data boundary; ``accumulate`` (CoP normal equations, for planning).
+  truth), checks at the data boundary; ``accumulate`` (CoP normal equations from arrays, by
+  the one accumulator ``identify`` uses: for planning and the online estimator).
 """
 
 from sescid.estimation.data.checks import (
@@ -25,20 +26,10 @@ from sescid.estimation.result.cad_check import cad_violations
 from sescid.estimation.result.fit import (
     METHOD_CHOICES,
     METHODS,
-    BodyInertials,
     Combination,
-    CopOffset,
-    CrossValidation,
     Fit,
-    JointNoise,
-    JointNoiseEffect,
-    KindFit,
-    MapInfo,
     Method,
     MethodName,
-    NuisanceEstimate,
-    OnlineInfo,
-    RobustInfo,
 )
 from sescid.estimation.result.fit_json import MODEL_CHANGED, OLD_FORMAT, load_fit, save_fit
 from sescid.estimation.result.identifiability import (
@@ -49,6 +40,18 @@ from sescid.estimation.result.identifiability import (
 )
 from sescid.estimation.result.notes import fit_notes
 from sescid.estimation.result.payload_record import PayloadFit, PayloadKind
+from sescid.estimation.result.records import (
+    BodyInertials,
+    CopOffset,
+    CrossValidation,
+    JointNoise,
+    JointNoiseEffect,
+    KindFit,
+    MapInfo,
+    NuisanceEstimate,
+    OnlineInfo,
+    RobustInfo,
+)
 from sescid.estimation.result.summary import fit_summary
 from sescid.estimation.result.validation import (
     Interval,
@@ -75,8 +78,9 @@ from sescid.estimation.solvers.options import (
     method_options,
 )
 from sescid.estimation.solvers.payload import PayloadOptions, check_base, check_payload, payload_fit
-from sescid.estimation.sums.normal_equations import NormalEquations, accumulate
+from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import BodyFit, StanceRank, for_support
+from sescid.estimation.sums.system import accumulate
 
 __all__ = [
     "AutoOptions",

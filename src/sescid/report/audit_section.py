@@ -18,7 +18,7 @@ MAX_POSES = 4000
 def audit_section(c: ReportContent) -> str:
     """What the data say of the fit's model file before any fit (``sescid.audit``)."""
     from sescid.audit import audit
-    from sescid.audit.audit import AUDIT_TITLES, AUDIT_UNITS
+    from sescid.audit.result import AUDIT_TITLES, AUDIT_UNITS
 
     m = c.data
     note = ""

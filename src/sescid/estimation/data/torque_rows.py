@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from sescid.estimation.data.measurements import TORQUE, Measurements
-from sescid.estimation.result.fit import NuisanceWhat
+from sescid.estimation.result.records import NuisanceWhat
 from sescid.robot import Robot
 from sescid.sesc import torque_regressor
 

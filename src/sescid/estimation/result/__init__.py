@@ -6,6 +6,7 @@ __all__ = [
     "cad_check",
     "fit",
     "fit_json",
+    "records",
     "identifiability",
     "notes",
     "payload_record",

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from sescid.base.text import listed
-from sescid.estimation.result.fit import BodyInertials
+from sescid.estimation.result.records import BodyInertials
 
 TOTAL_TOL = 1e-9  #: kg, a total mass this close to the CAD's counts as the same
 

@@ -31,7 +31,8 @@ import numpy as np
 from sescid.base import G0
 from sescid.base.files import atomic_open, read_json
 from sescid.errors import DataError, SescidError
-from sescid.estimation.result import fit as records
+from sescid.estimation.result import records
+from sescid.estimation.result.fit import METHODS, Combination, Fit, Method
 from sescid.estimation.result.notes import fit_notes
 from sescid.estimation.result.payload_record import payload_from_json, payload_to_json
 from sescid.robot import load_robot
@@ -91,7 +92,7 @@ def _record_from_json(cls: type, d: dict, where: str) -> Any:
     return cls(**kw)
 
 
-def fit_to_json(fit: records.Fit) -> dict:
+def fit_to_json(fit: Fit) -> dict:
     """The fit file's content as a JSON-ready dict."""
     robot = fit.robot
     bodies = robot.body_names
@@ -179,7 +180,7 @@ def _bodies_from_json(d: dict, n: int, path: Path):
     )
 
 
-def save_fit(fit: records.Fit, path: str | Path) -> None:
+def save_fit(fit: Fit, path: str | Path) -> None:
     """Write a fit as JSON, atomically."""
     with atomic_open(path, "w") as fh:
         json.dump(fit_to_json(fit), fh, indent=1, allow_nan=False)
@@ -252,13 +253,11 @@ def _v1_method(method: str) -> str:
     return {"least-squares": "ls"}.get(base, base)
 
 
-def _method(text: str, path: Path) -> records.Method:
+def _method(text: str, path: Path) -> Method:
     """The fit's method, one of ``METHODS`` (DataError naming the file otherwise)."""
-    if text not in records.METHODS:
-        raise DataError(
-            f"{path}: field 'method': {text!r} is not one of {', '.join(records.METHODS)}"
-        )
-    return cast(records.Method, text)
+    if text not in METHODS:
+        raise DataError(f"{path}: field 'method': {text!r} is not one of {', '.join(METHODS)}")
+    return cast(Method, text)
 
 
 def _matrix(
@@ -293,7 +292,7 @@ def _read(path: Path) -> dict:
         raise
 
 
-def load_fit(path: str | Path) -> records.Fit:
+def load_fit(path: str | Path) -> Fit:
     """Read a fit written by ``save_fit`` (this version, and versions 1 and 2 with a warning
     ``OLD_FORMAT``: a not-determined covariance they stored as zeros is read as nan again);
     reloads its robot."""
@@ -357,7 +356,7 @@ def load_fit(path: str | Path) -> records.Fit:
         sigma_null = data["sigma_hat"] is None
         if data["format"] != FIT_FORMAT and sigma_null:
             cov = np.full((n, n), np.nan)  # versions 1, 2 wrote a not-determined cov as zeros
-        fit = records.Fit(
+        fit = Fit(
             robot=robot,
             r=r,
             r_prior=r_prior,
@@ -372,9 +371,9 @@ def load_fit(path: str | Path) -> records.Fit:
             mae=nan if data["mae"] is None else float(data["mae"]),
             rtol=float(data["rtol"]),
             method=method,
-            base=tuple(records.Combination.from_json(c) for c in data["base_combinations"]),
-            unidentifiable=tuple(records.Combination.from_json(c) for c in data["unidentifiable"]),
-            weak=tuple(records.Combination.from_json(c) for c in data.get("weak", [])),
+            base=tuple(Combination.from_json(c) for c in data["base_combinations"]),
+            unidentifiable=tuple(Combination.from_json(c) for c in data["unidentifiable"]),
+            weak=tuple(Combination.from_json(c) for c in data.get("weak", [])),
             **fields,
         )
         changed = _model_change(path, meta, robot)

@@ -6,7 +6,7 @@ import math
 from typing import TYPE_CHECKING
 
 from sescid.base.text import listed
-from sescid.estimation.result.fit import REPEATED
+from sescid.estimation.result.records import REPEATED
 from sescid.estimation.result.tilt import tilt_direction
 
 if TYPE_CHECKING:  # pragma: no cover

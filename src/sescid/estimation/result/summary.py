@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import math
 
-from sescid.estimation.result.fit import Fit, KindFit
+from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.notes import fit_notes
+from sescid.estimation.result.records import KindFit
 
 
 def fit_summary(fit: Fit) -> str:

@@ -22,7 +22,8 @@ import numpy as np
 
 from sescid.errors import SescidError
 from sescid.estimation.data.measurements import Kind
-from sescid.estimation.result.fit import CrossValidation, Fit
+from sescid.estimation.result.fit import Fit
+from sescid.estimation.result.records import CrossValidation
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.sesc import sesc_vectors

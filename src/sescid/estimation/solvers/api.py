@@ -25,7 +25,8 @@ from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
 from sescid.estimation.data.measurements import TORQUE, Measurements
 from sescid.estimation.data.sources import as_sources, in_memory
-from sescid.estimation.result.fit import Fit, JointNoise, MethodName
+from sescid.estimation.result.fit import Fit, MethodName
+from sescid.estimation.result.records import JointNoise
 from sescid.estimation.solvers.consistent import consistent_from_fit
 from sescid.estimation.solvers.options import (
     AutoOptions,

@@ -21,7 +21,7 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Kind, Measurements
-from sescid.estimation.result.fit import Combination, Fit, KindFit, Method, NuisanceEstimate
+from sescid.estimation.result.fit import Combination, Fit, Method
 from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
     NOT_EXCITED,
@@ -30,6 +30,7 @@ from sescid.estimation.result.identifiability import (
     sparse_terms,
     unidentifiable,
 )
+from sescid.estimation.result.records import KindFit, NuisanceEstimate
 from sescid.estimation.solvers.solve import UNITS, Solution, marginal_x, solve_system
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import body_fit, prior_x, stance_map, view, x_labels

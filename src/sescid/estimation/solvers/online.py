@@ -22,12 +22,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.result.fit import Fit, OnlineInfo
+from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.identifiability import DEFAULT_RTOL, identifiable_eigen
+from sescid.estimation.result.records import OnlineInfo
 from sescid.estimation.solvers.least_squares import cop_system, fit_least_squares
 from sescid.estimation.solvers.map import fit_map
 from sescid.estimation.solvers.options import MapOptions
-from sescid.estimation.sums.normal_equations import NormalEquations, accumulate
+from sescid.estimation.sums.normal_equations import NormalEquations
+from sescid.estimation.sums.system import accumulate
 from sescid.robot import Robot
 from sescid.simulation import random_poses
 

@@ -18,8 +18,9 @@ import numpy as np
 from sescid.base import G0, SEED_HELP, check_ranges, option
 from sescid.errors import OptionError, check_choice
 from sescid.estimation.data.measurements import COP, TORQUE, Kind
-from sescid.estimation.result.fit import Fit, MethodName, PriorShape
+from sescid.estimation.result.fit import Fit, MethodName
 from sescid.estimation.result.identifiability import DEFAULT_RTOL, check_rtol
+from sescid.estimation.result.records import PriorShape
 from sescid.estimation.solvers.consistent import COM_SCALE, FIT_TOL
 from sescid.estimation.solvers.consistent.prior import evidence_prior_std, least_squares_view
 from sescid.estimation.solvers.robust import HUBER_K

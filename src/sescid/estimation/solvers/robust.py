@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -27,7 +28,8 @@ import numpy as np
 from sescid.base.spill import Spill, median
 from sescid.errors import SescidError
 from sescid.estimation.data.measurements import COP, TORQUE, Measurements
-from sescid.estimation.result.fit import Fit, JointNoiseEffect, RobustInfo
+from sescid.estimation.result.fit import Fit
+from sescid.estimation.result.records import JointNoiseEffect, RobustInfo
 from sescid.estimation.solvers.least_squares import residuals
 from sescid.kinematics import as_poses
 from sescid.simulation import random_poses
@@ -82,13 +84,23 @@ class _Sources(Protocol):
 _Sizes = list[dict[str, Spill]]
 
 
+@dataclass(frozen=True)
+class _Huber:
+    """The IRLS's settings: the threshold k, rows weighted by their given errors, the torques'
+    by theirs (None: as ``weighted``)."""
+
+    k: float
+    weighted: bool
+    tau_weighted: bool | None = None
+
+
 class _Reweighted:
     """A source's chunks with the IRLS step's errors (``base · scale / √w``) as their standard
     errors: computed chunk by chunk from the spilled sizes, never held for the whole source."""
 
-    def __init__(self, source: _Sources, sizes: dict[str, Spill], scale, k, weighted, tau_w=None):
-        self.source, self.sizes, self.scale, self.k = source, sizes, scale, k
-        self.weighted, self.tau_w = weighted, tau_w
+    def __init__(self, source: _Sources, sizes: dict[str, Spill], scale, huber: _Huber):
+        self.source, self.sizes, self.scale, self.k = source, sizes, scale, huber.k
+        self.weighted, self.tau_w = huber.weighted, huber.tau_weighted
         self.name = getattr(source, "name", "data")
 
     def chunks(self) -> Iterator[Measurements]:
@@ -162,6 +174,7 @@ def huber_sources(
     """
     if not k > 0:
         raise SescidError(f"Huber threshold k must be > 0, got {k}")
+    huber = _Huber(k, weighted, tau_weighted)
     fit = run(list(sources), weighted)
     used: _Sizes | None = None  # the sizes behind the weights of the current fit
     used_scale: dict[str, float] = {}
@@ -182,13 +195,13 @@ def huber_sources(
             _close(used)
             used, used_scale = sizes, scale
             reweighted = [
-                _Reweighted(src, spills, scale, k, weighted, tau_weighted)
+                _Reweighted(src, spills, scale, huber)
                 for src, spills in zip(sources, sizes, strict=True)
             ]
             fit = run(reweighted, True)
             if change < tol:
                 break
-        return _robust_fit(fit, used, used_scale, scale, k, iterations, weighted, tau_weighted)
+        return _robust_fit(fit, used, used_scale, scale, iterations, huber)
     finally:
         _close(used)
 
@@ -237,10 +250,11 @@ def _with_errors(m: Measurements, base, w, scale) -> Measurements:
 
 
 def _robust_fit(
-    fit: Fit, used: _Sizes | None, used_scale, scale, k, iterations, weighted, tau_w=None
+    fit: Fit, used: _Sizes | None, used_scale, scale, iterations: int, huber: _Huber
 ) -> Fit:
     """The last IRLS fit in the data's units, with the down-weighted poses named (from the
     spilled sizes behind its weights; none when no step reweighted)."""
+    k, weighted, tau_w = huber.k, huber.weighted, huber.tau_weighted
     low = []
     start = 0
     for spills in used or []:

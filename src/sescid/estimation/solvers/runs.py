@@ -141,7 +141,7 @@ def fit_auto(
     """Method "auto": MAP with the CAD prior (``settings``: per body, its scale chosen by
     evidence unless given), or least squares when the data determine every direction they see
     well (``AUTO_LS_SHARE``)."""
-    from sescid.estimation.result.fit import MethodChoice
+    from sescid.estimation.result.records import MethodChoice
 
     # least squares first: the answer when the data determine enough; data without residual
     # degrees of freedom (fewer poses than ``poses_needed``) it cannot fit, MAP can (its noise
@@ -166,7 +166,7 @@ def fit_auto(
         )
         return dataclasses.replace(fit, choice=MethodChoice("ls", why))
     seen = mapped.rank
-    from sescid.estimation.result.fit import REPEATED
+    from sescid.estimation.result.records import REPEATED
     from sescid.estimation.solvers.map import repeated_poses
 
     if mapped.map.prior_scale_by == REPEATED:
@@ -307,8 +307,8 @@ def with_scale(fit: Fit, scale: tuple) -> Fit:
     """The fit of anchored data with its ``ScaleAnchor`` record; scaled about the collapse
     point to the known CoM height exactly (the anchor held it along one direction)."""
     from sescid.estimation.data import anchor
-    from sescid.estimation.result.fit import ScaleAnchor
     from sescid.estimation.result.identifiability import combination_vector
+    from sescid.estimation.result.records import ScaleAnchor
 
     by, prior_distance, height = scale
     robot = fit.robot

@@ -24,7 +24,6 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Kind
-from sescid.estimation.result.fit import NoiseSource
 from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
     check_rtol,
@@ -32,6 +31,7 @@ from sescid.estimation.result.identifiability import (
     poses_needed,
     rank_of,
 )
+from sescid.estimation.result.records import NoiseSource
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.system import System
 

@@ -35,7 +35,8 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from sescid.estimation.data.measurements import TORQUE, Measurements
-from sescid.estimation.result.fit import Fit, JointNoise
+from sescid.estimation.result.fit import Fit
+from sescid.estimation.result.records import JointNoise
 from sescid.estimation.solvers.least_squares import residuals
 from sescid.estimation.sums.block_sums import aligned
 from sescid.estimation.sums.normal_equations import ACCUMULATE_BLOCK

@@ -11,24 +11,20 @@ alone decides), so the same data give the same bits on every machine.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sescid.base.threads import one_blas_thread, ordered_map
 from sescid.errors import DataError
 from sescid.kinematics import (
     Workspace,
-    as_poses,
     gram_columns,
     gram_reduced,
     reduced_columns,
     split_augmented,
     use_kernels,
 )
-from sescid.robot import Robot
 
 #: poses per block when accumulating normal equations
 ACCUMULATE_BLOCK = 2048
@@ -108,12 +104,6 @@ def expand(g: np.ndarray, ne: NormalEquations) -> tuple[np.ndarray, np.ndarray]:
     return matmul_fixed(matmul_fixed(gt, ne.ata), g), matmul_fixed(gt, ne.atb)
 
 
-def cop_work(robot: Robot, n: int) -> int:
-    """Work units (``kinematics.NUMPY_JOB``) of n CoP poses: the chain and two rows of reduced
-    columns."""
-    return n * (len(robot.body_names) + 2 * robot.reduction.g.shape[0])
-
-
 def check_cop(cop: ArrayLike, n: int, what: str = "cop") -> np.ndarray:
     """Validate CoP measurements (n, 2), finite metres."""
     arr = np.asarray(cop, dtype=float)
@@ -125,10 +115,8 @@ def check_cop(cop: ArrayLike, n: int, what: str = "cop") -> np.ndarray:
     return arr
 
 
-def row_weights(sigma: ArrayLike | None, n: int) -> np.ndarray | None:
-    """Per-pose CoP standard errors (n,) or (n, 2) in m → row weights (2n,) = 1/σ²."""
-    if sigma is None:
-        return None
+def cop_errors(sigma: ArrayLike, n: int) -> np.ndarray:
+    """Per-pose CoP standard errors (n,) or (n, 2) in m as validated (n, 2) errors."""
     s = np.asarray(sigma, dtype=float)
     if s.ndim == 1:
         s = np.repeat(s[:, None], 2, axis=1)
@@ -137,7 +125,7 @@ def row_weights(sigma: ArrayLike | None, n: int) -> np.ndarray | None:
     if not np.all(np.isfinite(s) & (s > 0)):
         row = int(np.argwhere(~(np.isfinite(s) & (s > 0)))[0, 0])
         raise DataError(f"sigma: standard error at pose {row} must be finite and > 0")
-    return (1.0 / s**2).reshape(-1)
+    return s
 
 
 def tilted_sums(robot, q, cop, sw, gravity, kernels: bool) -> NormalEquations:
@@ -149,15 +137,6 @@ def tilted_sums(robot, q, cop, sw, gravity, kernels: bool) -> NormalEquations:
     add_columns(ne, phi.reshape(-1, phi.shape[2]).T, y, None if sw is None else sw.reshape(-1),
                 kernels)  # fmt: skip
     return ne
-
-
-def add_cop_tilted(robot, ne: NormalEquations, q, cop, sw, gravity, kernels: bool) -> None:
-    """Add the tilted x/y rows of validated poses, block by block, to ``ne`` (full Φ)."""
-    g = np.asarray(gravity, dtype=float)
-    for s in range(0, q.shape[0], ACCUMULATE_BLOCK):
-        blk = slice(s, s + ACCUMULATE_BLOCK)
-        ne.add_sums(tilted_sums(robot, q[blk], cop[blk], None if sw is None else sw[blk], g[blk],
-                                kernels))  # fmt: skip
 
 
 def reduced_sums(robot, q, y, sw, kernels: bool, ws: Workspace | None) -> NormalEquations:
@@ -175,68 +154,3 @@ def reduced_sums(robot, q, y, sw, kernels: bool, ws: Workspace | None) -> Normal
     x = reduced_columns(robot.tree, red, q, ws, kernels)  # (P_red, 2m): x rows, y rows
     add_columns(part, x, y.T.reshape(-1), None if sw is None else sw.T.reshape(-1), kernels)
     return part
-
-
-def add_cop_reduced(robot, acc: NormalEquations, q, y, sw, kernels: bool, progress=None) -> None:
-    """Add a validated chunk's reduced sums to ``acc``, block by block: each block's sums on
-    their own, added in block order (the same bits on any number of threads)."""
-    starts = range(0, q.shape[0], ACCUMULATE_BLOCK)
-
-    def block_sums(s: int) -> NormalEquations:
-        blk = slice(s, s + ACCUMULATE_BLOCK)
-        return reduced_sums(robot, q[blk], y[blk], None if sw is None else sw[blk], kernels, None)
-
-    parts: Iterable[NormalEquations]
-    if kernels and len(starts) > 1:  # on every core: the kernels release the GIL
-        parts = ordered_map(block_sums, starts)
-    else:
-        parts = map(block_sums, starts)
-    for k, part in enumerate(parts):
-        acc.add_sums(part)
-        if progress is not None:
-            progress(min(starts[k] + ACCUMULATE_BLOCK, q.shape[0]), q.shape[0])
-
-
-@one_blas_thread()
-def accumulate(
-    robot: Robot,
-    chunks: Iterable[tuple],
-    ne: NormalEquations | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    *,
-    validated: bool = False,
-) -> NormalEquations:
-    """Accumulate normal equations from chunks ``(q, cop)``, ``(q, cop, sigma)`` or
-    ``(q, cop, sigma, gravity)``; each chunk is one job (its size picks the path).
-
-    ``gravity`` (n, 3): per-pose gravity direction in the support frame; its rows are the tilted
-    ones Φx − (gx/gz) Φz, Φy − (gy/gz) Φz (accumulated in full coordinates: z information
-    breaks the x/y reduction). ``progress(done, total)`` is called after each block.
-    ``validated``: q and cop already passed ``as_poses``/``check_cop`` (not checked again).
-    """
-    ne = ne or NormalEquations.empty(3 * len(robot.body_names))
-    red = robot.reduction
-    acc = NormalEquations.empty(red.g.shape[0])  # in reduced coordinates β = G r
-    for chunk in chunks:
-        q, cop = chunk[0], chunk[1]
-        sigma = chunk[2] if len(chunk) > 2 else None
-        gravity = chunk[3] if len(chunk) > 3 else None
-        if not validated:
-            q = as_poses(q, robot.nq)
-            cop = check_cop(cop, q.shape[0])
-        w = row_weights(sigma, q.shape[0])
-        sw = None if w is None else np.sqrt(w).reshape(-1, 2)
-        kernels = use_kernels(cop_work(robot, q.shape[0]))
-        if gravity is not None:
-            add_cop_tilted(robot, ne, q, cop, sw, gravity, kernels)
-            if progress is not None:
-                progress(q.shape[0], q.shape[0])
-        else:
-            add_cop_reduced(robot, acc, q, cop - robot.d[:2], sw, kernels, progress)
-        ne.n_poses += q.shape[0]
-    ata, atb = expand(red.g, acc)
-    ne.ata += ata
-    ne.atb += atb
-    ne.yty += acc.yty
-    ne.n_rows += acc.n_rows
-    return ne

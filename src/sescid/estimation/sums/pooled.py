@@ -38,7 +38,7 @@ from sescid.estimation.result.identifiability import (
 )
 from sescid.estimation.solvers.solve import Solution, marginal_x
 from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
-from sescid.estimation.sums.system import KindSums, RowOptions, System, accumulate_stances
+from sescid.estimation.sums.system import Accumulator, KindSums, RowOptions, System
 from sescid.robot import DOUBLE, Robot
 from sescid.stance import Stance
 
@@ -91,12 +91,39 @@ def accumulate_sources(
     robot: Robot, sources, options: RowOptions | None = None, progress=None
 ) -> System:
     """The system of several sources, each an iterable of ``Measurements`` chunks (validated;
-    ``system.accumulate_stances``): over the robot's SESC vectors when every row was measured in
+    ``accumulate_stances``): over the robot's SESC vectors when every row was measured in
     its own support, else over the body parameters the stances share (``pooled``)."""
     systems = accumulate_stances(robot, sources, options or RowOptions(), progress)
     if list(systems) == [robot.support]:
         return systems[robot.support]
     return pooled(robot, systems)
+
+
+def accumulate_stances(
+    robot: Robot, sources, options: RowOptions, progress=None
+) -> dict[str, System]:
+    """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
+    (validated): support → System over that stance's SESC vectors, each summed with its own
+    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
+    sources. ``accumulate_sources`` makes one system of them."""
+    systems: dict[str, System] = {}
+    before = 0
+    for chunks in sources:
+        accs: dict[str, Accumulator] = {}
+        start = before
+        report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
+        for m in chunks:
+            key = m.support or robot.support
+            if key not in accs:
+                accs[key] = Accumulator(robot.stance(m.support), options)
+            accs[key].add(m, report)
+        for key, acc in accs.items():
+            part = acc.finish()
+            before += part.n_poses
+            systems[key] = part if key not in systems else systems[key].merged(part)
+    if not systems:
+        raise DataError("no data to identify from")
+    return systems
 
 
 def pooled(robot: Robot, systems: dict[str, System]) -> System:
@@ -160,6 +187,19 @@ def _null(m: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     return vt[rank:].T
 
 
+def _seen_through(t: np.ndarray, unseen: np.ndarray, ainv: np.ndarray, rtol: float):
+    """The information on y = T x of data with pseudo-inverse information ``ainv`` that leave
+    x's directions ``unseen`` (orthonormal columns) undetermined: on the directions of y whose
+    preimage the data see ({g : Tᵀg ∈ range(A)}); its eigen-decomposition (descending) and
+    rank."""
+    g = _null(unseen.T @ t.T)
+    core = g.T @ t @ ainv @ t.T @ g
+    ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
+    ata = (ata + ata.T) / 2
+    lam, vecs = eigen_descending(ata)
+    return ata, lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+
+
 def view(sol: Solution, lmap: np.ndarray, n_x: int, rtol: float) -> Solution:
     """The x-space solution seen in [vec(r_s); nuisance] (r_s = L x): estimate and covariance
     mapped, the information of the r_s-directions the data determine ({g : Lᵀg ∈ range(A)}),
@@ -170,14 +210,7 @@ def view(sol: Solution, lmap: np.ndarray, n_x: int, rtol: float) -> Solution:
     t[lmap.shape[0] :, n_x:] = np.eye(k)
     p = sol.rank
     vp, lp = sol.vecs[:, :p], sol.lam[:p]
-    unseen = sol.vecs[:, p:]
-    g = _null(unseen.T @ t.T)  # directions of [r; ν] whose preimage the data see
-    ainv = (vp / lp) @ vp.T
-    core = g.T @ t @ ainv @ t.T @ g
-    ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
-    ata = (ata + ata.T) / 2
-    lam, vecs = eigen_descending(ata)
-    rank = rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    ata, lam, vecs, rank = _seen_through(t, sol.vecs[:, p:], (vp / lp) @ vp.T, rtol)
     return dataclasses.replace(
         sol,
         theta=t @ sol.theta,
@@ -243,14 +276,10 @@ def for_support(fit, support: str):
     lmap = stance_map(fit.robot, support)
     r = (lmap @ b.x).reshape(-1, 3)
     cov = lmap @ b.cov @ lmap.T
-    g = _null(_null(b.information).T @ lmap.T)  # determined directions of r_s
     w, v = np.linalg.eigh((b.information + b.information.T) / 2)
     keep = w > 1e-12 * max(float(w.max()), 1e-300)
     ainv = (v[:, keep] / w[keep]) @ v[:, keep].T
-    core = g.T @ lmap @ ainv @ lmap.T @ g
-    ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
-    lam, vecs = eigen_descending((ata + ata.T) / 2)
-    rank = rank_of(np.sqrt(np.clip(lam, 0, None)), fit.rtol)
+    _, lam, vecs, rank = _seen_through(lmap, _null(b.information), ainv, fit.rtol)
     sv = np.sqrt(np.clip(lam, 0, None))
     labels = label_columns(robot)
     base = tuple(base_combinations(sv, vecs, rank, labels, r, cov))

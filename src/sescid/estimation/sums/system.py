@@ -7,6 +7,8 @@ removed in closed form) and expanded exactly at the end; a CoP under tilted grav
 CoM-height component) is accumulated in full coordinates. Rows are added in fixed blocks of
 ``ACCUMULATE_BLOCK`` poses counted from the first pose of a source, whatever the chunks they
 arrive in: a file streamed in chunks gives the same sums, bit for bit, as its arrays in memory.
+``Accumulator`` is the one accumulator: ``pooled.accumulate_sources`` feeds it files and
+stances, ``accumulate`` CoP arrays (the planners' information, the online estimator).
 
 Nuisance parameters are columns of the same system: a constant offset per measured torque, a
 friction band per torque when the approach side is known, and (for a MAP fit) a constant CoP
@@ -16,21 +18,28 @@ offset, which on one support foot is confounded with the support body's own x/y 
 from __future__ import annotations
 
 import dataclasses
-import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
 from sescid.base import G0
-from sescid.base.threads import ordered_map
+from sescid.base.threads import one_blas_thread, ordered_map
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
 from sescid.estimation.data.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
-from sescid.estimation.result.fit import NuisanceWhat
+from sescid.estimation.result.records import NuisanceWhat
 from sescid.estimation.sums.block_sums import BlockSums, RowMaker, aligned, work
-from sescid.estimation.sums.normal_equations import ACCUMULATE_BLOCK, NormalEquations, expand
-from sescid.kinematics import fold_torque, reduced_order, use_kernels
+from sescid.estimation.sums.distinct import DistinctPoses
+from sescid.estimation.sums.normal_equations import (
+    ACCUMULATE_BLOCK,
+    NormalEquations,
+    check_cop,
+    cop_errors,
+    expand,
+)
+from sescid.kinematics import as_poses, fold_torque, reduced_order, use_kernels
 from sescid.robot import Robot
 
 #: MAP prior standard deviation of a constant CoP offset: effectively flat, m
@@ -165,54 +174,6 @@ class System:
         )  # fmt: skip
 
 
-#: joint angles within this of a counted pose's, in every joint, are that pose again, rad: an
-#: error tied to the pose (a CoP sensor's bias there, the foot's compliance, a servo's play)
-#: repeats with it, so repeating a pose adds no information beyond its noise (a servo's play
-#: scatters the readings of one commanded pose over ~1°: the OP2 bench, 30 repeats)
-SAME_POSE = math.radians(2.0)
-
-
-class DistinctPoses:
-    """The distinct poses of a source (``SAME_POSE``), counted up to ``cap``: beyond it the
-    count no longer matters (each pose adds at least one equation) and counting stops."""
-
-    #: rows hashed at once, and compared at once
-    BLOCK, COMPARE = 8192, 256
-
-    def __init__(self, nq: int, cap: int):
-        self.cap = cap
-        self.kept = np.zeros((0, nq))
-        self.mult = np.random.default_rng(0).integers(1, 2**62, nq, dtype=np.int64) | 1
-
-    @property
-    def count(self) -> int:
-        """Distinct poses so far (at most ``cap``)."""
-        return len(self.kept)
-
-    def add(self, q: np.ndarray) -> None:
-        """Count the poses q (n, nq) [rad]: each block's rows one per grid cell of
-        ``SAME_POSE`` (a hash of the cell), those far from every kept pose, then, per new
-        distinct pose, those far from it too."""
-        q = np.asarray(q, dtype=float)
-        for start in range(0, q.shape[0], self.BLOCK):
-            if self.count >= self.cap:
-                return
-            blk = q[start : start + self.BLOCK]
-            with np.errstate(over="ignore"):
-                cell = np.floor(blk / SAME_POSE).astype(np.int64) @ self.mult  # wraps: a hash
-            blk = blk[np.sort(np.unique(cell, return_index=True)[1])]
-            for sub in range(0, blk.shape[0], self.COMPARE):
-                if self.count >= self.cap:
-                    return
-                rest = blk[sub : sub + self.COMPARE]
-                if self.count:
-                    far = np.abs(rest[:, None, :] - self.kept[None]).max(axis=2) > SAME_POSE
-                    rest = rest[far.all(axis=1)]
-                while rest.shape[0] and self.count < self.cap:
-                    self.kept = np.vstack([self.kept, rest[:1]])
-                    rest = rest[1:][np.abs(rest[1:] - rest[0]).max(axis=1) > SAME_POSE]
-
-
 @dataclass(frozen=True)
 class RowOptions:
     """How rows are made: weights from the standard-error columns, the total mass [kg] that
@@ -240,7 +201,7 @@ class Accumulator:
     (until then its poses wait, at most that budget's worth), so a file streamed in chunks and
     the same data in memory take the same path and give the same bits."""
 
-    def __init__(self, robot: Robot, options: RowOptions = RowOptions()):
+    def __init__(self, robot: Robot, options: RowOptions = RowOptions(), distinct: bool = True):
         self.robot, self.options = robot, options
         self.mass = robot.total_mass if options.total_mass is None else float(options.total_mass)
         self.p_red = robot.reduction.g.shape[0]
@@ -256,7 +217,8 @@ class Accumulator:
         self.n_poses = 0
         self.progress = None
         self.maker: RowMaker | None = None  #: set when the path is decided
-        self.distinct = DistinctPoses(robot.nq, self.p_red + 1)
+        #: the distinct poses counted (``System.distinct_poses``), unless not asked for
+        self.distinct = DistinctPoses(robot.nq, self.p_red + 1) if distinct else None
 
     def add(self, m: Measurements, progress=None) -> None:
         """Add validated measurements (``Measurements.checked``) of this source;
@@ -268,7 +230,8 @@ class Accumulator:
         elif (m.approach is None) != (self.first.approach is None):
             raise DataError(f"{m.source}: the approach column is missing in part of the data")
         self.progress = progress
-        self.distinct.add(m.q)
+        if self.distinct is not None:
+            self.distinct.add(m.q)
         self.pending.append(m)
         self.n_pending += m.n
         if self.maker is None:
@@ -389,7 +352,7 @@ class Accumulator:
         if self.tau_red is not None:
             system = self._with_torques(system, parts)
         system.n_poses = self.n_poses
-        system.distinct_poses = self.distinct.count
+        system.distinct_poses = None if self.distinct is None else self.distinct.count
         system.sources = [first.source]
         system.gravity_accel = self.options.gravity_accel
         return system
@@ -450,28 +413,36 @@ def _with_cop_offset(robot: Robot, ne: NormalEquations) -> NormalEquations:
     return NormalEquations(ata, atb, ne.yty, ne.n_rows, ne.n_poses)
 
 
-def accumulate_stances(
-    robot: Robot, sources, options: RowOptions = RowOptions(), progress=None
-) -> dict[str, System]:
-    """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
-    (validated): support → System over that stance's SESC vectors, each summed with its own
-    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
-    sources. ``pooled.accumulate_sources`` makes one system of them."""
-    systems: dict[str, System] = {}
-    before = 0
-    for chunks in sources:
-        accs: dict[str, Accumulator] = {}
-        start = before
-        report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
-        for m in chunks:
-            key = m.support or robot.support
-            if key not in accs:
-                accs[key] = Accumulator(robot.stance(m.support), options)
-            accs[key].add(m, report)
-        for key, acc in accs.items():
-            part = acc.finish()
-            before += part.n_poses
-            systems[key] = part if key not in systems else systems[key].merged(part)
-    if not systems:
-        raise DataError("no data to identify from")
-    return systems
+@one_blas_thread()
+def accumulate(
+    robot: Robot, chunks: Iterable[tuple], ne: NormalEquations | None = None
+) -> NormalEquations:
+    """The CoP's normal equations over vec(r) of one source given as chunks ``(q, cop)``,
+    ``(q, cop, sigma)`` or ``(q, cop, sigma, gravity)``: q (n, nq) [rad], cop (n, 2) [m], sigma
+    per-pose standard errors (n,) or (n, 2) [m] (weighted rows), gravity (n, 3) the per-pose
+    direction in the support frame (tilted rows); added to ``ne`` when given. The
+    ``Accumulator``'s sums (the same path and bits as ``identify``'s), for the planners and the
+    online estimator."""
+    acc: Accumulator | None = None
+    n_poses = 0
+    for chunk in chunks:
+        q = as_poses(chunk[0], robot.nq)
+        cop = check_cop(chunk[1], q.shape[0])
+        sigma = chunk[2] if len(chunk) > 2 else None
+        gravity = chunk[3] if len(chunk) > 3 else None
+        if acc is None:
+            acc = Accumulator(robot, RowOptions(weighted=sigma is not None), distinct=False)
+        elif acc.options.weighted != (sigma is not None):
+            raise DataError("sigma: give the CoP's standard errors with every chunk or with none")
+        se = None if sigma is None else cop_errors(sigma, q.shape[0])
+        g = None if gravity is None else np.asarray(gravity, dtype=float)
+        acc.add(Measurements(q=q, cop=cop, cop_se=se, gravity=g))
+        n_poses += q.shape[0]
+    if acc is None or n_poses == 0:
+        return ne or NormalEquations.empty(3 * len(robot.body_names))
+    part = acc.finish().parts[COP].ne
+    if ne is None:
+        return part
+    ne.add_sums(part)
+    ne.n_poses += part.n_poses
+    return ne

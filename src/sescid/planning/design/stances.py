@@ -45,7 +45,7 @@ def stance_robot(reference: Robot, stance: Stance) -> Robot:
 def theta_scale(robot: Robot) -> np.ndarray:
     """(4N,) D with θ = D θ̃: m̄_j = m_j + M / (10 N) [kg] for the masses, BODY_COM_SCALE · m̄_j
     [kg·m] for each first moment (module docstring)."""
-    from sescid.estimation.solvers.map import BODY_COM_SCALE
+    from sescid.estimation.solvers.map_prior import BODY_COM_SCALE
 
     m = robot.masses
     m_bar = m + m.sum() / (10 * m.size)

@@ -5,7 +5,7 @@ A MAP fit determines every direction of vec(r) (the prior fills what the data le
 masses are not a compromise: every r is reachable for any masses (a body's first moment h_i
 enters only its own r_i), and among the (m, h) with K·[m/M, h/(Mℓ)] = vec(r̂) and Σ m = M the
 step takes the one closest to CAD in the per-body prior's metric (mass std ∝ m̄_j = m_j + M/(10N),
-first-moment std ∝ m̄_j·ℓ_c, ``sescid.estimation.solvers.map.body_prior``) under the mass floor, the
+first-moment std ∝ m̄_j·ℓ_c, ``solvers.map_prior.body_prior``) under the mass floor, the
 CoM boxes and the mirror pairs. Without active constraints that is the posterior mean in body
 parameters of the fit's "bodies" prior, so a body the data never see keeps CAD's values.
 After the solve the first moments are recomputed from the masses in closed form,

@@ -8,7 +8,8 @@ import math
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.result.fit import BodyInertials, Fit
+from sescid.estimation.result.fit import Fit
+from sescid.estimation.result.records import BodyInertials
 from sescid.estimation.solvers.consistent.boxes import mirror_plane
 from sescid.estimation.solvers.consistent.qp import H_UNIT
 from sescid.robot import Robot
