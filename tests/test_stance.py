@@ -14,7 +14,7 @@ import sescid
 from sescid.errors import DataError, OptionError
 from sescid.estimation import Measurements
 from sescid.robots import example_path
-from sescid.stance import data_stance, parse_stance
+from sescid.stance import Stance, data_stance, parse_stance
 from sescid.tables import read_table, write_table
 
 TRUNK = "MP_BODY"
@@ -122,7 +122,13 @@ def test_measurements_of_a_stance_that_cannot_measure_them(op2):
         sescid.identify(op2, m)
     assert parse_stance("gantry:MP_BODY", op2).mount == "gantry"
     assert parse_stance(TRUNK, op2).mount == "gantry"
-    assert data_stance(op2, "stand:r_sole")[0] is None
+    own = Stance("r_sole", "stand")  # the reference's own support, in any spelling
+    assert data_stance(op2, "stand:r_sole") == data_stance(op2, None) == (own, op2)
+    # checked data carry it typed: a text resolved once, a Stance kept, the robot rooted there
+    left = Measurements(q=q, cop=np.zeros((20, 2)), support="stand:l_sole").checked(op2)
+    assert left.support == Stance("l_sole", "stand") == left.checked(op2).support
+    assert Measurements(q=q, cop=np.zeros((20, 2))).checked(op2).support == own
+    assert Measurements(q=q, support="double").stance_on(op2) == Stance("r_sole", "double")
     with pytest.raises(OptionError, match="support: .*unknown support 'toe'"):
         data_stance(op2, "toe", where="--support")
 

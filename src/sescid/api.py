@@ -216,7 +216,7 @@ def identify_payload(
         chunks = list(data)
     else:
         raise DataError("identify_payload: data must be files, Measurements or a list of them")
-    chunks = [c.only(opts.kinds).checked(robot.stance(c.support)) for c in chunks]
+    chunks = [c.only(opts.kinds).checked(robot) for c in chunks]
     popts = PayloadOptions(
         body, mass, opts.cop_noise, opts.tau_noise, opts.gravity_accel, opts.rtol
     )

@@ -207,7 +207,7 @@ class Robot:
         return load_robot(key, support, line)
 
     def stance(self, support: str | None) -> Robot:
-        """The robot of a measurement's stance (``Measurements.support``): itself for None,
+        """The robot of a stance's label (``sescid.stance.Stance.label``): itself for None,
         its own support or "double" (both feet, the CoP in this support's frame), else this
         model rooted at that frame (kept for the next call); ModelError naming an unknown
         frame."""

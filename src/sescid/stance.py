@@ -6,10 +6,12 @@ frame) or held by a link in a gantry (``gantry``: a trunk, where the mass splits
 Users write it as ``<frame>`` (standing on that sole; a trunk is held), ``double``,
 ``stand:<frame>`` or ``gantry:<frame>`` — on the command line (``--stances``, ``--support``,
 ``FILE@FRAME``), in a file's ``support`` column (any case of the header), a bag's stance topic,
-a pose plan — and ``parse_stance`` is the one parser of them all. Data carry a stance as its
-label (``Stance.label``: the frame, or ``double``) in ``Measurements.support``;
-``data_stance`` is the one check every labelled measurement passes: a frame of the model, whose
-stance can measure what the data hold (no CoP under a held trunk, no joint torques on both feet).
+a pose plan — and ``parse_stance`` is the one parser of them all. Data carry it typed
+(``Measurements.support``: a ``Stance`` once resolved, its own support's too); ``data_stance``
+resolves and checks every measurement's stance once, where the data meet the reference robot: a
+frame of the model, whose stance can measure what the data hold (no CoP under a held trunk, no
+joint torques on both feet). Text is its ``label`` (the frame, or ``double``) only where it is
+written out: a file's column, a fit's stances, messages.
 """
 
 from __future__ import annotations
@@ -33,8 +35,10 @@ __all__ = [
     "Stance",
     "data_stance",
     "held_trunk",
+    "own_stance",
     "parse_stance",
     "parse_stances",
+    "stance_robot",
     "support_column",
 ]
 
@@ -82,6 +86,18 @@ class Stance:
     def cannot(self, kind: str) -> str | None:
         """Why this stance cannot measure ``kind`` ("cop", "tau", "balance"), or None."""
         return _CANNOT.get(self.mount, {}).get(kind)
+
+
+def own_stance(robot: Robot) -> Stance:
+    """The stance of ``robot``'s own support: held there in a gantry when its mass splits at
+    that body (``held_trunk``), else standing on it."""
+    return Stance(robot.support, "gantry" if held_trunk(robot) else "stand")
+
+
+def stance_robot(reference: Robot, stance: Stance) -> Robot:
+    """The reference robot rooted at the stance's frame (on both feet: the reference itself;
+    ``Robot.stance``)."""
+    return reference.stance(stance.label)
 
 
 def held_trunk(robot: Robot) -> bool:
@@ -146,23 +162,32 @@ def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, 
 
 
 def data_stance(
-    reference: Robot, label: str | None, kinds: Iterable[str] = (), where: Where = "data"
-) -> tuple[str | None, Robot]:
-    """The stance of data labelled ``label`` (any ``parse_stance`` spelling; None: the
-    reference's own support) after the one check every measurement's stance passes: a frame of
-    the model, and a stance that can measure the data's ``kinds`` ("cop", "tau", "balance").
-    Returns its label as ``Measurements.support`` holds it (None for the reference's own
-    support) and the robot rooted there. ``where`` (a file and row, an option ``--…``) starts
-    each error: DataError, or OptionError for an option."""
+    reference: Robot,
+    given: Stance | str | None,
+    kinds: Iterable[str] = (),
+    where: Where = "data",
+) -> tuple[Stance, Robot]:
+    """The stance of data measured in ``given`` (a ``Stance``, any ``parse_stance`` spelling;
+    None: the reference's own support) after the one check every measurement's stance passes: a
+    frame of the model, and a stance that can measure the data's ``kinds`` ("cop", "tau",
+    "balance"). Returns the stance (``own_stance`` for any of the reference's own support) and
+    the robot rooted there. ``where`` (a file and row, an option ``--…``) starts each error:
+    DataError, or OptionError for an option."""
+    label = given.label if isinstance(given, Stance) else given  # a Stance checked before
     if label is None or label == reference.support:
-        return None, reference
-    stance = parse_stance(label, reference, where)
+        return own_stance(reference), reference
+    stance = given if isinstance(given, Stance) else parse_stance(given, reference, where)
+    try:
+        robot = stance_robot(reference, stance)
+    except ModelError as exc:
+        _refuse(where, str(exc))
     for kind in kinds:
         why = stance.cannot(kind)
         if why is not None:
             _refuse(where, f"'{stance.label}': {why}")
-    out = None if stance.label == reference.support else stance.label
-    return out, reference.stance(out)
+    if stance.label == reference.support:
+        return own_stance(reference), reference
+    return stance, robot
 
 
 def _refuse(where: Where, message: str) -> NoReturn:

@@ -133,7 +133,7 @@ def _read(data: Any, robot: Robot, label: str, known: set[str]) -> list[Measurem
                 "does not describe the robot the data were measured on"
             )
         out += list(read_measurements(path, robot, support=stance))
-    return [m.checked(robot if m.support is None else robot.stance(m.support)) for m in out]
+    return [m.checked(robot) for m in out]
 
 
 # --- the errors after a fit, cross-validated ------------------------------------------------
@@ -143,7 +143,7 @@ def _fold_ids(n: int, folds: int, seed: int) -> np.ndarray:
 
 def _held_out(fit, m: Measurements) -> dict[str, np.ndarray]:
     """Residuals per kind of a fit on held-out data ``m``."""
-    fs = for_support(fit, m.support) if m.support is not None else fit
+    fs = for_support(fit, m.stance_on(fit.robot).label)
     out = {}
     if m.cop is not None:
         pred = fs.predict_cop(m.q, m.gravity) + fit.cop_bias

@@ -25,6 +25,7 @@ from sescid.estimation.data.balance_rows import balance_rows
 from sescid.estimation.data.torque_rows import nuisance_names
 from sescid.estimation.solvers.map_prior import BODY_COM_SCALE
 from sescid.robot import Robot
+from sescid.stance import stance_robot
 
 #: singular values below this fraction of a block's largest count as not seen
 SEEN_RTOL = 1e-6
@@ -57,7 +58,7 @@ class KindRows:
 
 
 def _stance(robot: Robot, m: Measurements) -> Robot:
-    return robot if m.support is None else robot.stance(m.support)
+    return stance_robot(robot, m.stance_on(robot))
 
 
 def r_jacobian(e: np.ndarray, theta: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

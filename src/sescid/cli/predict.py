@@ -13,7 +13,7 @@ from sescid.estimation import (
     for_support,
     load_fit,
 )
-from sescid.stance import data_stance, support_column
+from sescid.stance import data_stance, own_stance, support_column
 from sescid.tables import read_poses, read_table, write_table
 
 
@@ -86,20 +86,20 @@ def _stances(fit, table, stance, line, files):
     if column is not None and column in table.text:
         labels = np.array([v.strip() for v in table.text[column]])
     if stance is not None:
-        label, _ = data_stance(fit.robot, stance, kinds, "--support")
+        given, _ = data_stance(fit.robot, stance, kinds, "--support")
         if labels is not None:
             for name in dict.fromkeys(labels.tolist()):
                 row = table.where(int(np.flatnonzero(labels == name)[0]))
                 said, _ = data_stance(fit.robot, name, kinds, f"{poses}: {row}, column '{column}'")
-                if said != label:
+                if said != given:
                     raise OptionError(
                         "support",
                         f"{stance}, but {poses}: {row}, column '{column}' says "
                         f"'{name}': drop --support (each row is predicted in its own stance) "
                         "or fix the column",
                     )
-        groups = {label: np.arange(table.n)}
-        where = {label: "--support"}
+        groups = {given: np.arange(table.n)}
+        where = {given: "--support"}
     elif labels is not None:
         groups, where = {}, {}
         for name in dict.fromkeys(labels.tolist()):
@@ -107,20 +107,18 @@ def _stances(fit, table, stance, line, files):
             at = f"{poses}: {table.where(int(rows[0]))}, column '{column}'"
             if not name:
                 raise DataError(f"{at} is empty (name the stance of every row, or of none)")
-            label, _ = data_stance(fit.robot, name, kinds, at)
-            groups.setdefault(label, []).append(rows)
-            where.setdefault(label, at)
+            st, _ = data_stance(fit.robot, name, kinds, at)
+            groups.setdefault(st, []).append(rows)
+            where.setdefault(st, at)
         groups = {k: np.sort(np.concatenate(v)) for k, v in groups.items()}
     else:
-        groups, where = {None: np.arange(table.n)}, {None: ""}
-    for label, rows in groups.items():
-        if label is None:
-            yield fit, rows
-            continue
+        groups, where = {own_stance(fit.robot): np.arange(table.n)}, {}
+    for st, rows in groups.items():
+        label = st.label
         try:
             yield for_support(fit, label), rows
         except DataError as exc:
-            at = where[label]
+            at = where.get(st, "")
             if at == "--support":
                 raise OptionError("support", f"{label}: {fit_file}: {exc}") from None
             raise DataError(f"{at}: '{label}': {fit_file}: {exc}") from None

@@ -64,10 +64,9 @@ def report(fit_file, measured, out_dir, stance, imu_link, force):
     fit = load_fit(fit_file)
     rows = None  # the stance of the rows reported: the fit's own support by default
     if stance is not None:
-        label, _ = data_stance(fit.robot, stance, (), "--support")  # one stance check
-        rows = label or fit.robot.support
+        rows, _ = data_stance(fit.robot, stance, (), "--support")  # one stance check
         try:
-            fit = for_support(fit, rows)  # both feet: the fit's own frame
+            fit = for_support(fit, rows.label)  # both feet: the fit's own frame
         except DataError as exc:
             raise OptionError("support", f"{stance}: {fit_file}: {exc}") from None
     common.echo_model_change(fit, fit_file)

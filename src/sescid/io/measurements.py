@@ -162,10 +162,11 @@ def read_measurements(
 ) -> Iterator[Measurements]:
     """The file's chunks as ``Measurements``, read once, as they are parsed (module docstring).
     ``report`` collects the poses outside the limits and whether the data are simulated;
-    ``support``: the stance of rows without a ``support`` column (None: the robot's own)."""
+    ``support``: the stance of rows without a ``support`` column (None: the robot's own); each
+    chunk carries its ``Stance``."""
     given = support
-    if support is not None:  # FILE@FRAME: the one stance check, naming the file and frame
-        support, _ = data_stance(robot, support, where=f"{path}@{support}")
+    # FILE@FRAME: the one stance check, naming the file and frame
+    stance, _ = data_stance(robot, support, where=f"{path}@{support}")
     rep = report if report is not None else ReadReport(str(path))
     at = None if given is None else f"{path}@{given}"
     for table in read_ahead(iter_table(path)):
@@ -184,7 +185,7 @@ def read_measurements(
                 f"{rep.limit_message()}; degrees in a radian column, or another "
                 "robot? (--allow-outside-limits accepts them)"
             )
-        yield from by_support(table, robot, dataclasses.replace(m, support=support), at)
+        yield from by_support(table, robot, dataclasses.replace(m, support=stance), at)
 
 
 def by_support(
@@ -216,15 +217,14 @@ def by_support(
         if not name:
             raise DataError(f"{where()} is empty (name the stance of every row, or of none)")
         part = m.take(rows)
-        support, _ = data_stance(robot, name, part.kinds, where)
-        if given is not None and support != m.support:
-            said = support or robot.support
+        stance, _ = data_stance(robot, name, part.kinds, where)
+        if given is not None and stance != m.support:
             raise DataError(
-                f"{where()} says '{said}', but {given} names the stance "
-                f"'{m.support or robot.support}': give the file without @ (its column says "
+                f"{where()} says '{stance.label}', but {given} names the stance "
+                f"'{m.stance_on(robot).label}': give the file without @ (its column says "
                 "each row's stance) or fix the column"
             )
-        yield dataclasses.replace(part, support=support)
+        yield dataclasses.replace(part, support=stance)
 
 
 def _count_missing(rep: ReadReport, table: Table, m: Measurements) -> None:

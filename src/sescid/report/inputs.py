@@ -26,6 +26,7 @@ from sescid.report.numbers import (
     support_leg_joints,
     torque_numbers,
 )
+from sescid.stance import Stance
 
 
 @dataclass(frozen=True)
@@ -120,13 +121,13 @@ def report_content(fit: Fit, data: Measurements, options: ReportOptions) -> Repo
 
 
 def read_report_data(
-    path: str | Path, fit: Fit, imu_link: str | None = None, stance: str | None = None
+    path: str | Path, fit: Fit, imu_link: str | None = None, stance: Stance | None = None
 ) -> tuple[Measurements, tuple[str, ...]]:
     """A measurement file's data for the fit's robot (any kinds it holds: ``cop_x``/``cop_y``,
     ``tau_<joint>``, ``approach``, gravity or IMU columns) and its pose ids (``pose`` column,
-    else row numbers). A file with a ``support`` column gives the rows of ``stance`` (a stance
-    label, "double" for both feet; default: the fit's support), its cells in any spelling of a
-    stance. Errors name the file and the column."""
+    else row numbers). A file with a ``support`` column gives the rows of ``stance`` (default:
+    the fit's support), its cells in any spelling of a stance. Errors name the file and the
+    column."""
     from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
     from sescid.stance import parse_stance, support_column
@@ -136,7 +137,7 @@ def read_report_data(
     data = measurements_of(table, fit.robot, imu_link)
     ids = pose_list_ids(table)
     column = support_column(table)
-    want = stance or fit.robot.support
+    want = fit.robot.support if stance is None else stance.label
     if column in table.text:  # the rows of that stance (the others: --support)
         cells = [v.strip() for v in table.text[column]]
         label = {v: parse_stance(v, fit.robot, f"{path}, column '{column}'").label

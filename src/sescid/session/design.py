@@ -29,7 +29,6 @@ from sescid.planning import (
     cop_half_extents,
     design_kinds,
     gantry_candidates,
-    held_trunk,
     identifiable_basis,
     kind_basis,
     min_block_poses,
@@ -39,12 +38,13 @@ from sescid.planning import (
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.session.records import SessionOptions
+from sescid.stance import own_stance
 
 
 def session_mount(robot: Robot, opt: SessionOptions) -> tuple[Mount, DesignKind]:
     """(mount, kinds planned for before the first measurement); OptionError for kinds a mount
     cannot give (a CoP in a gantry)."""
-    mount: Mount = opt.mount or ("gantry" if held_trunk(robot) else "stand")
+    mount: Mount = opt.mount or own_stance(robot).mount
     kinds: DesignKind
     if opt.kinds == "auto":
         kinds = "tau" if mount == "gantry" else "cop"

@@ -325,7 +325,7 @@ def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tu
         if kinds == "both" and meas.tau is None:
             kinds = "cop"
         m = pose_measurements(meas, kinds, f"{st.label} poses")
-        data.append(dataclasses.replace(m, support=st.label))
+        data.append(dataclasses.replace(m, support=st))
     if not data:
         raise DataError("the session measured no pose")
     torques = any(m.tau is not None for m in data)

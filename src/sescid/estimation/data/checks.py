@@ -20,8 +20,8 @@ from sescid.base.text import listed
 from sescid.errors import OptionError
 from sescid.estimation.data.anchor import com_distance
 from sescid.estimation.result.fit import Fit
-from sescid.model.sole import splits_at_support
 from sescid.robot import Robot
+from sescid.stance import held_trunk
 
 #: a weighed total mass must lie within this factor range of the model's (outside: a unit slip
 #: — grams, pounds — or another robot)
@@ -187,8 +187,7 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
             f"{_bands(fit)} bands): a band is never below zero — those torque sensors' sign is "
             "reversed, or their approach column is (+1: reached moving up)"
         )
-    held = splits_at_support([b.parent for b in fit.robot.model.bodies], fit.robot.masses)
-    if held and fit.kind("cop") is not None:
+    if held_trunk(fit.robot) and fit.kind("cop") is not None:
         out.append(
             f"{COP_ON_TRUNK}: the support '{fit.robot.support}' is where the robot's mass "
             "splits (held there in a gantry, it loads no foot), yet the data hold a CoP, "

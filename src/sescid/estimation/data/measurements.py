@@ -20,6 +20,7 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
+from sescid.stance import Stance, data_stance
 from sescid.tables.columns import MAX_ANGLE_RAD, MAX_COP_M, TORQUE_REACH_M, torque_bound
 
 #: poses a torque column's sign is checked on at most (spread over the data), and at least
@@ -55,9 +56,10 @@ class Measurements:
     direction last (static friction holds the torque on that side of the gravity torque);
     ``gravity`` (n, 3) the gravity direction in the support frame (None: level);
     ``cop_true`` (n, 2) m the noise-free CoP of simulated data; ``support`` the stance these
-    poses were measured in (a frame of the model: the other foot, a held link; "double": both
-    feet, the CoP of the whole robot in the robot's support frame; None: the robot's own
-    support); ``source`` names the data (a file) in error messages.
+    poses were measured in: a ``sescid.stance.Stance``; or its text (any ``parse_stance``
+    spelling: a frame of the model, "double", "gantry:<link>") or None (the robot's own
+    support), made a ``Stance`` by ``checked`` where the data meet the reference robot
+    (``identify``, the readers); ``source`` names the data (a file) in error messages.
     """
 
     q: np.ndarray
@@ -70,7 +72,7 @@ class Measurements:
     approach: np.ndarray | None = None
     gravity: np.ndarray | None = None
     cop_true: np.ndarray | None = None
-    support: str | None = None
+    support: Stance | str | None = None
     source: str = "data"
     #: pose i → where a file holds it ("row 7"; None: arrays, named "pose i" in errors)
     row_of: Callable[[int], str] | None = None
@@ -85,6 +87,13 @@ class Measurements:
         if self.row_of is not None:
             return f"{self.row_of(int(i))}, column '{column}'"
         return f"pose {int(i)}, {column}"
+
+    def stance_on(self, reference: Robot) -> Stance:
+        """The stance of these poses: ``support`` as checked data hold it, else resolved on
+        ``reference`` by the one stance check (``sescid.stance.data_stance``)."""
+        if isinstance(self.support, Stance):
+            return self.support
+        return data_stance(reference, self.support, self.kinds, self._first_row)[0]
 
     @property
     def n(self) -> int:
@@ -110,11 +119,14 @@ class Measurements:
         tau = len(self.tau_joints) * (self.tau is not None) * self.n
         return cop + tau + self.n * (self.balance is not None)
 
-    def checked(self, robot: Robot) -> Measurements:
-        """A validated copy: float64 C-contiguous arrays of the right shapes, finite values,
-        positive standard errors, known joints, ±1 approach sides (DataError naming the source,
-        the row and the column otherwise)."""
+    def checked(self, reference: Robot) -> Measurements:
+        """A validated copy: its stance resolved on ``reference`` by the one stance check
+        (``sescid.stance.data_stance``; ``support`` then a ``Stance``) and, on the robot rooted
+        there, float64 C-contiguous arrays of the right shapes, finite values, positive
+        standard errors, known joints, ±1 approach sides (DataError naming the source, the row
+        and the column otherwise)."""
         where = self.source
+        stance, robot = data_stance(reference, self.support, self.kinds, self._first_row)
         if robot.nq == 0:
             raise DataError(
                 f"{where}: {robot.name} has no joints: every pose is the same rigid body, and its "
@@ -187,6 +199,7 @@ class Measurements:
             _check_cop_rows(cop, tau is not None or balance is not None, where, self.at)
         return dataclasses.replace(
             self,
+            support=stance,
             q=q,
             cop=cop,
             cop_se=cop_se,
@@ -198,6 +211,10 @@ class Measurements:
             cop_true=cop_true,
             balance=balance,
         )
+
+    def _first_row(self) -> str:
+        """Where the data start, as a stance's error names it (a row number scans the file)."""
+        return self.source if self.row_of is None else f"{self.source}: {self.at(0)}"
 
     def _array(
         self,
@@ -374,6 +391,11 @@ def _check_cop_rows(cop: np.ndarray, other_kinds: bool, where: str, at=str) -> N
         )
 
 
+def _label(support: Stance | str | None) -> str:
+    """A stance as a message quotes it."""
+    return repr(support.label if isinstance(support, Stance) else support)
+
+
 def concatenate(parts: Sequence[Measurements]) -> Measurements:
     """One set from consecutive parts of the same data (same kinds, joints and columns)."""
     first = parts[0]
@@ -382,8 +404,8 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
     for p in parts[1:]:
         if p.support != first.support:
             raise DataError(
-                f"{p.source}: its parts were measured in different stances ('{first.support}', "
-                f"'{p.support}'); cannot be joined"
+                f"{p.source}: its parts were measured in different stances "
+                f"({_label(first.support)}, {_label(p.support)}); cannot be joined"
             )
         if p.kinds != first.kinds or p.tau_joints != first.tau_joints:
             raise DataError(f"{p.source}: its parts measure different things; cannot be joined")

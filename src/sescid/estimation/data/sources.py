@@ -21,29 +21,16 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import Measurements
 from sescid.robot import Robot
-from sescid.stance import data_stance
+from sescid.stance import Stance
 
 _FIELDS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
-
-
-def _checked(robot: Robot, m: Measurements) -> Measurements:
-    """``m`` validated on the robot of its stance, after the one stance check
-    (``sescid.stance.data_stance``; its support then the stance's label)."""
-
-    def where() -> str:  # made only when an error names it (a row number scans the file)
-        return m.source if m.row_of is None else f"{m.source}: {m.at(0)}"
-
-    support, stanced = data_stance(robot, m.support, m.kinds, where)
-    if support != m.support:
-        m = dataclasses.replace(m, support=support)
-    return m.checked(stanced)
 
 
 class MemorySource:
     """Measurements held in memory (validated once)."""
 
     def __init__(self, robot: Robot, data: Measurements):
-        self.data = _checked(robot, data)
+        self.data = data.checked(robot)
         self.name = data.source
 
     def chunks(self) -> Iterator[Measurements]:
@@ -86,7 +73,7 @@ class StreamSource:
         source, self._chunks = self._chunks, None
         self._spill = tempfile.TemporaryFile(prefix="sescid-")
         for chunk in source:
-            m = _checked(self.robot, chunk)
+            m = chunk.checked(self.robot)
             shapes = []
             for f in _FIELDS:
                 a = getattr(m, f)
@@ -160,8 +147,8 @@ def in_memory(robot: Robot, sources: list[Source]) -> list[Measurements]:
 
     out = []
     for s in sources:
-        stances: dict[str | None, list[Measurements]] = {}
+        stances: dict[Stance, list[Measurements]] = {}
         for part in s.chunks():  # one per stance of the source (a support column)
-            stances.setdefault(part.support, []).append(part)
+            stances.setdefault(part.stance_on(robot), []).append(part)
         out += [concatenate(parts) for parts in stances.values()]
     return out

@@ -306,10 +306,10 @@ def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     """Residuals per kind at validated data m: "cop" (n, 2) m net of a CoP offset, "tau"
     (n, J) N·m net of the sensor offsets and friction bands, "balance" (n,) rad; data of
     another stance with the fit seen there (``pooled.for_support``)."""
-    if m.support is not None and m.support != fit.robot.support:
+    if m.support is not None:  # the fit seen in their stance
         from sescid.estimation.sums.pooled import for_support
 
-        fit = for_support(fit, m.support)
+        fit = for_support(fit, m.stance_on(fit.robot).label)
     out: dict[str, np.ndarray] = {}
     if m.balance is not None and m.gravity is not None:
         from sescid.estimation.data.balance_rows import balance_residuals

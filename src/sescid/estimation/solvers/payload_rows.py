@@ -14,8 +14,9 @@ from sescid.estimation.data.balance_rows import MIN_RHO
 from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.sums.pooled import PARAM_UNIT
-from sescid.robot import DOUBLE, Robot
+from sescid.robot import Robot
 from sescid.sesc import gravity_ratios, line_across, line_distance
+from sescid.stance import stance_robot
 
 
 def base_parameters(fit: Fit | None, robot: Robot) -> tuple[np.ndarray, str]:
@@ -83,7 +84,7 @@ class PayloadRows:
 
 def rows_of(robot: Robot, ref: Robot, theta: np.ndarray, data: list[Measurements], g0: float,
             body: str, base_support: str | None = None) -> PayloadRows:  # fmt: skip
-    """The rows of validated data (each chunk in its stance, ``Measurements.support``) for a
+    """The rows of validated data (each chunk in its stance, ``Measurements.stance_on``) for a
     payload on the link ``body`` of ``ref`` with body parameters θ_b ``theta``, |g| ``g0``;
     ``base_support``: also each row's derivative in the base fit's r for rows of that stance."""
     dmap = payload_map(ref, body)
@@ -94,8 +95,8 @@ def rows_of(robot: Robot, ref: Robot, theta: np.ndarray, data: list[Measurements
     stances: list[str] = []
     per_pose = 0
     for m in data:
-        rs = robot.stance(m.support)
-        support = m.support or robot.support
+        stance = m.stance_on(robot)
+        rs, support = stance_robot(robot, stance), stance.label
         if support not in stances:
             stances.append(support)
         ks = rs.sesc_matrix(ref)
@@ -133,13 +134,8 @@ def rows_of(robot: Robot, ref: Robot, theta: np.ndarray, data: list[Measurements
                           np.einsum("na,nap->np", ndir, bm) / rho[:, None], 1.0,
                           {"jb": jb}))  # fmt: skip
             seen_here += 1
-        if TORQUE in m.kinds:
+        if TORQUE in m.kinds:  # not on both feet: ``Measurements.checked`` refuses it
             assert m.tau is not None
-            if support == DOUBLE:
-                raise DataError(
-                    f"{m.source}: joint torques on both feet are not determined by statics "
-                    "(measure them on one foot or in a fixture)"
-                )
             joints = list(m.tau_joints)
             phit = rs.torque_regressor(m.q, joints, m.gravity, g0)  # (n, J, 3N)
             t0, tb = phit @ kb, phit @ kd  # (n, J), (n, J, 4)

@@ -113,7 +113,7 @@ def joint_stats(
             st.yy += float(np.sum((m.tau / base) ** 2))
             st.rows[cols] += m.n
             st.k[cols] = 1 + (m.approach is not None)
-            if m.support is not None and m.support != fit.robot.support:
+            if m.stance_on(fit.robot).label != fit.robot.support:  # another stance's rows
                 st.leverage_ok = False
                 continue
             if unit is None:

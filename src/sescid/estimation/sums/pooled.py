@@ -39,8 +39,8 @@ from sescid.estimation.result.identifiability import (
 from sescid.estimation.solvers.solve import Solution, marginal_x
 from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
 from sescid.estimation.sums.system import Accumulator, KindSums, RowOptions, System
-from sescid.robot import DOUBLE, Robot
-from sescid.stance import Stance
+from sescid.robot import Robot
+from sescid.stance import Stance, own_stance, stance_robot
 
 #: ℓ, the length unit of the pooled first moments (m): keeps x's columns of one scale
 PARAM_UNIT = 0.1
@@ -94,28 +94,29 @@ def accumulate_sources(
     ``accumulate_stances``): over the robot's SESC vectors when every row was measured in
     its own support, else over the body parameters the stances share (``pooled``)."""
     systems = accumulate_stances(robot, sources, options or RowOptions(), progress)
-    if list(systems) == [robot.support]:
-        return systems[robot.support]
+    own = own_stance(robot)
+    if list(systems) == [own]:
+        return systems[own]
     return pooled(robot, systems)
 
 
 def accumulate_stances(
     robot: Robot, sources, options: RowOptions, progress=None
-) -> dict[str, System]:
+) -> dict[Stance, System]:
     """Each stance's system of several sources, each an iterable of ``Measurements`` chunks
-    (validated): support → System over that stance's SESC vectors, each summed with its own
-    robot (``Measurements.support``); ``progress(poses_done)`` counts the poses of all
+    (validated): stance → System over that stance's SESC vectors, each summed with its own
+    robot (``Measurements.stance_on``); ``progress(poses_done)`` counts the poses of all
     sources. ``accumulate_sources`` makes one system of them."""
-    systems: dict[str, System] = {}
+    systems: dict[Stance, System] = {}
     before = 0
     for chunks in sources:
-        accs: dict[str, Accumulator] = {}
+        accs: dict[Stance, Accumulator] = {}
         start = before
         report = None if progress is None else (lambda d, s0=start: progress(s0 + d))
         for m in chunks:
-            key = m.support or robot.support
+            key = m.stance_on(robot)
             if key not in accs:
-                accs[key] = Accumulator(robot.stance(m.support), options)
+                accs[key] = Accumulator(stance_robot(robot, key), options)
             accs[key].add(m, report)
         for key, acc in accs.items():
             part = acc.finish()
@@ -126,17 +127,20 @@ def accumulate_stances(
     return systems
 
 
-def pooled(robot: Robot, systems: dict[str, System]) -> System:
-    """The system over x of every stance's sums (support → its System over its r_s)."""
+def pooled(robot: Robot, systems: dict[Stance, System]) -> System:
+    """The system over x of every stance's sums (stance → its System over its r_s), each
+    kept under its label (``System.stances``, as a fit names its stances)."""
     lifted: dict[str, System] = {}
-    for support, system in systems.items():
-        if support == DOUBLE and TORQUE in system.kinds:  # data_stance refuses it first
-            raise DataError(str(Stance(robot.support, "double").cannot(TORQUE)))
+    for stance, system in systems.items():
+        why = stance.cannot(TORQUE) if TORQUE in system.kinds else None
+        if why is not None:  # data_stance refuses it first
+            raise DataError(why)
         if any(n.kind == "cop" for n in system.nuisance):
             raise DataError(
                 "a CoP offset (bias) per foot is not fitted across stances: fit one stance"
             )
-        lifted[support] = lift(system, stance_map(robot, support))
+        part, label = lift(system, stance_map(robot, stance.label)), stance.label
+        lifted[label] = lifted[label].merged(part) if label in lifted else part  # gantry:FOOT
     out: System | None = None
     for part in lifted.values():
         out = part if out is None else out.merged(part)
@@ -263,16 +267,17 @@ def body_fit(robot: Robot, system: System, sol: Solution, x: np.ndarray, cov: np
 
 def for_support(fit, support: str):
     """The pooled ``fit`` seen in another stance (its robot, r_s, covariance, determined
-    subspace and the information on it); the fit itself for its own support."""
-    if support in (fit.robot.support, DOUBLE) or fit.bodies is None:
-        if support not in (fit.robot.support, DOUBLE):
-            raise DataError(
-                f"the fit was made in one stance ('{fit.robot.support}'): it has no body "
-                "parameters to predict another stance with (pool the stances' data)"
-            )
+    subspace and the information on it); the fit itself for its own support (``support``: a
+    stance's label, as the fit names its stances)."""
+    robot = fit.robot.stance(support)
+    if robot is fit.robot:  # its own support, or both feet in its frame
         return fit
     b = fit.bodies
-    robot = fit.robot.stance(support)
+    if b is None:
+        raise DataError(
+            f"the fit was made in one stance ('{fit.robot.support}'): it has no body "
+            "parameters to predict another stance with (pool the stances' data)"
+        )
     lmap = stance_map(fit.robot, support)
     r = (lmap @ b.x).reshape(-1, 3)
     cov = lmap @ b.cov @ lmap.T

@@ -57,9 +57,8 @@ def _torque_nuisance(fit: Fit, m: Measurements) -> tuple[np.ndarray, np.ndarray]
 
 def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, float, float, int]]:
     """(kind, Σ|e|, Σe², rows) of one block, and ("truth", 0, Σd², rows) for a simulation;
-    a block of another stance (``Measurements.support``) with the fit seen there."""
-    if m.support is not None and m.support != fit.robot.support:
-        fit = _stance_fit(fit, m.support)
+    a block of another stance (``Measurements.stance_on``) with the fit seen there."""
+    fit = _stance_fit(fit, m.stance_on(fit.robot).label)
     out: list[tuple[str, float, float, int]] = []
     if m.balance is not None:
         assert m.gravity is not None

@@ -29,17 +29,11 @@ import numpy as np
 
 from sescid.planning.design.kinds import DesignKinds
 from sescid.robot import Robot
-from sescid.stance import Stance, parse_stances
+from sescid.stance import Stance, parse_stances, stance_robot
 
 __all__ = ["Stance", "StanceRows", "parse_stances", "stance_robot", "theta_information"]
 #: poses per block of rows (bounds the memory of Φ_τ: block × J × 4N)
 ROW_BLOCK = 1_000
-
-
-def stance_robot(reference: Robot, stance: Stance) -> Robot:
-    """The reference robot rooted at the stance's frame (on both feet: the reference itself;
-    ``Robot.stance``)."""
-    return reference.stance(stance.label)
 
 
 def theta_scale(robot: Robot) -> np.ndarray:

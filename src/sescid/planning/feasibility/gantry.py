@@ -35,7 +35,7 @@ from sescid.planning.feasibility.ground import clear_above, ground_checks, lowes
 from sescid.planning.feasibility.limits import sampling_limits
 from sescid.planning.feasibility.stability import DEFAULT_CLEARANCE
 from sescid.robot import Robot
-from sescid.stance import held_trunk
+from sescid.stance import own_stance
 
 #: m: by default the held robot's lowest point hangs this far above the floor at the zero pose
 GANTRY_LIFT = 0.05
@@ -56,11 +56,11 @@ class GantryOptions:
 
 
 def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
-    """The plan's mount: ``mount``, or from the support (``held_trunk``: gantry, else stand);
+    """The plan's mount: ``mount``, or the support's own (``own_stance``: gantry at a trunk);
     OptionError for a CoP design on a gantry (a held robot loads no foot) and for torques on
     both feet."""
     if mount is None:
-        mount = "gantry" if held_trunk(robot) else "stand"
+        mount = own_stance(robot).mount
     check_choice("mount", mount, Mount)
     if mount == "double" and kinds != "cop":
         raise OptionError(
