@@ -173,21 +173,17 @@ def data_stance(
     "balance"). Returns the stance (``own_stance`` for any of the reference's own support) and
     the robot rooted there. ``where`` (a file and row, an option ``--…``) starts each error:
     DataError, or OptionError for an option."""
-    label = given.label if isinstance(given, Stance) else given  # a Stance checked before
+    label = given.label if isinstance(given, Stance) else given
     if label is None or label == reference.support:
         return own_stance(reference), reference
-    stance = given if isinstance(given, Stance) else parse_stance(given, reference, where)
-    try:
-        robot = stance_robot(reference, stance)
-    except ModelError as exc:
-        _refuse(where, str(exc))
+    stance = given if isinstance(given, Stance) else parse_stance(label, reference, where)
     for kind in kinds:
         why = stance.cannot(kind)
         if why is not None:
             _refuse(where, f"'{stance.label}': {why}")
     if stance.label == reference.support:
         return own_stance(reference), reference
-    return stance, robot
+    return stance, stance_robot(reference, stance)
 
 
 def _refuse(where: Where, message: str) -> NoReturn:

@@ -47,8 +47,7 @@ def _log_stances(
         for name in dict.fromkeys(labels.tolist()):
             if name not in names and name not in rename:
                 at = f"{raw}: {table.where(int(np.flatnonzero(labels == name)[0]))}"
-                data_stance(robot, name, (), f"{at}, column '{column}'")
-                label = parse_stance(name, robot, at).label
+                label = data_stance(robot, name, (), f"{at}, column '{column}'")[0].label
                 names.setdefault(label, at)
                 if label != name:
                     rename[name] = label

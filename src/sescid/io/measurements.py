@@ -164,8 +164,7 @@ def read_measurements(
     ``report`` collects the poses outside the limits and whether the data are simulated;
     ``support``: the stance of rows without a ``support`` column (None: the robot's own); each
     chunk carries its ``Stance``."""
-    given = support
-    # FILE@FRAME: the one stance check, naming the file and frame
+    given = support  # FILE@FRAME: the one stance check, naming the file and frame
     stance, _ = data_stance(robot, support, where=f"{path}@{support}")
     rep = report if report is not None else ReadReport(str(path))
     at = None if given is None else f"{path}@{given}"
@@ -218,11 +217,11 @@ def by_support(
             raise DataError(f"{where()} is empty (name the stance of every row, or of none)")
         part = m.take(rows)
         stance, _ = data_stance(robot, name, part.kinds, where)
-        if given is not None and stance != m.support:
+        said = m.stance_on(robot).label
+        if given is not None and stance.label != said:
             raise DataError(
-                f"{where()} says '{stance.label}', but {given} names the stance "
-                f"'{m.stance_on(robot).label}': give the file without @ (its column says "
-                "each row's stance) or fix the column"
+                f"{where()} says '{stance.label}', but {given} names the stance '{said}': give "
+                "the file without @ (its column says each row's stance) or fix the column"
             )
         yield dataclasses.replace(part, support=stance)
 

@@ -391,11 +391,6 @@ def _check_cop_rows(cop: np.ndarray, other_kinds: bool, where: str, at=str) -> N
         )
 
 
-def _label(support: Stance | str | None) -> str:
-    """A stance as a message quotes it."""
-    return repr(support.label if isinstance(support, Stance) else support)
-
-
 def concatenate(parts: Sequence[Measurements]) -> Measurements:
     """One set from consecutive parts of the same data (same kinds, joints and columns)."""
     first = parts[0]
@@ -405,7 +400,7 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
         if p.support != first.support:
             raise DataError(
                 f"{p.source}: its parts were measured in different stances "
-                f"({_label(first.support)}, {_label(p.support)}); cannot be joined"
+                f"({first.support!r}, {p.support!r}); cannot be joined"
             )
         if p.kinds != first.kinds or p.tau_joints != first.tau_joints:
             raise DataError(f"{p.source}: its parts measure different things; cannot be joined")
