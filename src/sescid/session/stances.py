@@ -172,8 +172,8 @@ class StanceDesign(KindSwitch):
         """The kinds a measurement in stance ``k`` gives the session; DataError when it lacks
         what that stance was planned for."""
         st = self.stances[k]
-        want_cop = self.kinds in ("cop", "both") and st.mount != "gantry"
-        want_tau = self.kinds in ("tau", "both") and st.mount != "double"
+        want_cop = self.kinds in ("cop", "both") and st.cannot("cop") is None
+        want_tau = self.kinds in ("tau", "both") and st.cannot("tau") is None
         if want_cop and not cop:
             raise DataError(f"pose {pose} ({st.label}): the adapter logs no loaded foot sensor")
         if want_tau and not tau:

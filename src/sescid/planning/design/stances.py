@@ -54,8 +54,8 @@ class StanceRows:
         self.robot = stance_robot(reference, stance)
         self.e = self.robot.sesc_matrix(reference) * theta_scale(reference)[None, :]  # (3N, 4N)
         self.mass = float(total_mass)
-        self.cop = spec.has_cop and stance.mount != "gantry"
-        self.tau = spec.has_tau and stance.mount != "double"
+        self.cop = spec.has_cop and stance.cannot("cop") is None
+        self.tau = spec.has_tau and stance.cannot("tau") is None
         self.width = self.e.shape[1] + spec.n_nuisance  #: columns: 4N + J
 
     @property
