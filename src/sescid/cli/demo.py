@@ -11,6 +11,7 @@ from sescid.base import OutputSet
 from sescid.cli import common
 from sescid.estimation import save_fit
 from sescid.report import mm
+from sescid.robot import Robot
 from sescid.simulation import PAPER_MAE, PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG
 
 
@@ -78,7 +79,7 @@ def demo(robot_name, support, out_dir, poses, range_deg, noise, seed, force):
     echo(f"wrote {Path(out_dir) / 'fit.json'}, fig3a_r_magnitudes.png, fig3b_cop.png, summary.csv")
 
 
-def _demo_files(robot, st, out: Path) -> None:
+def _demo_files(robot: Robot, st, out: Path) -> None:
     """The demo's fit, figures and summary, written into ``out``."""
     from sescid.report import plot_cop_comparison, plot_r_magnitudes, run_figures
     from sescid.tables import write_table

@@ -21,7 +21,7 @@ from sescid.bench import (
 from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import DataError, OptionError
-from sescid.robot import DOUBLE
+from sescid.robot import DOUBLE, Robot
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
 from sescid.stance import parse_stance, support_column
 from sescid.tables import read_poses, read_table, write_table
@@ -134,7 +134,7 @@ def experiment(**opts):
     _report(ex, len(q), opts, pads=sensors is not None)
 
 
-def plan_rows(table, robot, stance: str, poses_file) -> np.ndarray:
+def plan_rows(table, robot: Robot, stance: str, poses_file) -> np.ndarray:
     """The rows of a pose list the bench measures in its ``stance`` (the robot's support, or
     "double"): every row, unless the list's ``support`` column names stances — then the rows
     planned for this one (each planned stance is measured in its own run); an error when none

@@ -13,14 +13,14 @@ from sescid.base import G0, OutputSet, listed
 from sescid.cli import common
 from sescid.errors import DataError
 from sescid.report import mm
-from sescid.robot import DOUBLE
+from sescid.robot import DOUBLE, Robot
 from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors, pose_list_ids
 from sescid.stance import data_stance, parse_stance, support_column
 from sescid.tables import SUPPORT_COLUMN, Table, iter_table, pose_ids, read_table, write_table
 
 
 def _log_stances(
-    raw: str, robot, support: str | None, plan=None
+    raw: str, robot: Robot, support: str | None, plan=None
 ) -> tuple[list[str], dict[str, str]]:
     """The stances of a raw log (its ``support`` column in any case, in order of appearance;
     empty without the column) as their labels (``Stance.label``), each passing the one stance
@@ -91,7 +91,9 @@ def _relabelled(tables: Iterable[Table], rename: dict[str, str]) -> Iterator[Tab
         yield table
 
 
-def _check_plan(raw: str, plan, measured: dict[str, tuple[str, Callable[[], str]]], robot) -> None:
+def _check_plan(
+    raw: str, plan, measured: dict[str, tuple[str, Callable[[], str]]], robot: Robot
+) -> None:
     """DataError for a pose the log measured in another stance than the plan (``plan``, the
     pose list, with a ``support`` column, in any spelling of a stance) put it on."""
     column = support_column(plan)

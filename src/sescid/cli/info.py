@@ -6,6 +6,7 @@ import click
 import numpy as np
 
 from sescid.cli import common
+from sescid.robot import Robot
 
 
 @click.command()
@@ -72,7 +73,7 @@ def _echo_feet(feet, unread: str | None = None, lost: bool = False) -> None:
         click.echo(f"  {f.describe()}")
 
 
-def _echo_inertias(robot) -> None:
+def _echo_inertias(robot: Robot) -> None:
     """Every link whose CAD inertia tensor is a point mass's or not physical, by how much."""
     from sescid.model import inertia_problems
 

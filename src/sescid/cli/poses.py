@@ -25,10 +25,11 @@ from sescid.planning import (
     stance_robot,
 )
 from sescid.report import design_figure, mm
+from sescid.robot import Robot
 from sescid.tables import write_table
 
 
-def _sole_notes(robot, capsules) -> list[str]:
+def _sole_notes(robot: Robot, capsules) -> list[str]:
     """Where the soles came from and what the floor check left out (any robot)."""
     from sescid.planning import ground_checks
 
@@ -179,7 +180,7 @@ def poses(**o):
         click.echo(f"wrote {figure}")
 
 
-def _echo_plan(robot, plan, opt: PlanOptions, table_notes: list[str]) -> None:
+def _echo_plan(robot: Robot, plan, opt: PlanOptions, table_notes: list[str]) -> None:
     """What the plan found: the candidates, the checks, notes, the expected error, the path."""
     echo = click.echo
     half = None if plan.mount == "gantry" else plan.candidates.half_extents
@@ -222,7 +223,7 @@ def _echo_plan(robot, plan, opt: PlanOptions, table_notes: list[str]) -> None:
     )
 
 
-def _payload_plan(o, robot, pc, outs: OutputSet) -> None:
+def _payload_plan(o, robot: Robot, pc, outs: OutputSet) -> None:
     """Poses --payload: the poses that determine a payload best, and their table."""
     if o["stances"] is not None or o["mount"] is not None or o["select"] != "d-optimal":
         raise OptionError("payload", "--payload plans D-optimal poses on the --support foot")
@@ -261,14 +262,14 @@ def _error_line_payload(kinds: str, sigma: float, tau_noise: float) -> str:
     return ", ".join(parts + ([f"σ_τ = {tau_noise:g} N·m"] if kinds != "cop" else []))
 
 
-def _stance_check(stance, robot):
+def _stance_check(stance, robot: Robot):
     """The MuJoCo standing check of a stance on its foot or feet (None held in a gantry)."""
     from sescid.bench import standing_check
 
     return None if stance.mount == "gantry" else standing_check(robot, stance.mount == "double")
 
 
-def _write_stance_plan(robot, sp, out: str, outs: OutputSet, pc) -> None:
+def _write_stance_plan(robot: Robot, sp, out: str, outs: OutputSet, pc) -> None:
     """Print a plan over several stances and write its pose table (with ``support``)."""
     echo = click.echo
     for rep in sp.reports:

@@ -16,6 +16,7 @@ from sescid.cli.flags import flags, record
 from sescid.errors import MissingExtraError, OptionError
 from sescid.planning import parse_stances, stance_robot
 from sescid.report import mm
+from sescid.robot import Robot
 from sescid.session import SessionOptions, session_mount
 
 
@@ -239,7 +240,7 @@ def session_options(opts: dict) -> SessionOptions:
     )
 
 
-def _adapter(robot, opts, opt):
+def _adapter(robot: Robot, opts, opt):
     """The robot adapter, the sensor layout and the journal header; the outputs checked."""
     from sescid.base import check_outputs
     from sescid.io import SESSION_FILES
@@ -253,7 +254,7 @@ def _adapter(robot, opts, opt):
     ]
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise OptionError("out_dir", f"{out_dir}: exists and is not a folder")
-    outputs = [Path(out_dir) / name for name in SESSION_FILES]
+    outputs: list[str | Path | None] = [Path(out_dir) / name for name in SESSION_FILES]
     check_outputs(outputs, inputs, force=opts["force"], folders=[out_dir])
     bench = adapter in ("mujoco", "kinematic")
     if bench:
@@ -288,7 +289,7 @@ def _replay_files(adapter: str, replay_path: str | None) -> tuple[Path | None, P
     return rp / "raw.csv", rp / "poses.csv" if (rp / "poses.csv").exists() else None
 
 
-def _bot(robot, opts, sensors, opt: SessionOptions):
+def _bot(robot: Robot, opts, sensors, opt: SessionOptions):
     """The robot the session commands: a bench, a recorded session, or the user's class."""
     from sescid.io import read_session_reasons
     from sescid.session import KinematicAdapter, MujocoAdapter, ReplayAdapter, load_adapter_class
@@ -317,7 +318,7 @@ def _bot(robot, opts, sensors, opt: SessionOptions):
     raise OptionError("adapter", f"'{adapter}': mujoco, kinematic, replay or python:MODULE:CLASS")
 
 
-def _write(res, robot, out_dir, view, opts) -> None:
+def _write(res, robot: Robot, out_dir, view, opts) -> None:
     from sescid.io import write_session
 
     written = write_session(res, robot, out_dir)

@@ -13,6 +13,7 @@ from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.planning import DesignKind
+from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
 #: what ``simulate`` measures: a design's kinds, or the balancing tilts of a robot on a line
@@ -127,7 +128,7 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         )
 
 
-def _real_line(robot, true_mass: float, placed: list[dict]) -> str:
+def _real_line(robot: Robot, true_mass: float, placed: list[dict]) -> str:
     """What the simulated robot is: the model, or the model plus its unmodelled masses."""
     import math
 
@@ -144,7 +145,7 @@ def _real_line(robot, true_mass: float, placed: list[dict]) -> str:
     )
 
 
-def _balance(robot, draw: tuple[int, float, int], noise_deg: float, r_true, outs, out):
+def _balance(robot: Robot, draw: tuple[int, float, int], noise_deg: float, r_true, outs, out):
     """Balanced poses of the real robot (SESC vectors ``r_true``) on its line: joints, measured
     gravity, the true tilt; ``draw``: poses, range [degrees], seed."""
     import math

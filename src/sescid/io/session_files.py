@@ -23,6 +23,7 @@ from sescid.base.files import atomic_open, check_outputs, read_json
 from sescid.errors import SescidError
 from sescid.estimation.result.fit_json import save_fit
 from sescid.io.pose_table import pose_table
+from sescid.robot import Robot
 from sescid.tables import write_table
 
 SESSION_FORMAT = "sescid-session/1"
@@ -59,7 +60,7 @@ def read_session_reasons(folder: Path) -> dict[str, str]:
     return {str(s["pose"]): str(s["reason"]) for s in doc.get("steps", []) if s.get("reason")}
 
 
-def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
+def write_session(result, robot: Robot, out_dir: str | Path) -> dict[str, Path]:
     """Write the session's five files into ``out_dir`` (atomically); their paths."""
     paths = session_paths(out_dir)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
@@ -123,7 +124,7 @@ def write_session(result, robot, out_dir: str | Path) -> dict[str, Path]:
     return paths
 
 
-def _stance_cops(robot, result, labels: np.ndarray) -> np.ndarray:
+def _stance_cops(robot: Robot, result, labels: np.ndarray) -> np.ndarray:
     """(k, 2) each commanded pose's model CoP [m] in its stance's frame (nan: held)."""
     out = np.full((len(labels), 2), np.nan)
     for st in result.stances:

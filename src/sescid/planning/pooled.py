@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import cast
 
 import numpy as np
 
@@ -91,7 +92,7 @@ def _rank(info: np.ndarray, n_theta: int, rtol: float) -> int:
 class _Pool:
     """Every stance's candidates, rows and information."""
 
-    def __init__(self, robot, stances, spec, opt, seed, progress):
+    def __init__(self, robot: Robot, stances, spec, opt, seed, progress):
         self.robot, self.stances, self.spec = robot, stances, spec
         lim, self.free, _ = sampling_range(robot, opt)
         n = opt.n_candidates
@@ -114,7 +115,7 @@ class _Pool:
         self.q = [c.q[:n] for c in self.cand]
         self.info = [r.information(q) for r, q in zip(self.rows, self.q, strict=True)]
         self.basis = identifiable_eigen(
-            theta_information(sum(self.info), self.n_theta), DEFAULT_RTOL
+            theta_information(cast(np.ndarray, sum(self.info)), self.n_theta), DEFAULT_RTOL
         )[1]
         self.x = [r.projected(q, self.basis) for r, q in zip(self.rows, self.q, strict=True)]
         self.x_all = np.concatenate(self.x)

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sescid.base.files import atomic_path
+from sescid.robot import Robot
 from sescid.robots import body_table
 
 if TYPE_CHECKING:
@@ -51,7 +52,7 @@ def save_figure(fig, path, margins=MARGINS, **space: float) -> None:
         fig.savefig(tmp, format="png", dpi="figure", pil_kwargs={"compress_level": 3})
 
 
-def _table(robot) -> list[dict[str, str]] | None:
+def _table(robot: Robot) -> list[dict[str, str]] | None:
     """The profile's paper Table 1 when it names exactly the robot's bodies."""
     rows = body_table(robot.profile)
     if rows is None or sorted(r["link"] for r in rows) != sorted(robot.body_names):
@@ -59,7 +60,7 @@ def _table(robot) -> list[dict[str, str]] | None:
     return rows
 
 
-def body_labels(robot) -> list[str]:
+def body_labels(robot: Robot) -> list[str]:
     """Body labels for plots: the paper's Table 1 index where the profile has it, else names."""
     rows = _table(robot)
     if rows is None:
@@ -68,7 +69,7 @@ def body_labels(robot) -> list[str]:
     return [f"{index[b]}" for b in robot.body_names]
 
 
-def paper_order(robot) -> np.ndarray:
+def paper_order(robot: Robot) -> np.ndarray:
     """Body indices in the paper's Table 1 order where the profile has it (else identity)."""
     rows = _table(robot)
     if rows is None:
@@ -194,7 +195,7 @@ def plot_residuals(idx, measured, predicted: dict, path, title=None, labels=None
     save_figure(fig, path, wspace=0.12, hspace=0.35)  # the histograms' own tick labels between
 
 
-def sole_x_range(robot) -> tuple[float, float]:
+def sole_x_range(robot: Robot) -> tuple[float, float]:
     """The x extent [m] of the support sole in the support frame (the profile's or the geometry's;
     ±SOLE_FALLBACK without a sole)."""
     sole = robot.sole
@@ -204,7 +205,7 @@ def sole_x_range(robot) -> tuple[float, float]:
     return float(corners[:, 0].min()), float(corners[:, 0].max())
 
 
-def plot_side_view(robot, q, cop, coms: dict, path, labels=None) -> None:
+def plot_side_view(robot: Robot, q, cop, coms: dict, path, labels=None) -> None:
     """Stick figures (x–z, support frame) of a few poses with CoM(s) and the measured CoP.
 
     ``q`` (k, nq) rad, ``cop`` (k, 2) m or None (no CoP measured), ``coms`` label → (k, 3) m.

@@ -17,6 +17,7 @@ import numpy as np
 
 from sescid.errors import MissingExtraError, OptionError
 from sescid.planning import collision_capsules, cop_half_extents
+from sescid.robot import Robot
 from sescid.session.loop import BODY_PRIOR_SCALE, SessionObserver, SessionStep
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
@@ -43,7 +44,7 @@ def uncertainty_colors(body_std: np.ndarray | None, n: int) -> np.ndarray:
 class LiveView(SessionObserver):
     """A viser server on the loopback interface, updated by the session's observer hooks."""
 
-    def __init__(self, robot, host: str = "127.0.0.1", port: int = 8080):
+    def __init__(self, robot: Robot, host: str = "127.0.0.1", port: int = 8080):
         if host not in LOOPBACK:
             raise OptionError("host", f"the live view serves localhost only, not '{host}'")
         viser = _viser()

@@ -23,6 +23,7 @@ import numpy as np
 
 from sescid.planning import collision_capsules
 from sescid.report.view3d_script import SCRIPT
+from sescid.robot import Robot
 
 #: limb groups and their colours (support foot, support leg, trunk, then the other limbs)
 SUPPORT_FOOT, SUPPORT_LEG, TRUNK = 0, 1, 2
@@ -32,7 +33,7 @@ LIMB_COLOURS = ["#e07b00", "#3c8d93", "#8a8f98", "#5b9bd5", "#8e6bbf", "#6aa84f"
 HELD_CLEARANCE = 0.02
 
 
-def limb_groups(robot) -> list[int]:
+def limb_groups(robot: Robot) -> list[int]:
     """A group per body: ``SUPPORT_FOOT`` (the support body), ``SUPPORT_LEG`` (between it and
     the trunk, the model file's root), ``TRUNK``, then one group per other limb (a subtree
     hanging from the trunk or the support leg), numbered from 3."""
@@ -58,7 +59,7 @@ def limb_groups(robot) -> list[int]:
     return group
 
 
-def _sole_corners(robot) -> list[list[float]] | None:
+def _sole_corners(robot: Robot) -> list[list[float]] | None:
     sole = robot.sole
     if sole is None:
         return None
@@ -68,7 +69,7 @@ def _sole_corners(robot) -> list[list[float]] | None:
     return np.round(corners[np.argsort(turn)] * 1e3, 1).tolist()  # around the sole, in order
 
 
-def scene_data(robot, q, com, cop, cop_fit, labels) -> dict:
+def scene_data(robot: Robot, q, com, cop, cop_fit, labels) -> dict:
     """The view's JSON: per pose capsule segments and body origins, CoM, CoPs (mm, support
     frame; ``cop``/``cop_fit`` (n, 2) m or None without CoP data), limbs and the sole."""
     q = np.asarray(q, dtype=float)

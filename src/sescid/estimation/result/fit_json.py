@@ -35,7 +35,7 @@ from sescid.estimation.result import records
 from sescid.estimation.result.fit import METHODS, Combination, Fit, Method
 from sescid.estimation.result.notes import fit_notes
 from sescid.estimation.result.payload_record import payload_from_json, payload_to_json
-from sescid.robot import load_robot
+from sescid.robot import Robot, load_robot
 
 FIT_FORMAT = "sescid-fit/3"
 FIT_FORMAT_V2 = "sescid-fit/2"
@@ -405,7 +405,7 @@ MODEL_CHANGED = "the model changed since this fit"
 MODEL_TOL_MASS, MODEL_TOL_R = 1e-9, 1e-9
 
 
-def _model_change(path: Path, meta: dict, robot) -> str | None:
+def _model_change(path: Path, meta: dict, robot: Robot) -> str | None:
     """A ``MODEL_CHANGED`` warning when the model's total mass or SESC vectors differ from the
     ones stored at fit time (files without them: None)."""
     mass0 = float(meta["total_mass"])

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sescid.robot import Robot
+
 if TYPE_CHECKING:  # pragma: no cover
     from sescid.estimation.result.fit import Fit
 
@@ -40,7 +42,7 @@ class TiltDirection:
         return self.std / abs(self.value) if self.value else math.inf
 
 
-def level_basis(robot) -> np.ndarray:
+def level_basis(robot: Robot) -> np.ndarray:
     """(3N, p) orthonormal basis of the x/y rows' structural row space (a level sole)."""
     g = robot.reduction.g
     u, s, _ = np.linalg.svd(g.T, full_matrices=False)

@@ -114,14 +114,18 @@ def _outlying(fit: Fit, sources) -> bool:
     return False
 
 
-def _held(robot, sources, memory: list[Measurements] | None) -> list[Any]:
+def _held(robot: Robot, sources, memory: list[Measurements] | None) -> list[Any]:
     """The data as sources: in memory where they are held there, else the sources themselves
     (re-read on each pass)."""
     return sources if memory is None else [HeldSource(robot, m) for m in memory]
 
 
 def _huber(
-    robot, method: MethodOptions, opts: IdentifyOptions, sources, memory: list[Measurements] | None
+    robot: Robot,
+    method: MethodOptions,
+    opts: IdentifyOptions,
+    sources,
+    memory: list[Measurements] | None,
 ) -> Fit:
     """Huber IRLS around ``method``: over the sources, re-read each step (flat memory), or on
     the data in memory where the method needs them there (cross-validation)."""
@@ -165,7 +169,9 @@ def _per_joint(opts: IdentifyOptions) -> bool:
     )
 
 
-def _joint_noise(robot, method: MethodOptions, opts: IdentifyOptions, sources, memory, first: Fit):
+def _joint_noise(
+    robot: Robot, method: MethodOptions, opts: IdentifyOptions, sources, memory, first: Fit
+):
     """Feasible GLS of the torque rows (``torque_noise.per_joint_noise``) from a plain fit
     ``first``: the sources (and the data in memory) with each joint's σ_j as its rows'
     standard errors, the options that weigh them, the records and the last plain fit."""

@@ -343,7 +343,9 @@ def fold_systems(
     return out
 
 
-def with_extras(robot, method: MethodOptions, opts: IdentifyOptions, fit: Fit, memory) -> Fit:
+def with_extras(
+    robot: Robot, method: MethodOptions, opts: IdentifyOptions, fit: Fit, memory
+) -> Fit:
     """Cross-validation and the joint-noise Monte Carlo of the fitted method."""
     if opts.cv is None and opts.joint_noise is None:
         return fit
@@ -374,7 +376,7 @@ def with_extras(robot, method: MethodOptions, opts: IdentifyOptions, fit: Fit, m
     return dataclasses.replace(fit, **changes)
 
 
-def fit_with_gains(robot, method: MethodOptions, opts: IdentifyOptions, memory) -> Fit:
+def fit_with_gains(robot: Robot, method: MethodOptions, opts: IdentifyOptions, memory) -> Fit:
     """The fit with a gain per torque sensor (``gains.with_gains``, Gauss–Newton)."""
     from sescid.estimation.solvers.gains import with_gains
 
@@ -399,7 +401,7 @@ def fit_with_gains(robot, method: MethodOptions, opts: IdentifyOptions, memory) 
 
 
 def fit_online(
-    robot, method: MethodOptions, opts: IdentifyOptions, memory: list[Measurements]
+    robot: Robot, method: MethodOptions, opts: IdentifyOptions, memory: list[Measurements]
 ) -> Fit:
     """The recursive estimator over the poses in order, ``online_step`` per update."""
     from sescid.estimation.solvers.online import OnlineEstimator

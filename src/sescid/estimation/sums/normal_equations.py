@@ -25,6 +25,7 @@ from sescid.kinematics import (
     split_augmented,
     use_kernels,
 )
+from sescid.robot import Robot
 
 #: poses per block when accumulating normal equations
 ACCUMULATE_BLOCK = 2048
@@ -128,7 +129,7 @@ def cop_errors(sigma: ArrayLike, n: int) -> np.ndarray:
     return s
 
 
-def tilted_sums(robot, q, cop, sw, gravity, kernels: bool) -> NormalEquations:
+def tilted_sums(robot: Robot, q, cop, sw, gravity, kernels: bool) -> NormalEquations:
     """The tilted x/y rows' sums (full Φ) of one block of validated poses under per-pose
     gravity (n, 3); ``sw`` (n, 2) square-root weights or None."""
     ne = NormalEquations.empty(3 * len(robot.body_names))
@@ -139,7 +140,7 @@ def tilted_sums(robot, q, cop, sw, gravity, kernels: bool) -> NormalEquations:
     return ne
 
 
-def reduced_sums(robot, q, y, sw, kernels: bool, ws: Workspace | None) -> NormalEquations:
+def reduced_sums(robot: Robot, q, y, sw, kernels: bool, ws: Workspace | None) -> NormalEquations:
     """One block's reduced CoP sums (P_red): the fused kernel when ``kernels`` (numpy's exact
     reduction and the compiled product for angles beyond its range), else numpy."""
     red = robot.reduction

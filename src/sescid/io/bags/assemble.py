@@ -27,6 +27,7 @@ from sescid.io.bags.recording import bag_paths, check_type, read_topics
 from sescid.io.bags.segments import segment_labels, topic_labels
 from sescid.io.bags.stamps import Clocked, fill_recent, nearest, one_clock, topic_stamps
 from sescid.io.bags.stances import check_stances, row_stances
+from sescid.robot import Robot
 from sescid.sensors.raw import reversed_force
 from sescid.sensors.wrench import cop_from_plate, cop_from_wrench
 from sescid.tables import SUPPORT_COLUMN
@@ -96,7 +97,7 @@ def _aligned(t_ref, values: dict, t_clock, tol: int, what: str, mp, notes) -> di
     return out
 
 
-def _joint_names(mp: BagMapping, joint_names, robot) -> list[str]:
+def _joint_names(mp: BagMapping, joint_names, robot: Robot | None) -> list[str]:
     if joint_names is None:
         if robot is None:
             raise DataError("read_bag needs joint_names or a robot")
@@ -177,7 +178,7 @@ def _count(masks: dict[str, np.ndarray], n: int) -> tuple[dict[str, int], np.nda
 
 
 def read_bag(
-    bag_path, mapping, joint_names=None, robot=None, poses=None, pose_support=None
+    bag_path, mapping, joint_names=None, robot: Robot | None = None, poses=None, pose_support=None
 ) -> RawLogTable:
     """Read a ROS bag into the raw log of the ``fsr`` step (see ``sescid.io.bags``).
 
@@ -247,7 +248,9 @@ def _result(cols: dict[str, np.ndarray], dropped: dict[str, int], notes: list[st
     return RawLogTable(cols, segments, dropped, notes)
 
 
-def _foot_columns(foot: FootSource, v: np.ndarray, q: np.ndarray, robot, source: str) -> dict:
+def _foot_columns(
+    foot: FootSource, v: np.ndarray, q: np.ndarray, robot: Robot | None, source: str
+) -> dict:
     """Output columns of one foot from its values (n, ·) and the joint angles (n, nq)."""
     if foot.source == "pads":  # the fsr step's force counts, mN (exact for unit mN, scale 1)
         mn = {"N": 1000.0, "mN": 1.0, "kgf": 9806.65}[foot.unit]
@@ -275,12 +278,14 @@ def _foot_columns(foot: FootSource, v: np.ndarray, q: np.ndarray, robot, source:
     return {f"{p}_cop_x": cop[:, 0], f"{p}_cop_y": cop[:, 1], f"{p}_fz": fz}
 
 
-def _sensor_in_sole(foot: FootSource, q: np.ndarray, robot, source: str):
+def _sensor_in_sole(foot: FootSource, q: np.ndarray, robot: Robot | None, source: str):
     """The F/T sensor frame in the sole frame: fixed, or per sample from the model's links."""
     if foot.sensor_link is None:
         return foot.sensor_rot, foot.sensor_pos
     if not len(q):
         return np.zeros((0, 3, 3)), np.zeros((0, 3))
+    assert foot.sole_frame is not None  # the mapping requires it with sensor_link
+    assert robot is not None  # _joint_names: a sensor_link needs the robot
     try:
         r_sole, p_sole = robot.link_poses(q, foot.sole_frame)
         r_s, p_s = robot.link_poses(q, foot.sensor_link)

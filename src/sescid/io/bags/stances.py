@@ -9,6 +9,7 @@ import numpy as np
 from sescid.io.bags.mapping import BagMapping
 from sescid.io.bags.messages import message_pose_ids
 from sescid.io.bags.segments import topic_labels
+from sescid.robot import Robot
 from sescid.stance import data_stance
 
 
@@ -34,7 +35,7 @@ def row_stances(
     return np.array([by_id.get(p, "") for p in pose.tolist()], dtype=object).astype(str)
 
 
-def check_stances(stance: np.ndarray, robot, where: str) -> None:
+def check_stances(stance: np.ndarray, robot: Robot | None, where: str) -> None:
     """Each stance one ``sescid.stance.parse_stance`` reads: a frame of the model or "double"
     (without a robot: not checked); a DataError starting with ``where``."""
     if robot is None:

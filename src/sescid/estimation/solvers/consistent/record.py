@@ -23,7 +23,7 @@ def model_coms(robot: Robot) -> np.ndarray:
     return np.array([b.com for b in robot.model.bodies])
 
 
-def tidy(x, big_m, floor, box_list, com_cad, pairs, robot):
+def tidy(x, big_m, floor, box_list, com_cad, pairs, robot: Robot):
     """Solver output → masses (kg) and CoMs (m, body frames) meeting the constraints exactly."""
     nb = len(box_list)
     frame = np.array([b.frame_only for b in robot.model.bodies], dtype=bool)
