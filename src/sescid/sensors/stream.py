@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.estimation.data.measurements import concatenate
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
@@ -81,17 +82,15 @@ def _join(a: RawLog, b: RawLog) -> RawLog:
 
 
 def _joined(parts: list[Measured]) -> Measured:
-    """Consecutive reductions as one (poses in order)."""
-    first = parts[0]
+    """Consecutive reductions of one log as one (poses in order)."""
 
     def cat(name: str):
-        arrays = [getattr(p, name) for p in parts]
-        return None if arrays[0] is None else np.concatenate(arrays)
+        return np.concatenate([getattr(p, name) for p in parts])
 
-    arrays = ("pose", "q", "cop", "cop_se", "force", "n_used", "rejected", "gravity", "tau")
     return dataclasses.replace(
-        first,
-        **{name: cat(name) for name in (*arrays, "tau_se", "approach")},
+        parts[0],
+        **{name: cat(name) for name in ("pose", "force", "n_used", "rejected")},
+        data=concatenate([p.data for p in parts]),
         dropped=[d for p in parts for d in p.dropped],
     )
 
@@ -165,7 +164,7 @@ def fsr_chunks(
     if res is None or len(res.pose) == 0:
         dropped = [] if res is None else res.dropped
         reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
-        what = "CoP" if res is not None and res.cop is not None else "measurement"
+        what = "CoP" if res is not None and res.data.cop is not None else "measurement"
         raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
     return res, unmeasured
 

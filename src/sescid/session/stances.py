@@ -236,9 +236,9 @@ class PooledEstimate:
         self.theta = np.concatenate([self.theta0, np.zeros(width - self.n4)])
         self.rank = 0
 
-    def update(self, m: Measured, k: int, kinds: DesignKind) -> Status:
+    def update(self, meas: Measured, k: int, kinds: DesignKind) -> Status:
         """Add one measured pose (``measure``'s output) taken in stance ``k``."""
-        rows = self.rows[k]
+        rows, m = self.rows[k], meas.data
         a = np.concatenate([x for _, x in rows.blocks(m.q, m.gravity)])[0]  # (r, 4N + J)
         y, w, use = np.zeros(len(a)), np.zeros(len(a)), np.zeros(len(a), dtype=bool)
         if rows.cop and kinds in ("cop", "both") and m.cop is not None and m.cop_se is not None:
@@ -322,7 +322,7 @@ def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tu
             continue
         parts.append(meas)
         kinds = "cop" if st.mount == "double" else "tau" if st.mount == "gantry" else plan.kinds
-        if kinds == "both" and meas.tau is None:
+        if kinds == "both" and meas.data.tau is None:
             kinds = "cop"
         m = pose_measurements(meas, kinds, f"{st.label} poses")
         data.append(dataclasses.replace(m, support=st))
