@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -18,15 +18,18 @@ from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 MeasuredFrom = Literal[FootMode, "torque", "imu"]
 
 
+#: fields of ``Measured`` beside ``data`` with one row per pose
+_POSE_ROWS = ("pose", "force", "n_used", "rejected")
+
+
 @dataclass(frozen=True)
 class Measured:
     """Per-pose results of ``measure`` (k kept poses): the measured quantities (``data``) and
     what the reduction adds; forces in N."""
 
     pose: np.ndarray  #: (k,) pose ids (text)
-    #: the k poses' mean read-backs ``q``, mean CoP ``cop`` in the support frame and its
-    #: standard error ``cop_se`` (None: no foot sensors), mean gravity direction, mean joint
-    #: torques ``tau`` of ``tau_joints`` and their standard errors, ``approach`` sides
+    #: the k poses' means (read-backs, CoP: None without foot sensors, gravity, torques) and
+    #: their standard errors, approach sides
     data: Measurements
     force: np.ndarray  #: (k,) mean total vertical force, N (NaN without forces)
     n_used: np.ndarray  #: (k,) samples averaged
@@ -38,14 +41,8 @@ class Measured:
 
     def take(self, rows: np.ndarray) -> Measured:
         """The poses ``rows`` (a mask or index array) of every per-pose array."""
-        return dataclasses.replace(
-            self,
-            pose=self.pose[rows],
-            data=self.data.take(rows),
-            force=self.force[rows],
-            n_used=self.n_used[rows],
-            rejected=self.rejected[rows],
-        )
+        taken = {f: getattr(self, f)[rows] for f in _POSE_ROWS}
+        return dataclasses.replace(self, **taken, data=self.data.take(rows))
 
     @property
     def n_rejected(self) -> np.ndarray:
@@ -112,13 +109,11 @@ def concat_measured(parts: list[Measured]) -> Measured:
         tau=cat("tau") if tau_ok else None,
         tau_se=cat("tau_se") if tau_ok else None,
     )
+    rows: dict[str, Any] = {f: np.concatenate([getattr(p, f) for p in parts]) for f in _POSE_ROWS}
     return dataclasses.replace(
         first,
-        pose=np.concatenate([p.pose for p in parts]),
+        **rows,
         data=data,
-        force=np.concatenate([p.force for p in parts]),
-        n_used=np.concatenate([p.n_used for p in parts]),
-        rejected=np.concatenate([p.rejected for p in parts]),
         dropped=[d for p in parts for d in p.dropped],
         notes=list(dict.fromkeys(n for p in parts for n in p.notes)),
     )

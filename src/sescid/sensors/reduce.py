@@ -330,7 +330,6 @@ def finish_measured(m: Measured, whole_log: bool = True) -> Measured:
         for i in np.flatnonzero(keep & ~finite):
             dropped.append((str(m.pose[i]), _undetermined(what, values, int(i), joints)))
         keep &= finite
-    joints = joints if tau is not None else data.tau_joints
     data = dataclasses.replace(data, tau=tau, tau_se=tau_se, approach=approach, tau_joints=joints)
     return dataclasses.replace(m, data=data, dropped=dropped, notes=notes).take(keep)
 

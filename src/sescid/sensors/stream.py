@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.data.measurements import concatenate
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
@@ -79,20 +78,6 @@ def _join(a: RawLog, b: RawLog) -> RawLog:
         f: {k: cat(v, getattr(b, f).get(k)) for k, v in getattr(a, f).items()} for f in _FEET
     }
     return dataclasses.replace(a, **rows, **feet)
-
-
-def _joined(parts: list[Measured]) -> Measured:
-    """Consecutive reductions of one log as one (poses in order)."""
-
-    def cat(name: str):
-        return np.concatenate([getattr(p, name) for p in parts])
-
-    return dataclasses.replace(
-        parts[0],
-        **{name: cat(name) for name in ("pose", "force", "n_used", "rejected")},
-        data=concatenate([p.data for p in parts]),
-        dropped=[d for p in parts for d in p.dropped],
-    )
 
 
 def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
@@ -160,7 +145,7 @@ def fsr_chunks(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(np.array(ids), pose_list_ids(pose_list), where)
-    res = finish_measured(_joined(parts)) if parts else None
+    res = finish_measured(concat_measured(parts)) if parts else None
     if res is None or len(res.pose) == 0:
         dropped = [] if res is None else res.dropped
         reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
