@@ -37,7 +37,6 @@ from sescid.estimation.data.measurements import COP, TORQUE, concatenate
 from sescid.estimation.result.fit import Fit
 from sescid.planning import DesignKind, Quantity
 from sescid.robot import Robot
-from sescid.sensors import Measured
 from sescid.session.records import BODY_PRIOR_SCALE
 from sescid.simulation import random_poses
 
@@ -90,10 +89,9 @@ class CopEstimate:
         """Poses measured so far."""
         return int(self.est.ne.n_poses)
 
-    def update(self, m: Measured) -> Status:
-        """Add a measured pose (one row of ``measure``'s output)."""
-        d = m.data
-        st = self.est.update(d.q, d.cop, d.cop_se, d.gravity)  # as identify does
+    def update(self, m: Measurements) -> Status:
+        """Add a measured pose (the data of one row of ``measure``'s output)."""
+        st = self.est.update(m.q, m.cop, m.cop_se, m.gravity)  # as identify does
         return Status(st.cop_std, st.rank, st.converged)
 
     def estimate(self) -> np.ndarray:
@@ -124,10 +122,9 @@ class CopEstimate:
         return self.est.fit()
 
 
-def pose_measurements(m: Measured, kinds: DesignKind, source: str) -> Measurements:
+def pose_measurements(data: Measurements, kinds: DesignKind, source: str) -> Measurements:
     """One reduced pose's data with only the session's ``kinds``, named ``source`` (DataError
     when a torque is not determined; an approach side not determined is left out)."""
-    data = m.data
     if kinds != "cop" and (data.tau is None or not np.all(np.isfinite(data.tau))):
         raise DataError(f"{source}: a joint's torque is not determined (too few samples)")
     if data.approach is not None and not np.all(np.isfinite(data.approach)):

@@ -171,17 +171,16 @@ class _Run:
     def _kinds(self, meas, step: SessionStep) -> DesignKind:
         """The kinds this pose measured for the session; at the first measured pose the
         estimator is made and the design switched to them (``SessionDesign.switch``)."""
-        has_cop = meas.data.cop is not None and meas.data.cop_se is not None
+        d = meas.data
+        has_cop, has_tau = d.cop is not None and d.cop_se is not None, d.tau is not None
         if isinstance(self.plan, StanceDesign):
             assert self.stance is not None
-            kinds = self.plan.measured_kinds(
-                has_cop, meas.data.tau is not None, step.pose, self.stance
-            )
+            kinds = self.plan.measured_kinds(has_cop, has_tau, step.pose, self.stance)
             if self.est is None:
                 self.plan.switch(kinds, self.measured)
                 self.est = PooledEstimate(self.plan, self.plan.kinds, self.opt.window, self.opt.tol)
             return self.plan.kinds
-        kinds = self.plan.measured_kinds(has_cop, meas.data.tau is not None, step.pose)
+        kinds = self.plan.measured_kinds(has_cop, has_tau, step.pose)
         if self.est is None:
             self.plan.switch(kinds, self.measured)
             window, tol = self.opt.window, self.opt.tol
@@ -222,13 +221,13 @@ class _Run:
             )
             pred = robot.cop(d.q, r, d.gravity)[0]
         if isinstance(self.est, PooledEstimate):
-            st = self.est.update(meas, k, kinds)
+            st = self.est.update(d, k, kinds)
             step.tau = None if d.tau is None else d.tau[0]
         elif isinstance(self.est, CopEstimate):
-            st = self.est.update(meas)
+            st = self.est.update(d)
         else:
             try:
-                data = pose_measurements(meas, kinds, f"pose {step.pose}")
+                data = pose_measurements(d, kinds, f"pose {step.pose}")
             except DataError as exc:
                 step.reason = str(exc).split(": ", 1)[1]
                 return False
