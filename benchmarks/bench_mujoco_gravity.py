@@ -49,9 +49,10 @@ def main(n: int = 60) -> None:
     keep = [t.pose.index(p) for p in res.pose]
     qa, g, pads = t.q_actual[keep], t.grav[keep], pads[keep]
     com_true = robot.com(qa, r_true)
+    d = res.data
     for method in ("ls", "map"):
-        for label, gg in (("flat", None), ("gravity", res.gravity)):
-            f = identify(robot, res.q, res.cop, sigma=res.cop_se, gravity=gg, method=method)
+        for label, gg in (("flat", None), ("gravity", d.gravity)):
+            f = identify(robot, d.q, d.cop, sigma=d.cop_se, gravity=gg, method=method)
             e = np.linalg.norm(f.predict_cop(qa, g) - pads, axis=1)
             ez = f.predict_com(qa)[:, 2] - com_true[:, 2]
             sv = f.singular_values

@@ -50,9 +50,9 @@ def measure_poses(robot, sensors, q, seed, samples):
             sensors,
         )
         if len(m.pose):
-            qs.append(m.q[0])
-            cops.append(m.cop[0])
-            ses.append(m.cop_se[0])
+            qs.append(m.data.q[0])
+            cops.append(m.data.cop[0])
+            ses.append(m.data.cop_se[0])
     return np.array(qs), np.array(cops), np.array(ses), failed, bot.r_true
 
 
@@ -97,7 +97,8 @@ def run(seed: int, a) -> dict:
     commanded = {s.pose: i + 1 for i, s in enumerate(res.steps)}
     errors = []
     for k in range(21, len(m.pose) + 1):
-        e = cop_error(robot, m.q[:k], m.cop[:k], m.cop_se[:k], q_test, r_true)
+        d = m.data.take(slice(k))
+        e = cop_error(robot, d.q, d.cop, d.cop_se, q_test, r_true)
         errors.append((commanded[m.pose[k - 1]], e))
     # where the stated rule (fall < tol over the last window poses) would have stopped
     std = [s.cop_std for s in res.steps if s.status == "measured"]

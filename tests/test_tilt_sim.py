@@ -53,13 +53,14 @@ def test_kinematic_bench_tilt(op2, tmp_path):
     res, _ = fsr(op2, raw_table(ex.columns), sensors)
     t = ex.truth
     g = np.array(t.grav)
-    assert res.gravity is not None and np.abs(res.gravity - g).max() < 1e-12
+    d = res.data
+    assert d.gravity is not None and np.abs(d.gravity - g).max() < 1e-12
     # the pads' centroid is the tilted CoP (pads on the sole plane)
     assert np.abs(np.array(t.cop_expected) - np.array(t.cop_true)).max() < 2e-3
     qa = np.array(t.q_actual)
     err = {}
-    for label, grav in (("flat", None), ("gravity", res.gravity)):
-        fit = sescid.identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav, method="map")
+    for label, grav in (("flat", None), ("gravity", d.gravity)):
+        fit = sescid.identify(op2, d.q, d.cop, sigma=d.cop_se, gravity=grav, method="map")
         err[label] = np.sqrt(np.mean((fit.predict_cop(qa, g) - np.array(t.cop_true)) ** 2))
     assert err["gravity"] < 0.7 * err["flat"], err
 

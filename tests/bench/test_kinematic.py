@@ -55,8 +55,8 @@ def test_ideal_robot_log_gives_the_model_cop(robot, sensors):
     res = reduce(robot, sensors, ex, min_samples=2)
     # read-backs are whole ticks (0.088°) and forces whole mN: both bound the error
     q_ticks = MX28.to_rad(np.round(q * 4096 / (2 * math.pi)) + 2048)
-    np.testing.assert_allclose(res.q, q_ticks, atol=1e-12)
-    np.testing.assert_allclose(res.cop, robot.cop(q), atol=5e-6)
+    np.testing.assert_allclose(res.data.q, q_ticks, atol=1e-12)
+    np.testing.assert_allclose(res.data.cop, robot.cop(q), atol=5e-6)
 
 
 def test_real_robot_com_matches_added_point_masses(robot):
@@ -101,7 +101,7 @@ def test_centroid_registers_agree_with_forces(robot, sensors):
     by_reg = reduce(robot, sensors, ex)
     assert by_reg.mode == "centroid"
     # one register count is 0.33 mm along x, 0.21 mm along y; averaged over 100 samples
-    np.testing.assert_allclose(by_reg.cop, by_force.cop, atol=1e-4)
+    np.testing.assert_allclose(by_reg.data.cop, by_force.data.cop, atol=1e-4)
 
 
 def test_paper_finding_manufacturer_offset_vs_identified(robot, sensors):
@@ -109,9 +109,9 @@ def test_paper_finding_manufacturer_offset_vs_identified(robot, sensors):
     q = stable_poses(robot, 38, seed=0)
     ex = run_experiment(robot, q, sensors, samples=100, seed=0)
     res = reduce(robot, sensors, ex)
-    fit = identify_ls(robot, res.q, res.cop, sigma=res.cop_se)
-    before = cop_offset_stats(res.cop, robot.cop(res.q))
-    after = cop_offset_stats(res.cop, fit.predict_cop(res.q))
+    fit = identify_ls(robot, res.data.q, res.data.cop, sigma=res.data.cop_se)
+    before = cop_offset_stats(res.data.cop, robot.cop(res.data.q))
+    after = cop_offset_stats(res.data.cop, fit.predict_cop(res.data.q))
     assert before["mean"] > 1.5e-3  # mm-level offset, several standard errors of a pose mean
     assert before["mean"] > 20 * after["mean"]
     assert before["rms"] > 2 * after["rms"]
@@ -121,7 +121,7 @@ def test_identified_fit_recovers_the_true_cop_on_fresh_poses(robot, sensors):
     q = stable_poses(robot, 300, seed=7)
     ex = run_experiment(robot, q, sensors, samples=20, seed=1)
     res = reduce(robot, sensors, ex)
-    fit = identify_ls(robot, res.q, res.cop, sigma=res.cop_se)
+    fit = identify_ls(robot, res.data.q, res.data.cop, sigma=res.data.cop_se)
     r_true = ex.truth.r_true
     fresh = stable_poses(robot, 3000, seed=8)
     truth = robot.cop(fresh, r_true)

@@ -76,7 +76,7 @@ def test_the_adapter_applies_the_pad_gains_and_registers(op2, sensors, poses):
     cols = bot.read(20)
     res, _ = fsr(op2, table_from_columns({"pose": np.full(20, "0")} | cols), sensors)
     truth = bot.truth["0"]
-    assert np.abs(res.cop[0] - truth["cop_true"]).max() < 3e-3
+    assert np.abs(res.data.cop[0] - truth["cop_true"]).max() < 3e-3
     assert {"r_fsr_x", "r_fsr_y"} <= set(cols)
 
 

@@ -89,7 +89,7 @@ def test_welded_foot_cop_equals_statics(op2, sensors, poses):
     assert np.abs(np.array(t.physics.cop_pads) - cop).max() <= 1e-9
     assert np.allclose(ex.columns["fz_total_n"], mass * 9.80665, rtol=1e-12)
     res = reduce(op2, sensors, ex)
-    assert np.abs(res.cop - cop).max() < 3e-3  # FSR noise and bias, unseen backlash
+    assert np.abs(res.data.cop - cop).max() < 3e-3  # FSR noise and bias, unseen backlash
 
 
 def test_free_standing_gravity_aware_statics(op2, free):
@@ -130,7 +130,7 @@ def test_log_reduces_through_fsr(op2, sensors, free):
     assert list(res.pose) == list(t.pose)
     expected = np.array(t.cop_expected)  # noise-free CoP of the biased pads
     # measure carries the CoP with the model's sole pose (level): the tilt is invisible to it
-    assert np.abs(res.cop - expected).max() < 5 * res.cop_se.max() + 2e-4
+    assert np.abs(res.data.cop - expected).max() < 5 * res.data.cop_se.max() + 2e-4
     noise = 2 * ExperimentConfig().fsr_noise / math.sqrt(20)  # 4 pads, 20 samples
     assert np.abs(res.force - t.true_mass * 9.80665).max() < 4 * noise
     for col in ("imu_roll", "imu_pitch", "fz_total_n", "l_fsr1", "r_fsr4"):
@@ -194,11 +194,12 @@ def test_gravity_aware_identify_beats_flat(op2, tilted):
     keep = [list(t.pose).index(p) for p in res.pose]
     qa, g = np.array(t.q_actual)[keep], np.array(t.grav)[keep]
     pads = np.array(t.physics.cop_pads)[keep]
-    assert res.gravity is not None and np.abs(res.gravity - g).max() < 1e-4
+    d = res.data
+    assert d.gravity is not None and np.abs(d.gravity - g).max() < 1e-4
     err, rank, z_prior = {}, {}, {}
     for method in ("ls", "auto"):
-        for label, grav in (("flat", None), ("gravity", res.gravity)):
-            fit = identify(op2, res.q, res.cop, sigma=res.cop_se, gravity=grav, method=method)
+        for label, grav in (("flat", None), ("gravity", d.gravity)):
+            fit = identify(op2, d.q, d.cop, sigma=d.cop_se, gravity=grav, method=method)
             e = np.linalg.norm(fit.predict_cop(qa, g) - pads, axis=1)
             err[method, label] = np.sqrt(np.mean(e**2))
             rank[label] = fit.rank

@@ -48,15 +48,15 @@ def test_sensor_model_offset_gain_friction_approach(op2, sensors):
     ex = run_experiment(op2, q, sensors, samples=40, seed=4, config=cfg)
     res, _ = fsr(op2, table_from_columns(ex.columns), sensors)
     tt = ex.truth.torque
-    assert tt is not None and res.tau is not None and res.tau_se is not None
-    assert res.tau_joints == ("r_hip_pitch", "r_knee", "l_sho_pitch")[:0] + tuple(
+    assert tt is not None and res.data.tau is not None and res.data.tau_se is not None
+    assert res.data.tau_joints == ("r_hip_pitch", "r_knee", "l_sho_pitch")[:0] + tuple(
         j for j in op2.joint_names if j in joints
     )
     keep = [ex.truth.pose.index(p) for p in res.pose]
-    np.testing.assert_array_equal(res.approach, tt.approach[keep])
-    z = (res.tau - tt.expected[keep]) / res.tau_se
+    np.testing.assert_array_equal(res.data.approach, tt.approach[keep])
+    z = (res.data.tau - tt.expected[keep]) / res.data.tau_se
     assert np.sqrt(np.mean(z**2)) < 1.5  # standard normal: RMS ≈ 1
-    np.testing.assert_allclose(res.tau_se, 0.05 / np.sqrt(40), rtol=0.5)
+    np.testing.assert_allclose(res.data.tau_se, 0.05 / np.sqrt(40), rtol=0.5)
     # the friction band shows: the two sides differ by 2 f on average
     assert 0.1 <= tt.friction.min() and tt.friction.max() <= 0.3
     assert np.all(np.abs(tt.gain - 1) < 0.25) and np.any(tt.offset != 0)
@@ -79,8 +79,8 @@ def test_gantry_measures_every_pose_with_no_load_on_the_feet(op2, sensors):
     assert all(np.all(ex.columns[f"{f}{k}"] == 0) for f in ("r_fsr", "l_fsr") for k in range(1, 5))
     np.testing.assert_allclose(ex.truth.torque.tau, holding_torques(robot, q), atol=1e-14)
     res, _ = fsr(robot, table_from_columns(ex.columns), sensors)
-    assert res.mode == "torque" and res.cop is None and len(res.pose) == 6
-    assert np.abs(res.tau - holding_torques(robot, q)).max() < 5 * 0.01 / np.sqrt(10) * 3
+    assert res.mode == "torque" and res.data.cop is None and len(res.pose) == 6
+    assert np.abs(res.data.tau - holding_torques(robot, q)).max() < 5 * 0.01 / np.sqrt(10) * 3
     with pytest.raises(SescidError, match="no double support"):
         run_experiment(
             robot, q, sensors, config=ExperimentConfig(mount="gantry", double_support=True)

@@ -75,7 +75,7 @@ def test_a_stance_topic_names_each_pose_and_measure_reduces_each_in_its_frame(tm
         rows = res.columns["support"] == stance
         alone = table_from_columns({k: v[rows] for k, v in cols.items()})
         want, _ = fsr(robot.at(stance), alone, sensors)
-        np.testing.assert_array_equal(cop[np.isin(ids, want.pose)], want.cop)
+        np.testing.assert_array_equal(cop[np.isin(ids, want.pose)], want.data.cop)
     # the frames differ: the left-sole poses are not the right sole's numbers
     left_rows = table_from_columns({k: v[left] for k, v in cols.items()})
     with pytest.raises(SescidError, match="off_floor"):

@@ -124,7 +124,7 @@ def test_end_to_end_through_the_fsr_step(tmp_path, robot):
     measured, _ = fsr(robot, read_table(tmp_path / "raw.csv"), load_sensors(profile=robot.profile))
     want = np.array([s.cop[s.hold == k][0] for k in range(4)])
     assert measured.pose.tolist() == ["0", "1", "2", "3"]
-    assert np.abs(measured.cop - want).max() < 2e-4  # pad noise 5 mN on 30 N
+    assert np.abs(measured.data.cop - want).max() < 2e-4  # pad noise 5 mN on 30 N
 
 
 def test_array_joints_in_degrees_and_multiarray_pads(tmp_path, robot):

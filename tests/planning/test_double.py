@@ -5,6 +5,8 @@ physics bench, the pads' CoP is the CoM's projection) and ``sescid measure`` on 
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -184,7 +186,7 @@ def test_double_support_stands_on_the_mujoco_bench(op2, op2_double):
     assert np.abs(ph.cop_pads - proj).max() < 5e-5
     meas = measure(op2, read_log(op2, table_from_columns(ex.columns), sensors), sensors, 5)
     assert len(meas.pose) == len(q)
-    assert np.abs(meas.cop - ph.cop_pads).max() < 5e-4
+    assert np.abs(meas.data.cop - ph.cop_pads).max() < 5e-4
 
 
 def test_check_mujoco_on_both_feet(tmp_path):
@@ -206,7 +208,6 @@ def test_double_support_measured_and_fitted(op2):
     from sescid import identify
     from sescid.bench import ExperimentConfig, run_experiment
     from sescid.bench.real_robot import real_robot
-    from sescid.estimation import Measurements
     from sescid.sensors import load_sensors, measure, read_log, table_from_columns
 
     sensors = load_sensors(None, op2.profile)
@@ -215,7 +216,7 @@ def test_double_support_measured_and_fitted(op2):
     ex = run_experiment(op2, plan.q, sensors, samples=20, seed=0, config=config)
     assert len(ex.skipped) <= 2
     meas = measure(op2, read_log(op2, table_from_columns(ex.columns), sensors), sensors)
-    data = Measurements(q=meas.q, cop=meas.cop, cop_se=meas.cop_se, support="double")
+    data = dataclasses.replace(meas.data, support="double")
     fit = identify(op2, data, method="ls", weighted=True)
     fresh = plan.candidates.q[-150:]
     r_true, _, _ = real_robot(op2, config)

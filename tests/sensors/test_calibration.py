@@ -146,8 +146,8 @@ def test_calibrated_sensor_file_removes_gain_error(setup, tmp_path):
     raw, _ = fsr(right, table, cfg)
     fixed, _ = fsr(right, table, cal_cfg)
     truth = np.array(ex.truth.cop_true)
-    assert np.abs(fixed.cop - truth).max() < 2e-5  # mN rounding only
-    assert np.abs(raw.cop - truth).max() > 10 * np.abs(fixed.cop - truth).max()
+    assert np.abs(fixed.data.cop - truth).max() < 2e-5  # mN rounding only
+    assert np.abs(raw.data.cop - truth).max() > 10 * np.abs(fixed.data.cop - truth).max()
 
 
 def test_double_support_bench_and_calibration(setup):
@@ -164,7 +164,7 @@ def test_double_support_bench_and_calibration(setup):
     ex = run_experiment(right, q, cfg, samples=6, seed=0, config=bench)
     table = table_from_columns(ex.columns)
     res, _ = fsr(right, table, cfg)
-    assert np.abs(res.cop - np.array(ex.truth.cop_true)).max() < 2e-5
+    assert np.abs(res.data.cop - np.array(ex.truth.cop_true)).max() < 2e-5
     session = pad_session(right, table, cfg, "two")
     assert all(f.loaded.all() for f in session.feet)
     noisy = run_experiment(right, q, cfg, samples=100, seed=0, config=BENCH_TWO)

@@ -99,7 +99,7 @@ def test_fsr_uses_imu_without_grav_columns(op2, bench_runs):
         table = Table(Path("raw"), cols, {"pose": [str(p) for p in c["pose"]]})
         res, _ = fsr(op2, table, sensors)
         keep = [list(t.pose).index(p) for p in res.pose]
-        err[b] = np.linalg.norm(res.gravity - np.array(t.grav)[keep], axis=1).max()
+        err[b] = np.linalg.norm(res.data.gravity - np.array(t.grav)[keep], axis=1).max()
     # read-back quantisation (MX-28 ticks, 1.5 mrad) over the leg chain: measured ≤ 1.2 mrad
     assert err[0.0] < 3e-3
     # unseen backlash (half of ±1° per joint) on the six leg joints: measured 7–12 mrad

@@ -74,7 +74,7 @@ def test_cop_from_forces_is_the_weighted_centroid(robot, config, tmp_path):
     per_sample = (f @ RIGHT) / f.sum(axis=1, keepdims=True)
     expected = per_sample.reshape(3, 20, 2).mean(axis=1)
     assert res.pose.tolist() == ["7", "3", "5"]  # the log's order
-    np.testing.assert_allclose(res.cop, expected, atol=1e-14)
+    np.testing.assert_allclose(res.data.cop, expected, atol=1e-14)
     np.testing.assert_allclose(res.force, f.sum(axis=1).reshape(3, 20).mean(axis=1) / 1000)
     assert res.n_used.tolist() == [20, 20, 20]
 
@@ -86,7 +86,7 @@ def test_centroid_registers_right_foot(robot, config, tmp_path):
     x_reg, y_reg = reg[:5, 0], reg[:5, 1]
     # fsr.md §6, right foot: both board terms negated; s_x = 0.085, s_y = 0.053 m
     expected = np.column_stack([-(y_reg / 254 - 0.5) * 0.085, -(x_reg / 254 - 0.5) * 0.053])
-    np.testing.assert_allclose(res.cop, expected, atol=1e-15)
+    np.testing.assert_allclose(res.data.cop, expected, atol=1e-15)
     assert res.mode == "centroid"
 
 
@@ -95,7 +95,7 @@ def test_centroid_registers_left_foot(config, tmp_path):
     reg = np.array([[10, 240], [200, 17]] * 2)
     res = run(left, config, log_file(tmp_path / "raw.csv", left, [0, 1, 0, 1], {"l_fsr": reg}))
     expected = np.column_stack([(reg[:2, 1] / 254 - 0.5) * 0.085, (reg[:2, 0] / 254 - 0.5) * 0.053])
-    np.testing.assert_allclose(res.cop, expected, atol=1e-15)
+    np.testing.assert_allclose(res.data.cop, expected, atol=1e-15)
 
 
 def test_double_support_weights_each_foot_by_its_force(robot, config, tmp_path):
@@ -108,7 +108,7 @@ def test_double_support_weights_each_foot_by_its_force(robot, config, tmp_path):
     cl = fl @ LEFT / fl.sum(1, keepdims=True) + L_SOLE_AT_ZERO
     wr, wl = fr.sum(1, keepdims=True), fl.sum(1, keepdims=True)
     expected = ((wr * cr + wl * cl) / (wr + wl)).mean(axis=0)
-    np.testing.assert_allclose(res.cop[0], expected, atol=1e-6)  # soles 0.1 mm model rounding
+    np.testing.assert_allclose(res.data.cop[0], expected, atol=1e-6)  # soles 0.1 mm model rounding
 
 
 def test_lifted_foot_below_threshold_is_ignored(robot, config, tmp_path):
@@ -118,7 +118,7 @@ def test_lifted_foot_below_threshold_is_ignored(robot, config, tmp_path):
     res = run(
         robot, config, log_file(tmp_path / "r.csv", robot, [0] * 6, {"r_fsr": fr, "l_fsr": fl})
     )
-    np.testing.assert_allclose(res.cop[0], fr[0] @ RIGHT / fr[0].sum(), atol=1e-15)
+    np.testing.assert_allclose(res.data.cop[0], fr[0] @ RIGHT / fr[0].sum(), atol=1e-15)
 
 
 def test_rejections_are_counted_by_reason(robot, config, tmp_path):
@@ -143,7 +143,9 @@ def test_rejections_are_counted_by_reason(robot, config, tmp_path):
         assert got[r] == c, (r, got)
     assert res.n_used[0] == m - 9
     good = np.r_[9:m]
-    np.testing.assert_allclose(res.cop[0], np.mean(f[good] @ RIGHT / f[good].sum(1)[:, None], 0))
+    np.testing.assert_allclose(
+        res.data.cop[0], np.mean(f[good] @ RIGHT / f[good].sum(1)[:, None], 0)
+    )
     assert res.reasons()[0] == "missing=2 saturated=2 no_load=3 outlier=2"
 
 
@@ -158,12 +160,12 @@ def test_standard_error_is_noise_over_sqrt_n(robot, config, tmp_path):
         log_file(tmp_path / "r.csv", robot, np.repeat(np.arange(n_pose), n), {"r_fsr": f}),
     )
     # the reported standard error predicts the scatter of the pose means (same true CoP)
-    spread = res.cop.std(axis=0, ddof=1)
-    np.testing.assert_allclose(res.cop_se.mean(axis=0), spread, rtol=0.12)
+    spread = res.data.cop.std(axis=0, ddof=1)
+    np.testing.assert_allclose(res.data.cop_se.mean(axis=0), spread, rtol=0.12)
     # and equals the per-sample CoP noise / √n
     per_sample = (f @ RIGHT) / f.sum(1, keepdims=True)
     np.testing.assert_allclose(
-        res.cop_se.mean(axis=0), per_sample.std(axis=0) / math.sqrt(n), rtol=0.05
+        res.data.cop_se.mean(axis=0), per_sample.std(axis=0) / math.sqrt(n), rtol=0.05
     )
 
 
@@ -181,7 +183,7 @@ def test_readbacks_in_ticks_and_degrees(robot, config, tmp_path):
     res = run(robot, config, tmp_path / "r.csv")
     for i in range(robot.nq):
         want = (ticks.mean() + i - 2048) * 2 * math.pi / 4096 if i % 2 else math.radians(i)
-        assert res.q[0, i] == pytest.approx(want, abs=1e-14)
+        assert res.data.q[0, i] == pytest.approx(want, abs=1e-14)
 
 
 # --- bad input (issue 3 §5) ---------------------------------------------------------------
@@ -275,7 +277,7 @@ def test_corrected_sensor_positions_are_used(robot, tmp_path):
     cfg = load_sensors(p)
     f = np.array([[1000.0, 2000.0, 3000.0, 4000.0]] * 2)
     res = run(robot, cfg, log_file(tmp_path / "r.csv", robot, [0, 0], {"r_fsr": f}))
-    np.testing.assert_allclose(res.cop[0], f[0] @ np.array(pts) / f[0].sum(), atol=1e-15)
+    np.testing.assert_allclose(res.data.cop[0], f[0] @ np.array(pts) / f[0].sum(), atol=1e-15)
 
 
 def test_cli_fsr_writes_per_pose_table(robot, tmp_path):
@@ -312,7 +314,7 @@ def test_parquet_log_with_text_ids_and_missing_values(robot, config, tmp_path):
     res, _ = fsr(robot, read_table(tmp_path / "raw.parquet"), config, 2)
     assert res.pose.tolist() == ["a", "b"]
     assert res.n_used.tolist() == [2, 3] and res.reasons() == ["missing=1", "none"]
-    np.testing.assert_allclose(res.cop, 0.0, atol=1e-15)  # equal forces: the sole centre
+    np.testing.assert_allclose(res.data.cop, 0.0, atol=1e-15)  # equal forces: the sole centre
 
 
 def test_load_on_a_foot_the_model_puts_in_the_air_is_rejected(robot, config, tmp_path):
@@ -325,7 +327,7 @@ def test_load_on_a_foot_the_model_puts_in_the_air_is_rejected(robot, config, tmp
     path = log_file(tmp_path / "r.csv", robot, [0] * 8, {"r_fsr": fr, "l_fsr": fl}, q=q)
     res = run(robot, config, path)
     assert res.reasons() == ["off_floor=3"] and res.n_used.tolist() == [5]
-    np.testing.assert_allclose(res.cop[0], 0.0, atol=1e-15)
+    np.testing.assert_allclose(res.data.cop[0], 0.0, atol=1e-15)
 
 
 # --- a logged CoP per foot (ankle F/T sensor, force plate, CoP topic) ----------------------------
@@ -357,8 +359,8 @@ def test_logged_cop_with_force_matches_the_pads_that_produce_it(robot, config, t
     extra = cop_cols("r", cr, zr) | cop_cols("l", cl, zl)
     cops = run(robot, config, log_file(tmp_path / "c.csv", robot, pose, {}, extra=extra))
     assert cops.mode == pads.mode == "forces"
-    np.testing.assert_allclose(cops.cop, pads.cop, atol=1e-15)
-    np.testing.assert_allclose(cops.cop_se, pads.cop_se, rtol=1e-9)
+    np.testing.assert_allclose(cops.data.cop, pads.data.cop, atol=1e-15)
+    np.testing.assert_allclose(cops.data.cop_se, pads.data.cop_se, rtol=1e-9)
     np.testing.assert_allclose(cops.force, pads.force, rtol=1e-12)
     assert cops.reasons() == pads.reasons() and "missing=1" in cops.reasons()[1]
     assert cops.n_used.tolist() == pads.n_used.tolist()
@@ -380,7 +382,7 @@ def test_logged_cop_without_force_is_one_loaded_foot(robot, config, tmp_path):
     keep[[2, 4, 7]] = False
     want = np.array([cr[keep & (pose == k)].mean(axis=0) for k in range(2)])
     assert res.mode == "cop" and "force_n" not in res.columns(robot.joint_names)
-    np.testing.assert_allclose(res.cop, want, atol=1e-15)
+    np.testing.assert_allclose(res.data.cop, want, atol=1e-15)
     assert res.reasons() == ["no_load=1 two_feet_no_force=1", "two_feet_no_force=1"]
 
 
@@ -401,7 +403,7 @@ def test_logged_cop_force_threshold_and_pads_on_the_other_foot(robot, config, tm
     )
     assert mixed.mode == "forces" and mixed.reasons() == both.reasons()
     assert mixed.n_used.tolist() == both.n_used.tolist() and "missing" not in mixed.reasons()[0]
-    np.testing.assert_allclose(mixed.cop, both.cop, atol=1e-15)
+    np.testing.assert_allclose(mixed.data.cop, both.data.cop, atol=1e-15)
     np.testing.assert_allclose(mixed.force, both.force, rtol=1e-12)
 
 
@@ -445,7 +447,7 @@ def test_cop_prefix_default_and_configured(robot, tmp_path):
             tmp_path / "r.csv", robot, [0] * 3, {}, extra=cop_cols("ft_r", cop, np.full(3, 20.0))
         ),
     )
-    np.testing.assert_allclose(res.cop[0], cop[0], atol=1e-15)
+    np.testing.assert_allclose(res.data.cop[0], cop[0], atol=1e-15)
     p.write_text(p.read_text().replace('"ft_r"', "3"))
     with pytest.raises(SescidError, match="cop_columns: expected a column prefix"):
         load_sensors(p)

@@ -138,7 +138,7 @@ def test_nan_joints_are_missing_samples_not_poses(op2, tmp_path):
     cols["r_knee_ticks"] = ticks
     res, _ = fsr(op2, table_from_columns(cols), load_sensors(None, op2.profile), min_samples=2)
     assert res.n_used.tolist() == [4, 6] and res.reasons()[0] == "missing=2"
-    assert np.all(np.isfinite(res.q))
+    assert np.all(np.isfinite(res.data.q))
 
 
 def test_torque_columns_in_other_units_or_joints(op2, tmp_path):
@@ -200,4 +200,4 @@ def test_measure_and_read_raw_agree(op2, tmp_path):
     table = table_from_columns(ex.columns)
     a, _ = fsr(op2, table, config)
     b = measure(op2, read_raw(table, op2.joint_names, config, op2.profile.servo), config)
-    assert np.array_equal(a.cop, b.cop) and np.array_equal(a.q, b.q)
+    assert np.array_equal(a.data.cop, b.data.cop) and np.array_equal(a.data.q, b.data.q)

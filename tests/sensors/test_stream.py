@@ -65,7 +65,9 @@ def _write(path, header, rows):
 def _same(a, b):
     for f in dataclasses.fields(a):
         x, y = getattr(a, f.name), getattr(b, f.name)
-        if isinstance(x, np.ndarray):
+        if dataclasses.is_dataclass(x):  # the measured quantities (``Measured.data``)
+            _same(x, y)
+        elif isinstance(x, np.ndarray):
             nan = x.dtype.kind == "f"
             assert x.dtype == y.dtype and np.array_equal(x, y, equal_nan=nan), f.name
         else:
@@ -135,7 +137,7 @@ def test_a_dead_torque_sensor_and_a_pose_without_torques_in_chunks(robot, logs, 
     path = _write(tmp_path / "dead.csv", header, rows)
     (w, _), (c, _) = _both(robot, path, True)
     _same(w, c)
-    assert "r_knee" not in c.tau_joints and "5" not in c.pose.tolist()
+    assert "r_knee" not in c.data.tau_joints and "5" not in c.pose.tolist()
     assert any("tau_r_knee" in n for n in c.notes)
     assert any(p == "5" and "tau_l_hip_roll" in why for p, why in c.dropped)
     text = (logs / "pads.csv").read_text().splitlines()

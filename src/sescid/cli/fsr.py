@@ -174,7 +174,7 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
         columns[SUPPORT_COLUMN] = labels
     with outs:
         write_table(outs.path(out), columns)
-    total = res.rejected.sum(axis=0)
+    total, d = res.rejected.sum(axis=0), res.data
     why = ", ".join(f"{r} {int(c)}" for r, c in zip(REASONS, total, strict=True) if c) or "none"
     dropped = f"; {len(res.dropped)} poses dropped (below)" if res.dropped else ""
     click.echo(
@@ -185,13 +185,13 @@ def fsr(raw, robot_name, support, sensors_file, poses_file, min_samples, out, im
         click.echo(
             f"  mean measured weight {np.mean(res.force) / G0:.4f} kg "
             f"(model {robot.total_mass:.4f} kg); mean CoP standard error "
-            f"x {mm(float(np.mean(res.cop_se[:, 0])))}, y {mm(float(np.mean(res.cop_se[:, 1])))}"
+            f"x {mm(float(np.mean(d.cop_se[:, 0])))}, y {mm(float(np.mean(d.cop_se[:, 1])))}"
         )
-    if res.tau is not None and res.tau_se is not None:
-        side = "" if res.approach is None else ", approach side per pose"
+    if d.tau is not None and d.tau_se is not None:
+        side = "" if d.approach is None else ", approach side per pose"
         click.echo(
-            f"  torques of {len(res.tau_joints)} joints: mean standard error "
-            f"{float(np.mean(res.tau_se)):.4g} N·m{side}"
+            f"  torques of {len(d.tau_joints)} joints: mean standard error "
+            f"{float(np.mean(d.tau_se)):.4g} N·m{side}"
         )
     for note in res.notes:
         click.echo(f"  note: {note}", err=True)

@@ -27,6 +27,7 @@ import numpy as np
 from sescid.base import G0
 from sescid.base.text import listed
 from sescid.errors import DataError
+from sescid.estimation.data.measurements import Measurements
 from sescid.sensors.feet import (
     REASONS,
     PadWatch,
@@ -273,30 +274,29 @@ def measure(
         tau, tau_se = _tau_means(log, s, use, min_samples)
     approach = None
     if log.approach is not None:
-        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)[keep]
+        approach = pose_approach(log.approach, groups.g, groups.k, log.path, log.where)
     grav = _pose_gravity(log, s)
+    data = Measurements(
+        q=s.q_mean,
+        cop=mean if feet else None,
+        cop_se=se if feet else None,
+        tau=tau,
+        tau_joints=log.tau_joints,
+        tau_se=tau_se,
+        approach=approach,
+        gravity=grav,
+        source=str(log.path),
+    )
     m = Measured(
-        pose=groups.ids[keep],
-        q=s.q_mean[keep],
-        cop=mean[keep] if feet else None,
-        cop_se=se[keep] if feet else None,
-        force=fmean[keep] if feet else np.full(int(keep.sum()), np.nan),
-        n_used=n_used[keep],
-        rejected=rejected[keep],
+        pose=groups.ids,
+        data=data,
+        force=fmean if feet else np.full(groups.k, np.nan),
+        n_used=n_used,
+        rejected=rejected,
         dropped=_dropped(groups.ids, n_used, rejected, keep, min_samples),
         mode=mode,
-        gravity=None if grav is None else grav[keep],
-        tau_joints=log.tau_joints,
-        tau=None if tau is None else tau[keep],
-        tau_se=None if tau_se is None else tau_se[keep],
-        approach=approach,
-    )
+    ).take(keep)
     return finish_measured(m, whole_log) if part.finish else m
-
-
-#: fields of ``Measured`` with one row per kept pose
-_POSE_FIELDS = ("pose", "q", "cop", "cop_se", "force", "n_used", "rejected", "gravity", "tau",
-                "tau_se", "approach")  # fmt: skip
 
 
 def finish_measured(m: Measured, whole_log: bool = True) -> Measured:
@@ -305,7 +305,8 @@ def finish_measured(m: Measured, whole_log: bool = True) -> Measured:
     a note; then a pose whose torques, approach side or gravity is not determined is dropped,
     with the reason (a session's single pose is dropped, its columns kept)."""
     notes = list(m.notes)
-    tau, tau_se, joints, approach = m.tau, m.tau_se, m.tau_joints, m.approach
+    data = m.data
+    tau, tau_se, joints, approach = data.tau, data.tau_se, data.tau_joints, data.approach
     if tau is not None and tau_se is not None and whole_log and len(m.pose):
         dead = ~np.isfinite(tau).any(axis=0)
         if dead.any():
@@ -322,18 +323,15 @@ def finish_measured(m: Measured, whole_log: bool = True) -> Measured:
     keep = np.ones(len(m.pose), dtype=bool)
     dropped = list(m.dropped)
     for what, values in (("joint torque", tau), (APPROACH_COLUMN, approach),
-                         ("gravity", m.gravity)):  # fmt: skip
+                         ("gravity", data.gravity)):  # fmt: skip
         if values is None:
             continue
         finite = np.isfinite(values) if values.ndim == 1 else np.isfinite(values).all(axis=1)
         for i in np.flatnonzero(keep & ~finite):
             dropped.append((str(m.pose[i]), _undetermined(what, values, int(i), joints)))
         keep &= finite
-    fields = {"tau": tau, "tau_se": tau_se, "approach": approach}
-    rows = {f: fields.get(f, getattr(m, f)) for f in _POSE_FIELDS}
-    rows = {f: None if v is None else v[keep] for f, v in rows.items()}
-    return dataclasses.replace(m, **rows, tau_joints=joints if tau is not None else m.tau_joints,
-                               dropped=dropped, notes=notes)  # fmt: skip
+    data = dataclasses.replace(data, tau=tau, tau_se=tau_se, approach=approach, tau_joints=joints)
+    return dataclasses.replace(m, data=data, dropped=dropped, notes=notes).take(keep)
 
 
 def _undetermined(what: str, values: np.ndarray, i: int, joints) -> str:
@@ -426,6 +424,6 @@ def fsr(
     res = measure(robot, log, config, min_samples)
     if len(res.pose) == 0:
         reasons = "; ".join(f"pose {p}: {w}" for p, w in res.dropped[:3])
-        what = "CoP" if res.cop is not None else "measurement"
+        what = "CoP" if res.data.cop is not None else "measurement"
         raise DataError(f"{log_table.path}: no pose has a usable {what} ({reasons})")
     return res, unmeasured

@@ -80,22 +80,6 @@ def _join(a: RawLog, b: RawLog) -> RawLog:
     return dataclasses.replace(a, **rows, **feet)
 
 
-def _joined(parts: list[Measured]) -> Measured:
-    """Consecutive reductions as one (poses in order)."""
-    first = parts[0]
-
-    def cat(name: str):
-        arrays = [getattr(p, name) for p in parts]
-        return None if arrays[0] is None else np.concatenate(arrays)
-
-    arrays = ("pose", "q", "cop", "cop_se", "force", "n_used", "rejected", "gravity", "tau")
-    return dataclasses.replace(
-        first,
-        **{name: cat(name) for name in (*arrays, "tau_se", "approach")},
-        dropped=[d for p in parts for d in p.dropped],
-    )
-
-
 def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
     """The reduction chunk by chunk, the pose ids in the log's order and the log's name.
     ``feet``: the whole log's answer when known (None: from the chunks, raising ``_Loaded`` if
@@ -161,11 +145,11 @@ def fsr_chunks(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(np.array(ids), pose_list_ids(pose_list), where)
-    res = finish_measured(_joined(parts)) if parts else None
+    res = finish_measured(concat_measured(parts)) if parts else None
     if res is None or len(res.pose) == 0:
         dropped = [] if res is None else res.dropped
         reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
-        what = "CoP" if res is not None and res.cop is not None else "measurement"
+        what = "CoP" if res is not None and res.data.cop is not None else "measurement"
         raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
     return res, unmeasured
 

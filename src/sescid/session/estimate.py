@@ -19,6 +19,7 @@ Both converge when that standard error fell by less than ``tol`` (relative) over
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -32,11 +33,10 @@ from sescid.estimation import (
     OnlineEstimator,
     fit_measurements,
 )
-from sescid.estimation.data.measurements import concatenate
+from sescid.estimation.data.measurements import COP, TORQUE, concatenate
 from sescid.estimation.result.fit import Fit
 from sescid.planning import DesignKind, Quantity
 from sescid.robot import Robot
-from sescid.sensors import Measured
 from sescid.session.records import BODY_PRIOR_SCALE
 from sescid.simulation import random_poses
 
@@ -89,8 +89,8 @@ class CopEstimate:
         """Poses measured so far."""
         return int(self.est.ne.n_poses)
 
-    def update(self, m: Measured) -> Status:
-        """Add a measured pose (one row of ``measure``'s output)."""
+    def update(self, m: Measurements) -> Status:
+        """Add a measured pose (the data of one row of ``measure``'s output)."""
         st = self.est.update(m.q, m.cop, m.cop_se, m.gravity)  # as identify does
         return Status(st.cop_std, st.rank, st.converged)
 
@@ -122,27 +122,16 @@ class CopEstimate:
         return self.est.fit()
 
 
-def pose_measurements(m: Measured, kinds: DesignKind, source: str) -> Measurements:
-    """One reduced pose as ``Measurements`` of the session's ``kinds`` (DataError when a
-    torque is not determined, or an approach side missing)."""
-    cop = kinds in ("cop", "both")
-    tau = kinds in ("tau", "both")
-    if tau and (m.tau is None or not np.all(np.isfinite(m.tau))):
+def pose_measurements(data: Measurements, kinds: DesignKind, source: str) -> Measurements:
+    """One reduced pose's data with only the session's ``kinds``, named ``source`` (DataError
+    when a torque is not determined; an approach side not determined is left out)."""
+    if kinds != "cop" and (data.tau is None or not np.all(np.isfinite(data.tau))):
         raise DataError(f"{source}: a joint's torque is not determined (too few samples)")
-    approach = m.approach
-    if approach is not None and not np.all(np.isfinite(approach)):
-        approach = None
-    return Measurements(
-        q=m.q,
-        cop=m.cop if cop else None,
-        cop_se=m.cop_se if cop else None,
-        tau=m.tau if tau else None,
-        tau_joints=m.tau_joints if tau else (),
-        tau_se=m.tau_se if tau else None,
-        approach=approach if tau else None,
-        gravity=m.gravity,
-        source=source,
-    )
+    if data.approach is not None and not np.all(np.isfinite(data.approach)):
+        data = dataclasses.replace(data, approach=None)
+    data = data.without(TORQUE) if kinds == "cop" else data
+    data = data.without(COP) if kinds == "tau" else data
+    return dataclasses.replace(data, source=source)
 
 
 class BatchEstimate:

@@ -171,15 +171,16 @@ class _Run:
     def _kinds(self, meas, step: SessionStep) -> DesignKind:
         """The kinds this pose measured for the session; at the first measured pose the
         estimator is made and the design switched to them (``SessionDesign.switch``)."""
-        has_cop = meas.cop is not None and meas.cop_se is not None
+        d = meas.data
+        has_cop, has_tau = d.cop is not None and d.cop_se is not None, d.tau is not None
         if isinstance(self.plan, StanceDesign):
             assert self.stance is not None
-            kinds = self.plan.measured_kinds(has_cop, meas.tau is not None, step.pose, self.stance)
+            kinds = self.plan.measured_kinds(has_cop, has_tau, step.pose, self.stance)
             if self.est is None:
                 self.plan.switch(kinds, self.measured)
                 self.est = PooledEstimate(self.plan, self.plan.kinds, self.opt.window, self.opt.tol)
             return self.plan.kinds
-        kinds = self.plan.measured_kinds(has_cop, meas.tau is not None, step.pose)
+        kinds = self.plan.measured_kinds(has_cop, has_tau, step.pose)
         if self.est is None:
             self.plan.switch(kinds, self.measured)
             window, tol = self.opt.window, self.opt.tol
@@ -205,27 +206,28 @@ class _Run:
             none = "no usable CoP" if kinds == "cop" else "no usable samples"
             step.reason = meas.dropped[0][1] if meas.dropped else none
             return False
-        if meas.cop_se is not None and kinds != "tau" and not np.all(meas.cop_se[0] > 0):
+        d = meas.data
+        if d.cop_se is not None and kinds != "tau" and not np.all(d.cop_se[0] > 0):
             step.reason = "CoP standard error is zero (identical samples): cannot weight"
             return False
         assert self.est is not None
         pred = None
         k = self.stance if self.stance is not None else 0
-        if meas.cop is not None and self.est.n_poses:
+        if d.cop is not None and self.est.n_poses:
             r = (
                 self.est.estimate(k)
                 if isinstance(self.est, PooledEstimate)
                 else self.est.estimate()
             )
-            pred = robot.cop(meas.q, r, meas.gravity)[0]
+            pred = robot.cop(d.q, r, d.gravity)[0]
         if isinstance(self.est, PooledEstimate):
-            st = self.est.update(meas, k, kinds)
-            step.tau = None if meas.tau is None else meas.tau[0]
+            st = self.est.update(d, k, kinds)
+            step.tau = None if d.tau is None else d.tau[0]
         elif isinstance(self.est, CopEstimate):
-            st = self.est.update(meas)
+            st = self.est.update(d)
         else:
             try:
-                data = pose_measurements(meas, kinds, f"pose {step.pose}")
+                data = pose_measurements(d, kinds, f"pose {step.pose}")
             except DataError as exc:
                 step.reason = str(exc).split(": ", 1)[1]
                 return False
@@ -233,9 +235,9 @@ class _Run:
             step.tau = None if data.tau is None else data.tau[0]
         self.raw_parts.append(part)
         self.measured.append(step.candidate)
-        step.status, step.q_measured, step.quantity = "measured", meas.q[0], self.est.quantity
-        if meas.cop is not None and meas.cop_se is not None:
-            step.cop, step.cop_se, step.cop_predicted = meas.cop[0], meas.cop_se[0], pred
+        step.status, step.q_measured, step.quantity = "measured", d.q[0], self.est.quantity
+        if d.cop is not None and d.cop_se is not None:
+            step.cop, step.cop_se, step.cop_predicted = d.cop[0], d.cop_se[0], pred
         step.cop_std, step.rank = st.std, st.rank
         need = self.min_measured if kinds == "cop" else max(self.min_measured, self.plan.min_rows)
         step.converged = st.converged and self.est.n_poses >= need

@@ -32,7 +32,7 @@ from typing import cast
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation import DEFAULT_RTOL, identifiable_eigen
+from sescid.estimation import DEFAULT_RTOL, Measurements, identifiable_eigen
 from sescid.estimation.result.fit import Fit
 from sescid.planning import (
     CandidateOptions,
@@ -236,8 +236,8 @@ class PooledEstimate:
         self.theta = np.concatenate([self.theta0, np.zeros(width - self.n4)])
         self.rank = 0
 
-    def update(self, m: Measured, k: int, kinds: DesignKind) -> Status:
-        """Add one measured pose (``measure``'s output) taken in stance ``k``."""
+    def update(self, m: Measurements, k: int, kinds: DesignKind) -> Status:
+        """Add one measured pose (the data of ``measure``'s output) taken in stance ``k``."""
         rows = self.rows[k]
         a = np.concatenate([x for _, x in rows.blocks(m.q, m.gravity)])[0]  # (r, 4N + J)
         y, w, use = np.zeros(len(a)), np.zeros(len(a)), np.zeros(len(a), dtype=bool)
@@ -322,9 +322,9 @@ def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tu
             continue
         parts.append(meas)
         kinds = "cop" if st.mount == "double" else "tau" if st.mount == "gantry" else plan.kinds
-        if kinds == "both" and meas.tau is None:
+        if kinds == "both" and meas.data.tau is None:
             kinds = "cop"
-        m = pose_measurements(meas, kinds, f"{st.label} poses")
+        m = pose_measurements(meas.data, kinds, f"{st.label} poses")
         data.append(dataclasses.replace(m, support=st))
     if not data:
         raise DataError("the session measured no pose")
