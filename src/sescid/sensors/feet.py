@@ -19,6 +19,7 @@ from typing import Literal
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.robot import Robot
 from sescid.sensors.pads import Foot, SensorConfig
 from sescid.sensors.raw import RawLog
 
@@ -207,7 +208,9 @@ def _logged_cop(log: RawLog, foot: Foot, config: SensorConfig, status: SampleSta
     return np.where(on[:, None], arr, 0.0), on, total
 
 
-def support_cop(robot, fs: FootSamples, q_mean: np.ndarray, g: np.ndarray, status: SampleStatus):
+def support_cop(
+    robot: Robot, fs: FootSamples, q_mean: np.ndarray, g: np.ndarray, status: SampleStatus
+):
     """(m, 2) CoP of the loaded feet in the support frame and (m,) their total weight.
 
     Each foot's sole is placed by the model at its pose's mean read-backs ``q_mean`` (k, nq);

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid.errors import DataError, OptionError
+from sescid.robot import Robot
 from sescid.tables import GRAVITY_COLUMNS, Table, read_gravity
 
 #: raw-log / data columns of an IMU's roll and pitch (rad)
@@ -32,7 +33,7 @@ def gravity_in_link(roll: ArrayLike, pitch: ArrayLike) -> np.ndarray:
     return np.stack([np.sin(p), -np.cos(p) * np.sin(r), -np.cos(p) * np.cos(r)], axis=1)
 
 
-def imu_link(robot, link: str | None = None) -> str | None:
+def imu_link(robot: Robot, link: str | None = None) -> str | None:
     """The IMU's link: ``link`` if given (checked), else the profile's; None when unknown."""
     name = link if link is not None else robot.profile.imu_link
     if name is not None and name not in robot.model.link_frames:
@@ -42,7 +43,7 @@ def imu_link(robot, link: str | None = None) -> str | None:
     return name
 
 
-def gravity_from_imu(robot, q: ArrayLike, roll: ArrayLike, pitch: ArrayLike, link: str):
+def gravity_from_imu(robot: Robot, q: ArrayLike, roll: ArrayLike, pitch: ArrayLike, link: str):
     """Gravity directions (n, 3) in the support frame from IMU roll/pitch (n,) on ``link``.
 
     ``q`` (n, nq) [rad] are the joint angles at which the IMU was read.
@@ -73,7 +74,7 @@ def read_imu(table: Table) -> np.ndarray | None:
     return out
 
 
-def table_gravity(robot, table: Table, q: np.ndarray, link: str | None = None):
+def table_gravity(robot: Robot, table: Table, q: np.ndarray, link: str | None = None):
     """Gravity (n, 3) of a data table: ``grav_x/y/z``, else the IMU columns through the model.
 
     ``q`` (n, nq) [rad]: the table's poses. None when the table has neither; DataError for IMU
@@ -89,7 +90,7 @@ def table_gravity(robot, table: Table, q: np.ndarray, link: str | None = None):
     return gravity_from_imu(robot, q, rp[:, 0], rp[:, 1], name)
 
 
-def table_imu_link(robot, table: Table, link: str | None = None) -> str | None:
+def table_imu_link(robot: Robot, table: Table, link: str | None = None) -> str | None:
     """The IMU link for a table's ``imu_roll``/``imu_pitch`` columns (None without them);
     DataError when the table has them and no IMU link is known (its gravity would be lost),
     OptionError when ``link`` is given to a table without them (it would do nothing)."""

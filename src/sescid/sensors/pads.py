@@ -23,6 +23,7 @@ import numpy as np
 from sescid.base import G0
 from sescid.base.files import read_json
 from sescid.errors import DataError
+from sescid.robot import Robot
 from sescid.robots import RobotProfile
 
 FSR_FORMAT = "sescid-fsr/1"
@@ -254,7 +255,7 @@ def _malformed(where: str) -> Foot:
     raise DataError(f"{where}: malformed entry (expected an object)")
 
 
-def check_sensors(robot, config: SensorConfig) -> None:
+def check_sensors(robot: Robot, config: SensorConfig) -> None:
     """DataError naming the sensor file unless its layout fits ``robot``: every sole frame is a
     link of the model, and calibrated offsets stay below a quarter of the robot's weight."""
     where = config.source or "the sensor configuration"

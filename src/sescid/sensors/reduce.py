@@ -28,6 +28,7 @@ from sescid.base import G0
 from sescid.base.text import listed
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import Measurements
+from sescid.robot import Robot
 from sescid.sensors.feet import (
     REASONS,
     PadWatch,
@@ -74,7 +75,7 @@ def _start(log: RawLog) -> _Samples:
     return _Samples(groups, status, q_mean)
 
 
-def _cop_part(robot, log: RawLog, config: SensorConfig, s: _Samples):
+def _cop_part(robot: Robot, log: RawLog, config: SensorConfig, s: _Samples):
     """Per-sample CoP (m, 2), total force (m,) and mode; marks CoP and force outliers."""
     fs = foot_samples(log, config, s.status)
     cop, total = support_cop(robot, fs, s.q_mean, s.groups.g, s.status)
@@ -230,7 +231,11 @@ SESSION_POSE = LogPart(whole_log=False)
 
 
 def measure(
-    robot, log: RawLog, config: SensorConfig | None, min_samples: int = 5, part: LogPart = WHOLE_LOG
+    robot: Robot,
+    log: RawLog,
+    config: SensorConfig | None,
+    min_samples: int = 5,
+    part: LogPart = WHOLE_LOG,
 ) -> Measured:
     """Per-pose means and standard errors of a raw log (module docstring).
 
@@ -380,7 +385,9 @@ def pose_list_ids(table: Table) -> np.ndarray:
     return np.array([str(i) for i in range(table.n)])
 
 
-def imu_gravity_samples(robot, table: Table, q: np.ndarray, link: str | None) -> np.ndarray | None:
+def imu_gravity_samples(
+    robot: Robot, table: Table, q: np.ndarray, link: str | None
+) -> np.ndarray | None:
     """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
     from sescid.sensors.imu import gravity_from_imu, read_imu, table_imu_link
 
@@ -395,7 +402,7 @@ def imu_gravity_samples(robot, table: Table, q: np.ndarray, link: str | None) ->
     return out
 
 
-def read_log(robot, table: Table, config: SensorConfig | None, imu_link: str | None = None):
+def read_log(robot: Robot, table: Table, config: SensorConfig | None, imu_link: str | None = None):
     """The raw log of ``table`` as the reduction reads it, IMU gravity included."""
     log = read_raw(table, robot.joint_names, config, robot.profile.servo)
     if log.gravity is None:
@@ -404,7 +411,7 @@ def read_log(robot, table: Table, config: SensorConfig | None, imu_link: str | N
 
 
 def fsr(
-    robot,
+    robot: Robot,
     log_table: Table,
     config: SensorConfig | None,
     min_samples: int = 5,

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.robot import Robot
 from sescid.sensors.feet import PadWatch
 from sescid.sensors.measured import Measured, concat_measured
 from sescid.sensors.pads import SensorConfig
@@ -80,7 +81,7 @@ def _join(a: RawLog, b: RawLog) -> RawLog:
     return dataclasses.replace(a, **rows, **feet)
 
 
-def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
+def _reduce(robot: Robot, chunks, config, min_samples, imu_link, feet: bool | None):
     """The reduction chunk by chunk, the pose ids in the log's order and the log's name.
     ``feet``: the whole log's answer when known (None: from the chunks, raising ``_Loaded`` if
     it changes)."""
@@ -123,7 +124,7 @@ def _reduce(robot, chunks, config, min_samples, imu_link, feet: bool | None):
 
 
 def fsr_chunks(
-    robot,
+    robot: Robot,
     chunks: Callable[[], Iterable[Table]],
     config: SensorConfig | None,
     min_samples: int = 5,

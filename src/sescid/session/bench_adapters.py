@@ -39,6 +39,7 @@ from sescid.bench.real_robot import (
 )
 from sescid.bench.statics import holding_torques
 from sescid.errors import DataError, OptionError
+from sescid.robot import Robot
 from sescid.sensors.pads import SensorConfig, bilinear_weights, check_sensors
 
 if TYPE_CHECKING:
@@ -49,7 +50,13 @@ class _BenchAdapter:
     """What both bench adapters share: the real robot, its errors, the writer, one pose."""
 
     def __init__(
-        self, robot, sensors: SensorConfig | None, config, seed: int | None, imu=0.0, feet=True
+        self,
+        robot: Robot,
+        sensors: SensorConfig | None,
+        config,
+        seed: int | None,
+        imu=0.0,
+        feet=True,
     ):
         self.robot = robot
         self.sensors = sensors
@@ -119,7 +126,12 @@ class KinematicAdapter(_BenchAdapter):
     held in a gantry (module docstring)."""
 
     def __init__(
-        self, robot, sensors: SensorConfig | None, config=None, seed: int | None = 0, feet=True
+        self,
+        robot: Robot,
+        sensors: SensorConfig | None,
+        config=None,
+        seed: int | None = 0,
+        feet=True,
     ):
         super().__init__(robot, sensors, config, seed, feet=feet)
         boards = sensors.feet if sensors is not None else ()
@@ -208,7 +220,7 @@ class MujocoAdapter(_BenchAdapter):
 
     def __init__(
         self,
-        robot,
+        robot: Robot,
         sensors: SensorConfig | None,
         config=None,
         bench=None,

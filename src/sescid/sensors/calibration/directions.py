@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.estimation.result.identifiability import label_columns, sparse_terms
+from sescid.robot import Robot
 from sescid.sensors.calibration.model import (
     OFFSET_TWIST,
     PAD_NOT_EXCITED,
@@ -170,7 +171,7 @@ def _unloaded_and_twists(sessions, pb: Problem, sc: _Schur, namer: _Namer) -> No
                 )
 
 
-def unseen_directions(robot, sessions, pb: Problem, sw: np.ndarray) -> list[SensorDirection]:
+def unseen_directions(robot: Robot, sessions, pb: Problem, sw: np.ndarray) -> list[SensorDirection]:
     """Name the sensor directions the sessions leave undetermined (module docstring)."""
     sc = _schur(pb, sw)
     namer = _Namer(pb, sc)

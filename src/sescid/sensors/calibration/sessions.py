@@ -22,6 +22,7 @@ import numpy as np
 
 from sescid.base.files import read_json
 from sescid.errors import DataError
+from sescid.robot import Robot
 from sescid.sensors.calibration.model import PadFoot, PadSession, SensorCalibration
 from sescid.sensors.pads import FSR_FORMAT, FSR_FORMAT_2, SensorConfig, check_sensors
 from sescid.sensors.raw import read_raw
@@ -44,7 +45,11 @@ class PadSessionOptions:
 
 
 def pad_session(
-    robot, table: Table, config: SensorConfig, name: str, options: PadSessionOptions | None = None
+    robot: Robot,
+    table: Table,
+    config: SensorConfig,
+    name: str,
+    options: PadSessionOptions | None = None,
 ) -> PadSession:
     """Per-pose mean pad readings (N), read-backs and loaded feet of a raw log (module doc)."""
     opt = options or PadSessionOptions()
