@@ -202,7 +202,7 @@ def writers(path: Path, out: Path) -> dict[str, float]:
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
-    from sescid.io import tables
+    from sescid.tables import write as tables
     from sescid.tables import read_table, write_table
 
     cols = read_table(path).columns
