@@ -202,8 +202,8 @@ def writers(path: Path, out: Path) -> dict[str, float]:
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
-    from sescid.tables import write as tables
     from sescid.tables import read_table, write_table
+    from sescid.tables import write as tables
 
     cols = read_table(path).columns
     table = pa.table(cols)
