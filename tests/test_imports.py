@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import importlib.util
 import pkgutil
 import subprocess
 import sys
@@ -196,3 +197,49 @@ def test_the_private_name_check_can_fail():
         "1: sescid.kinematics._kernels.fused._body",
         "4: kc._chain_block",
     ]
+
+
+ROOT = SRC.parent.parent
+#: the scripts beside the package that import it (a renamed or moved name breaks them only when
+#: run: `make bench` stopped on one, a function-level import of a module that had moved)
+SCRIPTS = [p for d in ("benchmarks", "tools", "examples") for p in sorted((ROOT / d).rglob("*.py"))]
+
+
+def _unresolved(path: Path) -> list[str]:
+    """Every ``from sescid… import name`` / ``import sescid…`` of ``path`` (at any depth) whose
+    module or name does not exist."""
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if not node.module.split(".")[0] == "sescid":
+                continue
+            try:
+                module = importlib.import_module(node.module)
+            except ImportError as exc:
+                bad.append(f"{path.name}:{node.lineno} {node.module} ({exc})")
+                continue
+            for alias in node.names:
+                name = f"{node.module}.{alias.name}"
+                if not hasattr(module, alias.name) and importlib.util.find_spec(name) is None:
+                    bad.append(f"{path.name}:{node.lineno} {name}")
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if (
+                    alias.name.split(".")[0] == "sescid"
+                    and importlib.util.find_spec(alias.name) is None
+                ):
+                    bad.append(f"{path.name}:{node.lineno} {alias.name}")
+    return bad
+
+
+@pytest.mark.skipif(not SCRIPTS, reason="not a source checkout (no benchmarks/tools/examples)")
+def test_the_scripts_import_only_names_that_exist():
+    """benchmarks/, tools/ and examples/ name only sescid modules and names that exist."""
+    bad = [b for p in SCRIPTS for b in _unresolved(p)]
+    assert not bad, bad
+
+
+def test_the_script_import_check_can_fail(tmp_path):
+    script = tmp_path / "s.py"
+    script.write_text("def f():\n    from sescid.io import tables\n    import sescid.nowhere\n")
+    assert len(_unresolved(script)) == 2
