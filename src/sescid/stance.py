@@ -20,6 +20,8 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal, NoReturn, get_args
 
+import numpy as np
+
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.model.sole import splits_at_support
 from sescid.robot import DOUBLE, Robot
@@ -38,6 +40,7 @@ __all__ = [
     "own_stance",
     "parse_stance",
     "parse_stances",
+    "stance_labels",
     "stance_robot",
     "support_column",
 ]
@@ -208,3 +211,14 @@ def support_column(table: Table) -> str | None:
             f"stance: keep one, named '{SUPPORT_COLUMN}'"
         )
     return found[0] if found else None
+
+
+def stance_labels(
+    cells: Sequence[str], reference: Robot, where: Callable[[str], Where]
+) -> tuple[np.ndarray, dict[str, Stance]]:
+    """Each cell of a stance column (any ``parse_stance`` spelling, parsed once per distinct
+    spelling; an error at ``where(spelling)``) as its stance's label, an empty cell as "", and
+    the stance of each label found."""
+    found = {v: parse_stance(v, reference, where(v)) for v in dict.fromkeys(cells) if v}
+    labels = np.array([found[v].label if v else "" for v in cells])
+    return labels, {s.label: s for s in found.values()}

@@ -23,7 +23,7 @@ from sescid.cli.flags import flags, record
 from sescid.errors import DataError, OptionError
 from sescid.robot import DOUBLE, Robot
 from sescid.sensors import default_sensors_path, load_sensors, pose_list_ids
-from sescid.stance import parse_stance, support_column
+from sescid.stance import stance_labels, support_column
 from sescid.tables import read_poses, read_table, write_table
 
 
@@ -142,21 +142,22 @@ def plan_rows(table, robot: Robot, stance: str, poses_file) -> np.ndarray:
     column = support_column(table)
     if column is None or column not in table.text:
         return np.arange(table.n)
-    labels = np.array([v.strip() for v in table.text[column]])
-    flags, label_of = {}, {}  # a stance's flags by its label; each spelling's label
-    for name in dict.fromkeys(labels.tolist()):
-        row = table.where(int(np.flatnonzero(labels == name)[0]))
-        at = f"{poses_file}: {row}, column '{column}'"
-        if not name:
-            raise DataError(f"{at} is empty (name the stance of every row, or of none)")
-        planned = parse_stance(name, robot, at)  # a stance of this model, in any spelling
-        label_of[name] = planned.label
-        flags[planned.label] = (
-            "--double-support" if planned.mount == "double"
-            else f"--mount gantry --support {planned.support}" if planned.mount == "gantry"
-            else f"--support {planned.support}"
-        )  # fmt: skip
-    rows = np.flatnonzero([label_of[v] == stance for v in labels.tolist()])
+    cells = [v.strip() for v in table.text[column]]
+
+    def at(name: str) -> str:  # the first row of a spelling, as an error names it
+        return f"{poses_file}: {table.where(cells.index(name))}, column '{column}'"
+
+    if "" in cells:  # the spellings read before it are checked first, as the rows are read
+        stance_labels(cells[: cells.index("")], robot, at)
+        raise DataError(f"{at('')} is empty (name the stance of every row, or of none)")
+    labels, planned = stance_labels(cells, robot, at)  # stances of this model, any spelling
+    flags = {
+        label: "--double-support" if st.mount == "double"
+        else f"--mount gantry --support {st.support}" if st.mount == "gantry"
+        else f"--support {st.support}"
+        for label, st in planned.items()
+    }  # fmt: skip
+    rows = np.flatnonzero(labels == stance)
     if rows.size == 0:
         raise DataError(
             f"{poses_file}: its poses were planned for {', '.join(repr(p) for p in flags)} "

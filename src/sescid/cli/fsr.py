@@ -15,7 +15,7 @@ from sescid.errors import DataError
 from sescid.report import mm
 from sescid.robot import DOUBLE, Robot
 from sescid.sensors import REASONS, fsr_chunks, fsr_stances, load_sensors, pose_list_ids
-from sescid.stance import data_stance, parse_stance, support_column
+from sescid.stance import data_stance, stance_labels, support_column
 from sescid.tables import SUPPORT_COLUMN, Table, iter_table, pose_ids, read_table, write_table
 
 
@@ -100,10 +100,8 @@ def _check_plan(
     if column is None or column not in plan.text or not measured:
         return
     spelled = [v.strip() for v in plan.text[column]]
-    label = {v: parse_stance(v, robot, f"{plan.path}, column '{column}'").label
-             for v in dict.fromkeys(spelled) if v}  # fmt: skip
-    planned = dict(zip(pose_list_ids(plan).tolist(), (label.get(v, v) for v in spelled),
-                       strict=True))  # fmt: skip
+    labels, _ = stance_labels(spelled, robot, lambda _: f"{plan.path}, column '{column}'")
+    planned = dict(zip(pose_list_ids(plan).tolist(), labels.tolist(), strict=True))
     for pose, (stance, at) in measured.items():
         want = planned.get(pose)
         if want is not None and want != stance:

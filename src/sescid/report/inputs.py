@@ -130,7 +130,7 @@ def read_report_data(
     column."""
     from sescid.io.measurements import measurements_of
     from sescid.sensors import pose_list_ids
-    from sescid.stance import parse_stance, support_column
+    from sescid.stance import stance_labels, support_column
     from sescid.tables import read_table
 
     table = read_table(path)
@@ -140,9 +140,7 @@ def read_report_data(
     want = fit.robot.support if stance is None else stance.label
     if column in table.text:  # the rows of that stance (the others: --support)
         cells = [v.strip() for v in table.text[column]]
-        label = {v: parse_stance(v, fit.robot, f"{path}, column '{column}'").label
-                 for v in dict.fromkeys(cells) if v}  # fmt: skip
-        labels = np.array([label.get(v, v) for v in cells])
+        labels, _ = stance_labels(cells, fit.robot, lambda _: f"{path}, column '{column}'")
         mine = np.flatnonzero(labels == want)
         if mine.size == 0:
             names = sorted(set(labels.tolist()))
