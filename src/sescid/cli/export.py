@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import re
-
 import click
 import numpy as np
 
-from sescid.base import OutputSet, listed
+from sescid.base import OutputSet
 from sescid.cli import common
 from sescid.cli.flags import flag
 from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
@@ -18,6 +16,7 @@ from sescid.io import (
     check_inertias,
     export_model,
     model_files,
+    repairs_summarised,
 )
 
 
@@ -84,7 +83,7 @@ def export_cmd(fit_file, out, model_format, over, repair_inertia, force, **opts)
         click.echo(f"  {line}")
     with outs:
         warnings = export_model(fit, outs.path(out), model_format, repair_inertia, over)
-    for warning in _summarised(warnings):
+    for warning in repairs_summarised(warnings):
         click.echo(f"sescid: warning: {warning}", err=True)
     assert fit.inertials is not None
     total = float(np.sum(fit.inertials.masses))
@@ -98,21 +97,3 @@ def export_cmd(fit_file, out, model_format, over, repair_inertia, force, **opts)
     click.echo(
         f"wrote {out}: {fit.robot.name} with identified masses (total {total:.4f} kg, {how})"
     )
-
-
-#: how a repaired tensor's warning reads (``export_model``'s, one a link)
-_REPAIRED = re.compile(r"^link (.+): inertia repaired \(principal moments (.+) kg·m²\)$")
-
-
-def _summarised(warnings: list[str]) -> list[str]:
-    """The export's warnings, the tensors repaired in one line when there are several (a robot
-    with dozens of massless-inertia sensor links gave as many lines)."""
-    repaired = [m for m in map(_REPAIRED.match, warnings) if m is not None]
-    if len(repaired) < 2:
-        return warnings
-    items = [f"{m[1]} ({m[2]})" for m in repaired]
-    where = "each in the file written"
-    return [w for w in warnings if _REPAIRED.match(w) is None] + [
-        f"{len(repaired)} links' inertia tensors repaired with the smallest change (principal "
-        f"moments before → after, kg·m²): {listed(items, where=where)}"
-    ]

@@ -25,7 +25,7 @@ from sescid.io.bags import (
     read_bag,
 )
 from sescid.io.export.assets import model_files
-from sescid.io.export.inertia import check_inertias
+from sescid.io.export.inertia import check_inertias, repairs_summarised
 from sescid.io.export.mjcf import export_mjcf
 from sescid.io.export.model import FORMATS, export_model
 from sescid.io.export.urdf import export_urdf
@@ -63,6 +63,7 @@ __all__ = [
     "read_bag",
     "read_json",
     "read_session_reasons",
+    "repairs_summarised",
     "required_paper_convention",
     "rows_estimate",
     "save_fit",

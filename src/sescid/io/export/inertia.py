@@ -21,10 +21,12 @@ physically consistent, and a warning when a body's mass leaves the CAD's neighbo
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
+from sescid.base.text import listed
 from sescid.errors import ModelError
 from sescid.model.inertia import NEW_BODY_RADIUS, inertia_problems, repair_inertia
 
@@ -104,6 +106,25 @@ def sphere_inertia(mass: float) -> np.ndarray:
     return np.full(3, 0.4 * mass * NEW_BODY_RADIUS**2)
 
 
+#: the warning of a tensor ``exported_inertia`` repaired (``where`` "link NAME"), and its reader
+REPAIRED = "{where}: inertia repaired (principal moments {before} → {after} kg·m²)"
+_REPAIRED = re.compile(r"^link (.+): inertia repaired \(principal moments (.+) kg·m²\)$")
+
+
+def repairs_summarised(warnings: list[str]) -> list[str]:
+    """An export's warnings with the tensors repaired (``REPAIRED``, one a link) in one line when
+    there are several (a robot with dozens of massless-inertia sensor links gave as many)."""
+    repaired = [m for m in map(_REPAIRED.match, warnings) if m is not None]
+    if len(repaired) < 2:
+        return warnings
+    items = [f"{m[1]} ({m[2]})" for m in repaired]
+    where = "each in the file written"
+    return [w for w in warnings if _REPAIRED.match(w) is None] + [
+        f"{len(repaired)} links' inertia tensors repaired with the smallest change (principal "
+        f"moments before → after, kg·m²): {listed(items, where=where)}"
+    ]
+
+
 def exported_inertia(
     tensor: np.ndarray, mass: float, where: str, repair: bool
 ) -> tuple[np.ndarray, str | None]:
@@ -130,7 +151,7 @@ def exported_inertia(
             f"{where}: the inertia tensor (principal moments {before} kg·m²) is not physically "
             "consistent; export --repair-inertia repairs it with the smallest change"
         )
-    return fixed, f"{where}: inertia repaired (principal moments {before} → {after} kg·m²)"
+    return fixed, REPAIRED.format(where=where, before=before, after=after)
 
 
 def check_inertias(model, src: Path, repair: bool) -> None:
