@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -20,6 +21,9 @@ from sescid.errors import ModelError
 from sescid.model import RobotModel, Shape, load_model
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, EXAMPLES, RobotProfile, generic_profile, profile_for
+
+if TYPE_CHECKING:
+    from sescid.model.meshes import UnloadedMesh
 
 __all__ = ["DOUBLE", "Robot", "line_direction", "load_robot"]
 
@@ -258,7 +262,7 @@ class Robot:
 
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
-    def _geometry(self) -> tuple[list[Shape], list[str], list[str]]:
+    def _geometry(self) -> tuple[list[Shape], list[str], list[UnloadedMesh]]:
         from sescid.model.meshes import with_mesh_vertices
 
         if self.model.format == "urdf":
@@ -276,9 +280,9 @@ class Robot:
         return list(self._geometry[1])
 
     @property
-    def unloaded_meshes(self) -> list[str]:
-        """The mesh files the model names that could not be found or read ("link (role:
-        file)"): their shapes are missing from ``shapes``."""
+    def unloaded_meshes(self) -> list[UnloadedMesh]:
+        """The mesh files the model names that could not be found or read: their shapes are
+        missing from ``shapes``."""
         return list(self._geometry[2])
 
     @cached_property

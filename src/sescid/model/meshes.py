@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -191,15 +191,33 @@ def _collada_up(path: str) -> np.ndarray:
     return _UP.get(m.group(1) if m else "Z_UP", np.eye(3))
 
 
+@dataclass(frozen=True)
+class UnloadedMesh:
+    """A mesh file a model names whose shape could not be loaded."""
+
+    link: str
+    role: str  #: "collision" or "visual"
+    mesh: str  #: the file as the model names it (a path or a package:// URI)
+    found: bool  #: False: not found; True: found but unreadable
+
+    @property
+    def in_package(self) -> bool:
+        """A ``package://`` mesh (resolved from the model's folders or ROS_PACKAGE_PATH)."""
+        return PACKAGE in self.mesh
+
+    def __str__(self) -> str:
+        return f"{self.link} ({self.role}: {self.mesh})"
+
+
 def with_mesh_vertices(
     shapes: list[Shape], model_path: Path
-) -> tuple[list[Shape], list[str], list[str]]:
+) -> tuple[list[Shape], list[str], list[UnloadedMesh]]:
     """``shapes`` with each mesh's vertices (body frame, scaled) loaded where its file resolves
     (visual meshes only on bodies without a usable collision shape); notes name the meshes that
-    could not be found or read; and those meshes ("link (role: file)")."""
+    could not be found or read; and those meshes."""
     out = list(shapes)
-    missing: list[str] = []
-    unreadable: list[str] = []
+    missing: list[UnloadedMesh] = []
+    unreadable: list[UnloadedMesh] = []
     for role in ("collision", "visual"):
         solid = {s.body for s in out if s.role == "collision" and _usable(s)}
         for k, s in enumerate(out):
@@ -210,7 +228,9 @@ def with_mesh_vertices(
             path = resolve_mesh(s.mesh, model_path)
             verts = None if path is None else _hull_vertices(str(path))
             if verts is None:
-                (missing if path is None else unreadable).append(f"{s.link} ({role}: {s.mesh})")
+                (missing if path is None else unreadable).append(
+                    UnloadedMesh(s.link, role, s.mesh, path is not None)
+                )
                 continue
             v = verts * s.scale
             out[k] = replace(s, vertices=v @ s.pose[:3, :3].T + s.pose[:3, 3])
@@ -219,12 +239,12 @@ def with_mesh_vertices(
         if names:
             notes.append(
                 f"{len(names)} mesh file(s) {what}, their shapes ignored: "
-                + ", ".join(names[:3])
+                + ", ".join(map(str, names[:3]))
                 + (" …" if len(names) > 3 else "")
             )
-    pkgs = sorted({n.split(PACKAGE, 1)[1].split("/", 1)[0] for n in missing if PACKAGE in n})
+    pkgs = sorted({m.mesh.split(PACKAGE, 1)[1].split("/", 1)[0] for m in missing if m.in_package})
     if pkgs:
-        count = sum(PACKAGE in n for n in missing)
+        count = sum(m.in_package for m in missing)
         notes.append(
             f"{count} of them are {PACKAGE} meshes of package(s) {', '.join(pkgs)} found neither "
             "in a folder above the model file nor on ROS_PACKAGE_PATH: add the folder that holds "

@@ -65,24 +65,17 @@ def check_meshes(robot: Robot, opt: PlanOptions) -> None:
     through the floor or through itself would pass), unless ``opt.allow_missing_meshes``."""
     missing = robot.unloaded_meshes
     if missing and not opt.allow_missing_meshes:
-        hint = next((n for n in robot.geometry_notes if "ROS_PACKAGE_PATH" in n), None)
         how = (
             "add the folder holding each package to ROS_PACKAGE_PATH"
-            if hint is not None
+            if any(m.in_package and not m.found for m in missing)
             else "keep the model file where its mesh paths point"
         )
-        files = listed(_short(m) for m in missing)
+        files = listed(f"{m.link} ({m.mesh.rsplit('/', 1)[-1]})" for m in missing)
         raise ModelError(
             f"{robot.model_path}: {len(missing)} mesh file(s) it names are not found or cannot "
             f"be read ({files}): the floor and self-collision checks would not see those "
             f"shapes; {how}, or plan without them (--allow-missing-meshes)"
         )
-
-
-def _short(mesh: str) -> str:
-    """A missing mesh by its file: 'link (role: path/to/file.stl)' → 'link (file.stl)'."""
-    link, _, rest = mesh.partition(" (")
-    return f"{link} ({rest.rstrip(')').split(': ', 1)[-1].rsplit('/', 1)[-1]})"
 
 
 def checked_choice(
