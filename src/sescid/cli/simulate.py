@@ -92,7 +92,13 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         robot, ExperimentConfig(extra_mass_fraction=kinds["extra_mass"])
     )
     if measure == "balance":
-        _balance(robot, (poses, range_deg, seed), kinds["tilt_noise_deg"], r_true, outs, out)
+        from sescid.simulation import simulate_balance
+
+        noise_deg = kinds["tilt_noise_deg"]
+        balanced = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed, r_true)
+        _write_balance(robot, balanced, outs, out)
+        click.echo(f"wrote {out}: {poses} balanced poses of {robot.name} on its line, tilt "
+                   f"noise {noise_deg:g}°")  # fmt: skip
         click.echo(f"  {_real_line(robot, true_mass, placed)}")
         return
     sensors = torque_noise(kinds)
@@ -145,26 +151,17 @@ def _real_line(robot: Robot, true_mass: float, placed: list[dict]) -> str:
     )
 
 
-def _balance(robot: Robot, draw: tuple[int, float, int], noise_deg: float, r_true, outs, out):
-    """Balanced poses of the real robot (SESC vectors ``r_true``) on its line: joints, measured
-    gravity, the true tilt; ``draw``: poses, range [degrees], seed."""
-    import math
-
-    from sescid.simulation import simulate_balance
+def _write_balance(robot: Robot, sim, outs, out) -> None:
+    """Balanced poses (``simulation.BalanceData``) as columns: joints, measured gravity, the true
+    tilt, the stance."""
     from sescid.tables import write_table
 
-    poses, range_deg, seed = draw
-    sim = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed, r_true)
     cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
     cols["balance_tilt_true"] = sim.tilt
-    cols["support"] = np.full(poses, robot.support)
+    cols["support"] = np.full(len(sim.q), robot.support)
     with outs:
         write_table(outs.path(out), cols)
-    click.echo(
-        f"wrote {out}: {poses} balanced poses of {robot.name} on its line, tilt noise "
-        f"{noise_deg:g}°"
-    )
 
 
 def torque_noise(kinds: dict) -> TorqueNoise | None:
