@@ -10,20 +10,17 @@ from __future__ import annotations
 from dataclasses import replace
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from sescid import kinematics, sesc
 from sescid.base import G0
-from sescid.errors import ModelError
+from sescid.errors import ModelError, SescidError
 from sescid.model import RobotModel, Shape, load_model
+from sescid.model.meshes import UnloadedMesh, with_mesh_vertices
 from sescid.model.sole import Sole
 from sescid.robots import EMBEDDED, EXAMPLES, RobotProfile, generic_profile, profile_for
-
-if TYPE_CHECKING:
-    from sescid.model.meshes import UnloadedMesh
 
 __all__ = ["DOUBLE", "Robot", "line_direction", "load_robot"]
 
@@ -263,8 +260,6 @@ class Robot:
     # --- geometry and soles (lazy; see sescid.model.sole) ---------------------------------
     @cached_property
     def _geometry(self) -> tuple[list[Shape], list[str], list[UnloadedMesh]]:
-        from sescid.model.meshes import with_mesh_vertices
-
         if self.model.format == "urdf":
             return with_mesh_vertices(self.model.shapes, self.model.path)
         return list(self.model.shapes), [], []
@@ -442,7 +437,6 @@ def load_robot(
 def _feet_hint(path: Path) -> str:
     """'; feet found …: a, b' naming the model's support candidates ('' when none are found or
     the model cannot be read: its own error comes with loading it)."""
-    from sescid.errors import SescidError
     from sescid.model.feet import support_candidates
 
     try:
