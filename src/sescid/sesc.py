@@ -141,25 +141,6 @@ def gravity_vectors(gravity: ArrayLike | None, n: int, g0: float = G0) -> np.nda
     return g * (g0 / np.linalg.norm(g, axis=1, keepdims=True))
 
 
-def subtree_matrix(tree: Tree) -> np.ndarray:
-    """(N, N) with [b, i] = 1 when body i is body b or beyond it (away from the support)."""
-    nb = tree.parent.shape[0]
-    sub = np.eye(nb)
-    for i in range(nb - 1, 0, -1):  # children come after their parents
-        sub[tree.parent[i]] += sub[i]
-    return sub
-
-
-def joint_bodies(tree: Tree, cols: np.ndarray) -> np.ndarray:
-    """(J, N) weights of each body's joint in the torque of q columns ``cols``: coef_b where body
-    b is driven by that column (several bodies for a mimic joint), else 0."""
-    w = np.zeros((len(cols), tree.parent.shape[0]))
-    for k, j in enumerate(cols):
-        hit = tree.jcol == j
-        w[k, hit] = tree.coef[hit]
-    return w
-
-
 def torque_regressor(
     tree: Tree,
     q: ArrayLike,

@@ -19,8 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sescid.base.files import atomic_open, check_outputs, read_json
-from sescid.errors import SescidError
+from sescid.base.files import atomic_open, read_json
 from sescid.estimation.result.fit_json import save_fit
 from sescid.io.pose_table import pose_table
 from sescid.robot import Robot
@@ -39,16 +38,6 @@ def session_paths(out_dir: str | Path) -> dict[str, Path]:
     """Name → path of each file a session writes into ``out_dir``."""
     out = Path(out_dir)
     return {n.split(".")[0]: out / n for n in SESSION_FILES}
-
-
-def check_session_outputs(out_dir: str | Path, inputs: list) -> dict[str, Path]:
-    """Validate the output folder and files before a session starts; their paths."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise SescidError(f"{out}: exists and is not a folder")
-    paths = session_paths(out)
-    check_outputs(list(paths.values()), inputs, folders=[out])
-    return paths
 
 
 def read_session_reasons(folder: Path) -> dict[str, str]:

@@ -21,7 +21,6 @@ from sescid.kinematics._kernels.chains import (
     com_one,
     forward,
     regressor,
-    regressor_columns,
 )
 from sescid.kinematics._kernels.cop import com_rows, com_sum, cop_xy
 from sescid.kinematics._kernels.fused import (
@@ -99,7 +98,6 @@ __all__ = [
     "reducible",
     "reduction",
     "regressor",
-    "regressor_columns",
     "split_augmented",
     "torque_plan",
     "torque_residual_sums",

@@ -70,18 +70,6 @@ def min_poses(robot: Robot) -> int:
     return poses_needed(structural_rank(robot))
 
 
-def check_enough_poses(robot: Robot, n: int) -> None:
-    """DataError when n poses cannot determine the robot's identifiable combinations."""
-    p = structural_rank(robot)
-    need = min_poses(robot)
-    if n < need:
-        raise DataError(
-            f"{n} poses are too few for least squares on {robot.name}: its {p} "
-            f"identifiable combinations need at least {need} poses (2 equations each, one "
-            "left for the noise)"
-        )
-
-
 def label_columns(robot: Robot) -> list[tuple[str, str]]:
     """(body, axis) of each component of vec(r)."""
     return [(b, a) for b in robot.body_names for a in AXES]

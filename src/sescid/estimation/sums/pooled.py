@@ -23,7 +23,6 @@ determines, and ``Fit.for_support`` gives the same fit in another stance's frame
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -302,8 +301,3 @@ def check_pooled_prior(prior: str) -> None:
             "a per-component prior on one stance's SESC vectors does not cover the body "
             "parameters several stances share: use the per-body prior (prior='bodies')"
         )
-
-
-def nan_if(x: float, ok: bool) -> float:
-    """x, or nan when not ``ok``."""
-    return x if ok else math.nan

@@ -276,16 +276,3 @@ def regressor(tree: Tree, q: ArrayLike, rows: tuple[int, ...] = (0, 1)) -> np.nd
         # rot[b, j, i, k] → out[k, i, 3b + j]
         out[s0 : s0 + rot.shape[3]] = rot[:, :, rows, :].reshape(3 * nb, len(rows), -1).T
     return out
-
-
-def regressor_columns(
-    tree: Tree, q: np.ndarray, rows=(0, 1), ws: Workspace | None = None, kernels=None
-):
-    """Φᵀ of a block as a (3N, len(rows)·m) matrix, columns ordered (row, pose): the layout the
-    normal equations want (ΦᵀΦ = X Xᵀ). A view into the workspace; ``kernels`` as ``chain``."""
-    rot = chain(tree, q, ws, kernels)
-    nb, m = rot.shape[0], rot.shape[3]
-    rows = list(rows)
-    if rows == list(range(rows[0], rows[-1] + 1)):  # contiguous rows: no copy
-        return rot.reshape(3 * nb, 3 * m)[:, rows[0] * m : (rows[-1] + 1) * m]
-    return rot[:, :, rows, :].reshape(3 * nb, len(rows) * m)

@@ -297,19 +297,6 @@ def _lowest(g: GroundChecks, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
     return low
 
 
-def free_foot_heights(robot: Robot, rot: np.ndarray, org: np.ndarray) -> np.ndarray:
-    """(n,) the free foot's lowest point [m] above the floor (its bodies' geometry and its sole's
-    corners), per pose; nan when the free foot is unknown."""
-    g = ground_checks(robot)
-    low = np.full(rot.shape[0], np.inf)
-    if g.free is not None:
-        low = _lowest(g.free, rot, org)
-    corners = free_sole_corners(robot, rot, org)
-    if corners is not None:
-        low = np.minimum(low, corners[..., 2].min(axis=1))
-    return np.where(np.isfinite(low), low - robot.floor, np.nan)
-
-
 def ground_clear(
     robot: Robot,
     cap: Capsules | None,
