@@ -159,7 +159,7 @@ def test_bodies_without_geometry_are_checked_by_their_frames_too(tmp_path, monke
     assert np.any((sole[:, 2] <= robot.floor + 0.005) & (foot[:, 2] > robot.floor + 0.005))
 
 
-def test_poses_refuse_a_model_whose_meshes_are_not_found(tmp_path, monkeypatch):
+def test_poses_and_session_refuse_a_model_whose_meshes_are_not_found(tmp_path, monkeypatch):
     """`poses` on a URDF copied out of its package: it planned, its floor and self-collision
     checks blind to the 10 missing meshes (a note among others); it now refuses in one line
     naming the files, ROS_PACKAGE_PATH and --allow-missing-meshes, which plans as before."""
@@ -178,3 +178,14 @@ def test_poses_refuse_a_model_whose_meshes_are_not_found(tmp_path, monkeypatch):
     res = CliRunner().invoke(cli, [*args, "--allow-missing-meshes"])
     assert res.exit_code == 0 and out.exists(), res.output
     assert "10 mesh file(s) not found, their shapes ignored" in res.output
+    # a guided session draws its candidates through the same funnel: the same refusal, before
+    # its output folder is made
+    folder = tmp_path / "session"
+    args = ["session", "--adapter", "kinematic", "--robot", str(away), "--support", "r_sole",
+            "--torques", "all", "--no-foot-sensors", "--budget", 16, "--candidates", 200,
+            "--no-view", "--out-dir", str(folder)]  # fmt: skip
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 2 and not folder.exists(), res.output
+    assert "10 mesh file(s) it names are not found" in res.output, res.output
+    res = CliRunner().invoke(cli, [*args, "--allow-missing-meshes"])
+    assert res.exit_code == 0 and (folder / "fit.json").exists(), res.output

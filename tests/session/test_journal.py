@@ -27,7 +27,7 @@ from sescid.session import (
 )
 
 OPT = SessionOptions(budget=26, samples=6, n_candidates=300, window=3)
-HEADER = {"robot": "op2", "adapter": "seeded"}
+HEADER = {"robot": "op2", "adapter": "seeded", "options": {"seed": 0}}
 
 
 class Seeded:
@@ -92,6 +92,13 @@ def test_interrupted_session_resumes_to_the_same_result(op2, sensors, tmp_path):
     assert done.finished and not idle.moves and np.array_equal(replayed.fit.r, whole.fit.r)
     with pytest.raises(DataError, match="other settings .*adapter"):
         Journal.open(tmp_path / "s", HEADER | {"adapter": "another"})
+    # an option added after the journal was written resumes at its default, not otherwise
+    new = HEADER | {"options": HEADER["options"] | {"added_option": 1.5}}
+    assert Journal.open(tmp_path / "s", new, defaults={"added_option": 1.5}).entries
+    with pytest.raises(DataError, match="other settings .*options"):
+        Journal.open(tmp_path / "s", new, defaults={"added_option": 2.0})
+    with pytest.raises(DataError, match="other settings .*options"):
+        Journal.open(tmp_path / "s", new)
     assert Journal.open(tmp_path / "s", HEADER, restart=True).entries == []
     # a journal without a measured pose yet (the session failed before) starts afresh
     assert Journal.open(tmp_path / "s", HEADER | {"adapter": "another"}).entries == []

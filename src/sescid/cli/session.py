@@ -133,7 +133,7 @@ class _Both:
     "gantry:<link>; the session asks for a stance change when a pose of another stance is "
     "worth it (--stance-cost). One stance: as --support/--mount.",
 )
-@flags(SessionOptions, "stance_cost", "hang_height", "total_mass")
+@flags(SessionOptions, "stance_cost", "hang_height", "total_mass", "allow_missing_meshes")
 @click.option(
     "--foot-sensors/--no-foot-sensors",
     default=True,
@@ -193,7 +193,8 @@ def session(**opts):
             f"--adapter mujoco ({exc.what})", exc.extra,
             "run the rigid-statics bench without it: --adapter kinematic",
         ) from None  # fmt: skip
-    journal = Journal.open(out_dir, header, restart=opts["force"])
+    defaults = dataclasses.asdict(SessionOptions())
+    journal = Journal.open(out_dir, header, restart=opts["force"], defaults=defaults)
     if journal.finished:
         click.echo(f"{journal.path}: the session finished ({journal.finished}); replaying it")
     elif journal.entries:

@@ -19,16 +19,14 @@ import numpy as np
 from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError
 from sescid.planning import (
-    CandidateOptions,
+    Candidates,
     DesignKind,
-    GantryOptions,
     Mount,
+    PlanOptions,
     TorqueRows,
     block_rows,
-    candidates,
     cop_half_extents,
     design_kinds,
-    gantry_candidates,
     identifiable_basis,
     kind_basis,
     min_block_poses,
@@ -36,6 +34,7 @@ from sescid.planning import (
     resolve_mount,
 )
 from sescid.planning.design.sequential import SequentialDesign
+from sescid.planning.funnel import sampling_range, stance_candidates
 from sescid.robot import Robot
 from sescid.session.records import SessionOptions
 from sescid.stance import own_stance
@@ -51,6 +50,28 @@ def session_mount(robot: Robot, opt: SessionOptions) -> tuple[Mount, DesignKind]
     else:
         kinds = opt.kinds
     return resolve_mount(robot, mount, kinds), kinds
+
+
+def session_candidates(
+    robot: Robot, mount: Mount, opt: SessionOptions, seed, progress: Callable | None
+) -> tuple[Candidates, np.ndarray | None]:
+    """(``opt.n_candidates`` candidates of ``robot`` held as ``mount``, drawn by the planner's
+    funnel (``stance_candidates``), and the (2,) m CoP box they stand in; None in a gantry).
+    A session checks stability by the CoP box alone (no compliant-robot margin): it measures
+    the real CoP at every pose and refuses to command an unsafe one (``unsafe_pose``)."""
+    half = None
+    if mount != "gantry":
+        half = (
+            cop_half_extents(robot)
+            if opt.half_extents is None
+            else np.asarray(opt.half_extents, dtype=float)
+        )
+    draw = PlanOptions(
+        limits=opt.limits, half_extents=half, hang_height=opt.hang_height, rigid=True,
+        allow_missing_meshes=opt.allow_missing_meshes,
+    )  # fmt: skip
+    lim, _, _ = sampling_range(robot, draw)
+    return stance_candidates(robot, mount, opt.n_candidates, seed, draw, lim, progress), half
 
 
 def kinds_of(cop: bool, tau: bool) -> DesignKind:
@@ -90,22 +111,10 @@ class SessionDesign(KindSwitch):
         self.robot, self.opt = robot, opt
         self.mount, self.kinds = session_mount(robot, opt)
         #: (2,) m, the CoP box (None: held in a gantry, no sole needed)
-        self.half: np.ndarray | None = None
-        if self.mount == "gantry":
-            held = GantryOptions(limits=opt.limits, hang_height=opt.hang_height)
-            self.cand = gantry_candidates(
-                robot, opt.n_candidates, opt.seed, held, progress=progress
-            )
-        else:
-            if opt.hang_height is not None:
-                raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
-            self.half = (
-                cop_half_extents(robot)
-                if opt.half_extents is None
-                else np.asarray(opt.half_extents, dtype=float)
-            )
-            draw = CandidateOptions(limits=opt.limits, half_extents=self.half)
-            self.cand = candidates(robot, opt.n_candidates, opt.seed, draw, progress=progress)
+        if self.mount != "gantry" and opt.hang_height is not None:
+            raise OptionError("hang_height", "a hang height goes with a robot held in a gantry")
+        #: the candidates, and the (2,) m CoP box (None: held in a gantry, no sole needed)
+        self.cand, self.half = session_candidates(robot, self.mount, opt, opt.seed, progress)
         self.basis, self.design, self.min_rows = self._design(self.kinds)
 
     def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:

@@ -67,11 +67,20 @@ class Journal:
     created_folder: bool = False  #: the output folder was made for this journal
 
     @classmethod
-    def open(cls, out_dir: str | Path, header: dict, *, restart: bool = False) -> Journal:
+    def open(
+        cls,
+        out_dir: str | Path,
+        header: dict,
+        *,
+        restart: bool = False,
+        defaults: dict | None = None,
+    ) -> Journal:
         """The folder's journal: resumed when it holds this session's poses (same header), a
         new one otherwise; DataError when the folder is not writable or holds another session
-        (``restart`` discards it instead). A last line cut by a crash is cut off the file, so
-        the next record starts on a line of its own."""
+        (``restart`` discards it instead). ``defaults``: the options' default values, which a
+        journal written before an option existed is read as having (so it still resumes). A
+        last line cut by a crash is cut off the file, so the next record starts on a line of
+        its own."""
         folder = Path(out_dir)
         created = not folder.exists()
         try:
@@ -83,8 +92,11 @@ class Journal:
         if path.exists() and not restart:
             old, complete = cls._read(path)
             if old.entries or old.finished:  # else nothing was measured: start afresh
-                if old.header != head:
-                    diff = sorted(k for k in head if old.header.get(k) != head.get(k))
+                was = old.header
+                if defaults is not None and isinstance(was.get("options"), dict):
+                    was = was | {"options": _plain(defaults) | was["options"]}
+                if was != head:
+                    diff = sorted(k for k in head if was.get(k) != head.get(k))
                     raise DataError(
                         f"{path}: the folder holds a session with other settings "
                         f"({', '.join(diff)}): run with the same ones to resume it, or choose "

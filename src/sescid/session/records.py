@@ -79,6 +79,7 @@ class SessionOptions:
         "support.",
     )
     hang_height: float | None = option_like(PlanOptions, "hang_height")
+    allow_missing_meshes: bool = option_like(PlanOptions, "allow_missing_meshes")
     total_mass: float | None = option(
         None,
         "The robot's weighed mass [kg]: the scale of joint torques (default: the model's, "

@@ -35,19 +35,13 @@ from sescid.errors import DataError
 from sescid.estimation import DEFAULT_RTOL, Measurements, identifiable_eigen
 from sescid.estimation.result.fit import Fit
 from sescid.planning import (
-    CandidateOptions,
     DesignKind,
-    GantryOptions,
     Quantity,
     Stance,
-    cop_half_extents,
     design_kinds,
-    double_candidates,
-    gantry_candidates,
     parse_stances,
     stance_robot,
 )
-from sescid.planning import candidates as single_candidates
 from sescid.planning.design.kinds import BlockRows
 from sescid.planning.design.sequential import NextPose, SequentialDesign
 from sescid.planning.design.stances import StanceRows, theta_information, theta_scale
@@ -55,7 +49,7 @@ from sescid.planning.feasibility.double import hull_margin, place_points
 from sescid.planning.pooled import PRIOR_TAU
 from sescid.robot import Robot
 from sescid.sensors import Measured, concat_measured
-from sescid.session.design import KindSwitch, unsafe_pose
+from sescid.session.design import KindSwitch, session_candidates, unsafe_pose
 from sescid.session.estimate import (
     REFERENCE_POSES,
     REFERENCE_RANGE_DEG,
@@ -96,17 +90,10 @@ class StanceDesign(KindSwitch):
         self.halves: list[np.ndarray | None] = []
         parts = []
         for k, (st, rb) in enumerate(zip(self.stances, self.robots, strict=True)):
-            rng = np.random.default_rng([opt.seed, k])
-            if st.mount == "gantry":
-                held = GantryOptions(limits=opt.limits, hang_height=opt.hang_height)
-                parts.append(gantry_candidates(rb, opt.n_candidates, rng, held, progress=progress))
-                self.halves.append(None)
-                continue
-            half = (cop_half_extents(rb) if opt.half_extents is None
-                    else np.asarray(opt.half_extents, dtype=float))  # fmt: skip
-            draw = CandidateOptions(limits=opt.limits, half_extents=half)
-            make = double_candidates if st.mount == "double" else single_candidates
-            parts.append(make(rb, opt.n_candidates, rng, draw, progress=progress))
+            cand, half = session_candidates(
+                rb, st.mount, opt, np.random.default_rng([opt.seed, k]), progress
+            )
+            parts.append(cand)
             self.halves.append(half)
         self.parts = parts
         self.owner = np.concatenate([np.full(len(c.q), k) for k, c in enumerate(parts)])
