@@ -14,7 +14,6 @@ beside those of as many random candidates.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,17 +75,12 @@ def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float
     return np.concatenate(parts, axis=1)
 
 
-def _logdet(m: np.ndarray) -> float:
-    sign, ld = np.linalg.slogdet(m)
-    return float(ld) if sign > 0 else -math.inf
-
-
 def _stds(rows: np.ndarray, free: list[int], mass: float) -> np.ndarray:
     """(4,) std of (mass, CoM) from the rows' information (nan where not determined)."""
     a = rows[:, :, free].reshape(-1, len(free))
     info = a.T @ a
     out = np.full(4, np.nan)
-    if _logdet(info) == -math.inf or np.linalg.cond(info) > 1e12:
+    if np.linalg.slogdet(info)[0] <= 0 or np.linalg.cond(info) > 1e12:
         return out
     cov = np.zeros((4, 4))
     cov[np.ix_(free, free)] = np.linalg.inv(info)
