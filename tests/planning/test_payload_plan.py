@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from payload_gen import robot_with_payload
+from refs import erd
 
 from sescid import Measurements, identify_payload, load_robot, read_table
 from sescid.cli import cli
@@ -38,6 +39,24 @@ def test_plan_promises_what_a_fit_states(op2, tmp_path, mass):
     assert p is not None
     stated = np.concatenate([[p.mass_std], p.com_std])
     np.testing.assert_allclose(stated[free], plan.std[free], rtol=0.25)
+
+
+def test_another_humanoid_plan_promises_what_a_fit_states(tmp_path):
+    """example-robot-data's TALOS on its right sole, a payload in its right gripper: the plan
+    (the planner's one engine over the payload's rows) beats random candidates, and the CoP
+    fit on its poses states the standard errors it promised."""
+    robot = load_robot(erd("talos_data/robots/talos_reduced.urdf"), "right_sole_link")
+    hand, sigma = "gripper_right_base_link", 2e-3
+    plan = plan_payload_poses(robot, hand, 8, 0, PlanOptions(n_candidates=300, sigma=sigma))
+    assert plan.q.shape == (8, robot.nq) and plan.n_candidates == 300
+    assert np.all(plan.std <= plan.random_std * 1.05)
+    assert np.prod(plan.std) < 0.5 * np.prod(plan.random_std)
+    truth = robot_with_payload(robot, tmp_path, hand, plan.nominal_mass, [0.0, 0.0, 0.0])
+    cop = truth.cop(plan.q) + np.random.default_rng(1).normal(0, sigma, (8, 2))
+    p = identify_payload(robot, Measurements(q=plan.q, cop=cop), hand, cop_noise=sigma).payload
+    assert p is not None
+    stated = np.concatenate([[p.mass_std], p.com_std])
+    np.testing.assert_allclose(stated, plan.std, rtol=0.05)
 
 
 def test_poses_payload_cli(tmp_path):

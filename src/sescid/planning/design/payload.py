@@ -7,20 +7,21 @@ parameters p = (m, h = m c) are those of ``estimation.payload``, linearised at a
 rows ``(B − (CoM − d) e_mᵀ) / M`` over the CoP noise, each measured joint's torque row
 ``Φ_τ K D`` over the torque noise (the sensors' constant offsets are left out of the design:
 they are estimated from the same poses, and every pose informs them alike). The choice maximises
-log det of the information (greedy, then exchange passes); the expected standard errors of the
-payload's mass and CoM follow from it, beside those of as many random candidates.
+log det of the information by the planner's one engine (``engine.select_poses``: greedy, then
+exchange passes); the expected standard errors of the payload's mass and CoM follow from it,
+beside those of as many random candidates.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.errors import OptionError, SescidError
+from sescid.errors import OptionError
 from sescid.estimation import check_payload
 from sescid.estimation.solvers.payload import payload_map
+from sescid.planning.design.engine import plain_block_rows, select_poses
 from sescid.planning.funnel import sampling_range, stance_candidates
 from sescid.planning.ordering import order_poses
 from sescid.planning.plan_types import PlanOptions
@@ -30,8 +31,6 @@ from sescid.robot import Robot
 NOMINAL_SHARE = 0.1
 #: candidates a payload plan draws by default (its 4 parameters need few)
 PAYLOAD_CANDIDATES = 2_000
-#: exchange passes at most
-MAX_PASSES = 10
 
 
 @dataclass(frozen=True)
@@ -76,52 +75,12 @@ def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float
     return np.concatenate(parts, axis=1)
 
 
-def _logdet(m: np.ndarray) -> float:
-    sign, ld = np.linalg.slogdet(m)
-    return float(ld) if sign > 0 else -math.inf
-
-
-def select(rows: np.ndarray, count: int, seed: int) -> np.ndarray:
-    """Indices of ``count`` candidates maximising log det Σ AᵢᵀAᵢ (greedy from a small ridge,
-    then exchange passes; ties to the lowest index)."""
-    n, _, p = rows.shape
-    if count > n:
-        raise SescidError(f"cannot choose {count} poses from {n} candidates")
-    info_each = np.einsum("nri,nrj->nij", rows, rows)
-    ridge = 1e-9 * float(np.trace(info_each.sum(0))) / max(n * p, 1)
-    m = ridge * np.eye(p)
-    chosen: list[int] = []
-    for _ in range(count):
-        minv = np.linalg.inv(m)
-        s = np.einsum("nri,ij,nsj->nrs", rows, minv, rows)
-        gain = np.linalg.slogdet(np.eye(rows.shape[1])[None] + s)[1]
-        gain[chosen] = -np.inf
-        best = int(np.argmax(gain))
-        chosen.append(best)
-        m = m + info_each[best]
-    for _ in range(MAX_PASSES):
-        improved = False
-        for pos in range(count):
-            rest = m - info_each[chosen[pos]]
-            sign, trial = np.linalg.slogdet(rest[None] + info_each)
-            trial = np.where(sign > 0, trial, -np.inf)
-            trial[[c for i, c in enumerate(chosen) if i != pos]] = -np.inf
-            j = int(np.argmax(trial))
-            if trial[j] > _logdet(m) + 1e-9:
-                chosen[pos] = j
-                m = rest + info_each[j]
-                improved = True
-        if not improved:
-            break
-    return np.array(chosen)
-
-
 def _stds(rows: np.ndarray, free: list[int], mass: float) -> np.ndarray:
     """(4,) std of (mass, CoM) from the rows' information (nan where not determined)."""
     a = rows[:, :, free].reshape(-1, len(free))
     info = a.T @ a
     out = np.full(4, np.nan)
-    if _logdet(info) == -math.inf or np.linalg.cond(info) > 1e12:
+    if np.linalg.slogdet(info)[0] <= 0 or np.linalg.cond(info) > 1e12:
         return out
     cov = np.zeros((4, 4))
     cov[np.ix_(free, free)] = np.linalg.inv(info)
@@ -154,8 +113,7 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     nominal = mass if mass is not None else NOMINAL_SHARE * robot.total_mass
     rows = payload_rows(robot, body, q, opt.kinds, nominal, opt.sigma, opt.tau_noise,
                         opt.tau_joints)  # fmt: skip
-    sub = rows[:, :, free]
-    idx = select(sub, count, seed)
+    idx = select_poses(plain_block_rows(rows[:, :, free]), count, seed).index
     rng = np.random.default_rng(seed)
     rand = np.array([_stds(rows[rng.choice(len(q), count, replace=False)], free, nominal)
                      for _ in range(draws)])  # fmt: skip
