@@ -231,22 +231,31 @@ def block_rows(
 
     q = as_poses(q, robot.nq)
     p = basis.shape[1]
-    parts, cols, vals = [], [], []
+    cop = tau = None
     if spec.has_cop:
-        parts.append(projected_regressor(robot, q, basis) / spec.cop_noise)
-        cols += [-1, -1]
-        vals += [0.0, 0.0]
+        cop = projected_regressor(robot, q, basis) / spec.cop_noise
     if spec.has_tau:
         nj = len(spec.tau_joints)
         tau = np.empty((len(q), nj, p))
         for s, x in _torque_blocks(robot, q, spec, torques):
             tau[s : s + len(x)] = (x.reshape(-1, x.shape[2]) @ basis).reshape(len(x), nj, p)
-        parts.append(tau)
-        cols += list(range(nj))
-        vals += [1.0 / spec.tau_noise] * nj
+    return offset_block_rows(cop, tau, spec.tau_noise)
+
+
+def offset_block_rows(
+    cop: np.ndarray | None, tau: np.ndarray | None, tau_noise: float
+) -> BlockRows:
+    """The ``BlockRows`` of a pose's CoP rows ``cop`` (n, 2, p) and torque rows ``tau`` (n, J, p)
+    (either None: not counted), each already divided by its noise: the CoP rows first, then one
+    row per measured joint with its offset (1/σ_τ, ``tau_noise`` [N·m]) in the joint's own
+    nuisance column (module docstring)."""
+    parts = [a for a in (cop, tau) if a is not None]
     x = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
-    return BlockRows(np.ascontiguousarray(x), np.array(cols, dtype=np.int64),
-                     np.array(vals, dtype=float), spec.n_nuisance)  # fmt: skip
+    n_cop = 0 if cop is None else cop.shape[1]
+    nj = 0 if tau is None else tau.shape[1]
+    cols = np.concatenate([np.full(n_cop, -1), np.arange(nj)]).astype(np.int64)
+    vals = np.concatenate([np.zeros(n_cop), np.full(nj, 1.0 / tau_noise)])
+    return BlockRows(np.ascontiguousarray(x), cols, vals, nj)
 
 
 def schur_information(rows: BlockRows, idx) -> np.ndarray:

@@ -5,15 +5,17 @@ foot, clear of the floor, free of self-collision). Each candidate's rows in the 
 parameters p = (m, h = m c) are those of ``estimation.payload``, linearised at a nominal payload
 (its weighed mass, else ``NOMINAL_SHARE`` of the robot's mass, at BODY's origin): the CoP's two
 rows ``(B − (CoM − d) e_mᵀ) / M`` over the CoP noise, each measured joint's torque row
-``Φ_τ K D`` over the torque noise (the sensors' constant offsets are left out of the design:
-they are estimated from the same poses, and every pose informs them alike). The choice maximises
-log det of the information by the planner's one engine (``engine.select_poses``: greedy, then
-exchange passes); the expected standard errors of the payload's mass and CoM follow from it,
-beside those of as many random candidates.
+``Φ_τ K D`` over the torque noise with the joint's constant offset as a nuisance column (the
+payload fit estimates every measured joint's offset from the same poses: ``kinds.BlockRows``, as
+the ordinary torque design counts them). The choice maximises log det of the information about
+p with the offsets marginalised (the Schur complement) by the planner's one engine
+(``engine.select_poses``: greedy, then exchange passes); the expected standard errors of the
+payload's mass and CoM follow from that information, beside those of as many random candidates.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +23,8 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.estimation import check_payload
 from sescid.estimation.solvers.payload import payload_map
-from sescid.planning.design.engine import plain_block_rows, select_poses
+from sescid.planning.design.engine import select_poses
+from sescid.planning.design.kinds import BlockRows, offset_block_rows, schur_information
 from sescid.planning.funnel import sampling_range, stance_candidates
 from sescid.planning.ordering import order_poses
 from sescid.planning.plan_types import PlanOptions
@@ -50,9 +53,10 @@ class PayloadPlan:
 
 
 def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float,
-                 sigma: float, tau_noise: float, joints=None) -> np.ndarray:  # fmt: skip
-    """(n, r, 4) rows of the poses q in p = (m, h) at the payload (mass, CoM at the origin),
-    each divided by its kind's noise (``kinds``: "cop", "tau" or "both")."""
+                 sigma: float, tau_noise: float, joints=None) -> BlockRows:  # fmt: skip
+    """The rows (n, r, 4) of the poses q in p = (m, h) at the payload (mass, CoM at the origin),
+    each divided by its kind's noise (``kinds``: "cop", "tau" or "both"), each torque row with
+    its joint's offset as a nuisance column (``kinds.offset_block_rows``)."""
     theta = robot.body_parameters()
     n_b = len(robot.body_names)
     base = float(theta[:n_b].sum())
@@ -61,24 +65,25 @@ def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float
     kb, kd = k @ theta, k @ d
     theta_nom = np.zeros(4)
     theta_nom[0] = mass
-    parts = []
+    cop = tau = None
     if kinds in ("cop", "both"):
         phi = robot.regressor(q, (0, 1))  # (n, 2, 3N)
         big_m = base + mass
         num = phi @ kb + phi @ kd @ theta_nom  # (n, 2): M (CoP − d)
         jac = (phi @ kd) / big_m
         jac[:, :, 0] -= num / big_m**2
-        parts.append(jac / sigma)
+        cop = jac / sigma
     if kinds in ("tau", "both"):
         phit = robot.torque_regressor(q, joints)  # (n, J, 3N)
-        parts.append((phit @ kd) / tau_noise)
-    return np.concatenate(parts, axis=1)
+        tau = (phit @ kd) / tau_noise
+    return offset_block_rows(cop, tau, tau_noise)
 
 
-def _stds(rows: np.ndarray, free: list[int], mass: float) -> np.ndarray:
-    """(4,) std of (mass, CoM) from the rows' information (nan where not determined)."""
-    a = rows[:, :, free].reshape(-1, len(free))
-    info = a.T @ a
+def _stds(rows: BlockRows, idx, free: list[int], mass: float) -> np.ndarray:
+    """(4,) std of (mass, CoM) from the information of the candidates ``idx`` about the free
+    parameters ``free`` (``rows``' columns), the offsets marginalised (nan where not
+    determined)."""
+    info = schur_information(rows, idx)
     out = np.full(4, np.nan)
     if np.linalg.slogdet(info)[0] <= 0 or np.linalg.cond(info) > 1e12:
         return out
@@ -111,17 +116,18 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     cand = stance_candidates(robot, "stand", n_cand, seed, opt, lim, progress)
     q = cand.q
     nominal = mass if mass is not None else NOMINAL_SHARE * robot.total_mass
-    rows = payload_rows(robot, body, q, opt.kinds, nominal, opt.sigma, opt.tau_noise,
+    full = payload_rows(robot, body, q, opt.kinds, nominal, opt.sigma, opt.tau_noise,
                         opt.tau_joints)  # fmt: skip
-    idx = select_poses(plain_block_rows(rows[:, :, free]), count, seed).index
+    rows = dataclasses.replace(full, x=np.ascontiguousarray(full.x[:, :, free]))
+    idx = select_poses(rows, count, seed).index
     rng = np.random.default_rng(seed)
-    rand = np.array([_stds(rows[rng.choice(len(q), count, replace=False)], free, nominal)
+    rand = np.array([_stds(rows, rng.choice(len(q), count, replace=False), free, nominal)
                      for _ in range(draws)])  # fmt: skip
     chosen_q = q[idx]
     order = order_poses(chosen_q)
     qq = chosen_q[order]
     return PayloadPlan(
-        body=body, q=qq, cop=robot.cop(qq), std=_stds(rows[idx], free, nominal),
+        body=body, q=qq, cop=robot.cop(qq), std=_stds(rows, idx, free, nominal),
         random_std=np.nanmedian(rand, axis=0) if np.any(np.isfinite(rand)) else rand[0],
         n_candidates=len(q), kinds=opt.kinds, nominal_mass=nominal,
     )  # fmt: skip
