@@ -21,6 +21,7 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.estimation import check_payload
 from sescid.estimation.solvers.payload import payload_map
+from sescid.kinds import COP, TORQUE, Kinds, parse_kinds
 from sescid.planning.design.engine import plain_block_rows, select_poses
 from sescid.planning.funnel import sampling_range, stance_candidates
 from sescid.planning.ordering import order_poses
@@ -45,14 +46,14 @@ class PayloadPlan:
     std: np.ndarray  #: (4,) expected std of (mass, com_x, com_y, com_z); mass 0 when weighed
     random_std: np.ndarray  #: (4,) the same, median over random choices
     n_candidates: int
-    kinds: str
+    kinds: Kinds
     nominal_mass: float  #: kg, the payload the rows were linearised at (at BODY's origin)
 
 
-def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float,
+def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: Kinds, mass: float,
                  sigma: float, tau_noise: float, joints=None) -> np.ndarray:  # fmt: skip
     """(n, r, 4) rows of the poses q in p = (m, h) at the payload (mass, CoM at the origin),
-    each divided by its kind's noise (``kinds``: "cop", "tau" or "both")."""
+    each divided by its kind's noise (``kinds``: the CoP's rows and/or the torques')."""
     theta = robot.body_parameters()
     n_b = len(robot.body_names)
     base = float(theta[:n_b].sum())
@@ -62,14 +63,14 @@ def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float
     theta_nom = np.zeros(4)
     theta_nom[0] = mass
     parts = []
-    if kinds in ("cop", "both"):
+    if COP in kinds:
         phi = robot.regressor(q, (0, 1))  # (n, 2, 3N)
         big_m = base + mass
         num = phi @ kb + phi @ kd @ theta_nom  # (n, 2): M (CoP − d)
         jac = (phi @ kd) / big_m
         jac[:, :, 0] -= num / big_m**2
         parts.append(jac / sigma)
-    if kinds in ("tau", "both"):
+    if TORQUE in kinds:
         phit = robot.torque_regressor(q, joints)  # (n, J, 3N)
         parts.append((phit @ kd) / tau_noise)
     return np.concatenate(parts, axis=1)
@@ -101,8 +102,7 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     designed for)."""
     check_payload(robot, body, mass)
     opt = options or PlanOptions()
-    if opt.kinds not in ("cop", "tau", "both"):
-        raise OptionError("kinds", f"a payload plan takes cop, tau or both, not {opt.kinds}")
+    planned = parse_kinds(opt.kinds)
     free = [0, 1, 2, 3] if mass is None else [1, 2, 3]
     if count < 2:
         raise OptionError("count", "a payload needs at least 2 poses (its CoM seen twice)")
@@ -111,7 +111,7 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     cand = stance_candidates(robot, "stand", n_cand, seed, opt, lim, progress)
     q = cand.q
     nominal = mass if mass is not None else NOMINAL_SHARE * robot.total_mass
-    rows = payload_rows(robot, body, q, opt.kinds, nominal, opt.sigma, opt.tau_noise,
+    rows = payload_rows(robot, body, q, planned, nominal, opt.sigma, opt.tau_noise,
                         opt.tau_joints)  # fmt: skip
     idx = select_poses(plain_block_rows(rows[:, :, free]), count, seed).index
     rng = np.random.default_rng(seed)
@@ -123,5 +123,5 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     return PayloadPlan(
         body=body, q=qq, cop=robot.cop(qq), std=_stds(rows[idx], free, nominal),
         random_std=np.nanmedian(rand, axis=0) if np.any(np.isfinite(rand)) else rand[0],
-        n_candidates=len(q), kinds=opt.kinds, nominal_mass=nominal,
+        n_candidates=len(q), kinds=planned, nominal_mass=nominal,
     )  # fmt: skip
