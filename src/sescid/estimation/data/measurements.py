@@ -296,7 +296,7 @@ class Measurements:
             taken["row_of"] = lambda i: where(int(index[i]))
         return dataclasses.replace(self, **taken)
 
-    def only(self, kinds: tuple[str, ...] | None) -> Measurements:
+    def only(self, kinds: Kinds | None) -> Measurements:
         """The same poses with only the measurement ``kinds`` kept (None: all); DataError when
         none of them is in the data."""
         if kinds is None:

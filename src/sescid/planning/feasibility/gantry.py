@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import OptionError, SescidError, check_choice
-from sescid.kinds import COP, TORQUE, Kinds
+from sescid.kinds import COP, TORQUE, DesignKind, Kinds, parse_kinds
 from sescid.planning.feasibility.adjust import draw
 from sescid.planning.feasibility.broadphase import collision_free_mask_broad
 from sescid.planning.feasibility.candidates import Candidates, Mount, Sampling
@@ -55,10 +55,11 @@ class GantryOptions:
     chunk: int = 20_000  #: uniform draws per batch (at most)
 
 
-def resolve_mount(robot: Robot, mount: Mount | None, kinds: Kinds) -> Mount:
-    """The plan's mount: ``mount``, or the support's own (``own_stance``: gantry at a trunk);
-    OptionError for a CoP design on a gantry (a held robot loads no foot) and for torques on
-    both feet."""
+def resolve_mount(robot: Robot, mount: Mount | None, kinds: Kinds | DesignKind) -> Mount:
+    """The plan's mount: ``mount``, or the support's own (``own_stance``: gantry at a trunk), for
+    the planned ``kinds`` (or any ``parse_kinds`` spelling); OptionError for a CoP design on a
+    gantry (a held robot loads no foot) and for torques on both feet."""
+    kinds = parse_kinds(kinds)
     if mount is None:
         mount = own_stance(robot).mount
     check_choice("mount", mount, Mount)
