@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, Literal, get_args
 
-from sescid.errors import OptionError, choices
+from sescid.errors import OptionError, check_choice, choices
 
 __all__ = [
     "BALANCE",
@@ -54,8 +54,9 @@ def parse_kinds(
 ) -> Kinds:
     """The kinds ``value`` names, in ``KINDS`` order: one of the spellings of the ``Literal``
     alias ``spelled`` (a kind, or ``both``), kinds separated by commas (``cop,tau``), or kinds
-    already parsed (a sequence); each set a spelling names, and no other. OptionError naming
-    ``name`` otherwise (listing the spellings)."""
+    already parsed (a sequence); each set a spelling names, and no other (a spelling that names
+    no kind, a session's "auto", is its caller's to read first). OptionError naming ``name``
+    otherwise (``check_choice``'s, listing the spellings)."""
     allowed = choices(spelled)
     words = (
         value.split(",") if isinstance(value, str)
@@ -64,8 +65,8 @@ def parse_kinds(
     named = {k for w in words for k in _spelled(w.strip() if isinstance(w, str) else w)}
     out = tuple(k for k in KINDS if k in named)
     if len(named) != len(out) or out not in {_spelled(a) for a in allowed}:
-        listed = ", ".join(repr(a) for a in allowed)
-        raise OptionError(name, f"must be one of {listed}, got {value!r}")
+        check_choice(name, value, spelled)  # its message, listing the spellings
+        raise OptionError(name, f"{value!r} names no measurement kind")
     return out
 
 

@@ -62,8 +62,10 @@ def plan_poses(
     """Sample candidates, choose ``count`` poses (``select`` = "d-optimal" | "random"), order them.
 
     ``options`` (``PlanOptions``; keyword arguments override its fields): the kinds planned
-    for, sampling, stability (the CoP box and, unless ``rigid``, the compliant-robot margin of
-    ``compliance``), the physics ``check``. ``stances`` (``parse_stances``' text, or stances):
+    for (``kinds``: "cop", "tau", "both", "cop,tau" or a tuple of kinds, read by
+    ``sescid.kinds.parse_kinds``; the plan's ``kinds`` is the tuple), sampling, stability (the
+    CoP box and, unless ``rigid``, the compliant-robot margin of ``compliance``), the physics
+    ``check``. ``stances`` (``parse_stances``' text, or stances):
     one, the robot rooted there (as ``support`` and ``mount``); several, one D-optimal design
     over them, a stance change costing ``cost`` poses (``StancePlan``; ``n_candidates`` per
     stance). The expected error is computed on ``n_test`` further candidates. ModelError when a
