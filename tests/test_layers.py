@@ -30,6 +30,7 @@ LAYERS = {
     "sesc": 4,
     "robot": 5,
     "stance": 5,
+    "kinds": 5,
     "simulation": 6,
     "estimation": 7,
     "sensors": 8,

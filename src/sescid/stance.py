@@ -23,6 +23,7 @@ from typing import Literal, NoReturn, get_args
 import numpy as np
 
 from sescid.errors import DataError, ModelError, OptionError
+from sescid.kinds import Kind
 from sescid.model.sole import splits_at_support
 from sescid.robot import DOUBLE, Robot
 from sescid.tables import SUPPORT_COLUMN, Table
@@ -48,9 +49,8 @@ __all__ = [
 #: how a robot is held in a stance: on one sole, on both feet, by a link in a gantry
 Mount = Literal["stand", "gantry", "double"]
 MOUNTS: tuple[Mount, ...] = get_args(Mount)
-#: what each mount cannot measure (measurement kinds, as ``Measurements.kinds`` names them),
-#: and why
-_CANNOT: dict[str, dict[str, str]] = {
+#: what each mount cannot measure, and why
+_CANNOT: dict[Mount, dict[Kind, str]] = {
     "gantry": {
         "cop": "a robot held there in a gantry loads no foot: it has no centre of pressure "
         "(a CoP is measured under a standing foot: name the sole it stood on)",
@@ -86,8 +86,8 @@ class Stance:
             return f"held by {self.support} in a gantry"
         return f"standing on {self.support}"
 
-    def cannot(self, kind: str) -> str | None:
-        """Why this stance cannot measure ``kind`` ("cop", "tau", "balance"), or None."""
+    def cannot(self, kind: Kind) -> str | None:
+        """Why this stance cannot measure ``kind``, or None."""
         return _CANNOT.get(self.mount, {}).get(kind)
 
 
@@ -167,15 +167,15 @@ def parse_stances(spec: str | Sequence[str], reference: Robot) -> tuple[Stance, 
 def data_stance(
     reference: Robot,
     given: Stance | str | None,
-    kinds: Iterable[str] = (),
+    kinds: Iterable[Kind] = (),
     where: Where = "data",
 ) -> tuple[Stance, Robot]:
     """The stance of data measured in ``given`` (a ``Stance``, any ``parse_stance`` spelling;
     None: the reference's own support) after the one check every measurement's stance passes: a
-    frame of the model, and a stance that can measure the data's ``kinds`` ("cop", "tau",
-    "balance"). Returns the stance (``own_stance`` for any of the reference's own support) and
-    the robot rooted there. ``where`` (a file and row, an option ``--…``) starts each error:
-    DataError, or OptionError for an option."""
+    frame of the model, and a stance that can measure the data's ``kinds``. Returns the stance
+    (``own_stance`` for any of the reference's own support) and the robot rooted there.
+    ``where`` (a file and row, an option ``--…``) starts each error: DataError, or OptionError
+    for an option."""
     label = given.label if isinstance(given, Stance) else given
     if label is None or label == reference.support:
         return own_stance(reference), reference

@@ -13,6 +13,7 @@ from refs import erd
 from sescid import Measurements, identify_payload, load_robot, read_table
 from sescid.base import G0
 from sescid.cli import cli
+from sescid.kinds import TORQUE
 from sescid.planning import PlanOptions, plan_payload_poses
 from sescid.planning.design.payload import payload_rows
 
@@ -84,7 +85,7 @@ def test_torque_plan_counts_the_offsets_the_fit_estimates(tmp_path):
     stated = np.concatenate([[p.mass_std], p.com_std])
     np.testing.assert_allclose(stated, plan.std, rtol=0.02)
     # the offsets known: F = Σ AᵀA of the poses' torque rows alone, c = h / m at the origin
-    a = payload_rows(robot, hand, plan.q, "tau", plan.nominal_mass, opt.sigma, tau_noise).x
+    a = payload_rows(robot, hand, plan.q, (TORQUE,), plan.nominal_mass, opt.sigma, tau_noise).x
     cov = np.linalg.inv(np.einsum("nra,nrb->ab", a, a))
     known = np.sqrt(np.diag(cov)) / np.array([1.0, *[plan.nominal_mass] * 3])
     assert np.all(stated > known * 1.01) and np.max(stated / known) > 1.1

@@ -131,7 +131,7 @@ def test_expected_com_error_is_the_fits_own_covariance(op2, tau_plan):
     """The plan's expected CoM error equals that of ``identify``'s least-squares covariance on
     the chosen poses (noise given, offsets estimated), over the same test poses."""
     plan = tau_plan
-    assert plan.kinds == "tau" and plan.quantity == "CoM x/y" and plan.mount == "stand"
+    assert plan.kinds == ("tau",) and plan.quantity == "CoM x/y" and plan.mount == "stand"
     tau = op2.torques(plan.q) + 0.3  # any readings: the covariance does not depend on them
     m = Measurements(q=plan.q, tau=tau, tau_joints=tuple(op2.joint_names))
     fit = identify(

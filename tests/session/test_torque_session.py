@@ -133,11 +133,11 @@ def test_auto_switches_to_what_the_robot_reports(op2, sensors):
     planned for both: the design after the switch is the block design with the first pose."""
     opt = SessionOptions(n_candidates=300, budget=30)
     plan = SessionDesign(op2, opt)
-    assert plan.kinds == "cop" and plan.mount == "stand"
+    assert plan.kinds == ("cop",) and plan.mount == "stand"
     first = plan.design.next(plan.cand.q, np.zeros(op2.nq)).index
     plan.design.mark_tried(first)
-    plan.switch("both", [first])
-    assert plan.kinds == "both" and plan.design.tried[first]
+    plan.switch(("cop", "tau"), [first])
+    assert plan.kinds == ("cop", "tau") and plan.design.tried[first]
     spec = design_kinds(op2, "both")
     rows = block_rows(op2, plan.cand.q, spec, kind_basis(op2, plan.cand.q, spec))
     ref = SequentialDesign(rows, opt.near)

@@ -32,6 +32,7 @@ from sescid.estimation import (
     for_support,
 )
 from sescid.estimation.data.balance_rows import balance_residuals
+from sescid.kinds import KINDS
 from sescid.robot import Robot, load_robot
 
 #: relative standard deviation of a weighed total mass when none is given
@@ -173,7 +174,7 @@ def cv_errors(
         try:
             fit = fit_measurements(robot, train, method=MapOptions(), options=opts)
         except SescidError:
-            return {k: math.nan for k in ("cop", "tau", "balance")}
+            return {k: math.nan for k in KINDS}
         for m in test:
             if m.n:
                 for k, v in _held_out(fit, m).items():

@@ -24,6 +24,7 @@ from sescid.estimation import Measurements
 from sescid.estimation.data.balance_rows import balance_rows
 from sescid.estimation.data.torque_rows import nuisance_names
 from sescid.estimation.solvers.map_prior import BODY_COM_SCALE
+from sescid.kinds import KINDS
 from sescid.robot import Robot
 from sescid.stance import stance_robot
 
@@ -143,7 +144,7 @@ def kind_rows(
         for kind, rows in _group_rows(robot, m, th).items():
             got.setdefault(kind, []).append(rows)
     out = []
-    for kind in ("cop", "tau", "balance"):
+    for kind in KINDS:
         if kind not in got:
             continue
         parts = got[kind]

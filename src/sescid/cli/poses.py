@@ -9,6 +9,7 @@ from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
 from sescid.io import pose_table, required_paper_convention
+from sescid.kinds import COP, TORQUE, Kinds, kinds_label, parse_kinds
 from sescid.planning import (
     DEFAULT_STANCE_COST,
     PAYLOAD_CANDIDATES,
@@ -136,9 +137,10 @@ def poses(**o):
     knows its servo), cop_x_model, cop_y_model (the model's CoP in the stance's frame, m: a
     prediction, not a measurement; empty for a robot held in a gantry).
     """
-    out, figure, count, select, kinds = o["out"], o["figure"], o["count"], o["select"], o["kinds"]
+    out, figure, count, select = o["out"], o["figure"], o["count"], o["select"]
     outs = OutputSet([out, figure], [common.model_input(o["robot_name"])], force=o["force"])
-    common.refuse_idle(("tau_noise", "tau_joints"), kinds != "cop", "with --kinds cop")
+    torques = TORQUE in parse_kinds(o["kinds"])
+    common.refuse_idle(("tau_noise", "tau_joints"), torques, "with --kinds cop")
     robot = common.load(o["robot_name"], o["support"])
     pc = required_paper_convention(robot) if o["paper_convention"] else None
     chosen = parse_stances(o["stances"], robot) if o["stances"] is not None else ()
@@ -173,7 +175,8 @@ def poses(**o):
     with outs:
         write_table(outs.path(out), table.columns)
         if curve is not None:
-            what = "" if plan.quantity == "CoP" else f" ({kinds} rows, CoM x/y error)"
+            rows = kinds_label(plan.kinds)
+            what = "" if plan.quantity == "CoP" else f" ({rows} rows, CoM x/y error)"
             design_figure(curve, outs.path(figure), title=f"{robot.name}: pose selection{what}")
     click.echo(f"wrote {out}: {count} poses ({len(table.columns)} columns)")
     if curve is not None:
@@ -209,7 +212,7 @@ def _echo_plan(robot: Robot, plan, opt: PlanOptions, table_notes: list[str]) -> 
         echo(f"  note: {note}")
     count = len(plan.q)
     echo(f"identifiable subspace: p = {plan.rank}; chose {count} poses ({plan.method}, "
-         f"{plan.kinds} rows)")  # fmt: skip
+         f"{kinds_label(plan.kinds)} rows)")  # fmt: skip
     echo(f"expected noise-free {_error_line(plan, opt.sigma, opt.tau_noise)}: chosen "
          f"{mm(plan.expected_error)}, {count} random {mm(plan.random_error)} (median)")  # fmt: skip
     if plan.poses_for_all is not None:
@@ -257,9 +260,9 @@ def _payload_plan(o, robot: Robot, pc, outs: OutputSet) -> None:
     click.echo(f"wrote {o['out']}: {count} poses ({len(table.columns)} columns)")
 
 
-def _error_line_payload(kinds: str, sigma: float, tau_noise: float) -> str:
-    parts = [f"σ = {sigma * 1e3:g} mm"] if kinds in ("cop", "both") else []
-    return ", ".join(parts + ([f"σ_τ = {tau_noise:g} N·m"] if kinds != "cop" else []))
+def _error_line_payload(kinds: Kinds, sigma: float, tau_noise: float) -> str:
+    parts = [f"σ = {sigma * 1e3:g} mm"] if COP in kinds else []
+    return ", ".join(parts + ([f"σ_τ = {tau_noise:g} N·m"] if TORQUE in kinds else []))
 
 
 def _stance_check(stance, robot: Robot):
@@ -310,5 +313,5 @@ def _error_line(plan, noise: float, tau_noise: float) -> str:
     """What the expected error is of, and the noise it assumes."""
     if plan.quantity == "CoP":
         return f"CoP error on fresh poses (σ = {noise * 1e3:g} mm)"
-    sig = f"σ_τ = {tau_noise:g} N·m" + (f", σ = {noise * 1e3:g} mm" if plan.kinds == "both" else "")
+    sig = f"σ_τ = {tau_noise:g} N·m" + (f", σ = {noise * 1e3:g} mm" if COP in plan.kinds else "")
     return f"CoM x/y error on fresh poses ({sig})"

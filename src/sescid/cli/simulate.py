@@ -12,11 +12,12 @@ from sescid.bench import ExperimentConfig, real_robot
 from sescid.cli import common
 from sescid.cli.flags import flags, record
 from sescid.errors import OptionError
-from sescid.planning import DesignKind
+from sescid.kinds import BALANCE, COP, TORQUE, DesignKind, Kinds, parse_kinds
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE, PAPER_POSES, PAPER_RANGE_DEG, TorqueNoise
 
-#: what ``simulate`` measures: a design's kinds, or the balancing tilts of a robot on a line
+#: what ``simulate`` measures, as ``--measure`` spells it: a design's kinds, or the balancing
+#: tilts of a robot on a line
 Measure = Literal[DesignKind, "balance"]
 
 
@@ -84,14 +85,15 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
             "(--measure balance): it stands on no sole (no CoP), and its joint torques depend "
             "on the tilt that balances each pose, which this simulation does not write",
         )
-    common.refuse_idle(("tau_noise", "tau_offset", "tau_friction"), measure in ("tau", "both"),
+    measured = parse_kinds(measure, "measure", Measure)
+    common.refuse_idle(("tau_noise", "tau_offset", "tau_friction"), TORQUE in measured,
                 f"with --measure {measure}")  # fmt: skip
-    common.refuse_idle("noise", measure in ("cop", "both"), f"with --measure {measure} (no CoP)")
-    common.refuse_idle("tilt_noise_deg", measure == "balance", f"with --measure {measure}")
+    common.refuse_idle("noise", COP in measured, f"with --measure {measure} (no CoP)")
+    common.refuse_idle("tilt_noise_deg", BALANCE in measured, f"with --measure {measure}")
     r_true, true_mass, placed = real_robot(
         robot, ExperimentConfig(extra_mass_fraction=kinds["extra_mass"])
     )
-    if measure == "balance":
+    if BALANCE in measured:
         from sescid.simulation import simulate_balance
 
         noise_deg = kinds["tilt_noise_deg"]
@@ -108,15 +110,14 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
         torques=sensors, r_true=r_true,
     )  # fmt: skip
-    cols = _columns(robot.joint_names, sim, measure)
+    cols = _columns(robot.joint_names, sim, measured)
     cols["support"] = np.full(sim.q.shape[0], robot.support)  # the stance, for pooling
     with outs:
         write_table(outs.path(out), cols)
-    what = {
-        "cop": f"CoP noise {noise} m",
-        "tau": f"torque noise {kinds['tau_noise']} N·m",
-        "both": f"CoP noise {noise} m, torque noise {kinds['tau_noise']} N·m",
-    }[measure]
+    what = ", ".join(
+        ([f"CoP noise {noise} m"] if COP in measured else [])
+        + ([f"torque noise {kinds['tau_noise']} N·m"] if TORQUE in measured else [])
+    )
     click.echo(f"wrote {out}: {poses} poses of {robot.name}, {what}")
     click.echo(f"  {_real_line(robot, true_mass, placed)}")
     if clip is None:
@@ -166,15 +167,15 @@ def _write_balance(robot: Robot, sim, outs, out) -> None:
 
 def torque_noise(kinds: dict) -> TorqueNoise | None:
     """The torque sensors' errors from the flags (None when only the CoP is measured)."""
-    if kinds["measure"] in (None, "cop", "balance"):
+    if kinds["measure"] is None or TORQUE not in parse_kinds(kinds["measure"], "measure", Measure):
         return None
     return record(TorqueNoise, kinds)
 
 
-def _columns(joint_names: list[str], sim, measure: DesignKind) -> dict[str, np.ndarray]:
+def _columns(joint_names: list[str], sim, measured: Kinds) -> dict[str, np.ndarray]:
     """The written table: joints (rad), what is measured (noisy and true), gravity."""
     cols = {name: sim.q[:, j] for j, name in enumerate(joint_names)}
-    if measure != "tau":
+    if COP in measured:
         cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
         cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
     if sim.torques is not None:

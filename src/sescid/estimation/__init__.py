@@ -21,7 +21,7 @@ from sescid.estimation.data.checks import (
     fit_warnings,
     outside_limits,
 )
-from sescid.estimation.data.measurements import KINDS, Kind, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.cad_check import cad_violations
 from sescid.estimation.result.fit import (
     METHOD_CHOICES,
@@ -81,6 +81,7 @@ from sescid.estimation.solvers.payload import PayloadOptions, check_base, check_
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import BodyFit, StanceRank, for_support
 from sescid.estimation.sums.system import accumulate
+from sescid.kinds import KINDS, Kind
 
 __all__ = [
     "AutoOptions",

@@ -16,9 +16,9 @@ determine its mass and CoM. Every kernel runs without fast-math and breaks near-
 the same poses on every CPU. Exported: what the layers above call; the rest from its module.
 """
 
+from sescid.kinds import DesignKind
 from sescid.planning.design.doptimal import identifiable_basis, projected_regressor
 from sescid.planning.design.kinds import (
-    DesignKind,
     TorqueRows,
     block_rows,
     design_kinds,

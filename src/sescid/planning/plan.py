@@ -19,6 +19,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError, check_choice
 from sescid.estimation import min_poses, structural_rank
+from sescid.kinds import COP, TORQUE, Kinds, parse_kinds
 from sescid.kinematics import load_kernels
 from sescid.planning.design import engine, kinds
 from sescid.planning.design.doptimal import (
@@ -61,8 +62,10 @@ def plan_poses(
     """Sample candidates, choose ``count`` poses (``select`` = "d-optimal" | "random"), order them.
 
     ``options`` (``PlanOptions``; keyword arguments override its fields): the kinds planned
-    for, sampling, stability (the CoP box and, unless ``rigid``, the compliant-robot margin of
-    ``compliance``), the physics ``check``. ``stances`` (``parse_stances``' text, or stances):
+    for (``kinds``: "cop", "tau", "both", "cop,tau" or a tuple of kinds, read by
+    ``sescid.kinds.parse_kinds``; the plan's ``kinds`` is the tuple), sampling, stability (the
+    CoP box and, unless ``rigid``, the compliant-robot margin of ``compliance``), the physics
+    ``check``. ``stances`` (``parse_stances``' text, or stances):
     one, the robot rooted there (as ``support`` and ``mount``); several, one D-optimal design
     over them, a stance change costing ``cost`` poses (``StancePlan``; ``n_candidates`` per
     stance). The expected error is computed on ``n_test`` further candidates. ModelError when a
@@ -70,6 +73,7 @@ def plan_poses(
     """
     opt = options_with(options, overrides)
     check_choice("select", select, Select)
+    planned = parse_kinds(opt.kinds)
     if isinstance(stances, str):
         stances = parse_stances(stances, robot)
     stances = tuple(stances or ())
@@ -81,23 +85,25 @@ def plan_poses(
             dataclasses.replace(opt, mount=stances[0].mount),
         )
     if opt.n_candidates is None:  # several stances share the pool
-        n = default_candidates(robot, select, count, opt.kinds) // max(len(stances), 1)
+        n = default_candidates(robot, select, count, planned) // max(len(stances), 1)
         opt = dataclasses.replace(opt, n_candidates=n)
     load_kernels()  # the plan runs compiled kernels anyway: its small kinematics jobs too
     if len(stances) > 1:
         if select != "d-optimal":
             raise OptionError("stances", "several stances are planned D-optimally")
         return plan_pooled(robot, stances, count, seed, opt, cost, progress)
-    return _one_stance(robot, count, select, seed, opt, progress)
+    return _one_stance(robot, count, select, seed, opt, planned, progress)
 
 
-def _one_stance(robot: Robot, count: int, select: Select, seed: int, opt: PlanOptions, progress):
-    """``plan_poses`` in the robot's own stance (module docstring); ``opt.n_candidates`` set."""
+def _one_stance(robot: Robot, count: int, select: Select, seed: int, opt: PlanOptions,
+                planned: Kinds, progress):  # fmt: skip
+    """``plan_poses`` in the robot's own stance (module docstring) for the ``planned`` kinds
+    (``opt.kinds`` parsed); ``opt.n_candidates`` set."""
     assert opt.n_candidates is not None
     n = opt.n_candidates
-    mount = resolve_mount(robot, opt.mount, opt.kinds)
-    spec = kinds.design_kinds(robot, opt.kinds, opt.sigma, opt.tau_noise, opt.tau_joints)
-    cop = spec.kinds == "cop"
+    mount = resolve_mount(robot, opt.mount, planned)
+    spec = kinds.design_kinds(robot, planned, opt.sigma, opt.tau_noise, opt.tau_joints)
+    cop = spec.kinds == (COP,)
     if cop and count < min_poses(robot):
         raise OptionError(
             "count",
@@ -185,7 +191,7 @@ def _kind_notes(spec: kinds.DesignKinds, mount: Mount) -> list[str]:
         + f"), noise {spec.tau_noise:g} N·m per pose, an unknown offset per joint"
         + (f"; CoP noise {spec.cop_noise * 1e3:g} mm" if spec.has_cop else "")
     ]
-    if spec.kinds == "tau":
+    if spec.kinds == (TORQUE,):
         held = "the held link's" if mount == "gantry" else "the support foot's"
         out.append(
             f"torques do not see {held} own horizontal moments: the expected CoM error is that of "

@@ -13,8 +13,9 @@ import numpy as np
 
 from sescid.base import check_ranges, option
 from sescid.errors import OptionError
+from sescid.kinds import COP, DesignKind, Kinds
 from sescid.planning.design.doptimal import Selection
-from sescid.planning.design.kinds import DEFAULT_TAU_NOISE, BlockRows, DesignKind
+from sescid.planning.design.kinds import DEFAULT_TAU_NOISE, BlockRows
 from sescid.planning.feasibility.candidates import Candidates, Mount
 from sescid.planning.feasibility.compliance import Compliance
 from sescid.planning.feasibility.limits import UNLIMITED_RANGE
@@ -78,6 +79,7 @@ class PlanOptions:
     check: StanceCheck | None = None
     check_name: str = ""  #: what ``check`` is, for the notes
     max_check_rounds: int = 20  #: choose again at most this often after failed checks
+    #: as users spell it (``plan_poses`` parses it: ``sescid.kinds.parse_kinds``)
     kinds: DesignKind = option(
         "cop",
         "What the robot measures at each pose, for the D-optimal choice: cop (a foot sensor), "
@@ -115,7 +117,7 @@ class Plan:
 
     q: np.ndarray  #: (K, nq) rad, in visiting order
     cop: np.ndarray  #: (K, 2) model CoP [m] in its stance's frame (CPU-independent; nan: held)
-    kinds: DesignKind = "cop"  #: the kinds the design counts
+    kinds: Kinds = (COP,)  #: the kinds the design counts
     rank: int  #: dimension p of the identifiable subspace the design spans
     logdet: float  #: log det of the chosen poses' information on it
     selection: Selection
@@ -200,14 +202,14 @@ class StancePlan(Plan):
     test_q: np.ndarray = field(repr=False)  #: (n, nq) rad, the fresh poses of the errors
 
 
-def default_candidates(robot: Robot, select: Select, count: int, kinds: DesignKind = "cop") -> int:
+def default_candidates(robot: Robot, select: Select, count: int, kinds: Kinds = (COP,)) -> int:
     """The pool a choice draws from by default: D-optimal, 20 000 candidates when the profile asks
     for uniform draws (the OP2), 5 000 for the CoM-Jacobian search (dearer per candidate) and for
     designs with torque rows (a pose's J rows cost J²/4 times a CoP pose's two); random,
     ``count`` (a random subset of random candidates is random)."""
     if select == "random":
         return count
-    if kinds != "cop":
+    if kinds != (COP,):
         return 5_000
     return 20_000 if robot.profile.pose_sampler == "uniform" else 5_000
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from sescid.estimation import Combination, Fit, Kind, Measurements, identifiable_eigen
 from sescid.estimation.result.identifiability import label_columns, unidentifiable
+from sescid.kinds import Kinds
 from sescid.report.numbers import project_out, torque_nuisance_columns
 
 #: rows per block when summing ΦᵀΦ (bounded memory for long data sets)
@@ -28,7 +29,7 @@ class Coverage:
     """What one kind of data (or several pooled) determines: the rank of its information about
     vec(r) (3N) and the named directions it leaves out."""
 
-    kinds: tuple[str, ...]  #: ("cop",), ("tau",) or ("cop", "tau")
+    kinds: Kinds  #: ("cop",), ("tau",) or ("cop", "tau")
     rank: int
     n_par: int  #: 3N
     unseen: tuple[Combination, ...]
@@ -104,7 +105,7 @@ def coverage(fit: Fit, data: Measurements) -> tuple[Coverage, ...]:
         infos["cop"] = cop_information(fit, data)
     if data.tau is not None and data.tau_joints:
         infos["tau"] = torque_information(fit, data)
-    groups: list[tuple[tuple[str, ...], np.ndarray]] = [((k,), a) for k, a in infos.items()]
+    groups: list[tuple[Kinds, np.ndarray]] = [((k,), a) for k, a in infos.items()]
     if len(infos) > 1:
         pooled = sum(_weight(fit, k, a) * a for k, a in infos.items())
         groups.append((tuple(infos), np.asarray(pooled)))

@@ -18,9 +18,9 @@ import numpy as np
 
 from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError
+from sescid.kinds import COP, TORQUE, Kinds, parse_kinds
 from sescid.planning import (
     Candidates,
-    DesignKind,
     Mount,
     PlanOptions,
     TorqueRows,
@@ -40,15 +40,15 @@ from sescid.session.records import SessionOptions
 from sescid.stance import own_stance
 
 
-def session_mount(robot: Robot, opt: SessionOptions) -> tuple[Mount, DesignKind]:
+def session_mount(robot: Robot, opt: SessionOptions) -> tuple[Mount, Kinds]:
     """(mount, kinds planned for before the first measurement); OptionError for kinds a mount
     cannot give (a CoP in a gantry)."""
     mount: Mount = opt.mount or own_stance(robot).mount
-    kinds: DesignKind
+    kinds: Kinds
     if opt.kinds == "auto":
-        kinds = "tau" if mount == "gantry" else "cop"
+        kinds = (TORQUE,) if mount == "gantry" else (COP,)
     else:
-        kinds = opt.kinds
+        kinds = parse_kinds(opt.kinds)
     return resolve_mount(robot, mount, kinds), kinds
 
 
@@ -74,24 +74,24 @@ def session_candidates(
     return stance_candidates(robot, mount, opt.n_candidates, seed, draw, lim, progress), half
 
 
-def kinds_of(cop: bool, tau: bool) -> DesignKind:
-    """The design kinds of a measurement with a CoP and/or joint torques."""
-    return "both" if cop and tau else "cop" if cop else "tau"
+def kinds_of(cop: bool, tau: bool) -> Kinds:
+    """The design kinds of a measurement with a CoP and/or joint torques (neither: torques)."""
+    return (COP, TORQUE) if cop and tau else (COP,) if cop else (TORQUE,)
 
 
 class KindSwitch:
     """A session's design that can change the kinds it plans for (``SessionDesign``,
     ``session.stances.StanceDesign``): ``_design(kinds)`` makes the new one."""
 
-    kinds: DesignKind
+    kinds: Kinds
     basis: np.ndarray
     design: SequentialDesign
     min_rows: int
 
-    def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:
+    def _design(self, kinds: Kinds) -> tuple[np.ndarray, SequentialDesign, int]:
         raise NotImplementedError
 
-    def switch(self, kinds: DesignKind, measured: list[int]) -> None:
+    def switch(self, kinds: Kinds, measured: list[int]) -> None:
         """Plan for ``kinds`` from now on: a new design holding the poses ``measured`` (pool
         indices) and never proposing one already commanded."""
         if kinds == self.kinds:
@@ -117,10 +117,10 @@ class SessionDesign(KindSwitch):
         self.cand, self.half = session_candidates(robot, self.mount, opt, opt.seed, progress)
         self.basis, self.design, self.min_rows = self._design(self.kinds)
 
-    def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:
+    def _design(self, kinds: Kinds) -> tuple[np.ndarray, SequentialDesign, int]:
         """(basis, sequential design, fewest poses that determine it) for ``kinds``."""
         q = self.cand.q
-        if kinds == "cop":
+        if kinds == (COP,):
             basis = identifiable_basis(self.robot, q)
             design = SequentialDesign(projected_regressor(self.robot, q, basis), self.opt.near)
             return basis, design, 0
@@ -131,26 +131,27 @@ class SessionDesign(KindSwitch):
         need = min_block_poses(spec.rows, basis.shape[1], spec.n_nuisance)
         return basis, SequentialDesign(rows, self.opt.near), need
 
-    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> DesignKind:
+    def measured_kinds(self, cop: bool, tau: bool, pose: str) -> Kinds:
         """The kinds a measurement gives for this session (``auto``: all of them); DataError
         when it lacks what the session was asked for."""
-        asked = self.opt.kinds
+        asked = self.opt.kinds  # as the options spell it, for the messages
+        planned = None if asked == "auto" else parse_kinds(asked)
         if not cop and not tau:
             raise DataError(
                 f"pose {pose}: the robot reports neither a loaded foot sensor (the CoP) nor "
                 "joint torques (tau_<joint> columns): a session measures one of them"
             )
-        if asked in ("cop", "both") and not cop:
+        if planned is not None and COP in planned and not cop:
             raise DataError(
                 f"pose {pose}: the adapter logs no loaded foot sensor, but the session was asked "
                 f"to plan for the CoP (--kinds {asked}); with joint torques use --kinds tau or auto"
             )
-        if asked in ("tau", "both") and not tau:
+        if planned is not None and TORQUE in planned and not tau:
             raise DataError(
                 f"pose {pose}: the adapter logs no joint torques (tau_<joint> columns), but the "
                 f"session was asked to plan for them (--kinds {asked})"
             )
-        return kinds_of(cop, tau) if asked == "auto" else asked
+        return kinds_of(cop, tau) if planned is None else planned
 
 
 def unsafe_pose(

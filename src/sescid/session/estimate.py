@@ -33,9 +33,10 @@ from sescid.estimation import (
     OnlineEstimator,
     fit_measurements,
 )
-from sescid.estimation.data.measurements import COP, TORQUE, concatenate
+from sescid.estimation.data.measurements import concatenate
 from sescid.estimation.result.fit import Fit
-from sescid.planning import DesignKind, Quantity
+from sescid.kinds import COP, TORQUE, Kinds
+from sescid.planning import Quantity
 from sescid.robot import Robot
 from sescid.session.records import BODY_PRIOR_SCALE
 from sescid.simulation import random_poses
@@ -122,15 +123,15 @@ class CopEstimate:
         return self.est.fit()
 
 
-def pose_measurements(data: Measurements, kinds: DesignKind, source: str) -> Measurements:
+def pose_measurements(data: Measurements, kinds: Kinds, source: str) -> Measurements:
     """One reduced pose's data with only the session's ``kinds``, named ``source`` (DataError
     when a torque is not determined; an approach side not determined is left out)."""
-    if kinds != "cop" and (data.tau is None or not np.all(np.isfinite(data.tau))):
+    if TORQUE in kinds and (data.tau is None or not np.all(np.isfinite(data.tau))):
         raise DataError(f"{source}: a joint's torque is not determined (too few samples)")
     if data.approach is not None and not np.all(np.isfinite(data.approach)):
         data = dataclasses.replace(data, approach=None)
-    data = data.without(TORQUE) if kinds == "cop" else data
-    data = data.without(COP) if kinds == "tau" else data
+    data = data if TORQUE in kinds else data.without(TORQUE)
+    data = data if COP in kinds else data.without(COP)
     return dataclasses.replace(data, source=source)
 
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from sescid.errors import DataError, OptionError, SescidError
 from sescid.estimation import check_total_mass, min_poses
-from sescid.planning import DesignKind
+from sescid.kinds import COP, TORQUE, Kinds
 from sescid.planning.design.sequential import SequentialDesign
 from sescid.robot import Robot
 from sescid.sensors import SESSION_POSE, SensorConfig, measure
@@ -83,10 +83,10 @@ def check_options(robot: Robot, opt: SessionOptions) -> int:
                               "is the support and its mount)")  # fmt: skip
         if opt.mount is not None:
             raise OptionError("mount", "over stances each stance names its mount")
-        mount, kinds = "stances", "both"
+        mount, kinds = "stances", (COP, TORQUE)
     else:
         mount, kinds = session_mount(robot, opt)
-    need = min_poses(robot) if kinds == "cop" else 2
+    need = min_poses(robot) if kinds == (COP,) else 2
     if opt.budget < need:
         raise OptionError("budget", f"{opt.budget} poses cannot identify {robot.name}: ≥ {need}")
     if opt.samples < opt.min_samples:
@@ -168,7 +168,7 @@ class _Run:
             out["support"] = np.full(m, self.plan.stances[self.stance].label)
         return out | {c: arrays[c] for c in self.names}
 
-    def _kinds(self, meas, step: SessionStep) -> DesignKind:
+    def _kinds(self, meas, step: SessionStep) -> Kinds:
         """The kinds this pose measured for the session; at the first measured pose the
         estimator is made and the design switched to them (``SessionDesign.switch``)."""
         d = meas.data
@@ -184,7 +184,7 @@ class _Run:
         if self.est is None:
             self.plan.switch(kinds, self.measured)
             window, tol = self.opt.window, self.opt.tol
-            if kinds == "cop":
+            if kinds == (COP,):
                 self.est = CopEstimate(self.robot, self.plan.basis, window, tol)
             else:
                 o = self.opt
@@ -203,11 +203,11 @@ class _Run:
         robot = self.robot_at(step.candidate)
         kinds = self._kinds(meas, step)
         if len(meas.pose) == 0:
-            none = "no usable CoP" if kinds == "cop" else "no usable samples"
+            none = "no usable CoP" if kinds == (COP,) else "no usable samples"
             step.reason = meas.dropped[0][1] if meas.dropped else none
             return False
         d = meas.data
-        if d.cop_se is not None and kinds != "tau" and not np.all(d.cop_se[0] > 0):
+        if d.cop_se is not None and COP in kinds and not np.all(d.cop_se[0] > 0):
             step.reason = "CoP standard error is zero (identical samples): cannot weight"
             return False
         assert self.est is not None
@@ -239,7 +239,7 @@ class _Run:
         if d.cop is not None and d.cop_se is not None:
             step.cop, step.cop_se, step.cop_predicted = d.cop[0], d.cop_se[0], pred
         step.cop_std, step.rank = st.std, st.rank
-        need = self.min_measured if kinds == "cop" else max(self.min_measured, self.plan.min_rows)
+        need = self.min_measured if kinds == (COP,) else max(self.min_measured, self.plan.min_rows)
         step.converged = st.converged and self.est.n_poses >= need
         step.body_std = self.est.body_std()
         # identified: check stability on the estimate too (held in a gantry: no box to keep)

@@ -12,10 +12,10 @@ import numpy as np
 from sescid.base import SEED_HELP, check_ranges, option, option_like
 from sescid.errors import check_choice
 from sescid.estimation.result.fit import Fit
+from sescid.kinds import DesignKind, parse_kinds
 from sescid.planning import (
     DEFAULT_STANCE_COST,
     Candidates,
-    DesignKind,
     Mount,
     PlanOptions,
     Quantity,
@@ -100,7 +100,8 @@ class SessionOptions:
 
     def __post_init__(self) -> None:
         check_ranges(self)
-        check_choice("kinds", self.kinds, SessionKind)
+        if self.kinds != "auto":
+            parse_kinds(self.kinds, "kinds", SessionKind)
         if self.mount is not None:
             check_choice("mount", self.mount, Mount)
         check_choice("torque_method", self.torque_method, TorqueMethod)

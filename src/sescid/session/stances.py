@@ -27,15 +27,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
-from typing import cast
 
 import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation import DEFAULT_RTOL, Measurements, identifiable_eigen
 from sescid.estimation.result.fit import Fit
+from sescid.kinds import COP, KINDS, TORQUE, Kinds, parse_kinds
 from sescid.planning import (
-    DesignKind,
     Quantity,
     Stance,
     design_kinds,
@@ -49,7 +48,7 @@ from sescid.planning.feasibility.double import hull_margin, place_points
 from sescid.planning.pooled import PRIOR_TAU
 from sescid.robot import Robot
 from sescid.sensors import Measured, concat_measured
-from sescid.session.design import KindSwitch, session_candidates, unsafe_pose
+from sescid.session.design import KindSwitch, kinds_of, session_candidates, unsafe_pose
 from sescid.session.estimate import (
     REFERENCE_POSES,
     REFERENCE_RANGE_DEG,
@@ -67,14 +66,15 @@ def session_stances(robot: Robot, opt: SessionOptions) -> tuple[Stance, ...]:
     return parse_stances(list(opt.stances), robot) if opt.stances else ()
 
 
-def start_kinds(stances: tuple[Stance, ...], asked: str) -> DesignKind:
-    """The kinds planned for before the first measurement: the asked ones, or for "auto" the
-    CoP where a stance stands and the torques where one is held."""
-    if asked in ("cop", "tau", "both"):
-        return cast(DesignKind, asked)
+def start_kinds(stances: tuple[Stance, ...], asked: str) -> Kinds:
+    """The kinds planned for before the first measurement: the asked ones (``asked``: as the
+    options spell them), or for "auto" the CoP where a stance stands and the torques where one
+    is held."""
+    if asked != "auto":
+        return parse_kinds(asked)
     held = any(s.mount == "gantry" for s in stances)
     stand = any(s.mount != "gantry" for s in stances)
-    return "both" if held and stand else "tau" if held else "cop"
+    return (COP, TORQUE) if held and stand else (TORQUE,) if held else (COP,)
 
 
 class StanceDesign(KindSwitch):
@@ -111,7 +111,7 @@ class StanceDesign(KindSwitch):
         self.half = self.halves[0]
         self.basis, self.design, self.min_rows = self._design(self.kinds)
 
-    def rows(self, kinds: DesignKind, unit: bool = False) -> list[StanceRows]:
+    def rows(self, kinds: Kinds, unit: bool = False) -> list[StanceRows]:
         """Every stance's rows for ``kinds`` (``unit``: not divided by the noise levels)."""
         o = self.opt
         noise = (1.0, 1.0) if unit else (o.cop_noise, o.tau_noise)
@@ -119,7 +119,7 @@ class StanceDesign(KindSwitch):
         mass = o.total_mass or self.robot.total_mass
         return [StanceRows(self.robot, s, spec, mass) for s in self.stances]
 
-    def _design(self, kinds: DesignKind) -> tuple[np.ndarray, SequentialDesign, int]:
+    def _design(self, kinds: Kinds) -> tuple[np.ndarray, SequentialDesign, int]:
         """(basis of θ̃, sequential design over the union, fewest poses) for ``kinds``."""
         rows = self.rows(kinds)
         qs = [c.q for c in self.parts]
@@ -155,12 +155,12 @@ class StanceDesign(KindSwitch):
             q_current = np.zeros_like(q_current)
         return self.design.next(self.cand.q, q_current, self.owner == cur)
 
-    def measured_kinds(self, cop: bool, tau: bool, pose: str, k: int) -> DesignKind:
+    def measured_kinds(self, cop: bool, tau: bool, pose: str, k: int) -> Kinds:
         """The kinds a measurement in stance ``k`` gives the session; DataError when it lacks
         what that stance was planned for."""
         st = self.stances[k]
-        want_cop = self.kinds in ("cop", "both") and st.cannot("cop") is None
-        want_tau = self.kinds in ("tau", "both") and st.cannot("tau") is None
+        want_cop = COP in self.kinds and st.cannot(COP) is None
+        want_tau = TORQUE in self.kinds and st.cannot(TORQUE) is None
         if want_cop and not cop:
             raise DataError(f"pose {pose} ({st.label}): the adapter logs no loaded foot sensor")
         if want_tau and not tau:
@@ -169,8 +169,8 @@ class StanceDesign(KindSwitch):
             raise DataError(f"pose {pose}: the robot reports neither a CoP nor joint torques")
         if self.opt.kinds != "auto":
             return self.kinds
-        return "both" if (cop or self.kinds == "both") and (tau or self.kinds != "cop") else (
-            "cop" if cop else "tau")  # fmt: skip
+        seen = kinds_of(cop, tau)  # a CoP plan takes what was seen; torques planned are kept
+        return seen if self.kinds == (COP,) else tuple(k for k in KINDS if k in seen + self.kinds)
 
     def unsafe(self, i: int, r_est: np.ndarray | None) -> str:
         """Why union candidate ``i`` must not be commanded ('' when it stands): its stance's
@@ -202,7 +202,7 @@ class PooledEstimate:
 
     quantity: Quantity = "CoM x/y"
 
-    def __init__(self, plan: StanceDesign, kinds: DesignKind, window: int, tol: float):
+    def __init__(self, plan: StanceDesign, kinds: Kinds, window: int, tol: float):
         self.plan, self.kinds, self.window, self.tol = plan, kinds, window, tol
         robot = plan.robot
         self.rows = plan.rows(kinds, unit=True)
@@ -223,15 +223,15 @@ class PooledEstimate:
         self.theta = np.concatenate([self.theta0, np.zeros(width - self.n4)])
         self.rank = 0
 
-    def update(self, m: Measurements, k: int, kinds: DesignKind) -> Status:
+    def update(self, m: Measurements, k: int, kinds: Kinds) -> Status:
         """Add one measured pose (the data of ``measure``'s output) taken in stance ``k``."""
         rows = self.rows[k]
         a = np.concatenate([x for _, x in rows.blocks(m.q, m.gravity)])[0]  # (r, 4N + J)
         y, w, use = np.zeros(len(a)), np.zeros(len(a)), np.zeros(len(a), dtype=bool)
-        if rows.cop and kinds in ("cop", "both") and m.cop is not None and m.cop_se is not None:
+        if rows.cop and COP in kinds and m.cop is not None and m.cop_se is not None:
             d = rows.robot.d[:2] if m.gravity is None else rows.robot.d_tilted(m.gravity, 1)[0]
             y[:2], w[:2], use[:2] = m.cop[0] - d, 1.0 / m.cop_se[0] ** 2, True
-        if rows.tau and kinds in ("tau", "both") and m.tau is not None and m.tau_se is not None:
+        if rows.tau and TORQUE in kinds and m.tau is not None and m.tau_se is not None:
             t = 2 if rows.spec.has_cop else 0
             for j, name in enumerate(m.tau_joints):
                 row = t + rows.spec.tau_joints.index(name)
@@ -308,9 +308,11 @@ def stance_result(plan: StanceDesign, raw: dict[str, np.ndarray], sensors) -> tu
         if not len(meas.pose):
             continue
         parts.append(meas)
-        kinds = "cop" if st.mount == "double" else "tau" if st.mount == "gantry" else plan.kinds
-        if kinds == "both" and meas.data.tau is None:
-            kinds = "cop"
+        kinds: Kinds = plan.kinds
+        if st.mount != "stand":  # on both feet the CoP alone, held the torques alone
+            kinds = (COP,) if st.mount == "double" else (TORQUE,)
+        if kinds == (COP, TORQUE) and meas.data.tau is None:
+            kinds = (COP,)
         m = pose_measurements(meas.data, kinds, f"{st.label} poses")
         data.append(dataclasses.replace(m, support=st))
     if not data:

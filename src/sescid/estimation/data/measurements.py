@@ -13,11 +13,12 @@ import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.kinds import BALANCE, COP, KINDS, TORQUE, Kind, Kinds
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.stance import Stance, data_stance
@@ -32,14 +33,6 @@ SIGN_CORR = 0.8
 SIGN_SHARE = 0.75
 #: N·m, RMS variation of the model's torque below which a column's sign is not judged
 SIGN_SPREAD_NM = 0.02
-
-#: a measurement kind, as named in fits, files and options: the CoP, joint torques, or the
-#: balance of a robot on a support line
-Kind = Literal["cop", "tau", "balance"]
-COP: Kind = "cop"
-TORQUE: Kind = "tau"
-BALANCE: Kind = "balance"
-KINDS: tuple[Kind, ...] = get_args(Kind)
 
 
 @dataclass(frozen=True)
@@ -101,7 +94,7 @@ class Measurements:
         return int(np.shape(self.q)[0])
 
     @property
-    def kinds(self) -> tuple[str, ...]:
+    def kinds(self) -> Kinds:
         """The measurement kinds present, in ``KINDS`` order."""
         out = []
         if self.cop is not None:
@@ -303,7 +296,7 @@ class Measurements:
             taken["row_of"] = lambda i: where(int(index[i]))
         return dataclasses.replace(self, **taken)
 
-    def only(self, kinds: tuple[str, ...] | None) -> Measurements:
+    def only(self, kinds: Kinds | None) -> Measurements:
         """The same poses with only the measurement ``kinds`` kept (None: all); DataError when
         none of them is in the data."""
         if kinds is None:

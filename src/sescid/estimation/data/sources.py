@@ -20,6 +20,7 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.data.measurements import Measurements
+from sescid.kinds import Kinds
 from sescid.robot import Robot
 from sescid.stance import Stance
 
@@ -110,7 +111,7 @@ class StreamSource:
 Source = MemorySource | StreamSource
 
 
-def as_sources(robot: Robot, data: Any, kinds: tuple[str, ...] | None = None) -> list[Source]:
+def as_sources(robot: Robot, data: Any, kinds: Kinds | None = None) -> list[Source]:
     """The sources of ``data``: a ``Measurements``; a list or tuple of them (pooled data sets);
     an iterable of ``Measurements`` chunks of one data set (read once); or a list of such
     iterables (pooled data sets read once, e.g. files). ``kinds``: keep only these measurement

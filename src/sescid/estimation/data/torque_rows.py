@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.estimation.data.measurements import TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.records import NuisanceWhat
+from sescid.kinds import TORQUE
 from sescid.robot import Robot
 from sescid.sesc import torque_regressor
 

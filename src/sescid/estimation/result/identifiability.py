@@ -19,6 +19,7 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation.result.fit import AXES, Combination, Unseen
 from sescid.estimation.sums.normal_equations import poses_needed
+from sescid.kinds import COP, Kinds
 from sescid.robot import Robot
 
 DEFAULT_RTOL = 1e-6
@@ -85,7 +86,7 @@ def combination_vector(robot: Robot, terms) -> np.ndarray:
 
 
 def structural_null_directions(
-    robot: Robot, kinds: tuple[str, ...] = ("cop",)
+    robot: Robot, kinds: Kinds = (COP,)
 ) -> list[tuple[np.ndarray, Unseen, str]]:
     """Directions of vec(r) that no data of these kinds can see, for any poses: (vector, kind,
     reason).
@@ -234,7 +235,7 @@ def base_combinations(sv, vecs, p, labels, r, cov) -> list[Combination]:
 
 
 def unidentifiable(
-    robot: Robot, basis: np.ndarray, labels, kinds: tuple[str, ...] = ("cop",)
+    robot: Robot, basis: np.ndarray, labels, kinds: Kinds = (COP,)
 ) -> list[Combination]:
     """Name the null space: structural directions first, then what these poses left out."""
     n_par = basis.shape[0]

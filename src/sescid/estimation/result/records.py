@@ -10,7 +10,7 @@ from typing import Literal
 
 import numpy as np
 
-from sescid.estimation.data.measurements import Kind
+from sescid.kinds import Kind
 
 #: how a kind's noise level was set: estimated from the residuals, given, or not determined (no
 #: degrees of freedom left)

@@ -21,9 +21,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.data.measurements import Kind
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.records import CrossValidation
+from sescid.kinds import Kind
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.sesc import sesc_vectors

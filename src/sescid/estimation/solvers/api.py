@@ -23,7 +23,7 @@ import numpy as np
 
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
-from sescid.estimation.data.measurements import TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.data.sources import as_sources, in_memory
 from sescid.estimation.result.fit import Fit, MethodName
 from sescid.estimation.result.records import JointNoise
@@ -47,6 +47,7 @@ from sescid.estimation.solvers.runs import (
     with_extras,
 )
 from sescid.estimation.solvers.torque_noise import with_records
+from sescid.kinds import TORQUE
 from sescid.robot import Robot
 
 

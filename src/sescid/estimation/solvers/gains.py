@@ -20,11 +20,12 @@ import math
 
 import numpy as np
 
-from sescid.estimation.data.measurements import TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import accumulate_sources
 from sescid.estimation.sums.system import KindSums, Nuisance, RowOptions, System, torque_nuisance
+from sescid.kinds import TORQUE
 from sescid.robot import Robot
 
 #: Gauss–Newton stops when no gain moved by more than this

@@ -20,7 +20,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Kind, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Combination, Fit, Method
 from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
@@ -36,6 +36,7 @@ from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import body_fit, prior_x, stance_map, view, x_labels
 from sescid.estimation.sums.residual_sums import residual_sums
 from sescid.estimation.sums.system import KindSums, System, pinned_system
+from sescid.kinds import BALANCE, COP, TORQUE, Kind
 from sescid.robot import Robot
 
 #: a nuisance direction is determined when this much of it lies in the identifiable subspace

@@ -45,7 +45,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import SescidError
-from sescid.estimation.data.measurements import Kind
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.identifiability import DEFAULT_RTOL, combination_vector
 from sescid.estimation.result.records import REPEATED, CopOffset, MapInfo, NuisanceEstimate
@@ -65,6 +64,7 @@ from sescid.estimation.sums.distinct import SAME_POSE
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import body_fit, stance_map
 from sescid.estimation.sums.system import System
+from sescid.kinds import Kind
 from sescid.robot import Robot
 
 #: search range of the prior scale τ and the noise σ for evidence maximisation, m

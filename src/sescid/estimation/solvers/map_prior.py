@@ -10,12 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sescid.estimation.data.measurements import BALANCE, COP, TORQUE
 from sescid.estimation.result.records import PriorShape
 from sescid.estimation.solvers.options import PriorChoice
 from sescid.estimation.solvers.solve import Solution, marginal_x
 from sescid.estimation.sums.pooled import check_pooled_prior
 from sescid.estimation.sums.system import System
+from sescid.kinds import BALANCE, COP, TORQUE
 from sescid.robot import Robot
 
 

@@ -17,7 +17,6 @@ import numpy as np
 
 from sescid.base import G0, SEED_HELP, check_ranges, option
 from sescid.errors import OptionError, check_choice
-from sescid.estimation.data.measurements import COP, TORQUE, Kind
 from sescid.estimation.result.fit import Fit, MethodName
 from sescid.estimation.result.identifiability import DEFAULT_RTOL, check_rtol
 from sescid.estimation.result.records import PriorShape
@@ -26,6 +25,7 @@ from sescid.estimation.solvers.consistent.prior import evidence_prior_std, least
 from sescid.estimation.solvers.robust import HUBER_K
 from sescid.estimation.solvers.torque_noise import TorqueNoiseModel
 from sescid.estimation.sums.system import RowOptions
+from sescid.kinds import COP, TORQUE, Kind
 
 #: how MAP chooses its prior scale τ: by marginal likelihood, or by k-fold cross-validation
 PriorSelect = Literal["evidence", "cv"]

@@ -35,7 +35,7 @@ import numpy as np
 
 from sescid.base import G0
 from sescid.errors import DataError, ModelError, OptionError
-from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.identifiability import DEFAULT_RTOL
 from sescid.estimation.result.payload_record import PayloadFit, PayloadKind
@@ -49,6 +49,7 @@ from sescid.estimation.solvers.payload_rows import (
 )
 from sescid.estimation.solvers.solve import UNITS
 from sescid.estimation.sums.pooled import PARAM_UNIT
+from sescid.kinds import BALANCE, COP, TORQUE
 from sescid.robot import Robot
 
 #: noise levels the first Gauss–Newton pass weighs the kinds by (m, N·m, rad)

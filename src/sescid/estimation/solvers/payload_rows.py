@@ -11,9 +11,10 @@ import numpy as np
 
 from sescid.errors import DataError
 from sescid.estimation.data.balance_rows import MIN_RHO
-from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.sums.pooled import PARAM_UNIT
+from sescid.kinds import BALANCE, COP, TORQUE
 from sescid.robot import Robot
 from sescid.sesc import gravity_ratios, line_across, line_distance
 from sescid.stance import stance_robot

@@ -27,10 +27,11 @@ import numpy as np
 
 from sescid.base.spill import Spill, median
 from sescid.errors import SescidError
-from sescid.estimation.data.measurements import COP, TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.records import JointNoiseEffect, RobustInfo
 from sescid.estimation.solvers.least_squares import residuals
+from sescid.kinds import COP, TORQUE
 from sescid.kinematics import as_poses
 from sescid.simulation import random_poses
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from sescid.errors import OptionError
 from sescid.estimation.data.checks import check_total_mass, fit_warnings
-from sescid.estimation.data.measurements import COP, TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.data.sources import StreamSource
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.validation import folds as split_folds
@@ -34,6 +34,7 @@ from sescid.estimation.solvers.options import (
 )
 from sescid.estimation.sums.pooled import accumulate_sources
 from sescid.estimation.sums.system import RowOptions, System
+from sescid.kinds import COP, TORQUE
 from sescid.robot import Robot
 
 #: a (list of) Measurements → Fit function: one method with fixed options (cv, Monte Carlo)

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Kind
 from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
     check_rtol,
@@ -34,6 +33,7 @@ from sescid.estimation.result.identifiability import (
 from sescid.estimation.result.records import NoiseSource
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.system import System
+from sescid.kinds import BALANCE, COP, TORQUE, Kind
 
 #: unit of each kind's rows, and the noise a weighted-free multi-kind fit starts from
 UNITS: dict[Kind, str] = {COP: "m", TORQUE: "N·m", BALANCE: "rad"}

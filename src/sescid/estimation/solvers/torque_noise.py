@@ -34,12 +34,13 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
-from sescid.estimation.data.measurements import TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.records import JointNoise
 from sescid.estimation.solvers.least_squares import residuals
 from sescid.estimation.sums.block_sums import aligned
 from sescid.estimation.sums.normal_equations import ACCUMULATE_BLOCK
+from sescid.kinds import TORQUE
 
 #: how the torque rows' noise is modelled: one σ_j per joint (feasible GLS) or one shared σ
 TorqueNoiseModel = Literal["joint", "shared"]

@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.data.measurements import TORQUE
 from sescid.estimation.result.identifiability import (
     base_combinations,
     eigen_descending,
@@ -38,6 +37,7 @@ from sescid.estimation.result.identifiability import (
 from sescid.estimation.solvers.solve import Solution, marginal_x
 from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
 from sescid.estimation.sums.system import Accumulator, KindSums, RowOptions, System
+from sescid.kinds import TORQUE
 from sescid.robot import Robot
 from sescid.stance import Stance, own_stance, stance_robot
 

@@ -20,10 +20,11 @@ import numpy as np
 
 from sescid.base.threads import ordered_map, usable_cores
 from sescid.estimation.data.balance_rows import balance_residuals
-from sescid.estimation.data.measurements import BALANCE, COP, TORQUE, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.sums.block_sums import aligned
 from sescid.estimation.sums.pooled import for_support
+from sescid.kinds import BALANCE, COP, TORQUE
 from sescid.kinematics import cop_residual_sums, torque_residual_sums, use_kernels
 
 #: poses per block of the residual pass

@@ -27,7 +27,7 @@ import numpy as np
 from sescid.base import G0
 from sescid.base.threads import one_blas_thread, ordered_map
 from sescid.errors import DataError
-from sescid.estimation.data.measurements import BALANCE, COP, KINDS, TORQUE, Kind, Measurements
+from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.data.torque_rows import NUISANCE_PRIOR_TORQUE, nuisance_names
 from sescid.estimation.result.records import NuisanceWhat
 from sescid.estimation.sums.block_sums import BlockSums, RowMaker, aligned, work
@@ -39,6 +39,7 @@ from sescid.estimation.sums.normal_equations import (
     cop_errors,
     expand,
 )
+from sescid.kinds import BALANCE, COP, KINDS, TORQUE, Kind
 from sescid.kinematics import as_poses, fold_torque, reduced_order, use_kernels
 from sescid.robot import Robot
 

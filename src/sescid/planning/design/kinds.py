@@ -21,19 +21,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal, get_args
 
 import numpy as np
 
-from sescid.errors import OptionError, check_choice
+from sescid.errors import OptionError
 from sescid.estimation import DEFAULT_RTOL, accumulate, identifiable_eigen
+from sescid.kinds import COP, TORQUE, DesignKind, Kinds, parse_kinds
 from sescid.kinematics import as_poses
 from sescid.robot import Robot
 from sescid.simulation import PAPER_NOISE
 
-#: what a design counts: CoP rows, joint-torque rows, or both (``sescid poses --kinds``)
-DesignKind = Literal["cop", "tau", "both"]
-DESIGN_KINDS: tuple[DesignKind, ...] = get_args(DesignKind)
 #: N·m, torque noise a design assumes unless told (a current-based servo torque, per pose)
 DEFAULT_TAU_NOISE = 0.05
 #: poses per block of the torque regressor (bounds the memory of Φ_τ: n × J × 3N)
@@ -44,7 +41,7 @@ ROW_CHUNK = 2_000
 class DesignKinds:
     """The measurement kinds a design plans for, their noise and the measured joints."""
 
-    kinds: DesignKind = "cop"
+    kinds: Kinds = (COP,)  #: CoP rows, joint-torque rows, or both
     cop_noise: float = PAPER_NOISE  #: m, per pose
     tau_noise: float = DEFAULT_TAU_NOISE  #: N·m, per pose and joint
     tau_joints: tuple[str, ...] = ()  #: measured joints (names)
@@ -53,12 +50,12 @@ class DesignKinds:
     @property
     def has_cop(self) -> bool:
         """The design counts CoP rows."""
-        return self.kinds in ("cop", "both")
+        return COP in self.kinds
 
     @property
     def has_tau(self) -> bool:
         """The design counts torque rows."""
-        return self.kinds in ("tau", "both")
+        return TORQUE in self.kinds
 
     @property
     def rows(self) -> int:
@@ -73,24 +70,25 @@ class DesignKinds:
 
 def design_kinds(
     robot: Robot,
-    kinds: DesignKind = "cop",
+    kinds: Kinds | DesignKind = (COP,),
     cop_noise: float = PAPER_NOISE,
     tau_noise: float = DEFAULT_TAU_NOISE,
     tau_joints: tuple[str, ...] | None = None,
 ) -> DesignKinds:
-    """Checked ``DesignKinds`` (``tau_joints`` None: every joint); OptionError naming a bad one."""
-    check_choice("kinds", kinds, DesignKind)
+    """Checked ``DesignKinds`` (``kinds``: parsed ones, or any ``parse_kinds`` spelling;
+    ``tau_joints`` None: every joint); OptionError naming a bad one."""
+    planned = parse_kinds(kinds)
     for name, value, unit in (("noise", cop_noise, "m"), ("tau_noise", tau_noise, "N·m")):
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
             raise OptionError(name, f"must be a positive noise level [{unit}], got {value}")
     joints = tuple(robot.joint_names) if tau_joints is None else tuple(tau_joints)
-    if kinds != "cop":
+    if TORQUE in planned:
         if not joints:
             raise OptionError("tau_joints", "a torque design needs at least one measured joint")
         if len(set(joints)) != len(joints):
             raise OptionError("tau_joints", f"a joint is named twice: {', '.join(joints)}")
         robot.joint_columns(joints)  # ModelError naming an unknown joint
-    return DesignKinds(kinds, float(cop_noise), float(tau_noise), joints, robot.total_mass)
+    return DesignKinds(planned, float(cop_noise), float(tau_noise), joints, robot.total_mass)
 
 
 #: bytes of torque rows kept in memory between the basis and the rows (``TorqueRows``)

@@ -23,6 +23,7 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.estimation import check_payload
 from sescid.estimation.solvers.payload import payload_map
+from sescid.kinds import COP, TORQUE, Kinds, parse_kinds
 from sescid.planning.design.engine import select_poses
 from sescid.planning.design.kinds import BlockRows, offset_block_rows, schur_information
 from sescid.planning.funnel import sampling_range, stance_candidates
@@ -48,15 +49,15 @@ class PayloadPlan:
     std: np.ndarray  #: (4,) expected std of (mass, com_x, com_y, com_z); mass 0 when weighed
     random_std: np.ndarray  #: (4,) the same, median over random choices
     n_candidates: int
-    kinds: str
+    kinds: Kinds
     nominal_mass: float  #: kg, the payload the rows were linearised at (at BODY's origin)
 
 
-def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float,
+def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: Kinds, mass: float,
                  sigma: float, tau_noise: float, joints=None) -> BlockRows:  # fmt: skip
     """The rows (n, r, 4) of the poses q in p = (m, h) at the payload (mass, CoM at the origin),
-    each divided by its kind's noise (``kinds``: "cop", "tau" or "both"), each torque row with
-    its joint's offset as a nuisance column (``kinds.offset_block_rows``)."""
+    each divided by its kind's noise (``kinds``: the CoP's rows and/or the torques'), each
+    torque row with its joint's offset as a nuisance column (``kinds.offset_block_rows``)."""
     theta = robot.body_parameters()
     n_b = len(robot.body_names)
     base = float(theta[:n_b].sum())
@@ -66,14 +67,14 @@ def payload_rows(robot: Robot, body: str, q: np.ndarray, kinds: str, mass: float
     theta_nom = np.zeros(4)
     theta_nom[0] = mass
     cop = tau = None
-    if kinds in ("cop", "both"):
+    if COP in kinds:
         phi = robot.regressor(q, (0, 1))  # (n, 2, 3N)
         big_m = base + mass
         num = phi @ kb + phi @ kd @ theta_nom  # (n, 2): M (CoP − d)
         jac = (phi @ kd) / big_m
         jac[:, :, 0] -= num / big_m**2
         cop = jac / sigma
-    if kinds in ("tau", "both"):
+    if TORQUE in kinds:
         phit = robot.torque_regressor(q, joints)  # (n, J, 3N)
         tau = (phit @ kd) / tau_noise
     return offset_block_rows(cop, tau, tau_noise)
@@ -106,8 +107,7 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     designed for)."""
     check_payload(robot, body, mass)
     opt = options or PlanOptions()
-    if opt.kinds not in ("cop", "tau", "both"):
-        raise OptionError("kinds", f"a payload plan takes cop, tau or both, not {opt.kinds}")
+    planned = parse_kinds(opt.kinds)
     free = [0, 1, 2, 3] if mass is None else [1, 2, 3]
     if count < 2:
         raise OptionError("count", "a payload needs at least 2 poses (its CoM seen twice)")
@@ -116,7 +116,7 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     cand = stance_candidates(robot, "stand", n_cand, seed, opt, lim, progress)
     q = cand.q
     nominal = mass if mass is not None else NOMINAL_SHARE * robot.total_mass
-    full = payload_rows(robot, body, q, opt.kinds, nominal, opt.sigma, opt.tau_noise,
+    full = payload_rows(robot, body, q, planned, nominal, opt.sigma, opt.tau_noise,
                         opt.tau_joints)  # fmt: skip
     rows = dataclasses.replace(full, x=np.ascontiguousarray(full.x[:, :, free]))
     idx = select_poses(rows, count, seed).index
@@ -129,5 +129,5 @@ def plan_payload_poses(robot: Robot, body: str, count: int = 8, seed: int = 0,
     return PayloadPlan(
         body=body, q=qq, cop=robot.cop(qq), std=_stds(rows, idx, free, nominal),
         random_std=np.nanmedian(rand, axis=0) if np.any(np.isfinite(rand)) else rand[0],
-        n_candidates=len(q), kinds=opt.kinds, nominal_mass=nominal,
+        n_candidates=len(q), kinds=planned, nominal_mass=nominal,
     )  # fmt: skip

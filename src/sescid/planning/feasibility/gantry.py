@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.errors import OptionError, SescidError, check_choice
-from sescid.planning.design.kinds import DesignKind
+from sescid.kinds import COP, TORQUE, DesignKind, Kinds, parse_kinds
 from sescid.planning.feasibility.adjust import draw
 from sescid.planning.feasibility.broadphase import collision_free_mask_broad
 from sescid.planning.feasibility.candidates import Candidates, Mount, Sampling
@@ -55,20 +55,21 @@ class GantryOptions:
     chunk: int = 20_000  #: uniform draws per batch (at most)
 
 
-def resolve_mount(robot: Robot, mount: Mount | None, kinds: DesignKind) -> Mount:
-    """The plan's mount: ``mount``, or the support's own (``own_stance``: gantry at a trunk);
-    OptionError for a CoP design on a gantry (a held robot loads no foot) and for torques on
-    both feet."""
+def resolve_mount(robot: Robot, mount: Mount | None, kinds: Kinds | DesignKind) -> Mount:
+    """The plan's mount: ``mount``, or the support's own (``own_stance``: gantry at a trunk), for
+    the planned ``kinds`` (or any ``parse_kinds`` spelling); OptionError for a CoP design on a
+    gantry (a held robot loads no foot) and for torques on both feet."""
+    kinds = parse_kinds(kinds)
     if mount is None:
         mount = own_stance(robot).mount
     check_choice("mount", mount, Mount)
-    if mount == "double" and kinds != "cop":
+    if mount == "double" and kinds != (COP,):
         raise OptionError(
             "kinds",
             "on both feet the joint torques depend on how the load splits between the feet (a "
             "closed chain), not on the mass model alone: plan the CoP on both feet (--kinds cop)",
         )
-    if mount == "gantry" and kinds != "tau":
+    if mount == "gantry" and kinds != (TORQUE,):
         raise OptionError(
             "kinds",
             f"'{robot.support}' is held in a gantry: no foot carries a load, so there is no CoP "
