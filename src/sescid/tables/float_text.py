@@ -418,20 +418,22 @@ def _format_cells_block(bits, cols, codes, cells, starts, eol, buf, inv, fwd):
 
 
 def format_cells(
-    x: np.ndarray, cols: np.ndarray, codes: np.ndarray, cells: list[bytes], eol: bytes
-) -> np.ndarray:
+    x: np.ndarray, cols: np.ndarray, codes: np.ndarray, cells: list[bytes], eol: bytes,
+    out: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
     """CSV text (uint8 bytes) of a block of m rows whose columns are floats or text cells
     already written: column ``c`` is the float64 ``x[:, cols[c]]`` (as ``repr``) when
     ``cols[c] ≥ 0``, else ``cells[codes[:, -1 - cols[c]]]``; ``,`` between columns, ``eol``
-    after each row. ``x`` (m, kf) float64, ``cols`` (k,) int64, ``codes`` (m, kt) int64."""
+    after each row. ``x`` (m, kf) float64, ``cols`` (k,) int64, ``codes`` (m, kt) int64;
+    ``out``: a uint8 buffer to write into when large enough (the result is then a view)."""
     bits = np.ascontiguousarray(x, dtype=np.float64).view(np.uint64)
     codes = np.ascontiguousarray(codes, dtype=np.int64)
     lengths = np.fromiter(map(len, cells), dtype=np.int64, count=len(cells))
-    starts = np.zeros(len(cells) + 1, dtype=np.int64)
-    np.cumsum(lengths, out=starts[1:])
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     row = bits.shape[1] * MAX_CHARS + len(cols) + len(eol)  # + each text column's widest cell
     row += int(lengths[codes].max(axis=0).sum()) if codes.size else 0
-    out = np.empty(bits.shape[0] * row, dtype=np.uint8)
+    if out is None or out.size < bits.shape[0] * row:
+        out = np.empty(bits.shape[0] * row, dtype=np.uint8)
     text, end = (np.frombuffer(bytearray(b), dtype=np.uint8) for b in (b"".join(cells), eol))
     cols = np.ascontiguousarray(cols, dtype=np.int64)
     return out[: _format_cells_block(bits, cols, codes, text, starts, end, out, *tables())]

@@ -142,6 +142,8 @@ def _write_csv_mixed(path: Path, names: list[str], cols: list[np.ndarray]) -> No
     writes it, joined by the compiled formatter (``float_text.format_cells``; a text column
     such as ``support`` beside 10⁶ rows of numbers took the csv module 15 s, a Python join
     of each row 2 s)."""
+    import queue
+
     from sescid.tables.float_text import format_cells
 
     fl = [c.dtype == np.float64 for c in cols]
@@ -151,23 +153,29 @@ def _write_csv_mixed(path: Path, names: list[str], cols: list[np.ndarray]) -> No
     where[~np.array(fl)] = -1 - np.arange(len(other))
     n = len(cols[0])
     rows = max(1, min(WRITE_BLOCK_ROWS, n))
+    free: queue.SimpleQueue = queue.SimpleQueue()  # (numbers, cell numbers, text) written out
 
-    def block(start: int) -> tuple[None, np.ndarray]:
-        stop = min(start + rows, n)
-        x = np.empty((stop - start, len(floats)))
+    def block(start: int) -> tuple[tuple, np.ndarray]:
+        try:
+            bufs = free.get_nowait()
+        except queue.Empty:  # at most WRITE_THREADS + 2 sets of buffers, reused
+            bufs = (np.empty((rows, len(floats))), np.empty((rows, len(other)), dtype=np.int64))
+            bufs += (np.empty(0, dtype=np.uint8),)
+        m = min(start + rows, n) - start
+        x, codes = bufs[0][:m], bufs[1][:m]
         for j, c in enumerate(floats):
-            x[:, j] = c[start:stop]
-        codes = np.empty((stop - start, len(other)), dtype=np.int64)
+            x[:, j] = c[start : start + m]
         cells: list[bytes] = []
         for j, c in enumerate(other):
-            texts, codes[:, j] = _cells(c[start:stop])
+            texts, codes[:, j] = _cells(c[start : start + m])
             codes[:, j] += len(cells)
             cells += texts
-        return None, format_cells(x, where, codes, cells, b"\r\n")
+        text = format_cells(x, where, codes, cells, b"\r\n", bufs[2])
+        return (*bufs[:2], text.base if text.base is not None else text), text
 
     block(n)  # the kernel loaded here, once (an empty block), before two threads call it
     header = (",".join(_csv_field(k) for k in names) + "\r\n").encode()  # the csv module's
-    _write_blocks(path, header, n, rows, block)
+    _write_blocks(path, header, n, rows, block, free.put)
 
 
 def _cells(values: np.ndarray) -> tuple[list[bytes], np.ndarray]:
