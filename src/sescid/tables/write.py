@@ -2,8 +2,9 @@
 floats in their shortest exact form (a CSV round trip is lossless).
 
 Float64 columns are written in blocks by the compiled formatter of ``float_text`` (each number
-as ``repr`` writes it, so the bytes are the ``csv`` module's), other number columns by pyarrow's
-CSV writer; a small table by Python itself while numba is not loaded.
+as ``repr`` writes it, so the bytes are the ``csv`` module's), with any text columns beside them
+(their cells as the ``csv`` module writes them), other number columns by pyarrow's CSV writer;
+a small table by Python itself while numba is not loaded.
 """
 
 from __future__ import annotations
