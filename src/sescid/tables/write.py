@@ -181,13 +181,16 @@ def _write_csv_mixed(path: Path, names: list[str], cols: list[np.ndarray]) -> No
 
 def _cells(values: np.ndarray) -> tuple[list[bytes], np.ndarray]:
     """The cells of a non-float64 column as the csv module writes them, and each row's cell
-    number: each distinct value once where equal values are equal cells (text, bytes, ints,
-    bools); a cell per row otherwise (objects, None, other floats: -0.0 equals 0.0)."""
+    number: each distinct value once where equal values are equal cells (text, bytes, ints and
+    bools: these by numpy's text conversion, ``str``'s digits, True, False, nothing to quote);
+    a cell per row otherwise (objects, None, other floats: -0.0 equals 0.0)."""
     if values.dtype.kind not in "USbiu" or not len(values):
         return [_csv_cell(v) for v in values.tolist()], np.arange(len(values))
     if (values == values[0]).all():  # one value (a stance): written once
         return [_csv_cell(values[:1].tolist()[0])], np.zeros(len(values), dtype=np.int64)
     distinct, codes = np.unique(values, return_inverse=True)
+    if values.dtype.kind in "biu":
+        return distinct.astype("S").tolist(), codes.ravel()
     return [_csv_cell(v) for v in distinct.tolist()], codes.ravel()
 
 
