@@ -181,9 +181,11 @@ def test_no_rows_header_only(tmp_path, monkeypatch, small):
 
 def test_text_beside_numbers_is_written_as_the_csv_module_writes_it(tmp_path):
     """A table with text columns beside float runs (simulate's ``support``, measure's pose ids)
-    is written by the compiled formatter and joined row by row, byte for byte the csv module's
-    file: floats of every kind (nan, ±inf, −0.0, subnormal, huge), integer and bool columns,
-    text that needs quoting (commas, quotes, line breaks), empty cells; over several blocks."""
+    is written by the compiled formatter, byte for byte the csv module's file: floats of every
+    kind (nan, ±inf, −0.0, subnormal, huge), integer (int64's whole range, uint8) and bool
+    columns, text that needs quoting (commas, quotes, line breaks), empty cells; over several
+    blocks; a text column of one value in some blocks and two in another, and a float32 column
+    whose −0.0 and 0.0 are equal numbers but different cells."""
     from sescid.tables import write
 
     rng = np.random.default_rng(5)
@@ -200,6 +202,13 @@ def test_text_beside_numbers_is_written_as_the_csv_module_writes_it(tmp_path):
         "k": rng.integers(-5, 5, n),
         "flag": rng.integers(0, 2, n).astype(bool),
         "z": rng.standard_normal(n),
+        "stance": np.where(np.arange(n) < write.WRITE_BLOCK_ROWS + 3, "r_sole", "l_sole"),
+        "foot": words[rng.integers(0, len(words), n)].astype(str),
+        "one": np.full(n, 7),
+        "wide": rng.integers(np.iinfo(np.int64).min, np.iinfo(np.int64).max, n, endpoint=True),
+        "u8": rng.integers(0, 256, n).astype(np.uint8),
+        "f32": np.where(rng.integers(0, 2, n) == 1, -0.0, 0.0).astype(np.float32),
+        "raw": np.full(n, b"a,b"),
     }
     names, arrays = list(cols), [np.asarray(v) for v in cols.values()]
     write._write_csv_plain(tmp_path / "plain.csv", names, arrays)

@@ -10,6 +10,7 @@ the tests hold every byte to.
 
 ``format_rows(x)`` gives the CSV text (``,`` between numbers, a newline after each row) of a
 (m, k) float64 block; its kernel holds no GIL, so two threads format two blocks at once.
+``format_cells`` writes rows of floats and text cells (a table with a text column) the same way.
 """
 
 from __future__ import annotations
@@ -388,6 +389,54 @@ def format_rows(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     inv, fwd = tables()
     used = _format_block(x.view(np.uint64), out, inv, fwd)
     return out[:used]
+
+
+@lazy_njit(cache=True, nogil=True)
+def _format_cells_block(bits, cols, codes, cells, starts, eol, buf, inv, fwd):
+    """Rows of a table as CSV text into ``buf``; the number of bytes written. Column ``c`` is
+    the float ``bits[i, cols[c]]`` when ``cols[c] ≥ 0``, else the text cell numbered
+    ``t = codes[i, -1 - cols[c]]`` (bytes ``cells[starts[t]:starts[t + 1]]``); rows end in
+    ``eol``."""
+    pos = 0
+    for i in range(bits.shape[0]):
+        for c in range(cols.size):
+            if c:
+                buf[pos] = 44  # ','
+                pos += 1
+            j = cols[c]
+            if j >= 0:
+                pos = _write_float(bits[i, j], buf, pos, inv, fwd)
+            else:
+                t = codes[i, -1 - j]
+                for b in range(starts[t], starts[t + 1]):
+                    buf[pos] = cells[b]
+                    pos += 1
+        for b in range(eol.size):
+            buf[pos] = eol[b]
+            pos += 1
+    return pos
+
+
+def format_cells(
+    x: np.ndarray, cols: np.ndarray, codes: np.ndarray, cells: list[bytes], eol: bytes,
+    out: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
+    """CSV text (uint8 bytes) of a block of m rows whose columns are floats or text cells
+    already written: column ``c`` is the float64 ``x[:, cols[c]]`` (as ``repr``) when
+    ``cols[c] ≥ 0``, else ``cells[codes[:, -1 - cols[c]]]``; ``,`` between columns, ``eol``
+    after each row. ``x`` (m, kf) float64, ``cols`` (k,) int64, ``codes`` (m, kt) int64;
+    ``out``: a uint8 buffer to write into when large enough (the result is then a view)."""
+    bits = np.ascontiguousarray(x, dtype=np.float64).view(np.uint64)
+    codes = np.ascontiguousarray(codes, dtype=np.int64)
+    lengths = np.fromiter(map(len, cells), dtype=np.int64, count=len(cells))
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    row = bits.shape[1] * MAX_CHARS + len(cols) + len(eol)  # + each text column's widest cell
+    row += int(lengths[codes].max(axis=0).sum()) if codes.size else 0
+    if out is None or out.size < bits.shape[0] * row:
+        out = np.empty(bits.shape[0] * row, dtype=np.uint8)
+    text, end = (np.frombuffer(bytearray(b), dtype=np.uint8) for b in (b"".join(cells), eol))
+    cols = np.ascontiguousarray(cols, dtype=np.int64)
+    return out[: _format_cells_block(bits, cols, codes, text, starts, end, out, *tables())]
 
 
 def text_bytes(shape: tuple[int, int]) -> int:

@@ -2,8 +2,9 @@
 floats in their shortest exact form (a CSV round trip is lossless).
 
 Float64 columns are written in blocks by the compiled formatter of ``float_text`` (each number
-as ``repr`` writes it, so the bytes are the ``csv`` module's), other number columns by pyarrow's
-CSV writer; a small table by Python itself while numba is not loaded.
+as ``repr`` writes it, so the bytes are the ``csv`` module's), with any text columns beside them
+(their cells as the ``csv`` module writes them), other number columns by pyarrow's CSV writer;
+a small table by Python itself while numba is not loaded.
 """
 
 from __future__ import annotations
@@ -80,8 +81,7 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
     ``WRITE_BLOCK_ROWS`` rows formatted by ``WRITE_THREADS`` threads (the compiled formatter
     holds no GIL) while this thread writes the finished ones in order; a small table by
     Python's ``repr`` itself while numba is not loaded."""
-    from collections import deque
-    from concurrent.futures import ThreadPoolExecutor
+    import queue
 
     n, k = len(cols[0]), len(cols)
     header = (",".join(_csv_field(name) for name in names) + "\n").encode()
@@ -90,14 +90,12 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
             fh.write(header)
             fh.write(_rows_repr(cols))
         return
-    import queue
-
     from sescid.tables.float_text import format_rows, text_bytes
 
     rows = max(1, min(WRITE_BLOCK_ROWS, n))
     free: queue.SimpleQueue = queue.SimpleQueue()  # (numbers, text) buffers written out
 
-    def block(start: int) -> tuple[tuple, np.ndarray]:
+    def block(start: int) -> tuple[Any, np.ndarray]:
         try:
             bufs = free.get_nowait()
         except queue.Empty:  # at most WRITE_THREADS + 2 pairs of buffers, reused
@@ -107,12 +105,25 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
             x[:, j] = c[start : start + len(x)]
         return bufs, format_rows(x, bufs[1])
 
-    def write(done: Any) -> None:
-        bufs, text = done.result()
-        fh.write(text)
-        free.put(bufs)
-
     format_rows(np.zeros((1, 1)))  # the kernel loaded here, once, before two threads call it
+    _write_blocks(path, header, n, rows, block, free.put)
+
+
+def _write_blocks(
+    path: Path, header: bytes, n: int, rows: int, block: Any, done: Any = None
+) -> None:
+    """``header`` then the text of ``block(start)`` → (buffers, text) for each block of ``rows``
+    of the ``n`` rows, made by ``WRITE_THREADS`` threads while this thread writes the finished
+    ones in order, atomically; ``done(buffers)`` once a block's text is written."""
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+
+    def write(future: Any) -> None:
+        bufs, text = future.result()
+        fh.write(text)
+        if done is not None:
+            done(bufs)
+
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write(header)
         with ThreadPoolExecutor(max_workers=WRITE_THREADS, thread_name_prefix="sescid-csv") as pool:
@@ -127,31 +138,60 @@ def _write_csv_floats(path: Path, names: list[str], cols: list[np.ndarray]) -> N
 
 def _write_csv_mixed(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
     """Columns of any kind as CSV, the bytes ``_write_csv_plain`` writes (its CRLF line ends
-    too): each run of float64
-    columns by the compiled formatter, the other cells as the csv module writes them, joined
-    row by row in blocks of ``WRITE_BLOCK_ROWS`` (a text column such as ``support`` beside 10⁶
-    rows of numbers took the csv module 15 s)."""
-    from sescid.tables.float_text import format_rows
+    too), in blocks of ``WRITE_BLOCK_ROWS`` rows by ``WRITE_THREADS`` threads: the float64
+    columns and the other cells, each distinct value written once a block as the csv module
+    writes it, joined by the compiled formatter (``float_text.format_cells``; a text column
+    such as ``support`` beside 10⁶ rows of numbers took the csv module 15 s, a Python join
+    of each row 2 s)."""
+    import queue
 
-    runs, j = [], 0  # (first, last + 1, float64?) of consecutive columns
-    while j < len(cols):
-        k, fl = j + 1, cols[j].dtype == np.float64
-        while fl and k < len(cols) and cols[k].dtype == np.float64:
-            k += 1
-        runs.append((j, k, fl))
-        j = k
+    from sescid.tables.float_text import format_cells
+
+    fl = [c.dtype == np.float64 for c in cols]
+    floats = [c for c, f in zip(cols, fl, strict=True) if f]
+    other = [c for c, f in zip(cols, fl, strict=True) if not f]
+    where = np.cumsum(fl) - 1  # column → its float's index, or -1 - its text column's index
+    where[~np.array(fl)] = -1 - np.arange(len(other))
     n = len(cols[0])
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write((",".join(_csv_field(k) for k in names) + "\r\n").encode())  # the csv module's
-        for s in range(0, n, WRITE_BLOCK_ROWS):
-            e, parts = min(s + WRITE_BLOCK_ROWS, n), []
-            for a, b, fl in runs:
-                if fl:
-                    x = np.column_stack([c[s:e] for c in cols[a:b]])
-                    parts.append(format_rows(x).tobytes().split(b"\n")[:-1])
-                else:
-                    parts.append([_csv_cell(v) for v in cols[a][s:e].tolist()])
-            fh.write(b"".join(b",".join(row) + b"\r\n" for row in zip(*parts, strict=True)))
+    rows = max(1, min(WRITE_BLOCK_ROWS, n))
+    free: queue.SimpleQueue = queue.SimpleQueue()  # (numbers, cell numbers, text) written out
+
+    def block(start: int) -> tuple[tuple, np.ndarray]:
+        try:
+            bufs = free.get_nowait()
+        except queue.Empty:  # at most WRITE_THREADS + 2 sets of buffers, reused
+            bufs = (np.empty((rows, len(floats))), np.empty((rows, len(other)), dtype=np.int64))
+            bufs += (np.empty(0, dtype=np.uint8),)
+        m = min(start + rows, n) - start
+        x, codes = bufs[0][:m], bufs[1][:m]
+        for j, c in enumerate(floats):
+            x[:, j] = c[start : start + m]
+        cells: list[bytes] = []
+        for j, c in enumerate(other):
+            texts, codes[:, j] = _cells(c[start : start + m])
+            codes[:, j] += len(cells)
+            cells += texts
+        text = format_cells(x, where, codes, cells, b"\r\n", bufs[2])
+        return (*bufs[:2], text.base if text.base is not None else text), text
+
+    block(n)  # the kernel loaded here, once (an empty block), before two threads call it
+    header = (",".join(_csv_field(k) for k in names) + "\r\n").encode()  # the csv module's
+    _write_blocks(path, header, n, rows, block, free.put)
+
+
+def _cells(values: np.ndarray) -> tuple[list[bytes], np.ndarray]:
+    """The cells of a non-float64 column as the csv module writes them, and each row's cell
+    number: each distinct value once where equal values are equal cells (text, bytes, ints and
+    bools: these by numpy's text conversion, ``str``'s digits, True, False, nothing to quote);
+    a cell per row otherwise (objects, None, other floats: -0.0 equals 0.0)."""
+    if values.dtype.kind not in "USbiu" or not len(values):
+        return [_csv_cell(v) for v in values.tolist()], np.arange(len(values))
+    if (values == values[0]).all():  # one value (a stance): written once
+        return [_csv_cell(values[:1].tolist()[0])], np.zeros(len(values), dtype=np.int64)
+    distinct, codes = np.unique(values, return_inverse=True)
+    if values.dtype.kind in "biu":
+        return distinct.astype("S").tolist(), codes.ravel()
+    return [_csv_cell(v) for v in distinct.tolist()], codes.ravel()
 
 
 def _csv_cell(v: Any) -> bytes:
