@@ -57,10 +57,14 @@ def _noise(given: tuple[str, ...]) -> dict[str, float] | None:
     return out or None
 
 
-def _write_json(outs: OutputSet, out: str, doc: dict) -> None:
-    with open(outs.path(out), "w") as fh:
+def _write_json(outs: OutputSet, out: str | None, doc: dict) -> None:
+    """Write ``doc`` to ``--json`` (when given) and say so."""
+    if out is None:
+        return
+    with outs, open(outs.path(out), "w") as fh:
         json.dump(doc, fh, indent=1, allow_nan=False)
         fh.write("\n")
+    click.echo(f"wrote {out}")
 
 
 @click.command()
@@ -99,10 +103,7 @@ def audit(data, models, noise, folds, json_out, fail_on, force, **keywords):
     outs = OutputSet([json_out], list(data) + list(models), force=force)
     result = run_audit(list(data), list(models), folds=folds, noise=_noise(noise), **keywords)
     click.echo(result.text())
-    if json_out is not None:
-        with outs:
-            _write_json(outs, json_out, result.to_json())
-        click.echo(f"wrote {json_out}")
+    _write_json(outs, json_out, result.to_json())
     best = result.best
     if (fail_on == "rejected" and best.rejected) or (fail_on == "checks" and best.checks):
         sys.exit(FAIL_EXIT)
@@ -125,7 +126,4 @@ def compare_cmd(fits, level, json_out, force):
     outs = OutputSet([json_out], list(fits), force=force)
     result = compare(list(fits), level=level)
     click.echo(result.text())
-    if json_out is not None:
-        with outs:
-            _write_json(outs, json_out, result.to_json())
-        click.echo(f"wrote {json_out}")
+    _write_json(outs, json_out, result.to_json())
