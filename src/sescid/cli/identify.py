@@ -227,8 +227,7 @@ def _payload_base(
     from pathlib import Path
 
     base_fit = None
-    source = click.get_current_context().get_parameter_source("robot_name")
-    given = source != click.core.ParameterSource.DEFAULT
+    given = common.given("robot_name")
     if base is not None and Path(base).suffix.lower() == ".json":
         base_fit = load_fit(base)
         common.echo_model_change(base_fit, base)

@@ -230,8 +230,7 @@ def _payload_plan(o, robot: Robot, pc, outs: OutputSet) -> None:
     """Poses --payload: the poses that determine a payload best, and their table."""
     if o["stances"] is not None or o["mount"] is not None or o["select"] != "d-optimal":
         raise OptionError("payload", "--payload plans D-optimal poses on the --support foot")
-    source = click.get_current_context().get_parameter_source("count")
-    count = 8 if source == click.core.ParameterSource.DEFAULT else o["count"]
+    count = o["count"] if common.given("count") else 8
     n_candidates = o["candidates"] or PAYLOAD_CANDIDATES
     if n_candidates < count:
         raise OptionError("count", f"must not exceed --candidates ({n_candidates})")
