@@ -326,7 +326,7 @@ def _write(res, robot: Robot, out_dir, view, opts) -> None:
     click.echo(
         f"stopped: {res.stop_reason}; {res.n_measured} of {len(res.steps)} commanded poses "
         f"measured ({' and '.join(res.kinds)}), predicted {res.quantity} std "
-        f"{mm(res.cop_std) if math.isfinite(res.cop_std) else 'not determined'}, "
+        f"{mm(res.cop_std)}, "
         f"rank {res.fit.rank}"
     )
     if res.rejected:
