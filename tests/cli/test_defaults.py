@@ -27,6 +27,7 @@ from sescid.bench import (
     run_experiment,
 )
 from sescid.cli import COMMANDS, cli
+from sescid.cli.flags import record
 from sescid.estimation import ConsistentOptions, IdentifyOptions, MapOptions
 from sescid.io import export_model
 from sescid.planning import (
@@ -144,10 +145,8 @@ def _identify(d: _Read) -> list:
 
 
 def _export(d) -> list:
-    from sescid.cli.options import consistent_from_flags
-
     return [
-        ("ConsistentOptions", consistent_from_flags(d), ConsistentOptions()),
+        ("ConsistentOptions", record(ConsistentOptions, d), ConsistentOptions()),
         ("model_format", d["model_format"], _arg(export_model, "format")),
     ]
 
@@ -231,13 +230,12 @@ def _measure(d) -> list:
 
 def _calibrate(d) -> list:
     from sescid.cli import calibrate
-    from sescid.cli.calibrate import calibration_options
 
     (one,) = calibrate.pad_session_options(("s.csv",), d).values()
     return [
         *_robot(d),
         ("sensors_file", d["sensors_file"], _arg(load_sensors, "path")),
-        ("CalibrationOptions", calibration_options(d), CalibrationOptions()),
+        ("CalibrationOptions", record(CalibrationOptions, d), CalibrationOptions()),
         ("PadSessionOptions", one, PadSessionOptions()),
     ]
 

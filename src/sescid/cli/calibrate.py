@@ -26,11 +26,6 @@ from sescid.sensors import (
 from sescid.tables import read_table
 
 
-def calibration_options(opts: dict) -> CalibrationOptions:
-    """The calibration's typed options from the flags."""
-    return record(CalibrationOptions, opts)
-
-
 def pad_session_options(raw: tuple[str, ...], opts: dict) -> dict[str, PadSessionOptions]:
     """Each session's options (its name is its file's stem) from the SESSION=VALUE flags."""
     names = [Path(p).stem for p in raw]
@@ -126,7 +121,7 @@ def calibrate(**opts):
     outs = OutputSet([out, fit_out], [*raw, opts["sensors_file"]], force=opts["force"])
     check_distinct(list(raw), "a session")
     robot = common.load(opts["robot_name"], opts["support"])
-    options = calibration_options(opts)
+    options = record(CalibrationOptions, opts)
     options.check()
     if options.total_mass is not None:
         check_total_mass(robot, options.total_mass, "--total-mass")

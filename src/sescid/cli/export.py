@@ -7,8 +7,8 @@ import numpy as np
 
 from sescid.base import OutputSet
 from sescid.cli import common
-from sescid.cli.flags import flag
-from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
+from sescid.cli.flags import flag, record
+from sescid.cli.options import consistent_options, echo_masses
 from sescid.errors import OptionError
 from sescid.estimation import ConsistentOptions, load_fit, to_consistent
 from sescid.io import (
@@ -61,7 +61,7 @@ def export_cmd(fit_file, out, model_format, over, repair_inertia, force, **opts)
     common.echo_model_change(fit, fit_file)
     inputs = [fit_file, *model_files(fit.robot.model_path), *([over] if over else [])]
     outs = OutputSet([out], inputs, force=force)
-    copts = consistent_from_flags(opts)
+    copts = record(ConsistentOptions, opts)
     check_inertias(fit.robot.model, fit.robot.model_path, repair_inertia)
     if fit.inertials is None:
         click.echo(f"{fit_file}: the {fit.method} fit has no masses; running the consistent step")

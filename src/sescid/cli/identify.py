@@ -16,7 +16,7 @@ from sescid.api import identify as run_identify
 from sescid.base import OutputSet, TerminalProgress, option_spec
 from sescid.cli import common
 from sescid.cli.flags import SectionedCommand, flags, help_of, record
-from sescid.cli.options import consistent_from_flags, consistent_options, echo_masses
+from sescid.cli.options import consistent_options, echo_masses
 from sescid.errors import DataError, OptionError, choices
 from sescid.estimation import (
     COP_ON_TRUNK,
@@ -67,7 +67,7 @@ def options_from_flags(method: MethodName, opts: dict) -> tuple[MethodOptions, I
             raise OptionError(
                 "method", f"{', '.join(given)} needs --method map (got {method}){why}"
             )
-    consistent = consistent_from_flags(opts, total_mass=None)  # the weighed mass: identify's
+    consistent = record(ConsistentOptions, opts, total_mass=None)  # the weighed mass: identify's
     if method != "consistent" and consistent != ConsistentOptions():
         raise OptionError("method", f"the consistent options need --method consistent ({method})")
     chosen: MethodOptions = LeastSquaresOptions()

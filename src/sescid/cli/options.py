@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from sescid.cli.flags import flags, record
+from sescid.cli.flags import flags
 from sescid.estimation import ConsistentOptions, Fit
 
 
@@ -13,12 +13,6 @@ def consistent_options(f):
     """Options of the consistent step (identify --method consistent, export); the weighed total
     mass is each command's own (identify's scales the torques as well)."""
     return flags(ConsistentOptions, "mass_floor", "symmetric", "box_margin", "via", "prior_std")(f)
-
-
-def consistent_from_flags(opts: dict, **given) -> ConsistentOptions:
-    """The typed options from the consistent flags (and export's --total-mass), ``given``
-    fields aside."""
-    return record(ConsistentOptions, opts, **given)
 
 
 def echo_masses(fit: Fit) -> None:
