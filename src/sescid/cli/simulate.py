@@ -98,7 +98,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
 
         noise_deg = kinds["tilt_noise_deg"]
         balanced = simulate_balance(robot, poses, range_deg, math.radians(noise_deg), seed, r_true)
-        _write_balance(robot, balanced, outs, out)
+        with outs:
+            write_table(outs.path(out), _columns(robot, balanced, measured))
         click.echo(f"wrote {out}: {poses} balanced poses of {robot.name} on its line, tilt "
                    f"noise {noise_deg:g}°")  # fmt: skip
         click.echo(f"  {_real_line(robot, true_mass, placed)}")
@@ -110,10 +111,8 @@ def simulate(robot_name, support, poses, range_deg, noise, seed, clip, stable, t
         robot, poses, range_deg, noise, seed, clip, stable=stable, tilt=math.radians(tilt_deg),
         torques=sensors, r_true=r_true,
     )  # fmt: skip
-    cols = _columns(robot.joint_names, sim, measured)
-    cols["support"] = np.full(sim.q.shape[0], robot.support)  # the stance, for pooling
     with outs:
-        write_table(outs.path(out), cols)
+        write_table(outs.path(out), _columns(robot, sim, measured))
     what = ", ".join(
         ([f"CoP noise {noise} m"] if COP in measured else [])
         + ([f"torque noise {kinds['tau_noise']} N·m"] if TORQUE in measured else [])
@@ -152,19 +151,6 @@ def _real_line(robot: Robot, true_mass: float, placed: list[dict]) -> str:
     )
 
 
-def _write_balance(robot: Robot, sim, outs, out) -> None:
-    """Balanced poses (``simulation.BalanceData``) as columns: joints, measured gravity, the true
-    tilt, the stance."""
-    from sescid.tables import write_table
-
-    cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
-    cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
-    cols["balance_tilt_true"] = sim.tilt
-    cols["support"] = np.full(len(sim.q), robot.support)
-    with outs:
-        write_table(outs.path(out), cols)
-
-
 def torque_noise(kinds: dict) -> TorqueNoise | None:
     """The torque sensors' errors from the flags (None when only the CoP is measured)."""
     if kinds["measure"] is None or TORQUE not in parse_kinds(kinds["measure"], "measure", Measure):
@@ -172,13 +158,15 @@ def torque_noise(kinds: dict) -> TorqueNoise | None:
     return record(TorqueNoise, kinds)
 
 
-def _columns(joint_names: list[str], sim, measured: Kinds) -> dict[str, np.ndarray]:
-    """The written table: joints (rad), what is measured (noisy and true), gravity."""
-    cols = {name: sim.q[:, j] for j, name in enumerate(joint_names)}
+def _columns(robot: Robot, sim, measured: Kinds) -> dict[str, np.ndarray]:
+    """The written table: joints (rad), what is measured (noisy and true), gravity (measured,
+    with --measure balance: of each balanced pose, then its true tilt), the stance (for
+    pooling); ``sim`` a ``SimData`` or a ``BalanceData``."""
+    cols = {name: sim.q[:, j] for j, name in enumerate(robot.joint_names)}
     if COP in measured:
         cols |= {"cop_x": sim.cop[:, 0], "cop_y": sim.cop[:, 1]}
         cols |= {"cop_x_true": sim.cop_true[:, 0], "cop_y_true": sim.cop_true[:, 1]}
-    if sim.torques is not None:
+    if TORQUE in measured and sim.torques is not None:
         t = sim.torques
         cols |= {f"tau_{j}": t.tau[:, k] for k, j in enumerate(t.joints)}
         cols |= {f"true_tau_{j}": t.tau_true[:, k] for k, j in enumerate(t.joints)}
@@ -186,4 +174,7 @@ def _columns(joint_names: list[str], sim, measured: Kinds) -> dict[str, np.ndarr
             cols["approach"] = t.approach
     if sim.gravity is not None:
         cols |= {f"grav_{a}": sim.gravity[:, i] for i, a in enumerate("xyz")}
+    if BALANCE in measured:
+        cols["balance_tilt_true"] = sim.tilt
+    cols["support"] = np.full(len(sim.q), robot.support)
     return cols
