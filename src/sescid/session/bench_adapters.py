@@ -134,22 +134,21 @@ class KinematicAdapter(_BenchAdapter):
         feet=True,
     ):
         super().__init__(robot, sensors, config, seed, feet=feet)
-        boards = sensors.feet if sensors is not None else ()
-        self.foot = next((f for f in boards if f.sole_frame == robot.support), None)
-        self.held = self.config.mount == "gantry"
+        self._restand()
         if self.foot is None and not self.held and feet:
+            boards = sensors.feet if sensors is not None else ()
             boards_on = ", ".join(f.sole_frame for f in boards) or "no layout"
             raise DataError(
                 f"no foot sensor board sits on the support link '{robot.support}' (boards: "
                 f"{boards_on}): give a layout with one (--sensors), or --no-foot-sensors for a "
                 "robot that logs its joint torques only (--torques all)"
             )
-        self.bodies, _ = real_bodies(robot, self.config)
         self._pads = np.zeros(4)
         self._feet: dict[str, np.ndarray] | None = None  #: on both feet: pad forces per foot
         self._tau = np.zeros(robot.nq)
 
     def _restand(self) -> None:
+        """The support foot's board, whether held, and the real bodies of this stance."""
         boards = self.sensors.feet if self.sensors is not None else ()
         self.foot = next((f for f in boards if f.sole_frame == self.robot.support), None)
         self.held = self.config.mount == "gantry"
