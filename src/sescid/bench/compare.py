@@ -78,11 +78,7 @@ def compare_truth(
     q, cop = t.q_actual, t.cop_true
     if q.shape != (len(cop), robot.nq) or not np.all(np.isfinite(q)):
         raise DataError(f"{truth_path}: q_actual and cop_true do not match")
-    if not (n_fresh >= 1 and 0 < within_deg <= 180):
-        raise DataError("fresh poses: need n ≥ 1 and 0 < within_deg ≤ 180")
-    rng = np.random.default_rng(seed)
-    base = q[rng.integers(0, len(q), n_fresh)]
-    fresh = base + rng.uniform(-1, 1, base.shape) * math.radians(within_deg)
+    fresh = _fresh(q, n_fresh, within_deg, seed)
     cop_fresh = robot.cop(fresh, r_true)
     return TruthComparison(
         n_poses=len(q),
@@ -98,6 +94,7 @@ def compare_truth(
 
 
 def _fresh(q: np.ndarray, n_fresh: int, within_deg: float, seed: int) -> np.ndarray:
+    """(n_fresh, nq) poses uniform within ±within_deg of poses drawn from ``q`` [rad]."""
     if not (n_fresh >= 1 and 0 < within_deg <= 180):
         raise DataError("fresh poses: need n ≥ 1 and 0 < within_deg ≤ 180")
     rng = np.random.default_rng(seed)
