@@ -162,7 +162,7 @@ def _stance(robot: Robot, sensors, config, cop_true, q_act, weight) -> _Stance:
         half = np.asarray(sole.size, dtype=float) / 2
         tips = np.any(np.abs(cop_true - robot.sole_centre) > half, axis=1)
         return _Stance({}, tips, f"the sole of {robot.support}")
-    foot = _support_foot(robot, sensors)
+    foot = support_foot(robot, sensors)
     uv = foot.board_coordinates(cop_true)
     tips = np.any((uv < 0) | (uv > 1), axis=1)
     w = bilinear_weights(uv[:, 0], uv[:, 1])
@@ -170,7 +170,8 @@ def _stance(robot: Robot, sensors, config, cop_true, q_act, weight) -> _Stance:
     return _Stance(forces, tips, f"the sensor rectangle of {robot.support}")
 
 
-def _support_foot(robot: Robot, sensors: SensorConfig):
+def support_foot(robot: Robot, sensors: SensorConfig):
+    """The foot whose sensor board sits on the support link (DataError naming the boards)."""
     support = [f for f in sensors.feet if f.sole_frame == robot.support]
     if not support:
         raise DataError(

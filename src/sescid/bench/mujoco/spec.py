@@ -24,8 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from sescid.base import G0, option
+from sescid.bench.kinematic import support_foot
 from sescid.bench.real_robot import ExperimentConfig, extra_masses, real_bodies
-from sescid.errors import DataError, ModelError, OptionError, SescidError
+from sescid.errors import ModelError, OptionError, SescidError
 from sescid.model.mjcf_compile import mujoco_module
 from sescid.planning import collision_capsules
 from sescid.robot import Robot
@@ -159,13 +160,8 @@ def standing_feet(robot: Robot, sensors: SensorConfig | None, config, bench) -> 
     """Names of the feet that stand on the floor (their pads collide; no capsules)."""
     if sensors is None or config.mount == "gantry":
         return set()
-    support = {f.name for f in sensors.feet if f.sole_frame == robot.support}
-    if not support:
-        raise DataError(
-            f"no foot sensor board sits on the support link '{robot.support}' "
-            f"(boards: {', '.join(f.sole_frame for f in sensors.feet)})"
-        )
-    return {f.name for f in sensors.feet if bench.double_support or f.name in support}
+    support = support_foot(robot, sensors).name
+    return {f.name for f in sensors.feet if bench.double_support or f.name == support}
 
 
 def _inertia_list(own, extra, b, model_b, bench) -> list[float]:
