@@ -107,13 +107,7 @@ class Journal:
                 return old
         journal = cls(path, head)
         journal.created_folder = created
-        try:
-            with open(path, "w") as fh:
-                fh.write(json.dumps(head) + "\n")
-                fh.flush()
-                os.fsync(fh.fileno())
-        except OSError as exc:
-            raise DataError(f"{path}: cannot write the session journal ({exc.strerror})") from None
+        journal._write(head, "w")
         return journal
 
     def discard_if_empty(self) -> None:
@@ -180,9 +174,10 @@ class Journal:
         self._write({"end": stop_reason})
         self.finished = stop_reason
 
-    def _write(self, rec: dict) -> None:
+    def _write(self, rec: dict, mode: str = "a") -> None:
+        """Write one record as a line (``mode`` "w": the header of a new file), synced."""
         try:
-            with open(self.path, "a") as fh:
+            with open(self.path, mode) as fh:
                 fh.write(json.dumps(rec) + "\n")
                 fh.flush()
                 os.fsync(fh.fileno())
