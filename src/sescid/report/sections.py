@@ -50,10 +50,6 @@ def summary_section(c: ReportContent) -> str:
     )
 
 
-def _figure(figs: Mapping[str, str], name: str) -> str:
-    return figs.get(name, "")
-
-
 def _cop_table(k: KindNumbers) -> str:
     rows = []
     for model in (CAD, IDENTIFIED):
@@ -101,8 +97,8 @@ def cop_section(c: ReportContent, figs: Mapping[str, str]) -> str:
         "<h2>Centre of pressure</h2>\n"
         "<p>CoP residual, measured − predicted [mm], over the report's poses:</p>\n"
         f"{_cop_table(k)}\n{_offsets_line(c.fit, 'cop')}{se}\n"
-        f"<h3>CoP per pose (Fig. 7)</h3>{_figure(figs, 'fig7_cop.png')}\n"
-        f"<h3>CoP residuals</h3>{_figure(figs, 'residuals.png')}"
+        f"<h3>CoP per pose (Fig. 7)</h3>{figs.get('fig7_cop.png', '')}\n"
+        f"<h3>CoP residuals</h3>{figs.get('residuals.png', '')}"
     )
 
 
@@ -251,8 +247,8 @@ def torque_section(c: ReportContent, figs: Mapping[str, str]) -> str:
         "friction band) per joint of the same form, so the two are compared on their masses."
         "</p>\n"
         f"{_torque_table(k, c.fit)}\n{worse_than_cad(k, c.fit)}\n{_noise_words(c.fit)}"
-        f"{_figure(figs, 'torque_residuals.png')}\n"
+        f"{figs.get('torque_residuals.png', '')}\n"
         f"<h3>Torque sensor offsets and friction bands{gains}</h3>\n"
         f"<p>{esc(_friction_words(c.fit))}</p>\n{nuisance_table(c.fit, k.columns)}\n"
-        f"<h3>Support leg</h3>{_figure(figs, 'torque_support_leg.png')}"
+        f"<h3>Support leg</h3>{figs.get('torque_support_leg.png', '')}"
     )
