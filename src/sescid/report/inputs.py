@@ -75,11 +75,6 @@ class ReportResult:
     figures: tuple[Path, ...]
     content: ReportContent
 
-    @property
-    def com_z_prior_fraction(self) -> float:
-        """Mean share of the CoM height's regressor row outside the identifiable subspace."""
-        return float(np.mean(self.content.com.prior_fraction))
-
 
 def as_measurements(fit: Fit, data: Measurements | Iterable[Measurements]) -> Measurements:
     """One validated ``Measurements`` for the fit's robot from one or consecutive chunks."""
