@@ -9,14 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from fitting import identify_ls
+from fitting import cop_offset_stats, identify_ls
 from op2_stance import stable_poses
 
 import sescid
 from sescid.bench import ExperimentConfig, ExtraMass, real_robot, run_experiment
 from sescid.cli import cli
 from sescid.errors import SescidError
-from sescid.report import cop_offset_stats
 from sescid.robots import MX28, profile_for
 from sescid.sensors import load_sensors, measure, read_raw
 from sescid.tables import Table, write_table

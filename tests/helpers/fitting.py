@@ -56,3 +56,15 @@ def identify_stream(robot, chunks, **kw):
     """Least squares over chunks read once."""
     kw.setdefault("method", "ls")
     return identify(robot, chunks_of(chunks), **kw)
+
+
+def cop_offset_stats(measured, predicted) -> dict:
+    """Mean offset (x, y, norm) and RMS per component of predicted − measured CoP, m."""
+    d = np.asarray(predicted) - np.asarray(measured)
+    mean = d.mean(axis=0)
+    return {
+        "mean_x": float(mean[0]),
+        "mean_y": float(mean[1]),
+        "mean": float(np.hypot(mean[0], mean[1])),
+        "rms": float(np.sqrt(np.mean(d**2))),
+    }

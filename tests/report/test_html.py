@@ -14,13 +14,13 @@ import matplotlib.image
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from fitting import identify_ls
+from fitting import cop_offset_stats, identify_ls
 from op2_stance import stable_poses
 
 import sescid
 from sescid.cli import cli
 from sescid.estimation import Measurements
-from sescid.report import ReportOptions, cop_offset_stats, write_report
+from sescid.report import ReportOptions, write_report
 from sescid.report.text import RESIDUAL_DEFINITION
 from sescid.tables import write_table
 

@@ -8,7 +8,6 @@ Figures are drawn on two cores where there are two (``parallel``)."""
 from sescid.report.coverage import Coverage, coverage
 from sescid.report.figures import (
     body_labels,
-    cop_offset_stats,
     design_figure,
     paper_order,
     plot_com_height,
@@ -47,7 +46,6 @@ __all__ = [
     "ResidualStats",
     "body_labels",
     "can_fork",
-    "cop_offset_stats",
     "coverage",
     "design_figure",
     "mass_rows",

@@ -256,18 +256,6 @@ def plot_side_view(robot: Robot, q, cop, coms: dict, path, labels=None) -> None:
     save_figure(fig, path, (left, right, bottom + 0.35, top), wspace=0.15)
 
 
-def cop_offset_stats(measured, predicted) -> dict:
-    """Mean offset (x, y, norm) and RMS per component of predicted − measured CoP, m."""
-    d = np.asarray(predicted) - np.asarray(measured)
-    mean = d.mean(axis=0)
-    return {
-        "mean_x": float(mean[0]),
-        "mean_y": float(mean[1]),
-        "mean": float(np.hypot(mean[0], mean[1])),
-        "rms": float(np.sqrt(np.mean(d**2))),
-    }
-
-
 def r_magnitude_std(fit) -> np.ndarray:
     """1σ of R_i = |r_i| by linearisation, m."""
     out = []
