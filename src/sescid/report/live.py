@@ -68,8 +68,6 @@ class LiveView(SessionObserver):
             thickness=0.002,
         )
         self.status = gui.add_markdown("**sescid session**: planning…")
-        self._curve_x: list[float] = []
-        self._curve_y: list[float] = []
         self.curve = gui.add_uplot(
             data=(np.zeros(1), np.zeros(1)),
             series=({"label": "measured poses"}, {"label": "CoP std [mm]", "stroke": "red"}),
