@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from pathlib import Path
 
 import click
@@ -25,7 +24,6 @@ class _Printer:
 
     def __init__(self, budget: int):
         self.budget = budget
-        self.t0 = time.perf_counter()
 
     def planned(self, step_no, pose, q, q_current):
         pass

@@ -66,7 +66,6 @@ class Simulation:
             [m.jnt_qposadr[m.joint(j).id] for j in robot.joint_names], dtype=np.int64
         )
         self.root = m.body(robot.body_names[0]).id
-        self.root_q = 0 if not self.weld else None  # free joint first in qpos
         names = robot.body_names
         imu = bench.imu_body or robot.profile.imu_link or names[int(np.argmax(robot.masses))]
         if imu in robot.model.link_frames:
