@@ -25,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Literal, get_args
+from typing import Literal
 
 import numpy as np
 
@@ -45,7 +45,6 @@ NO_POSE_MEASURED = "no pose can be measured"
 #: the side each pose is approached from: random, always from below (+1), from above (−1), or
 #: alternating
 Approach = Literal["random", "up", "down", "alternate"]
-APPROACHES: tuple[Approach, ...] = get_args(Approach)
 #: what the bench logs of a pad foot: the four forces, the board's centroid registers, or both
 Registers = Literal["forces", "centroid", "both"]
 #: the bench that makes a raw log: rigid statics, or the MuJoCo physics bench

@@ -16,7 +16,6 @@ from sescid.session.estimate import BatchEstimate, CopEstimate
 from sescid.session.journal import JOURNAL_NAME, Journal
 from sescid.session.loop import check_options, run_session
 from sescid.session.records import (
-    SESSION_KINDS,
     SessionKind,
     SessionObserver,
     SessionOptions,
@@ -26,7 +25,6 @@ from sescid.session.records import (
 
 __all__ = [
     "JOURNAL_NAME",
-    "SESSION_KINDS",
     "BatchEstimate",
     "CopEstimate",
     "SessionDesign",

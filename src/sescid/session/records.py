@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal, get_args
+from typing import Literal
 
 import numpy as np
 
@@ -27,7 +27,6 @@ from sescid.simulation import PAPER_NOISE
 BODY_PRIOR_SCALE = 0.005
 #: what a session chooses its poses for: a design's kinds, or "auto" (what the robot reports)
 SessionKind = Literal["auto", DesignKind]
-SESSION_KINDS: tuple[SessionKind, ...] = get_args(SessionKind)
 #: how a session with joint torques fits (``identify``'s method)
 TorqueMethod = Literal["ls", "map"]
 
