@@ -35,14 +35,13 @@ from sescid.estimation import (
 )
 from sescid.estimation.data.measurements import concatenate
 from sescid.estimation.result.fit import Fit
+from sescid.estimation.solvers.online import REFERENCE_POSES
 from sescid.kinds import COP, TORQUE, Kinds
 from sescid.planning import Quantity
 from sescid.robot import Robot
 from sescid.session.records import BODY_PRIOR_SCALE
 from sescid.simulation import random_poses
 
-#: reference poses of the stop rule: as ``OnlineEstimator``'s (random ±30°, fixed seed)
-REFERENCE_POSES, REFERENCE_RANGE_DEG, REFERENCE_SEED = 200, 30.0, 12345
 #: a torque estimate's CoP checks stability once its predicted std is below this share of the
 #: stability box's half-size
 TRUST = 0.25
@@ -152,7 +151,7 @@ class BatchEstimate:
         self.robot, self.basis = robot, basis
         self.window, self.tol, self.total_mass = window, tol, total_mass
         self.method = method
-        q_ref = random_poses(robot, REFERENCE_POSES, REFERENCE_RANGE_DEG, REFERENCE_SEED)
+        q_ref = random_poses(robot, *REFERENCE_POSES)  # as ``OnlineEstimator``'s
         phi = robot.regressor(q_ref, (0, 1)).reshape(-1, basis.shape[0]) @ basis
         self._g = phi.T @ phi / len(q_ref)  # mean (φV)ᵀ(φV) per pose (two rows)
         self.parts: list[Measurements] = []

@@ -33,6 +33,7 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation import DEFAULT_RTOL, Measurements, identifiable_eigen
 from sescid.estimation.result.fit import Fit
+from sescid.estimation.solvers.online import REFERENCE_POSES
 from sescid.kinds import COP, KINDS, TORQUE, Kinds, parse_kinds
 from sescid.planning import (
     Quantity,
@@ -50,9 +51,6 @@ from sescid.robot import Robot
 from sescid.sensors import Measured, concat_measured
 from sescid.session.design import KindSwitch, kinds_of, session_candidates, unsafe_pose
 from sescid.session.estimate import (
-    REFERENCE_POSES,
-    REFERENCE_RANGE_DEG,
-    REFERENCE_SEED,
     TRUST,
     Status,
     has_converged,
@@ -213,7 +211,7 @@ class PooledEstimate:
         self.mass = plan.opt.total_mass or robot.total_mass
         self.h = np.zeros((width, width))
         self.g = np.zeros(width)
-        q_ref = random_poses(robot, REFERENCE_POSES, REFERENCE_RANGE_DEG, REFERENCE_SEED)
+        q_ref = random_poses(robot, *REFERENCE_POSES)
         e = robot.sesc_matrix(robot) * self.scale[None, :] / self.mass
         phi = (robot.regressor(q_ref, (0, 1)) @ e).reshape(-1, self.n4)
         self._g = phi.T @ phi / len(q_ref)
