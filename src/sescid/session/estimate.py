@@ -56,15 +56,14 @@ class Status:
     converged: bool
 
 
-def has_converged(history: list[tuple[int, float]], n: int, std: float, window: int, tol: float):
-    """The std fell by less than ``tol`` over the last ``window`` poses (``history``: (poses,
-    std) of the earlier updates)."""
-    if not math.isfinite(std):
-        return False
+def step_status(history: list[tuple[int, float]], n: int, std: float, rank: int, window: int,
+                tol: float) -> Status:  # fmt: skip
+    """The ``Status`` of an update at ``n`` poses, then appended to ``history`` ((poses, std) of
+    the updates): converged when the std fell by less than ``tol`` over the last ``window``."""
     past = [s for k, s in history if k <= n - window]
-    if not past or not math.isfinite(past[-1]):
-        return False
-    return (past[-1] - std) / std < tol
+    done = math.isfinite(std) and bool(past) and math.isfinite(past[-1])
+    history.append((n, std))
+    return Status(std, rank, done and (past[-1] - std) / std < tol)
 
 
 def _prior_std(basis: np.ndarray, info: np.ndarray, n_bodies: int) -> np.ndarray:
@@ -186,9 +185,7 @@ class BatchEstimate:
             c = self.basis.T @ self.last.cov @ self.basis
             if rank >= self.basis.shape[1] and np.all(np.isfinite(c)):
                 std = math.sqrt(max(float(np.sum(self._g * c)) / 2, 0.0))
-        done = has_converged(self.history, self.n_poses, std, self.window, self.tol)
-        self.history.append((self.n_poses, std))
-        return Status(std, rank, done)
+        return step_status(self.history, self.n_poses, std, rank, self.window, self.tol)
 
     def estimate(self) -> np.ndarray:
         """(N, 3) the latest fit's SESC vectors (the model's before the first fit)."""

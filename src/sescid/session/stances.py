@@ -53,7 +53,7 @@ from sescid.session.design import KindSwitch, kinds_of, session_candidates, unsa
 from sescid.session.estimate import (
     TRUST,
     Status,
-    has_converged,
+    step_status,
 )
 from sescid.session.records import BODY_PRIOR_SCALE, SessionOptions
 from sescid.simulation import random_poses
@@ -256,9 +256,7 @@ class PooledEstimate:
         std = math.inf
         if self.rank >= basis.shape[1]:
             std = math.sqrt(max(float(np.sum(self._g * self.cov[:n4, :n4])) / 2, 0.0))
-        done = has_converged(self.history, self.n_poses, std, self.window, self.tol)
-        self.history.append((self.n_poses, std))
-        return Status(std, self.rank, done)
+        return step_status(self.history, self.n_poses, std, self.rank, self.window, self.tol)
 
     def estimate(self, k: int = 0) -> np.ndarray:
         """(N, 3) SESC vectors of stance ``k`` from the estimated body parameters."""
