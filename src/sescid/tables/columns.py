@@ -2,7 +2,7 @@
 
 Joint columns are named as the model's joints: ``<joint>`` in rad, ``<joint>_deg`` in degrees or
 ``<joint>_ticks`` in servo ticks (the robot profile's encoder); exactly one unit per joint.
-``cop_x``, ``cop_y`` are metres in the support frame; ``cop_se_x``/``cop_se_y`` (or ``cop_se``)
+``cop_x``, ``cop_y`` are metres in the support frame; ``cop_se_x``/``cop_se_y``
 per-pose CoP standard errors in metres; ``tau_<joint>`` joint torques in N·m (any subset of
 the joints) with optional ``tau_se_<joint>``; ``approach`` ±1 per pose; ``grav_x/y/z`` the
 gravity direction. Every error names the file, row and column.
@@ -189,8 +189,6 @@ def read_cop_se(table: Table) -> np.ndarray | None:
     """Per-pose CoP standard errors (n, 2) in m, if the table has them."""
     if "cop_se_x" in table or "cop_se_y" in table:
         return np.column_stack([table.get("cop_se_x"), table.get("cop_se_y")])
-    if "cop_se" in table:
-        return table.get("cop_se")
     return None
 
 
