@@ -428,9 +428,14 @@ def fsr(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(log.pose, pose_list_ids(pose_list), str(log_table.path))
-    res = measure(robot, log, config, min_samples)
-    if len(res.pose) == 0:
-        reasons = "; ".join(f"pose {p}: {w}" for p, w in res.dropped[:3])
-        what = "CoP" if res.data.cop is not None else "measurement"
-        raise DataError(f"{log_table.path}: no pose has a usable {what} ({reasons})")
-    return res, unmeasured
+    return usable(measure(robot, log, config, min_samples), log_table.path), unmeasured
+
+
+def usable(res: Measured | None, where: object) -> Measured:
+    """``res`` when it kept a pose; else a DataError naming ``where`` and the first reasons."""
+    if res is None or len(res.pose) == 0:
+        dropped = [] if res is None else res.dropped
+        reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
+        what = "CoP" if res is not None and res.data.cop is not None else "measurement"
+        raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
+    return res

@@ -37,6 +37,7 @@ from sescid.sensors.reduce import (
     measure,
     pose_list_ids,
     read_log,
+    usable,
     uses_feet,
 )
 from sescid.stance import support_column
@@ -146,13 +147,7 @@ def fsr_chunks(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(np.array(ids), pose_list_ids(pose_list), where)
-    res = finish_measured(concat_measured(parts)) if parts else None
-    if res is None or len(res.pose) == 0:
-        dropped = [] if res is None else res.dropped
-        reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
-        what = "CoP" if res is not None and res.data.cop is not None else "measurement"
-        raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
-    return res, unmeasured
+    return usable(finish_measured(concat_measured(parts)) if parts else None, where), unmeasured
 
 
 def _rows(table: Table, keep: np.ndarray) -> Table:
