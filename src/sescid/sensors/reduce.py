@@ -95,8 +95,7 @@ def _cop_means(log, config, fs, cop, force_n, s: _Samples):
     n_used = groups.count(ok)
     mean = groups.mean(cop, ok)
     var = groups.variance(cop, ok, mean)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fmean = np.bincount(groups.g[ok], np.nan_to_num(force_n[ok]), minlength=groups.k) / n_used
+    fmean = groups.mean(np.nan_to_num(force_n)[:, None], ok)[:, 0]
     if fs.mode == "centroid":
         # quantisation: one register count along each support-frame axis (conservative)
         boards = [f for f in fs.feet if f.name in log.centroid]
