@@ -42,14 +42,12 @@ from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
 from sescid.sensors.stats import PoseGroups
 from sescid.sensors.torque import (
-    APPROACH_COLUMN,
-    TAU_PREFIX,
     TORQUE_OUTLIER_FLOOR,
     TORQUE_SE_FLOOR,
     check_torque_scale,
     pose_approach,
 )
-from sescid.tables import Table, pose_ids
+from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, Table, pose_ids
 
 #: outlier rule without a sensor file (a torque-only log)
 DEFAULT_OUTLIER_K = 4.0
