@@ -66,7 +66,8 @@ def _take(log: RawLog, start: int, stop: int | None = None) -> RawLog:
     feet: dict[str, Any] = {
         f: {k: None if v is None else v[sl] for k, v in getattr(log, f).items()} for f in _FEET
     }
-    return dataclasses.replace(log, **rows, **feet, first_row=log.first_row + start)
+    names = dataclasses.replace(log.rows, first_row=log.rows.first_row + start)
+    return dataclasses.replace(log, **rows, **feet, rows=names)
 
 
 def _join(a: RawLog, b: RawLog) -> RawLog:
