@@ -37,6 +37,7 @@ from sescid.sensors.feet import (
     foot_samples,
     support_cop,
 )
+from sescid.sensors.imu import imu_gravity_samples
 from sescid.sensors.measured import Measured, MeasuredFrom
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
@@ -380,23 +381,6 @@ def pose_list_ids(table: Table) -> np.ndarray:
             raise DataError(f"{table.path}: pose id '{dup[0]}' appears twice")
         return ids
     return np.array([str(i) for i in range(table.n)])
-
-
-def imu_gravity_samples(
-    robot: Robot, table: Table, q: np.ndarray, link: str | None
-) -> np.ndarray | None:
-    """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
-    from sescid.sensors.imu import gravity_from_imu, read_imu, table_imu_link
-
-    name = table_imu_link(robot, table, link)
-    rp = read_imu(table)
-    if rp is None or name is None:
-        return None
-    out = np.full((q.shape[0], 3), np.nan)
-    ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(rp), axis=1)
-    if np.any(ok):
-        out[ok] = gravity_from_imu(robot, q[ok], rp[ok, 0], rp[ok, 1], name)
-    return out
 
 
 def read_log(robot: Robot, table: Table, config: SensorConfig | None, imu_link: str | None = None):
