@@ -21,7 +21,7 @@ sign gives negative forces: refused in one line instead of unloaded feet).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -77,10 +77,6 @@ class RawLog:
     def has_feet(self) -> bool:
         """True when some foot has a sensor source in the log."""
         return bool(self.forces or self.centroid or self.cop)
-
-    def with_gravity(self, gravity: np.ndarray | None) -> RawLog:
-        """A copy with the per-sample gravity (m, 3) set (e.g. from the IMU columns)."""
-        return replace(self, gravity=gravity)
 
 
 def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>", label=None) -> Table:

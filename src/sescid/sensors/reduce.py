@@ -387,7 +387,7 @@ def read_log(robot: Robot, table: Table, config: SensorConfig | None, imu_link: 
     """The raw log of ``table`` as the reduction reads it, IMU gravity included."""
     log = read_raw(table, robot.joint_names, config, robot.profile.servo)
     if log.gravity is None:
-        log = log.with_gravity(imu_gravity_samples(robot, table, log.q, imu_link))
+        log = dataclasses.replace(log, gravity=imu_gravity_samples(robot, table, log.q, imu_link))
     return log
 
 
