@@ -19,8 +19,9 @@ import numpy as np
 from sescid.errors import ModelError
 from sescid.estimation import Fit
 from sescid.io.export.assets import relocate_mjcf, relocate_urdf, resolve_includes
-from sescid.io.export.inertia import fmt, sphere_inertia
+from sescid.io.export.inertia import fmt
 from sescid.io.export.xmldoc import add_note, read_xml, write_xml
+from sescid.model.inertia import sphere_inertia
 
 
 def payload_name(root: ET.Element, body: str) -> str:
