@@ -35,11 +35,11 @@ import numpy as np
 
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
-from sescid.io.export.assets import relocate_mjcf, resolve_includes
+from sescid.io.export.assets import resolve_includes
 from sescid.io.export.inertia import fmt, merged_body_change, principal
 from sescid.io.export.parts import Part, exported_parts
-from sescid.io.export.payload import add_payload
-from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
+from sescid.io.export.payload import write_identified
+from sescid.io.export.xmldoc import XmlDoc, new_child, read_xml
 from sescid.model.mjcf import object_names, quat_rotation
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 
@@ -198,16 +198,5 @@ def export_mjcf(
         for bid in range(1, m.nbody):
             if bid not in written and m.body_mass[bid] > 0:
                 _write(t, bid, _compiled(m, bid))
-    root = doc.root
-    add_note(
-        root,
-        f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
-        f"total mass {float(masses.sum()):.6f} kg); other elements as in the source MJCF",
-    )
-    if fit.payload is not None:  # a payload fit: its payload as one more fixed body
-        add_note(root, add_payload(root, fit, "mjcf"))
-    out = Path(path)
-    if out.resolve().parent != src.resolve().parent:
-        relocate_mjcf(root, src.parent.resolve(), out.resolve().parent)
-    write_xml(doc, out)
+    write_identified(doc, fit, float(masses.sum()), src, path, "mjcf")
     return t.warnings
