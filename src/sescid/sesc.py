@@ -42,14 +42,12 @@ from sescid.kinematics import (
     torque_values,
 )
 from sescid.model import RobotModel
+from sescid.model.sole import subtree_mass
 
 
 def subtree_masses(model: RobotModel) -> np.ndarray:
     """Mass (kg) carried by each body's subtree, itself included."""
-    mass = np.array([b.mass for b in model.bodies])
-    for i in range(len(model.bodies) - 1, 0, -1):  # children come after their parents
-        mass[model.bodies[i].parent] += mass[i]
-    return mass
+    return subtree_mass([b.parent for b in model.bodies], np.array([b.mass for b in model.bodies]))
 
 
 def sesc_vectors(model: RobotModel) -> np.ndarray:

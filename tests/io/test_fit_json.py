@@ -10,7 +10,8 @@ import pytest
 from fitting import identify_ls
 
 import sescid
-from sescid import io, tables
+from sescid import tables
+from sescid.base.files import atomic_open
 from sescid.simulation import simulate
 
 
@@ -48,11 +49,11 @@ def test_load_fit_rejects_other_json(tmp_path):
 
 def test_atomic_open_leaves_nothing_on_error(tmp_path):
     target = tmp_path / "out.csv"
-    with pytest.raises(RuntimeError), io.atomic_open(target) as fh:
+    with pytest.raises(RuntimeError), atomic_open(target) as fh:
         fh.write("half")
         raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
-    with io.atomic_open(target) as fh:
+    with atomic_open(target) as fh:
         fh.write("ok")
     assert target.read_text() == "ok" and len(list(tmp_path.iterdir())) == 1
     mask = os.umask(0)

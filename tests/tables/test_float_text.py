@@ -14,7 +14,13 @@ from hypothesis import strategies as st
 
 from sescid.simulation import simulate
 from sescid.tables import iter_table, read, read_cop, read_poses, read_table, write, write_table
-from sescid.tables.float_text import float_text, format_rows
+from sescid.tables.float_text import format_rows
+
+
+def float_text(values: np.ndarray) -> list[str]:
+    """Each float64 of ``values`` (any shape, flattened) as the compiled formatter's text."""
+    flat = np.ascontiguousarray(values, dtype=np.float64).reshape(-1, 1)
+    return format_rows(flat).tobytes().decode("ascii").splitlines()
 
 
 def _reference(values) -> list[str]:

@@ -9,7 +9,6 @@ Tables themselves (CSV, Parquet) and their columns are ``sescid.tables``'s. ``sa
 input folder (``sescid.base.files``).
 """
 
-from sescid.base.files import atomic_open, atomic_path, read_json
 from sescid.estimation.result.fit_json import FIT_FORMAT, load_fit, save_fit
 from sescid.io.bags import (
     MAPPING_FORMAT,
@@ -47,8 +46,6 @@ __all__ = [
     "RawLogTable",
     "Segment",
     "TorqueSource",
-    "atomic_open",
-    "atomic_path",
     "check_inertias",
     "export_mjcf",
     "export_model",
@@ -61,7 +58,6 @@ __all__ = [
     "parse_mapping",
     "pose_table",
     "read_bag",
-    "read_json",
     "read_session_reasons",
     "repairs_summarised",
     "required_paper_convention",

@@ -31,6 +31,7 @@ from sescid.tables import (
     read_ahead,
     read_approach,
     read_cop,
+    read_cop_se,
     read_poses,
     read_torques,
     refuse_plan,
@@ -83,9 +84,7 @@ def measurements_of(table: Table, robot: Robot, imu_link: str | None = None) -> 
     q = read_poses(table, robot.joint_names, robot.profile.servo)
     has_cop = any(c in table.columns or c in table.text for c in ("cop_x", "cop_y"))
     cop = read_cop(table) if has_cop else None
-    cop_se = None
-    if "cop_se_x" in table or "cop_se_y" in table:
-        cop_se = np.column_stack([table.get("cop_se_x"), table.get("cop_se_y")])
+    cop_se = read_cop_se(table)
     torques = read_torques(table, robot.joint_names)  # file rows and columns in the errors
     joints = torques.joints
     tau = torques.tau if joints else None

@@ -83,6 +83,11 @@ def second_moment(inertia: np.ndarray) -> np.ndarray:
     return 0.5 * np.trace(t) * np.eye(3) - t
 
 
+def sphere_inertia(mass: float) -> np.ndarray:
+    """Principal moments (3,) kg·m² of a solid sphere of ``NEW_BODY_RADIUS`` and ``mass``."""
+    return np.full(3, 0.4 * mass * NEW_BODY_RADIUS**2)
+
+
 def repair_inertia(inertia: np.ndarray, mass: float = 0.0) -> tuple[np.ndarray, bool]:
     """The physical tensor (3, 3) kg·m² closest to ``inertia`` and whether it changed: Σ's
     negative eigenvalues clipped at zero (the smallest change in Σ's Frobenius norm), the
@@ -93,7 +98,7 @@ def repair_inertia(inertia: np.ndarray, mass: float = 0.0) -> tuple[np.ndarray, 
     if not np.all(np.isfinite(t)):
         raise ValueError("the inertia tensor is not finite")
     if mass > 0 and float(np.abs(t).max()) <= INERTIA_ATOL:
-        return np.eye(3) * (0.4 * mass * NEW_BODY_RADIUS**2), True
+        return np.diag(sphere_inertia(mass)), True
     if physical(t)[0]:
         return t, False
     w, v = np.linalg.eigh(second_moment(t))

@@ -64,17 +64,24 @@ from sescid.model.mjcf_joints import MjcfJoints, robot_joints
 from sescid.model.tree import RobotModel, rooted_model, rot_axis
 
 
+def quat_rotation(quat) -> np.ndarray:
+    """(3, 3) rotation of a unit quaternion (w, x, y, z) (not normalised here)."""
+    w, x, y, z = (float(v) for v in quat)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
 def _pose(pos, quat) -> np.ndarray:
     """4×4 transform from a position (3,) and a unit quaternion (w, x, y, z)."""
     w, x, y, z = (float(v) for v in quat)
     n = math.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / n, x / n, y / n, z / n
     out = np.eye(4)
-    out[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ]
+    out[:3, :3] = quat_rotation((w / n, x / n, y / n, z / n))
     out[:3, 3] = np.asarray(pos, dtype=float)
     return out
 

@@ -247,7 +247,7 @@ def level_check(
 
 
 # --- the free foot -------------------------------------------------------------------------
-def _subtree_mass(parents: list[int], masses: np.ndarray) -> np.ndarray:
+def subtree_mass(parents: list[int], masses: np.ndarray) -> np.ndarray:
     """(N,) mass [kg] of each body and everything beyond it (away from the support)."""
     sub = np.asarray(masses, dtype=float).copy()
     for i in range(len(parents) - 1, 0, -1):  # children follow their parents
@@ -268,7 +268,7 @@ def supporting_leg(parents: list[int], masses: np.ndarray) -> tuple[list[int], i
     a sensor board), to the first body where the mass splits (the pelvis of a humanoid), or
     beyond which less than ``TRUNK_SHARE`` of the mass lies (the trunk of a chain robot: two
     legs and a torso, nothing else)."""
-    sub = _subtree_mass(parents, masses)
+    sub = subtree_mass(parents, masses)
     children = _children(parents)
     total = sub[0] if sub[0] > 0 else 1.0
     leg, cur = [0], 0
@@ -289,7 +289,7 @@ def beyond_support(parents: list[int], masses: np.ndarray) -> list[int]:
     empty when the mass splits at the support body (a trunk held in a gantry)."""
     if splits_at_support(parents, masses):
         return []
-    sub = _subtree_mass(parents, masses)
+    sub = subtree_mass(parents, masses)
     kids = _children(parents).get(0, [])
     if len(kids) < 2:
         return []
@@ -315,7 +315,7 @@ def mirror_foot(parents: list[int], masses: np.ndarray) -> int | None:
     leg, top = supporting_leg(parents, masses)
     if top == 0:
         return None
-    sub = _subtree_mass(parents, masses)
+    sub = subtree_mass(parents, masses)
     children = _children(parents)
     leg_mass = sub[0] - sub[top]
     kids = [c for c in children.get(top, []) if sub[c] > 0]

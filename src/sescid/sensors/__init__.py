@@ -58,14 +58,10 @@ from sescid.sensors.wrench import (
     plate_to_sole,
     rpy_matrix,
 )
-from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, TAU_SE_PREFIX
 
 __all__ = [
-    "APPROACH_COLUMN",
     "IMU_COLUMNS",
     "REASONS",
-    "TAU_PREFIX",
-    "TAU_SE_PREFIX",
     "CalibrationOptions",
     "Foot",
     "KnownSensors",

@@ -81,13 +81,26 @@ def table_gravity(robot: Robot, table: Table, q: np.ndarray, link: str | None = 
     columns without a known IMU link (``link`` or the profile's), OptionError for a ``link``
     given to a table without IMU columns.
     """
-    name = table_imu_link(robot, table, link)
     if any(c in table for c in GRAVITY_COLUMNS):
+        table_imu_link(robot, table, link)
         return read_gravity(table)
+    return imu_gravity_samples(robot, table, q, link)
+
+
+def imu_gravity_samples(
+    robot: Robot, table: Table, q: np.ndarray, link: str | None
+) -> np.ndarray | None:
+    """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q or the
+    IMU is); None without IMU columns (see ``table_imu_link`` for the errors)."""
+    name = table_imu_link(robot, table, link)
     rp = read_imu(table)
     if rp is None or name is None:
         return None
-    return gravity_from_imu(robot, q, rp[:, 0], rp[:, 1], name)
+    out = np.full((q.shape[0], 3), np.nan)
+    ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(rp), axis=1)
+    if np.any(ok):
+        out[ok] = gravity_from_imu(robot, q[ok], rp[ok, 0], rp[ok, 1], name)
+    return out
 
 
 def table_imu_link(robot: Robot, table: Table, link: str | None = None) -> str | None:

@@ -274,7 +274,3 @@ def check_sensors(robot: Robot, config: SensorConfig) -> None:
                 f"{OFFSET_WEIGHT_SHARE:.0%} of the robot's weight ({weight:.3g} N): "
                 "not a pad offset (offsets are in N)"
             )
-
-
-#: names that moved to ``sensors.raw`` / ``sensors.reduce`` / ``sensors.feet``; still found here
-#: for callers written before the split (import them from ``sescid.sensors`` instead)

@@ -21,8 +21,7 @@ sign gives negative forces: refused in one line instead of unloaded feet).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +39,7 @@ from sescid.tables import (
     read_joint_columns,
     read_torques,
 )
+from sescid.tables.rows import RowNames
 
 #: a logged CoP farther than this from its sole origin is not in metres
 COP_MAX_M = 2.0
@@ -65,29 +65,18 @@ class RawLog:
     tau_joints: tuple[str, ...] = ()  #: joints with a torque column, model order
     tau: np.ndarray | None = None  #: (m, k) joint torques, N·m
     approach: np.ndarray | None = None  #: (m,) ±1 (NaN missing)
-    first_row: int = 2  #: the file's row number of sample 0
-    #: in-memory samples: sample i → its name ("pose 3, sample 2" of a session)
-    row_of: Callable[[int], str] | None = None
-    #: a file's data row (0-based over the file) → its row number (``tables.rows.RowNumbers``)
-    numbers: Callable[[int], int] | None = None
+    #: the table's row names: sample 0 at ``rows.first_row`` (a part of a log moves it)
+    rows: RowNames = RowNames()
 
     def where(self, i) -> str:
         """Sample ``i`` as an error names it: the file's row as a spreadsheet counts it (or the
-        session's pose and sample); parts of a log keep it (``first_row`` moves with them)."""
-        if self.row_of is not None:
-            return self.row_of(int(i) + self.first_row - 2)
-        if self.numbers is not None:
-            return f"row {self.numbers(int(i) + self.first_row - 2)}"
-        return f"row {int(i) + self.first_row}"
+        session's pose and sample); parts of a log keep it (``rows.first_row`` moves)."""
+        return self.rows.where(i)
 
     @property
     def has_feet(self) -> bool:
         """True when some foot has a sensor source in the log."""
         return bool(self.forces or self.centroid or self.cop)
-
-    def with_gravity(self, gravity: np.ndarray | None) -> RawLog:
-        """A copy with the per-sample gravity (m, 3) set (e.g. from the IMU columns)."""
-        return replace(self, gravity=gravity)
 
 
 def table_from_columns(columns: dict[str, np.ndarray], name: str = "<bench>", label=None) -> Table:
@@ -155,9 +144,7 @@ def read_raw(
         tau_joints=torques.joints,
         tau=tau,
         approach=read_approach(table, allow_missing=True),
-        first_row=table.first_row,
-        row_of=table.label,
-        numbers=table.numbers,
+        rows=table.rows,
     )
 
 

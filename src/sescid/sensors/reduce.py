@@ -37,19 +37,18 @@ from sescid.sensors.feet import (
     foot_samples,
     support_cop,
 )
+from sescid.sensors.imu import imu_gravity_samples
 from sescid.sensors.measured import Measured, MeasuredFrom
 from sescid.sensors.pads import SensorConfig, check_sensors
 from sescid.sensors.raw import RawLog, read_raw
 from sescid.sensors.stats import PoseGroups
 from sescid.sensors.torque import (
-    APPROACH_COLUMN,
-    TAU_PREFIX,
     TORQUE_OUTLIER_FLOOR,
     TORQUE_SE_FLOOR,
     check_torque_scale,
     pose_approach,
 )
-from sescid.tables import Table, pose_ids
+from sescid.tables import APPROACH_COLUMN, TAU_PREFIX, Table, pose_ids
 
 #: outlier rule without a sensor file (a torque-only log)
 DEFAULT_OUTLIER_K = 4.0
@@ -95,8 +94,7 @@ def _cop_means(log, config, fs, cop, force_n, s: _Samples):
     n_used = groups.count(ok)
     mean = groups.mean(cop, ok)
     var = groups.variance(cop, ok, mean)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fmean = np.bincount(groups.g[ok], np.nan_to_num(force_n[ok]), minlength=groups.k) / n_used
+    fmean = groups.mean(np.nan_to_num(force_n)[:, None], ok)[:, 0]
     if fs.mode == "centroid":
         # quantisation: one register count along each support-frame axis (conservative)
         boards = [f for f in fs.feet if f.name in log.centroid]
@@ -385,28 +383,11 @@ def pose_list_ids(table: Table) -> np.ndarray:
     return np.array([str(i) for i in range(table.n)])
 
 
-def imu_gravity_samples(
-    robot: Robot, table: Table, q: np.ndarray, link: str | None
-) -> np.ndarray | None:
-    """Per-sample gravity (m, 3) from the IMU columns at the read-backs (NaN where q is)."""
-    from sescid.sensors.imu import gravity_from_imu, read_imu, table_imu_link
-
-    name = table_imu_link(robot, table, link)
-    rp = read_imu(table)
-    if rp is None or name is None:
-        return None
-    out = np.full((q.shape[0], 3), np.nan)
-    ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(rp), axis=1)
-    if np.any(ok):
-        out[ok] = gravity_from_imu(robot, q[ok], rp[ok, 0], rp[ok, 1], name)
-    return out
-
-
 def read_log(robot: Robot, table: Table, config: SensorConfig | None, imu_link: str | None = None):
     """The raw log of ``table`` as the reduction reads it, IMU gravity included."""
     log = read_raw(table, robot.joint_names, config, robot.profile.servo)
     if log.gravity is None:
-        log = log.with_gravity(imu_gravity_samples(robot, table, log.q, imu_link))
+        log = dataclasses.replace(log, gravity=imu_gravity_samples(robot, table, log.q, imu_link))
     return log
 
 
@@ -428,9 +409,14 @@ def fsr(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(log.pose, pose_list_ids(pose_list), str(log_table.path))
-    res = measure(robot, log, config, min_samples)
-    if len(res.pose) == 0:
-        reasons = "; ".join(f"pose {p}: {w}" for p, w in res.dropped[:3])
-        what = "CoP" if res.data.cop is not None else "measurement"
-        raise DataError(f"{log_table.path}: no pose has a usable {what} ({reasons})")
-    return res, unmeasured
+    return usable(measure(robot, log, config, min_samples), log_table.path), unmeasured
+
+
+def usable(res: Measured | None, where: object) -> Measured:
+    """``res`` when it kept a pose; else a DataError naming ``where`` and the first reasons."""
+    if res is None or len(res.pose) == 0:
+        dropped = [] if res is None else res.dropped
+        reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
+        what = "CoP" if res is not None and res.data.cop is not None else "measurement"
+        raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
+    return res

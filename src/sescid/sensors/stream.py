@@ -37,6 +37,7 @@ from sescid.sensors.reduce import (
     measure,
     pose_list_ids,
     read_log,
+    usable,
     uses_feet,
 )
 from sescid.stance import support_column
@@ -65,7 +66,8 @@ def _take(log: RawLog, start: int, stop: int | None = None) -> RawLog:
     feet: dict[str, Any] = {
         f: {k: None if v is None else v[sl] for k, v in getattr(log, f).items()} for f in _FEET
     }
-    return dataclasses.replace(log, **rows, **feet, first_row=log.first_row + start)
+    names = dataclasses.replace(log.rows, first_row=log.rows.first_row + start)
+    return dataclasses.replace(log, **rows, **feet, rows=names)
 
 
 def _join(a: RawLog, b: RawLog) -> RawLog:
@@ -146,13 +148,7 @@ def fsr_chunks(
     unmeasured: list[str] = []
     if pose_list is not None:
         unmeasured = check_pose_ids(np.array(ids), pose_list_ids(pose_list), where)
-    res = finish_measured(concat_measured(parts)) if parts else None
-    if res is None or len(res.pose) == 0:
-        dropped = [] if res is None else res.dropped
-        reasons = "; ".join(f"pose {p}: {w}" for p, w in dropped[:3])
-        what = "CoP" if res is not None and res.data.cop is not None else "measurement"
-        raise DataError(f"{where}: no pose has a usable {what} ({reasons})")
-    return res, unmeasured
+    return usable(finish_measured(concat_measured(parts)) if parts else None, where), unmeasured
 
 
 def _rows(table: Table, keep: np.ndarray) -> Table:

@@ -136,10 +136,8 @@ def cop_from_plate(loads, cell_xy, foot_pose=(0.0, 0.0, 0.0), min_force: float =
         raise DataError(
             f"cop_from_plate: {loads.shape[-1]} loads per sample for {cells.shape[0]} cells"
         )
-    fz = loads.sum(axis=-1)
-    on = fz > min_force
-    with np.errstate(invalid="ignore", divide="ignore"):
-        c = (loads @ cells) / np.where(on, fz, np.nan)[..., None]
+    moment = loads @ cells
+    c, fz = _finish(moment[..., 0], moment[..., 1], loads.sum(axis=-1), min_force)
     return plate_to_sole(c, foot_pose), fz
 
 

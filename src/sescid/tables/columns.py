@@ -2,7 +2,7 @@
 
 Joint columns are named as the model's joints: ``<joint>`` in rad, ``<joint>_deg`` in degrees or
 ``<joint>_ticks`` in servo ticks (the robot profile's encoder); exactly one unit per joint.
-``cop_x``, ``cop_y`` are metres in the support frame; ``cop_se_x``/``cop_se_y`` (or ``cop_se``)
+``cop_x``, ``cop_y`` are metres in the support frame; ``cop_se_x``/``cop_se_y``
 per-pose CoP standard errors in metres; ``tau_<joint>`` joint torques in N·m (any subset of
 the joints) with optional ``tau_se_<joint>``; ``approach`` ±1 per pose; ``grav_x/y/z`` the
 gravity direction. Every error names the file, row and column.
@@ -12,39 +12,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from sescid.base.constants import G0
 from sescid.errors import DataError
+from sescid.robots import ServoEncoding
 from sescid.tables.table import Table, column_with_missing, pose_ids
-
-
-class TickEncoding(Protocol):
-    """What the reader needs of a servo encoder to read ``<joint>_ticks`` columns (a robot
-    profile's ``ServoEncoding``): its name, its largest tick, ticks → rad."""
-
-    @property
-    def name(self) -> str:
-        """The encoder's name, for messages."""
-        ...
-
-    @property
-    def max_tick(self) -> int:
-        """The largest tick it reads."""
-        ...
-
-    def to_rad(self, ticks: ArrayLike) -> np.ndarray:
-        """Ticks → angles [rad]."""
-        ...
 
 
 def read_joint_columns(
     table: Table,
     joint_names: list[str],
-    servo: TickEncoding | None = None,
+    servo: ServoEncoding | None = None,
     allow_missing: bool = True,
 ) -> tuple[np.ndarray, dict[str, str]]:
     """Joint angles (m, nq) in rad from ``<j>`` (rad), ``<j>_deg`` or ``<j>_ticks`` columns.
@@ -118,7 +98,7 @@ def read_joint_columns(
 COPY_TOL_DEG = 1e-6
 
 
-def _check_copies(table: Table, joint: str, found, servo: TickEncoding | None) -> None:
+def _check_copies(table: Table, joint: str, found, servo: ServoEncoding | None) -> None:
     """DataError when a pose list's ``<j>_deg``/``<j>_ticks`` copy disagrees with its radians
     (an edited column: which one holds the pose?), naming the row and both columns."""
     rad = table.get(joint, "joint column")
@@ -144,7 +124,7 @@ def _check_copies(table: Table, joint: str, found, servo: TickEncoding | None) -
 
 
 def read_poses(
-    table: Table, joint_names: list[str], servo: TickEncoding | None = None
+    table: Table, joint_names: list[str], servo: ServoEncoding | None = None
 ) -> np.ndarray:
     """Joint angles (n, nq) in rad; every cell present and finite (see ``read_joint_columns``)."""
     return read_joint_columns(table, joint_names, servo, allow_missing=False)[0]
@@ -189,8 +169,6 @@ def read_cop_se(table: Table) -> np.ndarray | None:
     """Per-pose CoP standard errors (n, 2) in m, if the table has them."""
     if "cop_se_x" in table or "cop_se_y" in table:
         return np.column_stack([table.get("cop_se_x"), table.get("cop_se_y")])
-    if "cop_se" in table:
-        return table.get("cop_se")
     return None
 
 

@@ -442,9 +442,3 @@ def format_cells(
 def text_bytes(shape: tuple[int, int]) -> int:
     """Bytes that the text of a (m, k) block can take at most."""
     return shape[0] * shape[1] * MAX_CHARS + shape[0]
-
-
-def float_text(values: np.ndarray) -> list[str]:
-    """Each float64 of ``values`` (any shape, flattened) as its text (``repr``), one string each."""
-    flat = np.ascontiguousarray(values, dtype=np.float64).reshape(-1, 1)
-    return format_rows(flat).tobytes().decode("ascii").splitlines()

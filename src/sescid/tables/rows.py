@@ -57,7 +57,9 @@ def _record_starts(path: Path) -> Iterator[int]:
 @dataclass(frozen=True)
 class RowNames:
     """How the data rows of a table are named in errors (``Table.first_row``, ``label``,
-    ``numbers``); callable: data row ``i`` → "row N" or the label's."""
+    ``numbers``); callable: data row ``i`` → "row N" or the label's. A part of the rows keeps
+    their names with ``first_row`` moved (``label`` and ``numbers`` take the row from the
+    start, ``first_row`` 2)."""
 
     first_row: int = 2
     label: Callable[[int], str] | None = None
@@ -71,6 +73,8 @@ class RowNames:
 
     def where(self, i) -> str:
         """Data row ``i`` as an error names it: ``row N`` (the file's row) or the label's."""
-        return self.label(int(i)) if self.label is not None else f"row {self.row(i)}"
+        if self.label is not None:
+            return self.label(int(i) + self.first_row - 2)
+        return f"row {self.row(i)}"
 
     __call__ = where

@@ -48,11 +48,6 @@ class Table:
         return self.rows.first_row
 
     @property
-    def label(self) -> Callable[[int], str] | None:
-        """Names a data row of in-memory columns (None: the file's rows)."""
-        return self.rows.label
-
-    @property
     def numbers(self) -> Callable[[int], int] | None:
         """Data row of the file (0-based) → its row number."""
         return self.rows.numbers

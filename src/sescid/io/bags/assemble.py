@@ -253,7 +253,7 @@ def _foot_columns(
 ) -> dict:
     """Output columns of one foot from its values (n, ·) and the joint angles (n, nq)."""
     if foot.source == "pads":  # the fsr step's force counts, mN (exact for unit mN, scale 1)
-        mn = {"N": 1000.0, "mN": 1.0, "kgf": 9806.65}[foot.unit]
+        mn = 1000.0 * foot.si_per_unit  # FORCE_UNITS in mN: 1000, 1, 9806.65 (the same bits)
         return {c: v[:, k] * mn for k, c in enumerate(foot.columns)}
     v = v * foot.si_per_unit
     if foot.source == "cop":

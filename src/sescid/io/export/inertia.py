@@ -28,7 +28,7 @@ import numpy as np
 
 from sescid.base.text import listed
 from sescid.errors import ModelError
-from sescid.model.inertia import NEW_BODY_RADIUS, inertia_problems, repair_inertia
+from sescid.model.inertia import inertia_problems, repair_inertia
 
 #: relative change of a body's mass from the CAD's beyond which export warns
 MASS_WARN = 0.5
@@ -99,11 +99,6 @@ def quaternion(r: np.ndarray) -> np.ndarray:
         q[1 + k] = (r[k, i] + r[i, k]) / s
     q /= np.linalg.norm(q)
     return q if q[0] >= 0 else -q
-
-
-def sphere_inertia(mass: float) -> np.ndarray:
-    """Principal moments (3,) kg·m² of a solid sphere of ``NEW_BODY_RADIUS`` and ``mass``."""
-    return np.full(3, 0.4 * mass * NEW_BODY_RADIUS**2)
 
 
 #: the warning of a tensor ``exported_inertia`` repaired (``where`` "link NAME"), and its reader

@@ -35,12 +35,12 @@ import numpy as np
 
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
-from sescid.io.export.assets import relocate_mjcf, resolve_includes
+from sescid.io.export.assets import resolve_includes
 from sescid.io.export.inertia import fmt, merged_body_change, principal
 from sescid.io.export.parts import Part, exported_parts
-from sescid.io.export.payload import add_payload
-from sescid.io.export.xmldoc import XmlDoc, add_note, new_child, read_xml, write_xml
-from sescid.model.mjcf import object_names
+from sescid.io.export.payload import write_identified
+from sescid.io.export.xmldoc import XmlDoc, new_child, read_xml
+from sescid.model.mjcf import object_names, quat_rotation
 from sescid.model.mjcf_compile import compile_mjcf, mujoco_module
 
 _ORIENT = ("quat", "axisangle", "xyaxes", "zaxis", "euler")
@@ -56,18 +56,6 @@ class _Target:
     m: Any  #: the compiled MjModel
     from_geom: bool  #: compiler inertiafromgeom="true" in the source
     warnings: list[str]
-
-
-def _rotation(quat) -> np.ndarray:
-    """(3, 3) rotation of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = (float(v) for v in quat)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def _write(t: _Target, bid: int, part: Part) -> None:
@@ -89,7 +77,7 @@ def _write(t: _Target, bid: int, part: Part) -> None:
     if explicit and inertial is not None and inertial.get("fullinertia") is not None:
         write_mjcf_inertial(inertial, mass, part.com, part.inertia, None)
         return
-    rot = np.eye(3) if part.new else _rotation(m.body_iquat[bid])
+    rot = np.eye(3) if part.new else quat_rotation(m.body_iquat[bid])
     d = rot.T @ part.inertia @ rot
     cad = np.asarray(m.body_inertia[bid], dtype=float)
     scale = max(float(np.abs(d).max()), 1e-300)
@@ -111,7 +99,7 @@ def _write(t: _Target, bid: int, part: Part) -> None:
 
 def _compiled(m, bid: int) -> Part:
     """MJCF body ``bid`` as MuJoCo compiled it (a body the fit does not touch)."""
-    rot = _rotation(m.body_iquat[bid])
+    rot = quat_rotation(m.body_iquat[bid])
     tensor = rot @ np.diag(m.body_inertia[bid]) @ rot.T
     return Part(m.body(bid).name, float(m.body_mass[bid]), np.asarray(m.body_ipos[bid]), tensor)
 
@@ -210,16 +198,5 @@ def export_mjcf(
         for bid in range(1, m.nbody):
             if bid not in written and m.body_mass[bid] > 0:
                 _write(t, bid, _compiled(m, bid))
-    root = doc.root
-    add_note(
-        root,
-        f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
-        f"total mass {float(masses.sum()):.6f} kg); other elements as in the source MJCF",
-    )
-    if fit.payload is not None:  # a payload fit: its payload as one more fixed body
-        add_note(root, add_payload(root, fit, "mjcf"))
-    out = Path(path)
-    if out.resolve().parent != src.resolve().parent:
-        relocate_mjcf(root, src.parent.resolve(), out.resolve().parent)
-    write_xml(doc, out)
+    write_identified(doc, fit, float(masses.sum()), src, path, "mjcf")
     return t.warnings

@@ -21,9 +21,8 @@ from sescid.io.export.inertia import (
     mass_warnings,
     merged_body_change,
     merged_correction,
-    sphere_inertia,
 )
-from sescid.model.inertia import repair_inertia
+from sescid.model.inertia import repair_inertia, sphere_inertia
 
 
 @dataclass(frozen=True)

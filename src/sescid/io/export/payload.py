@@ -19,8 +19,9 @@ import numpy as np
 from sescid.errors import ModelError
 from sescid.estimation import Fit
 from sescid.io.export.assets import relocate_mjcf, relocate_urdf, resolve_includes
-from sescid.io.export.inertia import fmt, sphere_inertia
-from sescid.io.export.xmldoc import add_note, read_xml, write_xml
+from sescid.io.export.inertia import fmt
+from sescid.io.export.xmldoc import XmlDoc, add_note, read_xml, write_xml
+from sescid.model.inertia import sphere_inertia
 
 
 def payload_name(root: ET.Element, body: str) -> str:
@@ -74,6 +75,26 @@ def add_payload(root: ET.Element, fit: Fit, format: str) -> str:  # noqa: A002
         f"payload {name}: {mass:.6g} kg at {fmt(com)} m in {body}'s frame, identified by sescid "
         f"from {p.n_poses} poses (base: {p.base})"
     )
+
+
+def write_identified(
+    doc: XmlDoc, fit: Fit, total_mass: float, src: Path, path, fmt_name: str
+) -> None:
+    """Write the model file ``doc`` ("urdf" or "mjcf", read from ``src``, its inertials set from
+    ``fit``) to ``path``: a note on the fit (``total_mass`` kg), a payload fit's payload as one
+    more fixed link or body, relative asset paths rewritten for the output's folder."""
+    add_note(
+        doc.root,
+        f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
+        f"total mass {total_mass:.6f} kg); other elements as in the source {fmt_name.upper()}",
+    )
+    if fit.payload is not None:
+        add_note(doc.root, add_payload(doc.root, fit, fmt_name))
+    out = Path(path)
+    if out.resolve().parent != src.resolve().parent:
+        relocate = relocate_mjcf if fmt_name == "mjcf" else relocate_urdf
+        relocate(doc.root, src.parent.resolve(), out.resolve().parent)
+    write_xml(doc, out)
 
 
 def export_model_with_payload(fit: Fit, path: str | Path) -> list[str]:

@@ -16,11 +16,10 @@ import numpy as np
 
 from sescid.errors import ModelError
 from sescid.estimation import Fit, fit_inertials
-from sescid.io.export.assets import relocate_urdf
 from sescid.io.export.inertia import fmt, merged_body_change
 from sescid.io.export.parts import exported_parts
-from sescid.io.export.payload import add_payload
-from sescid.io.export.xmldoc import add_note, new_child, read_xml, write_xml
+from sescid.io.export.payload import write_identified
+from sescid.io.export.xmldoc import new_child, read_xml
 
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
@@ -95,15 +94,5 @@ def export_urdf(fit: Fit, path: str | Path, repair_inertia: bool = False) -> lis
         has_rpy = el.find("inertial/origin") is not None and inertial is not None
         rot = inertial.frame[:3, :3] if has_rpy and inertial is not None else np.eye(3)
         write_urdf_inertial(el, part.mass, part.com, rot.T @ part.inertia @ rot)
-    add_note(
-        doc.root,
-        f"masses and CoMs identified by sescid (method {fit.method_label}, {fit.n_poses} poses, "
-        f"total mass {float(masses.sum()):.6f} kg); other elements as in the source URDF",
-    )
-    if fit.payload is not None:  # a payload fit: its payload as one more fixed link
-        add_note(doc.root, add_payload(doc.root, fit, "urdf"))
-    out = Path(path)
-    if out.resolve().parent != src.resolve().parent:
-        relocate_urdf(doc.root, src.parent.resolve(), out.resolve().parent)
-    write_xml(doc, out)
+    write_identified(doc, fit, float(masses.sum()), src, path, "urdf")
     return warnings

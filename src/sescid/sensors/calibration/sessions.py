@@ -67,15 +67,10 @@ def pad_session(
     for f in feet:
         arr = log.forces[f.name]
         ok &= np.all(np.isfinite(arr), axis=1) & np.all(arr < config.saturation, axis=1)
-    count = np.bincount(g[ok], minlength=k)
+    count = groups.count(ok)
     keep = count >= opt.min_samples
     if not keep.any():
         raise DataError(f"{table.path}: no pose has {opt.min_samples} complete samples")
-
-    def mean(values: np.ndarray) -> np.ndarray:
-        cols = [np.bincount(g[ok], values[ok, j], minlength=k) for j in range(values.shape[1])]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.stack(cols, axis=1) / count[:, None]
 
     # a pad at its floor (0) while its foot is loaded is censored: its mean is biased upward;
     # the median is not while under half the samples floor, so such pads take the median and
@@ -85,7 +80,7 @@ def pad_session(
     for f in feet:
         arr = np.nan_to_num(log.forces[f.name]) * config.force_unit
         on = ok & (arr.sum(axis=1) >= config.min_foot_force)
-        y = mean(arr)
+        y = groups.mean(arr, ok)
         hit = on[:, None] & (arr <= 0)
         hits = np.stack([np.bincount(g[hit[:, j]], minlength=k) for j in range(4)], 1)
         share = hits / np.maximum(count, 1)[:, None]
@@ -101,14 +96,14 @@ def pad_session(
             f"{table.path}: every pose has a loaded pad reading 0 too often: column '{pad}' "
             f"reads 0 in {n_dropped} of {k} poses while its foot is loaded (a dead pad?)"
         )
-    q = mean(log.q)[keep]
+    q = groups.mean(log.q, ok)[keep]
     for f, y in zip(feet, fixes, strict=True):
         y = y[keep]
         loaded = y.sum(axis=1) >= config.min_foot_force
         out.append(PadFoot(f.name, f.sole_frame, f.sensors.copy(), y, loaded))
     grav = None
     if log.gravity is not None:
-        gm = mean(np.nan_to_num(log.gravity))[keep]
+        gm = groups.mean(np.nan_to_num(log.gravity), ok)[keep]
         grav = gm / np.linalg.norm(gm, axis=1, keepdims=True)
     return PadSession(
         name=name,
