@@ -27,12 +27,11 @@ from sescid.stance import Stance
 _FIELDS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
 
 
-class MemorySource:
-    """Measurements held in memory (validated once)."""
+class HeldSource:
+    """Validated measurements as a source of one chunk (no second validation)."""
 
-    def __init__(self, robot: Robot, data: Measurements):
-        self.data = data.checked(robot)
-        self.name = data.source
+    def __init__(self, m: Measurements):
+        self.data, self.name = m, m.source
 
     def chunks(self) -> Iterator[Measurements]:
         """The data, as one chunk."""
@@ -44,6 +43,13 @@ class MemorySource:
 
     def close(self) -> None:
         """Nothing to release."""
+
+
+class MemorySource(HeldSource):
+    """Measurements held in memory (validated once)."""
+
+    def __init__(self, robot: Robot, data: Measurements):
+        super().__init__(data.checked(robot))
 
 
 class StreamSource:

@@ -24,7 +24,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
 from sescid.estimation.data.measurements import Measurements
-from sescid.estimation.data.sources import as_sources, in_memory
+from sescid.estimation.data.sources import HeldSource, as_sources, in_memory
 from sescid.estimation.result.fit import Fit, MethodName
 from sescid.estimation.result.records import JointNoise
 from sescid.estimation.solvers.consistent import consistent_from_fit
@@ -39,7 +39,6 @@ from sescid.estimation.solvers.options import (
 )
 from sescid.estimation.solvers.runs import (
     WORSE_THAN_CAD,
-    HeldSource,
     fit_online,
     fit_with_gains,
     run_method,
@@ -118,7 +117,7 @@ def _outlying(fit: Fit, sources) -> bool:
 def _held(robot: Robot, sources, memory: list[Measurements] | None) -> list[Any]:
     """The data as sources: in memory where they are held there, else the sources themselves
     (re-read on each pass)."""
-    return sources if memory is None else [HeldSource(robot, m) for m in memory]
+    return sources if memory is None else [HeldSource(m) for m in memory]
 
 
 def _huber(
@@ -134,7 +133,7 @@ def _huber(
 
     def run(data: list[Measurements], weighted: bool) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data,
+        return run_method(robot, method, o, [HeldSource(m) for m in data], data,
                           compare=False)  # fmt: skip
 
     def run_sources(srcs: list[Any], weighted: bool) -> Fit:
@@ -190,10 +189,8 @@ def _joint_noise(
         return sources, memory, opts, (), first, None
     if memory is not None:
         sigma = {r.joint: r.sigma for r in records}
-        memory = [
-            next(JointScaled(HeldSource(robot, x), sigma, opts.weighted).chunks()) for x in memory
-        ]
-        wrapped = [HeldSource(robot, x) for x in memory]
+        memory = [next(JointScaled(HeldSource(x), sigma, opts.weighted).chunks()) for x in memory]
+        wrapped = [HeldSource(x) for x in memory]
     return wrapped, memory, dataclasses.replace(opts, tau_weighted=True), records, last, unit
 
 
