@@ -395,7 +395,7 @@ def pinned_system(system: System, directions: np.ndarray, theta0: np.ndarray) ->
         ata = proj @ ne.ata @ proj
         ata = (ata + ata.T) / 2
         atb = proj @ (ne.atb - ne.ata @ theta0) + ata @ theta0
-        rss0 = float(ne.yty - 2 * theta0 @ ne.atb + theta0 @ ne.ata @ theta0)
+        rss0 = ne.rss(theta0)
         yty = rss0 + 2 * theta0 @ atb - theta0 @ ata @ theta0
         new = NormalEquations(ata, atb, yty, ne.n_rows, ne.n_poses)
         parts[kind] = dataclasses.replace(part, ne=new)
