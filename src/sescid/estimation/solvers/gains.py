@@ -162,11 +162,3 @@ def _annotate(fit: Fit) -> Fit:
             )
         out.append(e)
     return dataclasses.replace(fit, nuisance=tuple(out))
-
-
-def gain_of(fit: Fit, joint: str) -> float:
-    """The estimated gain γ of a joint's torque sensor (0 when none was estimated)."""
-    for e in fit.nuisance:
-        if e.kind == TORQUE and e.what == "gain" and e.name == joint and e.determined:
-            return e.value
-    return 0.0
