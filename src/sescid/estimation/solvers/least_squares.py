@@ -319,17 +319,18 @@ def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     if m.cop is not None:
         out[COP] = m.cop - fit.predict_cop(m.q, m.gravity) - fit.cop_bias
     if m.tau is not None and m.tau_joints:
-        pred = fit.predict_torque(m.q, m.tau_joints, m.gravity)
-        est = {(e.what, e.name): (e.value if e.determined else 0.0) for e in fit.nuisance
-               if e.kind == TORQUE}  # fmt: skip
-        off = np.array([est.get(("offset", j), 0.0) for j in m.tau_joints])
-        reading = pred + off
-        if m.approach is not None:
-            fr = np.array([est.get(("friction", j), 0.0) for j in m.tau_joints])
-            reading = reading + m.approach[:, None] * fr
-        gain = np.array([est.get(("gain", j), 0.0) for j in m.tau_joints])
-        out[TORQUE] = m.tau - reading * (1.0 + gain)
+        gain = fit.torque_nuisance("gain", m.tau_joints)
+        out[TORQUE] = m.tau - torque_readings(fit, m) * (1.0 + gain)
     return out
+
+
+def torque_readings(fit: Fit, m: Measurements) -> np.ndarray:
+    """p(θ) = τ(r) + offset + side·friction (n, J) N·m: the predicted readings without gains."""
+    joints = m.tau_joints
+    p = fit.predict_torque(m.q, joints, m.gravity) + fit.torque_nuisance("offset", joints)
+    if m.approach is not None:
+        p = p + m.approach[:, None] * fit.torque_nuisance("friction", joints)
+    return p
 
 
 def with_residuals(
