@@ -53,6 +53,12 @@ _RECORDS: dict[str, type] = {
     "cv": records.CrossValidation,
     "joint_noise": records.JointNoiseEffect,
 }
+#: the fit's tuples of records (a record per kind, nuisance parameter, torque sensor)
+_RECORD_TUPLES: dict[str, type] = {
+    "kinds": records.KindFit,
+    "nuisance": records.NuisanceEstimate,
+    "torque_noise": records.JointNoise,
+}
 
 
 def _record_to_json(rec: Any) -> dict:
@@ -117,9 +123,7 @@ def fit_to_json(fit: Fit) -> dict:
         "weak": [c.to_json() for c in fit.weak],
         "notes": fit_notes(fit),
         "warnings": list(fit.warnings),
-        "kinds": [_record_to_json(k) for k in fit.kinds],
-        "nuisance": [_record_to_json(e) for e in fit.nuisance],
-        "torque_noise": [_record_to_json(e) for e in fit.torque_noise],
+        **{key: [_record_to_json(e) for e in getattr(fit, key)] for key in _RECORD_TUPLES},
         "total_mass": json_ready(fit.total_mass),
         "mass_given": fit.mass_given,
         "gravity_accel": fit.gravity_accel,
@@ -311,18 +315,10 @@ def load_fit(path: str | Path) -> Fit:
             dof = data.get("sigma_dof")
             fields["sigma_dof"] = math.inf if dof == "inf" else (None if dof is None else dof)
             fields["warnings"] = tuple(str(w) for w in data.get("warnings", []))
-            fields["kinds"] = tuple(
-                _record_from_json(records.KindFit, k, f"{path}: field 'kinds'")
-                for k in data.get("kinds", [])
-            )
-            fields["nuisance"] = tuple(
-                _record_from_json(records.NuisanceEstimate, e, f"{path}: field 'nuisance'")
-                for e in data.get("nuisance", [])
-            )
-            fields["torque_noise"] = tuple(
-                _record_from_json(records.JointNoise, e, f"{path}: field 'torque_noise'")
-                for e in data.get("torque_noise", [])
-            )
+            for key, cls in _RECORD_TUPLES.items():
+                fields[key] = tuple(
+                    _record_from_json(cls, e, f"{path}: field '{key}'") for e in data.get(key, [])
+                )
             if data.get("total_mass") is not None:
                 fields["total_mass"] = float(data["total_mass"])
             fields["mass_given"] = bool(data.get("mass_given", False))
