@@ -38,15 +38,13 @@ def check_rtol(rtol: float) -> float:
     return float(rtol)
 
 
-def rank_of(sv: np.ndarray, rtol: float = DEFAULT_RTOL) -> int:
-    """Number of singular values (descending) above rtol × the largest."""
-    return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
-
-
-def eigen_descending(ata: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues (descending) and eigenvectors (columns) of a symmetric matrix."""
+def eigen_rank(ata: np.ndarray, rtol: float = DEFAULT_RTOL) -> tuple[np.ndarray, np.ndarray, int]:
+    """Eigenvalues (descending), eigenvectors (columns) and rank of a symmetric matrix ΦᵀΦ: the
+    number of singular values √λ above rtol × the largest."""
     lam, vecs = np.linalg.eigh(ata)
-    return lam[::-1], vecs[:, ::-1]
+    sv = np.sqrt(np.clip(lam[::-1], 0, None))
+    rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    return lam[::-1], vecs[:, ::-1], rank
 
 
 def identifiable_eigen(
@@ -54,8 +52,7 @@ def identifiable_eigen(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues λ_p (descending) and orthonormal eigenvectors V_p (P, p) of a normal matrix
     ΦᵀΦ that span the identifiable subspace (the rank rule above)."""
-    lam, vecs = eigen_descending(ata)
-    p = rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    lam, vecs, p = eigen_rank(ata, rtol)
     return lam[:p].copy(), np.ascontiguousarray(vecs[:, :p])
 
 

@@ -26,9 +26,8 @@ from sescid.errors import DataError
 from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
     check_rtol,
-    eigen_descending,
+    eigen_rank,
     poses_needed,
-    rank_of,
 )
 from sescid.estimation.result.records import NoiseSource
 from sescid.estimation.sums.normal_equations import NormalEquations
@@ -95,8 +94,7 @@ def weighted_sums(system: System, noise: dict[Kind, float]) -> NormalEquations:
 
 
 def _estimate(ne: NormalEquations, theta0: np.ndarray, rtol: float):
-    lam, vecs = eigen_descending(ne.ata)
-    p = rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    lam, vecs, p = eigen_rank(ne.ata, rtol)
     vp, lp = vecs[:, :p], lam[:p]
     theta = theta0 + vp @ ((vp.T @ (ne.atb - ne.ata @ theta0)) / lp)
     return theta, lam, vecs, p
@@ -215,5 +213,4 @@ def marginal_x(sol: Solution, n_x: int, rtol: float):
     a = sol.ata
     axx, axn, ann = a[:n_x, :n_x], a[:n_x, n_x:], a[n_x:, n_x:]
     schur = axx - axn @ np.linalg.pinv(ann, rcond=1e-12, hermitian=True) @ axn.T
-    lam, vecs = eigen_descending((schur + schur.T) / 2)
-    return lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    return eigen_rank((schur + schur.T) / 2, rtol)

@@ -30,9 +30,8 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation.result.identifiability import (
     base_combinations,
-    eigen_descending,
+    eigen_rank,
     label_columns,
-    rank_of,
 )
 from sescid.estimation.solvers.solve import Solution, marginal_x
 from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
@@ -199,8 +198,7 @@ def _seen_through(t: np.ndarray, unseen: np.ndarray, ainv: np.ndarray, rtol: flo
     core = g.T @ t @ ainv @ t.T @ g
     ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
     ata = (ata + ata.T) / 2
-    lam, vecs = eigen_descending(ata)
-    return ata, lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    return ata, *eigen_rank(ata, rtol)
 
 
 def view(sol: Solution, lmap: np.ndarray, n_x: int, rtol: float) -> Solution:
@@ -242,8 +240,7 @@ def body_fit(robot: Robot, system: System, sol: Solution, x: np.ndarray, cov: np
             ann = a[n_x:, n_x:]
             coupled = a[:n_x, n_x:] @ np.linalg.pinv(ann, hermitian=True) @ a[n_x:, :n_x]
             a = a[:n_x, :n_x] - coupled
-        w, v = eigen_descending((a + a.T) / 2)
-        r = rank_of(np.sqrt(np.clip(w, 0, None)), rtol)
+        _, v, r = eigen_rank((a + a.T) / 2, rtol)
         ranges.append(v[:, :r])
         rows = sum(ks.ne.n_rows for ks in part.parts.values())
         stances.append(StanceRank(support, part.n_poses, rows, r))
