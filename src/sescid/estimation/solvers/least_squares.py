@@ -289,20 +289,6 @@ def cop_system(robot: Robot, ne: NormalEquations, weighted: bool = False) -> Sys
     )  # fmt: skip
 
 
-def solve(
-    robot: Robot,
-    ne: NormalEquations,
-    *,
-    rtol: float = DEFAULT_RTOL,
-    r_prior: np.ndarray | None = None,
-    allow_exact: bool = True,
-) -> Fit:
-    """Least-squares Fit from CoP normal equations over vec(r) (no nuisance columns)."""
-    return fit_least_squares(
-        robot, cop_system(robot, ne), rtol=rtol, r_prior=r_prior, allow_exact=allow_exact
-    )
-
-
 def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     """Residuals per kind at validated data m: "cop" (n, 2) m net of a CoP offset, "tau"
     (n, J) N·m net of the sensor offsets and friction bands, "balance" (n,) rad; data of
