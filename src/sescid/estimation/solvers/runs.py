@@ -345,13 +345,11 @@ def with_extras(
 
     def fitter(data: list[Measurements]) -> Fit:
         if opts.robust is not True:
-            return run_method(robot, method, plain, [HeldSource(m) for m in data], data)
-
-        def run(d: list[Measurements], weighted: bool) -> Fit:
-            o = dataclasses.replace(plain, weighted=weighted)
-            return run_method(robot, method, o, [HeldSource(m) for m in d], d)
-
-        return huber(run, data, weighted=opts.weighted, k=opts.huber_k)
+            return make_fitter(robot, method, plain)(data)
+        return huber(
+            lambda d, w: make_fitter(robot, method, dataclasses.replace(plain, weighted=w))(d),
+            data, weighted=opts.weighted, k=opts.huber_k,
+        )  # fmt: skip
 
     changes: dict[str, Any] = {}
     if opts.cv is not None:
