@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from sescid.audit.checks import model_checks
-from sescid.audit.linear import KindRows, attribute, basis_of, kind_rows
+from sescid.audit.linear import KindRows, attribute, kind_rows
 from sescid.audit.result import AuditResult, CandidateAudit, KindError, body_change
 from sescid.errors import DataError, ModelError, OptionError, SescidError
 from sescid.estimation import (
@@ -32,6 +32,7 @@ from sescid.estimation import (
     for_support,
 )
 from sescid.estimation.data.balance_rows import balance_residuals
+from sescid.estimation.result.identifiability import basis_of
 from sescid.kinds import KINDS
 from sescid.robot import Robot, load_robot
 

@@ -47,6 +47,15 @@ def eigen_rank(ata: np.ndarray, rtol: float = DEFAULT_RTOL) -> tuple[np.ndarray,
     return lam[::-1], vecs[:, ::-1], rank
 
 
+def basis_of(a: np.ndarray, rtol: float) -> np.ndarray:
+    """Orthonormal basis (m, k) of the column space of a (m, c): the singular directions above
+    rtol × the largest (an empty one for no columns)."""
+    if a.size == 0:
+        return np.zeros((a.shape[0], 0))
+    u, s, _ = np.linalg.svd(a, full_matrices=False)
+    return u[:, s > rtol * max(float(s[0]), 1e-300)] if s.size else u[:, :0]
+
+
 def identifiable_eigen(
     ata: np.ndarray, rtol: float = DEFAULT_RTOL
 ) -> tuple[np.ndarray, np.ndarray]:
