@@ -34,7 +34,7 @@ from sescid.estimation.result.identifiability import (
     label_columns,
 )
 from sescid.estimation.solvers.solve import Solution, marginal_x
-from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
+from sescid.estimation.sums.normal_equations import expand
 from sescid.estimation.sums.system import Accumulator, KindSums, RowOptions, System
 from sescid.kinds import TORQUE
 from sescid.robot import Robot
@@ -74,14 +74,11 @@ def lift(system: System, lmap: np.ndarray) -> System:
     t = np.zeros((system.n_x + k, n_x + k))
     t[: system.n_x, :n_x] = lmap
     t[system.n_x :, n_x:] = np.eye(k)
-    tt = np.ascontiguousarray(t.T)
     parts = {}
     for kind, part in system.parts.items():
-        ne = part.ne
-        ata = matmul_fixed(matmul_fixed(tt, ne.ata), t)
-        ne2 = NormalEquations((ata + ata.T) / 2, matmul_fixed(tt, ne.atb), ne.yty, ne.n_rows,
-                              ne.n_poses)  # fmt: skip
-        parts[kind] = KindSums(part.kind, ne2, part.weighted)
+        ata, atb = expand(t, part.ne)
+        ne = dataclasses.replace(part.ne, ata=(ata + ata.T) / 2, atb=atb)
+        parts[kind] = KindSums(part.kind, ne, part.weighted)
     return dataclasses.replace(system, n_x=n_x, parts=parts, space="bodies", stances={})
 
 
