@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -69,6 +69,15 @@ def structural_rank(robot: Robot) -> int:
     """Rank of the x/y regressor for generic poses: the dimension of the reduced coordinates
     (3N minus the structural null directions; mimic joints included)."""
     return int(robot.reduction.g.shape[0])
+
+
+def structural_count(robot: Robot, kinds: Iterable[str]) -> int:
+    """Combinations of vec(r) that data of ``kinds`` determine on generic poses: the CoP's
+    reduced coordinates (``structural_rank``), less the support body's two horizontal ones for
+    data without a CoP."""
+    kinds = set(kinds)
+    p = structural_rank(robot)
+    return p - len(robot.reduction.rows) if kinds and COP not in kinds else p
 
 
 def min_poses(robot: Robot) -> int:

@@ -28,6 +28,7 @@ from sescid.estimation.result.identifiability import (
     base_combinations,
     label_columns,
     sparse_terms,
+    structural_count,
     unidentifiable,
 )
 from sescid.estimation.result.records import KindFit, NuisanceEstimate
@@ -240,7 +241,7 @@ def fit_least_squares(
     from noise: the system is solved again with them pinned (``system.pinned``), and the fit
     names them (``Fit.weak``)."""
     theta0 = prior_theta(robot, system, r_prior)
-    count = structural_count(robot, system)
+    count = structural_count(robot, system.kinds) + len(system.nuisance)
     sol = solve_system(
         system, theta0, rtol=rtol, noise=noise, allow_exact=allow_exact, structural=count
     )
@@ -270,15 +271,6 @@ def fit_least_squares(
     if weak.shape[1]:
         fit = dataclasses.replace(fit, weak=named(robot, weak, WEAK_REASON))
     return fit
-
-
-def structural_count(robot: Robot, system: System) -> int:
-    """Combinations such data determine on generic poses: the CoP's reduced coordinates (its
-    2 intercepts dropped for torques alone) plus the nuisance columns."""
-    p = robot.reduction.g.shape[0]
-    if COP not in system.kinds:
-        p -= len(robot.reduction.rows)
-    return p + len(system.nuisance)
 
 
 def cop_system(robot: Robot, ne: NormalEquations, weighted: bool = False) -> System:
