@@ -189,8 +189,8 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
         out.append(
             f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}; "
             f"beyond −{z:.2f}σ, the {FRICTION_ALARM_RATE:.0%} level over the fit's "
-            f"{_bands(fit)} bands): a band is never below zero — those torque sensors' sign is "
-            "reversed, or their approach column is (+1: reached moving up)"
+            f"{len(_bands(fit))} bands): a band is never below zero — those torque sensors' sign "
+            "is reversed, or their approach column is (+1: reached moving up)"
         )
     if held_trunk(fit.robot) and fit.kind("cop") is not None:
         out.append(
@@ -202,11 +202,12 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
     return out
 
 
-def _bands(fit: Fit) -> int:
-    return sum(
-        e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
-        for e in fit.nuisance
-    )
+def _bands(fit: Fit) -> list:
+    """The fit's determined friction bands (with a standard error)."""
+    return [
+        e for e in fit.nuisance
+        if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
+    ]  # fmt: skip
 
 
 def friction_threshold(
@@ -229,10 +230,7 @@ def negative_bands(fit: Fit) -> tuple[list, float]:
     """The friction bands significantly below zero (value/std < −z, ``friction_threshold``
     over the fit's determined bands, with each joint's residual degrees of freedom when its
     noise was estimated per joint), and the smallest z."""
-    bands = [
-        e for e in fit.nuisance
-        if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
-    ]  # fmt: skip
+    bands = _bands(fit)
     dof = {r.joint: r.dof for r in fit.torque_noise if r.by == "estimated"}
     z = {e.name: friction_threshold(len(bands), dof=dof.get(e.name, math.inf)) for e in bands}
     lowest = min(z.values(), default=friction_threshold(len(bands)))
