@@ -131,24 +131,16 @@ def _huber(
     the data in memory where the method needs them there (cross-validation)."""
     from sescid.estimation.solvers.robust import huber, huber_sources
 
-    def run(data: list[Measurements], weighted: bool) -> Fit:
+    def run_sources(srcs: list[Any], weighted: bool, data=None) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, [HeldSource(m) for m in data], data,
-                          compare=False)  # fmt: skip
+        return run_method(robot, method, o, srcs, data, compare=False)
 
-    def run_sources(srcs: list[Any], weighted: bool) -> Fit:
-        o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, srcs, None, compare=False)
-
+    kw: dict[str, Any] = {"weighted": opts.weighted, "k": opts.huber_k,
+                          "tau_weighted": opts.tau_weighted}  # fmt: skip
     if memory is not None:
-        fit = huber(
-            run, memory, weighted=opts.weighted, k=opts.huber_k, tau_weighted=opts.tau_weighted
-        )
+        fit = huber(lambda d, w: run_sources([HeldSource(m) for m in d], w, d), memory, **kw)
     else:
-        fit = huber_sources(
-            run_sources, sources, weighted=opts.weighted, k=opts.huber_k,
-            tau_weighted=opts.tau_weighted,
-        )  # fmt: skip
+        fit = huber_sources(run_sources, sources, **kw)
     if method.method != "ls":
         return fit
     plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
