@@ -42,7 +42,7 @@ def _dense_torque_sums(robot: Robot, data, gains, base, options, nuisance, sigma
     index = {n: k for k, n in enumerate(nuisance)}
     size = n_x + len(nuisance)
     ne = NormalEquations.empty(size)
-    mass = robot.total_mass if options.total_mass is None else options.total_mass
+    mass = torque_mass(robot, options)
     for m, p_k in zip(data, base, strict=True):
         if m.tau is None:
             continue
