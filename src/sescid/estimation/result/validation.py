@@ -162,14 +162,13 @@ def cross_validate(
         fit = fitter([data.take(train)])
         held = data.take(test)
         err = residuals(fit, held)[kind]
-        weighted = fit.kind(kind) is not None and fit.kind(kind).weighted  # type: ignore[union-attr]
+        kf = fit.kind(kind)
         se = held.cop_se if kind == "cop" else held.tau_se
-        if weighted and se is not None:
+        if kf is not None and kf.weighted and se is not None:
             err = err / se
         sq += float(np.sum(err**2))
         count += err.size
         per_fold.append(rms(err))
-        kf = fit.kind(kind)
         if kf is not None and math.isfinite(kf.sigma):
             noise2.append(kf.sigma**2)
         if progress:
