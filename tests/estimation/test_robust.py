@@ -167,8 +167,9 @@ def test_huber_streamed_in_chunks_is_the_in_memory_fit(robot):
     spilled, their median exact) gives the fit of the same data in memory, bit for bit — the
     default fit of torques without approach sides (robust="auto") and an explicit robust CoP
     fit; and the in-memory IRLS around a fitter (``robust.huber``) gives it too."""
+    from sescid.estimation.data.sources import HeldSource
     from sescid.estimation.solvers.robust import huber as huber_in_memory
-    from sescid.estimation.solvers.runs import HeldSource, run_method
+    from sescid.estimation.solvers.runs import run_method
 
     rng = np.random.default_rng(21)
     n = 1500
@@ -192,7 +193,7 @@ def test_huber_streamed_in_chunks_is_the_in_memory_fit(robot):
 
     def run(d, weighted):
         o = IdentifyOptions(weighted=weighted)
-        return run_method(robot, LeastSquaresOptions(), o, [HeldSource(robot, m) for m in d], d,
+        return run_method(robot, LeastSquaresOptions(), o, [HeldSource(m) for m in d], d,
                           compare=False)  # fmt: skip
 
     in_memory = huber_in_memory(run, data, k=opts.huber_k)

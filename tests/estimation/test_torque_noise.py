@@ -11,7 +11,7 @@ import pytest
 import sescid
 from sescid.estimation import IdentifyOptions, Measurements
 from sescid.estimation.data.checks import FRICTION_ALARM_RATE, friction_threshold, negative_bands
-from sescid.estimation.solvers.runs import HeldSource
+from sescid.estimation.data.sources import HeldSource
 from sescid.estimation.solvers.torque_noise import joint_stats, leverages
 from sescid.simulation import random_poses
 
@@ -60,7 +60,7 @@ def test_each_joints_share_of_the_parameters_is_the_hat_matrix_trace(op2):
                            total_mass=op2.total_mass)  # fmt: skip
     fit = sescid.identify(op2, m, method="ls", options=opts)
     scale = dict.fromkeys(m.tau_joints, 1.0)
-    st = joint_stats(fit, [HeldSource(op2, m)], m.tau_joints, False, scale)
+    st = joint_stats(fit, [HeldSource(m)], m.tau_joints, False, scale)
     t = leverages(st, fit.cov, fit.kind("tau").sigma)
     a, _ = _dense(op2, m, op2.total_mass)
     h = np.einsum("ij,ji->i", a, np.linalg.pinv(a, rcond=1e-10, hermitian=False))

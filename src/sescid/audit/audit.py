@@ -32,6 +32,7 @@ from sescid.estimation import (
     for_support,
 )
 from sescid.estimation.data.balance_rows import balance_residuals
+from sescid.estimation.result.identifiability import basis_of
 from sescid.kinds import KINDS
 from sescid.robot import Robot, load_robot
 
@@ -182,14 +183,6 @@ def cv_errors(
     return {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in res.items()}
 
 
-def _orth(a: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of a's column space (an empty one for no columns)."""
-    if a.shape[1] == 0:
-        return np.zeros((a.shape[0], 0))
-    u, s, _ = np.linalg.svd(a, full_matrices=False)
-    return u[:, s > 1e-9 * max(float(s[0]), 1e-300)]
-
-
 # --- the audit --------------------------------------------------------------------------------
 def audit_one(
     robot: Robot, label: str, data: list[Measurements], options: AuditOptions
@@ -209,7 +202,7 @@ def audit_one(
     for b in blocks:
         nuis[r0 : r0 + b.shape[0], c0 : c0 + b.shape[1]] = b
         r0, c0 = r0 + b.shape[0], c0 + b.shape[1]
-    qn = _orth(nuis)
+    qn = basis_of(nuis, 1e-9)
 
     def residual(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Whitened residual and Jacobian at body parameters θ (the weighed mass a row), the

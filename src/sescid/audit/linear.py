@@ -23,6 +23,7 @@ from sescid.errors import DataError
 from sescid.estimation import Measurements
 from sescid.estimation.data.balance_rows import balance_rows
 from sescid.estimation.data.torque_rows import nuisance_names
+from sescid.estimation.result.identifiability import basis_of
 from sescid.estimation.solvers.map_prior import BODY_COM_SCALE
 from sescid.kinds import KINDS
 from sescid.robot import Robot
@@ -207,14 +208,6 @@ def z_of_p(p: float) -> float:
     return 40.0 if p <= 0 else float(max(-ndtri(min(p, 1.0) / 2), 0.0)) + 0.0
 
 
-def _basis(a: np.ndarray) -> np.ndarray:
-    """Orthonormal basis (m, k) of the column space of a (m, c)."""
-    if a.size == 0:
-        return np.zeros((a.shape[0], 0))
-    u, s, _ = np.linalg.svd(a, full_matrices=False)
-    return u[:, s > SEEN_RTOL * max(float(s[0]), 1e-300)] if s.size else u[:, :0]
-
-
 def hypotheses(robot: Robot, theta: np.ndarray) -> list[Hypothesis]:
     """(bodies, (4N, k) directions in θ): one per body (its mass and first moment) and one for
     every mass scaled by one factor (θ itself)."""
@@ -272,7 +265,8 @@ def _select(
     blocks = [a @ cols for _, cols in hyps]
     chosen = list(start)
     out: list[tuple[int, float, tuple[str, ...]]] = []
-    q = _basis(np.column_stack([blocks[h] for h in chosen])) if chosen else np.zeros((e.size, 0))
+    q = np.column_stack([blocks[h] for h in chosen]) if chosen else np.zeros((e.size, 0))
+    q = basis_of(q, SEEN_RTOL)
     while len(chosen) < MAX_NAMED and len(out) < limit:
         res = e - q @ (q.T @ e)
         scored: list[tuple[float, float, int, float]] = []  # (p, drop, h, relative size)
@@ -280,7 +274,7 @@ def _select(
             if h in chosen:
                 continue
             b = blk - q @ (q.T @ blk)
-            ub = _basis(b)
+            ub = basis_of(b, SEEN_RTOL)
             if ub.shape[1] == 0:
                 continue
             drop = float(np.sum((ub.T @ res) ** 2))
@@ -297,7 +291,7 @@ def _select(
         alts = tuple(hyps[t[2]][0][0] for t in sorted(ties, key=lambda t: t[3]) if t is not pick)
         chosen.append(pick[2])
         out.append((pick[2], z_of_p(pick[0]), alts))
-        q = _basis(np.column_stack([q, blocks[pick[2]]]))
+        q = basis_of(np.column_stack([q, blocks[pick[2]]]), SEEN_RTOL)
     return out
 
 
@@ -356,7 +350,7 @@ def attribute(
     other parameters (the named changes are then estimated by Gauss–Newton and what is left is
     examined once more at the estimate). Returns the named (most significant first), the
     residual's overall z over everything ``a`` sees, and that dof."""
-    seen = _basis(a)
+    seen = basis_of(a, SEEN_RTOL)
     dof_all = seen.shape[1]
     z_all = z_of_p(tail(float(np.sum((seen.T @ e) ** 2)), dof_all, noise_dof))
     hyps = hypotheses(robot, theta)
@@ -366,8 +360,8 @@ def attribute(
     delta = cov = np.zeros((0,))
     while len(picked) < MAX_NAMED:
         if picked:  # what is left beyond the named must itself exceed the noise
-            qc = _basis(np.column_stack([a1 @ hyps[h][1] for h, _, _ in picked]))
-            seen1 = _basis(a1)
+            qc = basis_of(np.column_stack([a1 @ hyps[h][1] for h, _, _ in picked]), SEEN_RTOL)
+            seen1 = basis_of(a1, SEEN_RTOL)
             left = seen1.T @ e1
             left_chi = float(left @ left - np.sum((qc.T @ e1) ** 2))
             if z_of_p(tail(left_chi, seen1.shape[1] - qc.shape[1], noise_dof)) < level:

@@ -10,6 +10,7 @@ import numpy as np
 
 from sescid.audit.checks import Check
 from sescid.audit.linear import ALL_BODIES, Named
+from sescid.estimation.result.records import json_ready
 from sescid.robot import Robot
 
 #: display unit of each kind: (JSON suffix, factor from SI, printed unit)
@@ -87,16 +88,12 @@ class BodyChange:
             "change": self.change,
             "std": self.std,
             "z": self.z,
-            "first_moment": _finite_list(self.first_moment),
-            "first_moment_std": _finite_list(self.first_moment_std),
+            "first_moment": json_ready(self.first_moment),
+            "first_moment_std": json_ready(self.first_moment_std),
             "com_shift_mm": None if not math.isfinite(self.com_shift) else self.com_shift * 1e3,
             "alternatives": list(self.alternatives),
             "text": self.text(),
         }
-
-
-def _finite_list(v) -> list[float | None]:
-    return [None if not math.isfinite(x) else float(x) for x in v]
 
 
 def none_if_nan(x: float) -> float | None:

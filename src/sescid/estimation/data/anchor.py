@@ -23,7 +23,6 @@ import math
 
 import numpy as np
 
-from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.system import System, pinned_system
 from sescid.robot import Robot
 
@@ -47,18 +46,14 @@ def collapse_point(robot: Robot, system: System) -> np.ndarray:
     return theta
 
 
-def _rss(ne: NormalEquations, theta: np.ndarray) -> float:
-    return float(ne.yty - 2 * theta @ ne.atb + theta @ ne.ata @ theta)
-
-
 def homogeneous(robot: Robot, system: System, theta0: np.ndarray) -> bool:
     """True when the collapse point meets every row of every kind (to round-off, against the
     prior model's residual): the data carry no scale (module docstring)."""
     theta_c = collapse_point(robot, system)
     for part in system.parts.values():
-        rss0 = abs(_rss(part.ne, theta0))
+        rss0 = abs(part.ne.rss(theta0))
         scale = max(rss0, float(np.abs(part.ne.ata).max()) * float(theta0 @ theta0), 1e-300)
-        if abs(_rss(part.ne, theta_c)) > HOMOGENEOUS_RSS * scale + 1e-30:
+        if abs(part.ne.rss(theta_c)) > HOMOGENEOUS_RSS * scale + 1e-30:
             return False
     return True
 

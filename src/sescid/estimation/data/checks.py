@@ -20,6 +20,7 @@ from sescid.base.text import listed
 from sescid.errors import OptionError
 from sescid.estimation.data.anchor import com_distance
 from sescid.estimation.result.fit import Fit
+from sescid.estimation.result.identifiability import structural_count
 from sescid.robot import Robot
 from sescid.stance import held_trunk
 
@@ -111,7 +112,11 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
     information matrix, σ̂ = 0. ``structural_rank``: rank of the robot's x/y regressor over all
     poses (default ``robot.reduction``'s)."""
     out = []
-    p = structural_rank if structural_rank is not None else _structural(fit)
+    p = (
+        structural_rank
+        if structural_rank is not None
+        else structural_count(fit.robot, [k.kind for k in fit.kinds])
+    )
     cond = condition(fit)
     if fit.rank < p:
         out.append(
@@ -184,8 +189,8 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
         out.append(
             f"negative static-friction bands [N·m] ({shown}{' …' if len(negative) > 4 else ''}; "
             f"beyond −{z:.2f}σ, the {FRICTION_ALARM_RATE:.0%} level over the fit's "
-            f"{_bands(fit)} bands): a band is never below zero — those torque sensors' sign is "
-            "reversed, or their approach column is (+1: reached moving up)"
+            f"{len(_bands(fit))} bands): a band is never below zero — those torque sensors' sign "
+            "is reversed, or their approach column is (+1: reached moving up)"
         )
     if held_trunk(fit.robot) and fit.kind("cop") is not None:
         out.append(
@@ -197,11 +202,12 @@ def fit_warnings(fit: Fit, structural_rank: int | None = None) -> list[str]:
     return out
 
 
-def _bands(fit: Fit) -> int:
-    return sum(
-        e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
-        for e in fit.nuisance
-    )
+def _bands(fit: Fit) -> list:
+    """The fit's determined friction bands (with a standard error)."""
+    return [
+        e for e in fit.nuisance
+        if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
+    ]  # fmt: skip
 
 
 def friction_threshold(
@@ -224,24 +230,11 @@ def negative_bands(fit: Fit) -> tuple[list, float]:
     """The friction bands significantly below zero (value/std < −z, ``friction_threshold``
     over the fit's determined bands, with each joint's residual degrees of freedom when its
     noise was estimated per joint), and the smallest z."""
-    bands = [
-        e for e in fit.nuisance
-        if e.kind == "tau" and e.what == "friction" and e.determined and e.std > 0
-    ]  # fmt: skip
+    bands = _bands(fit)
     dof = {r.joint: r.dof for r in fit.torque_noise if r.by == "estimated"}
     z = {e.name: friction_threshold(len(bands), dof=dof.get(e.name, math.inf)) for e in bands}
     lowest = min(z.values(), default=friction_threshold(len(bands)))
     return [e for e in bands if e.value < -z[e.name] * e.std], lowest
-
-
-def _structural(fit: Fit) -> int:
-    """Combinations of vec(r) that data of the fit's kinds determine on generic poses: the CoP's
-    reduced coordinates, less the support body's two horizontal ones for torques alone."""
-    p = int(fit.robot.reduction.g.shape[0])
-    names = {k.kind for k in fit.kinds}
-    if names and "cop" not in names:
-        p -= len(fit.robot.reduction.rows)
-    return p
 
 
 def check_total_mass(robot: Robot, total_mass: float | None, name: str = "total_mass") -> None:

@@ -287,7 +287,7 @@ class Measurements:
     def take(self, rows: slice | np.ndarray) -> Measurements:
         """The poses ``rows`` (a slice or index array) of every array."""
         taken: dict[str, Any] = {}
-        for f in _ARRAYS:
+        for f in ARRAYS:
             a = getattr(self, f)
             taken[f] = None if a is None else a[rows]
         where = self.row_of
@@ -326,7 +326,9 @@ class Measurements:
         return 0 if self.cop is None else int(np.count_nonzero(np.isnan(self.cop)))
 
 
-_ARRAYS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
+#: the per-pose array fields of ``Measurements``, in a fixed order (``take``, ``concatenate``,
+#: the spill of ``sources.StreamSource``)
+ARRAYS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
 
 
 #: a balance offset beyond this many times the model's CoM distance from the support (the zero
@@ -398,7 +400,7 @@ def concatenate(parts: Sequence[Measurements]) -> Measurements:
         if p.kinds != first.kinds or p.tau_joints != first.tau_joints:
             raise DataError(f"{p.source}: its parts measure different things; cannot be joined")
     arrays: dict[str, Any] = {}
-    for f in _ARRAYS:
+    for f in ARRAYS:
         vals = [getattr(p, f) for p in parts]
         if any(v is None for v in vals) and not all(v is None for v in vals):
             raise DataError(f"{first.source}: column {f} is missing in some parts")

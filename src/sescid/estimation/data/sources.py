@@ -19,20 +19,17 @@ from typing import IO, Any
 import numpy as np
 
 from sescid.errors import DataError
-from sescid.estimation.data.measurements import Measurements
+from sescid.estimation.data.measurements import ARRAYS, Measurements
 from sescid.kinds import Kinds
 from sescid.robot import Robot
 from sescid.stance import Stance
 
-_FIELDS = ("q", "cop", "cop_se", "balance", "tau", "tau_se", "approach", "gravity", "cop_true")
 
+class HeldSource:
+    """Validated measurements as a source of one chunk (no second validation)."""
 
-class MemorySource:
-    """Measurements held in memory (validated once)."""
-
-    def __init__(self, robot: Robot, data: Measurements):
-        self.data = data.checked(robot)
-        self.name = data.source
+    def __init__(self, m: Measurements):
+        self.data, self.name = m, m.source
 
     def chunks(self) -> Iterator[Measurements]:
         """The data, as one chunk."""
@@ -44,6 +41,13 @@ class MemorySource:
 
     def close(self) -> None:
         """Nothing to release."""
+
+
+class MemorySource(HeldSource):
+    """Measurements held in memory (validated once)."""
+
+    def __init__(self, robot: Robot, data: Measurements):
+        super().__init__(data.checked(robot))
 
 
 class StreamSource:
@@ -76,12 +80,12 @@ class StreamSource:
         for chunk in source:
             m = chunk.checked(self.robot)
             shapes = []
-            for f in _FIELDS:
+            for f in ARRAYS:
                 a = getattr(m, f)
                 shapes.append(None if a is None else a.shape)
                 if a is not None:
                     self._spill.write(np.ascontiguousarray(a, dtype=float).tobytes())
-            nothing: dict[str, Any] = {f: None for f in _FIELDS if f != "q"}
+            nothing: dict[str, Any] = {f: None for f in ARRAYS if f != "q"}
             empty = dataclasses.replace(m, **nothing)
             self._layout.append((dataclasses.replace(empty, q=np.empty((0, 0))), shapes))
             yield m
@@ -92,7 +96,7 @@ class StreamSource:
         self._spill.seek(0)
         for template, shapes in self._layout:
             arrays: dict[str, Any] = {}
-            for f, shape in zip(_FIELDS, shapes, strict=True):
+            for f, shape in zip(ARRAYS, shapes, strict=True):
                 if shape is None:
                     arrays[f] = None
                     continue

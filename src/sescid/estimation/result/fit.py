@@ -221,6 +221,15 @@ class Fit:
                 return k
         return None
 
+    def torque_nuisance(self, what: str, joints) -> np.ndarray:
+        """(J,) each joint's estimated torque ``what`` ("offset" N·m, "friction" N·m, "gain"):
+        0 where none was estimated or the data do not determine it."""
+        est: dict[tuple[str, str], float] = {
+            (e.what, e.name): (e.value if e.determined else 0.0) for e in self.nuisance
+            if e.kind == "tau"
+        }  # fmt: skip
+        return np.array([est.get((what, j), 0.0) for j in joints])
+
     def predict_std(self, q: ArrayLike, rows: tuple[int, ...] = (0, 1, 2)) -> np.ndarray:
         """Standard error (n, len(rows)) in m of the predicted CoM components ``rows``.
 

@@ -35,6 +35,7 @@ from sescid.estimation.result import records
 from sescid.estimation.result.fit import METHODS, Combination, Fit, Method
 from sescid.estimation.result.notes import fit_notes
 from sescid.estimation.result.payload_record import payload_from_json, payload_to_json
+from sescid.estimation.result.records import json_ready
 from sescid.robot import Robot, load_robot
 
 FIT_FORMAT = "sescid-fit/3"
@@ -52,25 +53,16 @@ _RECORDS: dict[str, type] = {
     "cv": records.CrossValidation,
     "joint_noise": records.JointNoiseEffect,
 }
-
-
-def _plain(x: Any) -> Any:
-    """JSON-ready copy: arrays → lists, non-finite floats → None."""
-    if isinstance(x, np.ndarray):
-        return _plain(x.tolist())
-    if isinstance(x, list | tuple):
-        return [_plain(v) for v in x]
-    if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items()}
-    if isinstance(x, float | np.floating):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
+#: the fit's tuples of records (a record per kind, nuisance parameter, torque sensor)
+_RECORD_TUPLES: dict[str, type] = {
+    "kinds": records.KindFit,
+    "nuisance": records.NuisanceEstimate,
+    "torque_noise": records.JointNoise,
+}
 
 
 def _record_to_json(rec: Any) -> dict:
-    return {f.name: _plain(getattr(rec, f.name)) for f in dataclasses.fields(rec)}
+    return {f.name: json_ready(getattr(rec, f.name)) for f in dataclasses.fields(rec)}
 
 
 def _record_from_json(cls: type, d: dict, where: str) -> Any:
@@ -114,16 +106,16 @@ def fit_to_json(fit: Fit) -> dict:
         "n_poses": fit.n_poses,
         "n_rows": fit.n_rows,
         "rtol": fit.rtol,
-        "sigma_hat": _plain(fit.sigma_hat),
-        "rms": _plain(fit.rms),
-        "mae": _plain(fit.mae),
+        "sigma_hat": json_ready(fit.sigma_hat),
+        "rms": json_ready(fit.rms),
+        "mae": json_ready(fit.mae),
         "weighted": fit.weighted,
-        "sigma_dof": _plain(fit.sigma_dof) if fit.sigma_dof != math.inf else "inf",
+        "sigma_dof": json_ready(fit.sigma_dof) if fit.sigma_dof != math.inf else "inf",
         "units": "m (r, r_std, sigma_hat, rms, mae), m^2 (cov), kg (masses)",
         "r": {b: fit.r[i].tolist() for i, b in enumerate(bodies)},
         "r_prior": {b: fit.r_prior[i].tolist() for i, b in enumerate(bodies)},
-        "r_std": {b: _plain(fit.r_std[i]) for i, b in enumerate(bodies)},
-        "cov": _plain(fit.cov),
+        "r_std": {b: json_ready(fit.r_std[i]) for i, b in enumerate(bodies)},
+        "cov": json_ready(fit.cov),
         "basis": fit.basis.tolist(),
         "singular_values": fit.singular_values.tolist(),
         "base_combinations": [c.to_json() for c in fit.base],
@@ -131,10 +123,8 @@ def fit_to_json(fit: Fit) -> dict:
         "weak": [c.to_json() for c in fit.weak],
         "notes": fit_notes(fit),
         "warnings": list(fit.warnings),
-        "kinds": [_record_to_json(k) for k in fit.kinds],
-        "nuisance": [_record_to_json(e) for e in fit.nuisance],
-        "torque_noise": [_record_to_json(e) for e in fit.torque_noise],
-        "total_mass": _plain(fit.total_mass),
+        **{key: [_record_to_json(e) for e in getattr(fit, key)] for key in _RECORD_TUPLES},
+        "total_mass": json_ready(fit.total_mass),
         "mass_given": fit.mass_given,
         "gravity_accel": fit.gravity_accel,
     }
@@ -149,7 +139,7 @@ def fit_to_json(fit: Fit) -> dict:
         out["bodies"] = {
             "x": b.x.tolist(),
             "x_prior": b.x_prior.tolist(),
-            "cov": _plain(b.cov),
+            "cov": json_ready(b.cov),
             "information": b.information.tolist(),
             "rank": b.rank,
             "stances": [_record_to_json(st) for st in b.stances],
@@ -325,18 +315,10 @@ def load_fit(path: str | Path) -> Fit:
             dof = data.get("sigma_dof")
             fields["sigma_dof"] = math.inf if dof == "inf" else (None if dof is None else dof)
             fields["warnings"] = tuple(str(w) for w in data.get("warnings", []))
-            fields["kinds"] = tuple(
-                _record_from_json(records.KindFit, k, f"{path}: field 'kinds'")
-                for k in data.get("kinds", [])
-            )
-            fields["nuisance"] = tuple(
-                _record_from_json(records.NuisanceEstimate, e, f"{path}: field 'nuisance'")
-                for e in data.get("nuisance", [])
-            )
-            fields["torque_noise"] = tuple(
-                _record_from_json(records.JointNoise, e, f"{path}: field 'torque_noise'")
-                for e in data.get("torque_noise", [])
-            )
+            for key, cls in _RECORD_TUPLES.items():
+                fields[key] = tuple(
+                    _record_from_json(cls, e, f"{path}: field '{key}'") for e in data.get(key, [])
+                )
             if data.get("total_mass") is not None:
                 fields["total_mass"] = float(data["total_mass"])
             fields["mass_given"] = bool(data.get("mass_given", False))

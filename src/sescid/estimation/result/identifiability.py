@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -38,15 +38,22 @@ def check_rtol(rtol: float) -> float:
     return float(rtol)
 
 
-def rank_of(sv: np.ndarray, rtol: float = DEFAULT_RTOL) -> int:
-    """Number of singular values (descending) above rtol × the largest."""
-    return int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
-
-
-def eigen_descending(ata: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues (descending) and eigenvectors (columns) of a symmetric matrix."""
+def eigen_rank(ata: np.ndarray, rtol: float = DEFAULT_RTOL) -> tuple[np.ndarray, np.ndarray, int]:
+    """Eigenvalues (descending), eigenvectors (columns) and rank of a symmetric matrix ΦᵀΦ: the
+    number of singular values √λ above rtol × the largest."""
     lam, vecs = np.linalg.eigh(ata)
-    return lam[::-1], vecs[:, ::-1]
+    sv = np.sqrt(np.clip(lam[::-1], 0, None))
+    rank = int(np.sum(sv > rtol * sv[0])) if sv.size and sv[0] > 0 else 0
+    return lam[::-1], vecs[:, ::-1], rank
+
+
+def basis_of(a: np.ndarray, rtol: float) -> np.ndarray:
+    """Orthonormal basis (m, k) of the column space of a (m, c): the singular directions above
+    rtol × the largest (an empty one for no columns)."""
+    if a.size == 0:
+        return np.zeros((a.shape[0], 0))
+    u, s, _ = np.linalg.svd(a, full_matrices=False)
+    return u[:, s > rtol * max(float(s[0]), 1e-300)] if s.size else u[:, :0]
 
 
 def identifiable_eigen(
@@ -54,8 +61,7 @@ def identifiable_eigen(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues λ_p (descending) and orthonormal eigenvectors V_p (P, p) of a normal matrix
     ΦᵀΦ that span the identifiable subspace (the rank rule above)."""
-    lam, vecs = eigen_descending(ata)
-    p = rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    lam, vecs, p = eigen_rank(ata, rtol)
     return lam[:p].copy(), np.ascontiguousarray(vecs[:, :p])
 
 
@@ -63,6 +69,15 @@ def structural_rank(robot: Robot) -> int:
     """Rank of the x/y regressor for generic poses: the dimension of the reduced coordinates
     (3N minus the structural null directions; mimic joints included)."""
     return int(robot.reduction.g.shape[0])
+
+
+def structural_count(robot: Robot, kinds: Iterable[str]) -> int:
+    """Combinations of vec(r) that data of ``kinds`` determine on generic poses: the CoP's
+    reduced coordinates (``structural_rank``), less the support body's two horizontal ones for
+    data without a CoP."""
+    kinds = set(kinds)
+    p = structural_rank(robot)
+    return p - len(robot.reduction.rows) if kinds and COP not in kinds else p
 
 
 def min_poses(robot: Robot) -> int:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.estimation.result.records import json_ready
 
 
 @dataclass(frozen=True)
@@ -79,25 +80,15 @@ class PayloadFit:
         return line
 
 
-def _num(x: Any) -> Any:
-    if isinstance(x, np.ndarray):
-        return [_num(v) for v in x.tolist()]
-    if isinstance(x, list | tuple):
-        return [_num(v) for v in x]
-    if isinstance(x, float | np.floating):
-        return float(x) if math.isfinite(x) else None
-    return x
-
-
 def payload_to_json(p: PayloadFit) -> dict:
     """The fit file's ``payload`` object."""
     return {
         "body": p.body,
-        "mass": _num(p.mass),
-        "com": _num(p.com),
-        "mass_std": _num(p.mass_std),
-        "com_std": _num(p.com_std),
-        "cov": _num(p.cov),
+        "mass": json_ready(p.mass),
+        "com": json_ready(p.com),
+        "mass_std": json_ready(p.mass_std),
+        "com_std": json_ready(p.com_std),
+        "cov": json_ready(p.cov),
         "mass_given": p.mass_given,
         "base": p.base,
         "base_mass": p.base_mass,
@@ -107,10 +98,10 @@ def payload_to_json(p: PayloadFit) -> dict:
             {
                 "kind": k.kind,
                 "n_rows": k.n_rows,
-                "sigma": _num(k.sigma),
+                "sigma": json_ready(k.sigma),
                 "sigma_by": k.sigma_by,
-                "dof": _num(k.dof),
-                "rms": _num(k.rms),
+                "dof": json_ready(k.dof),
+                "rms": json_ready(k.rms),
             }
             for k in p.kinds
         ],  # fmt: skip

@@ -5,8 +5,9 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -31,6 +32,21 @@ METHOD_TITLES = {
 #: (``map.repeated_poses``): the prior's scale kept at its smallest, the CAD model as it is —
 #: its error is not determined, and predictions the data do not see say so (``Fit.predict_std``)
 REPEATED = "kept: too few distinct poses"
+
+
+def json_ready(x: Any) -> Any:
+    """JSON-ready copy: arrays → lists, non-finite floats → None."""
+    if isinstance(x, np.ndarray):
+        return json_ready(x.tolist())
+    if isinstance(x, list | tuple):
+        return [json_ready(v) for v in x]
+    if isinstance(x, dict):
+        return {k: json_ready(v) for k, v in x.items()}
+    if isinstance(x, float | np.floating):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
 
 
 @dataclass

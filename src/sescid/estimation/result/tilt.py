@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sescid.estimation.result.identifiability import basis_of
 from sescid.robot import Robot
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -44,9 +45,7 @@ class TiltDirection:
 
 def level_basis(robot: Robot) -> np.ndarray:
     """(3N, p) orthonormal basis of the x/y rows' structural row space (a level sole)."""
-    g = robot.reduction.g
-    u, s, _ = np.linalg.svd(g.T, full_matrices=False)
-    return u[:, s > 1e-10 * s[0]]
+    return basis_of(robot.reduction.g.T, 1e-10)
 
 
 def tilt_direction(fit: Fit) -> TiltDirection | None:

@@ -32,11 +32,6 @@ from sescid.sesc import sesc_vectors
 CvFitter = Callable[..., Fit]
 
 
-def residual_dof(fit: Fit) -> float:
-    """Degrees of freedom of σ̂ (inf when σ was given or no residual is left)."""
-    return fit.residual_dof
-
-
 def quantile(level: float, dof: float) -> float:
     """Two-sided Student-t quantile for a confidence ``level`` (normal when dof is inf)."""
     if not 0 < level < 1:
@@ -112,13 +107,13 @@ def cop_interval(
     std = cop_std(fit, q, gravity)
     if new_measurement:
         std = np.sqrt(std**2 + fit.sigma_hat**2)
-    return _interval(fit.predict_cop(q, gravity), std, level, residual_dof(fit))
+    return _interval(fit.predict_cop(q, gravity), std, level, fit.residual_dof)
 
 
 def com_interval(fit: Fit, q, level: float = 0.95) -> Interval:
     """Interval for the CoM (n, 3) [m]; see the module docstring for what z does not cover."""
     q = as_poses(q, fit.robot.nq)
-    return _interval(fit.predict_com(q), fit.predict_std(q), level, residual_dof(fit))
+    return _interval(fit.predict_com(q), fit.predict_std(q), level, fit.residual_dof)
 
 
 def balance_interval(fit: Fit, q, level: float = 0.95) -> Interval:
@@ -126,7 +121,7 @@ def balance_interval(fit: Fit, q, level: float = 0.95) -> Interval:
     q = as_poses(q, fit.robot.nq)
     tilt = fit.predict_balance(q)
     std = fit.predict_balance_std(q)
-    return _interval(tilt, std, level, residual_dof(fit))
+    return _interval(tilt, std, level, fit.residual_dof)
 
 
 def rms(a) -> float:
@@ -167,14 +162,13 @@ def cross_validate(
         fit = fitter([data.take(train)])
         held = data.take(test)
         err = residuals(fit, held)[kind]
-        weighted = fit.kind(kind) is not None and fit.kind(kind).weighted  # type: ignore[union-attr]
+        kf = fit.kind(kind)
         se = held.cop_se if kind == "cop" else held.tau_se
-        if weighted and se is not None:
+        if kf is not None and kf.weighted and se is not None:
             err = err / se
         sq += float(np.sum(err**2))
         count += err.size
         per_fold.append(rms(err))
-        kf = fit.kind(kind)
         if kf is not None and math.isfinite(kf.sigma):
             noise2.append(kf.sigma**2)
         if progress:

@@ -24,7 +24,7 @@ import numpy as np
 from sescid.base.threads import one_blas_thread
 from sescid.errors import OptionError
 from sescid.estimation.data.measurements import Measurements
-from sescid.estimation.data.sources import as_sources, in_memory
+from sescid.estimation.data.sources import HeldSource, as_sources, in_memory
 from sescid.estimation.result.fit import Fit, MethodName
 from sescid.estimation.result.records import JointNoise
 from sescid.estimation.solvers.consistent import consistent_from_fit
@@ -39,7 +39,6 @@ from sescid.estimation.solvers.options import (
 )
 from sescid.estimation.solvers.runs import (
     WORSE_THAN_CAD,
-    HeldSource,
     fit_online,
     fit_with_gains,
     run_method,
@@ -118,7 +117,7 @@ def _outlying(fit: Fit, sources) -> bool:
 def _held(robot: Robot, sources, memory: list[Measurements] | None) -> list[Any]:
     """The data as sources: in memory where they are held there, else the sources themselves
     (re-read on each pass)."""
-    return sources if memory is None else [HeldSource(robot, m) for m in memory]
+    return sources if memory is None else [HeldSource(m) for m in memory]
 
 
 def _huber(
@@ -132,24 +131,16 @@ def _huber(
     the data in memory where the method needs them there (cross-validation)."""
     from sescid.estimation.solvers.robust import huber, huber_sources
 
-    def run(data: list[Measurements], weighted: bool) -> Fit:
+    def run_sources(srcs: list[Any], weighted: bool, data=None) -> Fit:
         o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, [HeldSource(robot, m) for m in data], data,
-                          compare=False)  # fmt: skip
+        return run_method(robot, method, o, srcs, data, compare=False)
 
-    def run_sources(srcs: list[Any], weighted: bool) -> Fit:
-        o = dataclasses.replace(opts, robust=False, weighted=weighted)
-        return run_method(robot, method, o, srcs, None, compare=False)
-
+    kw: dict[str, Any] = {"weighted": opts.weighted, "k": opts.huber_k,
+                          "tau_weighted": opts.tau_weighted}  # fmt: skip
     if memory is not None:
-        fit = huber(
-            run, memory, weighted=opts.weighted, k=opts.huber_k, tau_weighted=opts.tau_weighted
-        )
+        fit = huber(lambda d, w: run_sources([HeldSource(m) for m in d], w, d), memory, **kw)
     else:
-        fit = huber_sources(
-            run_sources, sources, weighted=opts.weighted, k=opts.huber_k,
-            tau_weighted=opts.tau_weighted,
-        )  # fmt: skip
+        fit = huber_sources(run_sources, sources, **kw)
     if method.method != "ls":
         return fit
     plain = dataclasses.replace(opts, robust=False)  # least squares judged once, unweighted
@@ -190,10 +181,8 @@ def _joint_noise(
         return sources, memory, opts, (), first, None
     if memory is not None:
         sigma = {r.joint: r.sigma for r in records}
-        memory = [
-            next(JointScaled(HeldSource(robot, x), sigma, opts.weighted).chunks()) for x in memory
-        ]
-        wrapped = [HeldSource(robot, x) for x in memory]
+        memory = [next(JointScaled(HeldSource(x), sigma, opts.weighted).chunks()) for x in memory]
+        wrapped = [HeldSource(x) for x in memory]
     return wrapped, memory, dataclasses.replace(opts, tau_weighted=True), records, last, unit
 
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
+from sescid.estimation.solvers.least_squares import torque_readings
 from sescid.estimation.sums.normal_equations import NormalEquations
 from sescid.estimation.sums.pooled import accumulate_sources
 from sescid.estimation.sums.system import KindSums, Nuisance, RowOptions, System, torque_nuisance
@@ -41,7 +42,7 @@ def _dense_torque_sums(robot: Robot, data, gains, base, options, nuisance, sigma
     index = {n: k for k, n in enumerate(nuisance)}
     size = n_x + len(nuisance)
     ne = NormalEquations.empty(size)
-    mass = robot.total_mass if options.total_mass is None else options.total_mass
+    mass = torque_mass(robot, options)
     for m, p_k in zip(data, base, strict=True):
         if m.tau is None:
             continue
@@ -107,19 +108,6 @@ def torque_mass(robot: Robot, options) -> float:
     return robot.total_mass if options.total_mass is None else float(options.total_mass)
 
 
-def predicted_readings(fit: Fit, m: Measurements) -> np.ndarray:
-    """p(θ) = τ(r) + offset + side·friction (n, J): the reading without its gain."""
-    est = {(e.what, e.name): (e.value if e.determined else 0.0) for e in fit.nuisance
-           if e.kind == TORQUE}  # fmt: skip
-    p = fit.predict_torque(m.q, m.tau_joints, m.gravity)
-    p = p + np.array([est.get(("offset", j), 0.0) for j in m.tau_joints])
-    if m.approach is not None:
-        p = p + m.approach[:, None] * np.array(
-            [est.get(("friction", j), 0.0) for j in m.tau_joints]
-        )
-    return p
-
-
 def with_gains(
     solve, robot: Robot, data: list[Measurements], options, start: Fit, rows: RowOptions
 ) -> Fit:
@@ -130,7 +118,7 @@ def with_gains(
     gains = dict.fromkeys(joints, 0.0)
     fit = start
     for _ in range(GAIN_MAX_ITER):
-        base = [predicted_readings(fit, m) if m.tau is not None else None for m in data]
+        base = [torque_readings(fit, m) if m.tau is not None else None for m in data]
         system = gain_system(robot, data, gains, base, options, _row_noise(fit), rows)
         fit = solve(system)
         new = {e.name: e.value for e in fit.nuisance if e.what == "gain"}
@@ -162,11 +150,3 @@ def _annotate(fit: Fit) -> Fit:
             )
         out.append(e)
     return dataclasses.replace(fit, nuisance=tuple(out))
-
-
-def gain_of(fit: Fit, joint: str) -> float:
-    """The estimated gain γ of a joint's torque sensor (0 when none was estimated)."""
-    for e in fit.nuisance:
-        if e.kind == TORQUE and e.what == "gain" and e.name == joint and e.determined:
-            return e.value
-    return 0.0

@@ -28,6 +28,7 @@ from sescid.estimation.result.identifiability import (
     base_combinations,
     label_columns,
     sparse_terms,
+    structural_count,
     unidentifiable,
 )
 from sescid.estimation.result.records import KindFit, NuisanceEstimate
@@ -240,7 +241,7 @@ def fit_least_squares(
     from noise: the system is solved again with them pinned (``system.pinned``), and the fit
     names them (``Fit.weak``)."""
     theta0 = prior_theta(robot, system, r_prior)
-    count = structural_count(robot, system)
+    count = structural_count(robot, system.kinds) + len(system.nuisance)
     sol = solve_system(
         system, theta0, rtol=rtol, noise=noise, allow_exact=allow_exact, structural=count
     )
@@ -272,35 +273,12 @@ def fit_least_squares(
     return fit
 
 
-def structural_count(robot: Robot, system: System) -> int:
-    """Combinations such data determine on generic poses: the CoP's reduced coordinates (its
-    2 intercepts dropped for torques alone) plus the nuisance columns."""
-    p = robot.reduction.g.shape[0]
-    if COP not in system.kinds:
-        p -= len(robot.reduction.rows)
-    return p + len(system.nuisance)
-
-
 def cop_system(robot: Robot, ne: NormalEquations, weighted: bool = False) -> System:
     """A one-kind system from CoP normal equations over vec(r) (3N)."""
     return System(
         3 * len(robot.body_names), (), {COP: KindSums(COP, ne, weighted)}, robot.total_mass,
         False, ne.n_poses,
     )  # fmt: skip
-
-
-def solve(
-    robot: Robot,
-    ne: NormalEquations,
-    *,
-    rtol: float = DEFAULT_RTOL,
-    r_prior: np.ndarray | None = None,
-    allow_exact: bool = True,
-) -> Fit:
-    """Least-squares Fit from CoP normal equations over vec(r) (no nuisance columns)."""
-    return fit_least_squares(
-        robot, cop_system(robot, ne), rtol=rtol, r_prior=r_prior, allow_exact=allow_exact
-    )
 
 
 def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
@@ -319,17 +297,18 @@ def residuals(fit: Fit, m: Measurements) -> dict[str, np.ndarray]:
     if m.cop is not None:
         out[COP] = m.cop - fit.predict_cop(m.q, m.gravity) - fit.cop_bias
     if m.tau is not None and m.tau_joints:
-        pred = fit.predict_torque(m.q, m.tau_joints, m.gravity)
-        est = {(e.what, e.name): (e.value if e.determined else 0.0) for e in fit.nuisance
-               if e.kind == TORQUE}  # fmt: skip
-        off = np.array([est.get(("offset", j), 0.0) for j in m.tau_joints])
-        reading = pred + off
-        if m.approach is not None:
-            fr = np.array([est.get(("friction", j), 0.0) for j in m.tau_joints])
-            reading = reading + m.approach[:, None] * fr
-        gain = np.array([est.get(("gain", j), 0.0) for j in m.tau_joints])
-        out[TORQUE] = m.tau - reading * (1.0 + gain)
+        gain = fit.torque_nuisance("gain", m.tau_joints)
+        out[TORQUE] = m.tau - torque_readings(fit, m) * (1.0 + gain)
     return out
+
+
+def torque_readings(fit: Fit, m: Measurements) -> np.ndarray:
+    """p(θ) = τ(r) + offset + side·friction (n, J) N·m: the predicted readings without gains."""
+    joints = m.tau_joints
+    p = fit.predict_torque(m.q, joints, m.gravity) + fit.torque_nuisance("offset", joints)
+    if m.approach is not None:
+        p = p + m.approach[:, None] * fit.torque_nuisance("friction", joints)
+    return p
 
 
 def with_residuals(

@@ -98,8 +98,7 @@ WEAK_REASON_MAP = (
 
 def _terms(ne: NormalEquations, x0: np.ndarray):
     b = ne.atb - ne.ata @ x0
-    ztz = ne.yty - 2 * x0 @ ne.atb + x0 @ ne.ata @ x0
-    return b, max(ztz, 0.0)
+    return b, max(ne.rss(x0), 0.0)
 
 
 def log_evidence(ne: NormalEquations, x0: np.ndarray, prior: Prior, tau: float, noise: float):
@@ -246,7 +245,7 @@ def cv_ridge(parts: list[NormalEquations], x0: np.ndarray, unit: np.ndarray, n_p
         for p in parts:
             a, b = total_a - p.ata, total_b - p.atb
             x = x0 + scipy.linalg.solve(a + unit / t**2, b - a @ x0, assume_a="pos")
-            sq += p.yty - 2 * x @ p.atb + x @ p.ata @ x
+            sq += p.rss(x)
         curve.append([float(t), math.sqrt(max(sq, 0.0) / max(rows, 1))])
     best = min(range(len(curve)), key=lambda i: curve[i][1])
     del n_poses

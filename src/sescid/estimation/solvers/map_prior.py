@@ -61,6 +61,14 @@ def _carrying(robot: Robot) -> np.ndarray:
     return np.array([0.0 if b.frame_only else 1.0 for b in robot.model.bodies])
 
 
+def _precision(cov: np.ndarray) -> tuple[np.ndarray, float]:
+    """(Σ₀⁻¹, log det Σ₀⁻¹) of a symmetric prior covariance, its eigenvalues held at least
+    1e-12 of the largest (a direction the prior holds at zero stays all but fixed)."""
+    lam, vecs = np.linalg.eigh(cov)
+    lam = np.maximum(lam, 1e-12 * lam.max())
+    return (vecs / lam) @ vecs.T, float(-np.sum(np.log(lam)))
+
+
 def mass_covariance(m_bar: np.ndarray, fixed_total: bool) -> np.ndarray:
     """(N, N) prior covariance of the mass fractions m/M per unit τ²: each ±m̄ independently,
     conditioned on their sum staying 1 when ``fixed_total`` (Σ − Σ1 1ᵀΣ / 1ᵀΣ1). The SESC
@@ -91,11 +99,7 @@ def body_prior(
     k_m, k_h = k[:, :nb], k[:, nb:]
     d_h = np.repeat((BODY_COM_SCALE * m_bar / H_UNIT) ** 2, 3)
     sigma0 = k_m @ mass_covariance(m_bar, fixed_total) @ k_m.T + (k_h * d_h) @ k_h.T
-    sigma0 = (sigma0 + sigma0.T) / 2
-    lam, vecs = np.linalg.eigh(sigma0)
-    lam = np.maximum(lam, 1e-12 * lam.max())
-    precision = (vecs / lam) @ vecs.T
-    return Prior(n_x, nuisance_scales, precision, float(-np.sum(np.log(lam))), "bodies")
+    return Prior(n_x, nuisance_scales, *_precision((sigma0 + sigma0.T) / 2), "bodies")
 
 
 #: relative prior variance below which a direction of vec(r) is out of the prior's reach
@@ -124,10 +128,8 @@ def decoupled(prior: Prior, seen: np.ndarray) -> Prior:
     # body, which no mass of the file can give) stays at zero when split
     reach = v[:, 1.0 / w > OUT_OF_REACH * (1.0 / w).max()]
     cov = reach @ (reach.T @ split @ reach) @ reach.T
-    lam, vecs = np.linalg.eigh((cov + cov.T) / 2)
-    lam = np.maximum(lam, 1e-12 * lam.max())
-    precision = (vecs / lam) @ vecs.T
-    return dataclasses.replace(prior, x_precision=precision, x_logdet=float(-np.sum(np.log(lam))))
+    precision, logdet = _precision((cov + cov.T) / 2)
+    return dataclasses.replace(prior, x_precision=precision, x_logdet=logdet)
 
 
 def pooled_body_prior(robot: Robot, nuisance_scales: np.ndarray, fixed_total: bool = True) -> Prior:
@@ -145,12 +147,7 @@ def pooled_body_prior(robot: Robot, nuisance_scales: np.ndarray, fixed_total: bo
     cov = np.zeros((4 * nb, 4 * nb))
     cov[:nb, :nb] = mass_covariance(m_bar, fixed_total)
     cov[nb:, nb:] = np.diag(np.repeat((BODY_COM_SCALE * m_bar / PARAM_UNIT) ** 2, 3))
-    lam, vecs = np.linalg.eigh(cov)
-    lam = np.maximum(lam, 1e-12 * lam.max())
-    return Prior(
-        cov.shape[0], nuisance_scales, (vecs / lam) @ vecs.T, float(-np.sum(np.log(lam))),
-        "bodies",
-    )  # fmt: skip
+    return Prior(cov.shape[0], nuisance_scales, *_precision(cov), "bodies")
 
 
 def system_prior(

@@ -147,7 +147,7 @@ class OnlineEstimator:
             return math.inf
         x0 = self.r_prior.reshape(-1)
         c = vp.T @ (self.ne.atb - self.ne.ata @ x0)
-        ztz = self.ne.yty - 2 * x0 @ self.ne.atb + x0 @ self.ne.ata @ x0
+        ztz = self.ne.rss(x0)
         return math.sqrt(max(ztz - np.sum(c**2 / lam), 0.0) / dof)
 
     def _converged(self, n: int, std: float) -> bool:

@@ -37,7 +37,7 @@ from sescid.base import G0
 from sescid.errors import DataError, ModelError, OptionError
 from sescid.estimation.data.measurements import Measurements
 from sescid.estimation.result.fit import Fit
-from sescid.estimation.result.identifiability import DEFAULT_RTOL
+from sescid.estimation.result.identifiability import DEFAULT_RTOL, basis_of
 from sescid.estimation.result.payload_record import PayloadFit, PayloadKind
 from sescid.estimation.result.records import KindFit, NuisanceEstimate
 from sescid.estimation.solvers.payload_rows import (
@@ -322,11 +322,9 @@ def payload_fit(robot: Robot, data: list[Measurements], opts: PayloadOptions,
     seen = jr[:, ~lost]
     span = np.hstack([b0, seen])
     if gone.size:
-        u, s, _ = np.linalg.svd(gone, full_matrices=False)
-        u = u[:, s > 1e-12 * max(s.max(), 1e-300)]
+        u = basis_of(gone, 1e-12)
         span = span - u @ (u.T @ span)
-    uu, ss, _ = np.linalg.svd(span, full_matrices=False)
-    basis = uu[:, ss > 1e-9 * max(float(ss.max()) if ss.size else 0.0, 1e-300)]
+    basis = basis_of(span, 1e-9)
     kfits = tuple(
         KindFit(k.kind, k.n_rows, record.n_poses, k.sigma, k.sigma_by, k.dof, k.rms,
                 math.nan, False, UNITS[k.kind])

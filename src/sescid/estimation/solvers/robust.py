@@ -28,6 +28,7 @@ import numpy as np
 from sescid.base.spill import Spill, median
 from sescid.errors import SescidError
 from sescid.estimation.data.measurements import Measurements
+from sescid.estimation.data.sources import HeldSource
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.records import JointNoiseEffect, RobustInfo
 from sescid.estimation.solvers.least_squares import residuals
@@ -208,37 +209,15 @@ def huber_sources(
 
 
 def huber(
-    run: Callable[[list[Measurements], bool], Fit],
-    data: list[Measurements],
-    *,
-    weighted: bool = False,
-    k: float = HUBER_K,
-    max_iter: int = 50,
-    tol: float = 1e-4,
-    tau_weighted: bool | None = None,
+    run: Callable[[list[Measurements], bool], Fit], data: list[Measurements], **options
 ) -> Fit:
     """Huber IRLS around a fitting method ``run(data, weighted)`` on data in memory
-    (``huber_sources``, each data set one chunk)."""
+    (``huber_sources`` with its keyword ``options``, each data set one chunk)."""
 
     def run_held(sources: list[Any], w: bool) -> Fit:
         return run([m for src in sources for m in src.chunks()], w)
 
-    held = [_Held(m) for m in data]
-    return huber_sources(
-        run_held, held, weighted=weighted, k=k, max_iter=max_iter, tol=tol,
-        tau_weighted=tau_weighted,
-    )  # fmt: skip
-
-
-class _Held:
-    """Measurements in memory as a source of one chunk."""
-
-    def __init__(self, m: Measurements):
-        self.m, self.name = m, m.source
-
-    def chunks(self) -> Iterator[Measurements]:
-        """The data, as one chunk."""
-        yield self.m
+    return huber_sources(run_held, [HeldSource(m) for m in data], **options)
 
 
 def _with_errors(m: Measurements, base, w, scale) -> Measurements:

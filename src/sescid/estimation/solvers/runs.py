@@ -15,7 +15,7 @@ import numpy as np
 from sescid.errors import OptionError
 from sescid.estimation.data.checks import check_total_mass, fit_warnings
 from sescid.estimation.data.measurements import Measurements
-from sescid.estimation.data.sources import StreamSource
+from sescid.estimation.data.sources import HeldSource, StreamSource
 from sescid.estimation.result.fit import Fit
 from sescid.estimation.result.validation import folds as split_folds
 from sescid.estimation.solvers.consistent import consistent_from_fit
@@ -45,23 +45,9 @@ def make_fitter(robot: Robot, method: MethodOptions, options: IdentifyOptions) -
     """The function data → Fit that ``identify`` runs for ``method`` (robust excluded)."""
 
     def fitter(data: list[Measurements]) -> Fit:
-        return run_method(robot, method, options, [HeldSource(robot, m) for m in data], data)
+        return run_method(robot, method, options, [HeldSource(m) for m in data], data)
 
     return fitter
-
-
-class HeldSource:
-    """Validated measurements as a source (no second validation)."""
-
-    def __init__(self, robot: Robot, m: Measurements):
-        self.data, self.name = m, m.source
-
-    def chunks(self):
-        """The data, as one chunk."""
-        yield self.data
-
-    def close(self) -> None:
-        """Nothing to release."""
 
 
 def run_method(
@@ -359,13 +345,11 @@ def with_extras(
 
     def fitter(data: list[Measurements]) -> Fit:
         if opts.robust is not True:
-            return run_method(robot, method, plain, [HeldSource(robot, m) for m in data], data)
-
-        def run(d: list[Measurements], weighted: bool) -> Fit:
-            o = dataclasses.replace(plain, weighted=weighted)
-            return run_method(robot, method, o, [HeldSource(robot, m) for m in d], d)
-
-        return huber(run, data, weighted=opts.weighted, k=opts.huber_k)
+            return make_fitter(robot, method, plain)(data)
+        return huber(
+            lambda d, w: make_fitter(robot, method, dataclasses.replace(plain, weighted=w))(d),
+            data, weighted=opts.weighted, k=opts.huber_k,
+        )  # fmt: skip
 
     changes: dict[str, Any] = {}
     if opts.cv is not None:
@@ -384,7 +368,7 @@ def fit_with_gains(robot: Robot, method: MethodOptions, opts: IdentifyOptions, m
     if not any(m.tau is not None for m in memory):
         raise OptionError("tau_gains", "torque gains need torque data (tau_<joint> columns)")
     plain = dataclasses.replace(opts, robust=False, tau_gains=False)
-    start = run_method(robot, method, plain, [HeldSource(robot, m) for m in memory], memory)
+    start = run_method(robot, method, plain, [HeldSource(m) for m in memory], memory)
 
     def solve(system: System) -> Fit:
         if isinstance(method, MapOptions):

@@ -26,9 +26,8 @@ from sescid.errors import DataError
 from sescid.estimation.result.identifiability import (
     DEFAULT_RTOL,
     check_rtol,
-    eigen_descending,
+    eigen_rank,
     poses_needed,
-    rank_of,
 )
 from sescid.estimation.result.records import NoiseSource
 from sescid.estimation.sums.normal_equations import NormalEquations
@@ -94,13 +93,8 @@ def weighted_sums(system: System, noise: dict[Kind, float]) -> NormalEquations:
     return out
 
 
-def _rss(ne: NormalEquations, theta: np.ndarray) -> float:
-    return max(ne.yty - 2 * theta @ ne.atb + theta @ ne.ata @ theta, 0.0)
-
-
 def _estimate(ne: NormalEquations, theta0: np.ndarray, rtol: float):
-    lam, vecs = eigen_descending(ne.ata)
-    p = rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    lam, vecs, p = eigen_rank(ne.ata, rtol)
     vp, lp = vecs[:, :p], lam[:p]
     theta = theta0 + vp @ ((vp.T @ (ne.atb - ne.ata @ theta0)) / lp)
     return theta, lam, vecs, p
@@ -142,7 +136,7 @@ def solve_system(
             if k not in given and share[k] > 0:
                 part = system.parts[k].ne
                 floor = NOISE_FLOOR * math.sqrt(part.yty / max(part.n_rows, 1))
-                new[k] = max(math.sqrt(_rss(part, theta) / share[k]), floor) or sigma[k]
+                new[k] = max(math.sqrt(max(part.rss(theta), 0.0) / share[k]), floor) or sigma[k]
         done = all(abs(new[k] - sigma[k]) <= VCE_TOL * sigma[k] for k in kinds)
         sigma = new
         if done:
@@ -160,9 +154,9 @@ def solve_system(
             "exact fit: "
             "allow_exact / --allow-exact)"
         )
-    rss = {k: _rss(system.parts[k].ne, theta) for k in kinds}
+    rss = {k: max(system.parts[k].ne.rss(theta), 0.0) for k in kinds}
     shares = _dof_shares(system, sigma, lam, vecs, p) if len(kinds) > 1 else {kinds[0]: dof_total}
-    scale = math.sqrt(_rss(ne, theta) / dof_total) if dof_total > 0 else math.nan
+    scale = math.sqrt(max(ne.rss(theta), 0.0) / dof_total) if dof_total > 0 else math.nan
     noise_out: dict[Kind, float] = {}
     noise_by: dict[Kind, NoiseSource] = {}
     for k in kinds:
@@ -192,7 +186,7 @@ def solve_system(
         n_rows=n_rows,
         scale=scale
         if not known
-        else (math.sqrt(_rss(ne, theta) / dof_total) if dof_total > 0 else math.nan),
+        else (math.sqrt(max(ne.rss(theta), 0.0) / dof_total) if dof_total > 0 else math.nan),
         noise=noise_out,
         noise_by=noise_by,
         dof=shares,
@@ -219,5 +213,4 @@ def marginal_x(sol: Solution, n_x: int, rtol: float):
     a = sol.ata
     axx, axn, ann = a[:n_x, :n_x], a[:n_x, n_x:], a[n_x:, n_x:]
     schur = axx - axn @ np.linalg.pinv(ann, rcond=1e-12, hermitian=True) @ axn.T
-    lam, vecs = eigen_descending((schur + schur.T) / 2)
-    return lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    return eigen_rank((schur + schur.T) / 2, rtol)

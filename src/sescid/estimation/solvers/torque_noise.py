@@ -30,7 +30,7 @@ import dataclasses
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Any, Literal
 
 import numpy as np
 
@@ -44,7 +44,6 @@ from sescid.kinds import TORQUE
 
 #: how the torque rows' noise is modelled: one σ_j per joint (feasible GLS) or one shared σ
 TorqueNoiseModel = Literal["joint", "shared"]
-TORQUE_NOISE_MODELS: tuple[TorqueNoiseModel, ...] = get_args(TorqueNoiseModel)
 #: reweighting passes stop when every σ_j changed by less than this (relative) …
 GLS_TOL = 0.05
 #: … or after this many passes

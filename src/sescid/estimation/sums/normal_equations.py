@@ -66,6 +66,11 @@ class NormalEquations:
         self.yty += other.yty
         self.n_rows += other.n_rows
 
+    def rss(self, theta: np.ndarray) -> float:
+        """yᵀWy − 2θᵀΦᵀWy + θᵀΦᵀWΦθ: the weighted residual sum of squares at θ (from the sums
+        alone; round-off may leave it slightly negative)."""
+        return float(self.yty - 2 * theta @ self.atb + theta @ self.ata @ theta)
+
 
 def add_columns(
     acc: NormalEquations, x: np.ndarray, y: np.ndarray, sw: np.ndarray | None, kernels: bool

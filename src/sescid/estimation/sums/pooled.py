@@ -30,12 +30,11 @@ import numpy as np
 from sescid.errors import DataError
 from sescid.estimation.result.identifiability import (
     base_combinations,
-    eigen_descending,
+    eigen_rank,
     label_columns,
-    rank_of,
 )
 from sescid.estimation.solvers.solve import Solution, marginal_x
-from sescid.estimation.sums.normal_equations import NormalEquations, matmul_fixed
+from sescid.estimation.sums.normal_equations import expand
 from sescid.estimation.sums.system import Accumulator, KindSums, RowOptions, System
 from sescid.kinds import TORQUE
 from sescid.robot import Robot
@@ -75,14 +74,11 @@ def lift(system: System, lmap: np.ndarray) -> System:
     t = np.zeros((system.n_x + k, n_x + k))
     t[: system.n_x, :n_x] = lmap
     t[system.n_x :, n_x:] = np.eye(k)
-    tt = np.ascontiguousarray(t.T)
     parts = {}
     for kind, part in system.parts.items():
-        ne = part.ne
-        ata = matmul_fixed(matmul_fixed(tt, ne.ata), t)
-        ne2 = NormalEquations((ata + ata.T) / 2, matmul_fixed(tt, ne.atb), ne.yty, ne.n_rows,
-                              ne.n_poses)  # fmt: skip
-        parts[kind] = KindSums(part.kind, ne2, part.weighted)
+        ata, atb = expand(t, part.ne)
+        ne = dataclasses.replace(part.ne, ata=(ata + ata.T) / 2, atb=atb)
+        parts[kind] = KindSums(part.kind, ne, part.weighted)
     return dataclasses.replace(system, n_x=n_x, parts=parts, space="bodies", stances={})
 
 
@@ -199,8 +195,7 @@ def _seen_through(t: np.ndarray, unseen: np.ndarray, ainv: np.ndarray, rtol: flo
     core = g.T @ t @ ainv @ t.T @ g
     ata = g @ np.linalg.pinv((core + core.T) / 2, hermitian=True) @ g.T
     ata = (ata + ata.T) / 2
-    lam, vecs = eigen_descending(ata)
-    return ata, lam, vecs, rank_of(np.sqrt(np.clip(lam, 0, None)), rtol)
+    return ata, *eigen_rank(ata, rtol)
 
 
 def view(sol: Solution, lmap: np.ndarray, n_x: int, rtol: float) -> Solution:
@@ -242,8 +237,7 @@ def body_fit(robot: Robot, system: System, sol: Solution, x: np.ndarray, cov: np
             ann = a[n_x:, n_x:]
             coupled = a[:n_x, n_x:] @ np.linalg.pinv(ann, hermitian=True) @ a[n_x:, :n_x]
             a = a[:n_x, :n_x] - coupled
-        w, v = eigen_descending((a + a.T) / 2)
-        r = rank_of(np.sqrt(np.clip(w, 0, None)), rtol)
+        _, v, r = eigen_rank((a + a.T) / 2, rtol)
         ranges.append(v[:, :r])
         rows = sum(ks.ne.n_rows for ks in part.parts.values())
         stances.append(StanceRank(support, part.n_poses, rows, r))

@@ -48,14 +48,6 @@ class ResidualSums:
         self.count[kind] = self.count.get(kind, 0) + n
 
 
-def _torque_nuisance(fit: Fit, m: Measurements) -> tuple[np.ndarray, np.ndarray]:
-    est = {(e.what, e.name): (e.value if e.determined else 0.0) for e in fit.nuisance
-           if e.kind == TORQUE}  # fmt: skip
-    off = np.array([est.get(("offset", j), 0.0) for j in m.tau_joints])
-    fr = np.array([est.get(("friction", j), 0.0) for j in m.tau_joints])
-    return off, fr
-
-
 def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, float, float, int]]:
     """(kind, Σ|e|, Σe², rows) of one block, and ("truth", 0, Σd², rows) for a simulation;
     a block of another stance (``Measurements.stance_on``) with the fit seen there."""
@@ -90,7 +82,7 @@ def block_sums(fit: Fit, m: Measurements, kernels: bool) -> list[tuple[str, floa
         if m.cop_true is not None:
             out.append(("truth", 0.0, float(sums[2]), 2 * m.n))
     if m.tau is not None and m.tau_joints:
-        off, fr = _torque_nuisance(fit, m)
+        off, fr = (fit.torque_nuisance(w, m.tau_joints) for w in ("offset", "friction"))
         if kernels and m.gravity is None:
             mass = fit.total_mass if math.isfinite(fit.total_mass) else fit.robot.total_mass
             sums = torque_residual_sums(

@@ -156,13 +156,9 @@ class System:
             mine = parts[kind]
             if mine.weighted != part.weighted:
                 raise DataError(f"pooled {kind} data are weighted in one source only")
-            ne = NormalEquations(
-                mine.ne.ata + part.ne.ata,
-                mine.ne.atb + part.ne.atb,
-                mine.ne.yty + part.ne.yty,
-                mine.ne.n_rows + part.ne.n_rows,
-                mine.ne.n_poses + part.ne.n_poses,
-            )
+            ne = NormalEquations(mine.ne.ata.copy(), mine.ne.atb.copy(), mine.ne.yty,
+                                 mine.ne.n_rows, mine.ne.n_poses + part.ne.n_poses)  # fmt: skip
+            ne.add_sums(part.ne)
             parts[kind] = dataclasses.replace(mine, ne=ne)
         distinct = (
             None
@@ -310,18 +306,14 @@ class Accumulator:
         """The compiled passes' raw accumulators, read once: into the reduced sums."""
         tree, p = self.robot.tree, self.p_red
         if self.cop_raw is not None:
-            ata, atb, yty = reduced_order(self.cop_raw, tree, len(self.robot.reduction.rows), p)
-            self.cop_red.ata += ata
-            self.cop_red.atb += atb
-            self.cop_red.yty += yty
+            sums = reduced_order(self.cop_raw, tree, len(self.robot.reduction.rows), p)
+            self.cop_red.add_sums(NormalEquations(*sums))
             self.cop_raw = None
         if self.tau_raw is not None:
             assert self.maker is not None and self.maker.plan is not None
-            ata, atb, yty = fold_torque(self.tau_raw, self.maker.plan, p)
-            t = self._torque_sums()
-            t.ata += ata
-            t.atb += atb
-            t.yty += yty
+            self._torque_sums().add_sums(
+                NormalEquations(*fold_torque(self.tau_raw, self.maker.plan, p))
+            )
             self.tau_raw = None
 
     def finish(self) -> System:
@@ -395,7 +387,7 @@ def pinned_system(system: System, directions: np.ndarray, theta0: np.ndarray) ->
         ata = proj @ ne.ata @ proj
         ata = (ata + ata.T) / 2
         atb = proj @ (ne.atb - ne.ata @ theta0) + ata @ theta0
-        rss0 = float(ne.yty - 2 * theta0 @ ne.atb + theta0 @ ne.ata @ theta0)
+        rss0 = ne.rss(theta0)
         yty = rss0 + 2 * theta0 @ atb - theta0 @ ata @ theta0
         new = NormalEquations(ata, atb, yty, ne.n_rows, ne.n_poses)
         parts[kind] = dataclasses.replace(part, ne=new)
