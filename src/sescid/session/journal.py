@@ -16,7 +16,6 @@ journal of other settings is refused in one line saying what to do.
 from __future__ import annotations
 
 import json
-import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,24 +24,10 @@ from typing import Any
 import numpy as np
 
 from sescid.errors import DataError
+from sescid.estimation.result.records import json_ready
 
 JOURNAL_FORMAT = "sescid-session-journal/1"
 JOURNAL_NAME = "journal.jsonl"
-
-
-def _plain(v: Any) -> Any:
-    """JSON-able copy of options / columns (arrays as lists, non-finite floats as None)."""
-    if isinstance(v, np.ndarray):
-        return _plain(v.tolist())
-    if isinstance(v, dict):
-        return {str(k): _plain(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_plain(x) for x in v]
-    if isinstance(v, float | np.floating):
-        return float(v) if math.isfinite(v) else None
-    if isinstance(v, np.integer):
-        return int(v)
-    return v
 
 
 @dataclass(frozen=True)
@@ -88,13 +73,13 @@ class Journal:
         except OSError as exc:
             raise DataError(f"{folder}: cannot create the output folder ({exc.strerror})") from None
         path = folder / JOURNAL_NAME
-        head = _plain(header) | {"format": JOURNAL_FORMAT}
+        head = json_ready(header) | {"format": JOURNAL_FORMAT}
         if path.exists() and not restart:
             old, complete = cls._read(path)
             if old.entries or old.finished:  # else nothing was measured: start afresh
                 was = old.header
                 if defaults is not None and isinstance(was.get("options"), dict):
-                    was = was | {"options": _plain(defaults) | was["options"]}
+                    was = was | {"options": json_ready(defaults) | was["options"]}
                 if was != head:
                     diff = sorted(k for k in head if was.get(k) != head.get(k))
                     raise DataError(
@@ -163,9 +148,9 @@ class Journal:
 
     def append(self, entry: JournalEntry) -> None:
         """Write one pose's record (synced to disk before the session goes on)."""
-        rec = {"pose": entry.pose, "q": _plain(entry.q), "why": entry.why}
+        rec = {"pose": entry.pose, "q": json_ready(entry.q), "why": entry.why}
         if entry.columns is not None:
-            rec["columns"] = _plain(entry.columns)
+            rec["columns"] = json_ready(entry.columns)
         self._write(rec)
         self.entries.append(entry)
 
