@@ -10,10 +10,10 @@ from sescid import kinematics
 from sescid import planning as design
 from sescid.errors import DataError
 from sescid.planning.feasibility.collision import collision_capsules, collision_free_mask
+from sescid.planning.feasibility.ground import ground_clear
 from sescid.planning.feasibility.stability import (
     DEFAULT_CLEARANCE,
     coarse_cop_tree,
-    ground_clear_mask,
     stable_mask,
     stable_subset,
 )
@@ -54,7 +54,7 @@ def test_uniform_candidates_equal_the_plain_checks(op2):
     q, cop = q[ok], cop[ok]
     cap = collision_capsules(op2)
     rot, org = op2.forward(q)
-    g = ground_clear_mask(op2, q, cap, rot, org, DEFAULT_CLEARANCE)
+    g = ground_clear(op2, cap, rot, org, DEFAULT_CLEARANCE)
     f = collision_free_mask(cap, rot[g], org[g])
     assert cand.n_sampled == 100_000 and cand.n_free == f.sum() > n
     assert np.array_equal(cand.q, q[g][f][:n]) and np.array_equal(cand.cop, cop[g][f][:n])

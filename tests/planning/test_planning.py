@@ -22,7 +22,8 @@ from sescid.planning.feasibility.collision import (
     first_contact,
     segment_distance,
 )
-from sescid.planning.feasibility.stability import ground_clear_mask, sole_corners, stable_mask
+from sescid.planning.feasibility.ground import free_sole_corners, ground_clear
+from sescid.planning.feasibility.stability import stable_mask
 from sescid.planning.ordering import order_poses, path_length
 from sescid.robots import MX28
 from sescid.tables import read_poses, read_table
@@ -122,20 +123,20 @@ def test_support_polygon_margin_shrinks_the_op2_sole(op2):
 def test_free_sole_clearance_closed_form(op2):
     cap = design.collision_capsules(op2)
     q0 = np.zeros((1, op2.nq))
-    np.testing.assert_allclose(
-        sole_corners(op2, q0, "l_sole", op2.profile.sole_size)[0, :, 2], 0.0, atol=1e-12
-    )
     rot, org = op2.forward(q0)
-    assert not ground_clear_mask(op2, q0, cap, rot, org, 0.005)[0]
+    np.testing.assert_allclose(
+        free_sole_corners(op2, rot, org, op2.profile.sole_size)[0, :, 2], 0.0, atol=1e-12
+    )
+    assert not ground_clear(op2, cap, rot, org, 0.005)[0]
     # lift the left foot, sole kept level: hip flexion 0.5, knee flexion 1.0, ankle -0.5
     q = q0.copy()
     j = op2.joint_names.index
     q[0, j("l_hip_pitch")], q[0, j("l_knee")], q[0, j("l_ank_pitch")] = 0.5, -1.0, -0.5
-    z = sole_corners(op2, q, "l_sole", op2.profile.sole_size)[0, :, 2]
-    np.testing.assert_allclose(z, 2 * 0.093 * (1 - math.cos(0.5)), atol=1e-12)
     rot, org = op2.forward(q)
-    assert ground_clear_mask(op2, q, cap, rot, org, 0.005)[0]
-    assert not ground_clear_mask(op2, q, cap, rot, org, 0.03)[0]
+    z = free_sole_corners(op2, rot, org, op2.profile.sole_size)[0, :, 2]
+    np.testing.assert_allclose(z, 2 * 0.093 * (1 - math.cos(0.5)), atol=1e-12)
+    assert ground_clear(op2, cap, rot, org, 0.005)[0]
+    assert not ground_clear(op2, cap, rot, org, 0.03)[0]
 
 
 # --- collisions --------------------------------------------------------------------------------
@@ -228,7 +229,7 @@ def test_other_urdf_uses_its_own_boxes_cylinders_spheres(tmp_path):
     rot, org = robot.forward(q)
     np.testing.assert_array_equal(design.collision_free_mask(cap, rot, org), [True, False])
     # the sphere at the tip of l2 (0.02 m) is 0.65 m above ground when straight, below when folded
-    clear = ground_clear_mask(robot, q, cap, rot, org, 0.005)
+    clear = ground_clear(robot, cap, rot, org, 0.005)
     np.testing.assert_array_equal(clear, [True, False])
 
 

@@ -23,13 +23,13 @@ from sescid.kinematics import cop_xy, reducible
 from sescid.planning.feasibility.collision import Capsules, collision_capsules
 from sescid.planning.feasibility.com import com_state
 from sescid.planning.feasibility.compliance import Compliance, compliant_margin
+from sescid.planning.feasibility.ground import ground_clear
 from sescid.planning.feasibility.limits import sampling_limits
 from sescid.planning.feasibility.stability import (
     DEFAULT_CLEARANCE,
     coarse_screen_tree,
     cop_centre,
     cop_half_extents,
-    ground_clear_mask,
     inside_box,
     stable_subset,
 )
@@ -168,7 +168,7 @@ class _Run:
         if len(q):
             rot, org = self.robot.forward(q)
             clearance, sole_size = self.opt.clearance, self.opt.sole_size
-            g = ground_clear_mask(self.robot, q, self.cap, rot, org, clearance, sole_size)
+            g = ground_clear(self.robot, self.cap, rot, org, clearance, sole_size)
             q, cop, rot, org = q[g], cop[g], rot[g], org[g]
             self.counts[3] += len(q)
             f = collision_free_mask_broad(self.cap, rot, org)

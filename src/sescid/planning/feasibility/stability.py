@@ -13,11 +13,9 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from sescid.errors import SescidError
 from sescid.kinematics import Tree, cop_xy, reducible
-from sescid.planning.feasibility.collision import Capsules
 from sescid.robot import Robot
 
 #: m, CoP box half-width for a robot whose profile gives neither a CoP box nor a sole size
@@ -191,28 +189,3 @@ def free_sole(robot: Robot) -> str | None:
     ``Robot.free_sole``), or None if not known."""
     sole = robot.free_sole
     return None if sole is None else sole.link
-
-
-def sole_corners(robot: Robot, q: ArrayLike, sole: str, sole_size: ArrayLike) -> np.ndarray:
-    """(n, 4, 3) corners [m] of the sole rectangle of frame ``sole`` in the support frame."""
-    rot, pos = robot.link_poses(q, sole)
-    hx, hy = np.asarray(sole_size, dtype=float) / 2
-    local = np.array([[hx, hy, 0.0], [hx, -hy, 0.0], [-hx, hy, 0.0], [-hx, -hy, 0.0]])
-    return pos[:, None, :] + np.einsum("nij,cj->nci", rot, local)
-
-
-def ground_clear_mask(
-    robot: Robot,
-    q: np.ndarray,
-    cap: Capsules,
-    rot: np.ndarray,
-    org: np.ndarray,
-    clearance: float,
-    sole_size: ArrayLike | None = None,
-) -> np.ndarray:
-    """(n,) True where every checked body is above the floor and the free sole's corners
-    (``Robot.free_sole``; ``sole_size`` overrides a profile sole's size) above ``clearance``
-    [m]. What is checked: ``ground.ground_checks``."""
-    from sescid.planning.feasibility.ground import ground_clear
-
-    return ground_clear(robot, cap, rot, org, clearance, sole_size)
