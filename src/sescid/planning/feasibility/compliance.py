@@ -156,23 +156,24 @@ def generic_contact_stiffness(contacts: np.ndarray, weight: float, h: float) -> 
     return k, how
 
 
-def dynamic_cop(model: Compliance, st: ComState) -> np.ndarray:
-    """(n, 2) the dynamic CoP e_dyn [m] (see the module docstring); nan where the pose has no
-    stable equilibrium on the contacts (K − W h not positive definite)."""
+def dynamic_cop(model: Compliance, st: ComState, contacts: np.ndarray | None = None) -> np.ndarray:
+    """(n, 2) the dynamic CoP e_dyn [m] (see the module docstring) on ``contacts`` (n, k, 2)
+    [m] (default ``model.contacts``); nan where the pose has no stable equilibrium on the
+    contacts (K − W h not positive definite)."""
     c, jac, w = st.com, st.jac, model.weight
     dq = jac[:, 2, :] * (-w / model.kp)  # (n, nq) sag
     cs = c[:, :2] + np.stack([np.sum(jac[:, i, :] * dq, axis=1) for i in range(2)], axis=1)
-    d = model.contacts - model.contacts.mean(axis=0)
+    p = model.contacts[None] if contacts is None else contacts
+    mean = p.mean(axis=1)
+    d = p - mean[:, None, :]
     k = model.contact_stiffness
-    kxx, kxy, kyy = (
-        k * np.sum(d[:, 0] ** 2),
-        k * np.sum(d[:, 0] * d[:, 1]),
-        k * np.sum(d[:, 1] ** 2),
-    )
+    kxx = k * np.sum(d[..., 0] ** 2, axis=1)
+    kxy = k * np.sum(d[..., 0] * d[..., 1], axis=1)
+    kyy = k * np.sum(d[..., 1] ** 2, axis=1)
     h = c[:, 2] - model.floor
     a, bb, cc = kxx - w * h, kxy, kyy - w * h  # K − W h, symmetric 2 × 2
     det = a * cc - bb * bb
-    rx, ry = (cs - model.contacts.mean(axis=0)).T * w
+    rx, ry = ((cs - mean) * w).T
     with np.errstate(divide="ignore", invalid="ignore"):
         ux = (cc * rx - bb * ry) / det
         uy = (a * ry - bb * rx) / det

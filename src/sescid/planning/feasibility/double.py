@@ -57,9 +57,9 @@ from sescid.planning.feasibility.collision import Capsules, collision_capsules
 from sescid.planning.feasibility.com import com_state, level_cop
 from sescid.planning.feasibility.compliance import (
     BACKLASH_SIGMAS,
-    DYNAMIC_FACTOR,
     EDGE_MARGIN,
     Compliance,
+    dynamic_cop,
 )
 from sescid.planning.feasibility.ground import beyond_free_foot, clear_above, ground_checks
 from sescid.planning.feasibility.limits import sampling_limits
@@ -133,31 +133,13 @@ def hull_margin(points: np.ndarray, x: np.ndarray, shrink=None) -> np.ndarray:
     return d.min(axis=1)
 
 
-def double_margin(
-    model: Compliance, st, contacts: np.ndarray, com: np.ndarray | None = None
-) -> np.ndarray:
+def double_margin(model: Compliance, st, contacts: np.ndarray) -> np.ndarray:
     """(n,) the compliant margin [m] of poses on both feet: the dynamic CoP (``compliance``'s
     sag, tilt on the contacts (n, k, 2) [m] of both feet, overshoot) inside their convex hull
     less ``BACKLASH_SIGMAS`` standard deviations of the backlash's CoM shift along each edge's
     normal and ``EDGE_MARGIN``; −inf where the pose has no stable equilibrium on them."""
-    c, jac, w = st.com if com is None else com, st.jac, model.weight
-    dq = jac[:, 2, :] * (-w / model.kp)
-    cs = c[:, :2] + np.stack([np.sum(jac[:, i, :] * dq, axis=1) for i in range(2)], axis=1)
-    mean = contacts.mean(axis=1)
-    d = contacts - mean[:, None, :]
-    k = model.contact_stiffness
-    kxx = k * np.sum(d[..., 0] ** 2, axis=1)
-    kxy = k * np.sum(d[..., 0] * d[..., 1], axis=1)
-    kyy = k * np.sum(d[..., 1] ** 2, axis=1)
-    h = c[:, 2] - model.floor
-    a, bb, cc = kxx - w * h, kxy, kyy - w * h
-    det = a * cc - bb * bb
-    rx, ry = ((cs - mean) * w).T
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (cc * rx - bb * ry) / det
-        uy = (a * ry - bb * rx) / det
-    e = cs + np.stack([ux, uy], axis=1) * h[:, None]
-    e_dyn = c[:, :2] + DYNAMIC_FACTOR * (e - c[:, :2])
+    jac = st.jac
+    e_dyn = dynamic_cop(model, st, contacts)
     sigma = BACKLASH_SIGMAS * model.backlash / math.sqrt(3)
 
     def shrink(u: np.ndarray) -> np.ndarray:  # (n, E, 2) normals → (n, E) m
@@ -165,8 +147,7 @@ def double_margin(
         return sigma * np.sqrt(np.sum(along * along, axis=2)) + EDGE_MARGIN
 
     out = hull_margin(contacts, e_dyn, shrink)
-    stable = (a > 0) & (det > 0) & np.isfinite(out)
-    return np.where(stable, out, -np.inf)
+    return np.where(np.isfinite(out), out, -np.inf)
 
 
 def rigid_pairs(robot: Robot, loop: Loop, cap: Capsules) -> Capsules | None:
