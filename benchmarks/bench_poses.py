@@ -46,7 +46,8 @@ from sescid import planning as design
 from sescid.errors import SescidError
 from sescid.planning.design.blocks import select_blocks
 from sescid.planning.design.doptimal import per_row_information, select_d_optimal
-from sescid.planning.design.engine import cop_block_rows, expected_error, random_errors
+from sescid.planning.design.engine import expected_error, random_errors
+from sescid.planning.design.kinds import BlockRows
 from sescid.simulation import PAPER_NOISE
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "helpers"))
@@ -184,8 +185,8 @@ def op2_pool(repeat: int, n: int = 100_000, k: int = 38, subset: int = 1_000) ->
     t = time.perf_counter()
     naive_greedy(a[:subset], k)
     t_naive = (time.perf_counter() - t) * n / subset
-    err = expected_error(cop_block_rows(a), sel.index, c, PAPER_NOISE)
-    rand = np.median(random_errors(cop_block_rows(a), k, c, 50, 0, PAPER_NOISE))
+    err = expected_error(BlockRows.plain(a), sel.index, c, PAPER_NOISE)
+    rand = np.median(random_errors(BlockRows.plain(a), k, c, 50, 0, PAPER_NOISE))
     print(f"3. OP2: {k} poses from {n} candidates (p = {basis.shape[1]}), best of {repeat}")
     print(f"   candidates: {cand.summary()}")
     print(f"   generate candidates          {t_cand:7.2f} s (CPU {c_cand:.2f} s)")

@@ -21,11 +21,11 @@ from sescid.planning.design.blocks import select_blocks
 from sescid.planning.design.doptimal import select_d_optimal
 from sescid.planning.design.engine import (
     choose,
-    cop_block_rows,
     expected_error,
     random_errors,
     select_poses,
 )
+from sescid.planning.design.kinds import BlockRows
 
 SMALL = {"n_candidates": 300, "n_test": 100}
 
@@ -82,7 +82,7 @@ def test_both_searches_reach_the_exhaustive_optimum_of_cop_rows():
     ``select_d_optimal``); it and the block search both find the best 3 of 14 by enumeration."""
     rng = np.random.default_rng(6)
     a = rng.normal(size=(14, 2, 4)) * rng.uniform(0.2, 2.0, size=(14, 1, 1))
-    rows = cop_block_rows(a)
+    rows = BlockRows.plain(a)
     fast = select_poses(rows, 3, 0)
     np.testing.assert_array_equal(fast.index, select_d_optimal(a, 3, 0).index)
     best = _exhaustive(a, 3)
@@ -96,7 +96,7 @@ def test_random_choice_and_errors_are_the_closed_form():
     rng = np.random.default_rng(3)
     a = rng.normal(size=(60, 2, 5))
     c = np.einsum("nri,nrj->ij", a[:20], a[:20]) / 40
-    rows = cop_block_rows(a)
+    rows = BlockRows.plain(a)
     sel = choose(rows, 8, "random", 4, np.arange(60) >= 10)
     assert np.all(sel.index >= 10) and len(set(sel.index)) == 8
     m = np.einsum("nri,nrj->ij", a[sel.index], a[sel.index])

@@ -15,7 +15,8 @@ from sescid import planning as design
 from sescid.cli import cli
 from sescid.errors import SescidError
 from sescid.planning.design.doptimal import information, per_row_information, select_d_optimal
-from sescid.planning.design.engine import cop_block_rows, expected_error, random_errors
+from sescid.planning.design.engine import expected_error, random_errors
+from sescid.planning.design.kinds import BlockRows
 from sescid.planning.feasibility.collision import (
     box_capsules,
     collision_free_mask_numpy,
@@ -243,8 +244,8 @@ def test_d_optimal_beats_random_and_greedy(pool):
     assert sel.logdet >= greedy.logdet
     sign, ld = np.linalg.slogdet(information(a[sel.index]))
     assert sign > 0 and ld == pytest.approx(sel.logdet, abs=1e-9)
-    err = expected_error(cop_block_rows(a), sel.index, c, 0.00493)
-    rand = random_errors(cop_block_rows(a), 38, c, 30, 0, 0.00493)
+    err = expected_error(BlockRows.plain(a), sel.index, c, 0.00493)
+    rand = random_errors(BlockRows.plain(a), 38, c, 30, 0, 0.00493)
     assert err < 0.8 * np.median(rand)
     assert err < rand.min()
 
@@ -279,7 +280,7 @@ def test_expected_error_formula_matches_monte_carlo(op2, pool):
     sigma = 0.00493
     sel = select_d_optimal(a, 38, seed=0)
     q_sel = q[sel.index]
-    formula = expected_error(cop_block_rows(a), sel.index, c, sigma)
+    formula = expected_error(BlockRows.plain(a), sel.index, c, sigma)
     rng = np.random.default_rng(7)
     true_sel, true_test = op2.cop(q_sel), op2.cop(q_test)
     # least squares on the full 63-column regressor, 2000 noise draws at once (min-norm solution;

@@ -124,7 +124,7 @@ def _one_stance(robot: Robot, count: int, select: Select, seed: int, opt: PlanOp
     pool_q, test_q = cand.q[:n], cand.q[n:]
     if cop:
         basis = identifiable_basis(robot, pool_q)
-        rows = engine.cop_block_rows(projected_regressor(robot, pool_q, basis))
+        rows = kinds.BlockRows.plain(projected_regressor(robot, pool_q, basis))
         need = min_poses(robot)
     else:
         torques = kinds.TorqueRows(robot, pool_q, spec) if spec.has_tau else None

@@ -72,9 +72,7 @@ def _check_kinds(stances: tuple[Stance, ...], spec: DesignKinds) -> None:
 
 def _choose(x: np.ndarray, count: int, seed: int, keep: np.ndarray) -> Selection:
     """``count`` of the rows x (n, r, p) where ``keep``, D-optimal (offsets are columns of x)."""
-    r = x.shape[1]
-    rows = BlockRows(x, -np.ones(r, dtype=np.int64), np.zeros(r), 0)
-    return engine.choose(rows, count, "d-optimal", seed, keep)
+    return engine.choose(BlockRows.plain(x), count, "d-optimal", seed, keep)
 
 
 def _logdet(x: np.ndarray, p: int) -> float:

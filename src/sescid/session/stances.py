@@ -129,8 +129,7 @@ class StanceDesign(KindSwitch):
         if r == 2:
             design = SequentialDesign(x, self.opt.near)
         else:
-            design = SequentialDesign(BlockRows(x, -np.ones(r, np.int64), np.zeros(r), 0),
-                                      self.opt.near)  # fmt: skip
+            design = SequentialDesign(BlockRows.plain(x), self.opt.near)
         return basis, design, int(math.ceil(x.shape[2] / r))
 
     def stance_of(self, i: int) -> int:

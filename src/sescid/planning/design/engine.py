@@ -24,17 +24,6 @@ from sescid.planning.design.doptimal import Selection, inverse_trace, select_d_o
 from sescid.planning.design.kinds import BlockRows, schur_information
 
 
-def plain_block_rows(a: np.ndarray) -> BlockRows:
-    """The ``BlockRows`` of rows A (n, r, p) without offsets (no nuisance column)."""
-    r = a.shape[1]
-    return BlockRows(np.ascontiguousarray(a), -np.ones(r, dtype=np.int64), np.zeros(r), 0)
-
-
-def cop_block_rows(a: np.ndarray) -> BlockRows:
-    """The ``BlockRows`` of CoP rows A (n, 2, p) alone (no offset)."""
-    return plain_block_rows(a)
-
-
 def select_poses(rows: BlockRows, k: int, seed: int | np.random.Generator = 0) -> Selection:
     """``k`` distinct candidates maximising log det Σ A_iᵀA_i (module docstring)."""
     if rows.x.shape[1] == 2 and rows.n_nuisance == 0:

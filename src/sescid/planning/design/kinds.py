@@ -178,6 +178,12 @@ class BlockRows:
     val: np.ndarray  #: (r,)
     n_nuisance: int
 
+    @classmethod
+    def plain(cls, x: np.ndarray) -> BlockRows:
+        """The rows x (n, r, p) without offsets (no nuisance column: the CoP alone)."""
+        r = x.shape[1]
+        return cls(np.ascontiguousarray(x), -np.ones(r, dtype=np.int64), np.zeros(r), 0)
+
     @property
     def p(self) -> int:
         """SESC coordinates."""
