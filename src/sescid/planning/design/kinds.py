@@ -262,16 +262,21 @@ def offset_block_rows(
     return BlockRows(np.ascontiguousarray(x), cols, vals, nj)
 
 
+def theta_information(info: np.ndarray, n_theta: int) -> np.ndarray:
+    """(4N, 4N) the information about θ̃ of ``info`` over [θ̃; o], the offsets marginalised
+    (Schur complement; offsets no pose measured drop out)."""
+    f = (info + info.T) / 2
+    if f.shape[0] == n_theta:
+        return f
+    foo = np.linalg.pinv(f[n_theta:, n_theta:], rcond=1e-12, hermitian=True)
+    out = f[:n_theta, :n_theta] - f[:n_theta, n_theta:] @ foo @ f[n_theta:, :n_theta]
+    return (out + out.T) / 2
+
+
 def schur_information(rows: BlockRows, idx) -> np.ndarray:
     """(p, p) information about the SESC coordinates of the candidates ``idx``, the offsets
-    marginalised: F_zz − F_zo F_oo⁺ F_oz."""
-    f = rows.information(idx)
-    p = rows.p
-    if rows.n_nuisance == 0:
-        return f
-    foo = np.linalg.pinv(f[p:, p:], rcond=1e-12, hermitian=True)
-    out = f[:p, :p] - f[:p, p:] @ foo @ f[p:, :p]
-    return (out + out.T) / 2
+    marginalised: F_zz − F_zo F_oo⁺ F_oz (``theta_information``)."""
+    return theta_information(rows.information(idx), rows.p)
 
 
 def determined(rows: BlockRows, idx) -> int:

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sescid.planning.design.kinds import DesignKinds
+from sescid.planning.design.kinds import DesignKinds, theta_information
 from sescid.robot import Robot
 from sescid.stance import Stance, parse_stances, stance_robot
 
@@ -102,14 +102,3 @@ class StanceRows:
             out[s : s + len(x), :, :p] = x[:, :, :n4] @ basis
             out[s : s + len(x), :, p:] = x[:, :, n4:]
         return out
-
-
-def theta_information(info: np.ndarray, n_theta: int) -> np.ndarray:
-    """(4N, 4N) the information about θ̃ of ``info`` over [θ̃; o], the offsets marginalised
-    (Schur complement; offsets no pose measured drop out)."""
-    f = (info + info.T) / 2
-    if f.shape[0] == n_theta:
-        return f
-    foo = np.linalg.pinv(f[n_theta:, n_theta:], rcond=1e-12, hermitian=True)
-    out = f[:n_theta, :n_theta] - f[:n_theta, n_theta:] @ foo @ f[n_theta:, :n_theta]
-    return (out + out.T) / 2
