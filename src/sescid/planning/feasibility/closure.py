@@ -89,14 +89,6 @@ def free_sole_frame(
     return rb @ loop.rot, org[:, loop.body] + rb @ loop.centre
 
 
-def yaw_rotations(cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotations about z of cosine ``cos`` (n,) and sine ``sin`` (n,)."""
-    out = np.zeros((len(cos), 3, 3))
-    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = cos, -sin, sin, cos
-    out[:, 2, 2] = 1.0
-    return out
-
-
 def placements(loop: Loop, n: int, rng: np.random.Generator, half: np.ndarray) -> np.ndarray:
     """(n, 4) placements x, y [m], cos ψ, sin ψ of the free sole on the floor: uniform within
     ``half`` = (Δx [m], Δy [m], Δψ [rad]) of its zero-pose placement; the yaw through
@@ -108,20 +100,6 @@ def placements(loop: Loop, n: int, rng: np.random.Generator, half: np.ndarray) -
     x = loop.nominal[0] + u[:, 0] * half[0]
     y = loop.nominal[1] + u[:, 1] * half[1]
     return np.stack([x, y, (1.0 - t * t) / d, 2.0 * t / d], axis=1)
-
-
-def placement_error(robot: Robot, loop: Loop, q: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(n, 6) the free sole frame's position error [m] and rotation vector [rad] (axis × angle
-    of R R_targetᵀ) from its placement ``target`` (n, 4: x, y [m], cos ψ, sin ψ) on the floor."""
-    rot, pos = free_sole_frame(robot, loop, q)
-    want = np.stack([target[:, 0], target[:, 1], np.full(len(target), loop.floor)], axis=1)
-    turn = rot @ yaw_rotations(target[:, 2], target[:, 3]).transpose(0, 2, 1)
-    v = np.stack([turn[:, 2, 1] - turn[:, 1, 2], turn[:, 0, 2] - turn[:, 2, 0],
-                  turn[:, 1, 0] - turn[:, 0, 1]], axis=1)  # fmt: skip
-    sin = np.linalg.norm(v, axis=1) / 2
-    angle = np.arctan2(sin, (np.trace(turn, axis1=1, axis2=2) - 1.0) / 2)
-    scale = np.where(sin > 0, angle / np.where(sin > 0, 2 * sin, 1.0), 0.5)
-    return np.concatenate([pos - want, v * scale[:, None]], axis=1)
 
 
 def close_chain(
