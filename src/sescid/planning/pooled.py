@@ -92,7 +92,7 @@ class _Pool:
 
     def __init__(self, robot: Robot, stances, spec, opt, seed, progress):
         self.robot, self.stances, self.spec = robot, stances, spec
-        lim, self.free, _ = sampling_range(robot, opt)
+        lim = sampling_range(robot, opt)[0]
         n = opt.n_candidates
         mass = robot.total_mass
         self.rows = [StanceRows(robot, st, spec, mass) for st in stances]
