@@ -28,7 +28,6 @@ from sescid.planning.feasibility.limits import sampling_limits
 from sescid.planning.feasibility.stability import (
     DEFAULT_CLEARANCE,
     coarse_screen_tree,
-    cop_centre,
     cop_half_extents,
     inside_box,
     stable_subset,
@@ -208,7 +207,7 @@ def candidates(
     half = (
         cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents, float)
     )
-    run = _Run(robot, lim, half, cop_centre(robot), collision_capsules(robot), opt)
+    run = _Run(robot, lim, half, robot.sole_centre, collision_capsules(robot), opt)
     used: Sampling = sampler
     if sampler == "uniform":
         _uniform(run, n, rng, progress, opt.max_sampled if only else None)

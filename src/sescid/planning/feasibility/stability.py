@@ -49,7 +49,7 @@ def cop_half_extents(
     ``margin`` given: the sole rectangle (``sole_size``; the robot's sole by default) shrunk by
     it; otherwise the box ``cop_box`` (a half-width, or (x, y) half-widths; default the
     profile's, else ``SOLE_BOX_FRACTION`` of the robot's sole, else ``FALLBACK_COP_BOX``).
-    The rectangle is centred on ``cop_centre(robot)``.
+    The rectangle is centred on ``robot.sole_centre`` (0 for a sole frame).
     """
     if margin is None and cop_box is None and robot.profile.cop_box is None:
         sole = robot.sole
@@ -75,11 +75,6 @@ def cop_half_extents(
     if not np.all(np.isfinite(half)) or np.any(half <= 0):
         raise SescidError(f"{what} leaves no room for the CoP")
     return half
-
-
-def cop_centre(robot: Robot) -> np.ndarray:
-    """(2,) centre [m] of the CoP rectangle: the support sole's centre (0 for a sole frame)."""
-    return robot.sole_centre
 
 
 def stable_mask(robot: Robot, q, half_extents, centre=None) -> tuple[np.ndarray, np.ndarray]:
