@@ -83,10 +83,6 @@ def _logdet(x: np.ndarray, p: int) -> float:
     return float(ld) if sign > 0 else -math.inf
 
 
-def _rank(info: np.ndarray, n_theta: int, rtol: float) -> int:
-    return identifiable_eigen(theta_information(info, n_theta), rtol)[1].shape[1]
-
-
 class _Pool:
     """Every stance's candidates, rows and information."""
 
@@ -121,7 +117,8 @@ class _Pool:
         self.local = np.concatenate([np.arange(len(q)) for q in self.q])
 
     def rank(self, subset) -> int:
-        return _rank(sum(self.info[k] for k in subset), self.n_theta, DEFAULT_RTOL)
+        info = cast(np.ndarray, sum(self.info[k] for k in subset))
+        return identifiable_eigen(theta_information(info, self.n_theta), DEFAULT_RTOL)[1].shape[1]
 
     def full_rows(self, idx: np.ndarray) -> np.ndarray:
         """(K, r, 4N + J) the rows of the union's candidates ``idx``."""
