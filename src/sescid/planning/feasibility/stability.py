@@ -162,17 +162,9 @@ def coarse_cop_tree(robot: Robot) -> tuple[Tree, np.ndarray, float]:
     tree = dataclasses.replace(
         full,
         parent=np.array([new[p] if p >= 0 else -1 for p in full.parent[keep]], dtype=np.int64),
-        jcol=full.jcol[keep],
-        coef=full.coef[keep],
-        off=full.off[keep],
-        a0=full.a0[keep],
-        a1=full.a1[keep],
-        a2=full.a2[keep],
-        t=full.t[keep],
         nz_ptr=ptr,
-        nz_k=full.nz_k[z],
-        nz_j=full.nz_j[z],
-        nz_a=full.nz_a[z],
+        **{f: getattr(full, f)[keep] for f in ("jcol", "coef", "off", "a0", "a1", "a2", "t")},
+        **{f: getattr(full, f)[z] for f in ("nz_k", "nz_j", "nz_a")},
     )
     rest = np.setdiff1d(np.arange(len(norm)), keep)
     bound = float(norm[rest].sum()) + 1e-9 * (1.0 + float(norm.sum()))
