@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,13 +71,8 @@ def paper_convention(robot: Robot) -> PaperConvention | None:
     if not set(robot.joint_names) <= set(pc.joint_names):
         return None
     idx = [pc.joint_names.index(j) for j in robot.joint_names]
-    return PaperConvention(
-        joint_names=robot.joint_names,
-        sign=pc.sign[idx],
-        offset=pc.offset[idx],
-        paper_limits=pc.paper_limits[idx],
-        servo_limits=pc.servo_limits[idx],
-    )
+    fields = ("sign", "offset", "paper_limits", "servo_limits")
+    return replace(pc, joint_names=robot.joint_names, **{f: getattr(pc, f)[idx] for f in fields})
 
 
 #: rad, sampling range ± of a joint the model leaves unlimited
