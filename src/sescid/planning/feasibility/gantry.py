@@ -168,19 +168,14 @@ def gantry_candidates(
                 else f"no pose of {robot.name} held by '{robot.support}' clears the floor "
                 f"({how}) in {counts[0]} draws: {stage} stops them (hang it higher)"
             )
-    c = counts
-    out = Candidates(
+    out = Candidates.counted(
+        counts[[0, 0, 0, 1, 2]],  # no CoP box, no balance: every draw counts as in and stable
         q=np.concatenate(qs)[:n],
         cop=np.full((n, 2), np.nan),
         limits=lim,
         half_extents=np.full(2, np.nan),
-        n_sampled=int(c[0]),
-        n_stable=int(c[0]),
-        n_ground=int(c[1]),
-        n_free=int(c[2]),
         capsules=cap,
         sampler=sampler,
-        n_box=int(c[0]),
         mount="gantry",
     )
     out.notes.append(f"gantry: {how}; every body ≥ {clearance * 1e3:g} mm above it")
