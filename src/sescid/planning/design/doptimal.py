@@ -45,7 +45,7 @@ def identifiable_basis(
 
 
 @one_blas_thread()
-def projected_regressor(robot: Robot, q, basis: np.ndarray, chunk: int = 50_000) -> np.ndarray:
+def projected_regressor(robot: Robot, q, basis: np.ndarray) -> np.ndarray:
     """(n, 2, p) x/y regressor in the coordinates of ``basis``: A = Φ_xy V.
 
     Computed as Φ_red (G V) from the reduced columns (``kinematics.reduced_columns``: Φ = Φ_red G
