@@ -82,15 +82,16 @@ class Compliance:
         return (self.contacts.max(axis=0) - self.contacts.min(axis=0)) / 2
 
 
-def _pads(robot: Robot) -> np.ndarray | None:
-    """(k, 2) the support foot's sensor pads in the support frame, when the profile has them."""
+def sensor_pads(robot: Robot, frame: str) -> np.ndarray | None:
+    """(k, 2) the sensor pads [m] of the foot whose sole frame is ``frame``, in that frame, when
+    the profile's sensor layout has that foot."""
     if robot.profile.sensors_file is None:
         return None
     from sescid.sensors.pads import load_sensors
 
     feet = [f for f in load_sensors(robot.profile.sensors_file).feet]
     for f in feet:
-        if f.sole_frame == robot.support:
+        if f.sole_frame == frame:
             return np.asarray(f.sensors, dtype=float)
     return None
 
@@ -99,7 +100,7 @@ def compliance(robot: Robot) -> Compliance:
     """The robot's compliance model: profile values, else the generic defaults (stated)."""
     weight = robot.total_mass * G0
     said = []
-    pads = _pads(robot)
+    pads = sensor_pads(robot, robot.support)
     sole = robot.sole
     if pads is not None:
         contacts = pads

@@ -60,6 +60,7 @@ from sescid.planning.feasibility.compliance import (
     EDGE_MARGIN,
     Compliance,
     dynamic_cop,
+    sensor_pads,
 )
 from sescid.planning.feasibility.ground import beyond_free_foot, clear_above, ground_checks
 from sescid.planning.feasibility.limits import sampling_limits
@@ -81,17 +82,12 @@ _CHUNK = 20_000  #: draws per batch at most
 def free_contacts(robot: Robot, loop: Loop) -> np.ndarray:
     """(k, 2) the free foot's contacts in its sole frame (x, y, m): its pads in the profile's
     sensor layout, else its sole's corners."""
-    pts = None
-    if robot.profile.sensors_file is not None:
-        from sescid.sensors.pads import load_sensors
-
-        for f in load_sensors(robot.profile.sensors_file).feet:
-            if f.sole_frame == loop.free:
-                b, x = robot.model.link_frames[f.sole_frame]
-                if b == loop.body:
-                    p3 = np.concatenate([f.sensors, np.zeros((len(f.sensors), 1))], axis=1)
-                    pts = p3 @ x[:3, :3].T + x[:3, 3]  # body frame
-    if pts is None:
+    pads = sensor_pads(robot, loop.free)
+    if pads is not None and robot.model.link_frames[loop.free][0] == loop.body:
+        x = robot.model.link_frames[loop.free][1]
+        p3 = np.concatenate([pads, np.zeros((len(pads), 1))], axis=1)
+        pts = p3 @ x[:3, :3].T + x[:3, 3]  # body frame
+    else:
         sole = robot.free_sole
         assert sole is not None
         pts = sole.corners
