@@ -135,6 +135,11 @@ class CandidateOptions:
         if self.sampler is not None:
             check_choice("sampler", self.sampler, PoseSampler)
 
+    def half(self, robot: Robot) -> np.ndarray:
+        """(2,) the CoP box's half-extents [m]: ``half_extents``, else ``cop_half_extents``."""
+        given = self.half_extents
+        return cop_half_extents(robot) if given is None else np.asarray(given, dtype=float)
+
 
 @dataclass
 class _Run:
@@ -204,9 +209,7 @@ def candidates(
         raise SescidError(f"number of candidates must be ≥ 1, got {n}")
     rng = np.random.default_rng(seed)
     lim = sampling_limits(robot) if opt.limits is None else np.asarray(opt.limits, dtype=float)
-    half = (
-        cop_half_extents(robot) if opt.half_extents is None else np.asarray(opt.half_extents, float)
-    )
+    half = opt.half(robot)
     run = _Run(robot, lim, half, robot.sole_centre, collision_capsules(robot), opt)
     used: Sampling = sampler
     if sampler == "uniform":

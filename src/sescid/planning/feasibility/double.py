@@ -64,7 +64,6 @@ from sescid.planning.feasibility.compliance import (
 )
 from sescid.planning.feasibility.ground import beyond_free_foot, clear_above, ground_checks
 from sescid.planning.feasibility.limits import sampling_limits
-from sescid.planning.feasibility.stability import cop_half_extents
 from sescid.robot import Robot
 
 #: the free sole's placement: within this share of its length (x) and width (y) of the zero
@@ -167,11 +166,7 @@ class _Double:
     def __init__(self, robot: Robot, opt: CandidateOptions, lim: np.ndarray):
         self.robot, self.opt, self.lim = robot, opt, lim
         self.loop = loop_of(robot)
-        self.half = (
-            cop_half_extents(robot)
-            if opt.half_extents is None
-            else np.asarray(opt.half_extents, dtype=float)
-        )
+        self.half = opt.half(robot)
         h = self.half
         box = np.array([[h[0], h[1]], [h[0], -h[1]], [-h[0], h[1]], [-h[0], -h[1]]])
         self.box_ref = robot.sole_centre + box
