@@ -20,12 +20,12 @@ from sescid.bench.real_robot import check_limits
 from sescid.errors import DataError, OptionError
 from sescid.kinds import COP, TORQUE, Kinds, parse_kinds
 from sescid.planning import (
+    CandidateOptions,
     Candidates,
     Mount,
     PlanOptions,
     TorqueRows,
     block_rows,
-    cop_half_extents,
     design_kinds,
     identifiable_basis,
     kind_basis,
@@ -59,13 +59,9 @@ def session_candidates(
     funnel (``stance_candidates``), and the (2,) m CoP box they stand in; None in a gantry).
     A session checks stability by the CoP box alone (no compliant-robot margin): it measures
     the real CoP at every pose and refuses to command an unsafe one (``unsafe_pose``)."""
-    half = None
-    if mount != "gantry":
-        half = (
-            cop_half_extents(robot)
-            if opt.half_extents is None
-            else np.asarray(opt.half_extents, dtype=float)
-        )
+    half = (
+        None if mount == "gantry" else CandidateOptions(half_extents=opt.half_extents).half(robot)
+    )
     draw = PlanOptions(
         limits=opt.limits, half_extents=half, hang_height=opt.hang_height, rigid=True,
         allow_missing_meshes=opt.allow_missing_meshes,
