@@ -35,7 +35,7 @@ from sescid.estimation import (
 )
 from sescid.estimation.data.measurements import concatenate
 from sescid.estimation.result.fit import Fit
-from sescid.estimation.solvers.online import REFERENCE_POSES
+from sescid.estimation.solvers.online import REFERENCE_POSES, std_converged
 from sescid.kinds import COP, TORQUE, Kinds
 from sescid.planning import Quantity
 from sescid.robot import Robot
@@ -59,11 +59,12 @@ class Status:
 def step_status(history: list[tuple[int, float]], n: int, std: float, rank: int, window: int,
                 tol: float) -> Status:  # fmt: skip
     """The ``Status`` of an update at ``n`` poses, then appended to ``history`` ((poses, std) of
-    the updates): converged when the std fell by less than ``tol`` over the last ``window``."""
+    the updates): converged by ``OnlineEstimator``'s rule (``std_converged``) over the last
+    ``window`` poses."""
     past = [s for k, s in history if k <= n - window]
-    done = math.isfinite(std) and bool(past) and math.isfinite(past[-1])
+    done = std_converged(past[-1] if past else math.nan, std, tol)
     history.append((n, std))
-    return Status(std, rank, done and (past[-1] - std) / std < tol)
+    return Status(std, rank, done)
 
 
 def _prior_std(basis: np.ndarray, info: np.ndarray, n_bodies: int) -> np.ndarray:

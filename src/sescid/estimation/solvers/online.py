@@ -49,6 +49,12 @@ class Step:
 REFERENCE_POSES = (200, 30.0, 12345)
 
 
+def std_converged(past: float, std: float, tol: float) -> bool:
+    """The stop rule of a sequential fit: the predicted std fell from ``past`` (``window``
+    poses earlier; nan: none yet) to ``std`` by less than ``tol`` (relative)."""
+    return math.isfinite(std) and math.isfinite(past) and (past - std) / std < tol
+
+
 class OnlineEstimator:
     """Pose-by-pose identification; ``fit()`` gives the batch-equivalent ``Fit`` at any time.
 
@@ -139,7 +145,9 @@ class OnlineEstimator:
                 std = math.inf  # the reference CoPs depend on directions not yet determined
             else:
                 std = noise * math.sqrt(np.sum((self._g @ vp) * vp / lp) / 2)
-        return Step(ne.n_poses, rank, std, noise, self._converged(ne.n_poses, std))
+        return Step(
+            ne.n_poses, rank, std, noise, std_converged(self._past(ne.n_poses), std, self.tol)
+        )
 
     def _running_noise(self, vp, lam) -> float:
         dof = self.ne.n_rows - vp.shape[1]
@@ -150,13 +158,10 @@ class OnlineEstimator:
         ztz = self.ne.rss(x0)
         return math.sqrt(max(ztz - np.sum(c**2 / lam), 0.0) / dof)
 
-    def _converged(self, n: int, std: float) -> bool:
-        if not math.isfinite(std):
-            return False
-        past = [s for s in self.history if s.n_poses <= n - self.window]
-        if not past or not math.isfinite(past[-1].cop_std):
-            return False
-        return (past[-1].cop_std - std) / std < self.tol
+    def _past(self, n: int) -> float:
+        """The predicted std ``window`` poses before ``n`` poses (nan: none yet)."""
+        past = [s.cop_std for s in self.history if s.n_poses <= n - self.window]
+        return past[-1] if past else math.nan
 
     @property
     def converged_at(self) -> int | None:
